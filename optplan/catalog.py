@@ -1,0 +1,102 @@
+"""Find and parse the scenario catalogue (``problems/*.toml``) and presets (``solvers/*.toml``).
+
+The catalogues are data directories, not import packages.  They are looked up in order:
+``$OPTPLAN_CATALOG`` (a directory holding ``problems/`` and ``solvers/``), the source checkout
+next to the package (editable installs), and the copy shipped inside the wheel
+(``optplan/_data``).
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+import tomllib
+from functools import lru_cache
+from pathlib import Path
+
+from optplan.problem import Problem, ProblemError, read_problem
+
+__all__ = ["catalog_dir", "problem_files", "preset_files", "load_problem", "list_problems",
+           "read_preset"]
+
+
+def _candidates() -> list[Path]:
+    here = Path(__file__).resolve().parent
+    out = []
+    env = os.environ.get("OPTPLAN_CATALOG")
+    if env:
+        out.append(Path(env))
+    out += [here.parent, here / "_data"]
+    return out
+
+
+def catalog_dir(kind: str) -> Path:
+    """Directory of the ``problems`` or ``solvers`` catalogue."""
+    for base in _candidates():
+        d = base / kind
+        if d.is_dir() and any(d.glob("*.toml")):
+            return d
+    raise FileNotFoundError(
+        f"cannot find the optplan {kind}/ catalogue (looked in "
+        f"{', '.join(str(b / kind) for b in _candidates())})"
+    )
+
+
+def problem_files() -> dict[str, Path]:
+    return {p.stem: p for p in sorted(catalog_dir("problems").glob("*.toml"))}
+
+
+def preset_files() -> dict[str, Path]:
+    return {p.stem: p for p in sorted(catalog_dir("solvers").glob("*.toml"))}
+
+
+@lru_cache(maxsize=64)
+def _load_cached(path: str, mtime: float) -> Problem:
+    return read_problem(path)
+
+
+def load_problem(name_or_path: str | Path | Problem) -> Problem:
+    """Load a scenario by catalogue name (``"paper-env1"``) or path to a ``.toml`` file."""
+    if isinstance(name_or_path, Problem):
+        return name_or_path
+    s = str(name_or_path)
+    p = Path(s)
+    if s.endswith(".toml") or p.is_file():
+        if not p.is_file():
+            raise ProblemError(f"{s}: no such scenario file")
+        return _load_cached(str(p.resolve()), p.stat().st_mtime)
+    files = problem_files()
+    if s not in files:
+        close = difflib.get_close_matches(s, list(files), n=3)
+        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        raise ProblemError(f"unknown problem {s!r}{hint} (see optplan.list_problems())")
+    f = files[s]
+    return _load_cached(str(f), f.stat().st_mtime)
+
+
+def list_problems(tag: str | None = None) -> list[str]:
+    """Catalogue names, optionally only those carrying ``tag``."""
+    names = list(problem_files())
+    if tag is None:
+        return names
+    return [n for n in names if tag in load_problem(n).tags]
+
+
+def read_preset(path: Path) -> dict:
+    """Parse a preset file: ``backend``, ``summary``, ``[options]``."""
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as e:
+        raise ValueError(f"{path}: invalid TOML: {e}") from None
+    allowed = {"backend", "summary", "options"}
+    for k in data:
+        if k not in allowed:
+            close = difflib.get_close_matches(k, allowed, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise ValueError(f"{path}: {k}: unknown key{hint} (allowed: {sorted(allowed)})")
+    if "backend" not in data:
+        raise ValueError(f"{path}: backend: missing required key")
+    opts = data.get("options", {})
+    if not isinstance(opts, dict):
+        raise ValueError(f"{path}: options: expected a table")
+    return {"backend": data["backend"], "summary": data.get("summary", ""), "options": opts}

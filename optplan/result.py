@@ -1,0 +1,225 @@
+"""Result, Status, History and Progress: what every solver returns (design §2, contract)."""
+
+from __future__ import annotations
+
+import enum
+import json
+from dataclasses import asdict, dataclass, field, is_dataclass
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+
+__all__ = ["Status", "Result", "History", "Progress", "notify"]
+
+
+class Status(str, enum.Enum):
+    """Outcome of a solve.
+
+    ``optimal``: certified by an exact method *and* accepted by the validator.
+    ``solved``: feasible (validator) but not certified.
+    ``approximate``: something was returned, but it is infeasible or does not reach the goal.
+    ``infeasible``: proven infeasible.  ``failed``: nothing usable (e.g. a collision in a
+    simulation, a numerical failure).
+    """
+
+    optimal = "optimal"
+    solved = "solved"
+    approximate = "approximate"
+    infeasible = "infeasible"
+    failed = "failed"
+
+    def __str__(self) -> str:  # print(res.status) -> "optimal"
+        return self.value
+
+
+class History:
+    """Per-iteration columns (``iteration``, ``best_cost``, ``n_eval``, ``time`` + extras).
+
+    ``hist.append(iteration=3, best_cost=1.0, ...)`` adds a row; ``hist["best_cost"]`` returns a
+    numpy array.  Missing values in a row are stored as ``nan``.
+    """
+
+    def __init__(self, columns: dict[str, list] | None = None):
+        self._cols: dict[str, list] = {k: list(v) for k, v in (columns or {}).items()}
+        self._n = max((len(v) for v in self._cols.values()), default=0)
+
+    def append(self, **row: Any) -> None:
+        for k in row:
+            if k not in self._cols:
+                self._cols[k] = [np.nan] * self._n
+        for k, col in self._cols.items():
+            col.append(row.get(k, np.nan))
+        self._n += 1
+
+    def __len__(self) -> int:
+        return self._n
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        if key not in self._cols:
+            raise KeyError(f"history has no column {key!r}; columns: {sorted(self._cols)}")
+        return np.asarray(self._cols[key])
+
+    def __contains__(self, key: object) -> bool:
+        return key in self._cols
+
+    def keys(self) -> list[str]:
+        return list(self._cols)
+
+    def to_dict(self) -> dict[str, list]:
+        return {k: [_jsonable(x) for x in v] for k, v in self._cols.items()}
+
+    def __repr__(self) -> str:
+        return f"History({self._n} rows; columns={self.keys()})"
+
+
+@dataclass(frozen=True)
+class Progress:
+    """What ``callback`` receives every iteration / step."""
+
+    iteration: int
+    best_cost: float
+    n_eval: int
+    elapsed: float
+    info: dict = field(default_factory=dict)
+
+
+def notify(callback: Callable[[Progress], Any] | None, progress: Progress) -> bool:
+    """Call ``callback``; return True when it asked to stop by raising ``StopIteration``."""
+    if callback is None:
+        return False
+    try:
+        callback(progress)
+    except StopIteration:
+        return True
+    return False
+
+
+@dataclass(frozen=True)
+class Result:
+    """The outcome of :func:`optplan.solve` (see design §2 for every field)."""
+
+    status: Status
+    paths: dict[str, np.ndarray]
+    metrics: dict[str, Any]
+    solver: str
+    backend: str
+    options: dict[str, Any]
+    seed: int | None
+    problem: str = ""
+    times: np.ndarray | None = None
+    cost: float = float("nan")
+    n_iter: int = 0
+    n_eval: int = 0
+    wall_time: float = 0.0
+    message: str = ""
+    history: History = field(default_factory=History)
+    extras: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def success(self) -> bool:
+        return self.status in (Status.optimal, Status.solved)
+
+    @property
+    def path(self) -> np.ndarray:
+        """The leader's (or single robot's) path."""
+        key = self.metrics.get("leader") or next(iter(self.paths))
+        return self.paths[key]
+
+    def summary(self) -> str:
+        m = self.metrics
+        parts = [f"status {self.status.value}", f"length {m.get('length', float('nan')):.4f}"]
+        if m.get("ratio_to_optimum") is not None:
+            parts.append(f"ratio to optimum {m['ratio_to_optimum']:.4f}")
+        parts.append(f"collisions {m.get('collisions', '?')}")
+        parts.append(f"time {self.wall_time * 1e3:.1f} ms")
+        return f"{self.problem} / {self.solver}: " + ", ".join(parts)
+
+    # -- JSON round trip -------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "status": self.status.value,
+            "problem": self.problem,
+            "solver": self.solver,
+            "backend": self.backend,
+            "options": _jsonable(self.options),
+            "seed": self.seed,
+            "paths": {k: np.asarray(v).tolist() for k, v in self.paths.items()},
+            "times": None if self.times is None else np.asarray(self.times).tolist(),
+            "cost": _jsonable(self.cost),
+            "metrics": _jsonable(self.metrics),
+            "n_iter": self.n_iter,
+            "n_eval": self.n_eval,
+            "wall_time": self.wall_time,
+            "message": self.message,
+            "history": self.history.to_dict(),
+            "extras": _jsonable(self.extras),
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> Result:
+        return cls(
+            status=Status(d["status"]),
+            paths={k: np.asarray(v, dtype=float) for k, v in d["paths"].items()},
+            times=None if d.get("times") is None else np.asarray(d["times"], dtype=float),
+            metrics=_unjson(d.get("metrics", {})),
+            solver=d["solver"],
+            backend=d["backend"],
+            options=d.get("options", {}),
+            seed=d.get("seed"),
+            problem=d.get("problem", ""),
+            cost=_unjson(d.get("cost")),
+            n_iter=d.get("n_iter", 0),
+            n_eval=d.get("n_eval", 0),
+            wall_time=d.get("wall_time", 0.0),
+            message=d.get("message", ""),
+            history=History({k: _unjson(v) for k, v in d.get("history", {}).items()}),
+            extras=_unjson(d.get("extras", {})),
+        )
+
+    def save(self, path: str | Path) -> None:
+        Path(path).write_text(json.dumps(self.to_dict(), indent=1), encoding="utf-8")
+
+    @classmethod
+    def load(cls, path: str | Path) -> Result:
+        return cls.from_dict(json.loads(Path(path).read_text(encoding="utf-8")))
+
+
+def _jsonable(x: Any) -> Any:
+    """Convert numpy / dataclass / enum values into JSON-friendly ones (nan -> 'nan')."""
+    if isinstance(x, enum.Enum):
+        return x.value
+    if is_dataclass(x) and not isinstance(x, type):
+        return _jsonable(asdict(x))
+    if isinstance(x, dict):
+        return {str(k): _jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return _jsonable(x.tolist())
+    if isinstance(x, (np.bool_, bool)):
+        return bool(x)
+    if isinstance(x, (np.integer,)):
+        return int(x)
+    if isinstance(x, (float, np.floating)):
+        f = float(x)
+        if f != f:
+            return "nan"
+        if f in (float("inf"), float("-inf")):
+            return "inf" if f > 0 else "-inf"
+        return f
+    return x
+
+
+def _unjson(x: Any) -> Any:
+    if isinstance(x, dict):
+        return {k: _unjson(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_unjson(v) for v in x]
+    if x == "nan":
+        return float("nan")
+    if x == "inf":
+        return float("inf")
+    if x == "-inf":
+        return float("-inf")
+    return x

@@ -1,0 +1,374 @@
+"""The Solver interface: registry, presets, :func:`solve` (design §2, contract).
+
+A *backend* is an implementation: a frozen, keyword-only dataclass in ``optplan/backends/``
+whose fields are its options, with a ``solve(problem, /, *, rng, init, callback)`` method.
+A *solver* is a named, configured backend: a preset in ``solvers/NAME.toml``.
+
+Backends are registered lazily as ``"module:Class"`` strings; nothing heavy is imported until
+a backend is used.  A backend whose module is not present is simply not listed.
+
+Writing a backend::
+
+    @dataclass(frozen=True, kw_only=True)
+    class MyPlanner(Backend):
+        name: ClassVar[str] = "my-planner"
+        n_points: int = 10          # option, documented in the docstring
+
+        def __post_init__(self):
+            check_int(self, "n_points", 2, 10_000)
+
+        def solve(self, problem, /, *, rng=None, init=None, callback=None):
+            ...
+            return self.finish(problem, paths, claim=Status.solved, ...)
+
+and add ``"my-planner": "optplan.backends.my_planner:MyPlanner"`` to :data:`BACKENDS` (or call
+:func:`register`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import importlib
+import importlib.util
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, ClassVar
+
+import numpy as np
+
+from optplan.catalog import load_problem, preset_files, read_preset
+from optplan.metrics import evaluate
+from optplan.problem import Problem
+from optplan.result import History, Progress, Result, Status
+
+__all__ = [
+    "BACKENDS",
+    "Backend",
+    "register",
+    "get_solver",
+    "list_solvers",
+    "list_backends",
+    "solve",
+    "make_rng",
+    "check_range",
+    "check_int",
+    "check_choice",
+]
+
+#: backend name -> "module:Class" (resolved lazily).
+BACKENDS: dict[str, str] = {
+    "visgraph": "optplan.backends.visgraph:VisGraph",
+    "pso": "optplan.backends.pso:PSO",
+    "mpso": "optplan.backends.mpso:MPSO",
+    "ipso": "optplan.backends.ipso:IPSO",
+    "nlp": "optplan.backends.nlp:WaypointNLP",
+    "apf": "optplan.backends.apf:APF",
+    "sa-apf": "optplan.backends.sa_apf:SAAPF",
+    "leader-follower": "optplan.backends.leader_follower:LeaderFollower",
+    "formation-qp": "optplan.backends.formation_qp:FormationQP",
+    "hybrid": "optplan.backends.hybrid:Hybrid",
+}
+
+
+def register(name: str, entry_point: str) -> None:
+    """Register a backend ``name -> "module:Class"``; raises on a name collision."""
+    if name in BACKENDS and BACKENDS[name] != entry_point:
+        raise ValueError(f"backend {name!r} is already registered as {BACKENDS[name]!r}")
+    BACKENDS[name] = entry_point
+
+
+def _available(entry: str) -> bool:
+    mod = entry.split(":")[0]
+    try:
+        return importlib.util.find_spec(mod) is not None
+    except ModuleNotFoundError:
+        return False
+
+
+def list_backends() -> list[str]:
+    """Backend names whose implementation is present."""
+    return [n for n, e in BACKENDS.items() if _available(e)]
+
+
+def list_solvers(backends: bool = False) -> list[str]:
+    """Preset names whose backend is present (and bare backend names with ``backends=True``)."""
+    out = []
+    for name, path in preset_files().items():
+        try:
+            b = read_preset(path)["backend"]
+        except ValueError:
+            continue
+        if b in BACKENDS and _available(BACKENDS[b]):
+            out.append(name)
+    if backends:
+        out += list_backends()
+    return out
+
+
+def _load_class(name: str) -> type[Backend]:
+    if name not in BACKENDS:
+        close = difflib.get_close_matches(name, list(BACKENDS), n=3)
+        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        raise ValueError(f"unknown backend {name!r}{hint} (backends: {', '.join(BACKENDS)})")
+    mod, cls = BACKENDS[name].split(":")
+    try:
+        module = importlib.import_module(mod)
+    except ModuleNotFoundError as e:
+        if e.name and e.name.split(".")[0] != "optplan":
+            raise ImportError(
+                f"backend {name!r} needs the package {e.name!r}: pip install {e.name}"
+            ) from e
+        raise ValueError(f"backend {name!r} is registered but not implemented in this build") from e
+    return getattr(module, cls)
+
+
+def _apply_options(cls: type[Backend], options: dict[str, Any], where: str,
+                   preset: str | None) -> Backend:
+    fields = {f.name for f in dataclasses.fields(cls) if f.init and not f.name.startswith("_")}
+    for k in options:
+        if k not in fields:
+            close = difflib.get_close_matches(k, list(fields), n=2)
+            hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+            raise ValueError(
+                f"{where}: unknown option {k!r} for backend {cls.name!r}{hint} "
+                f"(valid: {', '.join(sorted(fields))})"
+            )
+    obj = cls(**options)
+    if preset is not None:
+        object.__setattr__(obj, "_preset", preset)
+    return obj
+
+
+def get_solver(spec: str | Path | Backend, **overrides: Any) -> Backend:
+    """Resolve a solver: a ``Backend`` object, a ``.toml`` path, a preset name or a backend name.
+
+    ``overrides`` replace options; unknown names raise ``ValueError`` listing the valid ones.
+    """
+    if isinstance(spec, Backend):
+        if overrides:
+            _apply_options(type(spec), overrides, "override", None)  # validates names
+            new = dataclasses.replace(spec, **overrides)
+            object.__setattr__(new, "_preset", getattr(spec, "_preset", None))
+            return new
+        return spec
+    s = str(spec)
+    path = Path(s)
+    if s.endswith(".toml"):
+        if not path.is_file():
+            raise ValueError(f"{s}: no such preset file")
+        data, where, preset = read_preset(path), str(path), path.stem
+    else:
+        presets = preset_files()
+        if s in presets:
+            data, where, preset = read_preset(presets[s]), str(presets[s]), s
+        elif s in BACKENDS:
+            data, where, preset = {"backend": s, "options": {}}, f"backend {s}", None
+        else:
+            names = list(presets) + list(BACKENDS)
+            close = difflib.get_close_matches(s, names, n=3)
+            hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+            raise ValueError(f"unknown solver {s!r}{hint} (see optplan.list_solvers())")
+    cls = _load_class(data["backend"])
+    opts = {**data["options"], **overrides}
+    return _apply_options(cls, opts, where, preset)
+
+
+def make_rng(rng: int | np.random.Generator | None) -> tuple[np.random.Generator, int | None]:
+    """Turn the ``rng`` argument into a Generator and the seed to record.
+
+    ``int`` -> that seed; ``None`` -> a fresh seed drawn from OS entropy and recorded;
+    ``Generator`` -> used as is (seed recorded as ``None``).
+    """
+    if isinstance(rng, np.random.Generator):
+        return rng, None
+    if rng is None:
+        seed = int(np.random.SeedSequence().entropy % (2**63))
+        return np.random.default_rng(seed), seed
+    if isinstance(rng, (bool, float)) or not isinstance(rng, (int, np.integer)) or rng < 0:
+        raise ValueError(f"rng must be a non-negative int, a numpy Generator or None, got {rng!r}")
+    return np.random.default_rng(int(rng)), int(rng)
+
+
+# --------------------------------------------------------------------------------------
+# option checks used by backends' __post_init__
+# --------------------------------------------------------------------------------------
+
+
+def check_range(obj: Any, name: str, lo: float = -math.inf, hi: float = math.inf, *,
+                lo_open: bool = False, hi_open: bool = False) -> None:
+    """Raise ``ValueError`` unless option ``name`` of ``obj`` is a finite number in range."""
+    v = getattr(obj, name)
+    bname = getattr(obj, "name", type(obj).__name__)
+    lb = "(" if lo_open else "["
+    rb = ")" if hi_open else "]"
+    rng_s = f"{lb}{lo:g}, {hi:g}{rb}"
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        raise ValueError(f"option {name!r} of backend {bname!r} must be a number in {rng_s}, "
+                         f"got {v!r}")
+    ok = math.isfinite(float(v)) or (math.isinf(float(v)) and math.isinf(hi) and v > 0)
+    ok = ok and (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
+    if not ok:
+        raise ValueError(f"option {name!r} of backend {bname!r} must be in {rng_s}, got {v!r}")
+
+
+def check_int(obj: Any, name: str, lo: int, hi: int) -> None:
+    """Raise ``ValueError`` unless option ``name`` is an int in ``[lo, hi]``."""
+    v = getattr(obj, name)
+    bname = getattr(obj, "name", type(obj).__name__)
+    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+        raise ValueError(f"option {name!r} of backend {bname!r} must be an integer in "
+                         f"[{lo}, {hi}], got {v!r}")
+
+
+def check_choice(obj: Any, name: str, choices: tuple[str, ...]) -> None:
+    """Raise ``ValueError`` unless option ``name`` is one of ``choices``."""
+    v = getattr(obj, name)
+    bname = getattr(obj, "name", type(obj).__name__)
+    if v not in choices:
+        raise ValueError(f"option {name!r} of backend {bname!r} must be one of "
+                         f"{', '.join(repr(c) for c in choices)}, got {v!r}")
+
+
+# --------------------------------------------------------------------------------------
+# the backend base class
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, kw_only=True)
+class Backend:
+    """Base class of every backend (a frozen, keyword-only dataclass of options)."""
+
+    name: ClassVar[str] = "backend"
+    #: True when a successful solve is certified optimal by an exact method.
+    certifies: ClassVar[bool] = False
+
+    def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
+              init: dict[str, np.ndarray] | None = None,
+              callback: Callable[[Progress], Any] | None = None) -> Result:
+        raise NotImplementedError
+
+    @property
+    def preset(self) -> str | None:
+        return getattr(self, "_preset", None)
+
+    def options(self) -> dict[str, Any]:
+        """The effective options as a plain dict."""
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
+                if not f.name.startswith("_")}
+
+    def finish(
+        self,
+        problem: Problem,
+        paths: dict[str, np.ndarray],
+        *,
+        claim: Status,
+        times: np.ndarray | None = None,
+        cost: float = float("nan"),
+        message: str = "",
+        n_iter: int = 0,
+        n_eval: int = 0,
+        history: History | None = None,
+        extras: dict[str, Any] | None = None,
+        metrics_extra: dict[str, Any] | None = None,
+        wall_time: float = 0.0,
+    ) -> Result:
+        """Build a :class:`Result`: run the shared validator and set the status.
+
+        ``claim`` is what the backend believes (``optimal``/``solved`` when it thinks it
+        succeeded).  A success claim is downgraded to ``approximate`` when the validator
+        finds the paths infeasible or not reaching their goals; other claims are kept.
+        Optimal is only kept for backends that certify (``certifies = True``).
+        """
+        paths = {k: np.asarray(v, dtype=float) for k, v in paths.items()}
+        metrics = evaluate(problem, paths, times)
+        if metrics_extra:
+            metrics.update(metrics_extra)
+        status = Status(claim)
+        if status in (Status.optimal, Status.solved):
+            if not (metrics["feasible"] and metrics["reached"]):
+                why = []
+                if metrics["collisions"]:
+                    why.append(f"{metrics['collisions']} collision(s)")
+                if not metrics["in_bounds"]:
+                    why.append("out of bounds")
+                if not metrics["reached"]:
+                    why.append("goal not reached")
+                if not metrics.get("starts_ok", True):
+                    why.append("path does not start at the start")
+                status = Status.approximate
+                message = (message + "; " if message else "") + "validator: " + ", ".join(why)
+            elif status is Status.optimal and not self.certifies:
+                status = Status.solved
+        return Result(
+            status=status, paths=paths, metrics=metrics, solver=self.preset or self.name,
+            backend=self.name, options=self.options(), seed=None, problem=problem.name,
+            times=times, cost=float(cost), n_iter=int(n_iter), n_eval=int(n_eval),
+            wall_time=float(wall_time), message=message, history=history or History(),
+            extras=extras or {},
+        )
+
+
+# --------------------------------------------------------------------------------------
+# the front door
+# --------------------------------------------------------------------------------------
+
+
+def _reference_length(problem: Problem) -> float | None:
+    """Certified optimum of the planned robot on the static map (cached), for ratios."""
+    key = ("visgraph_length",)
+    if key not in problem._cache:
+        try:
+            from optplan.backends.visgraph import shortest_length
+
+            problem._cache[key] = shortest_length(problem, problem.leader)
+        except Exception:  # noqa: BLE001 - the ratio is informative only
+            problem._cache[key] = None
+    return problem._cache[key]
+
+
+def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
+          rng: int | np.random.Generator | None = None,
+          init: dict[str, np.ndarray] | np.ndarray | None = None,
+          callback: Callable[[Progress], Any] | None = None,
+          **overrides: Any) -> Result:
+    """Solve ``problem`` with ``solver`` and grade the result with the shared validator.
+
+    Parameters
+    ----------
+    problem : Problem or str
+        A :class:`Problem` or a catalogue name / ``.toml`` path.
+    solver : str, Path or Backend
+        Preset name, backend name, ``.toml`` preset path or a backend object.
+    rng : int, numpy.random.Generator or None
+        All randomness flows from it; the seed used is recorded in ``Result.seed``.
+    init : dict or array, optional
+        Paths from an earlier stage (``robot id -> (n, 2)``); a bare array means the leader.
+    callback : callable, optional
+        ``callback(progress)`` every iteration/step; raising ``StopIteration`` stops early.
+    **overrides
+        Replace preset options (unknown names raise ``ValueError``).
+
+    Returns
+    -------
+    Result
+    """
+    prob = load_problem(problem)
+    backend = get_solver(solver, **overrides)
+    gen, seed = make_rng(rng)
+    if init is not None and not isinstance(init, dict):
+        init = {prob.leader.id: np.asarray(init, dtype=float)}
+    if init is not None:
+        init = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in init.items()}
+    t0 = time.perf_counter()
+    res = backend.solve(prob, rng=gen, init=init, callback=callback)
+    wall = time.perf_counter() - t0
+    metrics = dict(res.metrics)
+    ref = _reference_length(prob)
+    if ref and "length" in metrics and prob.leader.id in res.paths:
+        metrics["optimum"] = ref
+        metrics["ratio_to_optimum"] = metrics["length"] / ref
+    return dataclasses.replace(res, seed=seed, wall_time=res.wall_time or wall,
+                               metrics=metrics)
