@@ -44,21 +44,18 @@ def _raw_clearance(path: np.ndarray, problem: Problem) -> float:
 def leader_headings(leader_path: np.ndarray, fallback: float = 0.0) -> np.ndarray:
     """Heading (rad) of the leader at each sample: direction of the next displacement.
 
-    Samples where the leader does not move keep the previous heading; the last sample repeats
-    the one before.  ``fallback`` is used until the leader first moves.
+    Samples where the leader does not move keep the previous heading (forward fill); the last
+    sample repeats the one before.  ``fallback`` is used until the leader first moves.
     """
     p = np.asarray(leader_path, dtype=float)
+    if len(p) < 2:
+        return np.full(len(p), float(fallback))
     d = np.diff(p, axis=0)
     moving = np.hypot(d[:, 0], d[:, 1]) > 1e-9
-    th = np.arctan2(d[:, 1], d[:, 0])
-    out = np.empty(len(p))
-    cur = fallback
-    for k in range(len(d)):
-        if moving[k]:
-            cur = th[k]
-        out[k] = cur
-    out[-1] = out[-2] if len(p) > 1 else cur
-    return out
+    th = np.r_[fallback, np.arctan2(d[:, 1], d[:, 0])]
+    idx = np.where(np.r_[True, moving], np.arange(len(th)), 0)
+    th = th[np.maximum.accumulate(idx)][1:]
+    return np.r_[th, th[-1]]
 
 
 def formation_errors(problem: Problem, paths: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -206,6 +203,7 @@ def evaluate(problem: Problem, paths: dict[str, np.ndarray],
         x.id in P for x in form.followers
     ) and form.leader in P:
         fe = formation_errors(problem, P)
+        out["_fe_final"] = fe["position"][-1]
         out["formation_rmse"] = float(np.sqrt(np.mean(fe["position"] ** 2)))
         out["formation_max_error"] = float(np.max(fe["position"]))
         out["formation_distance_rmse"] = float(np.sqrt(np.mean(fe["distance"] ** 2)))
@@ -220,12 +218,12 @@ def evaluate(problem: Problem, paths: dict[str, np.ndarray],
             fl = next(x for x in form.followers if x.id == k)
             lead_ok = per[form.leader]["reached"]
             end_err = None
-            if times is not None and "formation_final_error" in out:
-                fe_end = formation_errors(problem, P)["position"][-1]
+            if "_fe_final" in out:
                 idx = [x.id for x in form.followers].index(k)
-                end_err = float(fe_end[idx])
+                end_err = float(out["_fe_final"][idx])
             m["reached"] = bool(lead_ok and end_err is not None and end_err <= 0.25 * fl.L)
             reached.append(m["reached"])
+    out.pop("_fe_final", None)
     out["reached"] = bool(all(reached)) if reached else False
     out["collisions"] = out["static_collisions"] + out["dynamic_contacts"] + sep_viol
     out["starts_ok"] = all(m["starts_at_start"] for m in per.values())

@@ -403,7 +403,8 @@ def _parse_obstacle(ctx: _Ctx, o: Any, i: int) -> Obstacle:
             s = ctx.point(ctx.require(o, "size", pre), f"{pre}size")
             lo, hi = c - s / 2, c + s / 2
         if np.any(hi <= lo):
-            raise ctx.err(f"{pre}max", f"rectangle needs min < max in both axes, got {lo} {hi}")
+            raise ctx.err(f"{pre}max", "rectangle needs min < max in both axes, got "
+                          f"{lo.tolist()} {hi.tolist()}")
         verts = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
         return Obstacle("rectangle", ctx.polygon(verts, pre + "min"), known, name)
     verts = ctx.points(ctx.require(o, "vertices", pre), f"{pre}vertices", 3)
@@ -556,12 +557,14 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
             if p is None:
                 continue
             if not box.covers(Point(p)):
-                raise ctx.err(f"robots[{i}].{key}", f"{list(p)} lies outside the bounds {list(bounds)}")
+                raise ctx.err(f"robots[{i}].{key}",
+                              f"{p.tolist()} lies outside the bounds {list(bounds)}")
             hit = infl.containing(p)
             if hit is not None:
                 raise ctx.err(
                     f"robots[{i}].{key}",
-                    f"{list(p)} lies inside obstacle {hit!r} inflated by the robot radius {r.radius:g}",
+                    f"{p.tolist()} lies inside obstacle {hit!r} inflated by the robot radius "
+                    f"{r.radius:g}",
                 )
     return prob
 

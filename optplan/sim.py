@@ -16,8 +16,9 @@ edge-level work, so obstacles outside the sensing range cost one vectorised comp
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 

@@ -90,7 +90,7 @@ def shortest_path(imap: InflatedMap, start: np.ndarray, goal: np.ndarray,
     for key, p in (("start", start), ("goal", goal)):
         hit = imap.containing(p)
         if hit is not None:
-            info["reason"] = f"{key} {list(map(float, p))} lies inside inflated obstacle {hit}"
+            info["reason"] = f"{key} {np.asarray(p).tolist()} lies inside inflated obstacle {hit}"
             return None, info
     v, vp, vn = _convex_nodes(imap, bounds, tol)
     nodes = np.vstack([start[None], goal[None], v])

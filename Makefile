@@ -1,0 +1,52 @@
+# optplan: two-command start.  `make demo` and `make test` each create .venv (python3 -m venv)
+# and install optplan with its dev and docs extras on first use; later runs skip the install
+# (a stamp file in .venv records it and is refreshed when pyproject.toml changes).
+
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.optplan-installed
+
+.PHONY: demo test lint docs docs-serve bench clean distclean help
+
+help:
+	@echo "make demo       solve the paper scenario paper-env1 to its certified optimum"
+	@echo "make test       ruff + pytest (not slow) + mkdocs build --strict"
+	@echo "make bench      run the speed benchmarks in benchmarks/"
+	@echo "make docs       build the documentation site into site/"
+	@echo "make clean      remove build artefacts (make distclean also removes .venv)"
+
+$(BIN)/python:
+	@$(PYTHON) -m venv $(VENV) || { echo "error: '$(PYTHON) -m venv' failed; install the venv module (e.g. apt install python3-venv)" >&2; exit 1; }
+
+$(STAMP): pyproject.toml | $(BIN)/python
+	@echo "installing optplan[dev,docs] into $(VENV) (first run only; a few minutes)"
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[dev,docs]'
+	@touch $@
+
+demo: $(STAMP)
+	$(BIN)/optplan solve paper-env1 visgraph
+
+test: $(STAMP)
+	$(BIN)/ruff check .
+	$(BIN)/python -m pytest -m "not slow" -q
+	$(BIN)/mkdocs build --strict --quiet
+
+lint: $(STAMP)
+	$(BIN)/ruff check .
+
+docs: $(STAMP)
+	$(BIN)/mkdocs build --strict
+
+docs-serve: $(STAMP)
+	$(BIN)/mkdocs serve
+
+bench: $(STAMP)
+	@for f in benchmarks/bench_*.py; do echo "== $$f"; $(BIN)/python $$f || exit 1; done
+
+clean:
+	rm -rf site build dist .pytest_cache .ruff_cache .mypy_cache .hypothesis
+	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -exec rm -rf {} +
+
+distclean: clean
+	rm -rf $(VENV)
