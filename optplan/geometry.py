@@ -207,6 +207,9 @@ class CrossingResult:
     count: np.ndarray
     penetration: np.ndarray
     seg_count: np.ndarray
+    pairs: tuple[np.ndarray, np.ndarray, np.ndarray] = (
+        np.zeros(0, int), np.zeros(0, int), np.zeros(0, int))
+    """Colliding pairs as ``(path index, segment index, part index)`` arrays."""
 
 
 def batch_crossings(paths: np.ndarray, imap: InflatedMap, tol: float = 1e-9) -> CrossingResult:
@@ -252,18 +255,24 @@ def batch_crossings(paths: np.ndarray, imap: InflatedMap, tol: float = 1e-9) -> 
     D = (b - a)[si][:, None, :]
     E = imap.edges[oi]  # (K, E, 4)
     Pp, Qq = E[..., 0:2], E[..., 2:4]
-    # side of edge endpoints w.r.t. the line through A with direction D (vertex on line -> '+')
+    # side of edge endpoints w.r.t. the line through A with direction D
     sp = D[..., 0] * (Pp[..., 1] - A[..., 1]) - D[..., 1] * (Pp[..., 0] - A[..., 0])
     sq = D[..., 0] * (Qq[..., 1] - A[..., 1]) - D[..., 1] * (Qq[..., 0] - A[..., 0])
-    straddle = ((sp >= 0) != (sq >= 0)) & imap.edge_mask[oi]
+    valid = imap.edge_mask[oi]
     ev = Qq - Pp
     den = D[..., 0] * ev[..., 1] - D[..., 1] * ev[..., 0]  # cross(D, e)
     num = (Pp[..., 0] - A[..., 0]) * ev[..., 1] - (Pp[..., 1] - A[..., 1]) * ev[..., 0]
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(straddle, num / np.where(den == 0, 1.0, den), 0.0)
+        t = num / np.where(den == 0, 1.0, den)
     # entering when the direction points against the outward normal: cross(D, e) < 0
-    sign = np.where(den < 0, 1.0, -1.0)
-    frac = np.sum(np.where(straddle, sign * np.clip(1.0 - t, 0.0, 1.0), 0.0), axis=1)
+    w = np.where(den < 0, 1.0, -1.0) * np.clip(1.0 - t, 0.0, 1.0)
+    # A vertex lying exactly on the line is assigned to one side: that is the inside length of
+    # the line shifted infinitesimally to that side.  Evaluate both shifts and keep the smaller:
+    # a proper crossing gives the same length either way, while a segment that only runs along
+    # or grazes the boundary has length 0 for the shift away from the solid.
+    frac_pos = np.sum(np.where(((sp >= 0) != (sq >= 0)) & valid, w, 0.0), axis=1)
+    frac_neg = np.sum(np.where(((sp > 0) != (sq > 0)) & valid, w, 0.0), axis=1)
+    frac = np.minimum(frac_pos, frac_neg)
     seglen = np.hypot(D[:, 0, 0], D[:, 0, 1])
     inside = np.clip(frac, 0.0, 1.0) * seglen
     scale = max(1.0, float(np.max(np.abs(bb)))) if bb.size else 1.0
@@ -271,7 +280,8 @@ def batch_crossings(paths: np.ndarray, imap: InflatedMap, tol: float = 1e-9) -> 
     np.add.at(seg_count.reshape(-1), si, hit.astype(np.int64))
     path_of = si // S
     np.add.at(pen, path_of, np.where(hit, inside, 0.0))
-    return CrossingResult(seg_count.sum(1), pen, seg_count)
+    pairs = (path_of[hit], (si % S)[hit], oi[hit])
+    return CrossingResult(seg_count.sum(1), pen, seg_count, pairs)
 
 
 def path_lengths(paths: np.ndarray) -> np.ndarray:

@@ -98,13 +98,7 @@ def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray,
     imap = problem.inflated(robot.radius)
     cr = batch_crossings(path[None], imap)
     static_coll = int(cr.count[0])
-    # which obstacles: report names of crossed parts (cheap second pass for the one path)
-    crossed: list[str] = []
-    if static_coll:
-        for part, nm in zip(imap.parts, imap.names):
-            line = shapely.LineString(path)
-            if line.intersection(part).length > tol:
-                crossed.extend(nm)
+    crossed = sorted({n for p in cr.pairs[2] for n in imap.names[p]})
     dyn_contacts = 0
     min_dyn = float("inf")
     if times is not None and problem.dynamic_obstacles:
@@ -121,7 +115,7 @@ def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray,
         "in_bounds": in_bounds,
         "static_collisions": static_coll,
         "penetration": float(cr.penetration[0]),
-        "crossed": sorted(set(crossed)),
+        "crossed": crossed,
         "dynamic_contacts": dyn_contacts,
         "min_clearance": float(clear),
         "min_clearance_dynamic": float(min_dyn),
@@ -175,6 +169,7 @@ def evaluate(problem: Problem, paths: dict[str, np.ndarray],
         "static_collisions": sum(m["static_collisions"] for m in per.values()),
         "dynamic_contacts": sum(m["dynamic_contacts"] for m in per.values()),
         "penetration": sum(m["penetration"] for m in per.values()),
+        "crossed": sorted({n for m in per.values() for n in m["crossed"]}),
         "in_bounds": all(m["in_bounds"] for m in per.values()),
         "dynamic_checked": times is not None,
         "per_robot": per,

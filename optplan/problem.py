@@ -395,6 +395,8 @@ def _parse_obstacle(ctx: _Ctx, o: Any, i: int) -> Obstacle:
         geom = Point(c).buffer(r, quad_segs=CIRCLE_QUAD_SEGS)
         return Obstacle("circle", geom, known, name, center=c, radius=r)
     if kind == "rectangle":
+        if ("min" in o or "max" in o) and ("center" in o or "size" in o):
+            raise ctx.err(f"{pre}center", "give either min/max or center/size, not both")
         if "min" in o or "max" in o:
             lo = ctx.point(ctx.require(o, "min", pre), f"{pre}min")
             hi = ctx.point(ctx.require(o, "max", pre), f"{pre}max")
@@ -432,7 +434,10 @@ def _parse_dynamic(ctx: _Ctx, o: Any, i: int) -> DynamicObstacle:
         velocity = ctx.point(o["velocity"], f"{pre}velocity")
         if len(wps) != 1:
             raise ctx.err(f"{pre}waypoints", "with 'velocity' give exactly one start waypoint")
-        times = np.array([ctx.number(o.get("times", [0.0])[0], f"{pre}times[0]")])
+        raw_t = o.get("times", [0.0])
+        if not isinstance(raw_t, list) or len(raw_t) != 1:
+            raise ctx.err(f"{pre}times", "with 'velocity' give one start time, e.g. times = [0.0]")
+        times = np.array([ctx.number(raw_t[0], f"{pre}times[0]")])
     else:
         raw_t = ctx.require(o, "times", pre)
         if not isinstance(raw_t, list) or len(raw_t) != len(wps):
@@ -468,6 +473,9 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
         raise ctx.err("bounds", f"need xmin < xmax and ymin < ymax, got {list(bounds)}")
     box = shapely.box(*bounds)
 
+    for key in ("obstacles", "dynamic_obstacles", "robots"):
+        if key in data and not isinstance(data[key], list):
+            raise ctx.err(key, f"expected an array of tables: write [[{key}]] for each entry")
     obstacles = tuple(_parse_obstacle(ctx, o, i) for i, o in enumerate(data.get("obstacles", [])))
     dyn = tuple(_parse_dynamic(ctx, o, i) for i, o in enumerate(data.get("dynamic_obstacles", [])))
 
@@ -477,15 +485,18 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
     formation_tbl = data.get("formation")
     follower_ids: set[str] = set()
     if isinstance(formation_tbl, dict):
-        follower_ids = {f.get("id") for f in formation_tbl.get("followers", [])
-                        if isinstance(f, dict)}
+        fl_raw = formation_tbl.get("followers", [])
+        follower_ids = {f.get("id") for f in (fl_raw if isinstance(fl_raw, list) else [])
+                        if isinstance(f, dict) and isinstance(f.get("id"), str)}
     robots: list[Robot] = []
     for i, r in enumerate(raw_robots):
         pre = f"robots[{i}]."
         if not isinstance(r, dict):
             raise ctx.err(f"robots[{i}]", "expected a table")
         ctx.check_keys(r, _ROBOT_KEYS, pre)
-        rid = str(ctx.require(r, "id", pre))
+        rid = ctx.require(r, "id", pre)
+        if not isinstance(rid, str) or not rid:
+            raise ctx.err(f"{pre}id", f"expected a non-empty string, got {rid!r}")
         if rid in {x.id for x in robots}:
             raise ctx.err(f"{pre}id", f"duplicate robot id {rid!r}")
         start = ctx.point(ctx.require(r, "start", pre), f"{pre}start")
@@ -502,7 +513,7 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
             raise ctx.err("formation", "expected a table")
         ctx.check_keys(formation_tbl, _FORM_KEYS, "formation.")
         ids = {r.id for r in robots}
-        leader = str(ctx.require(formation_tbl, "leader", "formation."))
+        leader = ctx.require(formation_tbl, "leader", "formation.")
         if leader not in ids:
             raise ctx.err("formation.leader", f"names no robot: {leader!r} (robots: {sorted(ids)})")
         fl = ctx.require(formation_tbl, "followers", "formation.")
@@ -514,7 +525,11 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
             if not isinstance(f, dict):
                 raise ctx.err(f"formation.followers[{k}]", "expected a table")
             ctx.check_keys(f, _FOLL_KEYS, pre)
-            fid = str(ctx.require(f, "id", pre))
+            fid = ctx.require(f, "id", pre)
+            if not isinstance(fid, str):
+                raise ctx.err(f"{pre}id", f"expected a robot id string, got {fid!r}")
+            if fid in {x.id for x in followers}:
+                raise ctx.err(f"{pre}id", f"follower {fid!r} is listed twice")
             if fid not in ids:
                 raise ctx.err(f"{pre}id", f"names no robot: {fid!r} (robots: {sorted(ids)})")
             if fid == leader:

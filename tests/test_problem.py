@@ -1,0 +1,415 @@
+"""Scenario format and catalogue: loading, validation errors, dynamic obstacles, formation slots.
+
+Covers design §3 (the TOML format and what validation rejects) and issue 2 item 7 (the
+catalogue).  Bad scenario fixtures live in ``tests/data/bad/``; every fixture there must be
+listed in :data:`BAD_CASES` (or :data:`KNOWN_PARSER_GAPS`) with the key its error must name.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+import shapely
+
+import optplan as op
+from optplan.problem import (
+    _DYN_KEYS,
+    _FOLL_KEYS,
+    _FORM_KEYS,
+    _OBST_KEYS,
+    _ROBOT_KEYS,
+    _SENS_KEYS,
+    _TOP_KEYS,
+    Follower,
+    Formation,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+BAD_DIR = Path(__file__).resolve().parent / "data" / "bad"
+README = ROOT / "problems" / "README.md"
+
+# fixture file -> (key the message must name, further text the message must contain)
+BAD_CASES: dict[str, tuple[str, str]] = {
+    "unknown-top-key": ("descripton", "did you mean 'description'"),
+    "unknown-robot-key": ("robots[0].radious", "did you mean 'radius'"),
+    "unknown-obstacle-key": ("obstacles[0].vertexes", "did you mean 'vertices'"),
+    "obstacle-type-misspelled": ("obstacles[0].type", "did you mean 'rectangle'"),
+    "nan-radius": ("robots[0].radius", "finite"),
+    "inf-vertex": ("obstacles[0].vertices[1][0]", "finite"),
+    "nan-bounds": ("bounds[2]", "finite"),
+    "empty-polygon": ("obstacles[0].vertices", "at least 3"),
+    "two-vertex-polygon": ("obstacles[0].vertices", "3 distinct vertices"),
+    "degenerate-polygon": ("obstacles[0].vertices", "degenerate"),
+    "self-intersecting-polygon": ("obstacles[0].vertices", "self-intersecting"),
+    "zero-circle-radius": ("obstacles[0].radius", "> 0"),
+    "negative-robot-radius": ("robots[0].radius", "> 0"),
+    "zero-dynamic-radius": ("dynamic_obstacles[0].radius", "> 0"),
+    "inverted-rectangle": ("obstacles[0].max", "min < max"),
+    "bounds-min-ge-max": ("bounds", "xmin < xmax"),
+    "start-outside-bounds": ("robots[0].start", "outside the bounds"),
+    "goal-outside-bounds": ("robots[0].goal", "outside the bounds"),
+    "start-in-inflated-obstacle": ("robots[0].start", "inflated"),
+    "goal-in-inflated-obstacle": ("robots[0].goal", "inflated"),
+    "formation-leader-unknown": ("formation.leader", "'pilot'"),
+    "formation-follower-unknown": ("formation.followers[1].id", "'f9'"),
+    "dynamic-times-decreasing": ("dynamic_obstacles[0].times", "increasing"),
+    "dynamic-times-count": ("dynamic_obstacles[0].times", "3 time stamps"),
+    "dynamic-after-misspelled": ("dynamic_obstacles[0].after", "bounce"),
+    "missing-goal": ("robots[0].goal", "missing"),
+    "phi-out-of-range": ("formation.followers[0].phi", "pi"),
+}
+
+# Inputs the first parser version crashed on or accepted silently (now rejected).
+KNOWN_PARSER_GAPS: dict[str, tuple[str, str]] = {
+    "dynamic-velocity-times-empty": ("dynamic_obstacles[0].times", "one start time"),
+    "duplicate-follower": ("formation.followers[1].id", "twice"),
+}
+
+MY_SCENES = ("paper-env1", "paper-env2", "paper-hybrid", "paper-warehouse")
+
+
+def _err(path: Path) -> str:
+    with pytest.raises(op.ProblemError) as ei:
+        op.read_problem(path)
+    return str(ei.value)
+
+
+# --------------------------------------------------------------------------------------
+# the catalogue
+# --------------------------------------------------------------------------------------
+
+
+def test_catalogue_is_not_empty():
+    names = op.list_problems()
+    assert "open-field" in names
+    for n in MY_SCENES:
+        assert n in names
+
+
+@pytest.mark.parametrize("name", op.list_problems())
+def test_catalogue_file_loads(name):
+    p = op.load_problem(name)
+    assert p.name == name, "the file stem and the `name` key must agree"
+    assert p.description and p.source and p.tags
+    assert p.path is not None and Path(p.path).stem == name
+    x0, y0, x1, y1 = p.bounds
+    for r in p.robots:
+        for q in (r.start, r.goal):
+            if q is not None:
+                assert x0 <= q[0] <= x1 and y0 <= q[1] <= y1
+    if name.startswith("paper-"):
+        assert "paper" in p.tags
+
+
+@pytest.mark.parametrize("name", op.list_problems())
+def test_catalogue_listed_in_readme(name):
+    text = README.read_text(encoding="utf-8")
+    assert f"`{name}`" in text, f"problems/README.md does not list {name}"
+
+
+def test_readme_documents_every_key():
+    text = README.read_text(encoding="utf-8")
+    keys = set(_TOP_KEYS) | _ROBOT_KEYS | _DYN_KEYS | _FORM_KEYS | _FOLL_KEYS | _SENS_KEYS
+    for ks in _OBST_KEYS.values():
+        keys |= ks
+    keys |= set(_OBST_KEYS)  # obstacle type names
+    keys |= {"hold", "loop", "bounce"}
+    missing = sorted(k for k in keys if f"`{k}`" not in text and f'`"{k}"`' not in text)
+    assert not missing, f"problems/README.md does not document {missing}"
+
+
+@pytest.mark.parametrize("name", MY_SCENES)
+def test_reconstructions_say_so(name):
+    p = op.load_problem(name)
+    assert p.source.startswith("reconstruction of paper Fig")
+
+
+# --------------------------------------------------------------------------------------
+# properties of the paper scenes (visgraph = certified optimum on the known map)
+# --------------------------------------------------------------------------------------
+
+
+def _interior_overlap(path: np.ndarray, problem: op.Problem, robot, known_only: bool) -> float:
+    """Length of ``path`` strictly inside the inflated obstacles, by shapely (independent check)."""
+    imap = problem.inflated(robot.radius, known_only=known_only)
+    line = shapely.LineString(path)
+    return float(sum(line.intersection(part.buffer(-1e-6)).length for part in imap.parts))
+
+
+@pytest.mark.parametrize("name, lo, hi", [("paper-env1", 725.0, 750.0),
+                                          ("paper-env2", 740.0, 765.0)])
+def test_pso_maps_optimum_in_paper_range(name, lo, hi):
+    p = op.load_problem(name)
+    r = op.solve(p, "visgraph")
+    rob = p.robots[0]
+    straight = float(np.hypot(*(rob.goal - rob.start)))
+    length = r.metrics["length"]
+    assert lo <= length <= hi
+    assert r.metrics["length_inscribed"] <= r.metrics["length_circumscribed"] + 1e-9
+    assert r.metrics["length_circumscribed"] - r.metrics["length_inscribed"] < 0.5
+    # the straight line is blocked, and the returned path is really collision-free
+    assert _interior_overlap(np.vstack([rob.start, rob.goal]), p, rob, True) > 0
+    assert _interior_overlap(r.paths[rob.id], p, rob, True) == pytest.approx(0.0, abs=1e-6)
+    assert length > straight + 20.0
+
+
+# centres (diagonal coordinate s along (1, 1)/sqrt2, offset d along (-1, 1)/sqrt2) and radii of
+# discs that close the gap the optimum uses at each staggered barrier of the PSO maps
+_GAPS = {
+    "paper-env1": [(182.5, 58.0, 26.0), (352.5, -58.0, 26.0), (522.5, 58.0, 26.0)],
+    "paper-env2": [(145.0, 49.0, 22.0), (277.5, -49.0, 22.0), (415.0, 49.0, 22.0),
+                   (562.5, -49.0, 22.0)],
+}
+
+
+@pytest.mark.parametrize("name", sorted(_GAPS))
+def test_pso_maps_have_several_homotopy_classes(name):
+    """Closing the gap the optimum uses at any barrier leaves a longer, feasible local optimum."""
+    path = Path(op.load_problem(name).path)
+    data = tomllib.loads(path.read_text(encoding="utf-8"))
+    best = op.solve(op.parse_problem(data), "visgraph").metrics["length"]
+    others = []
+    for s, d, rad in _GAPS[name]:
+        centre = [(s - d) / math.sqrt(2.0), (s + d) / math.sqrt(2.0)]
+        closed = dict(data, obstacles=data["obstacles"] + [
+            {"type": "circle", "center": centre, "radius": rad}])
+        p = op.parse_problem(closed)
+        r = op.solve(p, "visgraph")
+        rob = p.robots[0]
+        assert _interior_overlap(r.paths[rob.id], p, rob, True) == pytest.approx(0.0, abs=1e-6)
+        others.append(r.metrics["length"])
+    others = np.array(others)
+    assert np.all(others > best + 5.0), others  # each gap matters: distinct local optima
+    assert len(np.unique(np.round(others))) >= 2  # of different lengths
+    assert np.all(others < 1.25 * best)  # and competitive (traps for a swarm)
+
+
+def test_hybrid_scene_temporary_obstacles_block_known_optimum():
+    p = op.load_problem("paper-hybrid")
+    assert p.sensing_range is not None and p.sensing_range > 0
+    assert 2 <= sum(not o.known for o in p.obstacles) <= 3
+    assert 1 <= len(p.dynamic_obstacles) <= 2
+    assert all(d.after == "bounce" for d in p.dynamic_obstacles)
+    r = op.solve(p, "visgraph")
+    rob = p.robots[0]
+    assert r.status is op.Status.approximate
+    assert r.metrics["static_collisions"] > 0
+    assert _interior_overlap(r.paths[rob.id], p, rob, True) == pytest.approx(0.0, abs=1e-6)
+    assert _interior_overlap(r.paths[rob.id], p, rob, False) > 10.0
+    # every temporary obstacle sits on the known-map optimum
+    line = shapely.LineString(r.paths[rob.id])
+    for o in p.obstacles:
+        if not o.known:
+            assert line.intersects(o.geometry), o.name
+    # avoidable: planning around them too is feasible and a little longer
+    full = op.get_solver("visgraph", see_temporary=True).solve(p)
+    assert full.metrics["length"] > r.metrics["length"]
+    assert _interior_overlap(full.paths[rob.id], p, rob, False) == pytest.approx(0.0, abs=1e-6)
+    # slow movers: well under the robot's speed
+    for d in p.dynamic_obstacles:
+        v = np.hypot(*np.diff(d.waypoints, axis=0).T) / np.diff(d.times)
+        assert np.all(v < 0.5 * rob.max_speed)
+
+
+def test_warehouse_scene():
+    p = op.load_problem("paper-warehouse")
+    f = p.formation
+    assert f is not None and f.leader == "leader"
+    assert [x.id for x in f.followers] == ["f1", "f2"]
+    lead = p.leader
+    np.testing.assert_allclose(lead.start, [45, 560])
+    np.testing.assert_allclose(lead.goal, [568, 33])
+    np.testing.assert_allclose(p.robot("f1").start, [26, 569])
+    np.testing.assert_allclose(p.robot("f2").start, [36, 579])
+    assert p.robot("f1").goal is None and p.robot("f2").goal is None
+    # the paper's start positions are (close to) the formation slots for the initial heading
+    heading = math.atan2(*(lead.goal - lead.start)[::-1])
+    slots = lead.start + f.slot_offsets(heading)
+    starts = np.array([p.robot(x.id).start for x in f.followers])
+    assert np.max(np.hypot(*(slots - starts).T)) < 0.5
+    assert f.safety_distance == pytest.approx(2.5 * lead.radius)
+    assert 2 <= sum(not o.known for o in p.obstacles) <= 4
+    assert all(o.is_circle for o in p.obstacles if not o.known)
+    r = op.solve(p, "visgraph")
+    path = r.paths["leader"]
+    assert _interior_overlap(path, p, lead, True) == pytest.approx(0.0, abs=1e-6)
+    assert _interior_overlap(path, p, lead, False) > 10.0
+    assert r.metrics["static_collisions"] > 0
+    full = op.get_solver("visgraph", see_temporary=True).solve(p)
+    assert _interior_overlap(full.paths["leader"], p, lead, False) == pytest.approx(0, abs=1e-6)
+
+
+@pytest.mark.parametrize("name", ["paper-env1", "paper-env2", "paper-warehouse"])
+def test_visgraph_optimal_on_known_map(name):
+    r = op.solve(op.load_problem(name).known_view(), "visgraph")
+    assert r.status is op.Status.optimal
+    assert r.metrics["static_collisions"] == 0
+
+
+# --------------------------------------------------------------------------------------
+# validation errors
+# --------------------------------------------------------------------------------------
+
+
+def test_every_bad_fixture_is_covered():
+    files = {p.stem for p in BAD_DIR.glob("*.toml")}
+    assert files == set(BAD_CASES) | set(KNOWN_PARSER_GAPS)
+
+
+@pytest.mark.parametrize("case", sorted(BAD_CASES))
+def test_bad_scenario_rejected(case):
+    path = BAD_DIR / f"{case}.toml"
+    key, extra = BAD_CASES[case]
+    msg = _err(path)
+    assert "\n" not in msg, "the error must be one line"
+    assert str(path) in msg, "the error must name the file"
+    assert re.search(rf"(^|: ){re.escape(key)}: ", msg), f"the error must name key {key!r}: {msg}"
+    assert extra in msg
+
+
+@pytest.mark.parametrize("case", sorted(KNOWN_PARSER_GAPS))
+def test_bad_scenario_former_gap(case):
+    path = BAD_DIR / f"{case}.toml"
+    key, extra = KNOWN_PARSER_GAPS[case]
+    msg = _err(path)
+    assert str(path) in msg and f"{key}: " in msg and extra in msg
+
+
+def test_bad_scenario_via_load_problem_names_file():
+    path = BAD_DIR / "nan-radius.toml"
+    with pytest.raises(op.ProblemError, match=r"nan-radius\.toml: robots\[0\]\.radius: "):
+        op.load_problem(str(path))
+
+
+def test_unknown_catalogue_name_suggests():
+    with pytest.raises(op.ProblemError, match="paper-env1"):
+        op.load_problem("paper-envl")
+
+
+def test_invalid_toml_is_a_problem_error(tmp_path):
+    f = tmp_path / "broken.toml"
+    f.write_text('name = "x"\nbounds = [0, 0, 1\n', encoding="utf-8")
+    msg = _err(f)
+    assert str(f) in msg and "invalid TOML" in msg
+
+
+# --------------------------------------------------------------------------------------
+# dynamic obstacles: position(t)
+# --------------------------------------------------------------------------------------
+
+_BASE = """
+name = "dyn"
+bounds = [0.0, 0.0, 100.0, 100.0]
+[[robots]]
+id = "r"
+start = [90.0, 90.0]
+goal = [95.0, 95.0]
+radius = 1.0
+"""
+
+
+def _dyn(body: str):
+    p = op.parse_problem(tomllib.loads(_BASE + "[[dynamic_obstacles]]\n" + body))
+    return p.dynamic_obstacles[0]
+
+
+_WP = 'type = "circle"\nradius = 2.0\nwaypoints = [[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]]\n' \
+      "times = [0.0, 10.0, 20.0]\n"
+
+
+def test_dynamic_waypoint_interpolation_and_hold():
+    d = _dyn(_WP)
+    assert d.after == "hold"
+    np.testing.assert_allclose(d.position(5.0), [5.0, 0.0])
+    np.testing.assert_allclose(d.position(10.0), [10.0, 0.0])
+    np.testing.assert_allclose(d.position(15.0), [10.0, 5.0])
+    np.testing.assert_allclose(d.position(-3.0), [0.0, 0.0])  # before: first waypoint
+    np.testing.assert_allclose(d.position(99.0), [10.0, 10.0])  # hold the last
+    out = d.position(np.array([0.0, 2.5, 12.5]))
+    assert out.shape == (3, 2)
+    np.testing.assert_allclose(out, [[0, 0], [2.5, 0], [10, 2.5]])
+
+
+def test_dynamic_loop():
+    d = _dyn(_WP + 'after = "loop"\n')
+    np.testing.assert_allclose(d.position(25.0), [5.0, 0.0])
+    np.testing.assert_allclose(d.position(35.0), [10.0, 5.0])
+    np.testing.assert_allclose(d.position(40.0), [0.0, 0.0])
+
+
+def test_dynamic_bounce():
+    d = _dyn(_WP + 'after = "bounce"\n')
+    np.testing.assert_allclose(d.position(20.0), [10.0, 10.0])
+    np.testing.assert_allclose(d.position(25.0), [10.0, 5.0])  # back along the last leg
+    np.testing.assert_allclose(d.position(35.0), [5.0, 0.0])
+    np.testing.assert_allclose(d.position(40.0), [0.0, 0.0])
+    np.testing.assert_allclose(d.position(45.0), [5.0, 0.0])  # and forward again
+
+
+def test_dynamic_constant_velocity():
+    d = _dyn('type = "circle"\nradius = 2.0\nwaypoints = [[1.0, 2.0]]\nvelocity = [3.0, -1.0]\n')
+    np.testing.assert_allclose(d.position(0.0), [1.0, 2.0])
+    np.testing.assert_allclose(d.position(2.0), [7.0, 0.0])
+    d4 = _dyn('type = "circle"\nradius = 2.0\nwaypoints = [[1.0, 2.0]]\nvelocity = [3.0, -1.0]\n'
+              "times = [4.0]\n")
+    np.testing.assert_allclose(d4.position(4.0), [1.0, 2.0])
+    np.testing.assert_allclose(d4.position(6.0), [7.0, 0.0])
+
+
+def test_dynamic_geometry_and_distance():
+    d = _dyn(_WP)
+    g = d.geometry_at(5.0)
+    assert g.centroid.distance(shapely.Point(5.0, 0.0)) < 1e-9
+    assert g.area == pytest.approx(math.pi * 4.0, rel=0.01)
+    np.testing.assert_allclose(d.distance(np.array([[5.0, 10.0]]), 5.0), [8.0])
+    np.testing.assert_allclose(d.distance(np.array([[5.0, 1.0]]), 5.0), [0.0])
+    sq = _dyn('type = "polygon"\nvertices = [[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]]\n'
+              "waypoints = [[0.0, 0.0], [10.0, 0.0]]\ntimes = [0.0, 10.0]\n")
+    np.testing.assert_allclose(sq.distance(np.array([[5.0, 4.0]]), 5.0), [3.0])
+
+
+# --------------------------------------------------------------------------------------
+# formation slot convention
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("phi, expected", [
+    (math.pi / 4, (-60.0, 0.0)),
+    (-math.pi / 4, (0.0, -60.0)),
+    (0.0, (-60.0 / math.sqrt(2), -60.0 / math.sqrt(2))),
+])
+def test_slot_offsets_convention(phi, expected):
+    f = Formation("L", (Follower("f", 60.0, phi),), 10.0)
+    np.testing.assert_allclose(f.slot_offsets(math.pi / 4)[0], expected, atol=1e-12)
+
+
+def test_slot_offsets_paper_formation_start():
+    """Leader (60, 60) heading to (450, 450); followers (0, 60), (60, 0) with L = 60."""
+    f = Formation("r1", (Follower("r2", 60.0, math.pi / 4), Follower("r3", 60.0, -math.pi / 4)),
+                  10.0)
+    heading = math.atan2(450 - 60, 450 - 60)
+    slots = np.array([60.0, 60.0]) + f.slot_offsets(heading)
+    np.testing.assert_allclose(slots, [[0.0, 60.0], [60.0, 0.0]], atol=1e-9)
+    # batched headings broadcast
+    assert f.slot_offsets(np.array([0.0, 1.0, 2.0])).shape == (3, 2, 2)
+
+
+def test_formation_safety_distance_default():
+    text = _BASE + """
+[[robots]]
+id = "f"
+start = [80.0, 90.0]
+radius = 1.5
+[formation]
+leader = "r"
+followers = [{ id = "f", L = 10.0, phi = 0.0 }]
+"""
+    p = op.parse_problem(tomllib.loads(text))
+    assert p.formation.safety_distance == pytest.approx(3.0)  # 2 x the largest radius
+    assert p.robot("f").goal is None
+    assert p.planned_robots == [p.robot("r")]
