@@ -1,0 +1,112 @@
+"""Regenerate the figures of ``docs/solvers/hybrid.md`` into ``docs/img/``.
+
+Everything is drawn by :mod:`optplan.plot` (the functions behind ``optplan plot`` and
+``optplan animate``) from results computed here with fixed seeds::
+
+    .venv/bin/python docs/scripts/make_hybrid_figures.py [--seed 0] [--out docs/img]
+
+Figures:
+
+* ``hybrid-three-way.png``: paper Figs 28-30 on ``paper-hybrid``: IPSO alone, SA-APF alone,
+  hybrid (global path dashed, inflection points as diamonds).
+* ``hybrid-paper-hybrid.gif``: the hybrid run on ``paper-hybrid`` with the moving obstacles.
+* ``hybrid-formation.png`` / ``.gif``: ``hybrid-paper`` on ``paper-formation`` (Fig. 32).
+* ``hybrid-warehouse.png`` / ``.gif``: ``hybrid-paper`` on ``paper-warehouse`` (Fig. 34).
+* ``hybrid-formation-error.png``: follower position error (distance to the L-phi slot) and
+  the separation over time for both formation runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+import optplan as op
+from optplan.metrics import formation_errors
+from optplan.plot import animate, new_figure, plot_result
+
+
+def three_way(seed: int, out: Path) -> None:
+    prob = op.load_problem("paper-hybrid")
+    fig = new_figure(size=(16.5, 5.8))
+    axes = fig.subplots(1, 3)
+    for ax, (label, solver) in zip(axes, [("IPSO alone", "ipso-paper"),
+                                          ("SA-APF alone", "sa-apf-paper"),
+                                          ("hybrid", "hybrid-paper")]):
+        res = op.solve(prob, solver, rng=seed)
+        plot_result(res, problem=prob, ax=ax, snapshot_every=0)
+        m = res.metrics
+        ax.set_title(f"{label} ({solver}): {res.status.value}\nlength {m['length']:.1f}, "
+                     f"collisions {m['collisions']}", fontsize=10)
+        if solver == "hybrid-paper":
+            animate(res, out / "hybrid-paper-hybrid.gif", problem=prob, fps=10, max_frames=100)
+    fig.tight_layout()
+    fig.savefig(out / "hybrid-three-way.png", dpi=90)
+
+
+def formation(seed: int, out: Path) -> dict[str, op.Result]:
+    runs = {}
+    for scene, stem in (("paper-formation", "hybrid-formation"),
+                        ("paper-warehouse", "hybrid-warehouse")):
+        prob = op.load_problem(scene)
+        res = op.solve(prob, "hybrid-paper", rng=seed)
+        runs[scene] = res
+        fig = new_figure(size=(7.5, 7.5))
+        ax = fig.subplots()
+        plot_result(res, problem=prob, ax=ax, snapshot_every=max(1, len(res.times) // 10))
+        fig.tight_layout()
+        fig.savefig(out / f"{stem}.png", dpi=90)
+        animate(res, out / f"{stem}.gif", problem=prob, fps=10, max_frames=120)
+    return runs
+
+
+def formation_error(runs: dict[str, op.Result], out: Path) -> None:
+    fig = new_figure(size=(11, 6.5))
+    axes = fig.subplots(2, len(runs), squeeze=False)
+    for j, (scene, res) in enumerate(runs.items()):
+        prob = op.load_problem(scene)
+        fe = formation_errors(prob, res.paths)["position"]
+        t = res.times
+        ax = axes[0, j]
+        for k, f in enumerate(prob.formation.followers):
+            ax.plot(t, fe[:, k], label=f"{f.id} (L = {f.L:g})")
+        ax.set_title(f"{scene}: follower distance to its slot", fontsize=10)
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("error (map units)")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+        ids = list(res.paths)
+        P = np.stack([res.paths[i] for i in ids], axis=1)
+        ax = axes[1, j]
+        for a in range(len(ids)):
+            for b in range(a + 1, len(ids)):
+                ax.plot(t, np.hypot(*(P[:, a] - P[:, b]).T), label=f"{ids[a]}-{ids[b]}")
+        ax.axhline(prob.formation.safety_distance, color="r", ls="--", lw=1,
+                   label="safety distance")
+        ax.set_title(f"{scene}: pairwise separation", fontsize=10)
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("distance (map units)")
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "hybrid-formation-error.png", dpi=90)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "img")
+    a = ap.parse_args(argv)
+    a.out.mkdir(parents=True, exist_ok=True)
+    three_way(a.seed, a.out)
+    formation_error(formation(a.seed, a.out), a.out)
+    for p in sorted(a.out.glob("hybrid-*")):
+        print(p)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,60 @@
+"""Regenerate the figures of docs/plotting.md (headless; run from the repository root).
+
+    .venv/bin/python docs/scripts/make_plotting_figures.py
+
+Writes docs/img/plotting-*.png and docs/img/plotting-formation.gif with optplan.plot, the
+same functions behind `optplan show --out`, `optplan plot` and `optplan animate`.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import optplan as op
+from optplan import plot
+
+IMG = Path(__file__).resolve().parents[1] / "img"
+
+
+def first_available(*names: str) -> str:
+    """The first solver name that resolves (presets may still be missing in a build)."""
+    for n in names:
+        try:
+            op.get_solver(n)
+            return n
+        except (ValueError, ImportError):
+            continue
+    raise SystemExit(f"none of the solvers {names} is available")
+
+
+def main() -> int:
+    IMG.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+
+    # 1. a map: known and temporary obstacles, inflated outlines, moving obstacles' tracks
+    fig = plot.plot_problem(op.load_problem("paper-hybrid"))
+    fig.savefig(IMG / "plotting-map.png", dpi=100, bbox_inches="tight")
+
+    # 2. a formation run with snapshots, and its animation
+    lf = first_available("leader-follower-paper", "leader-follower")
+    res = op.solve("paper-formation", lf, rng=0)
+    print(res.summary())
+    plot.plot_result(res, out=IMG / "plotting-formation.png", snapshot_every=40)
+    plot.animate(res, IMG / "plotting-formation.gif", fps=10, max_frames=60)
+
+    # 3. convergence of two swarm solvers over 5 common seeds (median and IQR band)
+    groups = {}
+    for name in (first_available("pso-paper", "pso"), first_available("ipso-paper", "ipso")):
+        groups[name] = [op.solve("paper-env1", name, rng=k) for k in range(5)]
+        print(name, [round(r.metrics["length"], 1) for r in groups[name]])
+    plot.plot_convergence(groups, out=IMG / "plotting-convergence.png")
+
+    print(f"wrote {len(list(IMG.glob('plotting-*')))} files to {IMG} in "
+          f"{time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

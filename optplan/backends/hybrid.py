@@ -1,0 +1,619 @@
+r"""Hybrid planner: global path -> inflection points -> local planning -> formation (paper §V).
+
+The paper's six steps (§V, Fig. 15) and how this backend realises them:
+
+1. *Map.*  The scenario is the map; the global planner sees only ``problem.known_view()``
+   (known static obstacles), the local planner senses everything (known, temporary and moving
+   obstacles) through the simulator's :class:`~optplan.sim.ObstacleField`.
+2. *Formation control.*  Followers are driven by ``get_solver(formation).followers_controller``
+   (leader-follower L-phi with active avoidance, or the formation QP); ``formation = ""`` runs
+   the leader alone.
+3. *Global path.*  ``get_solver(global_solver).solve(problem.known_view())`` (IPSO in the
+   paper, any path solver here).  An ``init`` path for a robot replaces this stage.
+4. *Inflection points.*  :func:`inflection_points` scans the global path and keeps the vertices
+   where it turns by more than ``angle_tol`` degrees; they become the sub-goals, followed by the
+   final goal (:func:`subgoals`).
+5. *Local planning.*  The leader is driven toward the current sub-goal by
+   ``get_solver(local_solver).controller(problem, leader, rng)`` (SA-APF in the paper): the
+   controller's ``velocity(state, index)`` is evaluated at every simulator step; the followers
+   keep the formation around the leader at the same time, in one
+   :func:`optplan.sim.simulate` run.
+6. *Replanning.*  When the leader comes within ``reach_tol`` of an intermediate sub-goal the
+   controller is ``reset`` to the next one; the run ends when the final goal is reached (and the
+   followers have settled in their slots), on a collision, when the local planner gives up at
+   the final goal, or at the step budget.
+
+Inflection point (definition used here)
+---------------------------------------
+Let the global path be the polyline :math:`p_0, \dots, p_n` (consecutive duplicates removed)
+and :math:`q` the last kept point (initially :math:`p_0`).  Vertex :math:`p_i`,
+:math:`0 < i < n`, is an inflection (turning) point when the angle between the chord
+:math:`p_i - q` and the outgoing segment :math:`p_{i+1} - p_i` exceeds ``angle_tol``:
+
+.. math::
+
+   \theta_i = \left|\operatorname{atan2}\big(c \times d,\; c \cdot d\big)\right| > \theta_{tol},
+   \qquad c = p_i - q,\; d = p_{i+1} - p_i;
+
+then :math:`q \leftarrow p_i`.  For a polyline with sharp corners this is exactly the set of
+corners whose turning angle exceeds the tolerance; measuring against the chord from the last
+kept point (rather than the incoming segment) also places sub-goals along gently curving, densely
+sampled paths (a circular arc yields one sub-goal every :math:`\approx 2\theta_{tol}` of arc),
+which a vertex-by-vertex test would skip entirely.
+
+Choices where the paper is silent (documented in ``docs/solvers/hybrid.md``)
+---------------------------------------------------------------------------
+* A sub-goal is *reached* within ``reach_tol`` (default ``max(2 r, 2 v_max dt)``); the final
+  goal within the scenario's goal tolerance.
+* An intermediate sub-goal that lies inside a sensed temporary obstacle (distance to it below
+  the robot radius, so the sub-goal is not a feasible position) is skipped as soon as the robot
+  senses it; so is one the leader makes no progress toward for ``stall_steps`` steps, and one
+  at which the local planner gives up.  At the final goal, giving up ends the run
+  (status ``approximate``).
+* The leader heading given to the formation controller is the direction of the leader's last
+  non-zero commanded velocity; once the leader is at its goal it stops (zero velocity), and the
+  run continues for at most ``settle_steps`` steps until every follower is within
+  ``settle_tol`` (fraction of its ``L``) of its slot.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+import numpy as np
+
+from optplan.problem import Problem, Robot
+from optplan.result import History, Progress, Result, Status, notify
+from optplan.sim import SimState, simulate
+from optplan.solver import Backend, check_int, check_range, get_solver
+
+__all__ = ["Hybrid", "inflection_points", "subgoals", "turning_angles"]
+
+
+# --------------------------------------------------------------------------------------
+# pure functions (step 4)
+# --------------------------------------------------------------------------------------
+
+
+def _dedupe(path: np.ndarray, eps: float) -> np.ndarray:
+    """Drop consecutive points closer than ``eps`` (keeps the first and the last point)."""
+    p = np.asarray(path, dtype=float).reshape(-1, 2)
+    if len(p) < 2:
+        return p
+    step = np.hypot(*np.diff(p, axis=0).T)
+    keep = np.r_[True, step > eps]
+    out = p[keep]
+    if not np.array_equal(out[-1], p[-1]):
+        out[-1] = p[-1]
+    return out
+
+
+def turning_angles(path: np.ndarray) -> np.ndarray:
+    """Absolute turning angle (degrees) at every interior vertex, shape ``(n - 2,)``.
+
+    The angle between the incoming and the outgoing segment directions: 0 for collinear
+    points, 90 for a right-angle corner, 180 for a reversal.  Zero-length segments must have
+    been removed (see :func:`inflection_points`).
+    """
+    p = np.asarray(path, dtype=float).reshape(-1, 2)
+    if len(p) < 3:
+        return np.zeros(0)
+    a = p[1:-1] - p[:-2]
+    b = p[2:] - p[1:-1]
+    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    dot = np.sum(a * b, axis=1)
+    return np.degrees(np.abs(np.arctan2(cross, dot)))
+
+
+def inflection_points(path: np.ndarray, angle_tol: float = 10.0, *,
+                      return_index: bool = False) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
+    r"""Inflection (turning) points of a polyline, paper §V step 4.
+
+    Parameters
+    ----------
+    path : array, shape ``(n, 2)``
+        The global path, first point = start, last point = goal.
+    angle_tol : float
+        Turning-angle tolerance :math:`\theta_{tol}` in degrees, ``0 <= angle_tol < 180``.
+        A vertex is kept when the angle between the chord from the last kept point and the
+        outgoing segment exceeds it (module docstring).
+    return_index : bool
+        Also return the indices of the kept vertices in the de-duplicated path.
+
+    Returns
+    -------
+    points : array, shape ``(k, 2)``
+        The inflection points in path order, excluding start and goal (``k`` may be 0).
+    index : array of int, shape ``(k,)``
+        Only with ``return_index``.
+
+    Examples
+    --------
+    >>> inflection_points([[0, 0], [1, 0], [2, 0], [2, 1]], 10.0)
+    array([[2., 0.]])
+    """
+    if not 0.0 <= float(angle_tol) < 180.0:
+        raise ValueError(f"angle_tol must be in [0, 180) degrees, got {angle_tol!r}")
+    p = np.asarray(path, dtype=float).reshape(-1, 2)
+    scale = max(1.0, float(np.abs(p).max())) if len(p) else 1.0
+    p = _dedupe(p, 1e-9 * scale)
+    kept: list[int] = []
+    if len(p) >= 3:
+        tol = math.radians(float(angle_tol))
+        out_dir = np.diff(p, axis=0)  # outgoing segment of vertex i is out_dir[i]
+        q = p[0]
+        # a sequential scan: each decision depends on the last kept point (paths are short)
+        for i in range(1, len(p) - 1):
+            c = p[i] - q
+            d = out_dir[i]
+            ang = abs(math.atan2(c[0] * d[1] - c[1] * d[0], c[0] * d[0] + c[1] * d[1]))
+            if ang > tol:
+                kept.append(i)
+                q = p[i]
+    idx = np.asarray(kept, dtype=int)
+    pts = p[idx] if len(idx) else np.zeros((0, 2))
+    return (pts, idx) if return_index else pts
+
+
+def subgoals(path: np.ndarray, goal: np.ndarray, angle_tol: float = 10.0,
+             spacing: float = 0.0) -> np.ndarray:
+    """The sub-goal sequence of step 4: the inflection points of ``path``, then ``goal``.
+
+    With ``spacing > 0`` (an option beyond the paper) every leg of the polyline
+    start -> inflection points -> goal is also split into equal pieces no longer than
+    ``spacing`` (map units); the inflection points are kept.
+    """
+    pts = inflection_points(path, angle_tol)
+    g = np.asarray(goal, dtype=float).reshape(1, 2)
+    seq = np.vstack([pts, g])
+    if spacing <= 0:
+        return seq
+    start = np.asarray(path, dtype=float).reshape(-1, 2)[0]
+    prev = np.vstack([start[None], seq[:-1]])
+    out = []
+    for a, b in zip(prev, seq):
+        n = max(1, int(math.ceil(math.hypot(*(b - a)) / spacing)))
+        f = np.arange(1, n + 1)[:, None] / n
+        out.append(a + f * (b - a))
+    return np.vstack(out)
+
+
+# --------------------------------------------------------------------------------------
+# the per-robot sub-goal tracker (steps 5-6)
+# --------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Driver:
+    """A robot with its own goal, driven through its sub-goals by a local controller."""
+
+    index: int
+    robot: Robot
+    goals: np.ndarray  # (k, 2), last = final goal
+    controller: Any
+    reach_tol: float
+    goal_tol: float
+    j: int = 0
+    best: float = math.inf
+    k_best: int = 0
+    done: bool = False
+    gave_up: bool = False
+    heading: float = 0.0
+    reached_at: list = field(default_factory=list)  # (sub-goal index, time, how)
+    t_goal: float = math.nan
+
+    @property
+    def final(self) -> bool:
+        return self.j == len(self.goals) - 1
+
+    def advance(self, k: int, t: float, how: str) -> None:
+        self.reached_at.append((self.j, float(t), how))
+        self.j += 1
+        self.best, self.k_best = math.inf, k
+        self.controller.reset(self.goals[self.j].copy())
+
+
+def _wrap_callback(callback: Callable[[Progress], Any] | None, offset: list[int],
+                   stopped: list[bool]) -> Callable[[Progress], Any] | None:
+    """Forward progress with a running iteration offset and remember a stop request."""
+    if callback is None:
+        return None
+
+    def cb(p: Progress) -> None:
+        q = Progress(p.iteration + offset[0], p.best_cost, p.n_eval, p.elapsed, p.info)
+        if notify(callback, q):
+            stopped[0] = True
+            raise StopIteration
+
+    return cb
+
+
+# --------------------------------------------------------------------------------------
+# the backend
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, kw_only=True)
+class Hybrid(Backend):
+    r"""Hybrid planner of paper §V (Fig. 15): global path, inflection points, local planning.
+
+    Parameters
+    ----------
+    global_solver : str
+        Preset (or backend) planning each driving robot's path on ``problem.known_view()``
+        (step 3).  Paper: IPSO, ``"ipso-paper"``.  A backend object is accepted too.
+    local_solver : str
+        Preset (or backend) whose ``controller(problem, robot_id, rng)`` drives the leader
+        between sub-goals (step 5).  Paper: SA-APF, ``"sa-apf-paper"``.
+    formation : str
+        Preset (or backend) whose ``followers_controller(problem, rng)`` drives the followers
+        (step 2/5): ``"leader-follower-paper"`` (paper), ``"formation-qp"``, or ``""`` to run
+        the leader(s) alone.  Ignored for problems without a ``[formation]``.
+    angle_tol : float
+        Inflection-point tolerance :math:`\theta_{tol}` (degrees, ``[0, 180)``): a vertex of the
+        global path is a sub-goal when the path turns there by more than this (step 4; see
+        :func:`inflection_points`).
+    subgoal_spacing : float
+        ``0`` (paper): the sub-goals are the inflection points and the goal.  ``> 0`` (an
+        option beyond the paper): also split every leg between sub-goals into pieces no longer
+        than this (map units), see :func:`subgoals`.
+    dt : float
+        Simulation time step (s), ``(0, 10]``.
+    max_steps : int
+        Step budget of the whole run (including follower settling).
+    reach_tol : float
+        Distance (map units) at which an intermediate sub-goal counts as reached (step 6);
+        ``0`` means automatic, ``max(2 r, 2 v_max dt)`` with ``r``, ``v_max`` the robot's radius
+        and speed.  The final goal uses the scenario's goal tolerance.
+    stall_steps : int
+        Skip an intermediate sub-goal after this many steps without getting closer to it by at
+        least a tenth of the robot radius (``0`` disables; choice beyond the paper).
+    skip_blocked : bool
+        Skip an intermediate sub-goal found (by sensing) to lie inside a temporary obstacle.
+    settle_steps : int
+        Extra steps allowed, after the leader reached its goal, for the followers to settle.
+    v_factor : float
+        With followers, the leader's speed is capped at ``v_factor * max_speed`` so the
+        followers have speed headroom to hold their slots in turns (``(0, 1]``; the same
+        convention as the formation backends).  Without followers the leader uses its full
+        speed.
+    settle_tol : float
+        A follower has settled when within ``settle_tol * L`` of its slot (``(0, 1]``).
+    stop_on_collision : bool
+        Stop the simulation at the first contact (the result is then ``approximate``).
+    """
+
+    name: ClassVar[str] = "hybrid"
+    contract_problem: ClassVar[str] = "open-field"
+    contract_overrides: ClassVar[dict] = {"global_solver": "visgraph"}
+
+    global_solver: Any = "ipso-paper"
+    local_solver: Any = "sa-apf-paper"
+    formation: Any = "leader-follower-paper"
+    angle_tol: float = 10.0
+    subgoal_spacing: float = 0.0
+    dt: float = 0.1
+    max_steps: int = 20000
+    reach_tol: float = 0.0
+    stall_steps: int = 300
+    skip_blocked: bool = True
+    settle_steps: int = 400
+    settle_tol: float = 0.1
+    v_factor: float = 0.75
+    stop_on_collision: bool = True
+
+    def __post_init__(self) -> None:
+        for k in ("global_solver", "local_solver", "formation"):
+            v = getattr(self, k)
+            if not isinstance(v, (str, Backend)):
+                raise ValueError(f"option {k!r} of backend 'hybrid' must be a preset or backend "
+                                 f"name (str), got {v!r}")
+            if k != "formation" and v == "":
+                raise ValueError(f"option {k!r} of backend 'hybrid' must name a solver")
+        check_range(self, "angle_tol", 0.0, 180.0, hi_open=True)
+        check_range(self, "subgoal_spacing", 0.0)
+        check_range(self, "dt", 0.0, 10.0, lo_open=True)
+        check_int(self, "max_steps", 1, 10_000_000)
+        check_range(self, "reach_tol", 0.0)
+        check_int(self, "stall_steps", 0, 10_000_000)
+        check_int(self, "settle_steps", 0, 10_000_000)
+        check_range(self, "settle_tol", 0.0, 1.0, lo_open=True)
+        check_range(self, "v_factor", 0.0, 1.0, lo_open=True)
+        for k in ("skip_blocked", "stop_on_collision"):
+            if not isinstance(getattr(self, k), bool):
+                raise ValueError(f"option {k!r} of backend 'hybrid' must be true or false, "
+                                 f"got {getattr(self, k)!r}")
+
+    def options(self) -> dict[str, Any]:
+        out = super().options()
+        for k in ("global_solver", "local_solver", "formation"):
+            v = out[k]
+            if isinstance(v, Backend):
+                out[k] = v.preset or v.name
+        return out
+
+    # ---------------------------------------------------------------------------------
+    def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
+              init: dict[str, np.ndarray] | None = None,
+              callback: Callable[[Progress], Any] | None = None) -> Result:
+        t_start = time.perf_counter()
+        if rng is None:
+            rng = np.random.default_rng()
+        rng_global, rng_local, rng_form = rng.spawn(3)
+        offset, stopped = [0], [False]
+        cb = _wrap_callback(callback, offset, stopped)
+
+        # which robots drive themselves, which follow
+        form = problem.formation
+        use_formation = bool(form is not None and self.formation != "")
+        follower_ids = [f.id for f in form.followers] if form is not None else []
+        drivers_r = [r for r in problem.robots if r.id not in follower_ids and r.goal is not None]
+        if form is not None and not use_formation:
+            drivers_r = [problem.leader]
+        ids = [r.id for r in drivers_r] + (follower_ids if use_formation else [])
+
+        # ---- step 3: global paths on the known map --------------------------------
+        known = problem.known_view()
+        gpaths: dict[str, np.ndarray] = {}
+        gres: Result | None = None
+        n_eval = 0
+        messages: list[str] = []
+        need = [r for r in drivers_r if not (init and r.id in init)]
+        if need:
+            gsolver = get_solver(self.global_solver)
+            t0 = time.perf_counter()
+            gres = gsolver.solve(known, rng=rng_global, callback=cb)
+            g_time = time.perf_counter() - t0
+            n_eval += gres.n_eval
+            offset[0] += max(gres.n_iter, len(gres.history))
+            if stopped[0]:
+                return self._early(problem, ids, gres, "stopped by callback during the global "
+                                   "stage", t_start)
+            if gres.status in (Status.infeasible,):
+                return self._early(problem, ids, gres, "global planner: no path exists on the "
+                                   f"known map ({gres.message})", t_start, Status.infeasible)
+            for r in need:
+                p = gres.paths.get(r.id)
+                if p is None or len(p) < 2 or gres.status is Status.failed:
+                    messages.append(f"global stage gave no path for {r.id} "
+                                    f"({gres.status.value}); heading straight for the goal")
+                    p = np.vstack([r.start, r.goal])
+                gpaths[r.id] = np.asarray(p, dtype=float)
+            if gres.status not in (Status.optimal, Status.solved):
+                messages.append(f"global path {gres.status.value} on the known map")
+        else:
+            g_time = 0.0
+        for r in drivers_r:
+            if init and r.id in init:
+                gpaths[r.id] = np.vstack([r.start, np.asarray(init[r.id], dtype=float)[1:]])
+
+        # ---- step 4: inflection points -> sub-goals ------------------------------
+        drivers: list[_Driver] = []
+        lsolver = get_solver(self.local_solver)
+        rngs_local = rng_local.spawn(len(drivers_r))
+        for i, r in enumerate(drivers_r):
+            goals = subgoals(gpaths[r.id], r.goal, self.angle_tol, self.subgoal_spacing)
+            ctrl = lsolver.controller(problem, r.id, rngs_local[i])
+            ctrl.reset(goals[0].copy())
+            reach = self.reach_tol or max(2.0 * r.radius, 2.0 * r.max_speed * self.dt)
+            g = r.goal - r.start
+            drivers.append(_Driver(ids.index(r.id), r, goals, ctrl, reach, problem.goal_tol(r),
+                                   heading=float(math.atan2(g[1], g[0]))))
+        lead = next(d for d in drivers if d.robot.id == problem.leader.id) if form else None
+
+        fctrl = None
+        f_idx: list[int] = []
+        L = np.zeros(0)
+        if use_formation:
+            fctrl = get_solver(self.formation).followers_controller(problem, rng_form)
+            f_idx = [ids.index(f) for f in follower_ids]
+            L = np.array([f.L for f in form.followers])
+
+        # ---- steps 5-6: one simulation -------------------------------------------
+        dt = self.dt
+        sensing = problem.sensing_range
+        settle = {"k_arrived": None}
+        gave_up: list[str] = []
+
+        temp_mask: dict[int, np.ndarray] = {}
+
+        def blocked(d: _Driver, state: SimState) -> bool:
+            fld = state.field
+            if not self.skip_blocked or fld.n_static == 0:
+                return False
+            if id(fld) not in temp_mask:
+                temp_mask[id(fld)] = np.array([not o.known for o in fld.static]
+                                              + [False] * (fld.n - fld.n_static))
+            temp = temp_mask[id(fld)]
+            if not temp.any():
+                return False
+            g = d.goals[d.j]
+            p = state.positions[d.index]
+            if sensing is not None and math.hypot(*(g - p)) > sensing:
+                return False
+            _, dist = fld.nearest(g, state.t, max_range=d.robot.radius)
+            return bool(np.any(dist[0][temp] < d.robot.radius))
+
+        def update(state: SimState) -> None:
+            """Advance sub-goals (step 6) and mark arrivals; idempotent within a step."""
+            for d in drivers:
+                if d.done:
+                    continue
+                while True:
+                    p = state.positions[d.index]
+                    dist = math.hypot(*(d.goals[d.j] - p))
+                    if d.final:
+                        if dist <= d.goal_tol:
+                            d.done, d.t_goal = True, float(state.t)
+                            d.reached_at.append((d.j, float(state.t), "reached"))
+                        break
+                    if dist <= d.reach_tol:
+                        d.advance(state.k, state.t, "reached")
+                        continue
+                    if blocked(d, state):
+                        d.advance(state.k, state.t, "blocked")
+                        continue
+                    if dist < d.best - 0.1 * d.robot.radius:
+                        d.best, d.k_best = dist, state.k
+                    elif self.stall_steps and state.k - d.k_best > self.stall_steps:
+                        d.advance(state.k, state.t, "stalled")
+                        continue
+                    break
+
+        def followers_settled(state: SimState) -> bool:
+            if fctrl is None:
+                return True
+            slots = state.positions[lead.index] + form.slot_offsets(lead.heading)
+            err = np.hypot(*(state.positions[f_idx] - slots).T)
+            return bool(np.all(err <= self.settle_tol * L))
+
+        def done(state: SimState) -> bool:
+            update(state)
+            if not all(d.done for d in drivers):
+                return False
+            if settle["k_arrived"] is None:
+                settle["k_arrived"] = state.k
+            return followers_settled(state) or state.k - settle["k_arrived"] >= self.settle_steps
+
+        def policy(state: SimState) -> np.ndarray | None:
+            u = np.zeros((len(ids), 2))
+            for d in drivers:
+                if d.done:
+                    continue
+                v = d.controller.velocity(state, d.index)
+                while v is None and not d.final:
+                    d.advance(state.k, state.t, "gave_up")
+                    v = d.controller.velocity(state, d.index)
+                if v is None:
+                    d.gave_up = True
+                    gave_up.append(f"{d.robot.id}: local planner gave up at t={state.t:.2f}")
+                    return None
+                v = np.asarray(v, dtype=float).reshape(2)
+                if not np.all(np.isfinite(v)):
+                    gave_up.append(f"{d.robot.id}: local planner returned {v} at "
+                                   f"t={state.t:.2f}")
+                    d.gave_up = True
+                    return None
+                sp = math.hypot(*v)
+                if fctrl is not None and sp > self.v_factor * d.robot.max_speed:
+                    v = v * (self.v_factor * d.robot.max_speed / sp)
+                u[d.index] = v
+                if sp * dt > 1e-9:
+                    d.heading = float(math.atan2(v[1], v[0]))
+            if fctrl is not None:
+                state.memory["leader_velocity"] = u[lead.index].copy()
+                uf = fctrl.velocities(state, lead.index, f_idx, lead.heading)
+                uf = np.asarray(uf, dtype=float).reshape(len(f_idx), 2)
+                if not np.all(np.isfinite(uf)):
+                    gave_up.append(f"formation controller returned non-finite velocities at "
+                                   f"t={state.t:.2f}")
+                    return None
+                u[f_idx] = uf
+            return u
+
+        g_lead = (lead or drivers[0]).robot.goal
+
+        def progress_cost(state: SimState) -> float:
+            return float(math.hypot(*(state.positions[(lead or drivers[0]).index] - g_lead)))
+
+        try:
+            out = simulate(problem, policy, ids=ids, dt=dt, max_steps=self.max_steps, done=done,
+                           stop_on_collision=self.stop_on_collision, callback=cb,
+                           progress_cost=progress_cost, memory={"dt": dt})
+        except (np.linalg.LinAlgError, FloatingPointError, ArithmeticError) as e:
+            return self._early(problem, ids, gres, f"numerical failure in the simulation: {e}",
+                               t_start, Status.failed)
+
+        # ---- assemble the result ---------------------------------------------------
+        paths = out.paths()
+        reached_all = all(d.done for d in drivers)
+        if out.reason == "done" and reached_all:
+            claim, msg = Status.solved, "every sub-goal sequence completed"
+        else:
+            claim = Status.approximate
+            why = {"collision": f"collision: {out.collision}",
+                   "budget": f"step budget ({self.max_steps}) exhausted",
+                   "gave_up": "; ".join(gave_up) or "local planner gave up",
+                   "callback": "stopped by callback"}.get(out.reason, out.reason)
+            msg = why
+        if settle["k_arrived"] is not None and fctrl is not None and out.reason == "done":
+            if not followers_settled(_final_state(out, ids)):
+                messages.append("followers did not settle within settle_steps")
+        msg = "; ".join([msg, *messages])
+
+        ld = lead or drivers[0]
+        lp = paths[ld.robot.id]
+        dist_goal = np.hypot(*(lp - ld.robot.goal).T)
+        hist = History({
+            "iteration": list(range(len(out.times))),
+            "best_cost": np.minimum.accumulate(dist_goal).tolist(),
+            "dist_to_goal": dist_goal.tolist(),
+            "n_eval": list(range(len(out.times))),
+            "time": out.times.tolist(),
+        })
+        local_stats = {d.robot.id: dict(getattr(d.controller, "stats", {}) or {})
+                       for d in drivers}
+        gpath = gpaths[ld.robot.id]
+        extras: dict[str, Any] = {
+            "global_path": gpath,
+            "inflection_points": inflection_points(gpaths[ld.robot.id], self.angle_tol),
+            "subgoals": ld.goals,
+            "global_paths": gpaths,
+            "subgoal_sequences": {d.robot.id: d.goals for d in drivers},
+            "global_solver": _stage_name(self.global_solver),
+            "local_solver": _stage_name(self.local_solver),
+            "formation_solver": _stage_name(self.formation) if fctrl is not None else "",
+            "global_status": gres.status.value if gres is not None else "init",
+            "global_length": float(np.sum(np.hypot(*np.diff(gpath, axis=0).T))),
+            "global_metrics": _small_metrics(gres.metrics) if gres is not None else {},
+            "global_wall_time": g_time,
+            "subgoal_events": {d.robot.id: [{"subgoal": j, "t": t, "how": h}
+                                            for j, t, h in d.reached_at] for d in drivers},
+            "subgoal_times": [t for _, t, _ in ld.reached_at],
+            "time_to_goal": ld.t_goal,
+            "local_stats": local_stats,
+            "formation_stats": dict(getattr(fctrl, "stats", {}) or {}) if fctrl else {},
+            "sim_reason": out.reason,
+            "contacts": list(out.memory.get("contacts", [])),
+            "dt": dt,
+        }
+        return self.finish(
+            problem, paths, claim=claim, times=out.times,
+            cost=float(np.sum(np.hypot(*np.diff(lp, axis=0).T))), message=msg,
+            n_iter=out.steps, n_eval=n_eval + out.steps, history=hist, extras=extras,
+            wall_time=time.perf_counter() - t_start,
+        )
+
+    def _early(self, problem: Problem, ids: list[str], gres: Result | None, msg: str,
+               t_start: float, status: Status = Status.approximate) -> Result:
+        """Result when the run ends before the simulation: robots stay at their starts."""
+        paths = {i: problem.robot(i).start[None, :].copy() for i in ids}
+        extras: dict[str, Any] = {"global_status": gres.status.value if gres else "none"}
+        if gres is not None:
+            lp = gres.paths.get(problem.leader.id)
+            if lp is not None:
+                extras["global_path"] = np.asarray(lp)
+                extras["inflection_points"] = inflection_points(lp, self.angle_tol)
+        return self.finish(problem, paths, claim=status, times=np.zeros(1), message=msg,
+                           n_eval=gres.n_eval if gres else 0, extras=extras,
+                           wall_time=time.perf_counter() - t_start)
+
+
+def _stage_name(v: Any) -> str:
+    if isinstance(v, Backend):
+        return v.preset or v.name
+    return str(v)
+
+
+def _small_metrics(m: dict) -> dict:
+    keep = ("feasible", "length", "collisions", "static_collisions", "min_clearance", "reached")
+    return {k: m[k] for k in keep if k in m}
+
+
+def _final_state(out, ids: list[str]) -> SimState:
+    return SimState(out.steps, float(out.times[-1]), ids, out.positions[-1],
+                    np.zeros_like(out.positions[-1]), None)  # type: ignore[arg-type]

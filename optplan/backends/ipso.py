@@ -1,0 +1,369 @@
+r"""Improved PSO of the paper (§III.B, eqs 17-33): adaptive inertia, tanh position factor,
+GA selection/crossover/mutation.
+
+Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration ``it`` uses
+``k = it - 1``):
+
+1. **Adaptive inertia weight** (eqs 17-21)::
+
+       w(k)    = 1 / (1 + exp(alpha * dw(k-1)))          (17)
+       alpha   = ln((1 - w_max) / w_max)                  (18)
+       dw      = delta * beta                             (19)
+       delta   = (w_max - w_min) / k_max                  (20)
+       beta    = (V_{k-1} + V_k) / (2 V_{k-1})            (21)
+
+   ``V_k`` is read as the swarm's mean velocity norm ``mean_i ||v_i^k||`` after the k-th move
+   (``beta = 1`` while it is undefined, i.e. before two moves or when ``V_{k-1} = 0``).
+   *Ambiguity.*  Taken literally (``inertia = "paper"``), ``dw = delta * beta`` is about
+   ``0.0035`` for the paper's settings, so ``w(k) = 1/(1 + exp(alpha dw))`` stays at about
+   ``0.50``: eq 17 maps ``dw in [0, 1]`` onto ``[0.5, w_max]`` and ``w_min`` never enters.
+   The text around the equations ("if dw = delta, w decreases linearly"; ``beta > 1`` gives a
+   stronger reduction) describes instead ``w(k) = w(k-1) - dw(k-1)`` from ``w_max`` to
+   ``w_min``; that is ``inertia = "linear"`` (clipped to ``[w_min, w_max]``).
+2. **Velocity** (eq 22): eq 1 with ``w(k)``.
+3. **Position** (eqs 23-24)::
+
+       psi(k)  = 1 - tanh(k / (k_max + 1))               (23)
+       x^{k+1} = psi(k) * R * x^k + v^{k+1}              (24)
+
+   with the random search factor ``R ~ U(0, 1)`` drawn per particle and coordinate (like
+   ``eps`` and ``eta``).  *Ambiguity.*  Multiplying an absolute position by ``psi R < 1``
+   pulls every particle toward the coordinate origin (a corner of the paper's maps): the
+   result depends on where the origin is.  ``position_update = "paper"`` keeps eq 24 as
+   printed; ``"frame"`` applies ``psi R`` to the waypoints' lateral offsets from the
+   start-goal line (frame-independent: a pull toward the straight line); ``"step"`` applies it
+   to the step, ``x^{k+1} = x^k + psi R v^{k+1}``, which is what the text motivates ("a larger
+   search step early, a smaller one later").
+4. **GA** (eqs 25-29), on the swarm as evaluated before the move: the ``A`` best particles
+   are paired in rank order (1st with 2nd, ...).  A pair is crossed only when it shares
+   "locally identical path information", read as: at least one pair of corresponding
+   waypoints closer than ``crossover_tol * diag`` (``inf``: always cross).  Children::
+
+       child_1(x) = p_c parent_1(x) + (1 - p_c) parent_2(x)       (25)
+       child_2(x) = (1 - p_c) parent_1(x) + p_c parent_2(x)       (26)
+
+   and the same for velocities (27-28), ``p_c ~ U(0, 1)`` per pair.  **Mutation** (eq 29):
+   each child gets a candidate ``child + C_k``; the better of the two (lower cost: the paper's
+   "higher fitness" means better) is kept.  ``C_k`` is undefined in the paper; here
+   ``C_k ~ N(0, (mutation_scale * range * psi(k))^2)`` per coordinate, so the mutation shrinks
+   with the position factor.  The children (with their velocities) take the slots of the
+   worst particles of the moved swarm ("weakly adapted individuals die out"); their personal
+   best is reset to themselves.  Swarm, children and mutants are scored in one batch.
+5. Fitness: eqs 30-33, see :mod:`optplan.backends.swarm`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from optplan.backends.swarm import SwarmBackend, SwarmSpace, SwarmState, evaluate_swarm, \
+    handle_bounds
+from optplan.solver import check_choice, check_int, check_range
+
+__all__ = [
+    "IPSO",
+    "inertia_alpha",
+    "inertia_delta",
+    "velocity_ratio",
+    "inertia_weight",
+    "position_factor",
+    "crossover",
+    "greedy_mutation",
+    "redistribute_candidates",
+]
+
+INERTIA_MODES = ("paper", "linear")
+POSITION_MODES = ("paper", "frame", "step")
+
+
+def inertia_alpha(w_max: float) -> float:
+    """Eq 18: ``alpha = ln((1 - w_max) / w_max)``."""
+    return math.log((1.0 - w_max) / w_max)
+
+
+def inertia_delta(w_max: float, w_min: float, k_max: int) -> float:
+    """Eq 20: ``delta = (w_max - w_min) / k_max``."""
+    return (w_max - w_min) / max(k_max, 1)
+
+
+def velocity_ratio(v_prev: float, v_cur: float) -> float:
+    """Eq 21: ``beta = (V_{k-1} + V_k) / (2 V_{k-1})``; 1 when ``V_{k-1}`` is 0 or undefined."""
+    if not (v_prev > 0 and math.isfinite(v_prev) and math.isfinite(v_cur)):
+        return 1.0
+    return (v_prev + v_cur) / (2.0 * v_prev)
+
+
+def inertia_weight(dw: float, w_max: float) -> float:
+    """Eq 17: ``w = 1 / (1 + exp(alpha * dw))`` with ``alpha`` from eq 18.
+
+    ``dw = 1`` gives ``w_max``; ``dw = 0`` gives 0.5.
+    """
+    return 1.0 / (1.0 + math.exp(inertia_alpha(w_max) * dw))
+
+
+def position_factor(k: float | np.ndarray, k_max: int) -> float | np.ndarray:
+    """Eq 23: ``psi(k) = 1 - tanh(k / (k_max + 1))``."""
+    return 1.0 - np.tanh(np.asarray(k, dtype=float) / (k_max + 1.0))
+
+
+def crossover(x1: np.ndarray, x2: np.ndarray, v1: np.ndarray, v2: np.ndarray,
+              pc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Eqs 25-28 for a batch of pairs: ``pc`` has one value per pair (shape ``(m,)``).
+
+    Returns ``(child1_x, child2_x, child1_v, child2_v)``, each the stated convex combination.
+    """
+    p = np.asarray(pc, dtype=float)[:, None]
+    return (p * x1 + (1 - p) * x2, (1 - p) * x1 + p * x2,
+            p * v1 + (1 - p) * v2, (1 - p) * v1 + p * v2)
+
+
+def greedy_mutation(cost_child: np.ndarray, cost_mutant: np.ndarray) -> np.ndarray:
+    """Eq 29: True where the mutant ``child + C_k`` is kept (strictly better), else the child."""
+    return np.asarray(cost_mutant) < np.asarray(cost_child)
+
+
+def redistribute_candidates(x: np.ndarray, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
+    """For each waypoint ``i`` of particle ``x``: drop it and re-insert a waypoint at the
+    midpoint of the longest segment of what remains.  Returns ``(n, 2n)`` candidates.
+
+    A waypoint the path does not need (e.g. collinear) can so move to where one is missing
+    (a second vertex around a wide corner); the re-inserted midpoint leaves the path unchanged.
+    Beyond the paper (option ``redistribute``).
+    """
+    W = x.reshape(-1, 2)
+    n = len(W)
+    if n < 2:
+        return x[None, :].copy()
+    keep = np.array([[j for j in range(n) if j != i] for i in range(n)])  # (n, n-1)
+    Wd = W[keep]  # (n, n-1, 2)
+    full = np.concatenate([np.broadcast_to(start, (n, 1, 2)), Wd,
+                           np.broadcast_to(goal, (n, 1, 2))], axis=1)  # (n, n+1, 2)
+    seg = np.hypot(*np.diff(full, axis=1).transpose(2, 0, 1))  # (n, n)
+    j = np.argmax(seg, axis=1)
+    r = np.arange(n)
+    mid = 0.5 * (full[r, j] + full[r, j + 1])
+    out = np.empty((n, n + 2, 2))
+    out[:, : n + 1] = full
+    # insert mid after point j: shift the tail by one
+    idx = np.arange(n + 2)[None, :]
+    src = np.where(idx <= j[:, None], idx, idx - 1)
+    out = full[r[:, None], np.clip(src, 0, n)]
+    out[r, j + 1] = mid
+    return out[:, 1:-1].reshape(n, -1)
+
+
+@dataclass(frozen=True, kw_only=True)
+class IPSO(SwarmBackend):
+    """Improved PSO (paper eqs 17-33).
+
+    Parameters
+    ----------
+    w_max, w_min : float
+        Bounds of the adaptive inertia weight (paper: 0.9 and 0.2), eqs 17-21.
+    inertia : {"paper", "linear"}
+        ``"paper"``: eq 17 literally (w stays near 0.5); ``"linear"``: the text's reading
+        ``w(k) = w(k-1) - delta beta`` from w_max toward w_min (module docstring).
+    position_update : {"paper", "frame", "step"}
+        Eq 24 as printed (absolute coordinates), in the start-goal frame, or on the step
+        (module docstring).
+    A : int
+        Number of best particles selected for crossover (even; the paper does not give it).
+    crossover_tol : float
+        Pairs cross only if some corresponding waypoints are closer than
+        ``crossover_tol * map diagonal`` ("locally identical path information"); ``inf``
+        crosses every pair.
+    mutation_scale : float
+        Standard deviation of the mutation ``C_k`` of eq 29 as a fraction of the map range,
+        multiplied by ``psi(k)``.
+    redistribute : bool
+        Beyond the paper: every iteration also score the :func:`redistribute_candidates` of
+        gbest (same batch); one that is not worse replaces gbest and the worst particle.
+    local_trials : int
+        Beyond the paper: every iteration also score this many Gaussian trials around gbest
+        with an adaptive step (x2 after a success, x0.8 otherwise); a better one replaces
+        gbest and the worst particle.
+    n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
+penetration_weight, kernel, map_quad_segs
+        Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
+    """
+
+    name: ClassVar[str] = "ipso"
+    contract_problem: ClassVar[str] = "open-field"
+    contract_overrides: ClassVar[dict] = {"n_particles": 10, "k_max": 10, "A": 4}
+
+    w_max: float = 0.9
+    w_min: float = 0.2
+    inertia: str = "paper"
+    position_update: str = "paper"
+    A: int = 10
+    crossover_tol: float = 0.05
+    mutation_scale: float = 0.05
+    redistribute: bool = False
+    local_trials: int = 0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_range(self, "w_max", 0.0, 1.0, lo_open=True, hi_open=True)
+        check_range(self, "w_min", 0.0, 1.0)
+        if self.w_min > self.w_max:
+            raise ValueError(f"option 'w_min' of backend 'ipso' must be <= w_max "
+                             f"({self.w_max}), got {self.w_min!r}")
+        check_choice(self, "inertia", INERTIA_MODES)
+        check_choice(self, "position_update", POSITION_MODES)
+        check_int(self, "A", 0, 100_000)
+        if self.A % 2:
+            raise ValueError(f"option 'A' of backend 'ipso' must be an even integer, "
+                             f"got {self.A!r}")
+        check_range(self, "crossover_tol", 0.0, math.inf)
+        check_range(self, "mutation_scale", 0.0, 10.0)
+        if not isinstance(self.redistribute, bool):
+            raise ValueError(f"option 'redistribute' of backend 'ipso' must be true or false, "
+                             f"got {self.redistribute!r}")
+        check_int(self, "local_trials", 0, 100_000)
+
+    # ---------------------------------------------------------------------------------
+    def _start(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator) -> None:
+        state.stats.update(w=self.w_max, vnorms=[0.0], crossovers=0, mutations_kept=0,
+                           local_sigma=0.01, local_accepted=0, redistributed=0)
+
+    def _inertia(self, state: SwarmState) -> float:
+        vn = state.stats["vnorms"]
+        beta = velocity_ratio(vn[-2], vn[-1]) if len(vn) >= 2 else 1.0
+        dw = inertia_delta(self.w_max, self.w_min, self.k_max) * beta
+        if self.inertia == "paper":
+            return inertia_weight(dw, self.w_max)
+        if len(vn) < 2:  # first move: w(0) = w_max
+            return self.w_max
+        return float(np.clip(state.stats["w"] - dw, self.w_min, self.w_max))
+
+    def _move(self, space: SwarmSpace, state: SwarmState, w: float, k: int,
+              rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        P, D = state.X.shape
+        eps = rng.random((P, D))
+        eta = rng.random((P, D))
+        V = (w * state.V + self.c1 * eps * (state.pbest - state.X)
+             + self.c2 * eta * (state.gbest[None, :] - state.X))  # eq 22
+        vmax = self._vmax(space)
+        if vmax is not None:
+            V = np.clip(V, -vmax, vmax)
+        psi = float(position_factor(k, self.k_max))
+        R = rng.random((P, D))
+        X = state.X
+        if self.position_update == "paper":
+            Xn = psi * R * X + V  # eq 24 as printed
+        elif self.position_update == "step":
+            Xn = X + psi * R * V
+        else:  # lateral offsets from the start-goal line
+            s, g = space.start, space.goal
+            u = g - s
+            uu = float(u @ u)
+            W = X.reshape(P, -1, 2)
+            tpar = ((W - s) @ u) / uu if uu > 0 else np.zeros(W.shape[:2])
+            foot = (s + tpar[..., None] * u).reshape(P, D)
+            Xn = foot + psi * R * (X - foot) + V
+        return Xn, V
+
+    def _children(self, space: SwarmSpace, state: SwarmState, k: int,
+                  rng: np.random.Generator):
+        A = min(self.A, len(state.F) - len(state.F) % 2)
+        if A < 2:
+            return None
+        order = np.argsort(state.F, kind="stable")[:A]
+        i1, i2 = order[0::2], order[1::2]
+        x1, x2 = state.X[i1], state.X[i2]
+        if math.isfinite(self.crossover_tol):
+            n = space.n_waypoints
+            dw = np.hypot(*(x1 - x2).reshape(len(i1), n, 2).transpose(2, 0, 1))
+            gate = dw.min(axis=1) <= self.crossover_tol * space.diag
+            i1, i2, x1, x2 = i1[gate], i2[gate], x1[gate], x2[gate]
+        if len(i1) == 0:
+            return None
+        pc = rng.random(len(i1))
+        c1x, c2x, c1v, c2v = crossover(x1, x2, state.V[i1], state.V[i2], pc)
+        CX = np.vstack([c1x, c2x])
+        CV = np.vstack([c1v, c2v])
+        sigma = self.mutation_scale * space.span * float(position_factor(k, self.k_max))
+        MX = CX + sigma * rng.standard_normal(CX.shape)  # child + C_k
+        MX, _ = handle_bounds(MX, np.zeros_like(MX), space.lo, space.hi, self.bounds_mode, rng)
+        return CX, CV, MX
+
+    def _iterate(self, space: SwarmSpace, state: SwarmState, it: int,
+                 rng: np.random.Generator) -> dict[str, Any]:
+        k = it - 1
+        w = self._inertia(state)
+        kids = self._children(space, state, k, rng)
+        X, V = self._move(space, state, w, k, rng)
+        X, V = handle_bounds(X, V, space.lo, space.hi, self.bounds_mode, rng)
+        P = len(X)
+        parts = [X]
+        if kids is not None:
+            parts += [kids[0], kids[2]]
+        extra = []
+        if self.redistribute:
+            extra.append(("redistributed", redistribute_candidates(
+                state.gbest, space.start, space.goal)))
+        if self.local_trials:
+            sig = state.stats["local_sigma"]
+            T = state.gbest + sig * space.span * rng.standard_normal(
+                (self.local_trials, space.dim))
+            T, _ = handle_bounds(T, np.zeros_like(T), space.lo, space.hi, self.bounds_mode, rng)
+            extra.append(("local_accepted", T))
+        batch = np.vstack(parts + [e[1] for e in extra])
+        ev = evaluate_swarm(batch, space)  # one crossing test for everything scored
+        state.n_eval += len(batch)
+        state.V = V
+        state.absorb(X, ev.take(slice(0, P)))
+        n_kids, kept = 0, 0
+        pos = P
+        if kids is not None:
+            CX, CV, MX = kids
+            m = len(CX)
+            evc, evm = ev.take(slice(pos, pos + m)), ev.take(slice(pos + m, pos + 2 * m))
+            pos += 2 * m
+            use_m = greedy_mutation(evc.cost, evm.cost)  # eq 29
+            KX = np.where(use_m[:, None], MX, CX)
+            kev = evc.take(np.arange(m))
+            for arr_k, arr_m in ((kev.cost, evm.cost), (kev.length, evm.length),
+                                 (kev.count, evm.count), (kev.penetration, evm.penetration)):
+                arr_k[use_m] = arr_m[use_m]
+            m = min(m, P)
+            slots = np.argsort(state.F, kind="stable")[::-1][:m]  # the worst particles
+            state.X[slots] = KX[:m]
+            state.V[slots] = CV[:m]
+            state.F[slots] = kev.cost[:m]
+            state.pbest[slots] = KX[:m]
+            state.pbest_f[slots] = kev.cost[:m]
+            state.offer(KX, kev)
+            n_kids, kept = m, int(use_m.sum())
+        for key, C in extra:
+            ec = ev.take(slice(pos, pos + len(C)))
+            pos += len(C)
+            j = int(np.argmin(ec.cost))
+            neutral = key == "redistributed"
+            tol = 1e-12 * max(1.0, abs(state.gbest_f))
+            ok = ec.cost[j] <= state.gbest_f + tol if neutral else ec.cost[j] < state.gbest_f
+            if key == "local_accepted":
+                f = 2.0 if ok else 0.8
+                state.stats["local_sigma"] = float(np.clip(state.stats["local_sigma"] * f,
+                                                           1e-6, 0.1))
+            if ok:
+                state.stats[key] += 1
+                worst = np.array([int(np.argmax(state.F))])
+                state.V[worst] = 0.0
+                state.absorb(C[j:j + 1], ec.take(slice(j, j + 1)), slots=worst)
+                # absorb() only replaces gbest on a strict improvement
+                state.gbest = C[j].copy()
+                state.gbest_f = float(ec.cost[j])
+                state.gbest_len = float(ec.length[j])
+                state.gbest_count = int(ec.count[j])
+        vnorm = float(np.mean(np.sqrt(np.sum(state.V * state.V, axis=1))))
+        state.stats["vnorms"] = [state.stats["vnorms"][-1], vnorm]
+        state.stats["w"] = w
+        state.stats["crossovers"] += n_kids // 2
+        state.stats["mutations_kept"] += kept
+        return {"w": w, "psi": float(position_factor(k, self.k_max)), "children": n_kids,
+                "mean_speed": vnorm}

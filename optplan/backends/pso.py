@@ -1,0 +1,73 @@
+"""Standard global-best particle swarm optimisation (paper §II.C, eqs 1-2).
+
+Velocity and position updates, for particle ``i`` and coordinate ``d``::
+
+    v_id^{k+1} = w v_id^k + c1 eps (p_id^k - x_id^k) + c2 eta (p_gd^k - x_id^k)     (1)
+    x_id^{k+1} = x_id^k + v_id^{k+1}                                                (2)
+
+with ``eps, eta ~ U(0, 1)`` drawn per particle and coordinate every iteration, ``p_i`` the
+particle's best position and ``p_g`` the swarm's best.  The paper prints ``x_gd`` in the social
+term of eq 1; that is a typo for ``x_id`` (the textbook PSO, and the only reading in which the
+social term pulls particle ``i`` toward ``p_g``).  Encoding, fitness (eqs 31-33), bounds
+handling and bookkeeping are shared with MPSO and IPSO in :mod:`optplan.backends.swarm`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from optplan.backends.swarm import SwarmBackend, SwarmSpace, SwarmState, evaluate_swarm, \
+    handle_bounds
+from optplan.solver import check_range
+
+__all__ = ["PSO", "pso_step"]
+
+
+def pso_step(state: SwarmState, w: float, c1: float, c2: float, vmax: np.ndarray | None,
+             rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Eqs 1-2 for the whole swarm: returns the new ``(X, V)`` (bounds not yet handled)."""
+    P, D = state.X.shape
+    eps = rng.random((P, D))
+    eta = rng.random((P, D))
+    V = (w * state.V + c1 * eps * (state.pbest - state.X)
+         + c2 * eta * (state.gbest[None, :] - state.X))
+    if vmax is not None:
+        V = np.clip(V, -vmax, vmax)
+    return state.X + V, V
+
+
+@dataclass(frozen=True, kw_only=True)
+class PSO(SwarmBackend):
+    """Standard PSO with constant inertia weight (eqs 1-2) on the waypoint encoding.
+
+    Parameters
+    ----------
+    w : float
+        Inertia weight of eq 1 (paper §VI.A: 0.5).
+    n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
+penetration_weight, kernel, map_quad_segs
+        Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
+    """
+
+    name: ClassVar[str] = "pso"
+    contract_problem: ClassVar[str] = "open-field"
+    contract_overrides: ClassVar[dict] = {"n_particles": 10, "k_max": 10}
+
+    w: float = 0.5
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_range(self, "w", 0.0, 2.0)
+
+    def _iterate(self, space: SwarmSpace, state: SwarmState, k: int,
+                 rng: np.random.Generator) -> dict[str, Any]:
+        X, V = pso_step(state, self.w, self.c1, self.c2, self._vmax(space), rng)
+        X, V = handle_bounds(X, V, space.lo, space.hi, self.bounds_mode, rng)
+        ev = evaluate_swarm(X, space)
+        state.V = V
+        state.absorb(X, ev)
+        state.n_eval += len(X)
+        return {"w": self.w}

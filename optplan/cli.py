@@ -1,0 +1,489 @@
+"""The ``optplan`` command: list, show, solve, bench, validate, plot, animate.
+
+This is the only module that prints.  Bad input (unknown names, malformed scenarios or options,
+missing files) ends with a one-line ``optplan: error: ...`` on stderr and exit status 2; pass
+``--traceback`` (before the command) to see the Python traceback instead.  matplotlib is
+imported only by the commands that draw.
+
+Run ``optplan -h`` or ``optplan COMMAND -h`` for the options; ``docs/cli.md`` has examples.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import importlib.util
+import json
+import math
+import sys
+import time
+import tomllib
+from pathlib import Path
+from typing import Any, TextIO
+
+__all__ = ["main", "parse_set"]
+
+PROG = "optplan"
+
+
+class CLIError(Exception):
+    """A user error detected by the CLI itself (exit status 2)."""
+
+
+# --------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------
+
+
+def parse_set(items: list[str] | None) -> dict[str, Any]:
+    """Parse ``key=value`` items; values are TOML literals, else bare strings.
+
+    >>> parse_set(["w=[0.9, 0.2]", "n=30", "name=ipso-paper", "flag=true"])
+    {'w': [0.9, 0.2], 'n': 30, 'name': 'ipso-paper', 'flag': True}
+    """
+    out: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        key = key.strip()
+        if not sep or not key:
+            raise CLIError(f"--set expects key=value, got {item!r}")
+        value = value.strip()
+        try:
+            out[key] = tomllib.loads(f"v = {value}")["v"]
+        except tomllib.TOMLDecodeError:
+            out[key] = value
+    return out
+
+
+def _split_list(s: str | None) -> list[str]:
+    return [x.strip() for x in (s or "").split(",") if x.strip()]
+
+
+def _fmt(x: Any, digits: int = 4) -> str:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    if not math.isfinite(v):
+        return str(v)
+    return f"{v:.{digits}f}"
+
+
+def _experiment(name: str) -> Any | None:
+    """The module ``optplan.experiments.<name>`` (dashes -> underscores) or None."""
+    mod = "optplan.experiments." + name.replace("-", "_")
+    try:
+        spec = importlib.util.find_spec(mod)
+    except (ModuleNotFoundError, ValueError):
+        return None
+    if spec is None:
+        return None
+    return importlib.import_module(mod)
+
+
+def _run_experiment(module: Any, argv: list[str]) -> int:
+    fn = getattr(module, "main", None)
+    if fn is None:
+        raise CLIError(f"{module.__name__} has no main(argv) function")
+    try:
+        rc = fn(argv)
+    except SystemExit as e:  # an experiment using argparse
+        code = e.code
+        return code if isinstance(code, int) else (0 if code is None else 2)
+    return 0 if rc is None else int(rc)
+
+
+# --------------------------------------------------------------------------------------
+# commands
+# --------------------------------------------------------------------------------------
+
+
+def cmd_list(args: argparse.Namespace, out: TextIO) -> int:
+    from optplan.catalog import load_problem, preset_files, problem_files, read_preset
+    from optplan.solver import BACKENDS, list_backends
+
+    what = args.what or "all"
+    if what in ("all", "problems"):
+        rows = []
+        for name, path in problem_files().items():
+            try:
+                prob = load_problem(path)
+            except ValueError as e:
+                rows.append((name, "", f"(invalid: {e})"))
+                continue
+            if args.tag and args.tag not in prob.tags:
+                continue
+            rows.append((name, ",".join(prob.tags), prob.description))
+        print(f"problems ({len(rows)}{', tag ' + args.tag if args.tag else ''}):", file=out)
+        w = max((len(r[0]) for r in rows), default=0)
+        wt = max((len(r[1]) for r in rows), default=0)
+        for n, tags, desc in rows:
+            print(f"  {n:<{w}}  [{tags:<{wt}}]  {desc}", file=out)
+    if what in ("all", "solvers"):
+        if what == "all":
+            print(file=out)
+        avail = set(list_backends())
+        rows = []
+        for name, path in preset_files().items():
+            try:
+                data = read_preset(path)
+            except ValueError as e:
+                rows.append((name, "?", f"(invalid: {e})"))
+                continue
+            if args.tag and data["backend"] != args.tag:
+                continue
+            note = "" if data["backend"] in avail else " (backend not available yet)"
+            rows.append((name, data["backend"], data["summary"] + note))
+        print(f"solvers ({len(rows)}{', backend ' + args.tag if args.tag else ''}):", file=out)
+        w = max((len(r[0]) for r in rows), default=0)
+        wb = max((len(r[1]) for r in rows), default=0)
+        for n, b, summ in rows:
+            print(f"  {n:<{w}}  {b:<{wb}}  {summ}", file=out)
+        bare = [b for b in BACKENDS if b in avail]
+        print(f"backends usable by name with their defaults: {', '.join(bare)}", file=out)
+    return 0
+
+
+def cmd_show(args: argparse.Namespace, out: TextIO) -> int:
+    from optplan.catalog import load_problem
+    from optplan.solver import solve
+
+    prob = load_problem(args.problem)
+    print(prob.summary(), file=out)
+    for r in prob.robots:
+        goal = "formation slot" if r.goal is None else f"({r.goal[0]:g}, {r.goal[1]:g})"
+        print(f"  robot {r.id}: start ({r.start[0]:g}, {r.start[1]:g}) -> goal {goal}, "
+              f"radius {r.radius:g}, max speed {r.max_speed:g}", file=out)
+    if prob.sensing_range is not None:
+        print(f"  sensing range {prob.sensing_range:g}", file=out)
+    ref = solve(prob, "visgraph")
+    if ref.status.value != "optimal":
+        print(f"  visgraph: {ref.status.value}: {ref.message}", file=out)
+    if "length_inscribed" in ref.metrics:
+        m = ref.metrics
+        lens = m.get("lengths", {})
+        for rid, length in lens.items():
+            line = f"  visgraph optimum ({rid}, known static map): {length:.4f}"
+            if rid == m.get("leader") and m.get("length_circumscribed") is not None:
+                line += (f"  (disc-robot bracket [{m['length_inscribed']:.4f}, "
+                         f"{m['length_circumscribed']:.4f}])")
+            print(line, file=out)
+    if args.out:
+        from optplan.plot import plot_problem
+
+        fig = plot_problem(prob)
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(args.out, dpi=args.dpi, bbox_inches="tight")
+        print(f"wrote {args.out}", file=out)
+    return 0
+
+
+def _result_lines(res: Any) -> list[str]:
+    m = res.metrics
+    lines = [f"{res.problem} / {res.solver} (backend {res.backend}, seed {res.seed})",
+             f"  status      {res.status.value}"]
+    length = f"  length      {_fmt(m.get('length'))}"
+    if m.get("ratio_to_optimum") is not None:
+        length += (f"   ratio to optimum {_fmt(m['ratio_to_optimum'])}"
+                   f" (optimum {_fmt(m.get('optimum'))})")
+    lines.append(length)
+    lens = m.get("lengths") or {}
+    if len(lens) > 1:
+        lines.append("  lengths     " + ", ".join(f"{k} {_fmt(v, 2)}" for k, v in lens.items()))
+    coll = f"  collisions  {m.get('collisions', '?')}"
+    if m.get("collisions"):
+        coll += (f" (static {m.get('static_collisions', 0)}, dynamic "
+                 f"{m.get('dynamic_contacts', 0)}, separation "
+                 f"{m.get('separation_violations', 0)})")
+        if m.get("per_robot"):
+            crossed = sorted({c for pr in m["per_robot"].values() for c in pr.get("crossed", [])})
+            if crossed:
+                coll += f"; crossed {', '.join(crossed)}"
+    lines.append(coll)
+    lines.append(f"  reached     {m.get('reached')}   min clearance "
+                 f"{_fmt(m.get('min_clearance'), 3)}")
+    if "formation_rmse" in m:
+        lines.append(f"  formation   rmse {_fmt(m['formation_rmse'], 3)}, max error "
+                     f"{_fmt(m.get('formation_max_error'), 3)}")
+    if "min_separation" in m:
+        lines.append(f"  separation  min {_fmt(m['min_separation'], 3)} (safety "
+                     f"{_fmt(m.get('safety_distance'), 3)})")
+    if res.times is not None and len(res.times):
+        lines.append(f"  time to goal {_fmt(res.times[-1], 2)} (simulated)")
+    lines.append(f"  effort      {res.n_iter} iterations, {res.n_eval} evaluations, "
+                 f"{res.wall_time * 1e3:.1f} ms")
+    if res.message:
+        lines.append(f"  message     {res.message}")
+    return lines
+
+
+def cmd_solve(args: argparse.Namespace, out: TextIO) -> int:
+    from optplan.catalog import load_problem
+    from optplan.solver import solve
+
+    overrides = parse_set(args.set)
+    res = solve(args.problem, args.solver, rng=args.seed, **overrides)
+    for line in _result_lines(res):
+        print(line, file=out)
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        res.save(args.json)
+        print(f"wrote {args.json}", file=out)
+    if args.plot:
+        from optplan.plot import plot_result
+
+        plot_result(res, problem=load_problem(args.problem), out=args.plot)
+        print(f"wrote {args.plot}", file=out)
+    return 0
+
+
+class _Bar:
+    """A one-line progress bar on stderr."""
+
+    def __init__(self, stream: TextIO, width: int = 30):
+        self.stream, self.width, self.t0 = stream, width, time.perf_counter()
+        isatty = getattr(stream, "isatty", None)
+        self.tty = bool(isatty and isatty())
+        self.last_decile = -1
+
+    def __call__(self, done: int, total: int, row: dict) -> None:
+        frac = done / max(total, 1)
+        fill = int(round(self.width * frac))
+        el = time.perf_counter() - self.t0
+        eta = el / done * (total - done) if done else 0.0
+        msg = (f"\r[{'#' * fill}{'.' * (self.width - fill)}] {done}/{total} "
+               f"{el:5.1f}s eta {eta:5.1f}s  {row['problem']}/{row['solver']}/{row['seed']}"
+               f" {row['status']}")
+        if self.tty:
+            self.stream.write(msg[:150].ljust(100))
+            if done == total:
+                self.stream.write("\n")
+        else:  # a log file: one line per tenth of the grid
+            decile = (10 * done) // max(total, 1)
+            if decile == self.last_decile:
+                return
+            self.last_decile = decile
+            self.stream.write(msg[1:].rstrip() + "\n")
+        self.stream.flush()
+
+
+def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
+    from optplan.bench import run_grid, summarise, to_markdown, write_csv
+    from optplan.catalog import list_problems
+
+    problems = _split_list(args.problems)
+    if args.tag:
+        tagged = list_problems(tag=args.tag)
+        if not tagged:
+            raise CLIError(f"no experiment optplan.experiments.{args.tag.replace('-', '_')} "
+                           f"and no problem tagged {args.tag!r}")
+        problems = problems + [p for p in tagged if p not in problems]
+    if not problems:
+        raise CLIError("bench needs --problems a,b (or --tag NAME)")
+    solvers = _split_list(args.solvers)
+    if not solvers:
+        raise CLIError("bench needs --solvers x,y")
+    overrides = {"*": parse_set(args.set)} if args.set else None
+    bar = _Bar(sys.stderr) if not args.quiet else None
+    t0 = time.perf_counter()
+    rows = run_grid(problems, solvers, args.seeds, workers=args.workers, overrides=overrides,
+                    progress=bar)
+    wall = time.perf_counter() - t0
+    summary = summarise(rows)
+    table = to_markdown(summary)
+    outdir = Path(args.out)
+    outdir.mkdir(parents=True, exist_ok=True)
+    write_csv(rows, outdir / "results.csv")
+    head = (f"# optplan bench\n\nproblems: {', '.join(problems)}; solvers: "
+            f"{', '.join(solvers)}; seeds 0..{args.seeds - 1} (common to every solver); "
+            f"workers {args.workers}; total wall time {wall:.1f} s.\n"
+            "Medians and inter-quartile ranges over the runs that returned a path; "
+            "success = status optimal or solved; ratio = length / certified optimum "
+            "(visgraph on the known static map).\n\n")
+    if overrides:
+        head = head.replace("\n\n", f"\noverrides: {overrides['*']}\n\n", 1)
+    (outdir / "summary.md").write_text(head + table + "\n", encoding="utf-8")
+    print(table, file=out)
+    errors = [r for r in rows if r["status"] == "error"]
+    if errors:
+        print(f"\n{len(errors)} run(s) raised; first: {errors[0]['message']}", file=out)
+    print(f"\nwrote {outdir / 'results.csv'} and {outdir / 'summary.md'}", file=out)
+    return 0
+
+
+def _load_result(path: str, problem: str | None) -> tuple[Any, Any]:
+    from optplan.catalog import load_problem
+    from optplan.result import Result
+
+    p = Path(path)
+    if not p.is_file():
+        raise CLIError(f"{path}: no such result file")
+    try:
+        res = Result.load(p)
+    except (json.JSONDecodeError, KeyError, TypeError) as e:
+        raise CLIError(f"{path}: not an optplan result JSON ({type(e).__name__}: {e})") from None
+    prob = load_problem(problem or res.problem)
+    return res, prob
+
+
+def cmd_plot(args: argparse.Namespace, out: TextIO) -> int:
+    from optplan.plot import plot_result
+
+    res, prob = _load_result(args.result, args.problem)
+    plot_result(res, problem=prob, out=args.out, snapshot_every=args.snapshot_every)
+    print(f"wrote {args.out}", file=out)
+    return 0
+
+
+def cmd_animate(args: argparse.Namespace, out: TextIO) -> int:
+    from optplan.plot import animate
+
+    if args.fps <= 0:
+        raise CLIError(f"--fps must be > 0, got {args.fps}")
+    res, prob = _load_result(args.result, args.problem)
+    animate(res, args.out, problem=prob, fps=args.fps, max_frames=args.max_frames)
+    print(f"wrote {args.out}", file=out)
+    return 0
+
+
+# --------------------------------------------------------------------------------------
+# parser and entry point
+# --------------------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog=PROG,
+        description="optplan: optimisation-centric path planning for robot teams.",
+        epilog="Run 'optplan COMMAND -h' for a command's options.",
+    )
+    p.add_argument("--traceback", action="store_true",
+                   help="show Python tracebacks instead of one-line errors")
+    from optplan import __version__
+
+    p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND")
+
+    s = sub.add_parser("list", help="list catalogue problems and solver presets")
+    s.add_argument("what", nargs="?", choices=["problems", "solvers"],
+                   help="only problems or only solvers")
+    s.add_argument("--tag", help="problems carrying this tag / solvers of this backend")
+    s.set_defaults(func=cmd_list)
+
+    s = sub.add_parser("show", help="describe a problem and its certified optimum")
+    s.add_argument("problem", help="catalogue name or .toml path")
+    s.add_argument("--out", help="write a PNG of the map")
+    s.add_argument("--dpi", type=int, default=120, help="PNG resolution (default 120)")
+    s.set_defaults(func=cmd_show)
+
+    s = sub.add_parser("solve", help="solve one problem with one solver")
+    s.add_argument("problem", help="catalogue name or .toml path")
+    s.add_argument("solver", help="preset name, backend name or .toml preset")
+    s.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override an option; VALUE is a TOML literal (repeatable)")
+    s.add_argument("--json", metavar="FILE", help="save the Result as JSON")
+    s.add_argument("--plot", metavar="PNG", help="save a picture of the result")
+    s.set_defaults(func=cmd_solve)
+
+    s = sub.add_parser(
+        "bench", help="problems x solvers x seeds, or a named experiment (--tag)",
+        description="Run problems x solvers x seeds (common seeds across solvers). With "
+                    "--tag NAME: if optplan.experiments.NAME exists, the remaining arguments "
+                    "go to its main(); otherwise the problems tagged NAME are benchmarked.")
+    s.add_argument("--problems", help="comma-separated problem names")
+    s.add_argument("--solvers", help="comma-separated solver names")
+    s.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
+    s.add_argument("--workers", type=int, default=1, help="processes (default 1: inline)")
+    s.add_argument("--out", default="runs/bench", help="output directory (default runs/bench)")
+    s.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override an option of every solver (TOML literal; repeatable)")
+    s.add_argument("--tag", help="experiment name or problem tag")
+    s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.set_defaults(func=cmd_bench)
+
+    s = sub.add_parser("validate", add_help=False,
+                       help="certify a solver against the exact references "
+                            "(optplan.experiments.validate; 'optplan validate -h')")
+    s.set_defaults(func=None)
+
+    s = sub.add_parser("plot", help="draw a saved result (JSON) as a PNG")
+    s.add_argument("result", help="result JSON written by 'optplan solve --json'")
+    s.add_argument("--out", required=True, help="PNG to write")
+    s.add_argument("--snapshot-every", type=int, default=None, metavar="K",
+                   help="formation snapshot every K steps (0: none; default about 8 per run)")
+    s.add_argument("--problem", help="problem name or .toml path (default: the result's)")
+    s.set_defaults(func=cmd_plot)
+
+    s = sub.add_parser("animate", help="animate a saved result (JSON) as a GIF")
+    s.add_argument("result", help="result JSON written by 'optplan solve --json'")
+    s.add_argument("--out", required=True, help="GIF to write")
+    s.add_argument("--fps", type=float, default=10, help="frames per second (default 10)")
+    s.add_argument("--max-frames", type=int, default=150, help="frame limit (default 150)")
+    s.add_argument("--problem", help="problem name or .toml path (default: the result's)")
+    s.set_defaults(func=cmd_animate)
+    return p
+
+
+def _tag_of(argv: list[str]) -> tuple[str | None, list[str]]:
+    """Extract ``--tag NAME`` / ``--tag=NAME`` from ``argv``; return (NAME, the rest)."""
+    for i, a in enumerate(argv):
+        if a == "--tag" and i + 1 < len(argv):
+            return argv[i + 1], argv[:i] + argv[i + 2:]
+        if a.startswith("--tag="):
+            return a.split("=", 1)[1], argv[:i] + argv[i + 1:]
+    return None, argv
+
+
+def _dispatch(argv: list[str], out: TextIO) -> int:
+    # global flags before the command
+    i = 0
+    while i < len(argv) and argv[i] == "--traceback":
+        i += 1
+    cmd, rest = (argv[i], argv[i + 1:]) if i < len(argv) else (None, [])
+    if cmd == "validate":
+        mod = _experiment("validate")
+        if mod is None:
+            raise CLIError("'validate' is not available in this build "
+                           "(module optplan.experiments.validate is missing)")
+        return _run_experiment(mod, rest)
+    if cmd == "bench":
+        tag, others = _tag_of(rest)
+        if tag:
+            mod = _experiment(tag)
+            if mod is not None:
+                return _run_experiment(mod, others)
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:
+        return e.code if isinstance(e.code, int) else (0 if e.code is None else 2)
+    if args.command is None:
+        parser.print_help(out)
+        return 0
+    return args.func(args, out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``optplan`` console script; returns the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    show_tb = bool(argv) and argv[0] == "--traceback"
+    from optplan.problem import ProblemError
+
+    try:
+        return _dispatch(argv, sys.stdout)
+    except (CLIError, ProblemError, ValueError, FileNotFoundError, KeyError, ImportError,
+            OSError) as e:
+        if show_tb:
+            raise
+        msg = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
+        msg = " ".join(str(msg).split())  # one line
+        print(f"{PROG}: error: {msg}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"\n{PROG}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,165 @@
+"""optplan.bench: the problems x solvers x seeds harness and its statistics."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import optplan as op
+from optplan import bench
+
+SCENE_TOML = """
+name = "bench-box"
+bounds = [0.0, 0.0, 50.0, 50.0]
+
+[[robots]]
+id = "r1"
+start = [5.0, 25.0]
+goal = [45.0, 25.0]
+radius = 1.0
+
+[[obstacles]]
+type = "rectangle"
+min = [20.0, 15.0]
+max = [30.0, 35.0]
+"""
+
+
+def _strip_time(rows):
+    return [{k: v for k, v in r.items() if k != "wall_time"} for r in rows]
+
+
+def test_run_grid_rows_order_and_common_seeds(tmp_path):
+    scene = tmp_path / "bench-box.toml"
+    scene.write_text(SCENE_TOML)
+    calls = []
+    rows = bench.run_grid(["open-field", str(scene)], ["visgraph", "visgraph"], seeds=[3, 7],
+                          progress=lambda d, t, r: calls.append((d, t, r["seed"])))
+    assert len(rows) == 2 * 2 * 2
+    assert [c[0] for c in calls] == list(range(1, 9)) and {c[1] for c in calls} == {8}
+    assert [(r["problem"], r["seed"]) for r in rows[:4]] == [
+        ("open-field", 3), ("open-field", 7), ("open-field", 3), ("open-field", 7)]
+    for r in rows:
+        assert tuple(r) == bench.COLUMNS
+        assert r["ratio"] == pytest.approx(1.0) and r["n_iter"] == 1
+    for r in rows[:4]:
+        assert r["status"] == "optimal" and r["success"] is True and r["collisions"] == 0
+    box = [r for r in rows if r["problem"] == str(scene)]
+    ref = op.solve(str(scene), "visgraph")
+    assert {r["status"] for r in box} == {ref.status.value}
+    assert {r["collisions"] for r in box} == {ref.metrics["collisions"]}
+    # around the 10 x 20 block inflated by 1: the straight line (40) is blocked
+    assert box[0]["length"] > 40.0
+    assert box[0]["length"] == pytest.approx(ref.metrics["length"])
+
+
+def test_seeds_int_means_range():
+    rows = bench.run_grid(["open-field"], ["visgraph"], seeds=3)
+    assert [r["seed"] for r in rows] == [0, 1, 2]
+
+
+def test_process_pool_matches_inline():
+    a = bench.run_grid(["open-field"], ["visgraph", "visgraph"], seeds=2, workers=1)
+    b = bench.run_grid(["open-field"], ["visgraph", "visgraph"], seeds=2, workers=2)
+    assert _strip_time(a) == _strip_time(b)
+
+
+@pytest.mark.parametrize(("kwargs", "match"), [
+    ({"problems": ["open-feild"], "solvers": ["visgraph"]}, "did you mean 'open-field'"),
+    ({"problems": ["open-field"], "solvers": ["visgrahp"]}, "did you mean 'visgraph'"),
+    ({"problems": ["open-field"], "solvers": ["visgraph"],
+      "overrides": {"*": {"brakcet": True}}}, "did you mean 'bracket'"),
+    ({"problems": ["open-field"], "solvers": ["visgraph"], "seeds": 0}, "seeds"),
+    ({"problems": ["open-field"], "solvers": ["visgraph"], "workers": 0}, "workers"),
+    ({"problems": [], "solvers": ["visgraph"]}, "no problems"),
+])
+def test_bad_input_fails_before_running(kwargs, match, monkeypatch):
+    ran = []
+    monkeypatch.setattr(bench, "run_one", lambda *a: ran.append(a))
+    kwargs.setdefault("seeds", 1)
+    with pytest.raises(ValueError, match=match):
+        bench.run_grid(**kwargs)
+    assert not ran
+
+
+def test_overrides_star_then_per_solver():
+    ov = {"*": {"a": 1, "b": 2}, "x": {"b": 3}}
+    assert bench._overrides_for(ov, "x") == {"a": 1, "b": 3}
+    assert bench._overrides_for(ov, "y") == {"a": 1, "b": 2}
+    assert bench._overrides_for(None, "x") == {}
+    with pytest.raises(ValueError, match="solver name"):
+        bench._overrides_for({"bracket": True}, "x")
+
+
+def test_overrides_reach_the_solver(monkeypatch):
+    seen = []
+    import optplan.solver
+
+    real = optplan.solver.solve
+
+    def spy(problem, solver, /, **kw):
+        seen.append(kw)
+        return real(problem, solver, **kw)
+
+    monkeypatch.setattr(optplan.solver, "solve", spy)
+    bench.run_grid(["open-field"], ["visgraph"], seeds=[5],
+                   overrides={"*": {"bracket": False}, "visgraph": {"see_temporary": True}})
+    assert seen == [{"rng": 5, "bracket": False, "see_temporary": True}]
+
+
+def test_a_run_that_raises_becomes_an_error_row(monkeypatch):
+    import optplan.solver
+
+    real = optplan.solver.solve
+
+    def flaky(problem, solver, /, *, rng=None, **kw):
+        if rng == 1:
+            raise RuntimeError("boom")
+        return real(problem, solver, rng=rng, **kw)
+
+    monkeypatch.setattr(optplan.solver, "solve", flaky)
+    rows = bench.run_grid(["open-field"], ["visgraph"], seeds=3)
+    assert [r["status"] for r in rows] == ["optimal", "error", "optimal"]
+    assert "RuntimeError: boom" in rows[1]["message"]
+    s = bench.summarise(rows)[0]
+    assert s["runs"] == 3 and s["errors"] == 1 and s["success"] == pytest.approx(2 / 3)
+    assert "(1 errors)" in bench.to_markdown([s])
+
+
+def _row(p, s, seed, length, success=True, status="solved", t=0.01):
+    return {"problem": p, "solver": s, "seed": seed, "status": status, "success": success,
+            "length": length, "ratio": length / 2.0, "collisions": 0 if success else 2,
+            "min_clearance": 0.5, "wall_time": t, "n_iter": 10, "n_eval": 100, "message": ""}
+
+
+def test_summarise_median_iqr_success():
+    rows = [_row("p", "a", k, x, success=k != 3, status="solved" if k != 3 else "approximate")
+            for k, x in enumerate([1.0, 2.0, 3.0, 4.0])]
+    rows += [_row("p", "b", 0, float("nan"), success=False, status="failed")]
+    s = {x["solver"]: x for x in bench.summarise(rows)}
+    a = s["a"]
+    assert a["runs"] == 4 and a["success"] == 0.75
+    assert a["length_median"] == 2.5
+    assert a["length_iqr"] == pytest.approx(3.25 - 1.75)
+    assert a["ratio_median"] == 1.25
+    assert a["collisions_median"] == 0.0
+    assert math.isnan(s["b"]["length_median"]) and s["b"]["success"] == 0
+    md = bench.to_markdown(bench.summarise(rows)).splitlines()
+    assert md[0].startswith("| problem | solver | runs | success |")
+    assert len(md) == 4
+    assert "| p | a | 4 | 75 % | 2.50 | 1.50 | 1.2500 |" in md[2]
+    assert "| - |" in md[3]  # nan printed as '-'
+
+
+def test_csv_round_trip(tmp_path):
+    rows = [_row("p", "a", 0, 1.5), _row("p", "a", 1, float("nan"), success=False)]
+    rows[0]["extra"] = "x"
+    path = bench.write_csv(rows, tmp_path / "d" / "results.csv")
+    header = path.read_text().splitlines()[0].split(",")
+    assert header[: len(bench.COLUMNS)] == list(bench.COLUMNS) and header[-1] == "extra"
+    back = bench.read_csv(path)
+    assert back[0]["length"] == 1.5 and back[0]["success"] is True and back[0]["seed"] == 0
+    assert np.isnan(back[1]["length"]) and back[1]["success"] is False
+    assert bench.summarise(back)[0]["length_median"] == 1.5
