@@ -41,17 +41,22 @@ def _raw_clearance(path: np.ndarray, problem: Problem) -> float:
     return best
 
 
-def leader_headings(leader_path: np.ndarray, fallback: float = 0.0) -> np.ndarray:
+def leader_headings(leader_path: np.ndarray, fallback: float = 0.0,
+                    min_step: float | None = None) -> np.ndarray:
     """Heading (rad) of the leader at each sample: direction of the next displacement.
 
-    Samples where the leader does not move keep the previous heading (forward fill); the last
-    sample repeats the one before.  ``fallback`` is used until the leader first moves.
+    Displacements shorter than ``min_step`` (default ``1e-6`` times the path's extent) do not
+    change the heading: samples where the leader (almost) stands still keep the previous
+    heading (forward fill), so numerical jitter at the goal cannot rotate the formation frame.
+    The last sample repeats the one before.  ``fallback`` is used until the leader first moves.
     """
     p = np.asarray(leader_path, dtype=float)
     if len(p) < 2:
         return np.full(len(p), float(fallback))
     d = np.diff(p, axis=0)
-    moving = np.hypot(d[:, 0], d[:, 1]) > 1e-9
+    if min_step is None:
+        min_step = 1e-6 * max(1.0, float(np.ptp(p, axis=0).max()))
+    moving = np.hypot(d[:, 0], d[:, 1]) > min_step
     th = np.r_[fallback, np.arctan2(d[:, 1], d[:, 0])]
     idx = np.where(np.r_[True, moving], np.arange(len(th)), 0)
     th = th[np.maximum.accumulate(idx)][1:]
@@ -71,7 +76,7 @@ def formation_errors(problem: Problem, paths: dict[str, np.ndarray]) -> dict[str
     if lead_r.goal is not None:
         g = lead_r.goal - lead_r.start
         fb = float(np.arctan2(g[1], g[0]))
-    th = leader_headings(lead, fb)
+    th = leader_headings(lead, fb, min_step=1e-6 * max(1.0, problem.extent))
     slots = lead[:, None, :] + problem.formation.slot_offsets(th)
     fol = np.stack([np.asarray(paths[x.id]) for x in f.followers], axis=1)
     rel = fol - lead[:, None, :]

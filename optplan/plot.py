@@ -226,6 +226,8 @@ def plot_problem(problem: Problem, ax: Axes | None = None, inflate: bool = True,
     ax.set_ylabel("y")
     if not ax.get_title():
         ax.set_title(problem.name)
+    if labels and ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="best", fontsize=7, framealpha=0.8)
     return fig
 
 
@@ -293,7 +295,8 @@ def plot_result(result: Result, problem: Problem | None = None, ax: Axes | None 
         p = np.asarray(path, dtype=float).reshape(-1, 2)
         c = _robot_colour(prob, rid) if rid in prob.robot_ids else "black"
         ax.plot(p[:, 0], p[:, 1], "-", color=c, lw=2.0 if rid == lead else 1.3, zorder=7,
-                label=f"{rid}" + (" (leader)" if prob.formation and rid == lead else ""))
+                label=f"{rid}" + (" (leader)" if prob.formation and rid == lead
+                                  and "leader" not in rid.lower() else ""))
     if times is not None and len(times) > 1:
         n = min(len(times), *(len(np.asarray(p)) for p in result.paths.values()))
         idx = _snapshot_indices(n, snapshot_every)
@@ -434,6 +437,9 @@ def plot_convergence(results: Result | Sequence[Result] | Mapping[str, Sequence[
                 vals = np.where(np.isnan(vals), np.inf, vals)
             lo, med, hi = _quartiles(vals)
             lab = f"{name} (n={len(vals)})" if len(vals) > 1 else name
+            if np.all(np.isnan(med)):
+                lab += ": " + ("fewer than half feasible" if col in LENGTH_COLUMNS
+                               else "no finite values")
             ax.plot(it, med, color=c, lw=1.6, label=lab)
             if len(vals) > 1:
                 ax.fill_between(it, lo, hi, color=c, alpha=0.2, lw=0)

@@ -103,12 +103,22 @@ class ObstacleField:
                 bb[i] = [e[:, [0, 2]].min(), e[:, [1, 3]].min(), e[:, [0, 2]].max(),
                          e[:, [1, 3]].max()]
         self.bbox0 = bb
+        self._off_t: float | None = None
+        self._off = np.zeros((self.n, 2))
 
     def offsets(self, t: float) -> np.ndarray:
-        """Translation of every obstacle at time ``t``, shape ``(n, 2)`` (zero for static)."""
+        """Translation of every obstacle at time ``t``, shape ``(n, 2)`` (zero for static).
+
+        The last query is cached: controllers and the simulator ask several times per step.
+        """
+        t = float(t)
+        if self._off_t == t:
+            return self._off
         off = np.zeros((self.n, 2))
         for k, d in enumerate(self.dynamic):
             off[self.n_static + k] = d.position(t)
+        off.setflags(write=False)
+        self._off_t, self._off = t, off
         return off
 
     def nearest(self, points: np.ndarray, t: float = 0.0,

@@ -147,12 +147,12 @@ def test_collision_with_fast_mover_is_failed_never_solved():
 
 
 def test_determinism_and_global_state_untouched():
-    np.random.seed(123)
-    before = np.random.get_state()[1].copy()
+    np.random.seed(123)  # noqa: NPY002 - checking the legacy global state is untouched
+    before = np.random.get_state()[1].copy()  # noqa: NPY002
     a = op.solve("paper-apf-env2", "apf-paper", rng=3)
     b = op.solve("paper-apf-env2", "apf-paper", rng=3)
     np.testing.assert_array_equal(a.path, b.path)
-    np.testing.assert_array_equal(np.random.get_state()[1], before)
+    np.testing.assert_array_equal(np.random.get_state()[1], before)  # noqa: NPY002
 
 
 def test_history_columns_and_callback_stop():

@@ -343,3 +343,26 @@ def test_paper_warehouse_hybrid_formation():
     assert m["dynamic_checked"] and m["dynamic_contacts"] == 0
     assert m["min_separation"] > prob.formation.safety_distance
     assert set(res.paths) == {"leader", "f1", "f2"}
+
+
+def test_hybrid_result_plots_and_animates(tmp_path):
+    """The hybrid's extras round-trip through JSON and feed plot_result / animate."""
+    from PIL import Image
+
+    from optplan.plot import animate, plot_result
+
+    prob = _wall_problem()
+    res = op.solve(prob, _hybrid(), rng=0, init=_DETOUR)
+    res.save(tmp_path / "r.json")
+    back = op.Result.load(tmp_path / "r.json")
+    np.testing.assert_allclose(np.asarray(back.extras["global_path"]), _DETOUR["r1"])
+    plot_result(back, problem=prob, out=tmp_path / "r.png")
+    animate(back, tmp_path / "r.gif", problem=prob, max_frames=12)
+    assert (tmp_path / "r.png").stat().st_size > 1000
+    im = Image.open(tmp_path / "r.gif")
+    assert im.n_frames > 1
+    frames = []
+    for k in (0, im.n_frames - 1):
+        im.seek(k)
+        frames.append(np.asarray(im.convert("RGB"), dtype=int))
+    assert np.any(frames[0] != frames[1])  # the robot moves

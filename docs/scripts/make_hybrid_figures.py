@@ -27,6 +27,8 @@ import optplan as op
 from optplan.metrics import formation_errors
 from optplan.plot import animate, new_figure, plot_result
 
+OVER: dict = {}  # stage overrides (--global-solver)
+
 
 def three_way(seed: int, out: Path) -> None:
     prob = op.load_problem("paper-hybrid")
@@ -35,7 +37,9 @@ def three_way(seed: int, out: Path) -> None:
     for ax, (label, solver) in zip(axes, [("IPSO alone", "ipso-paper"),
                                           ("SA-APF alone", "sa-apf-paper"),
                                           ("hybrid", "hybrid-paper")]):
-        res = op.solve(prob, solver, rng=seed)
+        if solver == "ipso-paper" and OVER:
+            solver = OVER["global_solver"]
+        res = op.solve(prob, solver, rng=seed, **(OVER if solver == "hybrid-paper" else {}))
         plot_result(res, problem=prob, ax=ax, snapshot_every=0)
         m = res.metrics
         ax.set_title(f"{label} ({solver}): {res.status.value}\nlength {m['length']:.1f}, "
@@ -51,7 +55,7 @@ def formation(seed: int, out: Path) -> dict[str, op.Result]:
     for scene, stem in (("paper-formation", "hybrid-formation"),
                         ("paper-warehouse", "hybrid-warehouse")):
         prob = op.load_problem(scene)
-        res = op.solve(prob, "hybrid-paper", rng=seed)
+        res = op.solve(prob, "hybrid-paper", rng=seed, **OVER)
         runs[scene] = res
         fig = new_figure(size=(7.5, 7.5))
         ax = fig.subplots()
@@ -99,7 +103,11 @@ def main(argv: list[str] | None = None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "img")
+    ap.add_argument("--global-solver", default=None,
+                    help="override the hybrids' global stage and the IPSO-alone panel")
     a = ap.parse_args(argv)
+    if a.global_solver:
+        OVER["global_solver"] = a.global_solver
     a.out.mkdir(parents=True, exist_ok=True)
     three_way(a.seed, a.out)
     formation_error(formation(a.seed, a.out), a.out)

@@ -186,7 +186,7 @@ def evaluate_field(points: np.ndarray, goal: np.ndarray, fld: ObstacleField, t: 
     bounding-box pre-filter discards the rest), so the cost does not grow with obstacles out of
     range.  Returns a dict with ``U``, ``U_att``, ``U_rep`` ``(P,)``, ``F`` ``(P, 2)`` and
     ``clearance`` ``(P,)`` (min raw clearance robot disc - obstacle, unclamped; ``inf`` if none
-    is sensed).
+    is sensed), plus the sensor readings ``near`` ``(P, n, 2)`` and ``dist`` ``(P, n)``.
     """
     pts = np.atleast_2d(np.asarray(points, dtype=float))
     P = len(pts)
@@ -210,7 +210,8 @@ def evaluate_field(points: np.ndarray, goal: np.ndarray, fld: ObstacleField, t: 
         u_rep = np.bincount(r_idx, weights=u, minlength=P)
         F = F + np.stack([np.bincount(r_idx, weights=f[:, 0], minlength=P),
                           np.bincount(r_idx, weights=f[:, 1], minlength=P)], axis=1)
-    return {"U": u_att + u_rep, "U_att": u_att, "U_rep": u_rep, "F": F, "clearance": cmin}
+    return {"U": u_att + u_rep, "U_att": u_att, "U_rep": u_rep, "F": F, "clearance": cmin,
+            "near": near, "dist": dist}
 
 
 def oscillation_index(path: np.ndarray) -> float:
@@ -299,9 +300,10 @@ class APFController:
         return step / dt
 
     # -- internals --------------------------------------------------------------------
-    def _apf_step(self, x: np.ndarray, t: float, fld: ObstacleField, l_step: float
-                  ) -> tuple[np.ndarray, dict]:
-        ev = evaluate_field(x[None], self.goal, fld, t, self.params)
+    def _apf_step(self, x: np.ndarray, t: float, fld: ObstacleField, l_step: float,
+                  ev: dict | None = None) -> tuple[np.ndarray, dict]:
+        if ev is None:
+            ev = evaluate_field(x[None], self.goal, fld, t, self.params)
         F = ev["F"][0]
         nf = float(np.hypot(*F))
         dg = float(np.hypot(*(self.goal - x)))
@@ -309,24 +311,24 @@ class APFController:
             return np.zeros(2), ev
         return F / nf * min(l_step, dg), ev
 
-    def evade(self, x: np.ndarray, t: float, fld: ObstacleField, l_step: float
+    def evade(self, x: np.ndarray, ev: dict, fld: ObstacleField, l_step: float
               ) -> np.ndarray | None:
         """Moving-obstacle safety step: when a dynamic obstacle's clearance is below
         ``evade_factor * l``, step (length ``l``) straight away from its nearest point.
 
         Needed because the improved repulsion (eq 34) vanishes near the goal by design and SA
         moves ignore the field; without it a moving obstacle can run into a robot that waits
-        at its goal or anneals.  ``evade_factor = 0`` disables it.
+        at its goal or anneals.  ``evade_factor = 0`` disables it.  ``ev`` is the
+        :func:`evaluate_field` output at ``x`` (its sensor readings are reused).
         """
         f = self.b.evade_factor
         if f <= 0 or fld.n == fld.n_static:
             return None
-        near, dist = fld.nearest(x[None], t, max_range=f * l_step + self.robot.radius)
-        dd = dist[0, fld.n_static:] - self.robot.radius
+        dd = ev["dist"][0, fld.n_static:] - self.robot.radius
         j = int(np.argmin(dd))
         if not dd[j] < f * l_step:
             return None
-        v = x - near[0, fld.n_static + j]
+        v = x - ev["near"][0, fld.n_static + j]
         nv = float(np.hypot(*v))
         if nv < 1e-12:
             return None
@@ -398,12 +400,12 @@ class APFController:
 
     def _step(self, state: SimState, x: np.ndarray, l_step: float, dt: float
               ) -> np.ndarray | None:
-        ev_step = self.evade(x, state.t, state.field, l_step)
+        ev = evaluate_field(x[None], self.goal, state.field, state.t, self.params)
+        ev_step = self.evade(x, ev, state.field, l_step)
         if ev_step is not None:
-            ev = evaluate_field(x[None], self.goal, state.field, state.t, self.params)
             self._record(ev, float("nan"), "evade")
             return ev_step
-        step, ev = self._apf_step(x, state.t, state.field, l_step)
+        step, ev = self._apf_step(x, state.t, state.field, l_step, ev)
         self._record(ev, float("nan"), "apf")
         reason = self.detect(x, state.t, state.field, l_step, ev)
         r_same = 2 * l_step + self.robot.radius

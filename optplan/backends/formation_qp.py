@@ -374,7 +374,8 @@ class QPFormationController:
             if lead in ctrl:
                 w[ctrl.index(lead)] = o.w_leader
             settings = {"presolve_enable": False, "chordal_decomposition_enable": False,
-                        "verbose": False, "max_iter": o.max_iter}
+                        "verbose": False, "max_iter": o.max_iter, "tol_gap_abs": o.tol,
+                        "tol_gap_rel": o.tol, "tol_feas": o.tol}
             self.core = QPCore(n, pairs, o.max_obstacles, len(ext), np.array(edges, int),
                                w, vmax, dt, o.w_f, o.w_s, o.qp_interface, settings)
             self._key = key
@@ -409,14 +410,16 @@ class QPFormationController:
         bo = np.full(n * K, BIG)
         fld = state.field
         sense = o.sensing_range or prob.sensing_range or 100.0
+        near = dist = None
+        if fld.n and (K or o.adapt_phi):  # one sensing query serves the rows and eq 52
+            near, dist = fld.nearest(xc, state.t, max_range=max(sense, o.rho_0_f))
         if K and fld.n:
-            near, dist = fld.nearest(xc, state.t, max_range=sense)
             vel = (fld.offsets(state.t + dt) - fld.offsets(state.t)) / dt  # (n_obs, 2)
             order = np.argsort(dist, axis=1)[:, :K]
             for kk in range(min(K, fld.n)):
                 ob = order[:, kk]
                 dk = dist[np.arange(n), ob]
-                ok = np.isfinite(dk)
+                ok = dk <= sense
                 c = near[np.arange(n), ob]
                 v = xc - c
                 nv = np.hypot(v[:, 0], v[:, 1])
@@ -444,9 +447,7 @@ class QPFormationController:
         Phi = np.array([self.spec[i].phi for i in fol])
         fidx = np.array([f for f, _ in edges], int)
         if o.adapt_phi and len(fol):
-            _, dist_f = fld.nearest(xc[fidx], state.t, max_range=o.rho_0_f) if fld.n else (
-                None, np.full((len(fol), 1), np.inf))
-            rho = np.min(dist_f, axis=1) - radii[fidx] if dist_f.shape[1] else np.inf
+            rho = (np.min(dist[fidx], axis=1) - radii[fidx]) if dist is not None else np.inf
             Phi = adapted_angle(Phi, rho, o.rho_0_f, o.c_phi)
         xl = X[lead]
         r = np.zeros((len(fol), 2))
@@ -508,6 +509,8 @@ class FormationQP(Backend):
         (same matrices assembled here, ``clarabel.DefaultSolver.update``).
     max_iter : int
         Clarabel iteration cap per solve.
+    tol : float
+        Clarabel ``tol_gap_abs``, ``tol_gap_rel`` and ``tol_feas``.
     k, eta, rho_0, n, pilot, path_solver, v_factor, ref_spacing, lookahead, tau_h, dt,
     max_steps, settle_tol
         The leader's pilot and run settings, as in :class:`~optplan.backends.leader_follower.
@@ -532,6 +535,7 @@ class FormationQP(Backend):
     c_phi: float = 20.0
     qp_interface: str = "cvxpy"
     max_iter: int = 50
+    tol: float = 1e-7
     k: float = 15.0
     eta: float = 3.7
     rho_0: float = 100.0
@@ -555,6 +559,7 @@ class FormationQP(Backend):
         check_range(self, "v_factor", 0, 1, lo_open=True)
         check_int(self, "max_obstacles", 0, 64)
         check_int(self, "max_iter", 1, 10_000)
+        check_range(self, "tol", 1e-12, 1e-2)
         check_int(self, "max_steps", 1, 10_000_000)
         check_choice(self, "qp_interface", ("cvxpy", "direct"))
         if self.gamma * self.dt > 1 + 1e-12:

@@ -281,6 +281,10 @@ class Hybrid(Backend):
         followers have speed headroom to hold their slots in turns (``(0, 1]``; the same
         convention as the formation backends).  Without followers the leader uses its full
         speed.
+    heading_rate : float
+        ``0`` (paper): the formation frame turns with the leader's velocity direction at once.
+        ``> 0`` (beyond the paper): the heading passed to the formation controller turns at
+        most this fast (rad/s), so the slots swing round smoothly at sharp turns.
     settle_tol : float
         A follower has settled when within ``settle_tol * L`` of its slot (``(0, 1]``).
     stop_on_collision : bool
@@ -304,6 +308,7 @@ class Hybrid(Backend):
     settle_steps: int = 400
     settle_tol: float = 0.1
     v_factor: float = 0.75
+    heading_rate: float = 0.0
     stop_on_collision: bool = True
 
     def __post_init__(self) -> None:
@@ -323,6 +328,7 @@ class Hybrid(Backend):
         check_int(self, "settle_steps", 0, 10_000_000)
         check_range(self, "settle_tol", 0.0, 1.0, lo_open=True)
         check_range(self, "v_factor", 0.0, 1.0, lo_open=True)
+        check_range(self, "heading_rate", 0.0)
         for k in ("skip_blocked", "stop_on_collision"):
             if not isinstance(getattr(self, k), bool):
                 raise ValueError(f"option {k!r} of backend 'hybrid' must be true or false, "
@@ -503,7 +509,12 @@ class Hybrid(Backend):
                     v = v * (self.v_factor * d.robot.max_speed / sp)
                 u[d.index] = v
                 if sp * dt > 1e-9:
-                    d.heading = float(math.atan2(v[1], v[0]))
+                    want = float(math.atan2(v[1], v[0]))
+                    if self.heading_rate > 0:
+                        dth = (want - d.heading + math.pi) % (2 * math.pi) - math.pi
+                        lim = self.heading_rate * dt
+                        want = d.heading + max(-lim, min(lim, dth))
+                    d.heading = want
             if fctrl is not None:
                 state.memory["leader_velocity"] = u[lead.index].copy()
                 uf = fctrl.velocities(state, lead.index, f_idx, lead.heading)

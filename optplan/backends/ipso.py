@@ -61,7 +61,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan.backends.swarm import SwarmBackend, SwarmSpace, SwarmState, evaluate_swarm, \
-    handle_bounds
+    handle_bounds, snap_targets
 from optplan.solver import check_choice, check_int, check_range
 
 __all__ = [
@@ -74,6 +74,7 @@ __all__ = [
     "crossover",
     "greedy_mutation",
     "redistribute_candidates",
+    "snap_candidates",
 ]
 
 INERTIA_MODES = ("paper", "linear")
@@ -156,6 +157,18 @@ def redistribute_candidates(x: np.ndarray, start: np.ndarray, goal: np.ndarray) 
     return out[:, 1:-1].reshape(n, -1)
 
 
+def snap_candidates(x: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """``n + 1`` candidates: waypoint ``i`` moved onto its nearest target, and all at once."""
+    W = x.reshape(-1, 2)
+    n = len(W)
+    d = np.hypot(W[:, None, 0] - targets[None, :, 0], W[:, None, 1] - targets[None, :, 1])
+    near = targets[np.argmin(d, axis=1)]  # (n, 2)
+    C = np.repeat(W[None], n + 1, axis=0)
+    C[np.arange(n), np.arange(n)] = near
+    C[n] = near
+    return C.reshape(n + 1, -1)
+
+
 @dataclass(frozen=True, kw_only=True)
 class IPSO(SwarmBackend):
     """Improved PSO (paper eqs 17-33).
@@ -182,6 +195,11 @@ class IPSO(SwarmBackend):
     redistribute : bool
         Beyond the paper: every iteration also score the :func:`redistribute_candidates` of
         gbest (same batch); one that is not worse replaces gbest and the worst particle.
+    snap : bool
+        Beyond the paper: every iteration also score, for each waypoint of gbest, the move
+        of that waypoint onto the nearest convex vertex of the inflated map (pushed out by
+        1e-6 of the map size), plus all waypoints snapped at once; shortest paths bend only
+        there.  A better candidate replaces gbest and the worst particle.
     local_trials : int
         Beyond the paper: every iteration also score this many Gaussian trials around gbest
         with an adaptive step (x2 after a success, x0.8 otherwise); a better one replaces
@@ -203,6 +221,7 @@ penetration_weight, kernel, map_quad_segs
     crossover_tol: float = 0.05
     mutation_scale: float = 0.05
     redistribute: bool = False
+    snap: bool = False
     local_trials: int = 0
 
     def __post_init__(self) -> None:
@@ -223,12 +242,17 @@ penetration_weight, kernel, map_quad_segs
         if not isinstance(self.redistribute, bool):
             raise ValueError(f"option 'redistribute' of backend 'ipso' must be true or false, "
                              f"got {self.redistribute!r}")
+        if not isinstance(self.snap, bool):
+            raise ValueError(f"option 'snap' of backend 'ipso' must be true or false, "
+                             f"got {self.snap!r}")
         check_int(self, "local_trials", 0, 100_000)
 
     # ---------------------------------------------------------------------------------
     def _start(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator) -> None:
         state.stats.update(w=self.w_max, vnorms=[0.0], crossovers=0, mutations_kept=0,
-                           local_sigma=0.01, local_accepted=0, redistributed=0)
+                           local_sigma=0.01, local_accepted=0, redistributed=0, snapped=0)
+        if self.snap:
+            state.stats["_snap"] = snap_targets(space.imap, 1e-6 * space.diag)
 
     def _inertia(self, state: SwarmState) -> float:
         vn = state.stats["vnorms"]
@@ -306,6 +330,8 @@ penetration_weight, kernel, map_quad_segs
         if self.redistribute:
             extra.append(("redistributed", redistribute_candidates(
                 state.gbest, space.start, space.goal)))
+        if self.snap and len(state.stats["_snap"]):
+            extra.append(("snapped", snap_candidates(state.gbest, state.stats["_snap"])))
         if self.local_trials:
             sig = state.stats["local_sigma"]
             T = state.gbest + sig * space.span * rng.standard_normal(

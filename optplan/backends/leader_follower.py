@@ -45,11 +45,12 @@ the path of the pilot robot") plus a gradient step on :math:`U` in Cartesian coo
 
 .. math:: u_F = v_L - \kappa\,\Big(\frac{\partial U}{\partial r}\hat e_r
           + \frac1r\frac{\partial U}{\partial\varphi}\hat e_\varphi\Big),
-          \qquad \kappa = k_f\,\frac{L_d^2}{4A},
+          \qquad \kappa = k_f\,\frac{L_d^2}{4\max(A,\ B/\Phi_d^2)},
 
 where :math:`\hat e_\varphi` is the direction of increasing :math:`\varphi` and ``k_f`` (1/s) is
-the linearised radial convergence rate (:math:`\partial^2U/\partial r^2 = 4A/L_d^2` at
-:math:`r = L_d`).  Near obstacles the desired angle shrinks by eq 52,
+the faster of the two linearised convergence rates (:math:`\partial^2U/\partial r^2 = 4A/L_d^2`
+radially and :math:`4B/(\Phi_d^2L_d^2)` tangentially at the slot), so ``k_f * dt <= 1`` keeps
+the discrete step stable for any :math:`\Phi_d`.  Near obstacles the desired angle shrinks by eq 52,
 
 .. math:: \varphi_d = \Phi_d\,\frac{\ln(c\rho)}{\ln(c\rho_0)}\ (\rho < \rho_0),
           \quad \rho \ge 1/c,\ c = 20,
@@ -64,15 +65,16 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Callable, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from optplan.problem import Problem
 from optplan.result import History, Progress, Status
 from optplan.sim import ObstacleField, SimState, simulate
-from optplan.solver import Backend, check_choice, check_int, check_range, get_solver
+from optplan.solver import Backend, check_int, check_range, get_solver
 
 __all__ = [
     "LeaderFollower",
@@ -136,9 +138,9 @@ def lphi_gradient(r, phi, L, Phi, A: float = 0.5, B: float = 0.5):
 
 def adapted_angle(Phi, rho, rho_0: float, c: float = 20.0):
     """Desired angle near obstacles, eq 52, with ``rho`` clamped at ``1/c``."""
-    rho = np.maximum(np.asarray(rho, float), 1.0 / c)
+    rho = np.minimum(np.maximum(np.asarray(rho, float), 1.0 / c), rho_0)
     ratio = np.log(c * rho) / math.log(c * rho_0)
-    return np.where(rho >= rho_0, Phi, np.asarray(Phi) * ratio)
+    return np.asarray(Phi) * ratio
 
 
 def pilot_force(x: np.ndarray, goal: np.ndarray, near: np.ndarray, clear: np.ndarray,
@@ -213,8 +215,8 @@ class ReferenceTracker:
     The reference is resampled every ``spacing``; the current target is the first sample more
     than ``lookahead`` ahead of the leader's progress index (monotone).  The controller is
     ``reset`` only when the target changes.  Reference points closer than ``clearance`` to a
-    sensed obstacle (one the global planner did not know) are skipped.  At the last point the speed is capped so the leader
-    stops on the goal.
+    sensed obstacle (one the global planner did not know) are skipped.  At the last point the
+    speed is capped so the leader stops on the goal.
     """
 
     def __init__(self, ref: np.ndarray, controller: Any, *, spacing: float, lookahead: float,
@@ -308,7 +310,7 @@ class LPhiFollowers:
         e_r = rel / r[:, None]
         # phi grows clockwise (toward the leader's left from behind): e_phi = -perp(e_r)
         e_phi = np.stack([e_r[:, 1], -e_r[:, 0]], axis=1)
-        kappa = o.k_f * L**2 / (4 * o.A)
+        kappa = o.k_f * L**2 / (4 * np.maximum(o.A, o.B / Phi**2))
         grad = dUr[:, None] * e_r + (dUphi / r)[:, None] * e_phi
         u = (vl[None, :] if o.feedforward else 0.0) - kappa[:, None] * grad
         # inter-robot repulsion (every robot in the simulation, eq 6 form)
@@ -572,6 +574,9 @@ class LeaderFollower(Backend):
         check_range(self, "lookahead", 0)
         check_range(self, "dt", 0, lo_open=True)
         check_range(self, "tau_h", 0)
+        if self.k_f * self.dt > 1 + 1e-12:
+            raise ValueError(f"options 'k_f' * 'dt' of backend {self.name!r} must be <= 1 "
+                             f"(stable follower step), got {self.k_f} * {self.dt}")
         check_int(self, "max_steps", 1, 10_000_000)
         check_range(self, "settle_tol", 0, lo_open=True)
         for b in ("adapt_phi", "feedforward"):

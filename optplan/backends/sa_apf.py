@@ -165,9 +165,11 @@ class SAAPFController(APFController):
                 return cand[j]
         return None
 
-    def _sa_step(self, state: SimState, x: np.ndarray, l_step: float) -> np.ndarray | None:
+    def _sa_step(self, state: SimState, x: np.ndarray, l_step: float, ev: dict | None = None
+                 ) -> np.ndarray | None:
         fld, t = state.field, state.t
-        ev = evaluate_field(x[None], self.goal, fld, t, self.params)
+        if ev is None:
+            ev = evaluate_field(x[None], self.goal, fld, t, self.params)
         self._record(ev, self.T, "sa")
         if self.target is not None:
             d = self.target - x
@@ -179,7 +181,7 @@ class SAAPFController(APFController):
                     self.mode = "apf"
                     self._hist.clear()
                     self._trap_at = None
-                    step, _ = self._apf_step(x, t, fld, l_step)
+                    step, _ = self._apf_step(x, t, fld, l_step, ev)
                     return step
             else:
                 step = d / dist * min(l_step, dist)
@@ -208,15 +210,15 @@ class SAAPFController(APFController):
 
     def _step(self, state: SimState, x: np.ndarray, l_step: float, dt: float
               ) -> np.ndarray | None:
-        ev_step = self.evade(x, state.t, state.field, l_step)
+        ev = evaluate_field(x[None], self.goal, state.field, state.t, self.params)
+        ev_step = self.evade(x, ev, state.field, l_step)
         if ev_step is not None:
             self.target = None
-            ev = evaluate_field(x[None], self.goal, state.field, state.t, self.params)
             self._record(ev, self.T, "evade")
             return ev_step
         if self.mode == "sa":
-            return self._sa_step(state, x, l_step)
-        step, ev = self._apf_step(x, state.t, state.field, l_step)
+            return self._sa_step(state, x, l_step, ev)
+        step, ev = self._apf_step(x, state.t, state.field, l_step, ev)
         self._record(ev, float("nan"), "apf")
         reason = self.detect(x, state.t, state.field, l_step, ev)
         if not reason:
@@ -224,7 +226,7 @@ class SAAPFController(APFController):
         xm = self._centroid(x)
         self._note_minimum(xm, reason, l_step)
         self._start_sa(xm, x, state.t, state.field)
-        return self._sa_step(state, x, l_step)
+        return self._sa_step(state, x, l_step, ev)
 
 
 @dataclass(frozen=True, kw_only=True)

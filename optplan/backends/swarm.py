@@ -35,7 +35,9 @@ Bounds handling (option ``bounds_mode``)
 Initialisation (option ``init_mode``)
     ``"uniform"``: waypoints uniform in the map; ``"sorted"`` (default): uniform, then ordered
     along the start->goal direction (no initial back-tracking zig-zags); ``"line"``: on the
-    straight line plus Gaussian noise of ``0.1 * diag``.  An ``init`` path (from an earlier
+    straight line plus Gaussian noise of ``0.1 * diag``; ``"roadmap"`` (beyond the paper):
+    ``"sorted"`` plus a few particles seeded with collision-free paths from small random
+    roadmaps (:func:`roadmap_paths`).  An ``init`` path (from an earlier
     stage) seeds particle 0 (:func:`resample_path`: exact when it has at most ``n`` bends).
 
 Convergence bookkeeping
@@ -77,7 +79,7 @@ __all__ = [
 ]
 
 BOUNDS_MODES = ("reflect", "clip", "random")
-INIT_MODES = ("sorted", "uniform", "line")
+INIT_MODES = ("sorted", "uniform", "line", "roadmap")
 KERNELS = ("fast", "geometry")
 #: Relative tolerance of the "improved by" tests on fitness values.
 _EPS = 1e-12
@@ -438,6 +440,94 @@ def resample_path(path: np.ndarray, n: int) -> np.ndarray:
     return np.stack([np.interp(q, s, p[:, 0]), np.interp(q, s, p[:, 1])], axis=1)
 
 
+def segment_free(a: np.ndarray, b: np.ndarray, space: SwarmSpace) -> np.ndarray:
+    """Collision-free flags of segments ``a[i] -> b[i]`` (one crossing-test call)."""
+    segs = np.stack([a, b], axis=1)
+    if len(segs) == 0:
+        return np.zeros(0, dtype=bool)
+    if space.kernel is not None:
+        count, _ = fast_crossings(segs, space.kernel)
+    else:
+        count = batch_crossings(segs, space.imap).count
+    return count == 0
+
+
+def shortcut(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
+    """Greedy string pulling: from each kept vertex jump to the farthest visible later vertex."""
+    p = np.asarray(path, dtype=float)
+    m = len(p)
+    if m <= 2:
+        return p
+    i, j = np.triu_indices(m, 1)
+    free = np.zeros((m, m), dtype=bool)
+    free[i, j] = segment_free(p[i], p[j], space)
+    out = [0]
+    while out[-1] != m - 1:
+        cur = out[-1]
+        vis = np.flatnonzero(free[cur, cur + 1:]) + cur + 1
+        out.append(int(vis.max()) if vis.size else cur + 1)
+    return p[out]
+
+
+def roadmap_paths(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
+                  n_samples: int = 60) -> list[np.ndarray]:
+    """Collision-free start-goal paths from small random roadmaps (beyond the paper).
+
+    Each roadmap: ``n_samples`` uniform points plus start and goal, every pair connected when
+    the segment is collision-free (one crossing-test call for all pairs), Dijkstra, then
+    :func:`shortcut`.  Used by ``init_mode = "roadmap"`` to seed particles in (usually) the
+    right homotopy class; a roadmap that does not connect gives no path.
+    """
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    out = []
+    for _ in range(n_paths):
+        pts = space.lo[:2] + (space.hi[:2] - space.lo[:2]) * rng.random((n_samples, 2))
+        nodes = np.vstack([space.start, space.goal, pts])
+        i, j = np.triu_indices(len(nodes), 1)
+        ok = segment_free(nodes[i], nodes[j], space)
+        i, j = i[ok], j[ok]
+        w = np.hypot(*(nodes[i] - nodes[j]).T)
+        n = len(nodes)
+        g = csr_matrix((np.r_[w, w], (np.r_[i, j], np.r_[j, i])), shape=(n, n))
+        dist, pred = dijkstra(g, directed=False, indices=0, return_predecessors=True)
+        if not np.isfinite(dist[1]):
+            continue
+        order = [1]
+        while order[-1] != 0:
+            order.append(int(pred[order[-1]]))
+        out.append(shortcut(nodes[order[::-1]], space))
+    return out
+
+
+def snap_targets(imap: InflatedMap, push: float) -> np.ndarray:
+    """Convex vertices of the inflated map pushed outward by ``push`` along their bisector.
+
+    Shortest paths among polygons bend only at convex obstacle vertices (de Berg et al.,
+    Lemma 15.1); a waypoint snapped to a slightly pushed-out vertex makes the path hug that
+    corner without touching it (touching paths are fragile for floating-point tests).
+    """
+    out = []
+    for part in imap.parts:
+        for ring in (part.exterior, *part.interiors):
+            c = np.asarray(ring.coords)[:-1]
+            if len(c) < 3:
+                continue
+            prev, nxt = np.roll(c, 1, axis=0), np.roll(c, -1, axis=0)
+            a, b = c - prev, nxt - c
+            cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+            keep = cross > 1e-12
+            na = np.stack([a[:, 1], -a[:, 0]], 1)  # outward normals (solid on the left)
+            nb = np.stack([b[:, 1], -b[:, 0]], 1)
+            na /= np.maximum(np.hypot(*na.T), 1e-300)[:, None]
+            nb /= np.maximum(np.hypot(*nb.T), 1e-300)[:, None]
+            bis = na + nb
+            bis /= np.maximum(np.hypot(*bis.T), 1e-300)[:, None]
+            out.append((c + push * bis)[keep])
+    return np.concatenate(out) if out else np.zeros((0, 2))
+
+
 def converged_iteration(best: np.ndarray, rel: float = 1e-3) -> int:
     """First iteration whose best is within ``rel`` (0.1 %) of the final best.
 
@@ -614,7 +704,13 @@ class SwarmBackend(Backend):
                            penalty_weight=self.penalty_weight,
                            penetration_weight=self.penetration_weight,
                            kernel=self.kernel, map_quad_segs=self.map_quad_segs)
-        X = initial_swarm(space, self.n_particles, self.init_mode, rng)
+        X = initial_swarm(space, self.n_particles,
+                          "sorted" if self.init_mode == "roadmap" else self.init_mode, rng)
+        if self.init_mode == "roadmap":
+            seeds = roadmap_paths(space, max(1, self.n_particles // 10), rng)
+            for i, pth in enumerate(seeds):
+                X[i] = np.clip(resample_path(pth, self.n_waypoints).reshape(-1),
+                               space.lo, space.hi)
         if init_path is not None and len(init_path) >= 2:
             X[0] = np.clip(resample_path(init_path, self.n_waypoints).reshape(-1),
                            space.lo, space.hi)

@@ -64,6 +64,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--solver", default="hybrid-paper")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=Path("runs"))
+    ap.add_argument("--global-solver", default=None,
+                    help="override the hybrid's global stage (default: the preset's)")
     ap.add_argument("--no-gif", action="store_true", help="skip the animation")
     a = ap.parse_args(argv)
 
@@ -71,7 +73,8 @@ def main(argv: list[str] | None = None) -> int:
     prob = op.load_problem(a.problem)
     print(prob.summary())
     print(f"\nsolving with {a.solver} (seed {a.seed}) ...", flush=True)
-    res = op.solve(prob, a.solver, rng=a.seed)
+    over = {"global_solver": a.global_solver} if a.global_solver else {}
+    res = op.solve(prob, a.solver, rng=a.seed, **over)
     print()
     print(summary_table(prob, res))
 

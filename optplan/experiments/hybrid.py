@@ -77,8 +77,13 @@ def _median(xs: Sequence[float]) -> float:
 
 def three_way(seeds: Sequence[int], problem: str = "paper-hybrid",
               methods: Sequence[tuple[str, str]] = THREE_WAY,
-              save: Path | None = None) -> dict[str, list[dict[str, Any]]]:
-    """Run each method on ``problem`` for every seed; rows of per-run numbers per method."""
+              save: Path | None = None, global_solver: str = "ipso-paper"
+              ) -> dict[str, list[dict[str, Any]]]:
+    """Run each method on ``problem`` for every seed; rows of per-run numbers per method.
+
+    ``global_solver`` replaces ``ipso-paper`` (the "IPSO alone" row and the hybrid's global
+    stage).
+    """
     prob = op.load_problem(problem)
     opt_known = shortest_length(prob, prob.leader, known_only=True)
     opt_full = shortest_length(prob, prob.leader, known_only=False)
@@ -87,7 +92,12 @@ def three_way(seeds: Sequence[int], problem: str = "paper-hybrid",
         rows[label] = []
         for s in seeds:
             t0 = time.perf_counter()
-            res = op.solve(prob, solver, rng=int(s))
+            if solver == "ipso-paper":
+                res = op.solve(prob, global_solver, rng=int(s))
+            elif solver.startswith("hybrid") and global_solver != "ipso-paper":
+                res = op.solve(prob, solver, rng=int(s), global_solver=global_solver)
+            else:
+                res = op.solve(prob, solver, rng=int(s))
             wall = time.perf_counter() - t0
             m = res.metrics
             rows[label].append({
@@ -141,7 +151,8 @@ def format_three_way(rows: dict[str, list[dict[str, Any]]], problem: str = "pape
 
 def formation_runs(seeds: Sequence[int], scenes: Sequence[str] = FORMATION_SCENES,
                    solvers: Sequence[str] = FORMATION_SOLVERS,
-                   save: Path | None = None) -> list[dict[str, Any]]:
+                   save: Path | None = None, global_solver: str = "ipso-paper"
+                   ) -> list[dict[str, Any]]:
     """Hybrid formation runs: one row per (scene, solver, seed)."""
     rows = []
     for scene in scenes:
@@ -149,8 +160,9 @@ def formation_runs(seeds: Sequence[int], scenes: Sequence[str] = FORMATION_SCENE
         for solver in solvers:
             for s in seeds:
                 t0 = time.perf_counter()
+                over = {} if global_solver == "ipso-paper" else {"global_solver": global_solver}
                 try:
-                    res = op.solve(prob, solver, rng=int(s))
+                    res = op.solve(prob, solver, rng=int(s), **over)
                 except (ValueError, ImportError) as e:  # a stage not available in this build
                     rows.append({"scene": scene, "solver": solver, "seed": int(s),
                                  "status": f"unavailable: {e}"})
@@ -215,6 +227,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--problem", default="paper-hybrid", help="scene of the three-way table")
     ap.add_argument("--save", type=Path, default=None, help="write every Result JSON here")
     ap.add_argument("--quick", action="store_true", help="3 seeds, 1 formation seed")
+    ap.add_argument("--global-solver", default="ipso-paper",
+                    help="replace ipso-paper (IPSO-alone row and the hybrids' global stage)")
     ap.add_argument("--skip-formation", action="store_true")
     ap.add_argument("--skip-three-way", action="store_true")
     a = ap.parse_args(argv)
@@ -224,11 +238,13 @@ def main(argv: list[str] | None = None) -> int:
 
     print(f"machine: {os.cpu_count()} cores (shared); optplan {op.__version__}\n")
     if not a.skip_three_way:
-        rows = three_way(range(a.seeds), a.problem, save=a.save)
+        rows = three_way(range(a.seeds), a.problem, save=a.save,
+                         global_solver=a.global_solver)
         print(format_three_way(rows, a.problem))
         print()
     if not a.skip_formation:
-        print(format_formation(formation_runs(range(a.formation_seeds), save=a.save)))
+        print(format_formation(formation_runs(range(a.formation_seeds), save=a.save,
+                                              global_solver=a.global_solver)))
     return 0
 
 

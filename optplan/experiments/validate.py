@@ -1,0 +1,272 @@
+r"""``optplan validate PROBLEM --solver S --seeds N``: how far is a heuristic from the optimum?
+
+For each seed the heuristic ``S`` (default ``ipso-paper``) is run, its path is polished by the
+exact waypoint NLP (``nlp-ipopt``, warm-started from the heuristic's path), and both are
+compared with the certified ``visgraph`` optimum of the same (known) map:
+
+* **within-homotopy gap** :math:`(L_\text{heur} - L_\text{NLP}) / L_\text{NLP}`: how much shorter
+  the heuristic's path gets without changing which side of each obstacle it passes
+  (IPOPT is local: the NLP keeps the initial guess's homotopy class);
+* **homotopy gap** :math:`(L_\text{NLP} - L^*) / L^*`: what is left, the price of the
+  homotopy class the heuristic chose (zero, up to the NLP's discretisation, when the class is
+  the optimal one);
+* **total gap** :math:`(L_\text{heur} - L^*) / L^*`.
+
+The ``optimal class`` column says whether the heuristic's (and the NLP's) path is in the optimum's
+homotopy class ("-" for an infeasible path, whose class is undefined),
+decided topologically: the closed loop "heuristic path, then the optimum backwards" must
+wind zero times around every obstacle (one representative point per connected component of
+the inflated known map).
+
+Python::
+
+    from optplan.experiments.validate import validate, format_table
+    rows = validate("paper-env1", solver="ipso-paper", seeds=30)
+    print(format_table(rows))
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+import tomllib
+from typing import Any
+
+import numpy as np
+import shapely
+
+from optplan.catalog import load_problem
+from optplan.problem import Problem
+from optplan.result import Result
+from optplan.solver import Backend, get_solver, solve
+
+__all__ = ["validate", "format_table", "summarize", "winding_numbers", "same_homotopy", "main"]
+
+
+def winding_numbers(loop: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Winding number of the closed polyline ``loop`` (``(m, 2)``) around each point."""
+    loop = np.asarray(loop, float)
+    pts = np.asarray(points, float).reshape(-1, 2)
+    if len(pts) == 0:
+        return np.zeros(0, int)
+    a = loop[None, :, :] - pts[:, None, :]
+    b = np.roll(a, -1, axis=1)
+    cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    dot = np.sum(a * b, axis=-1)
+    ang = np.arctan2(cross, dot).sum(axis=1)
+    return np.rint(ang / (2 * np.pi)).astype(int)
+
+
+def obstacle_points(problem: Problem, radius: float, known_only: bool = True) -> np.ndarray:
+    """One interior point per connected component of the inflated map."""
+    imap = problem.inflated(radius, known_only=known_only)
+    if not imap.parts:
+        return np.zeros((0, 2))
+    return shapely.get_coordinates(shapely.point_on_surface(np.asarray(imap.parts, object)))
+
+
+def same_homotopy(path_a: np.ndarray, path_b: np.ndarray, points: np.ndarray) -> bool:
+    """True when two paths with common endpoints wind the same way around every point."""
+    loop = np.vstack([np.asarray(path_a, float), np.asarray(path_b, float)[::-1]])
+    return bool(np.all(winding_numbers(loop, points) == 0))
+
+
+def _pct(a: float, b: float) -> float:
+    if not (math.isfinite(a) and math.isfinite(b)) or b <= 0:
+        return float("nan")
+    return 100.0 * (a - b) / b
+
+
+def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds: int = 30, *,
+             nlp: str | Backend = "nlp-ipopt", first_seed: int = 0,
+             solver_options: dict | None = None, nlp_options: dict | None = None,
+             reference: str | Backend = "visgraph") -> list[dict[str, Any]]:
+    """Heuristic vs NLP polish vs certified optimum, one row per seed.
+
+    Parameters
+    ----------
+    problem : Problem or str
+        Scenario (catalogue name or path).
+    solver : str or Backend
+        The heuristic (preset, backend name or object).
+    seeds : int
+        Number of seeds ``first_seed .. first_seed + seeds - 1``.
+    nlp : str or Backend
+        The polisher, warm-started from each heuristic path (default ``nlp-ipopt``).
+    solver_options, nlp_options : dict, optional
+        Option overrides for the heuristic / the NLP.
+    reference : str or Backend
+        The certified optimum (default ``visgraph``), solved once.
+
+    Returns
+    -------
+    list of dict
+        Per seed: ``seed``, ``heuristic_status``, ``L_heuristic``, ``t_heuristic`` (s),
+        ``nlp_status``, ``L_nlp``, ``t_nlp`` (s), ``kept_init``, ``L_opt``,
+        ``within_gap_pct``, ``homotopy_gap_pct``, ``total_gap_pct``, ``optimal_class``
+        (the heuristic's path is feasible and in the optimum's homotopy class),
+        ``nlp_optimal_class`` (the same for the NLP's path), ``heuristic_feasible``,
+        ``nlp_feasible``.
+    """
+    prob = load_problem(problem)
+    heur = get_solver(solver, **(solver_options or {}))
+    pol = get_solver(nlp, **(nlp_options or {}))
+    ref = solve(prob, reference)
+    rid = prob.leader.id
+    L_opt = float(ref.metrics["length"]) if rid in ref.paths else float("nan")
+    pts = obstacle_points(prob, prob.leader.radius)
+    rows = []
+    for seed in range(first_seed, first_seed + seeds):
+        t0 = time.perf_counter()
+        h: Result = solve(prob, heur, rng=seed)
+        th = time.perf_counter() - t0
+        t0 = time.perf_counter()
+        n: Result = solve(prob, pol, rng=seed, init={rid: h.paths[rid]})
+        tn = time.perf_counter() - t0
+        Lh, Ln = float(h.metrics["length"]), float(n.metrics["length"])
+        hf = bool(h.metrics["feasible"] and h.metrics["reached"])
+        nf = bool(n.metrics["feasible"] and n.metrics["reached"])
+        has_ref = rid in ref.paths and ref.success
+        cls = hf and has_ref and same_homotopy(h.paths[rid], ref.paths[rid], pts)
+        ncls = nf and has_ref and same_homotopy(n.paths[rid], ref.paths[rid], pts)
+        info = n.extras.get("ipopt", {}).get(rid, {})
+        rows.append({
+            "seed": seed,
+            "heuristic_status": h.status.value,
+            "L_heuristic": Lh,
+            "t_heuristic": th,
+            "nlp_status": n.status.value,
+            "L_nlp": Ln,
+            "L_nlp_raw": float(info.get("nlp_length", Ln)),
+            "t_nlp": tn,
+            "kept_init": bool(info.get("kept_init", False)),
+            "L_opt": L_opt,
+            "within_gap_pct": _pct(Lh, Ln),
+            "homotopy_gap_pct": _pct(Ln, L_opt),
+            "total_gap_pct": _pct(Lh, L_opt),
+            "optimal_class": bool(cls),
+            "nlp_optimal_class": bool(ncls),
+            "heuristic_feasible": hf,
+            "nlp_feasible": nf,
+        })
+    return rows
+
+
+def _med(rows: list[dict], key: str) -> float:
+    v = np.array([r[key] for r in rows], float)
+    v = v[np.isfinite(v)]
+    return float(np.median(v)) if v.size else float("nan")
+
+
+def summarize(rows: list[dict]) -> dict[str, Any]:
+    """Medians over all seeds and over the seeds in the optimal homotopy class."""
+    opt = [r for r in rows if r["nlp_optimal_class"]]
+    return {
+        "n": len(rows),
+        "n_optimal_class": len(opt),
+        "n_heuristic_optimal_class": sum(r["optimal_class"] for r in rows),
+        "n_heuristic_feasible": sum(r["heuristic_feasible"] for r in rows),
+        "n_nlp_feasible": sum(r["nlp_feasible"] for r in rows),
+        "n_nlp_longer": sum(r["L_nlp"] > r["L_heuristic"] * (1 + 1e-12) for r in rows
+                            if r["heuristic_feasible"]),
+        "median_L_heuristic": _med(rows, "L_heuristic"),
+        "median_L_nlp": _med(rows, "L_nlp"),
+        "median_within_gap_pct": _med(rows, "within_gap_pct"),
+        "median_homotopy_gap_pct": _med(rows, "homotopy_gap_pct"),
+        "median_total_gap_pct": _med(rows, "total_gap_pct"),
+        "median_total_gap_pct_optimal_class": _med(opt, "total_gap_pct"),
+        "median_nlp_gap_pct_optimal_class": _med(opt, "homotopy_gap_pct"),
+        "median_t_heuristic": _med(rows, "t_heuristic"),
+        "median_t_nlp": _med(rows, "t_nlp"),
+        "L_opt": rows[0]["L_opt"] if rows else float("nan"),
+    }
+
+
+def _cls(same: bool, feasible: bool) -> str:
+    return "-" if not feasible else ("yes" if same else "no")
+
+
+def _f(x: float, nd: int = 3) -> str:
+    return "-" if not math.isfinite(x) else f"{x:.{nd}f}"
+
+
+def format_table(rows: list[dict], title: str | None = None) -> str:
+    """Markdown table of the rows plus a median row and a summary."""
+    out = []
+    if title:
+        out.append(title)
+        out.append("")
+    out.append("| seed | heuristic | L heuristic | L NLP | within-homotopy gap % | L optimum "
+               "| homotopy gap % | total gap % | optimal class heur/NLP | NLP status | t heur ms "
+               "| t NLP ms |")
+    out.append("|---:|---|---:|---:|---:|---:|---:|---:|:-:|---|---:|---:|")
+    for r in rows:
+        st = r["nlp_status"] + (" (kept init)" if r["kept_init"] else "")
+        out.append(
+            f"| {r['seed']} | {r['heuristic_status']} | {_f(r['L_heuristic'])} "
+            f"| {_f(r['L_nlp'])} | {_f(r['within_gap_pct'])} | {_f(r['L_opt'])} "
+            f"| {_f(r['homotopy_gap_pct'])} | {_f(r['total_gap_pct'])} "
+            f"| {_cls(r['optimal_class'], r['heuristic_feasible'])}/"
+            f"{_cls(r['nlp_optimal_class'], r['nlp_feasible'])} | {st} "
+            f"| {r['t_heuristic'] * 1e3:.0f} | {r['t_nlp'] * 1e3:.0f} |")
+    s = summarize(rows)
+    out.append(
+        f"| **median** | | {_f(s['median_L_heuristic'])} | {_f(s['median_L_nlp'])} "
+        f"| {_f(s['median_within_gap_pct'])} | {_f(s['L_opt'])} "
+        f"| {_f(s['median_homotopy_gap_pct'])} | {_f(s['median_total_gap_pct'])} "
+        f"| {s['n_heuristic_optimal_class']}/{s['n_optimal_class']} of {s['n']} | "
+        f"| {s['median_t_heuristic'] * 1e3:.0f} "
+        f"| {s['median_t_nlp'] * 1e3:.0f} |")
+    out.append("")
+    out.append(
+        f"Heuristic feasible in {s['n_heuristic_feasible']}/{s['n']} seeds, NLP in "
+        f"{s['n_nlp_feasible']}/{s['n']}; NLP longer than its initial guess in "
+        f"{s['n_nlp_longer']} seeds.  Where the NLP path is in the optimum's homotopy class "
+        f"({s['n_optimal_class']} seeds): median gap to the optimum "
+        f"{_f(s['median_total_gap_pct_optimal_class'])} % before and "
+        f"{_f(s['median_nlp_gap_pct_optimal_class'], 4)} % after the NLP polish.")
+    return "\n".join(out)
+
+
+def _parse_set(items: list[str] | None) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for it in items or []:
+        if "=" not in it:
+            raise SystemExit(f"--set expects KEY=VALUE, got {it!r}")
+        k, v = it.split("=", 1)
+        try:
+            out[k.strip()] = tomllib.loads(f"x = {v}")["x"]
+        except tomllib.TOMLDecodeError:
+            out[k.strip()] = v
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``optplan validate PROBLEM --solver S --seeds N``: print the gap table."""
+    ap = argparse.ArgumentParser(
+        prog="optplan validate",
+        description="Compare a heuristic's path lengths with the NLP polish (same homotopy "
+                    "class) and the certified visgraph optimum, seed by seed.")
+    ap.add_argument("problem", help="problem name or .toml path")
+    ap.add_argument("--solver", default="ipso-paper", help="heuristic (default ipso-paper)")
+    ap.add_argument("--seeds", type=int, default=30, help="number of seeds (default 30)")
+    ap.add_argument("--first-seed", type=int, default=0, help="first seed (default 0)")
+    ap.add_argument("--nlp", default="nlp-ipopt", help="polisher preset (default nlp-ipopt)")
+    ap.add_argument("--set", action="append", metavar="KEY=VALUE",
+                    help="override an option of the heuristic (TOML literal; repeatable)")
+    ap.add_argument("--nlp-set", action="append", metavar="KEY=VALUE",
+                    help="override an option of the NLP (TOML literal; repeatable)")
+    args = ap.parse_args(argv)
+    rows = validate(args.problem, args.solver, args.seeds, nlp=args.nlp,
+                    first_seed=args.first_seed, solver_options=_parse_set(args.set),
+                    nlp_options=_parse_set(args.nlp_set))
+    title = (f"### {args.problem}: {args.solver} vs {args.nlp} vs visgraph "
+             f"({args.seeds} seeds)")
+    sys.stdout.write(format_table(rows, title) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
