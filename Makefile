@@ -7,6 +7,8 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.optplan-installed
 
+export NO_MKDOCS_2_WARNING := 1
+
 .PHONY: demo test lint docs docs-serve bench clean distclean help
 
 help:

@@ -12,10 +12,12 @@ from hypothesis import strategies as st
 import optplan as op
 from optplan.backends.formation_qp import FormationQP, QPCore
 from optplan.backends.leader_follower import (
+    LPhiFollowers,
     adapted_angle,
     lphi_gradient,
     lphi_potential,
     pilot_force,
+    project_halfplanes,
     relative_polar,
     slot_positions,
 )
@@ -290,3 +292,116 @@ def test_jitter_phases_seeded():
     np.testing.assert_array_equal(pa, b.dynamic_obstacles[0].position(t))
     assert not np.allclose(pa, c.dynamic_obstacles[0].position(t))
     assert a.obstacles == prob.obstacles
+
+
+# ---------------------------------------------------------------- safety layer ---------
+
+
+def test_project_halfplanes_hand_cases_and_qp_twin():
+    u0 = np.array([[2.0, 2.0], [2.0, 2.0], [0.5, 0.0], [0.0, 0.0]])
+    A = np.zeros((4, 2, 2))
+    b = np.full((4, 2), -np.inf)
+    A[0, 0], b[0, 0] = [-1, 0], -1.0  # x <= 1: projection (1, 2)
+    A[1, 0], b[1, 0] = [-1, 0], -1.0  # x <= 1 and y <= 0.5: corner (1, 0.5)
+    A[1, 1], b[1, 1] = [0, -1], -0.5
+    A[2, 0], b[2, 0] = [1, 0], 1.0  # x >= 1 (already feasible from u0? no: 0.5)
+    A[3, 0], b[3, 0] = [1, 0], 1.0  # x >= 1 and x <= -1: infeasible -> compromise x = 0
+    A[3, 1], b[3, 1] = [-1, 0], 1.0
+    u, bad = project_halfplanes(u0, A, b)
+    np.testing.assert_allclose(u, [[1, 2], [1, 0.5], [1, 0], [0, 0]], atol=1e-12)
+    np.testing.assert_array_equal(bad, [False, False, False, True])
+    # random polygons (all containing the origin) against a brute-force QP over a fine grid
+    rng = np.random.default_rng(7)
+    n, K = 30, 6
+    ang = rng.uniform(0, 2 * np.pi, (n, K))
+    A = np.stack([np.cos(ang), np.sin(ang)], -1)
+    b = -rng.uniform(0.2, 2.0, (n, K))
+    u0 = rng.normal(scale=3.0, size=(n, 2))
+    u, bad = project_halfplanes(u0, A, b)
+    assert not bad.any()
+    assert np.all(np.einsum("nkd,nd->nk", A, u) - b >= -1e-9)
+    g = np.linspace(-4, 4, 321)
+    G = np.stack(np.meshgrid(g, g), -1).reshape(-1, 2)
+    for i in range(n):
+        ok = np.all(G @ A[i].T >= b[i], axis=1)
+        best = np.min(np.sum((G[ok] - u0[i]) ** 2, axis=1))
+        assert np.sum((u[i] - u0[i]) ** 2) <= best + 1e-9  # never worse than any grid point
+
+
+def test_safety_filter_keeps_gaps_after_one_step():
+    """Random crowded configurations: every filtered step keeps D_s and obstacle clearance."""
+    prob = op.load_problem("paper-warehouse")
+    lf = op.get_solver("leader-follower-paper")
+    assert lf.safety and lf.recovery  # the preset turns the safety layer on
+    Ds = prob.formation.safety_distance
+    rng = np.random.default_rng(11)
+    fld = ObstacleField(prob)
+    dt = 0.5
+    checked = 0
+    for _ in range(200):
+        c = np.array([rng.uniform(100, 220), rng.uniform(425, 480)])  # shelf-4a, temporary-1
+        pos = c + rng.uniform(-12, 12, (3, 2))
+        d = np.hypot(*(pos[:, None] - pos[None]).transpose(2, 0, 1))
+        np.fill_diagonal(d, np.inf)
+        _, od = fld.nearest(pos, 0.0)
+        if d.min() < Ds + lf.sep_margin or od.min() < 3.0 + lf.clear_margin:
+            continue
+        fc = LPhiFollowers(prob, lf)
+        a = rng.uniform(-np.pi, np.pi)
+        ul = rng.uniform(0, 7.5) * np.array([math.cos(a), math.sin(a)])
+        state = SimState(0, 0.0, ["leader", "f1", "f2"], pos, np.zeros_like(pos), fld,
+                         {"dt": dt, "leader_velocity": ul})
+        u = fc.velocities(state, 0, [1, 2], float(rng.uniform(-np.pi, np.pi)))
+        assert np.all(np.hypot(*u.T) <= 10.0 + 1e-9)
+        if fc.stats["infeasible"]:
+            continue
+        new = pos + dt * np.vstack([ul, u])
+        dn = np.hypot(*(new[:, None] - new[None]).transpose(2, 0, 1))
+        np.fill_diagonal(dn, np.inf)
+        assert dn.min() >= Ds - 1e-9
+        _, odn = fld.nearest(new[1:], dt)
+        assert odn.min() >= 3.0 - 1e-9
+        checked += 1
+    assert checked >= 30
+
+
+def test_recovery_returns_followers_to_their_own_side():
+    """Followers starting on the wrong side: the bare law settles in the mirrored slots."""
+    d = {"name": "swapped", "bounds": [0, 0, 300, 300], "goal_tolerance": 1.0,
+         "robots": [{"id": "leader", "start": [60.0, 60.0], "goal": [240.0, 220.0],
+                     "radius": 2.0, "max_speed": 4.0},
+                    {"id": "f1", "start": [20.0, 80.0], "radius": 2.0, "max_speed": 4.0},
+                    {"id": "f2", "start": [75.0, 20.0], "radius": 2.0, "max_speed": 4.0}],
+         "formation": {"leader": "leader", "safety_distance": 6.0,
+                       "followers": [{"id": "f1", "L": 30.0, "phi": -math.pi / 4},
+                                     {"id": "f2", "L": 30.0, "phi": math.pi / 4}]}}
+    prob = parse_problem(d)
+    bare = op.solve(prob, "leader-follower-paper", rng=0, safety=False, recovery=False, **FAST)
+    assert bare.metrics["formation_final_error"] > 40  # mirrored: 2 L sin(pi/4) = 42.4
+    res = op.solve(prob, "leader-follower-paper", rng=0, **FAST)
+    assert res.success, res.message
+    assert res.metrics["formation_final_error"] < 0.01 * 30
+    assert res.metrics["min_separation"] >= 6.0
+    assert res.extras["follower_stats"]["lost"] >= 2
+
+
+def test_leader_follower_paper_warehouse_safe():
+    """Issue 6/7 regression: the small formation keeps D_s through the pilot's swerve."""
+    prob = op.load_problem("paper-warehouse")
+    res = op.solve(prob, "leader-follower-paper", rng=0, **FAST)
+    m = res.metrics
+    assert res.success, res.message
+    assert m["reached"] and m["collisions"] == 0
+    assert m["min_separation"] >= prob.formation.safety_distance
+    assert m["min_clearance"] >= 0 and m["min_clearance_dynamic"] >= 0
+    # the bare eqs 46-52 law (no safety layer) fails there: f1 and f2 touch
+    bare = op.solve(prob, "leader-follower-paper", rng=0, safety=False, recovery=False,
+                    **FAST)
+    assert bare.metrics["collisions"] > 0
+
+
+def test_safety_options_validated():
+    with pytest.raises(ValueError, match="gamma_s"):
+        op.get_solver("leader-follower", gamma_s=1.5)
+    with pytest.raises(ValueError, match="safety"):
+        op.get_solver("leader-follower", safety="yes")

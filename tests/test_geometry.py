@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 import shapely
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LineString, Point, Polygon
 
@@ -40,15 +40,33 @@ def circle(cx: float, cy: float, r: float, name: str = "") -> Obstacle:
 
 
 def shapely_inside_lengths(a, b, imap) -> np.ndarray:
-    """Length of segment ab inside the *interior* of every part (boundary overlap excluded)."""
-    seg = LineString([a, b]) if not np.allclose(a, b) else None
+    """Length of segment ab inside the *interior* of every part, decided by shapely.
+
+    The segment is cut at every point where it meets the part's boundary; each piece is inside
+    when its midpoint is in the part and not on its boundary (a piece running along an edge is
+    on the boundary).  Robust where "intersection minus boundary overlap" is not: after a union,
+    vertices created at edge crossings lie only within round-off of the edges they came from.
+    """
+    a, b = np.asarray(a, float), np.asarray(b, float)
     out = np.zeros(imap.n)
-    if seg is None:
+    d = b - a
+    length = float(np.hypot(*d))
+    if length == 0.0:
         return out
+    seg = LineString([a, b])
+    scale = max(1.0, float(np.abs(imap.bbox).max()))
     for k, part in enumerate(imap.parts):
-        total = seg.intersection(part).length
-        on_boundary = seg.intersection(part.boundary).length
-        out[k] = max(total - on_boundary, 0.0)
+        # cut points: where shapely sees the boundary meet the segment, plus boundary vertices
+        # within round-off of it (shapely decides those exactly, i.e. by the rounding error)
+        verts = shapely.get_coordinates(part.boundary)
+        near = verts[shapely.distance(seg, shapely.points(verts)) <= 1e-9 * scale]
+        coords = np.vstack([shapely.get_coordinates(seg.intersection(part.boundary)), near])
+        ts = np.clip(((coords - a) @ d) / length**2, 0.0, 1.0) if len(coords) else np.zeros(0)
+        ts = np.unique(np.r_[0.0, ts, 1.0])
+        mids = a + np.outer((ts[:-1] + ts[1:]) / 2, d)
+        pts = shapely.points(mids)
+        inside = shapely.contains(part, pts) & (shapely.distance(part.boundary, pts) > 1e-9 * scale)
+        out[k] = float(np.sum(np.diff(ts)[inside])) * length
     return out
 
 
@@ -88,6 +106,16 @@ collinear_bug = pytest.mark.xfail(
     reason="batch_crossings counts a segment lying on an edge as inside when the polygon is on "
            "the side the 'vertex on the line -> +' tie-break leans to; fix: evaluate the "
            "indicator with both tie-breaks and take the min")
+# Vertices created by the union (where an edge crosses another obstacle) lie only within
+# round-off of the edge they split; unless near-zero side values are snapped to the line, a
+# near-parallel edge then yields a garbage crossing parameter and misses a real crossing.
+_ROUNDOFF_BUG = not bool(batch_crossings(
+    np.array([[2.0, 5.0 / 3.0], [1.8, 2.0]]),
+    inflate([rect(0, 0, 2, 2), poly([(0, 0), (0, 5), (3, 0)])], 0.0)).count[0])
+roundoff_bug = pytest.mark.xfail(
+    _ROUNDOFF_BUG, strict=False,
+    reason="batch_crossings classifies union vertices lying within round-off of the segment's "
+           "line by the sign of the rounding error; fix: snap |side| <= 1e-12 scale |D| to 0")
 _BRACKET_GAP = circumscribed_radius(1.0) * math.cos(3 * math.pi / (8 * 8)) < 1.0 - 1e-12
 bracket_gap = pytest.mark.xfail(
     _BRACKET_GAP, strict=True,
@@ -103,7 +131,10 @@ paths = st.lists(pt, min_size=2, max_size=6)
 
 
 @collinear_bug
-@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@roundoff_bug
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow],
+          phases=tuple(p for p in Phase if p is not Phase.shrink or not (
+              _COLLINEAR_BUG or _ROUNDOFF_BUG)))
 @given(obstacles=maps, radius=radii, data=st.data())
 def test_batch_crossings_agree_with_shapely(obstacles, radius, data) -> None:
     imap = inflate(obstacles, radius)
@@ -178,6 +209,21 @@ def test_crossings_counted_per_obstacle_with_penetration() -> None:
     assert res2.penetration[0] == pytest.approx(10.0)
 
 
+@pytest.mark.xfail(_ROUNDOFF_BUG, strict=True, reason=roundoff_bug.kwargs["reason"])
+def test_union_vertices_within_roundoff_of_the_line() -> None:
+    tri = poly([(0, 0), (0, 5), (3, 0)])
+    # a square poking out of the triangle's hypotenuse: the chord between the two crossing
+    # points of the union runs through the interior (square above, triangle below) ...
+    chord = batch_crossings(np.array([[2.0, 5.0 / 3.0], [1.8, 2.0]]),
+                            inflate([rect(0, 0, 2, 2), tri], 0.0))
+    assert chord.count[0] == 1
+    assert chord.penetration[0] == pytest.approx(math.hypot(0.2, 1.0 / 3.0))
+    # ... and a segment along the whole hypotenuse is inside only where the square covers it
+    along = batch_crossings(np.array([[0.0, 5.0], [3.0, 0.0]]),
+                            inflate([rect(1, 2, 2, 4), tri], 0.0))
+    assert along.penetration[0] == pytest.approx(math.hypot(0.8, 4.0 / 3.0))
+
+
 def test_non_convex_and_holes() -> None:
     # a square ring (union of four walls) has a hole: crossing the hole is free
     walls = [rect(0, 0, 10, 1), rect(0, 9, 10, 10), rect(0, 0, 1, 10), rect(9, 0, 10, 10)]
@@ -222,7 +268,8 @@ def _exact_sum(obstacles, radius):
 
 
 @bracket_gap
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40, deadline=None,  # no shrinking while the known gap makes it fail
+          phases=tuple(p for p in Phase if p is not Phase.shrink or not _BRACKET_GAP))
 @given(obstacles=maps, radius=st.floats(0.1, 3.0))
 def test_circumscribed_covers_exact_disc(obstacles, radius) -> None:
     cir = inflate(obstacles, radius, mode="circumscribed")

@@ -60,8 +60,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.backends.swarm import SwarmBackend, SwarmSpace, SwarmState, evaluate_swarm, \
-    handle_bounds, snap_targets
+from optplan.backends.swarm import (
+    SwarmBackend,
+    SwarmSpace,
+    SwarmState,
+    evaluate_swarm,
+    handle_bounds,
+    snap_targets,
+)
 from optplan.solver import check_choice, check_int, check_range
 
 __all__ = [

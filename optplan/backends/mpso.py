@@ -25,8 +25,13 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan.backends.pso import pso_step
-from optplan.backends.swarm import SwarmBackend, SwarmSpace, SwarmState, evaluate_swarm, \
-    handle_bounds
+from optplan.backends.swarm import (
+    SwarmBackend,
+    SwarmSpace,
+    SwarmState,
+    evaluate_swarm,
+    handle_bounds,
+)
 from optplan.solver import check_choice, check_int, check_range
 
 __all__ = ["MPSO", "mutate_one_coordinate", "refine_trials"]

@@ -19,8 +19,13 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.backends.swarm import SwarmBackend, SwarmSpace, SwarmState, evaluate_swarm, \
-    handle_bounds
+from optplan.backends.swarm import (
+    SwarmBackend,
+    SwarmSpace,
+    SwarmState,
+    evaluate_swarm,
+    handle_bounds,
+)
 from optplan.solver import check_range
 
 __all__ = ["PSO", "pso_step"]

@@ -49,8 +49,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Callable, ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -635,6 +636,8 @@ class SwarmBackend(Backend):
     kernel : {"fast", "geometry"}
         Crossing test: the private fast re-formulation or ``optplan.geometry.batch_crossings``
         (identical counts; the latter is the reference).
+    roadmap_samples : int
+        Random samples per roadmap for ``init_mode = "roadmap"`` (beyond the paper).
     map_quad_segs : int or None
         ``None``: fitness on exactly the validator's map.  An int ``q``: on a coarser
         circumscribed inflation containing it (faster, up to ``r(1/cos(pi/4q) - 1)`` more
@@ -657,6 +660,7 @@ class SwarmBackend(Backend):
     penetration_weight: float = 0.0
     kernel: str = "fast"
     map_quad_segs: int | None = None
+    roadmap_samples: int = 60
 
     def __post_init__(self) -> None:
         check_int(self, "n_particles", 2, 100_000)
@@ -673,6 +677,7 @@ class SwarmBackend(Backend):
         check_choice(self, "kernel", KERNELS)
         if self.map_quad_segs is not None:
             check_int(self, "map_quad_segs", 1, 64)
+        check_int(self, "roadmap_samples", 2, 100_000)
 
     # -- hooks for subclasses ------------------------------------------------------
     def _start(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator) -> None:
@@ -707,7 +712,8 @@ class SwarmBackend(Backend):
         X = initial_swarm(space, self.n_particles,
                           "sorted" if self.init_mode == "roadmap" else self.init_mode, rng)
         if self.init_mode == "roadmap":
-            seeds = roadmap_paths(space, max(1, self.n_particles // 10), rng)
+            seeds = roadmap_paths(space, max(1, self.n_particles // 10), rng,
+                                  n_samples=self.roadmap_samples)
             for i, pth in enumerate(seeds):
                 X[i] = np.clip(resample_path(pth, self.n_waypoints).reshape(-1),
                                space.lo, space.hi)

@@ -176,7 +176,9 @@ def summarize(rows: list[dict]) -> dict[str, Any]:
         "median_within_gap_pct": _med(rows, "within_gap_pct"),
         "median_homotopy_gap_pct": _med(rows, "homotopy_gap_pct"),
         "median_total_gap_pct": _med(rows, "total_gap_pct"),
-        "median_total_gap_pct_optimal_class": _med(opt, "total_gap_pct"),
+        "n_optimal_class_feasible_heuristic": sum(r["heuristic_feasible"] for r in opt),
+        "median_total_gap_pct_optimal_class": _med(
+            [r for r in opt if r["heuristic_feasible"]], "total_gap_pct"),
         "median_nlp_gap_pct_optimal_class": _med(opt, "homotopy_gap_pct"),
         "median_t_heuristic": _med(rows, "t_heuristic"),
         "median_t_nlp": _med(rows, "t_nlp"),
@@ -216,16 +218,20 @@ def format_table(rows: list[dict], title: str | None = None) -> str:
         f"| **median** | | {_f(s['median_L_heuristic'])} | {_f(s['median_L_nlp'])} "
         f"| {_f(s['median_within_gap_pct'])} | {_f(s['L_opt'])} "
         f"| {_f(s['median_homotopy_gap_pct'])} | {_f(s['median_total_gap_pct'])} "
-        f"| {s['n_heuristic_optimal_class']}/{s['n_optimal_class']} of {s['n']} | "
+        f"| {s['n_heuristic_optimal_class']}/{s['n_optimal_class']} (of {s['n']}) | "
         f"| {s['median_t_heuristic'] * 1e3:.0f} "
         f"| {s['median_t_nlp'] * 1e3:.0f} |")
     out.append("")
     out.append(
+        "Gaps in % (within-homotopy: of L NLP; homotopy and total: of L optimum); "
+        "`optimal class` = path in the optimum's homotopy class (heuristic/NLP; median "
+        "row: counts).  "
         f"Heuristic feasible in {s['n_heuristic_feasible']}/{s['n']} seeds, NLP in "
         f"{s['n_nlp_feasible']}/{s['n']}; NLP longer than its initial guess in "
         f"{s['n_nlp_longer']} seeds.  Where the NLP path is in the optimum's homotopy class "
         f"({s['n_optimal_class']} seeds): median gap to the optimum "
-        f"{_f(s['median_total_gap_pct_optimal_class'])} % before and "
+        f"{_f(s['median_total_gap_pct_optimal_class'])} % before (over the "
+        f"{s['n_optimal_class_feasible_heuristic']} feasible heuristic paths) and "
         f"{_f(s['median_nlp_gap_pct_optimal_class'], 4)} % after the NLP polish.")
     return "\n".join(out)
 

@@ -1,0 +1,224 @@
+"""IPSO formulas (eqs 17-29) pinned by hand, PSO/MPSO operators, determinism, behaviour."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import optplan as op
+from optplan.backends import ipso as ip
+from optplan.backends import swarm as sw
+from optplan.backends.mpso import MPSO, mutate_one_coordinate, refine_trials
+from optplan.backends.pso import PSO, pso_step
+
+# ---------------------------------------------------------------------------------------
+# eqs 17-21: adaptive inertia weight
+# ---------------------------------------------------------------------------------------
+
+
+def test_eq18_alpha():
+    assert ip.inertia_alpha(0.9) == pytest.approx(math.log(0.1 / 0.9))
+    assert ip.inertia_alpha(0.5) == 0.0
+
+
+def test_eq17_inertia_weight_pins():
+    # dw = 1 -> w_max; dw = 0 -> 0.5 (domain-notes §1.1 sanity checks)
+    assert ip.inertia_weight(1.0, 0.9) == pytest.approx(0.9)
+    assert ip.inertia_weight(0.0, 0.9) == pytest.approx(0.5)
+    # hand computation: alpha = ln(1/9), dw = 0.5 -> 1 / (1 + 9^-0.5) = 1 / (1 + 1/3) = 0.75
+    assert ip.inertia_weight(0.5, 0.9) == pytest.approx(0.75)
+    # monotone increasing in dw for w_max > 0.5
+    ws = [ip.inertia_weight(d, 0.9) for d in np.linspace(0, 1, 11)]
+    assert np.all(np.diff(ws) > 0)
+
+
+def test_eq19_to_21():
+    delta = ip.inertia_delta(0.9, 0.2, 200)
+    assert delta == pytest.approx(0.7 / 200)  # eq 20
+    assert ip.velocity_ratio(2.0, 4.0) == pytest.approx(1.5)  # eq 21: (2 + 4) / (2 * 2)
+    assert ip.velocity_ratio(4.0, 2.0) == pytest.approx(0.75)
+    assert ip.velocity_ratio(3.0, 3.0) == 1.0  # constant speed: dw = delta (eq 19)
+    assert ip.velocity_ratio(0.0, 3.0) == 1.0  # undefined -> 1
+    # literal reading: with the paper's settings w stays ~0.5 (documented ambiguity)
+    assert ip.inertia_weight(delta * 1.0, 0.9) == pytest.approx(0.5019, abs=1e-4)
+
+
+def test_linear_inertia_reading_goes_from_wmax_to_wmin():
+    prob = _corridor()
+    res = op.solve(prob, "ipso", rng=0, inertia="linear", k_max=40, n_particles=10)
+    w = res.history["w"][1:]
+    assert w[0] == pytest.approx(0.9)
+    assert w.min() >= 0.2 - 1e-12 and np.all(np.diff(w) <= 1e-12)
+    res2 = op.solve(prob, "ipso", rng=0, inertia="paper", k_max=40, n_particles=10)
+    w2 = res2.history["w"][1:]
+    assert np.all(w2 >= 0.5) and np.all(w2 <= 0.9)
+
+
+# ---------------------------------------------------------------------------------------
+# eq 23: position factor
+# ---------------------------------------------------------------------------------------
+
+
+def test_eq23_position_factor():
+    assert ip.position_factor(0, 200) == 1.0
+    assert ip.position_factor(200, 200) == pytest.approx(1 - math.tanh(200 / 201))
+    assert ip.position_factor(200, 200) == pytest.approx(0.24050, abs=1e-5)
+    k = np.arange(201)
+    assert np.all(np.diff(ip.position_factor(k, 200)) < 0)
+
+
+# ---------------------------------------------------------------------------------------
+# eqs 25-29: crossover and greedy mutation
+# ---------------------------------------------------------------------------------------
+
+
+def test_eq25_28_children_are_the_stated_convex_combinations():
+    x1, x2 = np.array([[0.0, 10.0, 4.0]]), np.array([[10.0, 0.0, 4.0]])
+    v1, v2 = np.array([[1.0, 2.0, 3.0]]), np.array([[-1.0, 0.0, 1.0]])
+    c1x, c2x, c1v, c2v = ip.crossover(x1, x2, v1, v2, np.array([0.3]))
+    np.testing.assert_allclose(c1x, [[7.0, 3.0, 4.0]])   # 0.3 x1 + 0.7 x2
+    np.testing.assert_allclose(c2x, [[3.0, 7.0, 4.0]])   # 0.7 x1 + 0.3 x2
+    np.testing.assert_allclose(c1v, [[-0.4, 0.6, 1.6]])
+    np.testing.assert_allclose(c2v, [[0.4, 1.4, 2.4]])
+    # batch of pairs with different p_c; children sum to the parents' sum
+    rng = np.random.default_rng(0)
+    X1, X2, V1, V2 = (rng.normal(size=(5, 4)) for _ in range(4))
+    pc = rng.random(5)
+    a, b, c, d = ip.crossover(X1, X2, V1, V2, pc)
+    np.testing.assert_allclose(a + b, X1 + X2)
+    np.testing.assert_allclose(c + d, V1 + V2)
+    np.testing.assert_allclose(a, pc[:, None] * X1 + (1 - pc[:, None]) * X2)
+
+
+def test_eq29_greedy_mutation_keeps_the_better():
+    keep = ip.greedy_mutation(np.array([5.0, 5.0, 5.0]), np.array([4.0, 6.0, 5.0]))
+    assert keep.tolist() == [True, False, False]
+
+
+def test_redistribute_and_snap_candidates():
+    x = np.array([1.0, 0.0, 2.0, 0.0, 10.0, 10.0])
+    c = ip.redistribute_candidates(x, np.zeros(2), np.array([20.0, 10.0]))
+    np.testing.assert_allclose(c[0], [2, 0, 6, 5, 10, 10])
+    np.testing.assert_allclose(c[2], [1, 0, 2, 0, 11, 5])
+    t = np.array([[0.0, 1.0], [10.0, 11.0]])
+    s = ip.snap_candidates(x, t)
+    assert s.shape == (4, 6)
+    np.testing.assert_allclose(s[2], [1, 0, 2, 0, 10, 11])
+    np.testing.assert_allclose(s[3], [0, 1, 0, 1, 10, 11])
+
+
+# ---------------------------------------------------------------------------------------
+# PSO (eqs 1-2) and MPSO operators
+# ---------------------------------------------------------------------------------------
+
+
+def test_eq1_2_pso_step():
+    st = sw.SwarmState(X=np.array([[1.0, 2.0]]), V=np.array([[0.5, -0.5]]), F=np.zeros(1),
+                       pbest=np.array([[3.0, 2.0]]), pbest_f=np.zeros(1),
+                       gbest=np.array([0.0, 0.0]), gbest_f=0.0, gbest_len=0.0, gbest_count=0)
+    X, V = pso_step(st, 0.5, 1.5, 1.5, None, np.random.default_rng(7))
+    r = np.random.default_rng(7)
+    eps, eta = r.random((1, 2)), r.random((1, 2))
+    v = 0.5 * st.V + 1.5 * eps * (st.pbest - st.X) + 1.5 * eta * (st.gbest - st.X)
+    np.testing.assert_allclose(V, v)
+    np.testing.assert_allclose(X, st.X + v)
+
+
+def test_mpso_mutation_and_refinement():
+    rng = np.random.default_rng(0)
+    X = np.zeros((20000, 6))
+    lo, hi = -np.ones(6), np.ones(6) * 3
+    Xn, hit = mutate_one_coordinate(X, lo, hi, 0.8, rng)
+    assert abs(hit.mean() - 0.2) < 0.01  # probability 1 - p_t
+    changed = (Xn != 0).sum(axis=1)
+    assert np.all(changed[~hit] == 0) and np.all(changed[hit] <= 1)
+    assert np.all((Xn >= lo) & (Xn <= hi))
+    T = refine_trials(np.ones(4), np.full(4, 100.0), 0.056, 500, rng)
+    assert np.all(np.abs(T - 1) <= 5.6 + 1e-12) and np.abs(T - 1).max() > 5.0
+
+
+# ---------------------------------------------------------------------------------------
+# behaviour, determinism, contract bits
+# ---------------------------------------------------------------------------------------
+
+
+def _corridor() -> op.Problem:
+    return op.parse_problem({
+        "name": "ipso-wall",
+        "bounds": [0.0, 0.0, 100.0, 100.0],
+        "robots": [{"id": "r", "start": [10.0, 50.0], "goal": [90.0, 50.0], "radius": 1.0,
+                    "max_speed": 1.0}],
+        "obstacles": [{"type": "rectangle", "min": [45.0, 20.0], "max": [55.0, 80.0]}],
+    })
+
+
+@pytest.mark.parametrize("solver", ["ipso-paper", "ipso", "pso-paper", "mpso-paper"])
+def test_presets_find_a_collision_free_path_on_a_wall_map(solver):
+    prob = _corridor()
+    ref = op.solve(prob, "visgraph").metrics["length"]
+    res = op.solve(prob, solver, rng=2, k_max=60)
+    assert res.success, res.message
+    assert res.metrics["collisions"] == 0
+    # the literal eq 24 drags waypoints toward the origin: a looser bound (documented)
+    assert res.metrics["length"] <= (1.5 if solver == "ipso-paper" else 1.2) * ref
+
+
+@pytest.mark.parametrize("backend", [PSO, MPSO, ip.IPSO])
+def test_same_seed_same_result_and_global_state_untouched(backend):
+    prob = _corridor()
+    b = backend(n_particles=12, k_max=15)
+    np.random.seed(123)  # noqa: NPY002 - checking the legacy global state
+    before = np.random.get_state()[1].copy()  # noqa: NPY002
+    r1 = op.solve(prob, b, rng=5)
+    r2 = op.solve(prob, b, rng=5)
+    after = np.random.get_state()[1]  # noqa: NPY002
+    np.testing.assert_array_equal(before, after)
+    np.testing.assert_array_equal(r1.path, r2.path)
+    np.testing.assert_array_equal(r1.history["best_cost"], r2.history["best_cost"])
+    r3 = op.solve(prob, b, rng=6)
+    assert not np.array_equal(r1.history["best_cost"], r3.history["best_cost"])
+
+
+def test_callback_stop_is_honoured():
+    seen = []
+
+    def cb(p):
+        seen.append(p.iteration)
+        if p.iteration >= 3:
+            raise StopIteration
+
+    res = op.solve(_corridor(), "ipso", rng=0, callback=cb, k_max=50, n_particles=10)
+    assert seen == [0, 1, 2, 3]
+    assert res.n_iter == 3 and res.extras["stopped_early"]
+
+
+def test_init_path_seeds_a_particle():
+    prob = _corridor()
+    ref = op.solve(prob, "visgraph")
+    res = op.solve(prob, "ipso", rng=0, init=ref.paths, k_max=0, n_particles=5, n_waypoints=6)
+    # with no iterations the answer is the best initial particle: the seeded optimum (or a
+    # random particle that is at least as short)
+    assert res.metrics["length"] <= ref.metrics["length"] + 1e-6
+
+
+@pytest.mark.parametrize("bad", [{"A": 3}, {"w_min": 0.95}, {"inertia": "cubic"},
+                                 {"position_update": "x"}, {"n_waypoints": 0},
+                                 {"bounds_mode": "wrap"}, {"c1": -1.0}])
+def test_invalid_options_name_the_option(bad):
+    with pytest.raises(ValueError, match=next(iter(bad))):
+        op.get_solver("ipso", **bad)
+
+
+def test_paper_position_update_pulls_toward_the_origin():
+    """Eq 24 as printed multiplies absolute coordinates by psi R < 1 (documented)."""
+    prob = _corridor()
+    b = ip.IPSO(n_particles=30, k_max=1, A=0, v_max=1e-9)  # almost no velocity: pure pull
+    space = sw.make_space(prob, prob.robots[0], 2)
+    X0 = sw.initial_swarm(space, 30, "uniform", np.random.default_rng(0))
+    ev = sw.evaluate_swarm(X0, space)
+    st = sw.new_state(X0, np.zeros_like(X0), ev)
+    b._start(space, st, np.random.default_rng(0))
+    Xn, _ = b._move(space, st, 0.5, 0, np.random.default_rng(1))
+    assert np.linalg.norm(Xn, axis=1).mean() < 0.6 * np.linalg.norm(X0, axis=1).mean()
