@@ -41,6 +41,8 @@ __all__ = [
     "inflate",
     "circumscribed_radius",
     "batch_crossings",
+    "candidate_pairs",
+    "inside_lengths",
     "path_lengths",
     "point_clearance",
 ]
@@ -51,7 +53,10 @@ QUAD_SEGS = 8
 
 def circumscribed_radius(r: float, quad_segs: int = QUAD_SEGS) -> float:
     """Buffer distance whose polygon circumscribes the disc of radius ``r``."""
-    return r / math.cos(math.pi / (4 * quad_segs))
+    # GEOS rounds the number of fillet segments of a corner arc to the nearest integer, so
+    # one segment may span up to 1.5 nominal steps (pi / 2q each): its chord is at
+    # R cos(3 pi / 8q) from the corner, which must be >= r.
+    return r / math.cos(3 * math.pi / (8 * quad_segs))
 
 
 @dataclass(frozen=True, eq=False)
@@ -91,6 +96,20 @@ class InflatedMap:
     @property
     def n(self) -> int:
         return len(self.parts)
+
+    @property
+    def scale(self) -> float:
+        """Coordinate scale used for relative tolerances: ``max(1, max |bbox|)``."""
+        return max(1.0, float(np.max(np.abs(self.bbox)))) if self.bbox.size else 1.0
+
+    @property
+    def convex(self) -> np.ndarray:
+        """Per part: True when the part is a convex polygon without holes."""
+        if "convex" not in self._prepared:
+            self._prepared["convex"] = np.array([
+                len(p.interiors) == 0 and abs(p.convex_hull.area - p.area) <= 1e-9 * p.area
+                for p in self.parts], dtype=bool)
+        return self._prepared["convex"]
 
     def containing(self, p: np.ndarray, tol: float = 1e-9) -> str | None:
         """Name(s) of the part whose interior strictly contains point ``p``, else ``None``."""
@@ -240,7 +259,25 @@ def batch_crossings(paths: np.ndarray, imap: InflatedMap, tol: float = 1e-9) -> 
         return CrossingResult(seg_count.sum(1), pen, seg_count)
     a = pts[:, :-1, :].reshape(-1, 2)
     b = pts[:, 1:, :].reshape(-1, 2)
-    # bounding-box pre-filter: candidate (segment, part) pairs
+    si, oi = candidate_pairs(a, b, imap)
+    if si.size == 0:
+        return CrossingResult(seg_count.sum(1), pen, seg_count)
+    inside = inside_lengths(a[si], b[si], oi, imap)
+    hit = inside > tol * imap.scale
+    np.add.at(seg_count.reshape(-1), si, hit.astype(np.int64))
+    path_of = si // S
+    np.add.at(pen, path_of, np.where(hit, inside, 0.0))
+    pairs = (path_of[hit], (si % S)[hit], oi[hit])
+    return CrossingResult(seg_count.sum(1), pen, seg_count, pairs)
+
+
+def candidate_pairs(a: np.ndarray, b: np.ndarray, imap: InflatedMap) -> tuple[np.ndarray,
+                                                                             np.ndarray]:
+    """(segment, part) index pairs that may intersect; segments ``a[k] -> b[k]``.
+
+    Two cheap filters: the bounding boxes overlap, and the part's bounding box is not entirely
+    on one side of the segment's line (its four corners are tested).
+    """
     smin = np.minimum(a, b)
     smax = np.maximum(a, b)
     bb = imap.bbox
@@ -250,14 +287,34 @@ def batch_crossings(paths: np.ndarray, imap: InflatedMap, tol: float = 1e-9) -> 
     )
     si, oi = np.nonzero(ov)
     if si.size == 0:
-        return CrossingResult(seg_count.sum(1), pen, seg_count)
-    A = a[si][:, None, :]  # (K, 1, 2)
-    D = (b - a)[si][:, None, :]
+        return si, oi
+    d = b[si] - a[si]
+    cx = bb[oi][:, [0, 2, 2, 0]] - a[si, 0:1]
+    cy = bb[oi][:, [1, 1, 3, 3]] - a[si, 1:2]
+    side = d[:, 0:1] * cy - d[:, 1:2] * cx
+    slack = 1e-12 * imap.scale * np.hypot(d[:, 0], d[:, 1])
+    keep = ~((side > slack[:, None]).all(axis=1) | (side < -slack[:, None]).all(axis=1))
+    return si[keep], oi[keep]
+
+
+def inside_lengths(a: np.ndarray, b: np.ndarray, oi: np.ndarray,
+                   imap: InflatedMap) -> np.ndarray:
+    """Length of segment ``a[k] -> b[k]`` inside the interior of part ``oi[k]`` (module doc).
+
+    The core of :func:`batch_crossings` for explicit pairs, shape ``(K,)``.
+    """
+    A = a[:, None, :]  # (K, 1, 2)
+    D = (b - a)[:, None, :]
     E = imap.edges[oi]  # (K, E, 4)
     Pp, Qq = E[..., 0:2], E[..., 2:4]
     # side of edge endpoints w.r.t. the line through A with direction D
     sp = D[..., 0] * (Pp[..., 1] - A[..., 1]) - D[..., 1] * (Pp[..., 0] - A[..., 0])
     sq = D[..., 0] * (Qq[..., 1] - A[..., 1]) - D[..., 1] * (Qq[..., 0] - A[..., 0])
+    # a vertex within round-off of the line (distance <= 1e-12 x map scale) is ON the line,
+    # so the two tie-breaks below decide it, not the sign of the rounding error
+    snap = 1e-12 * imap.scale * np.hypot(D[..., 0], D[..., 1])
+    sp = np.where(np.abs(sp) <= snap, 0.0, sp)
+    sq = np.where(np.abs(sq) <= snap, 0.0, sq)
     valid = imap.edge_mask[oi]
     ev = Qq - Pp
     den = D[..., 0] * ev[..., 1] - D[..., 1] * ev[..., 0]  # cross(D, e)
@@ -273,15 +330,7 @@ def batch_crossings(paths: np.ndarray, imap: InflatedMap, tol: float = 1e-9) -> 
     frac_pos = np.sum(np.where(((sp >= 0) != (sq >= 0)) & valid, w, 0.0), axis=1)
     frac_neg = np.sum(np.where(((sp > 0) != (sq > 0)) & valid, w, 0.0), axis=1)
     frac = np.minimum(frac_pos, frac_neg)
-    seglen = np.hypot(D[:, 0, 0], D[:, 0, 1])
-    inside = np.clip(frac, 0.0, 1.0) * seglen
-    scale = max(1.0, float(np.max(np.abs(bb)))) if bb.size else 1.0
-    hit = inside > tol * scale
-    np.add.at(seg_count.reshape(-1), si, hit.astype(np.int64))
-    path_of = si // S
-    np.add.at(pen, path_of, np.where(hit, inside, 0.0))
-    pairs = (path_of[hit], (si % S)[hit], oi[hit])
-    return CrossingResult(seg_count.sum(1), pen, seg_count, pairs)
+    return np.clip(frac, 0.0, 1.0) * np.hypot(D[:, 0, 0], D[:, 0, 1])
 
 
 def path_lengths(paths: np.ndarray) -> np.ndarray:

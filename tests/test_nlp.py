@@ -280,3 +280,18 @@ def test_validate_rows_and_table() -> None:
     assert s["n_optimal_class"] == 2
     table = format_table(rows, "t")
     assert "| **median** |" in table and "within-homotopy gap %" in table
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["paper-env1", "paper-env2"])
+def test_polishing_ipso_paper_closes_the_gap(name: str) -> None:
+    """Issue 4: never longer than the initial guess; median gap <= 0.1 % in the optimal class."""
+    if "ipso-paper" not in op.list_solvers():
+        pytest.skip("ipso-paper preset not available")
+    rows = validate(name, "ipso-paper", seeds=10)
+    s = summarize(rows)
+    for r in rows:
+        if r["heuristic_feasible"]:
+            assert r["L_nlp"] <= r["L_heuristic"] * (1 + 1e-12)
+    assert s["n_optimal_class"] >= 3
+    assert s["median_nlp_gap_pct_optimal_class"] <= 0.1

@@ -55,7 +55,8 @@ Pair pruning
     *initial* segment, beyond the piece's clearance, are constrained.  After each solve every
     (segment, piece) distance is checked exactly (shapely); a violated pruned pair is added (with
     the pairs near the new segments) and the NLP re-solved from the initial guess, up to
-    ``max_rounds`` solves; the last one constrains every pair.  If the shared validator still objects, all pairs are added.
+    ``max_rounds`` solves; the last one constrains every pair.  If the shared validator still
+    objects, all pairs are added.
 
 Structure re-use
     The NLP is built once per structure ``(N, slots per segment, vertices per slot, IPOPT

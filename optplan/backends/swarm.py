@@ -150,6 +150,18 @@ def make_kernel(imap: InflatedMap) -> CrossingKernel:
                           offset, pad, bb, scale)
 
 
+def _straddles(sp: np.ndarray, sq: np.ndarray, kern: CrossingKernel,
+               shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
+    """Edges straddling the line with an on-line vertex counted as '+' (ge) or '-' (gt)."""
+    b1 = np.greater_equal(sp, 0.0, out=kern.buffer("b1", shape, bool))
+    b2 = np.greater_equal(sq, 0.0, out=kern.buffer("b2", shape, bool))
+    ge = np.not_equal(b1, b2, out=kern.buffer("ge", shape, bool))
+    np.greater(sp, 0.0, out=b1)
+    np.greater(sq, 0.0, out=b2)
+    gt = np.not_equal(b1, b2, out=kern.buffer("gt", shape, bool))
+    return ge, gt
+
+
 def fast_crossings(paths: np.ndarray, kern: CrossingKernel,
                    tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
     """Interior-crossing count and penetration length, as :func:`optplan.geometry.batch_crossings`.
@@ -195,10 +207,10 @@ def fast_crossings(paths: np.ndarray, kern: CrossingKernel,
         shape = (n_seg, kern.n_edges)
         sp_all = np.matmul(lin, kern.vp, out=kern.buffer("sp", shape))
         sq_all = np.matmul(lin, kern.vq, out=kern.buffer("sq", shape))
-        b1 = np.greater_equal(sp_all, 0.0, out=kern.buffer("b1", shape, bool))
-        b2 = np.greater_equal(sq_all, 0.0, out=kern.buffer("b2", shape, bool))
-        flat = np.flatnonzero(np.not_equal(b1, b2, out=b1))  # flatnonzero >> nonzero (2-D)
+        ge, gt = _straddles(sp_all, sq_all, kern, shape)
+        flat = np.flatnonzero(np.logical_or(ge, gt, out=kern.buffer("any", shape, bool)))
         si, ei = np.divmod(flat, kern.n_edges)
+        use_ge, use_gt = ge.reshape(-1)[flat], gt.reshape(-1)[flat]
         sp = sp_all.reshape(-1)[flat]
         sq = sq_all.reshape(-1)[flat]
         e_p = kern.vp[:2, ei]  # rows (y, x)
@@ -218,7 +230,10 @@ def fast_crossings(paths: np.ndarray, kern: CrossingKernel,
         dx, dy, cc = d[pi, 0:1], d[pi, 1:2], c[pi, None]
         sp_all = dx * E[..., 1] - dy * E[..., 0] - cc
         sq_all = dx * E[..., 3] - dy * E[..., 2] - cc
-        flat = np.flatnonzero((sp_all >= 0) != (sq_all >= 0))
+        ge = (sp_all >= 0) != (sq_all >= 0)
+        gt = (sp_all > 0) != (sq_all > 0)
+        flat = np.flatnonzero(ge | gt)
+        use_ge, use_gt = ge.reshape(-1)[flat], gt.reshape(-1)[flat]
         ki, li = np.divmod(flat, E.shape[1])
         sp = sp_all.reshape(-1)[flat]
         sq = sq_all.reshape(-1)[flat]
@@ -236,9 +251,15 @@ def fast_crossings(paths: np.ndarray, kern: CrossingKernel,
     with np.errstate(divide="ignore", invalid="ignore"):
         t = ((xy[1] - a[si, 0]) * ds[:, 0] + (xy[0] - a[si, 1]) * ds[:, 1]) / dd
     t = np.where(dd > 0, t, 1.0)
-    # entering (sign +1) when the start of the edge is on the left of the segment line
-    contrib = np.where(sp >= 0, 1.0, -1.0) * np.clip(1.0 - t, 0.0, 1.0)
-    frac = np.bincount(si * Np + part, weights=contrib, minlength=n_seg * Np)
+    # entering (sign +1) when cross(D, edge) = sq - sp < 0
+    contrib = np.where(sq < sp, 1.0, -1.0) * np.clip(1.0 - t, 0.0, 1.0)
+    # a vertex exactly on the line is put on one side or the other (>= / > tests); as in
+    # batch_crossings keep the smaller inside length of the two infinitesimal shifts, so a
+    # segment running along or grazing a boundary is not a collision
+    key = si * Np + part
+    f_ge = np.bincount(key, weights=np.where(use_ge, contrib, 0.0), minlength=n_seg * Np)
+    f_gt = np.bincount(key, weights=np.where(use_gt, contrib, 0.0), minlength=n_seg * Np)
+    frac = np.minimum(f_ge, f_gt)
     seglen = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
     inside = np.clip(frac.reshape(n_seg, Np), 0.0, 1.0) * seglen[:, None]
     hit = inside > tol * kern.scale

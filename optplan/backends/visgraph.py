@@ -18,7 +18,9 @@ Construction used here:
 3. Edges: only *bitangent* pairs are kept: at an obstacle vertex, both ring neighbours must lie
    on the same side of the edge's line, otherwise the path would enter the obstacle there or
    could be shortened (the reduced visibility graph).  Candidates are then checked with the
-   vectorised interior-crossing test (touching is allowed), all pairs in one array call.
+   vectorised interior-crossing test (touching is allowed), all pairs in one array call; a
+   convex part at one of the edge's own end vertices is skipped (a tangent line cannot enter
+   it).
 4. Dijkstra (``scipy.sparse.csgraph``).
 
 Certificate.  The map is the *inscribed* round buffer; the same search on the
@@ -39,19 +41,19 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from optplan.geometry import InflatedMap, batch_crossings
+from optplan.geometry import InflatedMap, candidate_pairs, inside_lengths
 from optplan.problem import Problem, Robot
 from optplan.result import History, Status
 from optplan.solver import Backend
 
-__all__ = ["VisGraph", "shortest_path", "shortest_length"]
+__all__ = ["VisGraph", "cached_shortest_path", "shortest_path", "shortest_length"]
 
 
 def _convex_nodes(imap: InflatedMap, bounds, tol: float):
-    """Convex vertices with their ring neighbours: arrays (k, 2), (k, 2), (k, 2)."""
-    vs, prevs, nexts = [], [], []
-    for part in imap.parts:
-        for ring in (part.exterior, *part.interiors):
+    """Convex vertices inside the bounds: positions, offsets to ring neighbours, part index."""
+    vs, prevs, nexts, part = [], [], [], []
+    for k, poly in enumerate(imap.parts):
+        for ring in (poly.exterior, *poly.interiors):
             c = np.asarray(ring.coords)[:-1]
             if len(c) < 3:
                 continue
@@ -63,23 +65,37 @@ def _convex_nodes(imap: InflatedMap, bounds, tol: float):
             vs.append(c[keep])
             prevs.append(prev[keep])
             nexts.append(nxt[keep])
+            part.append(np.full(int(keep.sum()), k))
     if not vs:
         z = np.zeros((0, 2))
-        return z, z, z
-    v, p, n = np.concatenate(vs), np.concatenate(prevs), np.concatenate(nexts)
+        return z, z, z, np.zeros(0, int)
+    v, p, n, part = map(np.concatenate, (vs, prevs, nexts, part))
     x0, y0, x1, y1 = bounds
     inside = (v[:, 0] >= x0 - tol) & (v[:, 0] <= x1 + tol) & (v[:, 1] >= y0 - tol) & (
         v[:, 1] <= y1 + tol)
-    return v[inside], p[inside], n[inside]
+    return v[inside], p[inside] - v[inside], n[inside] - v[inside], part[inside]
 
 
-def _tangent_ok(u: np.ndarray, w: np.ndarray, up: np.ndarray, un: np.ndarray,
-                is_vertex: np.ndarray) -> np.ndarray:
-    """Edge u->w is tangent at u: u's ring neighbours on the same side of line(u, w)."""
-    d = w - u
-    c1 = d[:, 0] * (up[:, 1] - u[:, 1]) - d[:, 1] * (up[:, 0] - u[:, 0])
-    c2 = d[:, 0] * (un[:, 1] - u[:, 1]) - d[:, 1] * (un[:, 0] - u[:, 0])
-    return ~is_vertex | (c1 * c2 >= 0)
+def _tangent_pairs(nodes: np.ndarray, to_prev: np.ndarray, to_next: np.ndarray,
+                   block: int = 128) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs ``i < j`` whose line is tangent at both ends (reduced visibility graph).
+
+    At an obstacle vertex ``u`` the edge ``u -> w`` is kept when both ring neighbours of ``u``
+    lie on the same side of the line (or on it).  Start and goal (zero neighbour offsets) pass
+    trivially.  Evaluated as a dense ``n x n`` test in row blocks (bounded memory).
+    """
+    n = len(nodes)
+    x, y = nodes[:, 0], nodes[:, 1]
+    ok = np.empty((n, n), bool)
+    for s in range(0, n, block):
+        e = min(n, s + block)
+        dx = x[None, :] - x[s:e, None]
+        dy = y[None, :] - y[s:e, None]
+        c1 = dx * to_prev[s:e, 1:2] - dy * to_prev[s:e, 0:1]
+        c2 = dx * to_next[s:e, 1:2] - dy * to_next[s:e, 0:1]
+        np.greater_equal(c1 * c2, 0.0, out=ok[s:e])
+    ok &= ok.T
+    return np.nonzero(np.triu(ok, 1))
 
 
 def shortest_path(imap: InflatedMap, start: np.ndarray, goal: np.ndarray,
@@ -92,21 +108,26 @@ def shortest_path(imap: InflatedMap, start: np.ndarray, goal: np.ndarray,
         if hit is not None:
             info["reason"] = f"{key} {np.asarray(p).tolist()} lies inside inflated obstacle {hit}"
             return None, info
-    v, vp, vn = _convex_nodes(imap, bounds, tol)
+    v, vp, vn, part = _convex_nodes(imap, bounds, tol)
+    z = np.zeros((2, 2))
     nodes = np.vstack([start[None], goal[None], v])
-    prev = np.vstack([start[None], goal[None], vp])
-    nxt = np.vstack([start[None], goal[None], vn])
-    is_v = np.arange(len(nodes)) >= 2
+    part = np.r_[-1, -1, part]
     n = len(nodes)
     info["n_nodes"] = n
-    i, j = np.triu_indices(n, 1)
-    ok = _tangent_ok(nodes[i], nodes[j], prev[i], nxt[i], is_v[i])
-    ok &= _tangent_ok(nodes[j], nodes[i], prev[j], nxt[j], is_v[j])
-    i, j = i[ok], j[ok]
-    segs = np.stack([nodes[i], nodes[j]], axis=1)
-    if len(segs):
-        free = batch_crossings(segs, imap).count == 0
-        i, j = i[free], j[free]
+    i, j = _tangent_pairs(nodes, np.vstack([z, vp]), np.vstack([z, vn]))
+    a, b = nodes[i], nodes[j]
+    # visibility: the vectorised interior test on every (candidate edge, nearby part) pair,
+    # except a convex part at one of the edge's own end vertices: a line tangent to a convex
+    # polygon at a vertex cannot enter it
+    si, oi = candidate_pairs(a, b, imap)
+    own = (oi == part[i][si]) | (oi == part[j][si])
+    keep = ~(own & imap.convex[oi])
+    si, oi = si[keep], oi[keep]
+    blocked = np.zeros(len(i), bool)
+    if si.size:
+        hit = inside_lengths(a[si], b[si], oi, imap) > 1e-9 * imap.scale
+        blocked[si[hit]] = True
+    i, j = i[~blocked], j[~blocked]
     w = np.hypot(*(nodes[i] - nodes[j]).T)
     info["n_edges"] = int(len(i))
     g = csr_matrix((np.r_[w, w], (np.r_[i, j], np.r_[j, i])), shape=(n, n))
@@ -117,15 +138,24 @@ def shortest_path(imap: InflatedMap, start: np.ndarray, goal: np.ndarray,
     order = [1]
     while order[-1] != 0:
         order.append(int(pred[order[-1]]))
-    path = nodes[order[::-1]]
-    return path, info
+    return nodes[order[::-1]], info
+
+
+def cached_shortest_path(problem: Problem, robot: Robot, known_only: bool = True,
+                         mode: str = "inscribed") -> tuple[np.ndarray | None, dict]:
+    """:func:`shortest_path` for ``robot`` on ``problem``'s inflated map, cached per problem."""
+    key = ("visgraph", robot.id, known_only, mode)
+    if key not in problem._cache:
+        imap = problem.inflated(robot.radius, mode=mode, known_only=known_only)
+        problem._cache[key] = shortest_path(imap, robot.start, robot.goal, problem.bounds)
+    path, info = problem._cache[key]
+    return (None if path is None else path.copy()), dict(info)
 
 
 def shortest_length(problem: Problem, robot: Robot, known_only: bool = True,
                     mode: str = "inscribed") -> float | None:
     """Length of the certified shortest path of ``robot`` (None if infeasible)."""
-    imap = problem.inflated(robot.radius, mode=mode, known_only=known_only)
-    path, _ = shortest_path(imap, robot.start, robot.goal, problem.bounds)
+    path, _ = cached_shortest_path(problem, robot, known_only, mode)
     if path is None:
         return None
     return float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
@@ -162,8 +192,7 @@ class VisGraph(Backend):
         paths, infos, lengths = {}, {}, {}
         status, msgs = Status.optimal, []
         for r in problem.planned_robots:
-            imap = problem.inflated(r.radius, known_only=known_only)
-            path, info = shortest_path(imap, r.start, r.goal, problem.bounds)
+            path, info = cached_shortest_path(problem, r, known_only)
             infos[r.id] = info
             if path is None:
                 status = Status.infeasible
@@ -172,8 +201,7 @@ class VisGraph(Backend):
                 continue
             paths[r.id] = path
             if self.bracket:
-                cmap = problem.inflated(r.radius, mode="circumscribed", known_only=known_only)
-                cpath, _ = shortest_path(cmap, r.start, r.goal, problem.bounds)
+                cpath, _ = cached_shortest_path(problem, r, known_only, "circumscribed")
                 lengths[r.id] = None if cpath is None else float(
                     np.sum(np.hypot(*np.diff(cpath, axis=0).T)))
         lead = problem.leader.id if problem.leader.id in paths else next(iter(paths))
