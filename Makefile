@@ -12,7 +12,7 @@ export NO_MKDOCS_2_WARNING := 1
 .PHONY: demo test lint docs docs-serve bench clean distclean help
 
 help:
-	@echo "make demo       solve the paper scenario paper-env1 to its certified optimum"
+	@echo "make demo       the main job: paper-warehouse with hybrid-paper (table, PNG and GIF under runs/)"
 	@echo "make test       ruff + pytest (not slow) + mkdocs build --strict"
 	@echo "make bench      run the speed benchmarks in benchmarks/"
 	@echo "make docs       build the documentation site into site/"
@@ -27,7 +27,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	@touch $@
 
 demo: $(STAMP)
-	$(BIN)/optplan solve paper-env1 visgraph
+	$(BIN)/python -m optplan.experiments.demo
 
 test: $(STAMP)
 	$(BIN)/ruff check .
