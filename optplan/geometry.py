@@ -45,6 +45,10 @@ __all__ = [
     "inside_lengths",
     "path_lengths",
     "point_clearance",
+    "ObstacleSet",
+    "DiscCrossings",
+    "obstacle_set",
+    "convex_pieces",
 ]
 
 #: shapely ``quad_segs`` used for inflation.
@@ -359,3 +363,345 @@ def point_clearance(points: np.ndarray, obstacles: Iterable) -> np.ndarray:
         geom = shapely.unary_union(polys)
         best = np.minimum(best, shapely.distance(shapely.points(pts), geom))
     return best
+
+
+# --------------------------------------------------------------------------------------
+# exact disc-robot kernel for swarms (raw obstacles, convex pieces, spatial grid)
+# --------------------------------------------------------------------------------------
+
+#: Edges per convex piece in :class:`ObstacleSet` (larger convex polygons are fan-split).
+PIECE_EDGES = 4
+
+
+@dataclass(frozen=True)
+class DiscCrossings:
+    """Output of :meth:`ObstacleSet.crossings` for paths of shape ``(P, M, 2)``.
+
+    Attributes
+    ----------
+    count : (P,) int
+        Number of (segment, obstacle) pairs whose segment comes closer than the radius to the
+        raw obstacle (an obstacle split into several convex pieces counts once).
+    penetration : (P,) float
+        Sum over colliding (segment, piece) pairs of ``r - dist`` (segment outside the raw
+        piece) or ``r + inside length`` (segment meets the raw piece), map units: continuous,
+        zero at the collision threshold, growing as the segment moves in.  Zeros when
+        asked with ``penetration=False``.
+    seg_count : (P, M-1) int or None
+        Per segment, the number of obstacles it collides with (``details=True`` only).
+    pairs : tuple of arrays or None
+        Colliding ``(path, segment, obstacle)`` index triples (``details=True`` only).
+    """
+
+    count: np.ndarray
+    penetration: np.ndarray
+    seg_count: np.ndarray | None = None
+    pairs: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+
+def convex_pieces(geom, max_edges: int = PIECE_EDGES) -> list[np.ndarray]:
+    """Convex pieces of a polygon as CCW vertex arrays ``(k, 2)``, ``3 <= k <= max_edges``.
+
+    A convex polygon without holes is fan-split into quadrilaterals/triangles sharing its first
+    vertex (one piece when it has at most ``max_edges`` vertices: rectangles, triangles,
+    trapezoids); anything else is split into the triangles of its constrained Delaunay
+    triangulation (``shapely.constrained_delaunay_triangles``).  The pieces tile the polygon.
+    """
+    polys = list(geom.geoms) if hasattr(geom, "geoms") else [geom]
+    out = []
+    for p in polys:
+        if p.is_empty or p.area <= 0:
+            continue
+        convex = len(p.interiors) == 0 and abs(p.convex_hull.area - p.area) <= 1e-12 * p.area
+        if convex:
+            cand = [orient(p.convex_hull, 1.0)]
+        else:
+            cand = [orient(t, 1.0) for t in
+                    shapely.constrained_delaunay_triangles(p).geoms if t.area > 0]
+        for c in cand:
+            v = np.asarray(c.exterior.coords)[:-1]
+            # drop repeated and collinear vertices (zero-length / straight-angle edges)
+            prev, nxt = np.roll(v, 1, axis=0), np.roll(v, -1, axis=0)
+            cr = ((v[:, 0] - prev[:, 0]) * (nxt[:, 1] - v[:, 1])
+                  - (v[:, 1] - prev[:, 1]) * (nxt[:, 0] - v[:, 0]))
+            scale = max(1.0, float(np.max(np.abs(v))))
+            v = v[np.abs(cr) > 1e-14 * scale * scale]
+            if len(v) < 3:
+                continue
+            i = 1
+            while i < len(v) - 1:  # fan: (v0, v_i, ..., v_{i + max_edges - 2})
+                j = min(i + max_edges - 2, len(v) - 1)
+                out.append(np.vstack([v[:1], v[i:j + 1]]))
+                i = j
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class ObstacleSet:
+    """Raw static obstacles laid out for the exact disc-robot test of whole swarms.
+
+    Built once per (obstacles, radius) by :func:`obstacle_set`.  Polygons are split into
+    convex pieces of at most 4 edges (:func:`convex_pieces`: rectangles, triangles and
+    trapezoids are one piece, against ~36 edges for their round buffer; a triangle is stored
+    with one edge repeated, which changes neither a maximum nor a minimum below); circles are
+    kept exact.  A (segment, obstacle) pair *collides* when the distance between the segment
+    and the raw obstacle is below ``radius + 1e-9 x`` map scale: the exact test of a disc robot
+    against the obstacle (the segment enters the open Minkowski sum).  Per (segment, piece):
+    Cyrus-Beck clipping by the piece's half-planes says whether the segment meets the piece
+    (and the inside length); otherwise the distance is the smallest of the piece-vertex to
+    segment and segment-endpoint to piece-edge distances.
+
+    Relation to the validator (:func:`optplan.metrics.evaluate`): the validator tests interior
+    crossings of the *inscribed* round buffer (:func:`inflate`), which lies inside the exact
+    Minkowski sum.  A segment entering the inscribed polygon's interior comes closer than
+    ``radius`` to the obstacle, so this test is stricter: a path collision-free here is
+    collision-free for the validator (``tests/test_geometry.py`` checks it on random
+    segments).  The price is up to the sagitta ``r (1 - cos(pi / 16))`` of extra clearance at
+    rounded corners.  Touching a raw obstacle counts as a collision even for ``radius = 0``.
+
+    Candidate pairs: every item (piece or circle) has a bounding circle ``(center, reach)``;
+    only segments passing within ``reach + radius`` of the center are tested.  With many items
+    a uniform grid (cell ~ 2 x the median item extent) lists the items by the cells their
+    bounding square covers; each segment visits the cells it crosses (column by column), so
+    the work per segment grows with the obstacles near it, not with all of them.
+    """
+
+    radius: float
+    n_obstacles: int
+    names: tuple
+    n_pieces: int
+    item_obstacle: np.ndarray
+    item_center: np.ndarray
+    item_reach: np.ndarray
+    circle_radius: np.ndarray
+    table: np.ndarray
+    scale: float
+    grid: dict | None
+
+    @property
+    def n_items(self) -> int:
+        return len(self.item_obstacle)
+
+    def _grid_pairs(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(segment, item) pairs whose segment crosses a grid cell listing the item."""
+        g = self.grid
+        h, gx0, gy0, nx, ny = g["h"], g["x0"], g["y0"], g["nx"], g["ny"]
+        sw = b.real < a.real
+        pa = np.where(sw, b, a)
+        pb = np.where(sw, a, b)
+        xa, ya, xb, yb = pa.real, pa.imag, pb.real, pb.imag
+        i0 = np.clip(np.floor((xa - gx0) / h), 0, nx - 1).astype(np.int64)
+        i1 = np.clip(np.floor((xb - gx0) / h), 0, nx - 1).astype(np.int64)
+        ncol = i1 - i0 + 1
+        seg = np.repeat(np.arange(len(xa)), ncol)
+        first = np.cumsum(ncol) - ncol
+        col = i0[seg] + np.arange(len(seg)) - first[seg]
+        # x-interval of the segment inside the column (border columns extend to infinity)
+        lo = np.where(col == 0, -np.inf, gx0 + col * h)
+        hi = np.where(col == nx - 1, np.inf, gx0 + (col + 1) * h)
+        xs, xe, ys, ye = xa[seg], xb[seg], ya[seg], yb[seg]
+        xl = np.maximum(xs, lo)
+        xr = np.minimum(xe, hi)
+        dx = xe - xs
+        slope = np.divide(ye - ys, dx, out=np.zeros_like(dx), where=dx > 0)
+        flat = ~(dx > 0)
+        y1 = np.where(flat, ys, ys + (xl - xs) * slope)
+        y2 = np.where(flat, ye, ys + (xr - xs) * slope)
+        j0 = np.clip(np.floor((np.minimum(y1, y2) - gy0) / h), 0, ny - 1).astype(np.int64)
+        j1 = np.clip(np.floor((np.maximum(y1, y2) - gy0) / h), 0, ny - 1).astype(np.int64)
+        nrow = j1 - j0 + 1
+        k = np.repeat(np.arange(len(seg)), nrow)
+        first = np.cumsum(nrow) - nrow
+        cell = col[k] * ny + j0[k] + np.arange(len(k)) - first[k]
+        seg = seg[k]
+        cs, cc = g["start"][cell], g["count"][cell]
+        m = np.repeat(np.arange(len(cell)), cc)
+        first = np.cumsum(cc) - cc
+        item = g["items"][cs[m] + np.arange(len(m)) - first[m]]
+        key = np.unique(seg[m] * self.n_items + item)
+        return np.divmod(key, self.n_items)
+
+    def crossings(self, paths: np.ndarray, details: bool = False,
+                  penetration: bool = True) -> DiscCrossings:
+        """Exact disc-robot collision count (and penetration) for a batch of polylines.
+
+        Parameters
+        ----------
+        paths : array ``(P, M, 2)`` or ``(M, 2)``
+        details : bool
+            Also return per-segment counts and the colliding (path, segment, obstacle) pairs.
+        penetration : bool
+            Compute the penetration measure (else zeros; saves a little time).
+        """
+        pts = np.asarray(paths, dtype=float)
+        if pts.ndim == 2:
+            pts = pts[None]
+        P, M, _ = pts.shape
+        S = M - 1
+        zero = DiscCrossings(np.zeros(P, np.int64), np.zeros(P),
+                             np.zeros((P, max(S, 0)), np.int64) if details else None,
+                             (np.zeros(0, np.int64),) * 3 if details else None)
+        if self.n_items == 0 or S <= 0:
+            return zero
+        z = pts[..., 0] + 1j * pts[..., 1]  # points as complex numbers
+        a = z[:, :-1].reshape(-1)
+        d = z[:, 1:].reshape(-1) - a
+        dc = d.conj()
+        dd = (d * dc).real
+        inv = np.divide(1.0, dd, out=np.zeros_like(dd), where=dd > 0)
+        r_eff = self.radius + 1e-9 * self.scale
+        if self.grid is None:
+            w = self.item_center[None, :] - a[:, None]  # (segments, items)
+            t = np.clip((w * dc[:, None]).real * inv[:, None], 0.0, 1.0)
+            near = np.abs(w - t * d[:, None]) < self.item_reach + r_eff
+            si, it = np.divmod(np.flatnonzero(near), self.n_items)
+        else:
+            si, it = self._grid_pairs(a, a + d)
+            w = self.item_center[it] - a[si]
+            t = np.clip((w * dc[si]).real * inv[si], 0.0, 1.0)
+            keep = np.flatnonzero(np.abs(w - t * d[si]) < self.item_reach[it] + r_eff)
+            si, it = si[keep], it[keep]
+        if si.size == 0:
+            return zero
+        hs, hi, hp = [], [], []
+        if self.n_pieces < self.n_items:  # circles: the bounding circle is the obstacle
+            ci = np.flatnonzero(it >= self.n_pieces)
+            if ci.size:
+                s, c = si[ci], it[ci]
+                hs.append(s)
+                hi.append(c)
+                if penetration:
+                    w = self.item_center[c] - a[s]
+                    tl = (w * dc[s]).real * inv[s]  # foot of the center on the line
+                    ro = self.circle_radius[c - self.n_pieces]
+                    gap = np.abs(w - np.clip(tl, 0.0, 1.0) * d[s]) - ro
+                    half = np.sqrt(np.maximum(ro * ro - np.abs(w - tl * d[s]) ** 2, 0.0)
+                                   * inv[s])
+                    chord = np.maximum(np.minimum(tl + half, 1.0) - np.maximum(tl - half, 0.0),
+                                       0.0) * np.sqrt(dd[s])
+                    hp.append(np.where(gap > 0, self.radius - gap, self.radius + chord))
+                pk = np.flatnonzero(it < self.n_pieces)
+                si, it = si[pk], it[pk]
+        if si.size:
+            T = self.table[it]  # (pairs, 4, 6) complex: p, e, n, -conj(e)/|e|^2, c, 0
+            p, e, n, ee, cc = T[..., 0], T[..., 1], T[..., 2], T[..., 3], T[..., 4].real
+            A, D, Dc = a[si][:, None], d[si][:, None], dc[si][:, None]
+            # Cyrus-Beck: the segment A + tD within the half-planes n.x <= c
+            num = cc - (n * A.conj()).real
+            den = (n * Dc).real
+            den[den == 0] = -1e-200  # parallel: outside (num < 0) -> t = +huge, never meets
+            tt = num / den
+            neg = den < 0
+            t_in = np.maximum(np.where(neg, tt, -np.inf).max(axis=1), 0.0)
+            t_out = np.minimum(np.where(neg, np.inf, tt).min(axis=1), 1.0)
+            meets = t_in <= t_out
+            # apart: min of vertex-segment and endpoint-edge distances
+            w = p - A
+            dist = np.abs(w - np.clip((w * Dc).real * inv[si][:, None], 0.0, 1.0) * D)
+            dist = np.minimum(dist, np.abs(w + np.clip((w * ee).real, 0.0, 1.0) * e))
+            w -= D
+            dist = np.minimum(dist, np.abs(w + np.clip((w * ee).real, 0.0, 1.0) * e))
+            dist = dist.min(axis=1)
+            hit = np.flatnonzero(meets | (dist < r_eff))
+            hs.append(si[hit])
+            hi.append(it[hit])
+            if penetration:
+                inside = (t_out[hit] - t_in[hit]) * np.sqrt(dd[si[hit]])
+                hp.append(np.where(meets[hit], self.radius + inside, self.radius - dist[hit]))
+        hs = np.concatenate(hs) if len(hs) > 1 else hs[0]
+        hi = np.concatenate(hi) if len(hi) > 1 else hi[0]
+        pen = np.zeros(P)
+        if penetration and hs.size:
+            hp = np.concatenate(hp) if len(hp) > 1 else hp[0]
+            pen = np.bincount(hs // S, weights=hp, minlength=P)
+        # one count per (segment, obstacle): an obstacle split into pieces counts once
+        if self.n_items == self.n_obstacles and not details:
+            return DiscCrossings(np.bincount(hs // S, minlength=P), pen)
+        key = np.unique(hs * self.n_obstacles + self.item_obstacle[hi])
+        seg_u = key // self.n_obstacles
+        count = np.bincount(seg_u // S, minlength=P)
+        if not details:
+            return DiscCrossings(count, pen)
+        seg_count = np.bincount(seg_u, minlength=P * S).reshape(P, S)
+        return DiscCrossings(count, pen, seg_count, (seg_u // S, seg_u % S,
+                                                     key % self.n_obstacles))
+
+
+def obstacle_set(obstacles: Iterable, radius: float, grid: bool | None = None) -> ObstacleSet:
+    """Build the :class:`ObstacleSet` of raw static ``obstacles`` for a disc of ``radius``.
+
+    Parameters
+    ----------
+    obstacles : iterable of :class:`optplan.problem.Obstacle`
+    radius : float
+        Robot radius (map units), >= 0.
+    grid : bool or None
+        Use the uniform-grid pre-filter; ``None`` (default) decides by the number of items
+        (a grid from 48 items on; below that the all-pairs bounding-circle test is cheaper).
+    """
+    if not (radius >= 0 and math.isfinite(radius)):
+        raise ValueError(f"radius must be finite and >= 0, got {radius}")
+    obstacles = list(obstacles)
+    pieces, owner, circles, c_owner = [], [], [], []
+    for i, o in enumerate(obstacles):
+        if o.is_circle:
+            circles.append((float(o.center[0]), float(o.center[1]), float(o.radius)))
+            c_owner.append(i)
+        else:
+            for v in convex_pieces(o.geometry):
+                pieces.append(v)
+                owner.append(i)
+    K = len(pieces)
+    table = np.zeros((K, PIECE_EDGES, 6), dtype=complex)
+    pc, reach = np.zeros((K, 2)), np.zeros(K)
+    for k, v in enumerate(pieces):
+        vv = np.vstack([v, v[-1:].repeat(PIECE_EDGES - len(v), axis=0)]) if len(v) < \
+            PIECE_EDGES else v
+        nxt = np.roll(v, -1, axis=0)
+        qq = np.vstack([nxt, nxt[-1:].repeat(PIECE_EDGES - len(v), axis=0)]) if len(v) < \
+            PIECE_EDGES else nxt
+        p = vv[:, 0] + 1j * vv[:, 1]  # triangles: the last edge repeated
+        ev = (qq[:, 0] + 1j * qq[:, 1]) - p
+        nrm = -1j * ev / np.abs(ev)  # outward normal of a CCW piece (rotate by -90 degrees)
+        table[k, :, 0] = p
+        table[k, :, 1] = ev
+        table[k, :, 2] = nrm
+        table[k, :, 3] = -ev.conj() / np.abs(ev) ** 2
+        table[k, :, 4] = (nrm.conj() * p).real
+        pc[k] = v.mean(axis=0)
+        reach[k] = np.max(np.hypot(*(v - pc[k]).T))
+    circ = np.array(circles, dtype=float).reshape(-1, 3)
+    centers = np.vstack([pc, circ[:, :2]])
+    reach = np.concatenate([reach, circ[:, 2]])
+    item_obstacle = np.array(owner + c_owner, dtype=np.int64)
+    n_items = len(item_obstacle)
+    scale = max(1.0, float(np.max(np.abs(centers)) + np.max(reach))) if n_items else 1.0
+    use_grid = n_items >= 48 if grid is None else bool(grid)
+    gd = None
+    if use_grid and n_items:
+        ext = reach + radius
+        lo = (centers - ext[:, None]).min(axis=0)
+        hi = (centers + ext[:, None]).max(axis=0)
+        span = float(np.max(hi - lo))
+        # cell ~ twice the median item extent, at most ~256 cells per side
+        h = max(2.0 * float(np.median(ext)), span / 256.0, 1e-9 * scale)
+        nx = int(math.floor((hi[0] - lo[0]) / h)) + 1
+        ny = int(math.floor((hi[1] - lo[1]) / h)) + 1
+        i0 = np.clip(np.floor((centers[:, 0] - ext - lo[0]) / h), 0, nx - 1).astype(np.int64)
+        i1 = np.clip(np.floor((centers[:, 0] + ext - lo[0]) / h), 0, nx - 1).astype(np.int64)
+        j0 = np.clip(np.floor((centers[:, 1] - ext - lo[1]) / h), 0, ny - 1).astype(np.int64)
+        j1 = np.clip(np.floor((centers[:, 1] + ext - lo[1]) / h), 0, ny - 1).astype(np.int64)
+        cells, items = [], []
+        for k in range(n_items):
+            ii, jj = np.meshgrid(np.arange(i0[k], i1[k] + 1), np.arange(j0[k], j1[k] + 1))
+            cells.append((ii * ny + jj).ravel())
+            items.append(np.full(ii.size, k, np.int64))
+        cells_a, items_a = np.concatenate(cells), np.concatenate(items)
+        order = np.argsort(cells_a, kind="stable")
+        count = np.bincount(cells_a, minlength=nx * ny)
+        gd = {"h": h, "x0": float(lo[0]), "y0": float(lo[1]), "nx": nx, "ny": ny,
+              "items": items_a[order], "count": count,
+              "start": np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)}
+    return ObstacleSet(float(radius), len(obstacles), tuple(o.name for o in obstacles), K,
+                       item_obstacle, centers[:, 0] + 1j * centers[:, 1], reach, circ[:, 2],
+                       table, scale, gd)

@@ -39,7 +39,7 @@ Clearance modes
     the true disc-robot problem, with 3-5 vertices per piece, well conditioned and fast.  Its
     paths are always accepted by the validator, whose inflated polygons are inscribed in the true
     Minkowski sum; its optimum is slightly longer than the ``visgraph`` optimum on those polygons
-    (measured 0.004-0.01 % on the paper maps).  ``"inscribed"`` uses the validator's own map: the
+    (measured 0.009-0.012 % on the paper maps).  ``"inscribed"`` uses the validator's own map: the
     robot-radius round buffer (shapely, ``quad_segs = 8``, merged where obstacles overlap,
     :meth:`Problem.inflated`) cut into convex pieces, with zero extra clearance; it compares
     like with like with ``visgraph`` but has ~36 vertices per piece (3-10x slower).  Both add
