@@ -583,26 +583,42 @@ class ObstacleSet:
                 pk = np.flatnonzero(it < self.n_pieces)
                 si, it = si[pk], it[pk]
         if si.size:
-            T = self.table[it]  # (pairs, 4, 6) complex: p, e, n, -conj(e)/|e|^2, c, 0
-            p, e, n, ee, cc = T[..., 0], T[..., 1], T[..., 2], T[..., 3], T[..., 4].real
-            A, D, Dc = a[si][:, None], d[si][:, None], dc[si][:, None]
-            # Cyrus-Beck: the segment A + tD within the half-planes n.x <= c
-            num = cc - (n * A.conj()).real
-            den = (n * Dc).real
-            den[den == 0] = -1e-200  # parallel: outside (num < 0) -> t = +huge, never meets
-            tt = num / den
+            # edge columns of the candidate pieces, shape (4, pairs) each
+            p, e, n, ee, cc = self.table.take(it, axis=2)
+            cc = cc.real
+            Ac, Dc = a.conj()[si], dc[si]
+            # separation by an offset edge: both endpoints at least r outside one half-plane
+            gA = (n * Ac).real - cc  # n.A - c
+            den = (n * Dc).real  # n.D
+            gB = gA + den
+            apart = (np.minimum(gA, gB) >= r_eff).any(axis=0)
+            # Cyrus-Beck: the part of A + tD inside every half-plane n.x <= c
+            den[den == 0] = -1e-200  # parallel: outside (gA > 0) -> t = +huge, never meets
+            tt = gA / -den
             neg = den < 0
-            t_in = np.maximum(np.where(neg, tt, -np.inf).max(axis=1), 0.0)
-            t_out = np.minimum(np.where(neg, np.inf, tt).min(axis=1), 1.0)
+            t_in = np.maximum(np.where(neg, tt, -np.inf).max(axis=0), 0.0)
+            t_out = np.minimum(np.where(neg, np.inf, tt).min(axis=0), 1.0)
             meets = t_in <= t_out
-            # apart: min of vertex-segment and endpoint-edge distances
-            w = p - A
-            dist = np.abs(w - np.clip((w * Dc).real * inv[si][:, None], 0.0, 1.0) * D)
-            dist = np.minimum(dist, np.abs(w + np.clip((w * ee).real, 0.0, 1.0) * e))
-            w -= D
-            dist = np.minimum(dist, np.abs(w + np.clip((w * ee).real, 0.0, 1.0) * e))
-            dist = dist.min(axis=1)
-            hit = np.flatnonzero(meets | (dist < r_eff))
+            hit = meets.copy()
+            dist = np.zeros(len(si))
+            # the rest (near but not meeting): exact distance = min of vertex-segment and
+            # endpoint-edge distances
+            u = np.flatnonzero(~(apart | meets))
+            if u.size:
+                su = si[u]
+                D, pu, eu, eeu = d[su], p[:, u], e[:, u], ee[:, u]
+                w = pu - a[su]
+                tv = np.clip((w * dc[su]).real * inv[su], 0.0, 1.0)
+                x = w - tv * D
+                d2 = (x * x.conj()).real
+                x = w + np.clip((w * eeu).real, 0.0, 1.0) * eu
+                d2 = np.minimum(d2, (x * x.conj()).real)
+                w -= D  # now p - b
+                x = w + np.clip((w * eeu).real, 0.0, 1.0) * eu
+                d2 = np.minimum(d2, (x * x.conj()).real).min(axis=0)
+                hit[u] = d2 < r_eff * r_eff
+                dist[u] = np.sqrt(d2)
+            hit = np.flatnonzero(hit)
             hs.append(si[hit])
             hi.append(it[hit])
             if penetration:
@@ -652,22 +668,16 @@ def obstacle_set(obstacles: Iterable, radius: float, grid: bool | None = None) -
                 pieces.append(v)
                 owner.append(i)
     K = len(pieces)
-    table = np.zeros((K, PIECE_EDGES, 6), dtype=complex)
+    table = np.zeros((5, PIECE_EDGES, K), dtype=complex)  # p, e, n, -conj(e)/|e|^2, c
     pc, reach = np.zeros((K, 2)), np.zeros(K)
     for k, v in enumerate(pieces):
-        vv = np.vstack([v, v[-1:].repeat(PIECE_EDGES - len(v), axis=0)]) if len(v) < \
-            PIECE_EDGES else v
+        vv = np.vstack([v, v[-1:].repeat(PIECE_EDGES - len(v), axis=0)])
         nxt = np.roll(v, -1, axis=0)
-        qq = np.vstack([nxt, nxt[-1:].repeat(PIECE_EDGES - len(v), axis=0)]) if len(v) < \
-            PIECE_EDGES else nxt
+        qq = np.vstack([nxt, nxt[-1:].repeat(PIECE_EDGES - len(v), axis=0)])
         p = vv[:, 0] + 1j * vv[:, 1]  # triangles: the last edge repeated
         ev = (qq[:, 0] + 1j * qq[:, 1]) - p
         nrm = -1j * ev / np.abs(ev)  # outward normal of a CCW piece (rotate by -90 degrees)
-        table[k, :, 0] = p
-        table[k, :, 1] = ev
-        table[k, :, 2] = nrm
-        table[k, :, 3] = -ev.conj() / np.abs(ev) ** 2
-        table[k, :, 4] = (nrm.conj() * p).real
+        table[:, :, k] = [p, ev, nrm, -ev.conj() / np.abs(ev) ** 2, (nrm.conj() * p).real]
         pc[k] = v.mean(axis=0)
         reach[k] = np.max(np.hypot(*(v - pc[k]).T))
     circ = np.array(circles, dtype=float).reshape(-1, 3)

@@ -96,6 +96,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan.backends.apf import attractive_force, repulsive_force
 from optplan.problem import Problem
 from optplan.result import History, Progress, Status
 from optplan.sim import ObstacleField, SimState, simulate
@@ -172,6 +173,9 @@ def pilot_force(x: np.ndarray, goal: np.ndarray, near: np.ndarray, clear: np.nda
                 k: float, eta: float, rho_0: float, n: float) -> np.ndarray:
     """Total pilot force, eqs 40 + 44 + 45, summed over obstacles.
 
+    The same improved field as SA-APF (eqs 34-37, :mod:`optplan.backends.apf`) with the
+    pilot's gains.
+
     Parameters
     ----------
     x, goal : (2,)
@@ -180,19 +184,9 @@ def pilot_force(x: np.ndarray, goal: np.ndarray, near: np.ndarray, clear: np.nda
     clear : (m,)
         Clearances ``rho`` (clamped by the caller); obstacles with ``rho > rho_0`` are ignored.
     """
-    d_g = goal - x
-    rho_g = float(np.hypot(*d_g))
-    F = k * d_g
-    use = np.isfinite(clear) & (clear <= rho_0)
-    if use.any() and rho_g > 0:
-        rho = clear[use]
-        v = x[None, :] - near[use]
-        nv = np.hypot(v[:, 0], v[:, 1])
-        n_or = v / np.where(nv > 1e-12, nv, 1.0)[:, None]
-        diff = 1.0 / rho - 1.0 / rho_0
-        f1 = eta * diff * rho_g**n / rho**2
-        f2 = 0.5 * n * eta * diff**2 * rho_g ** (n - 1)
-        F = F + np.sum(f1[:, None] * n_or, axis=0) + np.sum(f2) * d_g / rho_g
+    F = attractive_force(x, goal, k)
+    if len(clear):
+        F = F + np.sum(repulsive_force(x[None, :], near, clear, goal, eta, rho_0, n), axis=0)
     return F
 
 
