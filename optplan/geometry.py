@@ -477,6 +477,7 @@ class ObstacleSet:
     table: np.ndarray
     scale: float
     grid: dict | None
+    grid_free: dict
 
     @property
     def n_items(self) -> int:
@@ -543,38 +544,52 @@ class ObstacleSet:
                              (np.zeros(0, np.int64),) * 3 if details else None)
         if self.n_items == 0 or S <= 0:
             return zero
-        z = pts[..., 0] + 1j * pts[..., 1]  # points as complex numbers
+        # points as complex numbers (a free view of the interleaved coordinates)
+        z = np.ascontiguousarray(pts).view(np.complex128)[..., 0]
         a = z[:, :-1].reshape(-1)
         d = z[:, 1:].reshape(-1) - a
         dc = d.conj()
         dd = (d * dc).real
-        inv = np.divide(1.0, dd, out=np.zeros_like(dd), where=dd > 0)
+        inv = 1.0 / np.maximum(dd, 1e-300)  # degenerate segments: t = 0 below
         r_eff = self.radius + 1e-9 * self.scale
         if self.grid is None:
-            w = self.item_center[None, :] - a[:, None]  # (segments, items)
-            t = np.clip((w * dc[:, None]).real * inv[:, None], 0.0, 1.0)
-            near = np.abs(w - t * d[:, None]) < self.item_reach + r_eff
-            si, it = np.divmod(np.flatnonzero(near), self.n_items)
+            # all (segment, item) pairs: keep the centers inside the box around the capsule
+            # of radius reach + r (perpendicular and along-segment coordinates by one matmul)
+            L = np.empty((len(a), 4))
+            L[:, 0], L[:, 1] = d.real, d.imag
+            L[:, 2] = (d * a.conj()).imag  # dy ax - dx ay
+            L[:, 3] = -(d * a.conj()).real  # -(dx ax + dy ay)
+            R = L @ self.grid_free["M"]
+            K = self.n_items
+            cr, dt = R[:, :K], R[:, K:]
+            ln = np.sqrt(dd)
+            lim = np.multiply.outer(ln, self.item_reach + r_eff)
+            near = (np.abs(cr) < lim) & (dt > -lim) & (dt < dd[:, None] + lim)
+            si, it = np.divmod(np.flatnonzero(near), K)
         else:
             si, it = self._grid_pairs(a, a + d)
             w = self.item_center[it] - a[si]
             t = np.clip((w * dc[si]).real * inv[si], 0.0, 1.0)
-            keep = np.flatnonzero(np.abs(w - t * d[si]) < self.item_reach[it] + r_eff)
+            x = w - t * d[si]
+            lim = self.item_reach[it] + r_eff
+            keep = np.flatnonzero((x * x.conj()).real < lim * lim)
             si, it = si[keep], it[keep]
         if si.size == 0:
             return zero
         hs, hi, hp = [], [], []
-        if self.n_pieces < self.n_items:  # circles: the bounding circle is the obstacle
+        if self.n_pieces < self.n_items:  # circles: exact center-segment distance
             ci = np.flatnonzero(it >= self.n_pieces)
             if ci.size:
                 s, c = si[ci], it[ci]
-                hs.append(s)
-                hi.append(c)
+                w = self.item_center[c] - a[s]
+                tl = (w * dc[s]).real * inv[s]  # foot of the center on the line
+                ro = self.circle_radius[c - self.n_pieces]
+                gap = np.abs(w - np.clip(tl, 0.0, 1.0) * d[s]) - ro
+                h = np.flatnonzero(gap < r_eff)
+                hs.append(s[h])
+                hi.append(c[h])
                 if penetration:
-                    w = self.item_center[c] - a[s]
-                    tl = (w * dc[s]).real * inv[s]  # foot of the center on the line
-                    ro = self.circle_radius[c - self.n_pieces]
-                    gap = np.abs(w - np.clip(tl, 0.0, 1.0) * d[s]) - ro
+                    s, w, tl, ro, gap = s[h], w[h], tl[h], ro[h], gap[h]
                     half = np.sqrt(np.maximum(ro * ro - np.abs(w - tl * d[s]) ** 2, 0.0)
                                    * inv[s])
                     chord = np.maximum(np.minimum(tl + half, 1.0) - np.maximum(tl - half, 0.0),
@@ -712,6 +727,12 @@ def obstacle_set(obstacles: Iterable, radius: float, grid: bool | None = None) -
         gd = {"h": h, "x0": float(lo[0]), "y0": float(lo[1]), "nx": nx, "ny": ny,
               "items": items_a[order], "count": count,
               "start": np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)}
+    # columns giving, for a row (dx, dy, dy ax - dx ay, -(dx ax + dy ay)) of a segment, the
+    # cross product (first n_items) and the dot product (next n_items) of d and center - a
+    M = np.zeros((4, 2 * n_items))
+    M[0, :n_items], M[1, :n_items], M[2, :n_items] = -centers[:, 1] * 0 + centers[:, 1], \
+        -centers[:, 0], 1.0
+    M[0, n_items:], M[1, n_items:], M[3, n_items:] = centers[:, 0], centers[:, 1], 1.0
     return ObstacleSet(float(radius), len(obstacles), tuple(o.name for o in obstacles), K,
                        item_obstacle, centers[:, 0] + 1j * centers[:, 1], reach, circ[:, 2],
-                       table, scale, gd)
+                       table, scale, gd, {"M": M})

@@ -61,10 +61,15 @@ from typing import Any, ClassVar
 import numpy as np
 import scipy.sparse as sp
 
-from optplan.backends.leader_follower import adapted_angle, run_formation, slot_positions
+from optplan.backends.leader_follower import (
+    PilotedFormation,
+    adapted_angle,
+    run_formation,
+    slot_positions,
+)
 from optplan.problem import Problem
 from optplan.sim import SimState
-from optplan.solver import Backend, check_choice, check_int, check_range
+from optplan.solver import check_choice, check_int, check_range
 
 __all__ = ["FormationQP", "QPCore", "QPFormationController"]
 
@@ -478,7 +483,7 @@ class QPFormationController:
 
 
 @dataclass(frozen=True, kw_only=True)
-class FormationQP(Backend):
+class FormationQP(PilotedFormation):
     """Formation keeping by one cvxpy/Clarabel QP per step with CBF safety rows.
 
     Parameters
@@ -502,8 +507,6 @@ class FormationQP(Backend):
     leader_in_qp : bool
         The leader's velocity is a QP variable too (its pilot command is the nominal); so the
         leader waits for blocked followers and is itself filtered.
-    adapt_phi, rho_0_f, c_phi : bool, float, float
-        Use the eq 52 angle adaptation for the desired slots (as in ``leader-follower``).
     qp_interface : str
         ``"cvxpy"`` (cvxpy Parameters, cached Clarabel solver updated) or ``"direct"``
         (same matrices assembled here, ``clarabel.DefaultSolver.update``).
@@ -511,10 +514,10 @@ class FormationQP(Backend):
         Clarabel iteration cap per solve.
     tol : float
         Clarabel ``tol_gap_abs``, ``tol_gap_rel`` and ``tol_feas``.
-    k, eta, rho_0, n, pilot, path_solver, v_factor, ref_spacing, lookahead, tau_h, dt,
-    max_steps, settle_tol
-        The leader's pilot and run settings, as in :class:`~optplan.backends.leader_follower.
-        LeaderFollower`.
+    k, eta, rho_0, n, adapt_phi, rho_0_f, c_phi, pilot, path_solver, v_factor, ref_spacing,
+    lookahead, tau_h, dt, max_steps, settle_tol
+        The leader's pilot, eq 52 and run settings
+        (:class:`~optplan.backends.leader_follower.PilotedFormation`).
     """
 
     name: ClassVar[str] = "formation-qp"
@@ -530,44 +533,26 @@ class FormationQP(Backend):
     max_obstacles: int = 3
     sensing_range: float = 0.0
     leader_in_qp: bool = True
-    adapt_phi: bool = True
-    rho_0_f: float = 100.0
-    c_phi: float = 20.0
     qp_interface: str = "cvxpy"
     max_iter: int = 50
     tol: float = 1e-7
-    k: float = 15.0
-    eta: float = 3.7
-    rho_0: float = 100.0
-    n: float = 3.0
-    pilot: str = "apf-paper"
-    path_solver: str = "ipso-paper"
-    v_factor: float = 0.75
-    ref_spacing: float = 5.0
-    lookahead: float = 15.0
-    tau_h: float = 5.0
-    dt: float = 0.5
-    max_steps: int = 4000
-    settle_tol: float = 0.005
 
     def __post_init__(self) -> None:
-        for f in ("w_f", "w_leader", "w_s", "gamma", "neighbor_radius", "rho_0_f", "c_phi", "k",
-                  "rho_0", "v_factor", "ref_spacing", "dt", "settle_tol"):
+        self._check_pilot_options()
+        for f in ("w_f", "w_leader", "w_s", "gamma", "neighbor_radius"):
             check_range(self, f, 0, lo_open=True)
-        for f in ("margin", "sensing_range", "eta", "n", "lookahead", "tau_h"):
+        for f in ("margin", "sensing_range"):
             check_range(self, f, 0)
-        check_range(self, "v_factor", 0, 1, lo_open=True)
         check_int(self, "max_obstacles", 0, 64)
         check_int(self, "max_iter", 1, 10_000)
         check_range(self, "tol", 1e-12, 1e-2)
-        check_int(self, "max_steps", 1, 10_000_000)
         check_choice(self, "qp_interface", ("cvxpy", "direct"))
         if self.gamma * self.dt > 1 + 1e-12:
             raise ValueError(f"options 'gamma' * 'dt' of backend {self.name!r} must be <= 1 "
                              f"(discrete-time CBF), got {self.gamma} * {self.dt}")
-        for b in ("leader_in_qp", "adapt_phi"):
-            if not isinstance(getattr(self, b), bool):
-                raise ValueError(f"option {b!r} of backend {self.name!r} must be true or false")
+        if not isinstance(self.leader_in_qp, bool):
+            raise ValueError(f"option 'leader_in_qp' of backend {self.name!r} must be true or "
+                             "false")
 
     def followers_controller(self, problem: Problem,
                              rng: np.random.Generator) -> QPFormationController:

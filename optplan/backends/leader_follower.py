@@ -103,6 +103,7 @@ from optplan.sim import ObstacleField, SimState, simulate
 from optplan.solver import Backend, check_int, check_range, get_solver
 
 __all__ = [
+    "PilotedFormation",
     "LeaderFollower",
     "LPhiFollowers",
     "PilotAPF",
@@ -746,8 +747,8 @@ def run_formation(backend: Backend, problem: Problem, fctrl: Any, *, rng: np.ran
 
 
 @dataclass(frozen=True, kw_only=True)
-class LeaderFollower(Backend):
-    """Paper leader-follower formation: pilot APF (eqs 39-45) + L-phi followers (eqs 46-52).
+class PilotedFormation(Backend):
+    """Options shared by the formation backends: the leader's pilot and the run.
 
     Parameters
     ----------
@@ -759,10 +760,6 @@ class LeaderFollower(Backend):
         Pilot obstacle influence distance (map units, eq 41); paper 100.
     n : float
         Goal-distance exponent of the improved repulsion (eq 41); paper 3.
-    A, B : float
-        Gains of the distance and angle potentials (eqs 46, 48); paper 0.5 each.
-    k_f : float
-        Follower convergence rate (1/s): scale of the gradient step, see module doc.
     adapt_phi : bool
         Shrink the desired angle near obstacles by eq 52.
     rho_0_f : float
@@ -770,6 +767,69 @@ class LeaderFollower(Backend):
         :math:`\\rho_0 = 100`.
     c_phi : float
         The factor 20 inside the logarithms of eq 52 (1/map unit); rho is clamped at 1/c_phi.
+    pilot : str
+        ``"apf-paper"`` (built-in eqs 39-45) or a local solver name whose backend exposes
+        ``controller()`` (e.g. ``"sa-apf"``); falls back to the built-in one if unavailable.
+    path_solver : str
+        Solver planning the leader's reference on ``problem.known_view()`` when ``init`` has
+        none.
+    v_factor : float
+        Leader cruise speed as a fraction of its ``max_speed`` (headroom for followers).
+    ref_spacing, lookahead : float
+        Reference resampling step and target look-ahead (map units).
+    tau_h : float
+        Time constant (s) of the low-pass filter on the leader heading that orients the
+        formation frame (0: raw heading of the leader's command).
+    dt : float
+        Control period (s).
+    max_steps : int
+        Simulation budget.
+    settle_tol : float
+        The run ends when the leader is at its goal and every follower is within
+        ``settle_tol * L`` of its slot and (nearly) still, or every follower has stopped.
+    """
+
+    k: float = 15.0
+    eta: float = 3.7
+    rho_0: float = 100.0
+    n: float = 3.0
+    adapt_phi: bool = True
+    rho_0_f: float = 100.0
+    c_phi: float = 20.0
+    pilot: str = "apf-paper"
+    path_solver: str = "ipso-paper"
+    v_factor: float = 0.75
+    ref_spacing: float = 5.0
+    lookahead: float = 15.0
+    tau_h: float = 5.0
+    dt: float = 0.5
+    max_steps: int = 4000
+    settle_tol: float = 0.005
+
+    def _check_pilot_options(self) -> None:
+        for f in ("k", "rho_0", "rho_0_f", "c_phi", "ref_spacing", "dt", "settle_tol"):
+            check_range(self, f, 0, lo_open=True)
+        for f in ("eta", "n", "lookahead", "tau_h"):
+            check_range(self, f, 0)
+        check_range(self, "v_factor", 0, 1, lo_open=True)
+        check_int(self, "max_steps", 1, 10_000_000)
+        if not isinstance(self.adapt_phi, bool):
+            raise ValueError(f"option 'adapt_phi' of backend {self.name!r} must be true or false")
+        for s in ("pilot", "path_solver"):
+            if not isinstance(getattr(self, s), str) or not getattr(self, s):
+                raise ValueError(f"option {s!r} of backend {self.name!r} must be a solver name")
+
+
+@dataclass(frozen=True, kw_only=True)
+class LeaderFollower(PilotedFormation):
+    """Paper leader-follower formation: pilot APF (eqs 39-45) + L-phi followers (eqs 46-52).
+
+    Parameters
+    ----------
+    A, B : float
+        Gains of the distance and angle potentials (eqs 46, 48); paper 0.5 each.
+    k_f : float
+        Follower convergence rate (1/s): scale of the gradient step, see module doc.
     feedforward : bool
         Add the leader's velocity to every follower command.
     eta_r, d_0 : float
@@ -804,42 +864,18 @@ class LeaderFollower(Backend):
     trail_far, trail_reach : float
         Slot distance (× L) beyond which a follower counts as lost even with its slot in
         sight, and how far (× L) it looks along the pilot's path for a visible target.
-    pilot : str
-        ``"apf-paper"`` (built-in eqs 39-45) or a local solver name whose backend exposes
-        ``controller()`` (e.g. ``"sa-apf"``); falls back to the built-in one if unavailable.
-    path_solver : str
-        Solver planning the leader's reference on ``problem.known_view()`` when ``init`` has
-        none.
-    v_factor : float
-        Leader cruise speed as a fraction of its ``max_speed`` (headroom for followers).
-    ref_spacing, lookahead : float
-        Reference resampling step and target look-ahead (map units).
-    tau_h : float
-        Time constant (s) of the low-pass filter on the leader heading that orients the
-        formation frame (0: raw heading of the leader's command).
-    dt : float
-        Control period (s).
-    max_steps : int
-        Simulation budget.
-    settle_tol : float
-        The run ends when the leader is at its goal and every follower is within
-        ``settle_tol * L`` of its slot and (nearly) still, or every follower has stopped.
+    k, eta, rho_0, n, adapt_phi, rho_0_f, c_phi, pilot, path_solver, v_factor, ref_spacing,
+    lookahead, tau_h, dt, max_steps, settle_tol
+        The leader's pilot and run settings (:class:`PilotedFormation`).
     """
 
     name: ClassVar[str] = "leader-follower"
     contract_problem: ClassVar[str] = "formation-open-field"
     contract_overrides: ClassVar[dict] = {"path_solver": "visgraph", "max_steps": 150,
                                           "dt": 1.0}
-    k: float = 15.0
-    eta: float = 3.7
-    rho_0: float = 100.0
-    n: float = 3.0
     A: float = 0.5
     B: float = 0.5
     k_f: float = 1.0
-    adapt_phi: bool = True
-    rho_0_f: float = 100.0
-    c_phi: float = 20.0
     feedforward: bool = True
     eta_r: float = 200.0
     d_0: float = 10.0
@@ -854,35 +890,16 @@ class LeaderFollower(Backend):
     recovery: bool = False
     trail_far: float = 2.0
     trail_reach: float = 3.0
-    pilot: str = "apf-paper"
-    path_solver: str = "ipso-paper"
-    v_factor: float = 0.75
-    ref_spacing: float = 5.0
-    lookahead: float = 15.0
-    tau_h: float = 5.0
-    dt: float = 0.5
-    max_steps: int = 4000
-    settle_tol: float = 0.005
 
     def __post_init__(self) -> None:
-        check_range(self, "k", 0, lo_open=True)
-        check_range(self, "eta", 0)
-        check_range(self, "rho_0", 0, lo_open=True)
-        check_range(self, "n", 0)
+        self._check_pilot_options()
         check_range(self, "A", 0, lo_open=True)
         check_range(self, "B", 0, lo_open=True)
         check_range(self, "k_f", 0, lo_open=True)
-        check_range(self, "rho_0_f", 0, lo_open=True)
-        check_range(self, "c_phi", 0, lo_open=True)
         check_range(self, "eta_r", 0)
         check_range(self, "d_0", 0, lo_open=True)
         check_range(self, "eta_f", 0)
         check_range(self, "rho_f", 0, lo_open=True)
-        check_range(self, "v_factor", 0, 1, lo_open=True)
-        check_range(self, "ref_spacing", 0, lo_open=True)
-        check_range(self, "lookahead", 0)
-        check_range(self, "dt", 0, lo_open=True)
-        check_range(self, "tau_h", 0)
         check_range(self, "gamma_s", 0, 1, lo_open=True)
         check_range(self, "sep_margin", 0)
         check_range(self, "clear_margin", 0)
@@ -893,14 +910,9 @@ class LeaderFollower(Backend):
         if self.k_f * self.dt > 1 + 1e-12:
             raise ValueError(f"options 'k_f' * 'dt' of backend {self.name!r} must be <= 1 "
                              f"(stable follower step), got {self.k_f} * {self.dt}")
-        check_int(self, "max_steps", 1, 10_000_000)
-        check_range(self, "settle_tol", 0, lo_open=True)
-        for b in ("adapt_phi", "feedforward", "safety", "recovery"):
+        for b in ("feedforward", "safety", "recovery"):
             if not isinstance(getattr(self, b), bool):
                 raise ValueError(f"option {b!r} of backend {self.name!r} must be true or false")
-        for s in ("pilot", "path_solver"):
-            if not isinstance(getattr(self, s), str) or not getattr(self, s):
-                raise ValueError(f"option {s!r} of backend {self.name!r} must be a solver name")
 
     def followers_controller(self, problem: Problem, rng: np.random.Generator) -> LPhiFollowers:
         """The L-phi follower law as a FollowerController (interfaces.md)."""
