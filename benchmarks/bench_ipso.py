@@ -1,9 +1,11 @@
 """Speed of the swarm planners: one ``ipso-paper`` run (50 particles x 200 iterations).
 
-1. Wall time per run on ``paper-env1`` (target <= 40 ms median on the 2-core dev machine),
-   with the fast crossing kernel (default), the reference ``geometry.batch_crossings`` kernel,
-   and the coarse planning map (``map_quad_segs = 2``).
-2. Scaling of one run's time with the number of obstacles (10 / 100 / 1000 random squares and
+1. Wall time per run on ``paper-env1`` (target <= 40 ms median on the 2-core dev machine) with
+   the default fitness kernel (``optplan.geometry.ObstacleSet``: exact disc test on the raw
+   obstacles' convex pieces) and with the reference kernel (``geometry.batch_crossings`` on the
+   validator's inflated map); the documented ``ipso`` variant for comparison.
+2. Where the time of one ``ipso-paper`` run goes: the fitness kernel vs the rest of the loop.
+3. Scaling of one run's time with the number of obstacles (10 / 100 / 1000 random squares and
    discs in a 500 x 500 map, obstacle size ~ 1/sqrt(N) so that the covered fraction is
    constant): it must grow sub-linearly.
 
@@ -21,17 +23,45 @@ import time
 import numpy as np
 
 import optplan as op
+from optplan.backends.swarm import make_space
+from optplan.geometry import ObstacleSet
 
 
 def _time_runs(prob, solver, runs: int, **over) -> tuple[float, float]:
     ts, ok = [], 0
-    op.solve(prob, solver, rng=0, **over)  # warm caches (inflation, kernel layout)
+    op.solve(prob, solver, rng=0, **over)  # warm caches (inflation, obstacle set)
     for s in range(runs):
         t = time.perf_counter()
         r = op.solve(prob, solver, rng=s, **over)
         ts.append(time.perf_counter() - t)
         ok += r.success
     return float(np.median(ts)), ok / runs
+
+
+def _kernel_share(prob, solver: str, runs: int) -> tuple[float, float, int]:
+    """Median run time and median time inside ObstacleSet.crossings (one run), calls."""
+    real = ObstacleSet.crossings
+    acc = [0.0, 0]
+
+    def timed(self, *a, **k):
+        t = time.perf_counter()
+        out = real(self, *a, **k)
+        acc[0] += time.perf_counter() - t
+        acc[1] += 1
+        return out
+
+    ObstacleSet.crossings = timed
+    try:
+        tot, ker = [], []
+        for s in range(runs):
+            acc[0], acc[1] = 0.0, 0
+            t = time.perf_counter()
+            op.solve(prob, solver, rng=s)
+            tot.append(time.perf_counter() - t)
+            ker.append(acc[0])
+    finally:
+        ObstacleSet.crossings = real
+    return float(np.median(tot)), float(np.median(ker)), acc[1]
 
 
 def random_map(n: int, seed: int = 0) -> op.Problem:
@@ -62,28 +92,42 @@ def main(argv: list[str] | None = None) -> int:
           f", Python {platform.python_version()}, numpy {np.__version__}")
     print()
     prob = op.load_problem("paper-env1")
-    print("### One run of ipso-paper (50 x 200) on paper-env1")
+    print("### One run on paper-env1")
     print()
-    print("| variant | median wall time per run (ms) | success |")
+    print("| solver | fitness kernel | median wall time per run (ms) | success |")
+    print("|---|---|---|---|")
+    for solver, label, over in [
+            ("ipso-paper", "ObstacleSet (exact disc, default)", {}),
+            ("ipso-paper", "geometry.batch_crossings (validator map)", {"kernel": "geometry"}),
+            ("ipso", "ObstacleSet (exact disc, default)", {})]:
+        runs = args.runs if not over else max(3, args.runs // 3)
+        t, ok = _time_runs(prob, solver, runs, **over)
+        print(f"| {solver} | {label} | {t * 1e3:.0f} | {ok:.0%} |")
+    print()
+    print("### Where the time of one ipso-paper run on paper-env1 goes")
+    print()
+    tot, ker, calls = _kernel_share(prob, "ipso-paper", args.runs)
+    print("| part | median ms per run | per iteration (us) |")
     print("|---|---|---|")
-    for label, over in [("fast kernel (default)", {}),
-                        ("fast kernel, coarse map (map_quad_segs = 2)", {"map_quad_segs": 2}),
-                        ("geometry.batch_crossings kernel", {"kernel": "geometry"})]:
-        runs = args.runs if "geometry" not in label else max(3, args.runs // 3)
-        t, ok = _time_runs(prob, "ipso-paper", runs, **over)
-        print(f"| {label} | {t * 1e3:.0f} | {ok:.0%} |")
+    print(f"| fitness kernel (`ObstacleSet.crossings`, {calls} calls) | {ker * 1e3:.0f} | "
+          f"{ker / 200 * 1e6:.0f} |")
+    print(f"| everything else (IPSO update, GA, bookkeeping, validator) | "
+          f"{(tot - ker) * 1e3:.0f} | {(tot - ker) / 200 * 1e6:.0f} |")
+    print(f"| total | {tot * 1e3:.0f} | {tot / 200 * 1e6:.0f} |")
     print()
     print("### Scaling with the number of obstacles (ipso-paper, one run)")
     print()
-    print("| obstacles | inflated parts | boundary edges | median ms per run | x vs 10 |")
+    print("| obstacles (placed) | kernel items (convex pieces + circles) | grid "
+          "| median ms per run | x vs 10 |")
     print("|---|---|---|---|---|")
     base = None
     for n in (10, 100, 1000):
         p = random_map(n)
-        imap = p.inflated(1.0)
+        obs = make_space(p, p.robots[0], 1).obstacles
         t, _ = _time_runs(p, "ipso-paper", max(3, args.runs // 3))
         base = base or t
-        print(f"| {n} | {imap.n} | {int(imap.edge_mask.sum())} | {t * 1e3:.0f} | "
+        grid = "-" if obs.grid is None else f"{obs.grid['nx']} x {obs.grid['ny']}"
+        print(f"| {n} ({len(p.obstacles)}) | {obs.n_items} | {grid} | {t * 1e3:.0f} | "
               f"{t / base:.1f} |")
     return 0
 

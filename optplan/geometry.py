@@ -455,15 +455,44 @@ class ObstacleSet:
     crossings of the *inscribed* round buffer (:func:`inflate`), which lies inside the exact
     Minkowski sum.  A segment entering the inscribed polygon's interior comes closer than
     ``radius`` to the obstacle, so this test is stricter: a path collision-free here is
-    collision-free for the validator (``tests/test_geometry.py`` checks it on random
-    segments).  The price is up to the sagitta ``r (1 - cos(pi / 16))`` of extra clearance at
-    rounded corners.  Touching a raw obstacle counts as a collision even for ``radius = 0``.
+    collision-free for the validator (``tests/test_swarm.py`` checks it on random segments
+    and on segments grazing rounded corners).  The price is up to the sagitta
+    ``r (1 - cos(pi / 16))`` of extra clearance at rounded corners.  Touching a raw obstacle
+    counts as a collision even for ``radius = 0``.
 
-    Candidate pairs: every item (piece or circle) has a bounding circle ``(center, reach)``;
-    only segments passing within ``reach + radius`` of the center are tested.  With many items
-    a uniform grid (cell ~ 2 x the median item extent) lists the items by the cells their
-    bounding square covers; each segment visits the cells it crosses (column by column), so
-    the work per segment grows with the obstacles near it, not with all of them.
+    Candidate pairs: every item (piece or circle) has a bounding circle ``(center, reach)``.
+    With few items (< 48) all (segment, item) pairs get one matrix product giving each
+    center's distance to the segment's line and its coordinate along the segment, and only
+    centers in the box around the capsule of radius ``reach + radius`` are kept.  With many
+    items a uniform grid (cell ~ 2 x the median item extent) lists the items by the cells their
+    bounding square covers; each segment visits the cells it crosses (column by column, exact
+    supercover), and the capsule test is applied to the pairs found, so the work per segment
+    grows with the obstacles near it, not with all of them.  Points are handled as complex
+    numbers (a free view of the ``(..., 2)`` input), which halves the number of array
+    operations; the per-(pair, edge) arrays are ``(4, pairs)`` so that reductions over a
+    piece's edges run along the first axis (numpy reduces a short last axis slowly).
+
+    Attributes
+    ----------
+    radius : float
+        Robot radius.
+    n_obstacles, names
+        Raw obstacles (counts are per obstacle, not per piece).
+    n_pieces : int
+        Convex pieces; items ``0 .. n_pieces - 1`` are pieces, the rest circles.
+    item_obstacle, item_center, item_reach
+        Per item: owning obstacle, bounding-circle center (complex) and radius.
+    circle_radius : array
+        Radii of the circle items.
+    table : complex array ``(5, 4, n_pieces)``
+        Per piece edge: start point, edge vector, outward unit normal, ``-conj(e) / |e|^2``
+        and ``n . p`` (real part).
+    scale : float
+        Coordinate scale for the ``1e-9`` relative tolerance.
+    grid : dict or None
+        The uniform grid (cell size, origin, shape, CSR item lists), or None (all pairs).
+    grid_free : dict
+        The matrix of the all-pairs test and the per-item ``reach + radius``.
     """
 
     radius: float
@@ -539,11 +568,14 @@ class ObstacleSet:
             pts = pts[None]
         P, M, _ = pts.shape
         S = M - 1
-        zero = DiscCrossings(np.zeros(P, np.int64), np.zeros(P),
-                             np.zeros((P, max(S, 0)), np.int64) if details else None,
-                             (np.zeros(0, np.int64),) * 3 if details else None)
+
+        def zero() -> DiscCrossings:
+            return DiscCrossings(np.zeros(P, np.int64), np.zeros(P),
+                                 np.zeros((P, max(S, 0)), np.int64) if details else None,
+                                 (np.zeros(0, np.int64),) * 3 if details else None)
+
         if self.n_items == 0 or S <= 0:
-            return zero
+            return zero()
         # points as complex numbers (a free view of the interleaved coordinates)
         z = np.ascontiguousarray(pts).view(np.complex128)[..., 0]
         a = z[:, :-1].reshape(-1)
@@ -555,17 +587,19 @@ class ObstacleSet:
         if self.grid is None:
             # all (segment, item) pairs: keep the centers inside the box around the capsule
             # of radius reach + r (perpendicular and along-segment coordinates by one matmul)
-            L = np.empty((len(a), 4))
-            L[:, 0], L[:, 1] = d.real, d.imag
-            L[:, 2] = (d * a.conj()).imag  # dy ax - dx ay
-            L[:, 3] = -(d * a.conj()).real  # -(dx ax + dy ay)
-            R = L @ self.grid_free["M"]
+            il = 1.0 / np.maximum(np.sqrt(dd), 1e-300)
+            da = d * a.conj()
+            L = np.empty((4, len(a)))
+            L[0], L[1] = d.real * il, d.imag * il
+            L[2] = da.imag * il  # (dy ax - dx ay) / |d|
+            L[3] = -da.real * il - 0.5 * dd * il  # -(d.a) / |d| - |d| / 2
+            # rows 0..K-1: signed distance of each center to the segment's line; rows K..2K-1:
+            # its coordinate along the segment measured from the midpoint
+            R = np.abs(self.grid_free["M"] @ L)
             K = self.n_items
-            cr, dt = R[:, :K], R[:, K:]
-            ln = np.sqrt(dd)
-            lim = np.multiply.outer(ln, self.item_reach + r_eff)
-            near = (np.abs(cr) < lim) & (dt > -lim) & (dt < dd[:, None] + lim)
-            si, it = np.divmod(np.flatnonzero(near), K)
+            lim = self.grid_free["lim"] + 1e-9 * self.scale
+            near = (R[:K] < lim) & (R[K:] < lim + 0.5 * dd * il)
+            it, si = np.divmod(np.flatnonzero(near), len(a))
         else:
             si, it = self._grid_pairs(a, a + d)
             w = self.item_center[it] - a[si]
@@ -575,7 +609,7 @@ class ObstacleSet:
             keep = np.flatnonzero((x * x.conj()).real < lim * lim)
             si, it = si[keep], it[keep]
         if si.size == 0:
-            return zero
+            return zero()
         hs, hi, hp = [], [], []
         if self.n_pieces < self.n_items:  # circles: exact center-segment distance
             ci = np.flatnonzero(it >= self.n_pieces)
@@ -727,12 +761,12 @@ def obstacle_set(obstacles: Iterable, radius: float, grid: bool | None = None) -
         gd = {"h": h, "x0": float(lo[0]), "y0": float(lo[1]), "nx": nx, "ny": ny,
               "items": items_a[order], "count": count,
               "start": np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)}
-    # columns giving, for a row (dx, dy, dy ax - dx ay, -(dx ax + dy ay)) of a segment, the
+    # rows giving, for a column (dx, dy, dy ax - dx ay, -(dx ax + dy ay)) of a segment, the
     # cross product (first n_items) and the dot product (next n_items) of d and center - a
-    M = np.zeros((4, 2 * n_items))
-    M[0, :n_items], M[1, :n_items], M[2, :n_items] = -centers[:, 1] * 0 + centers[:, 1], \
-        -centers[:, 0], 1.0
-    M[0, n_items:], M[1, n_items:], M[3, n_items:] = centers[:, 0], centers[:, 1], 1.0
+    M = np.zeros((2 * n_items, 4))
+    M[:n_items, 0], M[:n_items, 1], M[:n_items, 2] = centers[:, 1], -centers[:, 0], 1.0
+    M[n_items:, 0], M[n_items:, 1], M[n_items:, 3] = centers[:, 0], centers[:, 1], 1.0
     return ObstacleSet(float(radius), len(obstacles), tuple(o.name for o in obstacles), K,
                        item_obstacle, centers[:, 0] + 1j * centers[:, 1], reach, circ[:, 2],
-                       table, scale, gd, {"M": M})
+                       table, scale, gd,
+                       {"M": M, "lim": (reach + radius)[:, None]})

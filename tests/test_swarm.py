@@ -6,10 +6,11 @@ import math
 
 import numpy as np
 import pytest
+import shapely
 
 import optplan as op
 from optplan.backends import swarm as sw
-from optplan.geometry import batch_crossings, inflate
+from optplan.geometry import PIECE_EDGES, batch_crossings, convex_pieces, obstacle_set
 
 
 def _problem(obstacles=None, **kw) -> op.Problem:
@@ -35,35 +36,131 @@ def _problem(obstacles=None, **kw) -> op.Problem:
 
 
 # ---------------------------------------------------------------------------------------
-# fast kernel == geometry.batch_crossings (twin test)
+# the shared disc-robot kernel (optplan.geometry.ObstacleSet) against shapely
 # ---------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("n_copies", [1, 400])  # 400 copies force the bounding-box branch
-def test_fast_crossings_matches_batch_crossings(n_copies):
-    prob = _problem()
-    imap = prob.inflated(1.0)
-    kern = sw.make_kernel(imap)
-    rng = np.random.default_rng(3)
-    paths = rng.uniform(-5, 105, (60, 5, 2))
-    # special cases: along an inflated edge, through vertices, inside, degenerate segments
-    verts = np.asarray(imap.parts[0].exterior.coords)
-    paths[0, :] = verts[:5]
-    paths[1, :] = np.array([[10, 50], [50, 50], [50, 50], [90, 50], [90, 50]])
-    paths[2, :] = np.array([[41, 31], [59, 69], [41, 69], [59, 31], [50, 50]])
-    paths[3, :] = np.array([[10, 71 + 1e-12], [90, 71], [90, 71], [90, 29], [10, 29]])
-    batch = np.repeat(paths, n_copies, axis=0)
-    ref = batch_crossings(batch, imap)
-    count, pen = sw.fast_crossings(batch, kern)
-    np.testing.assert_array_equal(count, ref.count)
-    np.testing.assert_allclose(pen, ref.penetration, rtol=1e-9, atol=1e-9)
+def _raw_distance(seg: np.ndarray, obstacle) -> float:
+    line = shapely.LineString(seg) if np.any(seg[0] != seg[1]) else shapely.Point(seg[0])
+    if obstacle.is_circle:
+        return max(line.distance(shapely.Point(obstacle.center)) - obstacle.radius, 0.0)
+    return line.distance(obstacle.geometry)
 
 
-def test_fast_crossings_empty_map_and_single_point():
-    prob = _problem(obstacles=[])
-    kern = sw.make_kernel(prob.inflated(1.0))
-    c, p = sw.fast_crossings(np.zeros((3, 4, 2)), kern)
-    assert c.tolist() == [0, 0, 0] and p.tolist() == [0, 0, 0]
+def _hexagon_problem() -> op.Problem:
+    hexagon = [[50 + 8 * math.cos(a), 50 + 8 * math.sin(a)]
+               for a in np.linspace(0, 2 * math.pi, 7)[:-1]]
+    return _problem(obstacles=[
+        {"type": "rectangle", "min": [40.0, 30.0], "max": [60.0, 40.0]},
+        {"type": "polygon", "vertices": hexagon},  # convex, 6 edges: fan-split in 2 pieces
+        {"type": "circle", "center": [75.0, 20.0], "radius": 8.0},
+        {"type": "polygon", "vertices": [[60, 80], [90, 80], [90, 95], [85, 95], [85, 85],
+                                         [65, 85], [65, 95], [60, 95]]},  # non-convex U
+        {"type": "polygon", "vertices": [[20.0, 75.0], [35.0, 95.0], [15.0, 95.0]]},
+    ])
+
+
+@pytest.mark.parametrize("grid", [False, True])
+@pytest.mark.parametrize("radius", [0.0, 1.5])
+def test_obstacle_set_is_the_exact_disc_test(grid, radius):
+    prob = _hexagon_problem()
+    obs = obstacle_set(prob.obstacles, radius, grid=grid)
+    rng = np.random.default_rng(4)
+    paths = rng.uniform(-5, 105, (300, 4, 2))
+    paths[0] = [[10, 50], [10, 50], [50, 50], [50, 50]]  # degenerate segments, one inside
+    paths[1] = [[30, 40 + radius], [70, 40 + radius], [70, 10], [30, 28.5 - radius]]  # along
+    res = obs.crossings(paths, details=True)
+    ref = np.zeros((len(paths), 3), int)
+    tricky = np.zeros((len(paths), 3), bool)
+    for k in range(len(paths)):
+        for j in range(3):
+            d = np.array([_raw_distance(paths[k, j:j + 2], o) for o in prob.obstacles])
+            ref[k, j] = np.sum(d < radius) if radius > 0 else np.sum(d <= 0)
+            tricky[k, j] = np.any(np.abs(d - radius) < 1e-7)
+    np.testing.assert_array_equal(res.seg_count[~tricky], ref[~tricky])
+    np.testing.assert_array_equal(res.count, res.seg_count.sum(axis=1))
+    assert res.count.sum() > 100
+    fast = obs.crossings(paths, penetration=False)
+    np.testing.assert_array_equal(fast.count, res.count)
+    # the pairs name (path, segment, obstacle)
+    p_i, s_i, o_i = res.pairs
+    assert len(p_i) == res.count.sum()
+    for k, j, o in zip(p_i[:50], s_i[:50], o_i[:50]):
+        assert _raw_distance(paths[k, j:j + 2], prob.obstacles[o]) < radius + 1e-7
+
+
+def test_obstacle_set_grid_and_all_pairs_agree_on_many_obstacles():
+    rng = np.random.default_rng(0)
+    obstacles = []
+    for i, c in enumerate(rng.uniform(0, 100, (300, 2))):
+        if i % 2:
+            obstacles.append({"type": "circle", "center": c.tolist(), "radius": 1.0})
+        else:
+            obstacles.append({"type": "rectangle", "center": c.tolist(), "size": [2.0, 1.0]})
+    prob = _problem(obstacles=obstacles)
+    paths = rng.uniform(0, 100, (40, 6, 2))
+    a = obstacle_set(prob.obstacles, 0.5, grid=False).crossings(paths, details=True)
+    b = obstacle_set(prob.obstacles, 0.5, grid=True).crossings(paths, details=True)
+    assert obstacle_set(prob.obstacles, 0.5).grid is not None  # default: grid from 48 items
+    np.testing.assert_array_equal(a.seg_count, b.seg_count)
+    np.testing.assert_allclose(a.penetration, b.penetration)
+
+
+def test_disc_test_is_stricter_than_the_validator():
+    """Fitness-feasible (disc test) implies validator-feasible (inscribed round buffer)."""
+    prob = _hexagon_problem()
+    r = 2.0
+    obs = obstacle_set(prob.obstacles, r)
+    imap = prob.inflated(r)
+    rng = np.random.default_rng(1)
+    segs = rng.uniform(0, 100, (6000, 2, 2))
+    # plus segments grazing the rounded corners (where the two tests differ)
+    corners = np.array([[40.0, 30.0], [60.0, 40.0], [90.0, 80.0]])
+    ang = rng.uniform(0, 2 * np.pi, 3000)
+    c = corners[rng.integers(0, 3, 3000)]
+    dist = r * rng.uniform(0.97, 1.03, 3000)
+    foot = c + dist[:, None] * np.stack([np.cos(ang), np.sin(ang)], axis=1)
+    tang = np.stack([-np.sin(ang), np.cos(ang)], axis=1)
+    near = np.stack([foot - 3 * tang, foot + 3 * tang], axis=1)
+    segs = np.concatenate([segs, near])
+    disc = obs.crossings(segs).count
+    val = batch_crossings(segs, imap).count
+    assert np.all(val[disc == 0] == 0)
+    assert np.any((disc > 0) & (val == 0))  # strictly stricter near the corners
+    # a pinned case: 1.995 from a raw corner, between the buffer's vertices
+    th = np.deg2rad(180 + 39.375)  # lower-left corner (40, 30), direction between vertices
+    f = np.array([40.0, 30.0]) + 1.995 * np.array([np.cos(th), np.sin(th)])
+    t = np.array([-np.sin(th), np.cos(th)])
+    seg = np.array([[f - 0.2 * t, f + 0.2 * t]])
+    assert obs.crossings(seg).count[0] == 1 and batch_crossings(seg, imap).count[0] == 0
+
+
+def test_convex_pieces_and_penetration():
+    sq = shapely.box(0, 0, 10, 10)
+    assert [len(v) for v in convex_pieces(sq)] == [4]
+    hexagon = shapely.Point(0, 0).buffer(5, quad_segs=2).convex_hull  # 8 vertices
+    pieces = convex_pieces(hexagon)
+    assert all(3 <= len(v) <= PIECE_EDGES for v in pieces)
+    assert sum(shapely.Polygon(v).area for v in pieces) == pytest.approx(hexagon.area)
+    u = shapely.Polygon([[0, 0], [3, 0], [3, 3], [2, 3], [2, 1], [1, 1], [1, 3], [0, 3]])
+    pieces = convex_pieces(u)
+    assert sum(shapely.Polygon(v).area for v in pieces) == pytest.approx(u.area)
+    assert all(shapely.Polygon(v).exterior.is_ccw for v in pieces)
+    # penetration: r - distance outside, r + inside length through the raw obstacle
+    prob = _problem(obstacles=[{"type": "rectangle", "min": [40.0, 30.0], "max": [60.0, 70.0]}])
+    obs = obstacle_set(prob.obstacles, 2.0)
+    res = obs.crossings(np.array([[[30.0, 50.0], [70.0, 50.0]], [[30.0, 71.5], [70.0, 71.5]],
+                                  [[30.0, 80.0], [70.0, 80.0]]]))
+    assert res.count.tolist() == [1, 1, 0]
+    np.testing.assert_allclose(res.penetration, [2.0 + 20.0, 0.5, 0.0])
+
+
+def test_obstacle_set_empty_map_and_single_point():
+    obs = obstacle_set([], 1.0)
+    res = obs.crossings(np.zeros((3, 4, 2)), details=True)
+    assert res.count.tolist() == [0, 0, 0] and res.seg_count.shape == (3, 3)
+    one = obstacle_set(_problem().obstacles, 1.0).crossings(np.array([[5.0, 5.0]]))
+    assert one.count.tolist() == [0]
 
 
 # ---------------------------------------------------------------------------------------
@@ -85,27 +182,35 @@ def test_fitness_is_length_plus_penalty_times_crossings():
     # the penetration term (beyond the paper) adds weight x inside length
     space2 = sw.make_space(prob, prob.robots[0], 2, penalty_weight=100.0, penetration_weight=2.0)
     ev2 = sw.evaluate_swarm(X, space2)
-    np.testing.assert_allclose(ev2.cost, ev.cost + 2.0 * ev.penetration)
-    assert ev.penetration[0] == pytest.approx(22.0, abs=0.05)  # 20 + 2 x radius
+    np.testing.assert_allclose(ev2.cost, ev.cost + 2.0 * ev2.penetration)
+    assert ev2.penetration[0] == pytest.approx(21.0)  # r + inside length of the raw obstacle
 
 
-def test_geometry_kernel_calls_batch_crossings_once(monkeypatch):
+def test_fitness_calls_the_kernel_once_per_evaluation(monkeypatch):
     prob = _problem()
-    space = sw.make_space(prob, prob.robots[0], 3, kernel="geometry")
+    disc_space = sw.make_space(prob, prob.robots[0], 3)
+    geo_space = sw.make_space(prob, prob.robots[0], 3, kernel="geometry")
     calls = []
-    real = sw.batch_crossings
+    real = type(disc_space.obstacles).crossings
+    real_bc = sw.batch_crossings
 
-    def spy(paths, imap, *a, **k):
-        calls.append(np.asarray(paths).shape)
-        return real(paths, imap, *a, **k)
+    def spy(self, paths, *a, **k):
+        calls.append(("disc", np.asarray(paths).shape))
+        return real(self, paths, *a, **k)
 
-    monkeypatch.setattr(sw, "batch_crossings", spy)
-    X = sw.initial_swarm(space, 50, "uniform", np.random.default_rng(0))
-    ev = sw.evaluate_swarm(X, space)
-    assert calls == [(50, 5, 2)]
-    fast = sw.evaluate_swarm(X, sw.make_space(prob, prob.robots[0], 3, kernel="fast"))
-    np.testing.assert_array_equal(ev.count, fast.count)
-    np.testing.assert_allclose(ev.cost, fast.cost)
+    def spy_bc(paths, imap, *a, **k):
+        calls.append(("geometry", np.asarray(paths).shape))
+        return real_bc(paths, imap, *a, **k)
+
+    monkeypatch.setattr(type(disc_space.obstacles), "crossings", spy)
+    monkeypatch.setattr(sw, "batch_crossings", spy_bc)
+    X = sw.initial_swarm(disc_space, 50, "uniform", np.random.default_rng(0))
+    disc = sw.evaluate_swarm(X, disc_space)
+    geo = sw.evaluate_swarm(X, geo_space)
+    assert calls == [("disc", (50, 5, 2)), ("geometry", (50, 5, 2))]
+    # the disc test is stricter: every validator-map collision is a disc collision
+    assert np.all(disc.count[geo.count > 0] > 0)
+    np.testing.assert_allclose(geo.length, disc.length)
 
 
 def test_default_penalty_makes_every_feasible_path_win():
@@ -121,18 +226,6 @@ def test_default_penalty_makes_every_feasible_path_win():
     feas, coll = ev.count == 0, ev.count > 0
     assert feas.any() and coll.any()
     assert ev.cost[feas].max() < ev.cost[coll].min()
-
-
-def test_coarse_map_contains_the_validator_map():
-    prob = _problem()
-    exact = sw.make_space(prob, prob.robots[0], 3)
-    coarse = sw.make_space(prob, prob.robots[0], 3, map_quad_segs=2)
-    X = sw.initial_swarm(exact, 3000, "uniform", np.random.default_rng(2))
-    e, c = sw.evaluate_swarm(X, exact), sw.evaluate_swarm(X, coarse)
-    # collision-free on the coarse map => collision-free on the validator's map
-    assert np.all(e.count[c.count == 0] == 0)
-    assert coarse.imap.edge_mask.sum() < exact.imap.edge_mask.sum()
-    assert inflate(prob.obstacles, 1.0).n == exact.imap.n
 
 
 # ---------------------------------------------------------------------------------------
@@ -198,12 +291,14 @@ def test_history_and_extras(backend):
     prob = _problem()
     res = op.solve(prob, backend, rng=1, n_particles=20, k_max=30, penetration_weight=1.0)
     h = res.history
-    assert len(h) == 31
+    # the ipso preset adds one row for its final tightening (not an iteration)
+    assert len(h) == 31 + ("tightened" in h)
     assert np.all(np.diff(h["best_cost"]) <= 1e-12)  # gbest never gets worse
     for col in ("iteration", "best_cost", "feasible_best_length", "n_eval", "time"):
         assert col in h
     assert h["n_eval"][-1] == res.n_eval
-    assert res.extras["converged_iteration"] == sw.converged_iteration(h["best_cost"])
+    # over the swarm iterations 0..k_max (not the final tightening row)
+    assert res.extras["converged_iteration"] == sw.converged_iteration(h["best_cost"][:31])
     assert res.n_iter == 30
     if res.success:
         assert res.metrics["length"] == pytest.approx(h["feasible_best_length"][-1])

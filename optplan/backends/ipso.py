@@ -64,9 +64,11 @@ from optplan.backends.swarm import (
     SwarmBackend,
     SwarmSpace,
     SwarmState,
+    decode,
     evaluate_swarm,
     handle_bounds,
     snap_targets,
+    tighten,
 )
 from optplan.solver import check_choice, check_int, check_range
 
@@ -124,8 +126,12 @@ def crossover(x1: np.ndarray, x2: np.ndarray, v1: np.ndarray, v2: np.ndarray,
     Returns ``(child1_x, child2_x, child1_v, child2_v)``, each the stated convex combination.
     """
     p = np.asarray(pc, dtype=float)[:, None]
-    return (p * x1 + (1 - p) * x2, (1 - p) * x1 + p * x2,
-            p * v1 + (1 - p) * v2, (1 - p) * v1 + p * v2)
+    dx = x1 - x2
+    dx *= p
+    dv = v1 - v2
+    dv *= p
+    # p x1 + (1 - p) x2 = x2 + p (x1 - x2); (1 - p) x1 + p x2 = x1 - p (x1 - x2)
+    return x2 + dx, x1 - dx, v2 + dv, v1 - dv
 
 
 def greedy_mutation(cost_child: np.ndarray, cost_mutant: np.ndarray) -> np.ndarray:
@@ -210,8 +216,24 @@ class IPSO(SwarmBackend):
         Beyond the paper: every iteration also score this many Gaussian trials around gbest
         with an adaptive step (x2 after a success, x0.8 otherwise); a better one replaces
         gbest and the worst particle.
+    islands : int
+        Beyond the paper (diversity): the swarm is split into this many equal islands of
+        consecutive particles, each following its own island best in eq 22 instead of the
+        global best (GA and the beyond-the-paper moves still use the whole swarm and gbest).
+        Each island also runs its own GA (its ``A / islands`` best are crossed and replace its
+        worst) and the beyond-the-paper moves visit one island's best per iteration (round
+        robin), so the islands are independent sub-swarms scored in one batch: they keep
+        several homotopy classes alive.  1 = the paper's single global best.  The number used
+        is the largest divisor of ``n_particles`` that is at most ``islands`` and leaves at
+        least 2 particles per island.
+    tighten_rounds : int
+        Beyond the paper: after the ``k_max`` iterations, :func:`optplan.backends.swarm.tighten`
+        (deterministic corner cutting + string pulling, at most this many rounds) is applied to
+        the best collision-free particle and to every island's best; the shortest result is
+        returned (one extra history row).  The returned path then has as many vertices as the
+        tightening needs (more than ``n_waypoints`` around rounded corners).
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
-penetration_weight, kernel, map_quad_segs
+penetration_weight, kernel
         Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
     """
 
@@ -229,6 +251,8 @@ penetration_weight, kernel, map_quad_segs
     redistribute: bool = False
     snap: bool = False
     local_trials: int = 0
+    islands: int = 1
+    tighten_rounds: int = 0
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -252,6 +276,8 @@ penetration_weight, kernel, map_quad_segs
             raise ValueError(f"option 'snap' of backend 'ipso' must be true or false, "
                              f"got {self.snap!r}")
         check_int(self, "local_trials", 0, 100_000)
+        check_int(self, "tighten_rounds", 0, 100_000)
+        check_int(self, "islands", 1, 10_000)
 
     # ---------------------------------------------------------------------------------
     def _start(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator) -> None:
@@ -259,6 +285,23 @@ penetration_weight, kernel, map_quad_segs
                            local_sigma=0.01, local_accepted=0, redistributed=0, snapped=0)
         if self.snap:
             state.stats["_snap"] = snap_targets(space.imap, 1e-6 * space.diag)
+        state.stats["_ones"] = np.ones(space.dim)
+        if self._n_islands > 1:
+            self._update_islands(state)
+
+    @property
+    def _n_islands(self) -> int:
+        """Islands actually used (see the ``islands`` option)."""
+        return max(i for i in range(1, min(self.islands, self.n_particles // 2, self.n_particles)
+                                    + 1) if self.n_particles % i == 0) if self.islands > 1 else 1
+
+    def _update_islands(self, state: SwarmState) -> None:
+        """Each island's best personal best (islands = blocks of consecutive particles)."""
+        I = self._n_islands
+        m = len(state.pbest_f) // I
+        j = np.argmin(state.pbest_f.reshape(I, m), axis=1) + m * np.arange(I)
+        state.stats["_island_idx"] = j
+        state.stats["_social"] = np.repeat(state.pbest[j], m, axis=0)
 
     def _inertia(self, state: SwarmState) -> float:
         vn = state.stats["vnorms"]
@@ -268,25 +311,35 @@ penetration_weight, kernel, map_quad_segs
             return inertia_weight(dw, self.w_max)
         if len(vn) < 2:  # first move: w(0) = w_max
             return self.w_max
-        return float(np.clip(state.stats["w"] - dw, self.w_min, self.w_max))
+        return float(min(max(state.stats["w"] - dw, self.w_min), self.w_max))
 
     def _move(self, space: SwarmSpace, state: SwarmState, w: float, k: int,
               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+        """Eqs 22-24 for the whole swarm: ``(X^{k+1}, V^{k+1})`` before bounds handling.
+
+        ``eps``, ``eta`` and ``R`` ~ U(0, 1) per particle and coordinate (one draw).
+        """
         P, D = state.X.shape
-        eps = rng.random((P, D))
-        eta = rng.random((P, D))
-        V = (w * state.V + self.c1 * eps * (state.pbest - state.X)
-             + self.c2 * eta * (state.gbest[None, :] - state.X))  # eq 22
+        U = rng.random((3, P, D))
+        X = state.X
+        U[0] *= self.c1
+        U[1] *= self.c2
+        V = state.V * w
+        V += U[0] * (state.pbest - X)
+        social = state.stats["_social"] if self._n_islands > 1 else state.gbest
+        V += U[1] * (social - X)  # eq 22
         vmax = self._vmax(space)
         if vmax is not None:
-            V = np.clip(V, -vmax, vmax)
-        psi = float(position_factor(k, self.k_max))
-        R = rng.random((P, D))
-        X = state.X
+            np.minimum(V, vmax, out=V)
+            np.maximum(V, -vmax, out=V)
+        R = U[2]
+        R *= 1.0 - math.tanh(k / (self.k_max + 1.0))  # psi(k) R, eq 23
         if self.position_update == "paper":
-            Xn = psi * R * X + V  # eq 24 as printed
+            Xn = R * X
+            Xn += V  # eq 24 as printed
         elif self.position_update == "step":
-            Xn = X + psi * R * V
+            Xn = R * V
+            Xn += X
         else:  # lateral offsets from the start-goal line
             s, g = space.start, space.goal
             u = g - s
@@ -294,108 +347,200 @@ penetration_weight, kernel, map_quad_segs
             W = X.reshape(P, -1, 2)
             tpar = ((W - s) @ u) / uu if uu > 0 else np.zeros(W.shape[:2])
             foot = (s + tpar[..., None] * u).reshape(P, D)
-            Xn = foot + psi * R * (X - foot) + V
+            Xn = foot + R * (X - foot) + V
         return Xn, V
 
     def _children(self, space: SwarmSpace, state: SwarmState, k: int,
                   rng: np.random.Generator):
-        A = min(self.A, len(state.F) - len(state.F) % 2)
+        """Selection, crossover (eqs 25-28) and the mutation candidates ``child + C_k``.
+
+        Returns ``(CX, CV, MX, island of each child)`` or None.  With islands, each island
+        selects its own ``A / islands`` best (rounded down to even).
+        """
+        I = self._n_islands
+        P = len(state.F)
+        m_i = P // I
+        A = min(self.A // I, m_i)
+        A -= A % 2
         if A < 2:
             return None
-        order = np.argsort(state.F, kind="stable")[:A]
-        i1, i2 = order[0::2], order[1::2]
+        if I == 1:
+            order = np.argsort(state.F, kind="stable")[:A][None]
+        else:
+            order = (np.argsort(state.F.reshape(I, m_i), axis=1, kind="stable")[:, :A]
+                     + m_i * np.arange(I)[:, None])
+        i1, i2 = order[:, 0::2].reshape(-1), order[:, 1::2].reshape(-1)
+        isl = np.repeat(np.arange(I), A // 2) if I > 1 else np.zeros(A // 2, np.int64)
         x1, x2 = state.X[i1], state.X[i2]
         if math.isfinite(self.crossover_tol):
-            n = space.n_waypoints
-            dw = np.hypot(*(x1 - x2).reshape(len(i1), n, 2).transpose(2, 0, 1))
-            gate = dw.min(axis=1) <= self.crossover_tol * space.diag
-            i1, i2, x1, x2 = i1[gate], i2[gate], x1[gate], x2[gate]
-        if len(i1) == 0:
+            dx = x1 - x2
+            dx *= dx
+            d2 = dx[:, 0::2] + dx[:, 1::2]  # squared waypoint distances, (pairs, n)
+            gate = d2.min(axis=1) <= (self.crossover_tol * space.diag) ** 2
+            if not gate.all():
+                i1, i2, x1, x2, isl = i1[gate], i2[gate], x1[gate], x2[gate], isl[gate]
+        m = len(i1)
+        if m == 0:
             return None
-        pc = rng.random(len(i1))
-        c1x, c2x, c1v, c2v = crossover(x1, x2, state.V[i1], state.V[i2], pc)
-        CX = np.vstack([c1x, c2x])
-        CV = np.vstack([c1v, c2v])
-        sigma = self.mutation_scale * space.span * float(position_factor(k, self.k_max))
-        MX = CX + sigma * rng.standard_normal(CX.shape)  # child + C_k
-        MX, _ = handle_bounds(MX, np.zeros_like(MX), space.lo, space.hi, self.bounds_mode, rng)
-        return CX, CV, MX
+        pc = rng.random(m)
+        c1x, c2x, c1v, c2v = crossover(x1, x2, state.V[i1], state.V[i2], pc)  # eqs 25-28
+        CX = np.concatenate([c1x, c2x])
+        CV = np.concatenate([c1v, c2v])
+        sigma = space.span * (self.mutation_scale * (1.0 - math.tanh(k / (self.k_max + 1.0))))
+        MX = rng.standard_normal(CX.shape)
+        MX *= sigma
+        MX += CX  # child + C_k
+        MX, _ = handle_bounds(MX, MX, space.lo, space.hi, self.bounds_mode, rng)
+        return CX, CV, MX, np.concatenate([isl, isl])
+
+    def _worst_slots(self, F: np.ndarray, isl: np.ndarray) -> np.ndarray:
+        """Slots of the worst particles: the r-th child of island i takes the r-th worst
+        particle of island i (children sorted by island)."""
+        I = self._n_islands
+        if I == 1:
+            return np.argsort(F, kind="stable")[::-1][:len(isl)]
+        m_i = len(F) // I
+        worst = np.argsort(F.reshape(I, m_i), axis=1, kind="stable")[:, ::-1]
+        first = np.searchsorted(isl, isl)  # isl is sorted
+        rank = np.arange(len(isl)) - first
+        return worst[isl, np.minimum(rank, m_i - 1)] + m_i * isl
 
     def _iterate(self, space: SwarmSpace, state: SwarmState, it: int,
                  rng: np.random.Generator) -> dict[str, Any]:
+        st = state
         k = it - 1
-        w = self._inertia(state)
-        kids = self._children(space, state, k, rng)
-        X, V = self._move(space, state, w, k, rng)
+        w = self._inertia(st)
+        kids = self._children(space, st, k, rng)
+        X, V = self._move(space, st, w, k, rng)
         X, V = handle_bounds(X, V, space.lo, space.hi, self.bounds_mode, rng)
         P = len(X)
-        parts = [X]
+        blocks = [X]
+        m = 0
         if kids is not None:
-            parts += [kids[0], kids[2]]
+            m = len(kids[0])
+            blocks += [kids[0], kids[2]]
+        # beyond-the-paper moves around the global best; with islands, around one island's
+        # best per iteration (round robin), so that no island is pulled into another's class
+        if self._n_islands > 1:
+            focus_isl = it % self._n_islands
+            focus = st.pbest[st.stats["_island_idx"][focus_isl]]
+        else:
+            focus_isl, focus = 0, st.gbest
         extra = []
         if self.redistribute:
             extra.append(("redistributed", redistribute_candidates(
-                state.gbest, space.start, space.goal)))
-        if self.snap and len(state.stats["_snap"]):
-            extra.append(("snapped", snap_candidates(state.gbest, state.stats["_snap"])))
+                focus, space.start, space.goal)))
+        if self.snap and len(st.stats["_snap"]):
+            extra.append(("snapped", snap_candidates(focus, st.stats["_snap"])))
         if self.local_trials:
-            sig = state.stats["local_sigma"]
-            T = state.gbest + sig * space.span * rng.standard_normal(
+            T = focus + (st.stats["local_sigma"] * space.span) * rng.standard_normal(
                 (self.local_trials, space.dim))
-            T, _ = handle_bounds(T, np.zeros_like(T), space.lo, space.hi, self.bounds_mode, rng)
+            T, _ = handle_bounds(T, T, space.lo, space.hi, self.bounds_mode, rng)
             extra.append(("local_accepted", T))
-        batch = np.vstack(parts + [e[1] for e in extra])
-        ev = evaluate_swarm(batch, space)  # one crossing test for everything scored
-        state.n_eval += len(batch)
-        state.V = V
-        state.absorb(X, ev.take(slice(0, P)))
-        n_kids, kept = 0, 0
-        pos = P
-        if kids is not None:
-            CX, CV, MX = kids
-            m = len(CX)
-            evc, evm = ev.take(slice(pos, pos + m)), ev.take(slice(pos + m, pos + 2 * m))
-            pos += 2 * m
-            use_m = greedy_mutation(evc.cost, evm.cost)  # eq 29
+        blocks += [e[1] for e in extra]
+        batch = np.concatenate(blocks) if len(blocks) > 1 else X
+        ev = evaluate_swarm(batch, space)  # one collision test for everything scored
+        cost = ev.cost
+        st.n_eval += len(batch)
+        # the moved swarm and its memories
+        F = cost[:P].copy()
+        better = F < st.pbest_f
+        st.pbest[better] = X[better]
+        np.minimum(st.pbest_f, F, out=st.pbest_f)
+        kept = 0
+        if m:
+            CX, CV, MX, isl = kids
+            cc, cm = cost[P:P + m], cost[P + m:P + 2 * m]
+            use_m = cm < cc  # eq 29, greedy
             KX = np.where(use_m[:, None], MX, CX)
-            kev = evc.take(np.arange(m))
-            for arr_k, arr_m in ((kev.cost, evm.cost), (kev.length, evm.length),
-                                 (kev.count, evm.count), (kev.penetration, evm.penetration)):
-                arr_k[use_m] = arr_m[use_m]
-            m = min(m, P)
-            slots = np.argsort(state.F, kind="stable")[::-1][:m]  # the worst particles
-            state.X[slots] = KX[:m]
-            state.V[slots] = CV[:m]
-            state.F[slots] = kev.cost[:m]
-            state.pbest[slots] = KX[:m]
-            state.pbest_f[slots] = kev.cost[:m]
-            state.offer(KX, kev)
-            n_kids, kept = m, int(use_m.sum())
+            kc = np.where(use_m, cm, cc)
+            kept = int(np.count_nonzero(use_m))
+            o = np.argsort(isl, kind="stable")[:P] if self._n_islands > 1 else slice(0, P)
+            slots = self._worst_slots(F, isl[o])  # the weakly adapted individuals die out
+            X[slots] = KX[o]
+            V[slots] = CV[o]
+            F[slots] = kc[o]
+            st.pbest[slots] = KX[o]
+            st.pbest_f[slots] = kc[o]
+        st.X, st.V, st.F = X, V, F
+        # gbest and the best collision-free particle over everything scored (a rejected
+        # mutant costs at least as much as its child, so it never wins alone)
+        main = P + 2 * m
+        j = int(np.argmin(cost[:main]))
+        if cost[j] < st.gbest_f:
+            st.gbest = batch[j].copy()
+            st.gbest_f = float(cost[j])
+            st.gbest_len = float(ev.length[j])
+            st.gbest_count = int(ev.count[j])
+        feas = ev.count == 0
+        if feas.any():
+            lens = np.where(feas, ev.length, np.inf)
+            q = int(np.argmin(lens))
+            if lens[q] < st.feas_len:
+                st.feas_len = float(lens[q])
+                st.feas_x = batch[q].copy()
+        pos = main
+        m_i = P // self._n_islands
         for key, C in extra:
-            ec = ev.take(slice(pos, pos + len(C)))
-            pos += len(C)
-            j = int(np.argmin(ec.cost))
-            neutral = key == "redistributed"
-            tol = 1e-12 * max(1.0, abs(state.gbest_f))
-            ok = ec.cost[j] <= state.gbest_f + tol if neutral else ec.cost[j] < state.gbest_f
+            n_c = len(C)
+            q = int(np.argmin(cost[pos:pos + n_c])) + pos
+            pos += n_c
+            ref = float(st.pbest_f[st.stats["_island_idx"][focus_isl]]) if self._n_islands > 1 \
+                else st.gbest_f
+            tol = 1e-12 * max(1.0, abs(ref))
+            ok = cost[q] <= ref + tol if key == "redistributed" else cost[q] < ref
             if key == "local_accepted":
                 f = 2.0 if ok else 0.8
-                state.stats["local_sigma"] = float(np.clip(state.stats["local_sigma"] * f,
-                                                           1e-6, 0.1))
+                st.stats["local_sigma"] = min(max(st.stats["local_sigma"] * f, 1e-6), 0.1)
             if ok:
-                state.stats[key] += 1
-                worst = np.array([int(np.argmax(state.F))])
-                state.V[worst] = 0.0
-                state.absorb(C[j:j + 1], ec.take(slice(j, j + 1)), slots=worst)
-                # absorb() only replaces gbest on a strict improvement
-                state.gbest = C[j].copy()
-                state.gbest_f = float(ec.cost[j])
-                state.gbest_len = float(ec.length[j])
-                state.gbest_count = int(ec.count[j])
-        vnorm = float(np.mean(np.sqrt(np.sum(state.V * state.V, axis=1))))
-        state.stats["vnorms"] = [state.stats["vnorms"][-1], vnorm]
-        state.stats["w"] = w
-        state.stats["crossovers"] += n_kids // 2
-        state.stats["mutations_kept"] += kept
-        return {"w": w, "psi": float(position_factor(k, self.k_max)), "children": n_kids,
+                st.stats[key] += 1
+                worst = focus_isl * m_i + int(np.argmax(st.F[focus_isl * m_i:
+                                                               (focus_isl + 1) * m_i]))
+                st.X[worst] = st.pbest[worst] = batch[q]
+                st.V[worst] = 0.0
+                st.F[worst] = st.pbest_f[worst] = cost[q]
+                if self._n_islands > 1:
+                    st.stats["_island_idx"][focus_isl] = worst
+                if cost[q] <= st.gbest_f + tol:
+                    st.gbest = batch[q].copy()
+                    st.gbest_f = float(cost[q])
+                    st.gbest_len = float(ev.length[q])
+                    st.gbest_count = int(ev.count[q])
+        if self._n_islands > 1:
+            self._update_islands(st)
+        vnorm = float(np.sqrt((V * V) @ st.stats["_ones"]).sum()) / P
+        st.stats["vnorms"] = [st.stats["vnorms"][-1], vnorm]
+        st.stats["w"] = w
+        st.stats["crossovers"] += m // 2
+        st.stats["mutations_kept"] += kept
+        return {"w": w, "psi": 1.0 - math.tanh(k / (self.k_max + 1.0)), "children": m,
                 "mean_speed": vnorm}
+
+    def _finish(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator):
+        """Beyond the paper: :func:`~optplan.backends.swarm.tighten` the best collision-free
+        particle and every island's best; the shortest result is the answer."""
+        if not self.tighten_rounds:
+            return
+        st = state
+        starts = [st.feas_x] if st.feas_x is not None else []
+        if self._n_islands > 1:
+            starts += list(st.pbest[st.stats["_island_idx"]])
+        if not starts:
+            return
+        X = np.array(starts)
+        ev = evaluate_swarm(X, space)
+        st.n_eval += len(X)
+        best_path, best_len = None, math.inf
+        for x in X[ev.count == 0]:
+            path, n = tighten(decode(x[None], space)[0], space, rounds=self.tighten_rounds)
+            st.n_eval += n
+            L = float(np.hypot(*np.diff(path, axis=0).T).sum())
+            if L < best_len:
+                best_path, best_len = path, L
+        if best_path is not None and best_len < st.feas_len:
+            st.stats["_final_path"] = best_path
+            st.stats["tightened_from"] = st.feas_len
+            st.feas_len = best_len
+            if best_len < st.gbest_f:
+                st.gbest_f, st.gbest_len, st.gbest_count = best_len, best_len, 0
+        yield {"tightened": best_len}

@@ -20,11 +20,15 @@ Fitness (eqs 31-33)
     fitness is lexicographic (feasibility first, then length) and gbest can never be a
     colliding shortcut while a feasible particle exists.
 
-    The whole swarm is scored with one call of the crossing test per evaluation:
-    ``kernel = "geometry"`` calls :func:`optplan.geometry.batch_crossings`; ``kernel = "fast"``
-    (default) calls :func:`fast_crossings`, a private re-formulation of the same test (same
-    counts and penetration lengths; twin-tested) that is ~10x faster on small swarms, see its
-    docstring.
+    The whole swarm is scored with one call of the collision test per evaluation.
+    ``kernel = "disc"`` (default) calls :meth:`optplan.geometry.ObstacleSet.crossings`: the
+    exact disc-robot test against the raw obstacles (``alpha_i`` = number of obstacles closer
+    than the robot radius to segment ``i``; penetration = ``r - distance`` or
+    ``r + inside length`` per colliding convex piece).  It is stricter than the validator's
+    inscribed-polygon test, so a fitness-feasible path is validator-feasible.
+    ``kernel = "geometry"`` calls :func:`optplan.geometry.batch_crossings` on exactly the
+    validator's map (interior crossings of the inscribed round buffer; penetration = length
+    inside): the reference, several times slower.
 
 Bounds handling (option ``bounds_mode``)
     ``"reflect"`` (default): a coordinate beyond a bound is mirrored back into the map and the
@@ -36,13 +40,21 @@ Initialisation (option ``init_mode``)
     ``"uniform"``: waypoints uniform in the map; ``"sorted"`` (default): uniform, then ordered
     along the start->goal direction (no initial back-tracking zig-zags); ``"line"``: on the
     straight line plus Gaussian noise of ``0.1 * diag``; ``"roadmap"`` (beyond the paper):
-    ``"sorted"`` plus a few particles seeded with collision-free paths from small random
-    roadmaps (:func:`roadmap_paths`).  An ``init`` path (from an earlier
-    stage) seeds particle 0 (:func:`resample_path`: exact when it has at most ``n`` bends).
+    ``"sorted"`` plus ``n_particles // 10`` particles, spread evenly over the swarm, seeded
+    with collision-free paths from small random roadmaps (:func:`roadmap_paths`).  An ``init``
+    path (from an earlier stage) seeds particle 0 (:func:`resample_path`: exact when it has at
+    most ``n`` bends).
+
+Local refinement (beyond the paper)
+    :func:`tighten`: deterministic corner cutting and string pulling of a collision-free path
+    with the fitness kernel only (used by ``ipso``'s ``tighten_rounds``).  Backends add such
+    post-iteration steps through :meth:`SwarmBackend._finish` (one history row each, not
+    counted as iterations).
 
 Convergence bookkeeping
     The "optimal number of iterations" of the paper's Tables 2-3 is defined here as the first
-    iteration whose best fitness is within 0.1 % of the final best (:func:`converged_iteration`).
+    iteration whose best fitness is within 0.1 % of the final best of the swarm iterations
+    (:func:`converged_iteration`).
 """
 
 from __future__ import annotations
@@ -55,19 +67,16 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.geometry import InflatedMap, batch_crossings, inflate
+from optplan.geometry import InflatedMap, ObstacleSet, batch_crossings, obstacle_set
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
 from optplan.solver import Backend, check_choice, check_int, check_range
 
 __all__ = [
-    "CrossingKernel",
     "SwarmSpace",
     "SwarmEval",
     "SwarmState",
     "SwarmBackend",
-    "make_kernel",
-    "fast_crossings",
     "make_space",
     "default_penalty",
     "decode",
@@ -77,195 +86,15 @@ __all__ = [
     "initial_swarm",
     "resample_path",
     "converged_iteration",
+    "densify",
+    "tighten",
 ]
 
 BOUNDS_MODES = ("reflect", "clip", "random")
 INIT_MODES = ("sorted", "uniform", "line", "roadmap")
-KERNELS = ("fast", "geometry")
+KERNELS = ("disc", "geometry")
 #: Relative tolerance of the "improved by" tests on fitness values.
 _EPS = 1e-12
-
-
-# --------------------------------------------------------------------------------------
-# fast crossing kernel
-# --------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class CrossingKernel:
-    """Edge arrays of an :class:`~optplan.geometry.InflatedMap` laid out for :func:`fast_crossings`.
-
-    ``vp``/``vq``: ``(3, Ne)`` rows ``(y, x, 1)`` of every boundary edge's start/end point, so
-    that the side of all edges' endpoints w.r.t. all segment lines is one matrix product.
-    ``px, py, qx, qy``: ``(Np, Emax)`` padded per-part copies (padding = degenerate edges that
-    never straddle) for the bounding-box path used with many obstacles.
-    """
-
-    imap: InflatedMap
-    vp: np.ndarray
-    vq: np.ndarray
-    part: np.ndarray
-    offset: np.ndarray
-    pad: np.ndarray
-    bbox: np.ndarray
-    scale: float
-    _scratch: dict = field(default_factory=dict, repr=False)
-
-    def buffer(self, name: str, shape: tuple[int, ...], dtype: Any = float) -> np.ndarray:
-        """A reusable scratch array (large temporaries are otherwise re-mapped by the OS
-        allocator on every call, which costs more than the arithmetic)."""
-        buf = self._scratch.get(name)
-        size = int(np.prod(shape))
-        if buf is None or buf.size < size or buf.dtype != np.dtype(dtype):
-            buf = np.empty(max(size, 1), dtype=dtype)
-            self._scratch[name] = buf
-        return buf[:size].reshape(shape)
-
-    @property
-    def n_parts(self) -> int:
-        return self.imap.n
-
-    @property
-    def n_edges(self) -> int:
-        return self.vp.shape[1]
-
-
-def make_kernel(imap: InflatedMap) -> CrossingKernel:
-    """Precompute the edge layout of ``imap`` for :func:`fast_crossings`."""
-    e = imap.edges[imap.edge_mask]  # (Ne, 4) in part order
-    counts = imap.edge_mask.sum(axis=1)
-    part = np.repeat(np.arange(imap.n), counts)
-    ones = np.ones(len(e))
-    vp = np.stack([e[:, 1], e[:, 0], ones]) if len(e) else np.zeros((3, 0))
-    vq = np.stack([e[:, 3], e[:, 2], ones]) if len(e) else np.zeros((3, 0))
-    pad = imap.edges.copy()
-    if imap.n:
-        first = imap.edges[:, 0, :2]
-        fill = np.concatenate([first, first], axis=1)[:, None, :]
-        pad = np.where(imap.edge_mask[..., None], pad, fill)
-    offset = np.concatenate([[0], np.cumsum(counts)[:-1]]).astype(np.int64)
-    bb = imap.bbox
-    scale = max(1.0, float(np.max(np.abs(bb)))) if bb.size else 1.0
-    return CrossingKernel(imap, np.ascontiguousarray(vp), np.ascontiguousarray(vq), part,
-                          offset, pad, bb, scale)
-
-
-def _straddles(sp: np.ndarray, sq: np.ndarray, kern: CrossingKernel,
-               shape: tuple[int, int]) -> tuple[np.ndarray, np.ndarray]:
-    """Edges straddling the line with an on-line vertex counted as '+' (ge) or '-' (gt)."""
-    b1 = np.greater_equal(sp, 0.0, out=kern.buffer("b1", shape, bool))
-    b2 = np.greater_equal(sq, 0.0, out=kern.buffer("b2", shape, bool))
-    ge = np.not_equal(b1, b2, out=kern.buffer("ge", shape, bool))
-    np.greater(sp, 0.0, out=b1)
-    np.greater(sq, 0.0, out=b2)
-    gt = np.not_equal(b1, b2, out=kern.buffer("gt", shape, bool))
-    return ge, gt
-
-
-def fast_crossings(paths: np.ndarray, kern: CrossingKernel,
-                   tol: float = 1e-9) -> tuple[np.ndarray, np.ndarray]:
-    """Interior-crossing count and penetration length, as :func:`optplan.geometry.batch_crossings`.
-
-    Same maths (signed crossing sum along each segment's line; see ``optplan.geometry``), with
-    the work arranged for small swarms:
-
-    1. The side ``s = cross(D, v - A)`` of every edge endpoint ``v`` w.r.t. every segment line
-       is an affine function of ``v``, so all of them are two matrix products
-       ``(S, 3) @ (3, Ne)``.  With many obstacles (``S * Ne`` large) the candidate
-       (segment, part) pairs are first pre-filtered by bounding boxes instead.
-    2. Only the straddling (segment, edge) pairs (``np.nonzero``; typically ~2 per segment and
-       obstacle whose *line* crosses it) get the crossing parameter ``t`` and the sign, and the
-       per-(segment, part) inside fraction is a ``bincount``.
-
-    Parameters
-    ----------
-    paths : array ``(P, M, 2)``
-    kern : CrossingKernel
-    tol : float
-        As in ``batch_crossings``: a pair collides when its inside length exceeds
-        ``tol * max(1, map scale)``.
-
-    Returns
-    -------
-    count : (P,) int
-        Number of (segment, part) pairs entering a part's interior.
-    penetration : (P,) float
-        Total length inside interiors.
-    """
-    pts = np.asarray(paths, dtype=float)
-    P, M, _ = pts.shape
-    S = M - 1
-    Np = kern.n_parts
-    if Np == 0 or S <= 0:
-        return np.zeros(P, dtype=np.int64), np.zeros(P)
-    a = pts[:, :-1, :].reshape(-1, 2)
-    d = (pts[:, 1:, :] - pts[:, :-1, :]).reshape(-1, 2)
-    n_seg = a.shape[0]
-    c = d[:, 0] * a[:, 1] - d[:, 1] * a[:, 0]
-    if n_seg * kern.n_edges <= 200_000:
-        lin = np.stack([d[:, 0], -d[:, 1], -c], axis=1)
-        shape = (n_seg, kern.n_edges)
-        sp_all = np.matmul(lin, kern.vp, out=kern.buffer("sp", shape))
-        sq_all = np.matmul(lin, kern.vq, out=kern.buffer("sq", shape))
-        ge, gt = _straddles(sp_all, sq_all, kern, shape)
-        flat = np.flatnonzero(np.logical_or(ge, gt, out=kern.buffer("any", shape, bool)))
-        si, ei = np.divmod(flat, kern.n_edges)
-        use_ge, use_gt = ge.reshape(-1)[flat], gt.reshape(-1)[flat]
-        sp = sp_all.reshape(-1)[flat]
-        sq = sq_all.reshape(-1)[flat]
-        e_p = kern.vp[:2, ei]  # rows (y, x)
-        e_q = kern.vq[:2, ei]
-        part = kern.part[ei]
-    else:
-        b = a + d
-        lo = np.minimum(a, b)
-        hi = np.maximum(a, b)
-        bb = kern.bbox
-        pi, oi = np.nonzero(
-            (lo[:, None, 0] <= bb[None, :, 2]) & (hi[:, None, 0] >= bb[None, :, 0])
-            & (lo[:, None, 1] <= bb[None, :, 3]) & (hi[:, None, 1] >= bb[None, :, 1]))
-        if pi.size == 0:
-            return np.zeros(P, dtype=np.int64), np.zeros(P)
-        E = kern.pad[oi]  # (K, Emax, 4) as (px, py, qx, qy)
-        dx, dy, cc = d[pi, 0:1], d[pi, 1:2], c[pi, None]
-        sp_all = dx * E[..., 1] - dy * E[..., 0] - cc
-        sq_all = dx * E[..., 3] - dy * E[..., 2] - cc
-        ge = (sp_all >= 0) != (sq_all >= 0)
-        gt = (sp_all > 0) != (sq_all > 0)
-        flat = np.flatnonzero(ge | gt)
-        use_ge, use_gt = ge.reshape(-1)[flat], gt.reshape(-1)[flat]
-        ki, li = np.divmod(flat, E.shape[1])
-        sp = sp_all.reshape(-1)[flat]
-        sq = sq_all.reshape(-1)[flat]
-        ee = E.reshape(-1, 4)[flat]
-        e_p = np.stack([ee[:, 1], ee[:, 0]])
-        e_q = np.stack([ee[:, 3], ee[:, 2]])
-        si = pi[ki]
-        part = oi[ki]
-    if si.size == 0:
-        return np.zeros(P, dtype=np.int64), np.zeros(P)
-    lam = sp / (sp - sq)
-    xy = e_p + lam * (e_q - e_p)  # rows (y, x) of the crossing point
-    ds = d[si]
-    dd = ds[:, 0] * ds[:, 0] + ds[:, 1] * ds[:, 1]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = ((xy[1] - a[si, 0]) * ds[:, 0] + (xy[0] - a[si, 1]) * ds[:, 1]) / dd
-    t = np.where(dd > 0, t, 1.0)
-    # entering (sign +1) when cross(D, edge) = sq - sp < 0
-    contrib = np.where(sq < sp, 1.0, -1.0) * np.clip(1.0 - t, 0.0, 1.0)
-    # a vertex exactly on the line is put on one side or the other (>= / > tests); as in
-    # batch_crossings keep the smaller inside length of the two infinitesimal shifts, so a
-    # segment running along or grazing a boundary is not a collision
-    key = si * Np + part
-    f_ge = np.bincount(key, weights=np.where(use_ge, contrib, 0.0), minlength=n_seg * Np)
-    f_gt = np.bincount(key, weights=np.where(use_gt, contrib, 0.0), minlength=n_seg * Np)
-    frac = np.minimum(f_ge, f_gt)
-    seglen = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
-    inside = np.clip(frac.reshape(n_seg, Np), 0.0, 1.0) * seglen[:, None]
-    hit = inside > tol * kern.scale
-    count = hit.reshape(P, -1).sum(axis=1)
-    pen = np.where(hit, inside, 0.0).reshape(P, -1).sum(axis=1)
-    return count, pen
 
 
 # --------------------------------------------------------------------------------------
@@ -293,7 +122,7 @@ class SwarmSpace:
     lo: np.ndarray
     hi: np.ndarray
     imap: InflatedMap
-    kernel: CrossingKernel | None
+    obstacles: ObstacleSet | None
     penalty_weight: float
     penetration_weight: float = 0.0
 
@@ -312,36 +141,27 @@ class SwarmSpace:
 
 def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
                penalty_weight: float | None = None, penetration_weight: float = 0.0,
-               kernel: str = "fast", map_quad_segs: int | None = None) -> SwarmSpace:
+               kernel: str = "disc") -> SwarmSpace:
     """Build the :class:`SwarmSpace` of ``robot`` on the map ``problem`` (pass a known view).
 
-    ``map_quad_segs = None`` plans on exactly the validator's map (inscribed round buffer);
-    an integer plans on a coarser *circumscribed* buffer with that many segments per quarter
-    circle, which contains the validator's map (so anything collision-free for the planner is
-    collision-free for the validator) at the price of up to ``r (1/cos(pi/(4 q)) - 1)`` extra
-    clearance at corners.
+    ``kernel = "disc"`` scores with the :class:`~optplan.geometry.ObstacleSet` of the known
+    static obstacles for the robot's radius (built once per problem and radius, cached);
+    ``"geometry"`` with ``batch_crossings`` on the validator's inflated map.
     """
-    if map_quad_segs is None:
-        imap = problem.inflated(robot.radius, known_only=True)
-    else:
-        key = ("swarm-coarse-map", round(float(robot.radius), 12), int(map_quad_segs))
-        if key not in problem._cache:
-            problem._cache[key] = inflate(problem.static_obstacles(known_only=True),
-                                          robot.radius, mode="circumscribed",
-                                          quad_segs=int(map_quad_segs))
-        imap = problem._cache[key]
+    imap = problem.inflated(robot.radius, known_only=True)
     x0, y0, x1, y1 = problem.bounds
     lo = np.tile([x0, y0], n_waypoints).astype(float)
     hi = np.tile([x1, y1], n_waypoints).astype(float)
-    kern = None
-    if kernel == "fast":
-        key = ("swarm-kernel", id(imap))
+    obs = None
+    if kernel == "disc":
+        key = ("swarm-obstacle-set", round(float(robot.radius), 12))
         if key not in problem._cache:
-            problem._cache[key] = (imap, make_kernel(imap))
-        kern = problem._cache[key][1]
+            problem._cache[key] = obstacle_set(problem.static_obstacles(known_only=True),
+                                               float(robot.radius))
+        obs = problem._cache[key]
     pw = default_penalty(problem.bounds, n_waypoints) if penalty_weight is None else penalty_weight
     return SwarmSpace(np.asarray(robot.start, float), np.asarray(robot.goal, float),
-                      n_waypoints, lo, hi, imap, kern, float(pw), float(penetration_weight))
+                      n_waypoints, lo, hi, imap, obs, float(pw), float(penetration_weight))
 
 
 def decode(X: np.ndarray, space: SwarmSpace) -> np.ndarray:
@@ -370,18 +190,19 @@ class SwarmEval:
 
 
 def evaluate_swarm(X: np.ndarray, space: SwarmSpace) -> SwarmEval:
-    """Eqs 31-33 for a whole batch: one crossing-test call for all particles."""
+    """Eqs 31-33 for a whole batch: one collision-test call for all particles."""
     paths = decode(X, space)
-    d = np.diff(paths, axis=1)
-    length = np.sqrt(d[..., 0] ** 2 + d[..., 1] ** 2).sum(axis=1)
-    if space.kernel is not None:
-        count, pen = fast_crossings(paths, space.kernel)
+    z = paths.view(np.complex128)[..., 0]  # points as complex numbers
+    length = np.abs(z[:, 1:] - z[:, :-1]) @ np.ones(space.n_waypoints + 1)
+    if space.obstacles is not None:
+        cr = space.obstacles.crossings(paths, penetration=space.penetration_weight > 0)
+        count, pen = cr.count, cr.penetration
     else:
         cr = batch_crossings(paths, space.imap)
         count, pen = cr.count, cr.penetration
     cost = length + space.penalty_weight * count
     if space.penetration_weight:
-        cost = cost + space.penetration_weight * pen
+        cost += space.penetration_weight * pen
     return SwarmEval(cost, length, count, pen)
 
 
@@ -393,20 +214,28 @@ def evaluate_swarm(X: np.ndarray, space: SwarmSpace) -> SwarmEval:
 def handle_bounds(X: np.ndarray, V: np.ndarray, lo: np.ndarray, hi: np.ndarray, mode: str,
                   rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """Bring positions back into ``[lo, hi]`` per dimension (modes: module docstring)."""
-    out = (X < lo) | (X > hi)
+    out = X < lo
+    out |= X > hi
     if not out.any():
         return X, V
-    span = hi - lo
     if mode == "reflect":
-        # mirror at the walls (repeatedly for far-out values): triangle wave of period 2 span
-        u = np.mod(X - lo, 2 * span)
-        Xn = lo + np.where(u > span, 2 * span - u, u)
-        Vn = np.where(out, -V, V)
-    elif mode == "clip":
+        # mirror at lo, then at hi: lo + |x - lo| and hi - |hi - x|
+        Xn = np.abs(X - lo)
+        Xn += lo
+        np.subtract(hi, Xn, out=Xn)
+        np.abs(Xn, out=Xn)
+        np.subtract(hi, Xn, out=Xn)
+        if (Xn < lo).any():
+            # far out (beyond a whole span): mirror repeatedly, triangle wave of period 2 span
+            span = hi - lo
+            u = np.mod(X - lo, 2 * span)
+            Xn = lo + np.where(u > span, 2 * span - u, u)
+        return Xn, np.where(out, -V, V)
+    if mode == "clip":
         Xn = np.clip(X, lo, hi)
         Vn = np.where(out, 0.0, V)
     else:  # random
-        fresh = lo + span * rng.random(X.shape)
+        fresh = lo + (hi - lo) * rng.random(X.shape)
         Xn = np.where(out, fresh, X)
         Vn = np.where(out, 0.0, V)
     return Xn, Vn
@@ -467,8 +296,8 @@ def segment_free(a: np.ndarray, b: np.ndarray, space: SwarmSpace) -> np.ndarray:
     segs = np.stack([a, b], axis=1)
     if len(segs) == 0:
         return np.zeros(0, dtype=bool)
-    if space.kernel is not None:
-        count, _ = fast_crossings(segs, space.kernel)
+    if space.obstacles is not None:
+        count = space.obstacles.crossings(segs, penetration=False).count
     else:
         count = batch_crossings(segs, space.imap).count
     return count == 0
@@ -521,6 +350,81 @@ def roadmap_paths(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
             order.append(int(pred[order[-1]]))
         out.append(shortcut(nodes[order[::-1]], space))
     return out
+
+
+def densify(path: np.ndarray, spacing: float) -> np.ndarray:
+    """The same polyline with extra points every ~``spacing`` along each segment (vertices
+    kept, so the geometric path is unchanged)."""
+    p = np.asarray(path, dtype=float)
+    seg = np.hypot(*np.diff(p, axis=0).T)
+    k = np.maximum(1, np.ceil(seg / spacing).astype(int))
+    t = np.concatenate([np.arange(m) / m for m in k])
+    i = np.repeat(np.arange(len(seg)), k)
+    return np.vstack([p[i] + t[:, None] * (p[i + 1] - p[i]), p[-1:]])
+
+
+#: Corner-cut fractions of :func:`tighten` (how far along each adjacent segment).
+CUT_FRACTIONS = 0.5 ** np.arange(1, 11)
+
+
+def tighten(path: np.ndarray, space: SwarmSpace, rounds: int = 30,
+            rel_tol: float = 1e-7, min_gain: float = 1e-5) -> tuple[np.ndarray, int]:
+    """Deterministic corner cutting and string pulling of a collision-free polyline (beyond
+    the paper).
+
+    Each round, for every interior vertex ``v`` with neighbours ``a``, ``b``, the cuts
+    ``p = v + s (a - v)``, ``q = v + t (b - v)`` for ``s, t`` in :data:`CUT_FRACTIONS` are
+    tested (one batch of segments ``p -> q``); each vertex takes its collision-free cut with the
+    largest length gain.  Fractions are at most 1/2, so the cuts of neighbouring vertices do
+    not overlap and ``a -> p``, ``q -> b`` are sub-segments of collision-free segments.  Then a
+    greedy :func:`shortcut` drops the vertices that are no longer needed.  The path stays
+    collision-free for the fitness (hence for the validator), never gets longer, and contracts
+    onto the obstacle corners it wraps (the locally shortest path of its homotopy class).
+    A cut must gain more than ``min_gain`` x the path length (this bounds the number of
+    vertices spent on approximating the rounded corners of the disc robot's free space).
+    Stops after ``rounds`` rounds or when a round gains less than ``rel_tol`` of the length.
+    Returns ``(path, number of segments tested)``.
+    """
+    p = shortcut(np.asarray(path, dtype=float), space)
+    length = float(np.hypot(*np.diff(p, axis=0).T).sum())
+    f = CUT_FRACTIONS
+    F = len(f)
+    n_eval = 0
+    for _ in range(rounds):
+        if len(p) <= 2:
+            break
+        v, a, b = p[1:-1], p[:-2], p[2:]
+        P = v[:, None, :] + f[None, :, None] * (a - v)[:, None, :]  # (V, F, 2)
+        Q = v[:, None, :] + f[None, :, None] * (b - v)[:, None, :]
+        Pp = np.broadcast_to(P[:, :, None, :], (len(v), F, F, 2))
+        Qq = np.broadcast_to(Q[:, None, :, :], (len(v), F, F, 2))
+        ok = segment_free(Pp.reshape(-1, 2), Qq.reshape(-1, 2), space).reshape(len(v), F, F)
+        n_eval += ok.size
+        gain = (np.hypot(*(Pp - v[:, None, None, :]).transpose(3, 0, 1, 2))
+                + np.hypot(*(Qq - v[:, None, None, :]).transpose(3, 0, 1, 2))
+                - np.hypot(*(Qq - Pp).transpose(3, 0, 1, 2)))
+        gain = np.where(ok, gain, -1.0).reshape(len(v), -1)
+        j = np.argmax(gain, axis=1)
+        g = gain[np.arange(len(v)), j]
+        cut = g > min_gain * length
+        if not cut.any():
+            break
+        pts = [p[:1]]
+        for i in range(len(v)):
+            if cut[i]:
+                pts.append(np.stack([P[i, j[i] // F], Q[i, j[i] % F]]))
+            else:
+                pts.append(v[i:i + 1])
+        pts.append(p[-1:])
+        q = shortcut(np.concatenate(pts), space)
+        new = float(np.hypot(*np.diff(q, axis=0).T).sum())
+        if new >= length:
+            break
+        done = new > length * (1.0 - rel_tol)
+        p, length = q, new
+        if done:
+            break
+    return p, n_eval
 
 
 def snap_targets(imap: InflatedMap, push: float) -> np.ndarray:
@@ -654,15 +558,13 @@ class SwarmBackend(Backend):
     penetration_weight : float
         Weight of the inside-obstacle length added to the fitness (beyond the paper; 0 in the
         ``-paper`` presets).
-    kernel : {"fast", "geometry"}
-        Crossing test: the private fast re-formulation or ``optplan.geometry.batch_crossings``
-        (identical counts; the latter is the reference).
+    kernel : {"disc", "geometry"}
+        Collision test of the fitness: ``"disc"``, the exact disc-robot test against the raw
+        obstacles (:class:`optplan.geometry.ObstacleSet`; stricter than the validator), or
+        ``"geometry"``, ``optplan.geometry.batch_crossings`` on the validator's inflated map
+        (the reference, slower).
     roadmap_samples : int
         Random samples per roadmap for ``init_mode = "roadmap"`` (beyond the paper).
-    map_quad_segs : int or None
-        ``None``: fitness on exactly the validator's map.  An int ``q``: on a coarser
-        circumscribed inflation containing it (faster, up to ``r(1/cos(pi/4q) - 1)`` more
-        clearance at corners).
     """
 
     name: ClassVar[str] = "swarm"
@@ -679,8 +581,7 @@ class SwarmBackend(Backend):
     init_mode: str = "sorted"
     penalty_weight: float | None = None
     penetration_weight: float = 0.0
-    kernel: str = "fast"
-    map_quad_segs: int | None = None
+    kernel: str = "disc"
     roadmap_samples: int = 60
 
     def __post_init__(self) -> None:
@@ -696,8 +597,6 @@ class SwarmBackend(Backend):
             check_range(self, "penalty_weight", 0.0, math.inf)
         check_range(self, "penetration_weight", 0.0, math.inf)
         check_choice(self, "kernel", KERNELS)
-        if self.map_quad_segs is not None:
-            check_int(self, "map_quad_segs", 1, 64)
         check_int(self, "roadmap_samples", 2, 100_000)
 
     # -- hooks for subclasses ------------------------------------------------------
@@ -708,6 +607,14 @@ class SwarmBackend(Backend):
                  rng: np.random.Generator) -> dict[str, Any]:
         """One iteration ``k`` (1-based); returns extra history columns."""
         raise NotImplementedError
+
+    def _finish(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator):
+        """Optional steps after the ``k_max`` iterations (a generator of history columns).
+
+        Each yielded dict adds one history row (numbered on from ``k_max``); these rows are not
+        counted in ``Result.n_iter``.
+        """
+        return iter(())
 
     # -- shared helpers --------------------------------------------------------------
     def _vmax(self, space: SwarmSpace) -> np.ndarray | None:
@@ -729,15 +636,15 @@ class SwarmBackend(Backend):
         space = make_space(problem, robot, self.n_waypoints,
                            penalty_weight=self.penalty_weight,
                            penetration_weight=self.penetration_weight,
-                           kernel=self.kernel, map_quad_segs=self.map_quad_segs)
+                           kernel=self.kernel)
         X = initial_swarm(space, self.n_particles,
                           "sorted" if self.init_mode == "roadmap" else self.init_mode, rng)
         if self.init_mode == "roadmap":
             seeds = roadmap_paths(space, max(1, self.n_particles // 10), rng,
                                   n_samples=self.roadmap_samples)
-            for i, pth in enumerate(seeds):
-                X[i] = np.clip(resample_path(pth, self.n_waypoints).reshape(-1),
-                               space.lo, space.hi)
+            for i, pth in enumerate(seeds):  # spread over the swarm (one per island)
+                X[i * self.n_particles // len(seeds)] = np.clip(
+                    resample_path(pth, self.n_waypoints).reshape(-1), space.lo, space.hi)
         if init_path is not None and len(init_path) >= 2:
             X[0] = np.clip(resample_path(init_path, self.n_waypoints).reshape(-1),
                            space.lo, space.hi)
@@ -767,6 +674,13 @@ class SwarmBackend(Backend):
             k += 1
             extra = self._iterate(space, state, k, rng)
             stopped = record(k, extra)
+        state.stats["_iterations"] = k
+        if not stopped:
+            for extra in self._finish(space, state, rng):
+                k += 1
+                if record(k, extra):
+                    stopped = True
+                    break
         return space, state, rows, stopped
 
     def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
@@ -789,14 +703,16 @@ class SwarmBackend(Backend):
                                                        n_iter)
             all_rows.append(rows)
             n_eval += st.n_eval
-            n_iter += len(rows) - 1
+            n_iter += st.stats["_iterations"]
             stopped_any |= stopped
             # the answer: the best collision-free particle ever seen, else gbest
             x = st.feas_x if st.feas_x is not None else st.gbest
             ok = st.feas_x is not None
             all_ok &= ok
-            paths[robot.id] = decode(x[None], space)[0]
-            best = np.array([r["best_cost"] for r in rows])
+            final = st.stats.get("_final_path") if ok else None
+            paths[robot.id] = final if final is not None else decode(x[None], space)[0]
+            # over the swarm iterations (a final tightening row is not an iteration)
+            best = np.array([r["best_cost"] for r in rows[:st.stats["_iterations"] + 1]])
             conv = converged_iteration(best)
             cost += st.feas_len if ok else st.gbest_f
             per_robot[robot.id] = {
@@ -805,7 +721,7 @@ class SwarmBackend(Backend):
                 "feasible_best_length": st.feas_len if ok else None,
                 "crossings": st.gbest_count,
                 "penalty_weight": space.penalty_weight,
-                **st.stats,
+                **{k: v for k, v in st.stats.items() if not k.startswith("_")},
             }
             if not ok:
                 msgs.append(f"{robot.id}: no collision-free particle found "
