@@ -7,8 +7,8 @@ Everything is drawn by :mod:`optplan.plot` (the functions behind ``optplan plot`
 
 Figures:
 
-* ``hybrid-three-way.png``: paper Figs 28-30 on ``paper-hybrid``: IPSO alone, SA-APF alone,
-  hybrid (global path dashed, inflection points as diamonds).
+* ``hybrid-three-way.png``: paper Figs 28-30 on ``paper-hybrid``: IPSO alone (``ipso``),
+  SA-APF alone, hybrid (global path dashed, inflection points as diamonds).
 * ``hybrid-paper-hybrid.gif``: the hybrid run on ``paper-hybrid`` with the moving obstacles.
 * ``hybrid-formation.png`` / ``.gif``: ``hybrid-paper`` on ``paper-formation`` (Fig. 32).
 * ``hybrid-warehouse.png`` / ``.gif``: ``hybrid-paper`` on ``paper-warehouse`` (Fig. 34).
@@ -34,10 +34,13 @@ def three_way(seed: int, out: Path) -> None:
     prob = op.load_problem("paper-hybrid")
     fig = new_figure(size=(16.5, 5.8))
     axes = fig.subplots(1, 3)
-    for ax, (label, solver) in zip(axes, [("IPSO alone", "ipso-paper"),
+    # "IPSO alone" is the hybrids' global stage run by itself: the ``ipso`` preset (the
+    # literal ``ipso-paper`` never finds a collision-free path, docs/solvers/pso.md), as in
+    # ``optplan bench --tag hybrid``.
+    for ax, (label, solver) in zip(axes, [("IPSO alone", "ipso"),
                                           ("SA-APF alone", "sa-apf-paper"),
                                           ("hybrid", "hybrid-paper")]):
-        if solver == "ipso-paper" and OVER:
+        if solver == "ipso" and OVER:
             solver = OVER["global_solver"]
         res = op.solve(prob, solver, rng=seed, **(OVER if solver == "hybrid-paper" else {}))
         plot_result(res, problem=prob, ax=ax, snapshot_every=0)

@@ -245,7 +245,9 @@ class Hybrid(Backend):
     ----------
     global_solver : str
         Preset (or backend) planning each driving robot's path on ``problem.known_view()``
-        (step 3).  Paper: IPSO, ``"ipso-paper"``.  A backend object is accepted too.
+        (step 3).  Paper: IPSO; default ``"ipso"``, the documented variant, because the
+        literal ``"ipso-paper"`` (eq 24) never returns a collision-free path (see the PSO
+        page).  A backend object is accepted too.
     local_solver : str
         Preset (or backend) whose ``controller(problem, robot_id, rng)`` drives the leader
         between sub-goals (step 5).  Paper: SA-APF, ``"sa-apf-paper"``.
@@ -295,7 +297,7 @@ class Hybrid(Backend):
     contract_problem: ClassVar[str] = "open-field"
     contract_overrides: ClassVar[dict] = {"global_solver": "visgraph"}
 
-    global_solver: Any = "ipso-paper"
+    global_solver: Any = "ipso"
     local_solver: Any = "sa-apf-paper"
     formation: Any = "leader-follower-paper"
     angle_tol: float = 10.0

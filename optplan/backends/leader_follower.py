@@ -772,7 +772,8 @@ class PilotedFormation(Backend):
         ``controller()`` (e.g. ``"sa-apf"``); falls back to the built-in one if unavailable.
     path_solver : str
         Solver planning the leader's reference on ``problem.known_view()`` when ``init`` has
-        none.
+        none (default ``"ipso"``, the documented IPSO variant; the literal ``"ipso-paper"``
+        is never collision-free, see the PSO page).
     v_factor : float
         Leader cruise speed as a fraction of its ``max_speed`` (headroom for followers).
     ref_spacing, lookahead : float
@@ -797,7 +798,7 @@ class PilotedFormation(Backend):
     rho_0_f: float = 100.0
     c_phi: float = 20.0
     pilot: str = "apf-paper"
-    path_solver: str = "ipso-paper"
+    path_solver: str = "ipso"
     v_factor: float = 0.75
     ref_spacing: float = 5.0
     lookahead: float = 15.0

@@ -38,7 +38,7 @@ from optplan.backends.visgraph import shortest_length
 __all__ = ["main", "three_way", "formation_runs", "temporary_collision", "time_to_goal",
            "format_three_way", "format_formation"]
 
-THREE_WAY = (("IPSO alone", "ipso-paper"), ("SA-APF alone", "sa-apf-paper"),
+THREE_WAY = (("IPSO alone", "ipso"), ("SA-APF alone", "sa-apf-paper"),
              ("hybrid", "hybrid-paper"))
 FORMATION_SCENES = ("paper-formation", "paper-warehouse")
 FORMATION_SOLVERS = ("hybrid-paper", "hybrid-qp")
@@ -77,11 +77,11 @@ def _median(xs: Sequence[float]) -> float:
 
 def three_way(seeds: Sequence[int], problem: str = "paper-hybrid",
               methods: Sequence[tuple[str, str]] = THREE_WAY,
-              save: Path | None = None, global_solver: str = "ipso-paper"
+              save: Path | None = None, global_solver: str = "ipso"
               ) -> dict[str, list[dict[str, Any]]]:
     """Run each method on ``problem`` for every seed; rows of per-run numbers per method.
 
-    ``global_solver`` replaces ``ipso-paper`` (the "IPSO alone" row and the hybrid's global
+    ``global_solver`` replaces ``ipso`` (the "IPSO alone" row and the hybrid's global
     stage).
     """
     prob = op.load_problem(problem)
@@ -92,9 +92,9 @@ def three_way(seeds: Sequence[int], problem: str = "paper-hybrid",
         rows[label] = []
         for s in seeds:
             t0 = time.perf_counter()
-            if solver == "ipso-paper":
+            if solver == "ipso":
                 res = op.solve(prob, global_solver, rng=int(s))
-            elif solver.startswith("hybrid") and global_solver != "ipso-paper":
+            elif solver.startswith("hybrid") and global_solver != "ipso":
                 res = op.solve(prob, solver, rng=int(s), global_solver=global_solver)
             else:
                 res = op.solve(prob, solver, rng=int(s))
@@ -151,7 +151,7 @@ def format_three_way(rows: dict[str, list[dict[str, Any]]], problem: str = "pape
 
 def formation_runs(seeds: Sequence[int], scenes: Sequence[str] = FORMATION_SCENES,
                    solvers: Sequence[str] = FORMATION_SOLVERS,
-                   save: Path | None = None, global_solver: str = "ipso-paper"
+                   save: Path | None = None, global_solver: str = "ipso"
                    ) -> list[dict[str, Any]]:
     """Hybrid formation runs: one row per (scene, solver, seed)."""
     rows = []
@@ -160,7 +160,7 @@ def formation_runs(seeds: Sequence[int], scenes: Sequence[str] = FORMATION_SCENE
         for solver in solvers:
             for s in seeds:
                 t0 = time.perf_counter()
-                over = {} if global_solver == "ipso-paper" else {"global_solver": global_solver}
+                over = {} if global_solver == "ipso" else {"global_solver": global_solver}
                 try:
                     res = op.solve(prob, solver, rng=int(s), **over)
                 except (ValueError, ImportError) as e:  # a stage not available in this build
@@ -227,8 +227,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--problem", default="paper-hybrid", help="scene of the three-way table")
     ap.add_argument("--save", type=Path, default=None, help="write every Result JSON here")
     ap.add_argument("--quick", action="store_true", help="3 seeds, 1 formation seed")
-    ap.add_argument("--global-solver", default="ipso-paper",
-                    help="replace ipso-paper (IPSO-alone row and the hybrids' global stage)")
+    ap.add_argument("--global-solver", default="ipso",
+                    help="replace ipso (IPSO-alone row and the hybrids' global stage)")
     ap.add_argument("--skip-formation", action="store_true")
     ap.add_argument("--skip-three-way", action="store_true")
     a = ap.parse_args(argv)
