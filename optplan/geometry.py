@@ -492,7 +492,9 @@ class ObstacleSet:
     grid : dict or None
         The uniform grid (cell size, origin, shape, CSR item lists), or None (all pairs).
     grid_free : dict
-        The matrix of the all-pairs test and the per-item ``reach + radius``.
+        The matrix of the all-pairs test (``"M"``), the per-item ``reach + radius`` (``"lim"``;
+        ``"lim2"``: with the tolerance, stacked twice for the two row blocks of ``M``) and the
+        edge table of the count-only test (``"hit_table"``: ``p, e, conj(n), -conj(e)/|e|^2``).
     """
 
     radius: float
@@ -551,6 +553,44 @@ class ObstacleSet:
         key = np.unique(seg[m] * self.n_items + item)
         return np.divmod(key, self.n_items)
 
+    def _piece_hits(self, si: np.ndarray, it: np.ndarray, a: np.ndarray, d: np.ndarray,
+                    dc: np.ndarray, inv: np.ndarray, r_eff: float) -> np.ndarray:
+        """Collision flags of (segment ``si``, piece ``it``) pairs, without penetration.
+
+        Branch-free (every op runs once on ``(4, pairs)`` arrays; few, short numpy calls):
+        the segment meets the closed piece unless a separating axis exists among the piece's
+        edge normals (both endpoints strictly outside one edge line) and the segment's normal
+        (all vertices strictly on one side of its line); otherwise the pair collides when the
+        smallest vertex-segment or endpoint-edge distance is below ``r_eff`` (the exact
+        segment-polygon distance when they do not meet).
+        """
+        p, e, nc, ee = self.grid_free["hit_table"].take(it, axis=2)  # (4, pairs) each
+        A, D = a[si], d[si]
+        w = p - A  # vertex - A
+        q = w * dc[si]  # real: (p - A).d, imaginary: d x (p - A)
+        cr = q.imag
+        sep = cr.min(axis=0) * cr.max(axis=0) > 0  # the segment's line separates
+        hA = (w * nc).real  # n . (p - A) < 0: A strictly outside edge j
+        w2 = w - D  # vertex - B
+        hB = (w2 * nc).real
+        sep |= np.maximum(hA, hB).min(axis=0) < 0  # an edge line separates
+        t = q.real * inv[si]  # vertex -> segment
+        np.maximum(t, 0.0, out=t)
+        np.minimum(t, 1.0, out=t)
+        dist = np.abs(w - t * D)
+        s = (w * ee).real  # A -> edge j
+        np.maximum(s, 0.0, out=s)
+        np.minimum(s, 1.0, out=s)
+        np.minimum(dist, np.abs(w + s * e), out=dist)
+        s = (w2 * ee).real  # B -> edge j
+        np.maximum(s, 0.0, out=s)
+        np.minimum(s, 1.0, out=s)
+        np.minimum(dist, np.abs(w2 + s * e), out=dist)
+        close = dist.min(axis=0) < r_eff
+        np.logical_not(sep, out=sep)
+        sep |= close
+        return sep
+
     def crossings(self, paths: np.ndarray, details: bool = False,
                   penetration: bool = True) -> DiscCrossings:
         """Exact disc-robot collision count (and penetration) for a batch of polylines.
@@ -587,18 +627,26 @@ class ObstacleSet:
         if self.grid is None:
             # all (segment, item) pairs: keep the centers inside the box around the capsule
             # of radius reach + r (perpendicular and along-segment coordinates by one matmul)
-            il = 1.0 / np.maximum(np.sqrt(dd), 1e-300)
+            half = np.sqrt(dd)
+            il = np.maximum(half, 1e-300)
+            np.divide(1.0, il, out=il)
+            half *= 0.5
             da = d * a.conj()
             L = np.empty((4, len(a)))
-            L[0], L[1] = d.real * il, d.imag * il
-            L[2] = da.imag * il  # (dy ax - dx ay) / |d|
-            L[3] = -da.real * il - 0.5 * dd * il  # -(d.a) / |d| - |d| / 2
-            # rows 0..K-1: signed distance of each center to the segment's line; rows K..2K-1:
-            # its coordinate along the segment measured from the midpoint
-            R = np.abs(self.grid_free["M"] @ L)
+            np.multiply(d.real, il, out=L[0])
+            np.multiply(d.imag, il, out=L[1])
+            np.multiply(da.imag, il, out=L[2])  # (dy ax - dx ay) / |d|
+            np.multiply(da.real, il, out=L[3])
+            np.negative(L[3], out=L[3])
+            L[3] -= half  # -(d.a) / |d| - |d| / 2
+            # rows 0..K-1: |signed distance| of each center to the segment's line; rows
+            # K..2K-1: |coordinate along the segment from the midpoint| - |d| / 2
+            R = self.grid_free["M"] @ L
+            np.abs(R, out=R)
             K = self.n_items
-            lim = self.grid_free["lim"] + 1e-9 * self.scale
-            near = (R[:K] < lim) & (R[K:] < lim + 0.5 * dd * il)
+            R[K:] -= half
+            near = R < self.grid_free["lim2"]
+            near = near[:K] & near[K:]
             it, si = np.divmod(np.flatnonzero(near), len(a))
         else:
             si, it = self._grid_pairs(a, a + d)
@@ -631,7 +679,11 @@ class ObstacleSet:
                     hp.append(np.where(gap > 0, self.radius - gap, self.radius + chord))
                 pk = np.flatnonzero(it < self.n_pieces)
                 si, it = si[pk], it[pk]
-        if si.size:
+        if si.size and not penetration:
+            hit = np.flatnonzero(self._piece_hits(si, it, a, d, dc, inv, r_eff))
+            hs.append(si[hit])
+            hi.append(it[hit])
+        elif si.size:
             # edge columns of the candidate pieces, shape (4, pairs) each
             p, e, n, ee, cc = self.table.take(it, axis=2)
             cc = cc.real
@@ -769,4 +821,7 @@ def obstacle_set(obstacles: Iterable, radius: float, grid: bool | None = None) -
     return ObstacleSet(float(radius), len(obstacles), tuple(o.name for o in obstacles), K,
                        item_obstacle, centers[:, 0] + 1j * centers[:, 1], reach, circ[:, 2],
                        table, scale, gd,
-                       {"M": M, "lim": (reach + radius)[:, None]})
+                       {"M": M, "lim": (reach + radius)[:, None],
+                        "lim2": np.tile(reach + radius + 1e-9 * scale, 2)[:, None],
+                        "hit_table": np.stack([table[0], table[1], table[2].conj(),
+                                               table[3]])})

@@ -286,6 +286,7 @@ penetration_weight, kernel
         if self.snap:
             state.stats["_snap"] = snap_targets(space.imap, 1e-6 * space.diag)
         state.stats["_ones"] = np.ones(space.dim)
+        state.stats["_vmax"] = self._vmax(space)  # constant over the run
         if self._n_islands > 1:
             self._update_islands(state)
 
@@ -328,7 +329,7 @@ penetration_weight, kernel
         V += U[0] * (state.pbest - X)
         social = state.stats["_social"] if self._n_islands > 1 else state.gbest
         V += U[1] * (social - X)  # eq 22
-        vmax = self._vmax(space)
+        vmax = state.stats["_vmax"]
         if vmax is not None:
             np.minimum(V, vmax, out=V)
             np.maximum(V, -vmax, out=V)

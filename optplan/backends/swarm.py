@@ -63,6 +63,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, ClassVar
 
 import numpy as np
@@ -130,13 +131,22 @@ class SwarmSpace:
     def dim(self) -> int:
         return 2 * self.n_waypoints
 
-    @property
+    @cached_property
     def span(self) -> np.ndarray:
-        return self.hi - self.lo
+        """``hi - lo`` per dimension (computed once; read-only)."""
+        out = self.hi - self.lo
+        out.flags.writeable = False
+        return out
 
-    @property
+    @cached_property
     def diag(self) -> float:
+        """Diagonal of the map bounds (computed once)."""
         return float(math.hypot(*(self.hi[:2] - self.lo[:2])))
+
+    @cached_property
+    def _seg_ones(self) -> np.ndarray:
+        """Ones over the ``n + 1`` segments (row sums by a matrix-vector product)."""
+        return np.ones(self.n_waypoints + 1)
 
 
 def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
@@ -193,7 +203,7 @@ def evaluate_swarm(X: np.ndarray, space: SwarmSpace) -> SwarmEval:
     """Eqs 31-33 for a whole batch: one collision-test call for all particles."""
     paths = decode(X, space)
     z = paths.view(np.complex128)[..., 0]  # points as complex numbers
-    length = np.abs(z[:, 1:] - z[:, :-1]) @ np.ones(space.n_waypoints + 1)
+    length = np.abs(z[:, 1:] - z[:, :-1]) @ space._seg_ones
     if space.obstacles is not None:
         cr = space.obstacles.crossings(paths, penetration=space.penetration_weight > 0)
         count, pen = cr.count, cr.penetration
@@ -655,12 +665,15 @@ class SwarmBackend(Backend):
         rows: list[dict[str, Any]] = []
 
         def record(k: int, extra: dict[str, Any]) -> bool:
+            # F.sum() / n is what np.mean computes (same pairwise sum), without its wrapper
             row = {"iteration": k, "best_cost": state.gbest_f,
                    "feasible_best_length": state.feas_len if state.feas_x is not None
                    else math.nan,
                    "n_eval": state.n_eval, "time": time.perf_counter() - t0,
-                   "mean_cost": float(np.mean(state.F)), **extra}
+                   "mean_cost": float(state.F.sum() / len(state.F)), **extra}
             rows.append(row)
+            if callback is None:
+                return False
             return notify(callback, Progress(iteration=it_offset + k, best_cost=state.gbest_f,
                                              n_eval=state.n_eval,
                                              elapsed=time.perf_counter() - t0,
@@ -746,10 +759,10 @@ def _merge_rows(all_rows: list[list[dict[str, Any]]]) -> History:
     hist = History()
     if not all_rows:
         return hist
-    if len(all_rows) == 1:
-        for r in all_rows[0]:
-            hist.append(**r)
-        return hist
+    if len(all_rows) == 1:  # columns in first-seen order, nan where a row lacks one
+        rows = all_rows[0]
+        keys = list(dict.fromkeys(k for r in rows for k in r))
+        return History({k: [r.get(k, np.nan) for r in rows] for k in keys})
     n = max(len(r) for r in all_rows)
     for i in range(n):
         rows = [r[min(i, len(r) - 1)] for r in all_rows]
