@@ -54,9 +54,12 @@ Pair pruning
     Only pairs whose piece lies within ``prune_distance`` (fraction of the map diagonal) of the
     *initial* segment, beyond the piece's clearance, are constrained.  After each solve every
     (segment, piece) distance is checked exactly (shapely); a violated pruned pair is added (with
-    the pairs near the new segments) and the NLP re-solved from the initial guess, up to
-    ``max_rounds`` solves; the last one constrains every pair.  If the shared validator still
-    objects, all pairs are added.
+    the pairs near the new segments) and the NLP re-solved, up to ``max_rounds`` solves; the
+    last one constrains every pair.  A re-solve starts from the previous round's solution
+    (``resolve_from = "last"``, default: it already satisfies the kept pairs, so IPOPT only
+    clears the added ones; from overlapping heuristic guesses this halves the iterations and
+    more often keeps the optimal homotopy class) or from the initial guess again (``"init"``).
+    If the shared validator still objects, all pairs are added.
 
 Structure re-use
     The NLP is built once per structure ``(N, slots per segment, vertices per slot, IPOPT
@@ -652,14 +655,16 @@ def solve_waypoint_nlp(
     eps: float = 1e-4,
     spacing_weight: float = 1e-4,
     hyperplane_weight: float = 0.0,
+    resolve_from: str = "last",
     ipopt_options: dict | None = None,
     on_iter: Callable[[float], bool] | None = None,
 ) -> NLPOutcome:
     """Solve the waypoint NLP for ``robot`` from ``init_path`` (map units in and out).
 
     Multi-round: solve with the pruned pairs, check every (segment, piece) distance exactly,
-    add the violated pairs (and those near the new segments) and re-solve from the initial
-    guess (at most ``max_rounds`` solves).
+    add the violated pairs (and those near the new segments) and re-solve (at most
+    ``max_rounds`` solves), from the previous round's solution (``resolve_from = "last"``) or
+    from the initial guess (``"init"``).
     ``on_iter(f)`` is called every IPOPT iteration; returning True stops IPOPT.
     """
     pieces = obstacle_pieces(problem, robot, mode=mode, known_only=known_only, margin=margin)
@@ -720,6 +725,8 @@ def solve_waypoint_nlp(
             full = True
             continue
         mask = mask | missing | (slack <= prune_abs)
+        if resolve_from == "last":
+            start_path = path
         if rounds == max_rounds - 1:
             mask = np.ones_like(mask)  # the last solve gets every pair
             full = True
@@ -767,6 +774,10 @@ class WaypointNLP(Backend):
         (``inf`` = every pair).
     max_rounds : int
         Maximum number of solves (re-solves happen when a pruned pair turns out violated).
+    resolve_from : {"last", "init"}
+        Start of a re-solve: the previous round's solution (default; it already satisfies the
+        kept pairs, so IPOPT only has to clear the added ones: ~2x fewer iterations from
+        infeasible heuristic guesses) or the initial guess again.
     eps : float
         :math:`\varepsilon`, length smoothing, fraction of the map diagonal.
     spacing_weight : float
@@ -804,6 +815,7 @@ class WaypointNLP(Backend):
     init_from: str = "visgraph"
     prune_distance: float = 0.05
     max_rounds: int = 4
+    resolve_from: str = "last"
     eps: float = 1e-4
     spacing_weight: float = 1e-4
     see_temporary: bool = False
@@ -823,6 +835,7 @@ class WaypointNLP(Backend):
         check_choice(self, "init_from", ("visgraph", "straight"))
         check_range(self, "prune_distance", 0.0, math.inf)
         check_int(self, "max_rounds", 1, 50)
+        check_choice(self, "resolve_from", ("init", "last"))
         check_range(self, "eps", 0.0, 1e-2)
         check_range(self, "spacing_weight", 0.0, 1.0)
         check_int(self, "max_iter", 1, 100_000)
@@ -910,6 +923,7 @@ class WaypointNLP(Backend):
                     view, robot, guess, n_segments=self.n_segments, mode=self.clearance_mode,
                     known_only=known_only, margin=self.margin,
                     prune_distance=self.prune_distance, max_rounds=self.max_rounds,
+                    resolve_from=self.resolve_from,
                     eps=self.eps * 1.0, spacing_weight=self.spacing_weight,
                     ipopt_options=self.ipopt_options(),
                     on_iter=on_iter if callback is not None else None)
