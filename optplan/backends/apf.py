@@ -69,7 +69,7 @@ import numpy as np
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status
 from optplan.sim import ObstacleField, SimState, simulate
-from optplan.solver import Backend, check_int, check_range
+from optplan.solver import Backend, check_int, check_range, make_rng
 
 __all__ = [
     "APF",
@@ -575,7 +575,7 @@ class PotentialFieldBackend(Backend):
     def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
               init: dict[str, np.ndarray] | None = None,
               callback: Callable[[Progress], Any] | None = None):
-        gen = rng if rng is not None else np.random.default_rng()
+        gen = make_rng(rng)[0]
         return run_local_planner(self, problem, gen, callback)
 
 

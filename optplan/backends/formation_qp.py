@@ -69,7 +69,7 @@ from optplan.backends.leader_follower import (
 )
 from optplan.problem import Problem
 from optplan.sim import SimState
-from optplan.solver import check_choice, check_int, check_range
+from optplan.solver import check_choice, check_int, check_range, make_rng
 
 __all__ = ["FormationQP", "QPCore", "QPFormationController"]
 
@@ -560,7 +560,7 @@ class FormationQP(PilotedFormation):
         return QPFormationController(problem, self)
 
     def solve(self, problem, /, *, rng=None, init=None, callback=None):
-        rng = rng if rng is not None else np.random.default_rng(0)
+        rng = make_rng(rng)[0]
         ctl = self.followers_controller(problem, rng)
         joint = None
         if self.leader_in_qp:

@@ -69,7 +69,7 @@ import numpy as np
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Result, Status, notify
 from optplan.sim import SimState, simulate
-from optplan.solver import Backend, check_int, check_range, get_solver
+from optplan.solver import Backend, check_int, check_range, get_solver, make_rng
 
 __all__ = ["Hybrid", "inflection_points", "subgoals", "turning_angles"]
 
@@ -349,8 +349,7 @@ class Hybrid(Backend):
               init: dict[str, np.ndarray] | None = None,
               callback: Callable[[Progress], Any] | None = None) -> Result:
         t_start = time.perf_counter()
-        if rng is None:
-            rng = np.random.default_rng()
+        rng = make_rng(rng)[0]
         rng_global, rng_local, rng_form = rng.spawn(3)
         offset, stopped = [0], [False]
         cb = _wrap_callback(callback, offset, stopped)

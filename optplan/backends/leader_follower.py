@@ -100,7 +100,7 @@ from optplan.backends.apf import attractive_force, repulsive_force
 from optplan.problem import Problem
 from optplan.result import History, Progress, Status
 from optplan.sim import ObstacleField, SimState, simulate
-from optplan.solver import Backend, check_int, check_range, get_solver
+from optplan.solver import Backend, check_int, check_range, get_solver, make_rng
 
 __all__ = [
     "PilotedFormation",
@@ -920,6 +920,6 @@ class LeaderFollower(PilotedFormation):
         return LPhiFollowers(problem, self)
 
     def solve(self, problem, /, *, rng=None, init=None, callback=None):
-        rng = rng if rng is not None else np.random.default_rng(0)
+        rng = make_rng(rng)[0]
         return run_formation(self, problem, self.followers_controller(problem, rng), rng=rng,
                              init=init, callback=callback)

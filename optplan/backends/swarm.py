@@ -71,7 +71,7 @@ import numpy as np
 from optplan.geometry import InflatedMap, ObstacleSet, batch_crossings, obstacle_set
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
-from optplan.solver import Backend, check_choice, check_int, check_range
+from optplan.solver import Backend, check_choice, check_int, check_range, make_rng
 
 __all__ = [
     "SwarmSpace",
@@ -700,7 +700,7 @@ class SwarmBackend(Backend):
               init: dict[str, np.ndarray] | None = None,
               callback: Callable[[Progress], Any] | None = None):
         t0 = time.perf_counter()
-        rng = np.random.default_rng() if rng is None else rng
+        rng = make_rng(rng)[0]
         view = problem.known_view()
         paths: dict[str, np.ndarray] = {}
         per_robot: dict[str, Any] = {}
