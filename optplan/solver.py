@@ -126,8 +126,8 @@ def _load_class(name: str) -> type[Backend]:
     return getattr(module, cls)
 
 
-def _apply_options(cls: type[Backend], options: dict[str, Any], where: str,
-                   preset: str | None) -> Backend:
+def _check_names(cls: type[Backend], options: dict[str, Any], where: str) -> None:
+    """Raise ``ValueError`` naming ``where`` for option names ``cls`` does not have."""
     fields = {f.name for f in dataclasses.fields(cls) if f.init and not f.name.startswith("_")}
     for k in options:
         if k not in fields:
@@ -137,7 +137,15 @@ def _apply_options(cls: type[Backend], options: dict[str, Any], where: str,
                 f"{where}: unknown option {k!r} for backend {cls.name!r}{hint} "
                 f"(valid: {', '.join(sorted(fields))})"
             )
-    obj = cls(**options)
+
+
+def _apply_options(cls: type[Backend], options: dict[str, Any], where: str,
+                   preset: str | None) -> Backend:
+    _check_names(cls, options, where)
+    try:
+        obj = cls(**options)
+    except (ValueError, TypeError) as e:
+        raise ValueError(f"{where}: {e}") from None
     if preset is not None:
         object.__setattr__(obj, "_preset", preset)
     return obj
@@ -173,7 +181,11 @@ def get_solver(spec: str | Path | Backend, **overrides: Any) -> Backend:
             hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
             raise ValueError(f"unknown solver {s!r}{hint} (see optplan.list_solvers())")
     cls = _load_class(data["backend"])
+    _check_names(cls, data["options"], where)
+    _check_names(cls, overrides, "override")
     opts = {**data["options"], **overrides}
+    if overrides:
+        where += f" with overrides {sorted(overrides)}"
     return _apply_options(cls, opts, where, preset)
 
 
