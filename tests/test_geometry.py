@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 import shapely
-from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from shapely.geometry import LineString, Point, Polygon
 
@@ -97,30 +97,6 @@ def obstacle(draw) -> Obstacle:
 
 maps = st.lists(obstacle(), min_size=1, max_size=5)
 
-# Known defects of optplan.geometry detected at import time, so these tests turn strict by
-# themselves once the kernel is fixed (see the notes in the docstrings below).
-_COLLINEAR_BUG = bool(batch_crossings(np.array([[2.0, 10.0], [8.0, 10.0]]),
-                                      inflate([rect(0, 0, 10, 10)], 0.0)).count[0])
-collinear_bug = pytest.mark.xfail(
-    _COLLINEAR_BUG, strict=True,
-    reason="batch_crossings counts a segment lying on an edge as inside when the polygon is on "
-           "the side the 'vertex on the line -> +' tie-break leans to; fix: evaluate the "
-           "indicator with both tie-breaks and take the min")
-# Vertices created by the union (where an edge crosses another obstacle) lie only within
-# round-off of the edge they split; unless near-zero side values are snapped to the line, a
-# near-parallel edge then yields a garbage crossing parameter and misses a real crossing.
-_ROUNDOFF_BUG = not bool(batch_crossings(
-    np.array([[2.0, 5.0 / 3.0], [1.8, 2.0]]),
-    inflate([rect(0, 0, 2, 2), poly([(0, 0), (0, 5), (3, 0)])], 0.0)).count[0])
-roundoff_bug = pytest.mark.xfail(
-    _ROUNDOFF_BUG, strict=False,
-    reason="batch_crossings classifies union vertices lying within round-off of the segment's "
-           "line by the sign of the rounding error; fix: snap |side| <= 1e-12 scale |D| to 0")
-_BRACKET_GAP = circumscribed_radius(1.0) * math.cos(3 * math.pi / (8 * 8)) < 1.0 - 1e-12
-bracket_gap = pytest.mark.xfail(
-    _BRACKET_GAP, strict=True,
-    reason="GEOS rounds the number of fillet segments (an arc step can be 1.5x the nominal), "
-           "so r / cos(pi / 4q) does not circumscribe at every corner; r / cos(3 pi / 8q) does")
 radii = st.sampled_from([0.0, 0.0, 0.5, 1.0, 1.7])
 paths = st.lists(pt, min_size=2, max_size=6)
 
@@ -130,11 +106,7 @@ paths = st.lists(pt, min_size=2, max_size=6)
 # ------------------------------------------------------------------------------------
 
 
-@collinear_bug
-@roundoff_bug
-@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow],
-          phases=tuple(p for p in Phase if p is not Phase.shrink or not (
-              _COLLINEAR_BUG or _ROUNDOFF_BUG)))
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(obstacles=maps, radius=radii, data=st.data())
 def test_batch_crossings_agree_with_shapely(obstacles, radius, data) -> None:
     imap = inflate(obstacles, radius)
@@ -174,7 +146,6 @@ def test_two_dim_input_and_lengths(obstacles, radius, path) -> None:
         set(map(tuple, path))) > 1 else 0.0)
 
 
-@collinear_bug
 def test_touching_is_not_a_collision() -> None:
     imap = inflate([rect(0, 0, 10, 10)], 0.0)
     cases = {
@@ -209,7 +180,6 @@ def test_crossings_counted_per_obstacle_with_penetration() -> None:
     assert res2.penetration[0] == pytest.approx(10.0)
 
 
-@pytest.mark.xfail(_ROUNDOFF_BUG, strict=True, reason=roundoff_bug.kwargs["reason"])
 def test_union_vertices_within_roundoff_of_the_line() -> None:
     tri = poly([(0, 0), (0, 5), (3, 0)])
     # a square poking out of the triangle's hypotenuse: the chord between the two crossing
@@ -267,9 +237,7 @@ def _exact_sum(obstacles, radius):
     return shapely.unary_union(fine)
 
 
-@bracket_gap
-@settings(max_examples=40, deadline=None,  # no shrinking while the known gap makes it fail
-          phases=tuple(p for p in Phase if p is not Phase.shrink or not _BRACKET_GAP))
+@settings(max_examples=40, deadline=None)
 @given(obstacles=maps, radius=st.floats(0.1, 3.0))
 def test_circumscribed_covers_exact_disc(obstacles, radius) -> None:
     cir = inflate(obstacles, radius, mode="circumscribed")
@@ -286,10 +254,7 @@ def test_circumscribed_covers_at_awkward_corner() -> None:
     pts = shapely.points([ring.interpolate(t, normalized=True).coords[0]
                           for t in np.linspace(0, 1, 4001)])
     gap = 1.0 - float(shapely.distance(pts, p.geometry).min())
-    if _BRACKET_GAP:
-        assert gap < 0.0065  # the documented worst case of the current kernel: 0.6 % of r
-    else:
-        assert gap <= 1e-9
+    assert gap <= 1e-9
 
 
 @settings(max_examples=40, deadline=None)
@@ -300,8 +265,8 @@ def test_inflation_bracket(obstacles, radius) -> None:
     assert ins.mode == "inscribed" and cir.mode == "circumscribed"
     assert ins.union.area < cir.union.area
     exact = _exact_sum(obstacles, radius)
-    # circumscribed: covers the exact sum up to the known fillet gap (strict test above)
-    slack = 0.0065 * radius if _BRACKET_GAP else 1e-9 * max(1.0, exact.length)
+    # circumscribed: covers the exact sum (up to round-off)
+    slack = 1e-9 * max(1.0, exact.length)
     assert cir.union.buffer(slack).covers(exact)
     # the inscribed polygon lies inside the exact sum: its vertices are within r of the obstacle
     verts = np.concatenate([np.asarray(p.exterior.coords) for p in ins.parts])

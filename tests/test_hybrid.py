@@ -304,17 +304,9 @@ def test_callback_stop_is_honoured():
 # --------------------------------------------------------------------------------------
 
 
-def _need(*presets):
-    have = set(op.list_solvers())
-    missing = [p for p in presets if p not in have]
-    if missing:
-        pytest.skip(f"presets not available yet: {missing}")
-
-
 def test_paper_hybrid_three_way_ordering():
     """Figs 28-30: IPSO alone hits a temporary obstacle; SA-APF alone is collision-free but
     longer; the hybrid is collision-free and between the two (docs: measured ratios)."""
-    _need("ipso", "sa-apf-paper", "hybrid-paper")
     from optplan.experiments.hybrid import temporary_collision
 
     prob = op.load_problem("paper-hybrid")
@@ -333,7 +325,6 @@ def test_paper_hybrid_three_way_ordering():
 
 def test_paper_warehouse_hybrid_formation():
     """Must show: paper-warehouse with hybrid-paper, seed 0."""
-    _need("ipso", "sa-apf-paper", "leader-follower-paper", "hybrid-paper")
     prob = op.load_problem("paper-warehouse")
     res = op.solve(prob, "hybrid-paper", rng=0)
     m = res.metrics

@@ -286,8 +286,6 @@ def test_validate_rows_and_table() -> None:
 @pytest.mark.parametrize("name", ["paper-env1", "paper-env2"])
 def test_polishing_ipso_paper_closes_the_gap(name: str) -> None:
     """Issue 4: never longer than the initial guess; median gap <= 0.1 % in the optimal class."""
-    if "ipso-paper" not in op.list_solvers():
-        pytest.skip("ipso-paper preset not available")
     rows = validate(name, "ipso-paper", seeds=10)
     s = summarize(rows)
     for r in rows:

@@ -89,19 +89,6 @@ def brute_force_length(problem: op.Problem, robot: Robot | None = None,
     return float(dist[1])
 
 
-# Known defect of the crossing kernel, detected at import so the marked tests turn strict by
-# themselves once it is fixed: a segment lying on a boundary edge is graded "inside" for one of
-# the two directions, so the validator flags the visgraph's own boundary-hugging edges.
-_COLLINEAR_BUG = bool(op.evaluate(
-    make_problem([{"type": "rectangle", "min": [0, 0], "max": [10, 10]}], (50, 50), (60, 60),
-                 radius=0.5),
-    {"r1": np.array([[50.0, 50.0], [2.0, 10.5], [8.0, 10.5], [60.0, 60.0]])})["collisions"])
-collinear_bug = pytest.mark.xfail(
-    _COLLINEAR_BUG, strict=False,
-    reason="geometry.batch_crossings grades a segment lying on an inflated edge as a collision "
-           "for one direction (see tests/test_geometry.py)")
-
-
 def plength(path: np.ndarray) -> float:
     return float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
 
@@ -124,7 +111,6 @@ def test_open_field_is_the_straight_line() -> None:
     assert r.metrics["length_inscribed"] == r.metrics["length_circumscribed"]
 
 
-@collinear_bug
 @pytest.mark.parametrize("seed", range(6))
 def test_random_maps_match_brute_force(seed: int) -> None:
     prob = random_map(seed)
@@ -141,7 +127,6 @@ def test_random_maps_match_brute_force(seed: int) -> None:
     assert m["length"] == pytest.approx(ref, rel=1e-9)
 
 
-@collinear_bug
 @pytest.mark.parametrize("seed", range(3))
 def test_bracket_on_random_maps(seed: int) -> None:
     prob = random_map(100 + seed)
@@ -192,7 +177,6 @@ def test_disconnected_is_infeasible() -> None:
         op.Status.infeasible)
 
 
-@collinear_bug
 def test_collinear_tangents_along_aligned_obstacles() -> None:
     # three squares with top edges on y = 50; with r = 2 the inflated tops lie on y = 52 and
     # the straight line at y = 52 runs along all of them (pyvisgraph's collinear failure)
@@ -204,7 +188,6 @@ def test_collinear_tangents_along_aligned_obstacles() -> None:
     assert res.metrics["collisions"] == 0
 
 
-@collinear_bug
 def test_near_collinear_vertices() -> None:
     # triangles whose apexes sit 1e-9 above / below the line start-goal, and a row of
     # nearly aligned rectangles: the path must be the brute-force optimum, collision-free
@@ -222,7 +205,6 @@ def test_near_collinear_vertices() -> None:
     assert res.metrics["length"] == pytest.approx(brute_force_length(prob), rel=1e-9)
 
 
-@collinear_bug
 @pytest.mark.parametrize("seed", [0, 3])
 def test_large_coordinates(seed: int) -> None:
     base = random_map(seed)
@@ -255,7 +237,6 @@ def test_shortest_path_api_and_graph_info() -> None:
     assert plength(path) <= direct + 4 * 2.0
 
 
-@collinear_bug
 def test_temporary_obstacles_ignored_unless_asked() -> None:
     obs = [{"type": "rectangle", "min": [90, 0], "max": [110, 190], "known": False}]
     prob = make_problem(obs, (10, 100), (190, 100))
