@@ -15,6 +15,7 @@ import importlib
 import importlib.util
 import json
 import math
+import os
 import sys
 import time
 import tomllib
@@ -472,6 +473,11 @@ def main(argv: list[str] | None = None) -> int:
 
     try:
         return _dispatch(argv, sys.stdout)
+    except BrokenPipeError:
+        # the reader went away (e.g. `optplan list | head`): stop quietly, as Unix tools do
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
     except (CLIError, ProblemError, ValueError, FileNotFoundError, KeyError, ImportError,
             OSError) as e:
         if show_tb:
