@@ -467,19 +467,8 @@ penetration_weight, kernel
         # gbest and the best collision-free particle over everything scored (a rejected
         # mutant costs at least as much as its child, so it never wins alone)
         main = P + 2 * m
-        j = int(np.argmin(cost[:main]))
-        if cost[j] < st.gbest_f:
-            st.gbest = batch[j].copy()
-            st.gbest_f = float(cost[j])
-            st.gbest_len = float(ev.length[j])
-            st.gbest_count = int(ev.count[j])
-        feas = ev.count == 0
-        if feas.any():
-            lens = np.where(feas, ev.length, np.inf)
-            q = int(np.argmin(lens))
-            if lens[q] < st.feas_len:
-                st.feas_len = float(lens[q])
-                st.feas_x = batch[q].copy()
+        st.offer_gbest(batch[:main], ev.take(slice(0, main)))
+        st.offer_feasible(batch, ev)
         pos = main
         m_i = P // self._n_islands
         for key, C in extra:

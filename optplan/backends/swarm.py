@@ -514,12 +514,20 @@ class SwarmState:
 
     def offer(self, X: np.ndarray, ev: SwarmEval) -> None:
         """Update gbest and the feasible best with candidate positions (no slot changes)."""
+        self.offer_gbest(X, ev)
+        self.offer_feasible(X, ev)
+
+    def offer_gbest(self, X: np.ndarray, ev: SwarmEval) -> None:
+        """Replace gbest by the best candidate if it has a lower fitness."""
         j = int(np.argmin(ev.cost))
         if ev.cost[j] < self.gbest_f:
             self.gbest = X[j].copy()
             self.gbest_f = float(ev.cost[j])
             self.gbest_len = float(ev.length[j])
             self.gbest_count = int(ev.count[j])
+
+    def offer_feasible(self, X: np.ndarray, ev: SwarmEval) -> None:
+        """Replace the best collision-free position by a shorter collision-free candidate."""
         feas = ev.count == 0
         if feas.any():
             lens = np.where(feas, ev.length, np.inf)
