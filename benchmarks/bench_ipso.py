@@ -1,9 +1,12 @@
 """Speed of the swarm planners: one ``ipso-paper`` run (50 particles x 200 iterations).
 
 1. Wall time per run on ``paper-env1`` (target <= 40 ms median on the 2-core dev machine) with
-   the default fitness kernel (``optplan.geometry.ObstacleSet``: exact disc test on the raw
-   obstacles' convex pieces) and with the reference kernel (``geometry.batch_crossings`` on the
-   validator's inflated map); the documented ``ipso`` variant for comparison.
+   each engine (option ``engine``): ``numba`` (the optional compiled fitness kernel of
+   :mod:`optplan.numba_kernel` and the compiled IPSO step of
+   :mod:`optplan.backends.ipso_compiled`; bit-identical runs) and ``numpy`` (the vectorised
+   kernel ``optplan.geometry.ObstacleSet`` and the numpy step); the reference kernel
+   (``geometry.batch_crossings`` on the validator's inflated map); the documented ``ipso``
+   variant for comparison.
 2. Where the time of one ``ipso-paper`` run goes: the fitness kernel vs the rest of the loop.
 3. Scaling of one run's time with the number of obstacles (10 / 100 / 1000 random squares and
    discs in a 500 x 500 map, obstacle size ~ 1/sqrt(N) so that the covered fraction is
@@ -24,7 +27,7 @@ import numpy as np
 
 import optplan as op
 from optplan.backends.swarm import make_space
-from optplan.geometry import ObstacleSet
+from optplan.geometry import ObstacleSet, kernel_engine
 
 
 def _time_runs(prob, solver, runs: int, **over) -> tuple[float, float]:
@@ -38,7 +41,7 @@ def _time_runs(prob, solver, runs: int, **over) -> tuple[float, float]:
     return float(np.median(ts)), ok / runs
 
 
-def _kernel_share(prob, solver: str, runs: int) -> tuple[float, float, int]:
+def _kernel_share(prob, solver: str, runs: int, **over) -> tuple[float, float, int]:
     """Median run time and median time inside ObstacleSet.crossings (one run), calls."""
     real = ObstacleSet.crossings
     acc = [0.0, 0]
@@ -56,7 +59,7 @@ def _kernel_share(prob, solver: str, runs: int) -> tuple[float, float, int]:
         for s in range(runs):
             acc[0], acc[1] = 0.0, 0
             t = time.perf_counter()
-            op.solve(prob, solver, rng=s)
+            op.solve(prob, solver, rng=s, **over)
             tot.append(time.perf_counter() - t)
             ker.append(acc[0])
     finally:
@@ -92,43 +95,52 @@ def main(argv: list[str] | None = None) -> int:
           f", Python {platform.python_version()}, numpy {np.__version__}")
     print()
     prob = op.load_problem("paper-env1")
+    engines = ["numba", "numpy"] if kernel_engine("auto") == "numba" else ["numpy"]
+    if engines == ["numpy"]:
+        print("(numba is not installed: numpy engine only; `pip install optplan[fast]`)")
+        print()
     print("### One run on paper-env1")
     print()
-    print("| solver | fitness kernel | median wall time per run (ms) | success |")
-    print("|---|---|---|---|")
-    for solver, label, over in [
-            ("ipso-paper", "ObstacleSet (exact disc, default)", {}),
-            ("ipso-paper", "geometry.batch_crossings (validator map)", {"kernel": "geometry"}),
-            ("ipso", "ObstacleSet (exact disc, default)", {})]:
-        runs = args.runs if not over else max(3, args.runs // 3)
+    print("| solver | engine | fitness kernel | median wall time per run (ms) | success |")
+    print("|---|---|---|---|---|")
+    rows = [("ipso-paper", e, "ObstacleSet (exact disc, default)", {"engine": e})
+            for e in engines]
+    rows.append(("ipso-paper", "numpy", "geometry.batch_crossings (validator map)",
+                 {"kernel": "geometry", "engine": "numpy"}))
+    rows += [("ipso", e, "ObstacleSet (exact disc, default)", {"engine": e}) for e in engines]
+    for solver, engine, label, over in rows:
+        runs = args.runs if solver == "ipso-paper" and "kernel" not in over \
+            else max(3, args.runs // 3)
         t, ok = _time_runs(prob, solver, runs, **over)
-        print(f"| {solver} | {label} | {t * 1e3:.0f} | {ok:.0%} |")
+        print(f"| {solver} | {engine} | {label} | {t * 1e3:.1f} | {ok:.0%} |")
     print()
     print("### Where the time of one ipso-paper run on paper-env1 goes")
     print()
-    tot, ker, calls = _kernel_share(prob, "ipso-paper", args.runs)
-    print("| part | median ms per run | per iteration (us) |")
-    print("|---|---|---|")
-    print(f"| fitness kernel (`ObstacleSet.crossings`, {calls} calls) | {ker * 1e3:.0f} | "
-          f"{ker / 200 * 1e6:.0f} |")
-    print(f"| everything else (IPSO update, GA, bookkeeping, validator) | "
-          f"{(tot - ker) * 1e3:.0f} | {(tot - ker) / 200 * 1e6:.0f} |")
-    print(f"| total | {tot * 1e3:.0f} | {tot / 200 * 1e6:.0f} |")
+    print("| engine | part | median ms per run | per iteration (us) |")
+    print("|---|---|---|---|")
+    for e in engines:
+        tot, ker, calls = _kernel_share(prob, "ipso-paper", args.runs, engine=e)
+        print(f"| {e} | fitness kernel (`ObstacleSet.crossings`, {calls} calls) | "
+              f"{ker * 1e3:.1f} | {ker / 200 * 1e6:.0f} |")
+        print(f"| {e} | everything else (IPSO step, GA, bookkeeping, validator) | "
+              f"{(tot - ker) * 1e3:.1f} | {(tot - ker) / 200 * 1e6:.0f} |")
+        print(f"| {e} | total | {tot * 1e3:.1f} | {tot / 200 * 1e6:.0f} |")
     print()
     print("### Scaling with the number of obstacles (ipso-paper, one run)")
     print()
-    print("| obstacles (placed) | kernel items (convex pieces + circles) | grid "
+    print("| engine | obstacles (placed) | kernel items (convex pieces + circles) | grid "
           "| median ms per run | x vs 10 |")
-    print("|---|---|---|---|---|")
-    base = None
-    for n in (10, 100, 1000):
-        p = random_map(n)
-        obs = make_space(p, p.robots[0], 1).obstacles
-        t, _ = _time_runs(p, "ipso-paper", max(3, args.runs // 3))
-        base = base or t
-        grid = "-" if obs.grid is None else f"{obs.grid['nx']} x {obs.grid['ny']}"
-        print(f"| {n} ({len(p.obstacles)}) | {obs.n_items} | {grid} | {t * 1e3:.0f} | "
-              f"{t / base:.1f} |")
+    print("|---|---|---|---|---|---|")
+    for e in engines:
+        base = None
+        for n in (10, 100, 1000):
+            p = random_map(n)
+            obs = make_space(p, p.robots[0], 1).obstacles
+            t, _ = _time_runs(p, "ipso-paper", max(3, args.runs // 3), engine=e)
+            base = base or t
+            grid = "-" if obs.grid is None else f"{obs.grid['nx']} x {obs.grid['ny']}"
+            print(f"| {e} | {n} ({len(p.obstacles)}) | {obs.n_items} | {grid} | "
+                  f"{t * 1e3:.1f} | {t / base:.1f} |")
     return 0
 
 

@@ -4,7 +4,8 @@
 ``N`` robots (one leader, ``N - 1`` followers) in a ``line``, ``wedge`` or ``grid`` shape, with
 the followers' L-phi slots derived from the shape (convention of :class:`optplan.problem.Follower`).
 :func:`jitter_phases` shifts the phase of every moving obstacle of a problem by a seeded random
-time, the variants used by ``optplan bench --tag formation``.
+time, the variants used by ``optplan bench --tag formation``.  :func:`random_obstacles` scatters
+seeded random obstacles of every kind the kernels handle (benchmarks and kernel tests).
 """
 
 from __future__ import annotations
@@ -13,10 +14,12 @@ import dataclasses
 import math
 
 import numpy as np
+import shapely
+from shapely.geometry import Point, Polygon
 
-from optplan.problem import Follower, Formation, Problem, Robot, parse_problem
+from optplan.problem import Follower, Formation, Obstacle, Problem, Robot, parse_problem
 
-__all__ = ["formation_offsets", "formation_scene", "jitter_phases"]
+__all__ = ["formation_offsets", "formation_scene", "jitter_phases", "random_obstacles"]
 
 SHAPES = ("line", "wedge", "grid")
 
@@ -115,3 +118,42 @@ def jitter_phases(problem: Problem, rng: np.random.Generator, span: float | None
         else:
             dyn.append(dataclasses.replace(d, times=d.times - shift))
     return dataclasses.replace(problem, dynamic_obstacles=tuple(dyn), _cache={})
+
+
+def random_obstacles(n: int, seed: int = 0, side: float = 500.0,
+                     keep_free: tuple = ()) -> list[Obstacle]:
+    """``n`` seeded random obstacles in a ``side`` square, size ~ ``1 / sqrt(n)`` (constant
+    covered fraction): circles, rectangles, triangles, hexagons (two convex pieces) and concave
+    U shapes (several pieces), each rotated at random.
+
+    Obstacles whose centre is closer than twice the size to a point of ``keep_free`` are
+    skipped (so fewer than ``n`` may be returned).
+    """
+    rng = np.random.default_rng(seed)
+    size = side * 0.3 / math.sqrt(n)
+    out: list[Obstacle] = []
+    for i in range(n):
+        c = rng.uniform(0.05 * side, 0.95 * side, 2)
+        if any(math.dist(c, q) < 2 * size for q in keep_free):
+            continue
+        s = size * rng.uniform(0.5, 1.5)
+        kind = i % 5
+        if kind == 0:
+            out.append(Obstacle("circle", Point(c).buffer(s / 2, quad_segs=16), True, f"c{i}",
+                                center=c, radius=s / 2))
+            continue
+        if kind == 1:
+            v = [[-s / 2, -s / 3], [s / 2, -s / 3], [s / 2, s / 3], [-s / 2, s / 3]]
+        elif kind == 2:
+            v = [[-s / 2, -s / 2], [s / 2, -s / 3], [0.0, s / 2]]
+        elif kind == 3:
+            v = [[s / 2 * math.cos(a), s / 2 * math.sin(a)]
+                 for a in np.linspace(0, 2 * math.pi, 7)[:-1]]
+        else:  # a U: a square with a notch
+            v = [[0, 0], [3, 0], [3, 3], [2, 3], [2, 1], [1, 1], [1, 3], [0, 3]]
+            v = [[(x - 1.5) * s / 3, (y - 1.5) * s / 3] for x, y in v]
+        th = rng.uniform(0, 2 * math.pi)
+        rot = np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
+        poly = shapely.geometry.polygon.orient(Polygon(np.asarray(v) @ rot.T + c), 1.0)
+        out.append(Obstacle("polygon", poly, True, f"p{i}"))
+    return out

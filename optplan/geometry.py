@@ -49,6 +49,8 @@ __all__ = [
     "DiscCrossings",
     "obstacle_set",
     "convex_pieces",
+    "KERNEL_ENGINES",
+    "kernel_engine",
 ]
 
 #: shapely ``quad_segs`` used for inflation.
@@ -436,6 +438,47 @@ def convex_pieces(geom, max_edges: int = PIECE_EDGES) -> list[np.ndarray]:
     return out
 
 
+#: Engines of :meth:`ObstacleSet.crossings` (``"auto"`` resolves to one of the other two).
+KERNEL_ENGINES = ("auto", "numpy", "numba")
+
+
+def kernel_engine(engine: str = "auto") -> str:
+    """The engine ``engine`` resolves to for :meth:`ObstacleSet.crossings` (without details).
+
+    ``"numpy"`` is the vectorised kernel below; ``"numba"`` the compiled loops of
+    :mod:`optplan.numba_kernel` (optional dependency: ``pip install optplan[fast]``).
+    ``"auto"`` is ``"numba"`` when numba is importable, else ``"numpy"``; the environment
+    variable ``OPTPLAN_ENGINE`` overrides what ``"auto"`` means (``numpy``: always numpy,
+    ``numba``: require numba, ``auto`` or empty: the default).  Both engines give identical
+    counts and penetration within round-off.
+
+    Raises
+    ------
+    ValueError
+        Unknown engine (argument or environment variable), or ``"numba"`` asked for while
+        numba is not installed.
+    """
+    import os
+
+    from optplan import numba_kernel
+
+    if engine not in KERNEL_ENGINES:
+        raise ValueError(f"unknown crossings engine {engine!r}; allowed: "
+                         + ", ".join(repr(e) for e in KERNEL_ENGINES))
+    if engine == "auto":
+        env = os.environ.get("OPTPLAN_ENGINE", "").strip().lower() or "auto"
+        if env not in KERNEL_ENGINES:
+            raise ValueError(f"environment variable OPTPLAN_ENGINE={env!r} is not one of "
+                             + ", ".join(repr(e) for e in KERNEL_ENGINES))
+        if env == "auto":
+            return "numba" if numba_kernel.AVAILABLE else "numpy"
+        engine = env
+    if engine == "numba" and not numba_kernel.AVAILABLE:
+        raise ValueError("engine 'numba' needs numba, which is not installed: "
+                         "pip install optplan[fast] (or use engine='numpy')")
+    return engine
+
+
 @dataclass(frozen=True, eq=False)
 class ObstacleSet:
     """Raw static obstacles laid out for the exact disc-robot test of whole swarms.
@@ -592,7 +635,7 @@ class ObstacleSet:
         return sep
 
     def crossings(self, paths: np.ndarray, details: bool = False,
-                  penetration: bool = True) -> DiscCrossings:
+                  penetration: bool = True, engine: str = "auto") -> DiscCrossings:
         """Exact disc-robot collision count (and penetration) for a batch of polylines.
 
         Parameters
@@ -602,7 +645,27 @@ class ObstacleSet:
             Also return per-segment counts and the colliding (path, segment, obstacle) pairs.
         penetration : bool
             Compute the penetration measure (else zeros; saves a little time).
+        engine : {"auto", "numpy", "numba"}
+            ``"numpy"``: the vectorised kernel; ``"numba"``: the compiled loops of
+            :mod:`optplan.numba_kernel` (optional dependency ``optplan[fast]``; no
+            ``details``); ``"auto"`` (default): numba when it is installed and ``details`` is
+            False, else numpy.  The environment variable ``OPTPLAN_ENGINE=numpy`` makes
+            ``"auto"`` use numpy (see :func:`kernel_engine`).  Both engines give identical
+            counts and the same penetration up to round-off.
+
+        Raises
+        ------
+        ValueError
+            Unknown ``engine``, ``"numba"`` without numba installed, or ``"numba"`` with
+            ``details=True``.
         """
+        if engine == "auto" and details:
+            engine = "numpy"
+        else:
+            engine = kernel_engine(engine)
+            if engine == "numba" and details:
+                raise ValueError("engine 'numba' does not compute details; use "
+                                 "engine='numpy' (or 'auto') with details=True")
         pts = np.asarray(paths, dtype=float)
         if pts.ndim == 2:
             pts = pts[None]
@@ -616,6 +679,11 @@ class ObstacleSet:
 
         if self.n_items == 0 or S <= 0:
             return zero()
+        if engine == "numba":
+            from optplan import numba_kernel
+
+            count, pen = numba_kernel.crossings(self, pts, penetration)
+            return DiscCrossings(count, pen)
         # points as complex numbers (a free view of the interleaved coordinates)
         z = np.ascontiguousarray(pts).view(np.complex128)[..., 0]
         a = z[:, :-1].reshape(-1)

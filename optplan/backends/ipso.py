@@ -60,13 +60,17 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan.backends.ipso_compiled import breed, move_and_bound, select_pairs
 from optplan.backends.swarm import (
+    PathBuffer,
     SwarmBackend,
     SwarmSpace,
     SwarmState,
+    bounce_velocity,
+    bound_positions,
     decode,
+    evaluate_paths,
     evaluate_swarm,
-    handle_bounds,
     snap_targets,
     tighten,
 )
@@ -86,6 +90,7 @@ __all__ = [
 ]
 
 INERTIA_MODES = ("paper", "linear")
+_NO_VMAX = np.zeros(0)
 POSITION_MODES = ("paper", "frame", "step")
 
 
@@ -287,6 +292,16 @@ penetration_weight, kernel
             state.stats["_snap"] = snap_targets(space.imap, 1e-6 * space.diag)
         state.stats["_ones"] = np.ones(space.dim)
         state.stats["_vmax"] = self._vmax(space)  # constant over the run
+        state.stats["_c12"] = np.array([self.c1, self.c2])[:, None, None]
+        state.stats["_mut_sigma"] = self.mutation_scale * space.span
+        # rows scored per iteration: swarm, children, mutants, beyond-the-paper candidates
+        n = space.n_waypoints
+        extra = (n if self.redistribute else 0) + (n + 1 if self.snap else 0) + self.local_trials
+        state.stats["_buffer"] = PathBuffer(space, self.n_particles + 2 * self.A + extra)
+        # the compiled twins of the swarm arithmetic (bit-identical) cover these modes
+        state.stats["_compiled"] = (state.stats.get("engine") == "numba"
+                                    and self.position_update in ("paper", "step")
+                                    and self.bounds_mode in ("reflect", "clip"))
         if self._n_islands > 1:
             self._update_islands(state)
 
@@ -315,31 +330,37 @@ penetration_weight, kernel
         return float(min(max(state.stats["w"] - dw, self.w_min), self.w_max))
 
     def _move(self, space: SwarmSpace, state: SwarmState, w: float, k: int,
-              rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+              rng: np.random.Generator, out: np.ndarray | None = None
+              ) -> tuple[np.ndarray, np.ndarray]:
         """Eqs 22-24 for the whole swarm: ``(X^{k+1}, V^{k+1})`` before bounds handling.
 
-        ``eps``, ``eta`` and ``R`` ~ U(0, 1) per particle and coordinate (one draw).
+        ``eps``, ``eta`` and ``R`` ~ U(0, 1) per particle and coordinate (one draw).  The new
+        positions are written into ``out`` when given.
         """
         P, D = state.X.shape
         U = rng.random((3, P, D))
         X = state.X
-        U[0] *= self.c1
-        U[1] *= self.c2
+        U[:2] *= state.stats["_c12"]  # c1 eps, c2 eta
         V = state.V * w
-        V += U[0] * (state.pbest - X)
+        T = state.pbest - X
+        T *= U[0]
+        V += T
         social = state.stats["_social"] if self._n_islands > 1 else state.gbest
-        V += U[1] * (social - X)  # eq 22
+        np.subtract(social, X, out=T)
+        T *= U[1]
+        V += T  # eq 22
         vmax = state.stats["_vmax"]
         if vmax is not None:
             np.minimum(V, vmax, out=V)
             np.maximum(V, -vmax, out=V)
         R = U[2]
         R *= 1.0 - math.tanh(k / (self.k_max + 1.0))  # psi(k) R, eq 23
+        Xn = np.empty_like(X) if out is None else out
         if self.position_update == "paper":
-            Xn = R * X
+            np.multiply(R, X, out=Xn)
             Xn += V  # eq 24 as printed
         elif self.position_update == "step":
-            Xn = R * V
+            np.multiply(R, V, out=Xn)
             Xn += X
         else:  # lateral offsets from the start-goal line
             s, g = space.start, space.goal
@@ -348,15 +369,20 @@ penetration_weight, kernel
             W = X.reshape(P, -1, 2)
             tpar = ((W - s) @ u) / uu if uu > 0 else np.zeros(W.shape[:2])
             foot = (s + tpar[..., None] * u).reshape(P, D)
-            Xn = foot + R * (X - foot) + V
+            np.subtract(X, foot, out=Xn)
+            Xn *= R
+            Xn += foot
+            Xn += V
         return Xn, V
 
     def _children(self, space: SwarmSpace, state: SwarmState, k: int,
-                  rng: np.random.Generator):
+                  rng: np.random.Generator, out: np.ndarray):
         """Selection, crossover (eqs 25-28) and the mutation candidates ``child + C_k``.
 
-        Returns ``(CX, CV, MX, island of each child)`` or None.  With islands, each island
-        selects its own ``A / islands`` best (rounded down to even).
+        Writes the ``m`` mutants (bounds not yet handled) into ``out[:m]`` and the children
+        into ``out[m:2m]``; returns ``(m, children's velocities, island of each child)``, with
+        ``m = 0`` when no pair crosses.  With islands, each island selects its own
+        ``A / islands`` best (rounded down to even).
         """
         I = self._n_islands
         P = len(state.F)
@@ -364,42 +390,82 @@ penetration_weight, kernel
         A = min(self.A // I, m_i)
         A -= A % 2
         if A < 2:
-            return None
+            return 0, None, None
         if I == 1:
-            order = np.argsort(state.F, kind="stable")[:A][None]
+            order = state.F.argsort(kind="stable")[:A]
         else:
             order = (np.argsort(state.F.reshape(I, m_i), axis=1, kind="stable")[:, :A]
-                     + m_i * np.arange(I)[:, None])
-        i1, i2 = order[:, 0::2].reshape(-1), order[:, 1::2].reshape(-1)
-        isl = np.repeat(np.arange(I), A // 2) if I > 1 else np.zeros(A // 2, np.int64)
-        x1, x2 = state.X[i1], state.X[i2]
+                     + m_i * np.arange(I)[:, None]).reshape(-1)
+        isl = np.repeat(np.arange(I), A // 2) if I > 1 else None
+        xs = state.X[order]  # rank order: pairs (1st, 2nd), (3rd, 4th), ...
+        x1, x2 = xs[0::2], xs[1::2]
+        pairs = order.reshape(-1, 2)
         if math.isfinite(self.crossover_tol):
             dx = x1 - x2
             dx *= dx
             d2 = dx[:, 0::2] + dx[:, 1::2]  # squared waypoint distances, (pairs, n)
-            gate = d2.min(axis=1) <= (self.crossover_tol * space.diag) ** 2
-            if not gate.all():
-                i1, i2, x1, x2, isl = i1[gate], i2[gate], x1[gate], x2[gate], isl[gate]
-        m = len(i1)
-        if m == 0:
-            return None
-        pc = rng.random(m)
-        c1x, c2x, c1v, c2v = crossover(x1, x2, state.V[i1], state.V[i2], pc)  # eqs 25-28
-        CX = np.concatenate([c1x, c2x])
+            gate = np.minimum.reduce(d2, axis=1) <= (self.crossover_tol * space.diag) ** 2
+            if np.count_nonzero(gate) < len(gate):
+                x1, x2, pairs = x1[gate], x2[gate], pairs[gate]
+                isl = isl[gate] if isl is not None else None
+        h = len(pairs)
+        if h == 0:
+            return 0, None, None
+        m = 2 * h
+        pc = rng.random(h)
+        vs = state.V[pairs.reshape(-1)]
+        c1x, c2x, c1v, c2v = crossover(x1, x2, vs[0::2], vs[1::2], pc)  # eqs 25-28
+        CX = out[m:2 * m]
+        CX[:h] = c1x
+        CX[h:] = c2x
         CV = np.concatenate([c1v, c2v])
-        sigma = space.span * (self.mutation_scale * (1.0 - math.tanh(k / (self.k_max + 1.0))))
-        MX = rng.standard_normal(CX.shape)
-        MX *= sigma
-        MX += CX  # child + C_k
-        MX, _ = handle_bounds(MX, MX, space.lo, space.hi, self.bounds_mode, rng)
-        return CX, CV, MX, np.concatenate([isl, isl])
+        MX = rng.standard_normal((m, out.shape[1]))
+        MX *= state.stats["_mut_sigma"] * (1.0 - math.tanh(k / (self.k_max + 1.0)))
+        np.add(MX, CX, out=out[:m])  # child + C_k
+        return m, CV, (np.concatenate([isl, isl]) if isl is not None else None)
+
+    def _step_compiled(self, space: SwarmSpace, state: SwarmState, w: float, k: int,
+                       rng: np.random.Generator, B: np.ndarray):
+        """:meth:`_children`, :meth:`_move` and the bounds handling with the compiled twins of
+        :mod:`optplan.backends.ipso_compiled` (same random draws, bit-identical results).
+
+        Returns ``(m, children's velocities, island of each child, V^{k+1})``.
+        """
+        st = state
+        P, D = st.X.shape
+        I = self._n_islands
+        m_i = P // I
+        A = min(self.A // I, m_i)
+        A -= A % 2
+        psi = 1.0 - math.tanh(k / (self.k_max + 1.0))
+        m, CV, isl = 0, None, None
+        if A >= 2:
+            thr = ((self.crossover_tol * space.diag) ** 2 if math.isfinite(self.crossover_tol)
+                   else math.inf)
+            pairs, pisl = select_pairs(st.F, st.X, A, I, thr)
+            h = len(pairs)
+            if h:
+                m = 2 * h
+                pc = rng.random(h)
+                Z = rng.standard_normal((m, D))
+                CV = np.empty((m, D))
+                breed(st.X, st.V, pairs, pc, Z, st.stats["_mut_sigma"] * psi, B[P:], CV)
+                isl = np.concatenate([pisl, pisl]) if I > 1 else None
+        U = rng.random((3, P, D))
+        social = st.stats["_social"] if I > 1 else st.gbest[None, :]
+        vmax = st.stats["_vmax"]
+        V = np.empty_like(st.V)
+        move_and_bound(st.X, st.V, st.pbest, social, U, self.c1, self.c2, w, psi,
+                       _NO_VMAX if vmax is None else vmax, self.position_update == "step",
+                       space.lo, space.hi, self.bounds_mode == "clip", B, P + m, V)
+        return m, CV, isl, V
 
     def _worst_slots(self, F: np.ndarray, isl: np.ndarray) -> np.ndarray:
         """Slots of the worst particles: the r-th child of island i takes the r-th worst
         particle of island i (children sorted by island)."""
         I = self._n_islands
         if I == 1:
-            return np.argsort(F, kind="stable")[::-1][:len(isl)]
+            return F.argsort(kind="stable")[::-1][:len(isl)]
         m_i = len(F) // I
         worst = np.argsort(F.reshape(I, m_i), axis=1, kind="stable")[:, ::-1]
         first = np.searchsorted(isl, isl)  # isl is sorted
@@ -411,15 +477,20 @@ penetration_weight, kernel
         st = state
         k = it - 1
         w = self._inertia(st)
-        kids = self._children(space, st, k, rng)
-        X, V = self._move(space, st, w, k, rng)
-        X, V = handle_bounds(X, V, space.lo, space.hi, self.bounds_mode, rng)
-        P = len(X)
-        blocks = [X]
-        m = 0
-        if kids is not None:
-            m = len(kids[0])
-            blocks += [kids[0], kids[2]]
+        P = len(st.F)
+        buf = st.stats["_buffer"]
+        B = buf.X(it)  # this iteration's batch: swarm, mutants, children, extra candidates
+        mode = self.bounds_mode
+        if st.stats["_compiled"]:
+            m, CV, isl, V = self._step_compiled(space, st, w, k, rng, B)
+            X = B[:P]
+        else:
+            m, CV, isl = self._children(space, st, k, rng, B[P:])
+            X, V = self._move(space, st, w, k, rng, out=B[:P])
+            out = bound_positions(B[:P + m], space.lo, space.hi, mode, rng)  # swarm, mutants
+            if out is not None:
+                V = bounce_velocity(V, out[:P], mode)
+        main = P + 2 * m
         # beyond-the-paper moves around the global best; with islands, around one island's
         # best per iteration (round robin), so that no island is pulled into another's class
         if self._n_islands > 1:
@@ -428,46 +499,52 @@ penetration_weight, kernel
         else:
             focus_isl, focus = 0, st.gbest
         extra = []
-        if self.redistribute:
-            extra.append(("redistributed", redistribute_candidates(
-                focus, space.start, space.goal)))
-        if self.snap and len(st.stats["_snap"]):
-            extra.append(("snapped", snap_candidates(focus, st.stats["_snap"])))
-        if self.local_trials:
-            T = focus + (st.stats["local_sigma"] * space.span) * rng.standard_normal(
-                (self.local_trials, space.dim))
-            T, _ = handle_bounds(T, T, space.lo, space.hi, self.bounds_mode, rng)
-            extra.append(("local_accepted", T))
-        blocks += [e[1] for e in extra]
-        batch = np.concatenate(blocks) if len(blocks) > 1 else X
-        ev = evaluate_swarm(batch, space)  # one collision test for everything scored
+        pos = main
+        if self.redistribute or self.snap or self.local_trials:
+            if self.redistribute:
+                extra.append(("redistributed", redistribute_candidates(
+                    focus, space.start, space.goal)))
+            if self.snap and len(st.stats["_snap"]):
+                extra.append(("snapped", snap_candidates(focus, st.stats["_snap"])))
+            if self.local_trials:
+                T = focus + (st.stats["local_sigma"] * space.span) * rng.standard_normal(
+                    (self.local_trials, space.dim))
+                bound_positions(T, space.lo, space.hi, mode, rng)
+                extra.append(("local_accepted", T))
+            for _, C in extra:
+                B[pos:pos + len(C)] = C
+                pos += len(C)
+        batch = B[:pos]
+        ev = evaluate_paths(buf.paths(it)[:pos], space)  # one collision test for all rows
         cost = ev.cost
-        st.n_eval += len(batch)
+        st.n_eval += pos
         # the moved swarm and its memories
         F = cost[:P].copy()
         better = F < st.pbest_f
-        st.pbest[better] = X[better]
+        np.copyto(st.pbest, X, where=better[:, None])
         np.minimum(st.pbest_f, F, out=st.pbest_f)
         kept = 0
         if m:
-            CX, CV, MX, isl = kids
-            cc, cm = cost[P:P + m], cost[P + m:P + 2 * m]
+            cm, cc = cost[P:P + m], cost[P + m:main]
             use_m = cm < cc  # eq 29, greedy
-            KX = np.where(use_m[:, None], MX, CX)
-            kc = np.where(use_m, cm, cc)
             kept = int(np.count_nonzero(use_m))
-            o = np.argsort(isl, kind="stable")[:P] if self._n_islands > 1 else slice(0, P)
-            slots = self._worst_slots(F, isl[o])  # the weakly adapted individuals die out
-            X[slots] = KX[o]
-            V[slots] = CV[o]
-            F[slots] = kc[o]
-            st.pbest[slots] = KX[o]
-            st.pbest_f[slots] = kc[o]
+            KX = np.where(use_m[:, None], B[P:P + m], B[P + m:main])
+            kc = np.where(use_m, cm, cc)
+            if self._n_islands > 1:
+                o = np.argsort(isl, kind="stable")
+                KX, CV, kc, isl = KX[o], CV[o], kc[o], isl[o]
+                slots = self._worst_slots(F, isl)
+            else:
+                slots = self._worst_slots(F, np.zeros(m, np.int64))
+            X[slots] = KX  # the weakly adapted individuals die out
+            V[slots] = CV
+            F[slots] = kc
+            st.pbest[slots] = KX
+            st.pbest_f[slots] = kc
         st.X, st.V, st.F = X, V, F
         # gbest and the best collision-free particle over everything scored (a rejected
         # mutant costs at least as much as its child, so it never wins alone)
-        main = P + 2 * m
-        st.offer_gbest(batch[:main], ev.take(slice(0, main)))
+        st.offer_gbest(batch, ev, n=main)
         st.offer_feasible(batch, ev)
         pos = main
         m_i = P // self._n_islands
@@ -498,7 +575,7 @@ penetration_weight, kernel
                     st.gbest_count = int(ev.count[q])
         if self._n_islands > 1:
             self._update_islands(st)
-        vnorm = float(np.sqrt((V * V) @ st.stats["_ones"]).sum()) / P
+        vnorm = float(np.add.reduce(np.sqrt((V * V) @ st.stats["_ones"]))) / P
         st.stats["vnorms"] = [st.stats["vnorms"][-1], vnorm]
         st.stats["w"] = w
         st.stats["crossovers"] += m // 2

@@ -68,7 +68,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.geometry import InflatedMap, ObstacleSet, batch_crossings, obstacle_set
+from optplan.geometry import (
+    KERNEL_ENGINES,
+    InflatedMap,
+    ObstacleSet,
+    batch_crossings,
+    kernel_engine,
+    obstacle_set,
+)
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
 from optplan.solver import Backend, check_choice, check_int, check_range, make_rng
@@ -82,6 +89,10 @@ __all__ = [
     "default_penalty",
     "decode",
     "evaluate_swarm",
+    "evaluate_paths",
+    "PathBuffer",
+    "bound_positions",
+    "bounce_velocity",
     "handle_bounds",
     "clamp_velocity",
     "initial_swarm",
@@ -126,6 +137,7 @@ class SwarmSpace:
     obstacles: ObstacleSet | None
     penalty_weight: float
     penetration_weight: float = 0.0
+    engine: str = "numpy"
 
     @property
     def dim(self) -> int:
@@ -151,12 +163,14 @@ class SwarmSpace:
 
 def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
                penalty_weight: float | None = None, penetration_weight: float = 0.0,
-               kernel: str = "disc") -> SwarmSpace:
+               kernel: str = "disc", engine: str = "auto") -> SwarmSpace:
     """Build the :class:`SwarmSpace` of ``robot`` on the map ``problem`` (pass a known view).
 
     ``kernel = "disc"`` scores with the :class:`~optplan.geometry.ObstacleSet` of the known
     static obstacles for the robot's radius (built once per problem and radius, cached);
-    ``"geometry"`` with ``batch_crossings`` on the validator's inflated map.
+    ``"geometry"`` with ``batch_crossings`` on the validator's inflated map.  ``engine`` is
+    resolved once here (:func:`optplan.geometry.kernel_engine`) and used by every fitness call
+    of the run (and by the compiled swarm steps).
     """
     imap = problem.inflated(robot.radius, known_only=True)
     x0, y0, x1, y1 = problem.bounds
@@ -171,7 +185,8 @@ def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
         obs = problem._cache[key]
     pw = default_penalty(problem.bounds, n_waypoints) if penalty_weight is None else penalty_weight
     return SwarmSpace(np.asarray(robot.start, float), np.asarray(robot.goal, float),
-                      n_waypoints, lo, hi, imap, obs, float(pw), float(penetration_weight))
+                      n_waypoints, lo, hi, imap, obs, float(pw), float(penetration_weight),
+                      kernel_engine(engine))
 
 
 def decode(X: np.ndarray, space: SwarmSpace) -> np.ndarray:
@@ -201,19 +216,51 @@ class SwarmEval:
 
 def evaluate_swarm(X: np.ndarray, space: SwarmSpace) -> SwarmEval:
     """Eqs 31-33 for a whole batch: one collision-test call for all particles."""
-    paths = decode(X, space)
+    return evaluate_paths(decode(X, space), space)
+
+
+def evaluate_paths(paths: np.ndarray, space: SwarmSpace) -> SwarmEval:
+    """Eqs 31-33 for already decoded polylines ``(P, n + 2, 2)`` (see :class:`PathBuffer`)."""
     z = paths.view(np.complex128)[..., 0]  # points as complex numbers
     length = np.abs(z[:, 1:] - z[:, :-1]) @ space._seg_ones
     if space.obstacles is not None:
-        cr = space.obstacles.crossings(paths, penetration=space.penetration_weight > 0)
-        count, pen = cr.count, cr.penetration
+        cr = space.obstacles.crossings(paths, penetration=space.penetration_weight > 0,
+                                       engine=space.engine)
     else:
         cr = batch_crossings(paths, space.imap)
-        count, pen = cr.count, cr.penetration
+    count, pen = cr.count, cr.penetration
     cost = length + space.penalty_weight * count
     if space.penetration_weight:
         cost += space.penetration_weight * pen
     return SwarmEval(cost, length, count, pen)
+
+
+class PathBuffer:
+    """Two preallocated batches of polylines ``(rows, n + 2, 2)`` with start and goal filled in.
+
+    ``X(i)`` is the ``(rows, 2n)`` particle view of batch ``i % 2`` (it shares memory with
+    ``paths(i)``): an iteration writes its particles straight into the polylines that the
+    fitness kernel reads, with no decode or concatenation.  Two batches alternate so that the
+    swarm of iteration ``k`` (a view into one) is intact while iteration ``k + 1`` writes the
+    other.
+    """
+
+    def __init__(self, space: SwarmSpace, rows: int) -> None:
+        self._paths = []
+        self._X = []
+        for _ in range(2):
+            p = np.empty((rows, space.n_waypoints + 2, 2))
+            p[:, 0] = space.start
+            p[:, -1] = space.goal
+            self._paths.append(p)
+            self._X.append(p[:, 1:-1].reshape(rows, space.dim))  # a view (inner block)
+        assert np.shares_memory(self._X[0], self._paths[0])
+
+    def paths(self, i: int) -> np.ndarray:
+        return self._paths[i % 2]
+
+    def X(self, i: int) -> np.ndarray:
+        return self._X[i % 2]
 
 
 # --------------------------------------------------------------------------------------
@@ -221,34 +268,59 @@ def evaluate_swarm(X: np.ndarray, space: SwarmSpace) -> SwarmEval:
 # --------------------------------------------------------------------------------------
 
 
-def handle_bounds(X: np.ndarray, V: np.ndarray, lo: np.ndarray, hi: np.ndarray, mode: str,
-                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Bring positions back into ``[lo, hi]`` per dimension (modes: module docstring)."""
-    out = X < lo
-    out |= X > hi
-    if not out.any():
-        return X, V
+def bound_positions(X: np.ndarray, lo: np.ndarray, hi: np.ndarray, mode: str,
+                    rng: np.random.Generator) -> np.ndarray | None:
+    """Bring positions back into ``[lo, hi]`` per dimension, **in place**.
+
+    Returns the mask of the coordinates that were out (None when none was).  Coordinates
+    inside the bounds are never changed, not even in the last bit: the mirror of ``reflect``
+    is computed as ``2 clip(x) - x``, which is exactly ``x`` inside (``2x`` is exact and
+    ``2x - x`` is exact by Sterbenz's lemma).  Modes: module docstring.
+    """
+    # (ufuncs rather than np.clip / ndarray.any: same result, less per-call overhead on the
+    # small arrays of a swarm)
+    C = np.maximum(X, lo)
+    np.minimum(C, hi, out=C)
+    out = C != X
+    if not np.count_nonzero(out):
+        return None
     if mode == "reflect":
-        # mirror at lo, then at hi: lo + |x - lo| and hi - |hi - x|
-        Xn = np.abs(X - lo)
-        Xn += lo
-        np.subtract(hi, Xn, out=Xn)
-        np.abs(Xn, out=Xn)
-        np.subtract(hi, Xn, out=Xn)
-        if (Xn < lo).any():
+        C *= 2.0
+        np.subtract(C, X, out=X)  # mirror at the crossed bound
+        np.maximum(X, lo, out=C)
+        np.minimum(C, hi, out=C)
+        far = C != X
+        if np.count_nonzero(far):
             # far out (beyond a whole span): mirror repeatedly, triangle wave of period 2 span
             span = hi - lo
             u = np.mod(X - lo, 2 * span)
-            Xn = lo + np.where(u > span, 2 * span - u, u)
-        return Xn, np.where(out, -V, V)
-    if mode == "clip":
-        Xn = np.clip(X, lo, hi)
-        Vn = np.where(out, 0.0, V)
+            np.copyto(X, lo + np.where(u > span, 2 * span - u, u), where=far)
+    elif mode == "clip":
+        X[...] = C
     else:  # random
         fresh = lo + (hi - lo) * rng.random(X.shape)
-        Xn = np.where(out, fresh, X)
-        Vn = np.where(out, 0.0, V)
-    return Xn, Vn
+        np.copyto(X, fresh, where=out)
+    return out
+
+
+def handle_bounds(X: np.ndarray, V: np.ndarray, lo: np.ndarray, hi: np.ndarray, mode: str,
+                  rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Bring positions back into ``[lo, hi]`` per dimension and adapt the velocities.
+
+    Returns new ``(X, V)`` (the inputs are not modified): ``reflect`` reverses the velocity
+    component of a reflected coordinate, ``clip`` and ``random`` zero it
+    (:func:`bound_positions`).
+    """
+    Xn = np.array(X, dtype=float)
+    out = bound_positions(Xn, lo, hi, mode, rng)
+    if out is None:
+        return Xn, V
+    return Xn, bounce_velocity(V, out, mode)
+
+
+def bounce_velocity(V: np.ndarray, out: np.ndarray, mode: str) -> np.ndarray:
+    """Velocities after bounds handling: reversed (``reflect``) or zeroed where ``out``."""
+    return np.where(out, -V, V) if mode == "reflect" else np.where(out, 0.0, V)
 
 
 def clamp_velocity(V: np.ndarray, vmax: np.ndarray | None) -> np.ndarray:
@@ -307,7 +379,7 @@ def segment_free(a: np.ndarray, b: np.ndarray, space: SwarmSpace) -> np.ndarray:
     if len(segs) == 0:
         return np.zeros(0, dtype=bool)
     if space.obstacles is not None:
-        count = space.obstacles.crossings(segs, penetration=False).count
+        count = space.obstacles.crossings(segs, penetration=False, engine=space.engine).count
     else:
         count = batch_crossings(segs, space.imap).count
     return count == 0
@@ -517,9 +589,9 @@ class SwarmState:
         self.offer_gbest(X, ev)
         self.offer_feasible(X, ev)
 
-    def offer_gbest(self, X: np.ndarray, ev: SwarmEval) -> None:
-        """Replace gbest by the best candidate if it has a lower fitness."""
-        j = int(np.argmin(ev.cost))
+    def offer_gbest(self, X: np.ndarray, ev: SwarmEval, n: int | None = None) -> None:
+        """Replace gbest by the best candidate (of the first ``n``) if it has a lower fitness."""
+        j = int(np.argmin(ev.cost if n is None else ev.cost[:n]))
         if ev.cost[j] < self.gbest_f:
             self.gbest = X[j].copy()
             self.gbest_f = float(ev.cost[j])
@@ -529,7 +601,7 @@ class SwarmState:
     def offer_feasible(self, X: np.ndarray, ev: SwarmEval) -> None:
         """Replace the best collision-free position by a shorter collision-free candidate."""
         feas = ev.count == 0
-        if feas.any():
+        if np.count_nonzero(feas):
             lens = np.where(feas, ev.length, np.inf)
             k = int(np.argmin(lens))
             if lens[k] < self.feas_len:
@@ -581,6 +653,14 @@ class SwarmBackend(Backend):
         obstacles (:class:`optplan.geometry.ObstacleSet`; stricter than the validator), or
         ``"geometry"``, ``optplan.geometry.batch_crossings`` on the validator's inflated map
         (the reference, slower).
+    engine : {"auto", "numpy", "numba"}
+        Implementation of the ``"disc"`` fitness kernel and of the compiled swarm steps
+        (:func:`optplan.geometry.kernel_engine`): ``"numba"`` needs the optional dependency
+        (``pip install optplan[fast]``); ``"auto"`` uses it when installed (the environment
+        variable ``OPTPLAN_ENGINE`` can force ``numpy``).  The engine used is recorded in
+        ``result.extras["per_robot"][id]["engine"]``.  ``ipso`` runs are bit-identical across
+        engines whenever the kernels' collision decisions agree (always on the paper maps
+        with ``ipso-paper``; see ``docs/solvers/pso.md``).
     roadmap_samples : int
         Random samples per roadmap for ``init_mode = "roadmap"`` (beyond the paper).
     """
@@ -600,6 +680,7 @@ class SwarmBackend(Backend):
     penalty_weight: float | None = None
     penetration_weight: float = 0.0
     kernel: str = "disc"
+    engine: str = "auto"
     roadmap_samples: int = 60
 
     def __post_init__(self) -> None:
@@ -615,6 +696,9 @@ class SwarmBackend(Backend):
             check_range(self, "penalty_weight", 0.0, math.inf)
         check_range(self, "penetration_weight", 0.0, math.inf)
         check_choice(self, "kernel", KERNELS)
+        check_choice(self, "engine", KERNEL_ENGINES)
+        if self.engine == "numba":
+            kernel_engine("numba")  # a clear error now when numba is not installed
         check_int(self, "roadmap_samples", 2, 100_000)
 
     # -- hooks for subclasses ------------------------------------------------------
@@ -654,7 +738,7 @@ class SwarmBackend(Backend):
         space = make_space(problem, robot, self.n_waypoints,
                            penalty_weight=self.penalty_weight,
                            penetration_weight=self.penetration_weight,
-                           kernel=self.kernel)
+                           kernel=self.kernel, engine=self.engine)
         X = initial_swarm(space, self.n_particles,
                           "sorted" if self.init_mode == "roadmap" else self.init_mode, rng)
         if self.init_mode == "roadmap":
@@ -669,6 +753,8 @@ class SwarmBackend(Backend):
         V = np.zeros_like(X)
         ev = evaluate_swarm(X, space)
         state = new_state(X, V, ev)
+        # the engine of the fitness kernel (and of compiled swarm steps), recorded in the result
+        state.stats["engine"] = space.engine
         self._start(space, state, rng)
         rows: list[dict[str, Any]] = []
 
