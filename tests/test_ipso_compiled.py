@@ -115,3 +115,34 @@ def test_engine_is_recorded(monkeypatch):
     res = op.solve("open-field", "ipso-paper", rng=0, k_max=3)
     assert res.extras["per_robot"]["r1"]["engine"] == "numpy"
     assert os.environ["OPTPLAN_ENGINE"] == "numpy"
+
+
+@pytest.mark.parametrize("opts", [{}, {"islands": 5, "A": 10}, {"islands": 2, "A": 8}],
+                         ids=["global", "5 islands", "2 islands"])
+def test_compiled_absorb_is_bit_identical_to_numpy(opts):
+    """Personal bests, eq 29 and the replacement of the worst particles."""
+    prob = op.load_problem("paper-env1")
+    b = ip.IPSO(**{"n_particles": 50, "k_max": 200, **opts})
+    space = sw.make_space(prob.known_view(), prob.robots[0], 6)
+    for seed in range(5):
+        st1 = _state(b, space, seed, 0.05)
+        st2 = _state(b, space, seed, 0.05)
+        rng = np.random.default_rng(100 + seed)
+        m = b.A if seed % 2 else 4
+        B = space.lo + space.span * rng.random((50 + 2 * m, space.dim))
+        cost = rng.integers(0, 6, len(B)) * 100.0 + rng.random(len(B))  # ties in F
+        CV = rng.standard_normal((m, space.dim))
+        isl = (np.sort(rng.integers(0, b._n_islands, m // 2)).repeat(1)
+               if b._n_islands > 1 else None)
+        if isl is not None:
+            isl = np.concatenate([isl, isl])
+        X1, V1 = B[:50].copy(), st1.V.copy()
+        X2, V2 = B[:50].copy(), st2.V.copy()
+        F1, k1 = b._absorb(st1, X1, V1, cost, B, m, CV, isl)
+        F2, k2 = b._absorb_compiled(st2, X2, V2, cost, B, m, CV, isl)
+        assert k1 == k2
+        for a1, a2 in [(F1, F2), (X1, X2), (V1, V2), (st1.pbest, st2.pbest),
+                       (st1.pbest_f, st2.pbest_f)]:
+            np.testing.assert_array_equal(a1, a2)
+        # the replaced slots hold children or mutants, with their own cost
+        assert np.isin(F1, cost).all()

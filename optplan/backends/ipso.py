@@ -60,7 +60,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.backends.ipso_compiled import breed, move_and_bound, select_pairs
+from optplan.backends.ipso_compiled import absorb, breed, move_and_bound, select_pairs
 from optplan.backends.swarm import (
     PathBuffer,
     SwarmBackend,
@@ -91,6 +91,8 @@ __all__ = [
 
 INERTIA_MODES = ("paper", "linear")
 _NO_VMAX = np.zeros(0)
+_NO_ROWS = np.zeros((0, 0))
+_NO_ISLANDS = np.zeros(0, np.int64)
 POSITION_MODES = ("paper", "frame", "step")
 
 
@@ -460,6 +462,50 @@ penetration_weight, kernel
                        space.lo, space.hi, self.bounds_mode == "clip", B, P + m, V)
         return m, CV, isl, V
 
+    def _absorb(self, st: SwarmState, X: np.ndarray, V: np.ndarray, cost: np.ndarray,
+                B: np.ndarray, m: int, CV: np.ndarray | None, isl: np.ndarray | None
+                ) -> tuple[np.ndarray, int]:
+        """Personal bests of the moved swarm ``X`` (rows ``:P`` of ``cost``), then eq 29 (the
+        better of child and mutant, rows ``P + m + r`` and ``P + r`` of ``B`` / ``cost``) and
+        the replacement of the worst particles by the kept children, in place.
+
+        Returns ``(F, number of mutants kept)``.
+        """
+        P = len(X)
+        F = cost[:P].copy()
+        better = F < st.pbest_f
+        np.copyto(st.pbest, X, where=better[:, None])
+        np.minimum(st.pbest_f, F, out=st.pbest_f)
+        if not m:
+            return F, 0
+        cm, cc = cost[P:P + m], cost[P + m:P + 2 * m]
+        use_m = cm < cc  # eq 29, greedy
+        kept = int(np.count_nonzero(use_m))
+        KX = np.where(use_m[:, None], B[P:P + m], B[P + m:P + 2 * m])
+        kc = np.where(use_m, cm, cc)
+        if self._n_islands > 1:
+            o = np.argsort(isl, kind="stable")
+            KX, CV, kc, isl = KX[o], CV[o], kc[o], isl[o]
+            slots = self._worst_slots(F, isl)
+        else:
+            slots = self._worst_slots(F, np.zeros(m, np.int64))
+        X[slots] = KX  # the weakly adapted individuals die out
+        V[slots] = CV
+        F[slots] = kc
+        st.pbest[slots] = KX
+        st.pbest_f[slots] = kc
+        return F, kept
+
+    def _absorb_compiled(self, st: SwarmState, X: np.ndarray, V: np.ndarray,
+                         cost: np.ndarray, B: np.ndarray, m: int, CV: np.ndarray | None,
+                         isl: np.ndarray | None) -> tuple[np.ndarray, int]:
+        """:meth:`_absorb` with the compiled twin :func:`~optplan.backends.ipso_compiled.absorb`
+        (bit-identical)."""
+        F = np.empty(len(X))
+        kept = absorb(X, V, F, st.pbest, st.pbest_f, cost, B, _NO_ROWS if CV is None else CV,
+                      _NO_ISLANDS if isl is None else isl, m, self._n_islands)
+        return F, int(kept)
+
     def _worst_slots(self, F: np.ndarray, isl: np.ndarray) -> np.ndarray:
         """Slots of the worst particles: the r-th child of island i takes the r-th worst
         particle of island i (children sorted by island)."""
@@ -518,29 +564,9 @@ penetration_weight, kernel
         ev = evaluate_paths(buf.paths(it)[:pos], space)  # one collision test for all rows
         cost = ev.cost
         st.n_eval += pos
-        # the moved swarm and its memories
-        F = cost[:P].copy()
-        better = F < st.pbest_f
-        np.copyto(st.pbest, X, where=better[:, None])
-        np.minimum(st.pbest_f, F, out=st.pbest_f)
-        kept = 0
-        if m:
-            cm, cc = cost[P:P + m], cost[P + m:main]
-            use_m = cm < cc  # eq 29, greedy
-            kept = int(np.count_nonzero(use_m))
-            KX = np.where(use_m[:, None], B[P:P + m], B[P + m:main])
-            kc = np.where(use_m, cm, cc)
-            if self._n_islands > 1:
-                o = np.argsort(isl, kind="stable")
-                KX, CV, kc, isl = KX[o], CV[o], kc[o], isl[o]
-                slots = self._worst_slots(F, isl)
-            else:
-                slots = self._worst_slots(F, np.zeros(m, np.int64))
-            X[slots] = KX  # the weakly adapted individuals die out
-            V[slots] = CV
-            F[slots] = kc
-            st.pbest[slots] = KX
-            st.pbest_f[slots] = kc
+        # the moved swarm and its memories; the children replace the worst particles
+        absorb = self._absorb_compiled if st.stats["_compiled"] else self._absorb
+        F, kept = absorb(st, X, V, cost, B, m, CV, isl)
         st.X, st.V, st.F = X, V, F
         # gbest and the best collision-free particle over everything scored (a rejected
         # mutant costs at least as much as its child, so it never wins alone)

@@ -10,7 +10,9 @@ elementwise parts run as three compiled loops instead:
   bounce;
 * :func:`select_pairs` -- the GA selection (the ``A`` best, per island) and the "locally
   identical path information" gate of the crossover;
-* :func:`breed` -- crossover (eqs 25-28) and the mutation candidates ``child + C_k`` (eq 29).
+* :func:`breed` -- crossover (eqs 25-28) and the mutation candidates ``child + C_k`` (eq 29);
+* :func:`absorb` -- after the fitness call: personal bests, the greedy choice between child
+  and mutant (eq 29) and the replacement of the worst particles by the children.
 
 The random numbers are still drawn by numpy from the run's generator, in the same order and
 with the same calls as the numpy path, and every result is computed with the same
@@ -26,7 +28,7 @@ import numpy as np
 
 from optplan.numba_kernel import jit
 
-__all__ = ["move_and_bound", "select_pairs", "breed"]
+__all__ = ["move_and_bound", "select_pairs", "breed", "absorb"]
 
 
 @jit
@@ -142,3 +144,54 @@ def breed(X, V, pairs, pc, Z, sigma, out, CV):  # pragma: no cover - compiled
     for r in range(m):
         for j in range(D):
             out[r, j] = Z[r, j] * sigma[j] + out[m + r, j]
+
+
+@jit
+def absorb(X, V, F, pbest, pbest_f, cost, B, CV, isl, m, n_islands):  # pragma: no cover
+    """Personal bests, eq 29 and the replacement of the worst particles, in place.
+
+    ``F[:] = cost[:P]``; ``pbest`` takes the rows of ``X`` that improved, ``pbest_f`` the
+    minimum.  Child ``r`` (row ``P + m + r`` of ``B`` / ``cost``) is replaced by its mutant
+    (row ``P + r``) when that is strictly better; the children, in stable island order, take
+    the slots of the worst particles of their island (the r-th child of island b the r-th
+    worst, ties broken as by a reversed stable sort) in ``X``, ``V``, ``F``, ``pbest`` and
+    ``pbest_f``.  Returns the number of mutants kept.
+    """
+    P, D = X.shape
+    for i in range(P):
+        f = cost[i]
+        F[i] = f
+        if f < pbest_f[i]:
+            for j in range(D):
+                pbest[i, j] = X[i, j]
+        pbest_f[i] = min(pbest_f[i], f)
+    if m == 0:
+        return 0
+    m_i = P // n_islands
+    worst = np.empty((n_islands, m_i), np.int64)  # from F before any replacement
+    for b in range(n_islands):
+        order = np.argsort(F[b * m_i:(b + 1) * m_i], kind="mergesort")
+        for r in range(m_i):
+            worst[b, r] = order[m_i - 1 - r] + b * m_i
+    o = np.argsort(isl, kind="mergesort") if n_islands > 1 else np.arange(m)
+    kept = 0
+    rank = 0
+    prev = -1
+    for q in range(m):
+        r = o[q]
+        b = isl[r] if n_islands > 1 else 0
+        rank = rank + 1 if b == prev else 0
+        prev = b
+        cm = cost[P + r]
+        cc = cost[P + m + r]
+        row = P + r if cm < cc else P + m + r  # eq 29, greedy
+        if cm < cc:
+            kept += 1
+        slot = worst[b, min(rank, m_i - 1)]
+        for j in range(D):
+            X[slot, j] = B[row, j]
+            pbest[slot, j] = B[row, j]
+            V[slot, j] = CV[r, j]
+        F[slot] = cost[row]
+        pbest_f[slot] = cost[row]
+    return kept
