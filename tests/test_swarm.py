@@ -314,3 +314,16 @@ def test_multi_robot_without_formation_plans_every_robot():
     for rid, path in res.paths.items():
         np.testing.assert_allclose(path[0], prob.robot(rid).start)
     assert set(res.extras["per_robot"]) == {"a", "b"}
+
+
+def test_path_buffer_particles_are_views_of_the_polylines():
+    prob = _problem()
+    space = sw.make_space(prob, prob.robots[0], 3)
+    buf = sw.PathBuffer(space, 5)
+    X = np.random.default_rng(0).random((5, 6)) * 10
+    buf.X(7)[:] = X  # odd iteration -> batch 1; batch 0 untouched
+    np.testing.assert_array_equal(buf.paths(1), sw.decode(X, space))
+    assert not np.shares_memory(buf.X(0), buf.X(1))
+    ev = sw.evaluate_paths(buf.paths(1), space)
+    ref = sw.evaluate_swarm(X, space)
+    np.testing.assert_array_equal(ev.cost, ref.cost)

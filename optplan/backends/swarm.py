@@ -253,8 +253,10 @@ class PathBuffer:
             p[:, 0] = space.start
             p[:, -1] = space.goal
             self._paths.append(p)
-            self._X.append(p[:, 1:-1].reshape(rows, space.dim))  # a view (inner block)
-        assert np.shares_memory(self._X[0], self._paths[0])
+            X = p[:, 1:-1].reshape(rows, space.dim)  # a view: each row's inner block
+            if not np.shares_memory(X, p):  # pragma: no cover - numpy guarantees the view
+                raise RuntimeError("PathBuffer: the particle view of the paths is a copy")
+            self._X.append(X)
 
     def paths(self, i: int) -> np.ndarray:
         return self._paths[i % 2]
