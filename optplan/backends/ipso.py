@@ -240,7 +240,7 @@ class IPSO(SwarmBackend):
         returned (one extra history row).  The returned path then has as many vertices as the
         tightening needs (more than ``n_waypoints`` around rounded corners).
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
-penetration_weight, kernel
+penetration_weight, kernel, engine
         Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
     """
 
