@@ -449,8 +449,10 @@ def kernel_engine(engine: str = "auto") -> str:
     :mod:`optplan.numba_kernel` (optional dependency: ``pip install optplan[fast]``).
     ``"auto"`` is ``"numba"`` when numba is importable, else ``"numpy"``; the environment
     variable ``OPTPLAN_ENGINE`` overrides what ``"auto"`` means (``numpy``: always numpy,
-    ``numba``: require numba, ``auto`` or empty: the default).  Both engines give identical
-    counts and penetration within round-off.
+    ``numba``: require numba, ``auto`` or empty: the default).  Both engines decide every pair
+    with the same formulas: counts agree except for a segment within round-off (~1e-16
+    relative) of the collision threshold, where numpy's vectorised complex products may round
+    differently from scalar code; penetration agrees to round-off.
 
     Raises
     ------
@@ -650,8 +652,8 @@ class ObstacleSet:
             :mod:`optplan.numba_kernel` (optional dependency ``optplan[fast]``; no
             ``details``); ``"auto"`` (default): numba when it is installed and ``details`` is
             False, else numpy.  The environment variable ``OPTPLAN_ENGINE=numpy`` makes
-            ``"auto"`` use numpy (see :func:`kernel_engine`).  Both engines give identical
-            counts and the same penetration up to round-off.
+            ``"auto"`` use numpy (see :func:`kernel_engine`).  Both engines give the same
+            counts (up to segments within round-off of the threshold) and penetration.
 
         Raises
         ------
