@@ -327,3 +327,17 @@ def test_path_buffer_particles_are_views_of_the_polylines():
     ev = sw.evaluate_paths(buf.paths(1), space)
     ref = sw.evaluate_swarm(X, space)
     np.testing.assert_array_equal(ev.cost, ref.cost)
+
+
+def test_engine_option_without_numba(monkeypatch):
+    """engine = 'numba' without numba: a clear error naming the option; 'auto' falls back."""
+    from optplan import numba_kernel
+
+    monkeypatch.setattr(numba_kernel, "AVAILABLE", False)
+    monkeypatch.delenv("OPTPLAN_ENGINE", raising=False)
+    with pytest.raises(ValueError, match="option 'engine' of backend 'ipso'.*optplan\\[fast\\]"):
+        op.get_solver("ipso-paper", engine="numba")
+    res = op.solve("open-field", "ipso-paper", rng=0, k_max=3)
+    assert res.extras["per_robot"]["r1"]["engine"] == "numpy"
+    with pytest.raises(ValueError, match="engine"):
+        op.get_solver("pso-paper", engine="gpu")

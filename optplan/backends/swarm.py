@@ -700,7 +700,12 @@ class SwarmBackend(Backend):
         check_choice(self, "kernel", KERNELS)
         check_choice(self, "engine", KERNEL_ENGINES)
         if self.engine == "numba":
-            kernel_engine("numba")  # a clear error now when numba is not installed
+            try:
+                kernel_engine("numba")
+            except ValueError:
+                raise ValueError(f"option 'engine' of backend {self.name!r} is 'numba', but "
+                                 "numba is not installed: pip install optplan[fast] (or use "
+                                 "engine = 'auto' / 'numpy')") from None
         check_int(self, "roadmap_samples", 2, 100_000)
 
     # -- hooks for subclasses ------------------------------------------------------
