@@ -193,3 +193,57 @@ def test_controller_protocol_with_simulate():
                    done=lambda s: np.hypot(*(s.positions[0] - sub)) <= 2.0, memory={"dt": 0.2})
     assert out.reason == "done"
     assert isinstance(ctrl.stats, dict) and "local_minima_detected" in ctrl.stats
+
+
+# ---------------------------------------------------------------------------------------
+# several independently planned robots (beyond the paper: option sense_robots)
+# ---------------------------------------------------------------------------------------
+
+
+def _two_robots(dy: float) -> op.Problem:
+    """Two robots swapping ends of an empty field (b offset by ``dy``: 0 = exactly head-on)."""
+    return op.parse_problem({
+        "name": "swap", "bounds": [0.0, 0.0, 200.0, 100.0], "obstacles": [],
+        "robots": [{"id": "a", "start": [20.0, 50.0], "goal": [180.0, 50.0], "radius": 3.0,
+                    "max_speed": 5.0},
+                   {"id": "b", "start": [180.0, 50.0 + dy], "goal": [20.0, 50.0 + dy],
+                    "radius": 3.0, "max_speed": 5.0}]})
+
+
+@pytest.mark.parametrize("solver", ["apf-paper", "sa-apf-paper"])
+def test_robots_sense_each_other(solver):
+    offset = _two_robots(2.0)
+    blind = op.solve(offset, solver, rng=0, sense_robots=False)
+    assert blind.status == op.Status.failed and "collision" in blind.message
+    seen = op.solve(offset, solver, rng=0)  # default: sense_robots = true
+    assert seen.status == op.Status.solved
+    assert seen.metrics["collisions"] == 0
+    assert seen.metrics["min_separation"] > 6.0  # the two radii
+
+
+def test_head_on_swap_is_a_saddle_for_apf_and_an_escape_for_sa_apf():
+    head_on = _two_robots(0.0)
+    apf = op.solve(head_on, "apf-paper", rng=0)
+    assert apf.metrics["collisions"] == 0
+    assert apf.status == op.Status.approximate and "local minimum" in apf.message
+    sa = op.solve(head_on, "sa-apf-paper", rng=0)
+    assert sa.status == op.Status.solved and sa.metrics["collisions"] == 0
+
+
+def test_sense_robots_changes_nothing_for_one_robot():
+    a = op.solve("trap-saddle", "sa-apf-paper", rng=1)
+    b = op.solve("trap-saddle", "sa-apf-paper", rng=1, sense_robots=False)
+    np.testing.assert_array_equal(a.paths["r1"], b.paths["r1"])
+
+
+def test_robots_as_obstacles_field():
+    from optplan.backends.apf import RobotsAsObstacles
+
+    prob = op.load_problem("trap-saddle")
+    base = ObstacleField(prob)
+    f = RobotsAsObstacles(base, np.array([[10.0, 10.0], [90.0, 10.0]]), np.array([2.0, 3.0]))
+    assert f.n == base.n + 2 and f.n_static == base.n_static
+    near, dist = f.nearest(np.array([[10.0, 15.0]]), 0.0, max_range=20.0)
+    np.testing.assert_allclose(near[0, base.n], [10.0, 12.0])
+    assert dist[0, base.n] == pytest.approx(3.0)
+    assert np.isinf(dist[0, base.n + 1]) and np.isnan(near[0, base.n + 1]).all()  # out of range

@@ -58,6 +58,7 @@ The basic planner only counts detections; it gives up when it is still within
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -427,6 +428,41 @@ class APFController:
         return step
 
 
+class RobotsAsObstacles:
+    """An obstacle field plus other robots as disc obstacles frozen at their current positions.
+
+    Beyond the paper (which plans one robot, or a formation through its leader): when
+    ``run_local_planner`` simulates several independently planned robots, each one senses the
+    others through this view of the field (option ``sense_robots``).  The robots come after
+    the scene's dynamic obstacles, so they count as moving obstacles (``n_static`` is
+    unchanged), also for :meth:`APFController.evade`.  Implements the part of
+    :class:`~optplan.sim.ObstacleField` the controllers use: ``nearest``, ``n``, ``n_static``.
+    """
+
+    def __init__(self, base: ObstacleField, centers: np.ndarray, radii: np.ndarray):
+        self.base = base
+        self.centers = np.asarray(centers, dtype=float).reshape(-1, 2)
+        self.radii = np.asarray(radii, dtype=float).reshape(-1)
+        self.n_static = base.n_static
+        self.n = base.n + len(self.radii)
+
+    def nearest(self, points: np.ndarray, t: float = 0.0,
+                max_range: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`ObstacleField.nearest` with the robot discs appended (same conventions)."""
+        near, dist = self.base.nearest(points, t, max_range)
+        pts = np.atleast_2d(np.asarray(points, dtype=float))
+        v = pts[:, None, :] - self.centers[None, :, :]  # (R, K, 2)
+        nv = np.hypot(v[..., 0], v[..., 1])
+        u = np.where(nv[..., None] > 1e-12, v / np.maximum(nv, 1e-12)[..., None],
+                     np.array([1.0, 0.0]))
+        rn = self.centers[None] + u * self.radii[None, :, None]
+        rd = np.maximum(nv - self.radii[None, :], 0.0)
+        far = rd > max_range
+        rn[far] = np.nan
+        rd[far] = np.inf
+        return np.concatenate([near, rn], axis=1), np.concatenate([dist, rd], axis=1)
+
+
 # --------------------------------------------------------------------------------------
 # shared solve(): simulate every planned robot with its own controller
 # --------------------------------------------------------------------------------------
@@ -451,13 +487,21 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
     def done(state: SimState) -> bool:
         return bool(np.all(at_goal(state.positions) | stopped))
 
+    radii = np.array([r.radius for r in robots], dtype=float)
+    sense_robots = backend.sense_robots and len(robots) > 1
+
     def policy(state: SimState) -> np.ndarray | None:
         out = np.zeros((len(ids), 2))
         reached = at_goal(state.positions)
         for i, c in enumerate(ctrls):
             if reached[i] or stopped[i]:
                 continue
-            v = c.velocity(state, i)
+            seen = state
+            if sense_robots:  # the other robots as discs where they are now
+                o = np.arange(len(ids)) != i
+                seen = dataclasses.replace(state, field=RobotsAsObstacles(
+                    state.field, state.positions[o], radii[o]))
+            v = c.velocity(seen, i)
             if v is None:
                 stopped[i] = True
             else:
@@ -547,6 +591,7 @@ class PotentialFieldBackend(Backend):
     detect_eq38: bool = True
     patience: int = 30
     evade_factor: float = 0.0
+    sense_robots: bool = True
 
     def _check_common(self) -> None:
         check_range(self, "k", 0.0, lo_open=True)
@@ -567,6 +612,9 @@ class PotentialFieldBackend(Backend):
                              f"false, got {self.detect_eq38!r}")
         check_int(self, "patience", 1, 10_000_000)
         check_range(self, "evade_factor", 0.0, 100.0)
+        if not isinstance(self.sense_robots, bool):
+            raise ValueError(f"option 'sense_robots' of backend {self.name!r} must be true or "
+                             f"false, got {self.sense_robots!r}")
 
     def sensing(self, problem: Problem, robot: Robot) -> float:
         """Sensing range from the robot centre (option, scenario ``[sensing]``, rho_0 + r)."""
@@ -621,6 +669,10 @@ class APF(PotentialFieldBackend):
         Moving-obstacle safety step when a dynamic obstacle is closer than ``evade_factor * l``
         (:meth:`APFController.evade`); ``0`` (default: the basic method as in the paper)
         disables it.
+    sense_robots : bool
+        Beyond the paper: with several planned robots (no formation), each senses the others
+        as disc obstacles at their current positions (:class:`RobotsAsObstacles`); without
+        it they drive through each other.  No effect with one planned robot.
     """
 
     name: ClassVar[str] = "apf"

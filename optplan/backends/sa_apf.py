@@ -262,7 +262,8 @@ class SAAPF(PotentialFieldBackend):
     evade_factor : float
         Moving-obstacle safety step when a dynamic obstacle is closer than ``evade_factor * l``
         (``0`` disables; see :meth:`~optplan.backends.apf.APFController.evade`).
-    l, dt, max_steps, rho_min, sense_range, window, stall_ratio, n_probe, detect_eq38, patience
+    l, dt, max_steps, rho_min, sense_range, window, stall_ratio, n_probe, detect_eq38, \
+patience, sense_robots
         As for :class:`~optplan.backends.apf.APF` (``patience`` is unused: SA-APF escapes).
     """
 
