@@ -538,8 +538,9 @@ class ObstacleSet:
         The uniform grid (cell size, origin, shape, CSR item lists), or None (all pairs).
     grid_free : dict
         The matrix of the all-pairs test (``"M"``), the per-item ``reach + radius`` (``"lim"``;
-        ``"lim2"``: with the tolerance, stacked twice for the two row blocks of ``M``) and the
-        edge table of the count-only test (``"hit_table"``: ``p, e, conj(n), -conj(e)/|e|^2``).
+        ``"lim2"``: with the tolerance and a 1e-9 x scale margin, stacked twice for the two row
+        blocks of ``M``) and the edge table of the count-only test (``"hit_table"``:
+        ``p, e, conj(n), -conj(e)/|e|^2``).
     """
 
     radius: float
@@ -723,7 +724,7 @@ class ObstacleSet:
             w = self.item_center[it] - a[si]
             t = np.clip((w * dc[si]).real * inv[si], 0.0, 1.0)
             x = w - t * d[si]
-            lim = self.item_reach[it] + r_eff
+            lim = self.item_reach[it] + (r_eff + 1e-9 * self.scale)  # margin: obstacle_set
             keep = np.flatnonzero((x * x.conj()).real < lim * lim)
             si, it = si[keep], it[keep]
         if si.size == 0:
@@ -859,8 +860,11 @@ def obstacle_set(obstacles: Iterable, radius: float, grid: bool | None = None) -
     scale = max(1.0, float(np.max(np.abs(centers)) + np.max(reach))) if n_items else 1.0
     use_grid = n_items >= 48 if grid is None else bool(grid)
     gd = None
+    # pre-filters keep a margin of 1e-9 x scale beyond reach + r_eff: a pair at the collision
+    # threshold of the exact test must never be rejected by the round-off of a cheaper one
+    margin = 1e-9 * scale
     if use_grid and n_items:
-        ext = reach + radius
+        ext = reach + radius + 2 * margin
         lo = (centers - ext[:, None]).min(axis=0)
         hi = (centers + ext[:, None]).max(axis=0)
         span = float(np.max(hi - lo))
@@ -892,6 +896,6 @@ def obstacle_set(obstacles: Iterable, radius: float, grid: bool | None = None) -
                        item_obstacle, centers[:, 0] + 1j * centers[:, 1], reach, circ[:, 2],
                        table, scale, gd,
                        {"M": M, "lim": (reach + radius)[:, None],
-                        "lim2": np.tile(reach + radius + 1e-9 * scale, 2)[:, None],
+                        "lim2": np.tile(reach + radius + 2 * margin, 2)[:, None],
                         "hit_table": np.stack([table[0], table[1], table[2].conj(),
                                                table[3]])})

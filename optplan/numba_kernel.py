@@ -49,6 +49,10 @@ __all__ = ["AVAILABLE", "jit", "crossings", "prepare"]
 _PREPARED: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
+#: "No collision" from the penetration tests (a colliding pair can have a slightly negative
+#: penetration ``r - dist`` when ``r < dist < r_eff``, so a negative value is not a sentinel).
+_NO_HIT = -math.inf
+
 #: Relative band around a squared threshold inside which the exact ``hypot`` decides.
 _BAND = 1e-10
 
@@ -161,7 +165,7 @@ def _piece_hit_count(pt, k, ax, ay, dx, dy, slen, inv, r_eff, reject, r2lo, r2hi
 
 @jit
 def _piece_pen(pt, k, ax, ay, dx, dy, dd, inv, radius, r_eff):
-    """Penetration of segment ``A + t D`` into piece ``k``, or -1 when they do not collide.
+    """Penetration of segment ``A + t D`` into piece ``k``, or ``_NO_HIT`` when they do not collide.
 
     Mirrors the penetration branch of ``ObstacleSet.crossings``: Cyrus-Beck clipping against
     the piece's half-planes gives ``meets`` and the inside length; a pair at least ``r_eff``
@@ -193,7 +197,7 @@ def _piece_pen(pt, k, ax, ay, dx, dy, dd, inv, radius, r_eff):
     if t_in <= t_out:
         return radius + (t_out - t_in) * math.sqrt(dd)
     if apart:
-        return -1.0
+        return _NO_HIT
     d2 = math.inf
     for j in range(4):
         wx = pt[k, j, 0] - ax
@@ -219,12 +223,13 @@ def _piece_pen(pt, k, ax, ay, dx, dy, dd, inv, radius, r_eff):
             d2 = v
     if d2 < r_eff * r_eff:
         return radius - math.sqrt(d2)
-    return -1.0
+    return _NO_HIT
 
 
 @jit
 def _circle_pen(cx, cy, ro, ax, ay, dx, dy, dd, inv, radius, r_eff, penetration):
-    """Circle test (exact center-segment distance): penetration, 0 (count only) or -1."""
+    """Circle test (exact center-segment distance): penetration, 0 (count only) or
+    :data:`_NO_HIT`."""
     wx = cx - ax
     wy = cy - ay
     tl = (wx * dx + wy * dy) * inv  # foot of the center on the line
@@ -235,12 +240,12 @@ def _circle_pen(cx, cy, ro, ax, ay, dx, dy, dd, inv, radius, r_eff, penetration)
     lim = ro + r_eff  # decide by the squared distance unless it is within round-off of lim
     d2 = xx * xx + xy * xy
     if d2 > lim * lim * (1.0 + _BAND):
-        return -1.0
+        return _NO_HIT
     if not penetration and d2 < lim * lim * (1.0 - _BAND):
         return 0.0
     gap = math.hypot(xx, xy) - ro
     if not gap < r_eff:
-        return -1.0
+        return _NO_HIT
     if not penetration:
         return 0.0
     if gap > 0.0:
@@ -380,10 +385,10 @@ def _crossings(pts, penetration, count_out, pen_out, pt, box, circ, item_obstacl
                     i = k - n_pieces
                     v = _circle_pen(circ[i, 0], circ[i, 1], circ[i, 2], ax, ay, dx, dy, dd,
                                     inv, radius, r_eff, penetration)
-                    hit = v >= 0.0
+                    hit = v != _NO_HIT
                 elif penetration:
                     v = _piece_pen(pt, k, ax, ay, dx, dy, dd, inv, radius, r_eff)
-                    hit = v >= 0.0
+                    hit = v != _NO_HIT
                 else:
                     v = 0.0
                     hit = _piece_hit_count(pt, k, ax, ay, dx, dy, slen, inv, r_eff, reject,

@@ -179,6 +179,21 @@ def test_borderline_cases(r):
         assert pen[-3] == pytest.approx(2.0)
 
 
+@pytest.mark.parametrize("r", [0.0, 0.5])
+def test_tolerance_band_collides_in_both_engines_with_penetration(r):
+    """A segment farther than r but closer than r + 1e-9 x scale collides (the definition);
+    its penetration r - dist is slightly negative, and the compiled penetration branch must
+    still count it (it once took a negative penetration for "no collision")."""
+    obs = obstacle_set(_small_map(), r)
+    g = r + 0.5e-9 * obs.scale  # inside the tolerance band
+    segs = np.array([[[-1.0, 6 + g], [5.0, 6 + g]],  # parallel to the rectangle's top edge
+                     [[6.0, 8 + 1.5 + g], [10.0, 8 + 1.5 + g]],  # tangent to the disc
+                     [[-1.0, 6 + 2 * g + 1e-6], [5.0, 6 + 2 * g + 1e-6]]])  # outside: no
+    count, pen = _assert_same(obs, segs)
+    np.testing.assert_array_equal(count, [1, 1, 0])
+    assert -1e-9 * obs.scale < pen[0] < 0 and -1e-9 * obs.scale < pen[1] < 0
+
+
 def test_concave_polygon_counts_once_but_penetrates_per_piece():
     u = _small_map()[2]
     obs = obstacle_set([u], 0.25)

@@ -660,9 +660,10 @@ class SwarmBackend(Backend):
         (:func:`optplan.geometry.kernel_engine`): ``"numba"`` needs the optional dependency
         (``pip install optplan[fast]``); ``"auto"`` uses it when installed (the environment
         variable ``OPTPLAN_ENGINE`` can force ``numpy``).  The engine used is recorded in
-        ``result.extras["per_robot"][id]["engine"]``.  ``ipso`` runs are bit-identical across
-        engines whenever the kernels' collision decisions agree (always on the paper maps
-        with ``ipso-paper``; see ``docs/solvers/pso.md``).
+        ``result.extras["per_robot"][id]["engine"]``.  Runs are bit-identical across engines
+        whenever the kernels' collision decisions agree, i.e. unless a segment falls within
+        ~1e-16 relative of the collision threshold (tested on whole ``ipso-paper`` and
+        ``ipso`` runs; see ``docs/solvers/pso.md``).
     roadmap_samples : int
         Random samples per roadmap for ``init_mode = "roadmap"`` (beyond the paper).
     """
