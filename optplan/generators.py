@@ -6,6 +6,7 @@ the followers' L-phi slots derived from the shape (convention of :class:`optplan
 :func:`jitter_phases` shifts the phase of every moving obstacle of a problem by a seeded random
 time, the variants used by ``optplan bench --tag formation``.  :func:`random_obstacles` scatters
 seeded random obstacles of every kind the kernels handle (benchmarks and kernel tests).
+:func:`swap_scene` is two independently planned robots swapping ends of an empty field.
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ from shapely.geometry import Point, Polygon
 
 from optplan.problem import Follower, Formation, Obstacle, Problem, Robot, parse_problem
 
-__all__ = ["formation_offsets", "formation_scene", "jitter_phases", "random_obstacles"]
+__all__ = ["formation_offsets", "formation_scene", "jitter_phases", "random_obstacles",
+           "swap_scene"]
 
 SHAPES = ("line", "wedge", "grid")
 
@@ -157,3 +159,14 @@ def random_obstacles(n: int, seed: int = 0, side: float = 500.0,
         poly = shapely.geometry.polygon.orient(Polygon(np.asarray(v) @ rot.T + c), 1.0)
         out.append(Obstacle("polygon", poly, True, f"p{i}"))
     return out
+
+
+def swap_scene(dy: float = 0.0) -> Problem:
+    """Robots ``a`` and ``b`` (radius 3, speed 5) swap the ends of an empty 200 x 100 field,
+    ``b`` offset sideways by ``dy`` (0: exactly head-on); no formation, so both are planned."""
+    return parse_problem({
+        "name": "swap", "bounds": [0.0, 0.0, 200.0, 100.0], "obstacles": [],
+        "robots": [{"id": "a", "start": [20.0, 50.0], "goal": [180.0, 50.0], "radius": 3.0,
+                    "max_speed": 5.0},
+                   {"id": "b", "start": [180.0, 50.0 + dy], "goal": [20.0, 50.0 + dy],
+                    "radius": 3.0, "max_speed": 5.0}]})

@@ -16,6 +16,7 @@ from optplan.backends.apf import (
     repulsive_force,
     repulsive_potential,
 )
+from optplan.generators import swap_scene
 from optplan.sim import ObstacleField, simulate
 
 C = np.array([50.0, 40.0])  # circle obstacle centre
@@ -200,19 +201,9 @@ def test_controller_protocol_with_simulate():
 # ---------------------------------------------------------------------------------------
 
 
-def _two_robots(dy: float) -> op.Problem:
-    """Two robots swapping ends of an empty field (b offset by ``dy``: 0 = exactly head-on)."""
-    return op.parse_problem({
-        "name": "swap", "bounds": [0.0, 0.0, 200.0, 100.0], "obstacles": [],
-        "robots": [{"id": "a", "start": [20.0, 50.0], "goal": [180.0, 50.0], "radius": 3.0,
-                    "max_speed": 5.0},
-                   {"id": "b", "start": [180.0, 50.0 + dy], "goal": [20.0, 50.0 + dy],
-                    "radius": 3.0, "max_speed": 5.0}]})
-
-
 @pytest.mark.parametrize("solver", ["apf-paper", "sa-apf-paper"])
 def test_robots_sense_each_other(solver):
-    offset = _two_robots(2.0)
+    offset = swap_scene(2.0)
     blind = op.solve(offset, solver, rng=0, sense_robots=False)
     assert blind.status == op.Status.failed and "collision" in blind.message
     seen = op.solve(offset, solver, rng=0)  # default: sense_robots = true
@@ -222,7 +213,7 @@ def test_robots_sense_each_other(solver):
 
 
 def test_head_on_swap_is_a_saddle_for_apf_and_an_escape_for_sa_apf():
-    head_on = _two_robots(0.0)
+    head_on = swap_scene(0.0)
     apf = op.solve(head_on, "apf-paper", rng=0)
     assert apf.metrics["collisions"] == 0
     assert apf.status == op.Status.approximate and "local minimum" in apf.message

@@ -4,7 +4,6 @@ step: same random draws, same floating-point operations."""
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 import pytest
@@ -64,8 +63,8 @@ def test_compiled_step_is_bit_identical_to_numpy(opts, spread):
         st = _state(b, space, seed, spread)
         k = 17 * seed
         w = 0.4 + 0.1 * seed
-        B1 = b_rows = sw.PathBuffer(space, 50 + 2 * b.A).X(0)
-        B2 = sw.PathBuffer(space, len(b_rows)).X(0)
+        B1 = sw.PathBuffer(space, 50 + 2 * b.A).X(0)
+        B2 = sw.PathBuffer(space, 50 + 2 * b.A).X(0)
         r1, r2 = np.random.default_rng(seed), np.random.default_rng(seed)
         m1, CV1, isl1, V1 = _numpy_step(b, space, st, w, k, r1, B1)
         m2, CV2, isl2, V2 = b._step_compiled(space, st, w, k, r2, B2)
@@ -114,7 +113,9 @@ def test_engine_is_recorded(monkeypatch):
     monkeypatch.setenv("OPTPLAN_ENGINE", "numpy")
     res = op.solve("open-field", "ipso-paper", rng=0, k_max=3)
     assert res.extras["per_robot"]["r1"]["engine"] == "numpy"
-    assert os.environ["OPTPLAN_ENGINE"] == "numpy"
+    # an explicit option wins over the environment variable (which only redefines "auto")
+    res = op.solve("open-field", "ipso-paper", rng=0, k_max=3, engine="numba")
+    assert res.extras["per_robot"]["r1"]["engine"] == "numba"
 
 
 @pytest.mark.parametrize("opts", [{}, {"islands": 5, "A": 10}, {"islands": 2, "A": 8}],

@@ -122,7 +122,9 @@ def inertia_weight(dw: float, w_max: float) -> float:
 
 
 def position_factor(k: float | np.ndarray, k_max: int) -> float | np.ndarray:
-    """Eq 23: ``psi(k) = 1 - tanh(k / (k_max + 1))``."""
+    """Eq 23: ``psi(k) = 1 - tanh(k / (k_max + 1))`` (a Python float for a scalar ``k``)."""
+    if isinstance(k, (int, float)):
+        return 1.0 - math.tanh(k / (k_max + 1.0))
     return 1.0 - np.tanh(np.asarray(k, dtype=float) / (k_max + 1.0))
 
 
@@ -321,6 +323,12 @@ penetration_weight, kernel, engine
         state.stats["_island_idx"] = j
         state.stats["_social"] = np.repeat(state.pbest[j], m, axis=0)
 
+    def _selection_size(self, P: int) -> int:
+        """Particles selected for crossover per island: ``A / islands``, at most the island
+        size, rounded down to even."""
+        A = min(self.A // self._n_islands, P // self._n_islands)
+        return A - A % 2
+
     def _inertia(self, state: SwarmState) -> float:
         vn = state.stats["vnorms"]
         beta = velocity_ratio(vn[-2], vn[-1]) if len(vn) >= 2 else 1.0
@@ -356,7 +364,7 @@ penetration_weight, kernel, engine
             np.minimum(V, vmax, out=V)
             np.maximum(V, -vmax, out=V)
         R = U[2]
-        R *= 1.0 - math.tanh(k / (self.k_max + 1.0))  # psi(k) R, eq 23
+        R *= position_factor(k, self.k_max)  # psi(k) R, eq 23
         Xn = np.empty_like(X) if out is None else out
         if self.position_update == "paper":
             np.multiply(R, X, out=Xn)
@@ -389,8 +397,7 @@ penetration_weight, kernel, engine
         I = self._n_islands
         P = len(state.F)
         m_i = P // I
-        A = min(self.A // I, m_i)
-        A -= A % 2
+        A = self._selection_size(P)
         if A < 2:
             return 0, None, None
         if I == 1:
@@ -422,7 +429,7 @@ penetration_weight, kernel, engine
         CX[h:] = c2x
         CV = np.concatenate([c1v, c2v])
         MX = rng.standard_normal((m, out.shape[1]))
-        MX *= state.stats["_mut_sigma"] * (1.0 - math.tanh(k / (self.k_max + 1.0)))
+        MX *= state.stats["_mut_sigma"] * position_factor(k, self.k_max)
         np.add(MX, CX, out=out[:m])  # child + C_k
         return m, CV, (np.concatenate([isl, isl]) if isl is not None else None)
 
@@ -436,10 +443,8 @@ penetration_weight, kernel, engine
         st = state
         P, D = st.X.shape
         I = self._n_islands
-        m_i = P // I
-        A = min(self.A // I, m_i)
-        A -= A % 2
-        psi = 1.0 - math.tanh(k / (self.k_max + 1.0))
+        A = self._selection_size(P)
+        psi = position_factor(k, self.k_max)
         m, CV, isl = 0, None, None
         if A >= 2:
             thr = ((self.crossover_tol * space.diag) ** 2 if math.isfinite(self.crossover_tol)
@@ -606,7 +611,7 @@ penetration_weight, kernel, engine
         st.stats["w"] = w
         st.stats["crossovers"] += m // 2
         st.stats["mutations_kept"] += kept
-        return {"w": w, "psi": 1.0 - math.tanh(k / (self.k_max + 1.0)), "children": m,
+        return {"w": w, "psi": position_factor(k, self.k_max), "children": m,
                 "mean_speed": vnorm}
 
     def _finish(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator):
