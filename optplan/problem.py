@@ -268,6 +268,19 @@ class Problem:
             )
         return self._cache[key]
 
+    def obstacle_set(self, radius: float, known_only: bool = False):
+        """The exact collision/clearance engine for a disc of ``radius`` (cached).
+
+        See :class:`optplan.geometry.ObstacleSet`: every solver, the validator and the
+        simulator's sensing use it.
+        """
+        from optplan.geometry import obstacle_set
+
+        key = ("obstacle_set", float(radius), known_only)
+        if key not in self._cache:
+            self._cache[key] = obstacle_set(self.static_obstacles(known_only), float(radius))
+        return self._cache[key]
+
     def summary(self) -> str:
         x0, y0, x1, y1 = self.bounds
         n_tmp = sum(not o.known for o in self.obstacles)
