@@ -1,14 +1,15 @@
 """The one validator: every solver's result is graded here, never by the solver itself.
 
-:func:`evaluate` checks bounds, interior crossings of the inflated static obstacles (known and
-temporary alike: temporary obstacles are real even if a global planner cannot see them),
-contacts with dynamic obstacles at the time stamps of a trajectory, goal reach, lengths,
-clearances and, for teams, separation and formation error.
+:func:`evaluate` checks bounds, static obstacles (known and temporary alike: temporary
+obstacles are real even if a global planner cannot see them), contacts with dynamic obstacles at
+the time stamps of a trajectory, goal reach, lengths, clearances and, for teams, separation and
+formation error.
 
-Feasibility is judged against the *inscribed* polygonal inflation (shapely round buffer,
-``quad_segs = 8``), the same map ``visgraph`` plans on; a path grazing an inflated vertex may
-therefore come within ``r * (1 - cos(pi/32)) ~ 0.5 % r`` of the true disc-robot contact.  The
-exact clearances are reported in ``min_clearance``.
+Static feasibility is exact (:class:`optplan.geometry.ObstacleSet`): a segment is free when its
+Euclidean distance to every true polygon and circle is ``>= r - eps``, ``eps = 1e-9 x`` the
+bounds diagonal (``docs/tolerances.md``).  ``min_clearance`` is the exact minimum distance minus
+the radius; a value within ``eps`` of contact is reported as 0, so a path called feasible never
+shows a negative clearance.
 """
 
 from __future__ import annotations
@@ -16,29 +17,12 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-import shapely
 
-from optplan.geometry import batch_crossings, path_lengths
+from optplan.geometry import path_lengths
 from optplan.problem import Problem, Robot
 
 __all__ = ["evaluate", "leader_headings", "formation_errors"]
 
-#: Numerical slack (relative to the map extent) for bounds and contacts.
-REL_TOL = 1e-9
-
-
-def _raw_clearance(path: np.ndarray, problem: Problem) -> float:
-    """Min distance from the polyline to any raw static obstacle (inf if none)."""
-    if not problem.obstacles:
-        return float("inf")
-    line = shapely.LineString(path) if len(path) > 1 else shapely.Point(path[0])
-    best = float("inf")
-    for o in problem.obstacles:
-        if o.is_circle:
-            best = min(best, max(line.distance(shapely.Point(o.center)) - o.radius, 0.0))
-        else:
-            best = min(best, line.distance(o.geometry))
-    return best
 
 
 def leader_headings(leader_path: np.ndarray, fallback: float = 0.0,
@@ -76,7 +60,7 @@ def formation_errors(problem: Problem, paths: dict[str, np.ndarray]) -> dict[str
     if lead_r.goal is not None:
         g = lead_r.goal - lead_r.start
         fb = float(np.arctan2(g[1], g[0]))
-    th = leader_headings(lead, fb, min_step=1e-6 * max(1.0, problem.extent))
+    th = leader_headings(lead, fb, min_step=1e-6 * problem.extent)
     slots = lead[:, None, :] + problem.formation.slot_offsets(th)
     fol = np.stack([np.asarray(paths[x.id]) for x in f.followers], axis=1)
     rel = fol - lead[:, None, :]
@@ -94,16 +78,14 @@ def formation_errors(problem: Problem, paths: dict[str, np.ndarray]) -> dict[str
 
 def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray,
                    times: np.ndarray | None) -> dict[str, Any]:
-    x0, y0, x1, y1 = problem.bounds
-    tol = REL_TOL * max(1.0, problem.extent)
-    in_bounds = bool(
-        np.all(path[:, 0] >= x0 - tol) and np.all(path[:, 0] <= x1 + tol)
-        and np.all(path[:, 1] >= y0 - tol) and np.all(path[:, 1] <= y1 + tol)
-    )
-    imap = problem.inflated(robot.radius)
-    cr = batch_crossings(path[None], imap)
+    frame = problem.frame
+    tol = frame.eps
+    in_bounds = bool(np.all(frame.in_bounds(path)))
+    oset = problem.obstacle_set(robot.radius)
+    seg_path = path if len(path) > 1 else np.vstack([path, path])
+    cr = oset.crossings(seg_path[None], details=True)
     static_coll = int(cr.count[0])
-    crossed = sorted({n for p in cr.pairs[2] for n in imap.names[p]})
+    crossed = sorted({oset.names[int(k)] for k in cr.pairs[2]})
     dyn_contacts = 0
     min_dyn = float("inf")
     if times is not None and problem.dynamic_obstacles:
@@ -111,7 +93,9 @@ def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray,
             dist = d.distance(path, times) - robot.radius
             min_dyn = min(min_dyn, float(dist.min()))
             dyn_contacts += int(np.sum(dist < -tol))
-    clear = _raw_clearance(path, problem) - robot.radius
+    clear = float(oset.clearance(seg_path[None])[0])
+    if -tol <= clear < 0.0:
+        clear = 0.0  # contact within the tolerance: touching is allowed
     reached = None
     if robot.goal is not None:
         reached = bool(np.hypot(*(path[-1] - robot.goal)) <= problem.goal_tol(robot) + tol)
@@ -125,7 +109,7 @@ def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray,
         "min_clearance": float(clear),
         "min_clearance_dynamic": float(min_dyn),
         "reached": reached,
-        "starts_at_start": bool(np.allclose(path[0], robot.start, atol=tol)),
+        "starts_at_start": bool(np.hypot(*(path[0] - robot.start)) <= tol),
     }
 
 
@@ -195,7 +179,7 @@ def evaluate(problem: Problem, paths: dict[str, np.ndarray],
         out["safety_distance"] = float(safety)
         radii = np.array([problem.robot(k).radius for k in ids])
         contact = radii[iu[0]] + radii[iu[1]]
-        sep_viol = int(np.sum(pair < contact[None, :] - REL_TOL * problem.extent))
+        sep_viol = int(np.sum(pair < contact[None, :] - problem.frame.eps))
         out["separation_violations"] = sep_viol
     reached = []
     form = problem.formation

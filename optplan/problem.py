@@ -259,7 +259,7 @@ class Problem:
 
     def inflated(self, radius: float, mode: str = "inscribed", known_only: bool = False):
         """Obstacles inflated by ``radius`` (cached); see :func:`optplan.geometry.inflate`."""
-        from optplan.geometry import inflate
+        from optplan.geometry_old import inflate
 
         key = ("inflated", round(float(radius), 12), mode, known_only)
         if key not in self._cache:
@@ -278,8 +278,18 @@ class Problem:
 
         key = ("obstacle_set", float(radius), known_only)
         if key not in self._cache:
-            self._cache[key] = obstacle_set(self.static_obstacles(known_only), float(radius))
+            self._cache[key] = obstacle_set(self.static_obstacles(known_only), float(radius),
+                                            self.frame)
         return self._cache[key]
+
+    @property
+    def frame(self):
+        """The local frame and tolerance of this map (:class:`optplan.geometry.Frame`)."""
+        from optplan.geometry import Frame
+
+        if "frame" not in self._cache:
+            self._cache["frame"] = Frame.from_bounds(self.bounds)
+        return self._cache["frame"]
 
     def summary(self) -> str:
         x0, y0, x1, y1 = self.bounds

@@ -41,7 +41,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from optplan.geometry import InflatedMap, candidate_pairs, inside_lengths
+from optplan.geometry_old import InflatedMap, candidate_pairs, inside_lengths
 from optplan.problem import Problem, Robot
 from optplan.result import History, Status
 from optplan.solver import Backend

@@ -1,0 +1,662 @@
+r"""The one exact collision and clearance engine: true polygons and true circles.
+
+Model
+    A robot is a disc of radius ``r >= 0`` (``r = 0``: a point robot).  A straight segment ``s``
+    is free of an obstacle ``O`` when the exact Euclidean distance ``dist(s, O) >= r - eps``
+    (touching allowed; ``eps`` from :class:`~optplan.geometry.frame.Frame`).  Nothing is
+    buffered or polygonised: polygons (with holes) are split into convex pieces that tile them,
+    circles are kept as centre and radius.
+
+Per (segment, item) pair, where an item is a convex piece or a circle, the engine computes
+
+* ``dist``: the exact distance between the segment and the closed item (0 when they meet):
+  Cyrus-Beck clipping against the piece's half-planes decides "meets"; otherwise the distance
+  is the smallest of the vertex-to-segment and endpoint-to-edge distances (the closed form of
+  segment-polygon distance for disjoint convex sets).  Circle: centre-to-segment distance minus
+  the radius.
+* ``inside``: the length of the segment inside the item *eroded by eps along the obstacle's
+  boundary* (internal diagonals of the tiling are not eroded, so a segment along a diagonal is
+  inside).  This decides point robots: a segment that runs along an edge or grazes a vertex is
+  not inside, one that crosses the interior is.
+
+A (segment, obstacle) pair **collides** when ``dist < r - eps`` for one of its items, or the
+summed ``inside`` exceeds ``eps``.  For ``r > eps`` the first test decides (a segment that
+meets the obstacle has ``dist = 0``); for a point robot the second does.  The continuous
+penetration measure of the swarm fitness (paper eq 32) is ``r - dist + inside`` summed over
+colliding (segment, item) pairs: zero at the threshold, growing as the segment moves in.
+
+Working region and frame
+    Coordinates are taken relative to the frame origin once, at build time.  Obstacles are
+    clipped to the working region (the bounds grown by ``r + L``); obstacles entirely outside
+    it are dropped.  Inside the bounds every distance below ``r + L`` is exact.
+
+Candidate pairs
+    Each item has a bounding circle.  With few items (< 48) all (segment, item) pairs are
+    screened by one matrix product (distance of each centre to the segment's line and along
+    it); with many, a uniform grid lists items by the cells their bounding square covers and
+    each segment visits the cells it crosses, so the work per segment grows with the obstacles
+    near it.  The screens keep a margin of ``2 eps`` beyond the collision threshold.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon
+from shapely.geometry.polygon import orient
+
+from optplan.geometry.frame import Frame
+
+__all__ = ["PIECE_EDGES", "DiscCrossings", "ObstacleSet", "convex_pieces", "obstacle_set",
+           "clip_obstacles"]
+
+#: Edges per convex piece (larger convex polygons are fan-split; triangles repeat an edge).
+PIECE_EDGES = 4
+
+#: Number of items from which the uniform grid replaces the all-pairs screen.
+GRID_FROM = 48
+
+
+@dataclass(frozen=True)
+class DiscCrossings:
+    """Output of :meth:`ObstacleSet.crossings` for paths of shape ``(P, M, 2)``.
+
+    Attributes
+    ----------
+    count : (P,) int
+        Colliding (segment, obstacle) pairs per path (an obstacle of several pieces counts
+        once per segment).
+    penetration : (P,) float
+        Sum over colliding (segment, item) pairs of ``r - dist + inside`` (map units).
+    seg_count : (P, M-1) int or None
+        Per segment, the number of obstacles it collides with (``details=True``).
+    pairs : tuple of arrays or None
+        Colliding ``(path, segment, obstacle)`` index triples (``details=True``); obstacle
+        indices refer to the obstacle list the set was built from.
+    """
+
+    count: np.ndarray
+    penetration: np.ndarray
+    seg_count: np.ndarray | None = None
+    pairs: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+
+# --------------------------------------------------------------------------------------
+# convex pieces
+# --------------------------------------------------------------------------------------
+
+
+def _clean_ring(v: np.ndarray) -> np.ndarray:
+    """Drop repeated and collinear vertices (relative test: |sin angle| <= 1e-12)."""
+    for _ in range(3):
+        if len(v) < 3:
+            return v
+        prev, nxt = np.roll(v, 1, axis=0), np.roll(v, -1, axis=0)
+        a, b = v - prev, nxt - v
+        cr = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+        keep = np.abs(cr) > 1e-12 * np.hypot(*a.T) * np.hypot(*b.T)
+        if keep.all():
+            return v
+        v = v[keep]
+    return v
+
+
+def convex_pieces(geom, max_edges: int = PIECE_EDGES) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Convex pieces tiling a polygon (holes allowed), with boundary flags.
+
+    A convex polygon without holes is fan-split into pieces of at most ``max_edges`` vertices
+    sharing its first vertex (one piece for triangles and quadrilaterals); anything else is split
+    into the triangles of its constrained Delaunay triangulation
+    (``shapely.constrained_delaunay_triangles``).
+
+    Returns
+    -------
+    list of (vertices, boundary)
+        ``vertices``: CCW array ``(k, 2)``, ``3 <= k <= max_edges``; ``boundary``: ``(k,)``
+        bool, True where edge ``v[i] -> v[i+1]`` lies on the polygon's boundary (False for
+        internal diagonals).
+    """
+    polys = list(geom.geoms) if hasattr(geom, "geoms") else [geom]
+    out: list[tuple[np.ndarray, np.ndarray]] = []
+    for p in polys:
+        if p.is_empty or p.area <= 0:
+            continue
+        p = orient(p, 1.0)
+        x0, y0, x1, y1 = p.bounds
+        size = max(x1 - x0, y1 - y0)
+        ring = _clean_ring(np.asarray(p.exterior.coords)[:-1])
+        cr = None
+        if len(ring) >= 3:
+            a = ring - np.roll(ring, 1, axis=0)
+            b = np.roll(ring, -1, axis=0) - ring
+            cr = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+        if not p.interiors and cr is not None and np.all(cr > 0):
+            cand = [ring]
+        else:
+            cand = [_clean_ring(np.asarray(orient(t, 1.0).exterior.coords)[:-1])
+                    for t in shapely.constrained_delaunay_triangles(p).geoms if t.area > 0]
+        bnd = p.boundary
+        for v in cand:
+            if len(v) < 3:
+                continue
+            i = 1
+            while i < len(v) - 1:  # fan: (v0, v_i, ..., v_j)
+                j = min(i + max_edges - 2, len(v) - 1)
+                piece = np.vstack([v[:1], v[i:j + 1]])
+                mid = 0.5 * (piece + np.roll(piece, -1, axis=0))
+                flags = shapely.distance(shapely.points(mid), bnd) <= 1e-9 * size
+                out.append((piece, np.asarray(flags, dtype=bool)))
+                i = j
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# the obstacle set
+# --------------------------------------------------------------------------------------
+
+
+def clip_obstacles(obstacles: Sequence, frame: Frame, margin: float) -> list[tuple[int, object]]:
+    """Obstacles in the local frame, clipped to the bounds grown by ``margin``.
+
+    Returns ``(index, shape)`` pairs for the obstacles that reach into that region: ``shape`` is
+    a shapely ``Polygon``/``MultiPolygon`` (local coordinates) or a ``(cx, cy, R)`` tuple for a
+    circle.  Obstacles entirely outside the region are dropped.
+
+    Raises
+    ------
+    ValueError
+        An obstacle reaching into the region has coordinates beyond what double precision
+        resolves (:meth:`Frame.check_extent`).
+    """
+    x0, y0, x1, y1 = frame.local_bounds
+    lo = np.array([x0 - margin, y0 - margin])
+    hi = np.array([x1 + margin, y1 + margin])
+    box = shapely.box(lo[0], lo[1], hi[0], hi[1])
+    out: list[tuple[int, object]] = []
+    for i, o in enumerate(obstacles):
+        label = f"obstacle {i} ({o.name!r})" if getattr(o, "name", "") else f"obstacle {i}"
+        if o.is_circle:
+            c = frame.local(o.center)
+            R = float(o.radius)
+            if np.any(c + R < lo) or np.any(c - R > hi):
+                continue  # entirely outside the region (exact box test)
+            frame.check_extent(float(np.max(np.abs(c))) + R, label)
+            out.append((i, (float(c[0]), float(c[1]), R)))
+            continue
+        wx0, wy0, wx1, wy1 = o.geometry.bounds
+        blo = frame.local([wx0, wy0])
+        bhi = frame.local([wx1, wy1])
+        if np.any(bhi < lo) or np.any(blo > hi):
+            continue
+        frame.check_extent(float(max(np.max(np.abs(blo)), np.max(np.abs(bhi)))), label)
+        g = shapely.transform(o.geometry, lambda xy: xy - frame.origin)
+        if np.any(blo < lo) or np.any(bhi > hi):
+            g = shapely.intersection(g, box)
+            g = shapely.make_valid(g) if not g.is_valid else g
+            polys = [q for q in getattr(g, "geoms", [g]) if isinstance(q, Polygon)
+                     and not q.is_empty and q.area > 0]
+            if not polys:
+                continue
+            g = shapely.MultiPolygon(polys) if len(polys) > 1 else polys[0]
+        out.append((i, g))
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class ObstacleSet:
+    """Static obstacles of a map laid out for exact disc-robot queries (module docstring).
+
+    Build with :func:`obstacle_set` or :meth:`optplan.problem.Problem.obstacle_set`.  Inputs and
+    outputs of every method are in world coordinates; the arrays below are local.
+
+    Attributes
+    ----------
+    frame : Frame
+        Local frame and tolerance (``frame.eps``).
+    radius : float
+        Robot radius ``r``.
+    names : tuple of str
+        Names of *all* obstacles given (indices in results refer to this list).
+    shapes : tuple
+        ``(obstacle index, local shape)`` of the obstacles kept (:func:`clip_obstacles`).
+    n_pieces : int
+        Convex pieces; items ``0 .. n_pieces - 1`` are pieces, the rest circles.
+    item_obstacle, item_center, item_reach : arrays
+        Per item: obstacle index, bounding-circle centre (complex, local) and radius.
+    circle_radius : array
+        Radii of the circle items.
+    table : complex array ``(6, 4, n_pieces)``
+        Per piece edge: start ``p``, edge vector ``e``, outward unit normal ``n``,
+        ``-conj(e) / |e|^2``, ``n . p`` and the eroded offset ``n . p - eps`` (boundary edges)
+        or ``n . p`` (internal diagonals), both in the real part.
+    boundary : bool array ``(4, n_pieces)``
+        Edge on the obstacle's boundary.
+    grid : dict or None
+        Uniform grid of items (CSR lists), or None (all-pairs screen).
+    """
+
+    frame: Frame
+    radius: float
+    names: tuple
+    shapes: tuple
+    n_pieces: int
+    item_obstacle: np.ndarray
+    item_center: np.ndarray
+    item_reach: np.ndarray
+    circle_radius: np.ndarray
+    table: np.ndarray
+    boundary: np.ndarray
+    grid: dict | None
+
+    @property
+    def n_obstacles(self) -> int:
+        return len(self.names)
+
+    @property
+    def n_items(self) -> int:
+        return len(self.item_obstacle)
+
+    @property
+    def eps(self) -> float:
+        return self.frame.eps
+
+    # -- candidate pairs ----------------------------------------------------------------
+    def _screen(self, a: np.ndarray, d: np.ndarray, reach: float) -> tuple[np.ndarray,
+                                                                            np.ndarray]:
+        """(segment, item) pairs whose item's bounding circle is within ``reach`` of the
+        segment ``a -> a + d`` (local complex); a superset of the pairs closer than that."""
+        K = self.n_items
+        if K == 0 or len(a) == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        if self.grid is None or reach > self.grid["reach"]:
+            si_l, it_l = [], []
+            block = max(1, 2_000_000 // K)
+            for s0 in range(0, len(a), block):
+                aa, dd_ = a[s0:s0 + block], d[s0:s0 + block]
+                w = self.item_center[None, :] - aa[:, None]
+                dd = (dd_ * dd_.conj()).real
+                t = np.clip((w * dd_.conj()[:, None]).real / np.maximum(dd, 1e-300)[:, None],
+                            0.0, 1.0)
+                gap = np.abs(w - t * dd_[:, None]) - self.item_reach[None, :]
+                s, i = np.nonzero(gap <= reach)
+                si_l.append(s + s0)
+                it_l.append(i)
+            return np.concatenate(si_l), np.concatenate(it_l)
+        si, it = self._grid_pairs(a, a + d)
+        w = self.item_center[it] - a[si]
+        ds = d[si]
+        dd = (ds * ds.conj()).real
+        t = np.clip((w * ds.conj()).real / np.maximum(dd, 1e-300), 0.0, 1.0)
+        keep = np.abs(w - t * ds) - self.item_reach[it] <= reach
+        return si[keep], it[keep]
+
+    def _grid_pairs(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(segment, item) pairs whose segment crosses a grid cell listing the item (exact
+        supercover, column by column)."""
+        g = self.grid
+        h, gx0, gy0, nx, ny = g["h"], g["x0"], g["y0"], g["nx"], g["ny"]
+        sw = b.real < a.real
+        pa = np.where(sw, b, a)
+        pb = np.where(sw, a, b)
+        xa, ya, xb, yb = pa.real, pa.imag, pb.real, pb.imag
+        i0 = np.clip(np.floor((xa - gx0) / h), 0, nx - 1).astype(np.int64)
+        i1 = np.clip(np.floor((xb - gx0) / h), 0, nx - 1).astype(np.int64)
+        ncol = i1 - i0 + 1
+        seg = np.repeat(np.arange(len(xa)), ncol)
+        first = np.cumsum(ncol) - ncol
+        col = i0[seg] + np.arange(len(seg)) - first[seg]
+        lo = np.where(col == 0, -np.inf, gx0 + col * h)
+        hi = np.where(col == nx - 1, np.inf, gx0 + (col + 1) * h)
+        xs, xe, ys, ye = xa[seg], xb[seg], ya[seg], yb[seg]
+        xl = np.maximum(xs, lo)
+        xr = np.minimum(xe, hi)
+        dx = xe - xs
+        slope = np.divide(ye - ys, dx, out=np.zeros_like(dx), where=dx > 0)
+        flat = ~(dx > 0)
+        y1 = np.where(flat, ys, ys + (xl - xs) * slope)
+        y2 = np.where(flat, ye, ys + (xr - xs) * slope)
+        j0 = np.clip(np.floor((np.minimum(y1, y2) - gy0) / h), 0, ny - 1).astype(np.int64)
+        j1 = np.clip(np.floor((np.maximum(y1, y2) - gy0) / h), 0, ny - 1).astype(np.int64)
+        nrow = j1 - j0 + 1
+        k = np.repeat(np.arange(len(seg)), nrow)
+        first = np.cumsum(nrow) - nrow
+        cell = col[k] * ny + j0[k] + np.arange(len(k)) - first[k]
+        seg = seg[k]
+        cs, cc = g["start"][cell], g["count"][cell]
+        m = np.repeat(np.arange(len(cell)), cc)
+        first = np.cumsum(cc) - cc
+        item = g["items"][cs[m] + np.arange(len(m)) - first[m]]
+        key = np.unique(seg[m] * self.n_items + item)
+        return np.divmod(key, self.n_items)
+
+    # -- the exact pair kernel --------------------------------------------------------------
+    def pair_geometry(self, si: np.ndarray, it: np.ndarray, a: np.ndarray,
+                      d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Exact ``dist`` and eroded ``inside`` length of (segment ``si``, item ``it``) pairs.
+
+        ``a``, ``d``: local complex segment starts and vectors.  See the module docstring.
+        """
+        dist = np.zeros(len(si))
+        inside = np.zeros(len(si))
+        if len(si) == 0:
+            return dist, inside
+        eps = self.eps
+        isc = it >= self.n_pieces
+        ci = np.flatnonzero(isc)
+        if ci.size:
+            s, c = si[ci], it[ci]
+            A, D = a[s], d[s]
+            dd = (D * D.conj()).real
+            inv = 1.0 / np.maximum(dd, 1e-300)
+            w = self.item_center[c] - A
+            tl = (w * D.conj()).real * inv
+            ro = self.circle_radius[c - self.n_pieces]
+            dist[ci] = np.maximum(np.abs(w - np.clip(tl, 0.0, 1.0) * D) - ro, 0.0)
+            re = np.maximum(ro - eps, 0.0)
+            h2 = re * re - np.abs(w - tl * D) ** 2
+            half = np.sqrt(np.maximum(h2, 0.0) * inv)
+            inside[ci] = np.maximum(np.minimum(tl + half, 1.0) - np.maximum(tl - half, 0.0),
+                                    0.0) * np.sqrt(dd) * (h2 > 0)
+        pi = np.flatnonzero(~isc)
+        if pi.size:
+            s, k = si[pi], it[pi]
+            p, e, n, ee, cc, ce = self.table.take(k, axis=2)  # (4, pairs) each
+            A, D = a[s], d[s]
+            Ac, Dc = A.conj(), D.conj()
+            nA = (n * Ac).real  # n . A
+            den = (n * Dc).real  # n . D
+            den_s = np.where(den == 0, -1e-300, den)
+
+            def clip(c):
+                g = nA - c.real  # > 0: A outside the half-plane
+                tt = g / -den_s
+                neg = den_s < 0
+                t_in = np.maximum(np.where(neg, tt, -np.inf).max(axis=0), 0.0)
+                t_out = np.minimum(np.where(neg, np.inf, tt).min(axis=0), 1.0)
+                return t_in, t_out
+
+            t_in, t_out = clip(cc)
+            meets = t_in <= t_out
+            t_in2, t_out2 = clip(ce)
+            dl = np.sqrt((D * Dc).real)
+            inside[pi] = np.maximum(t_out2 - t_in2, 0.0) * dl
+            u = np.flatnonzero(~meets)
+            if u.size:
+                D, pu, eu, eeu = D[u], p[:, u], e[:, u], ee[:, u]
+                dd = (D * D.conj()).real
+                inv = 1.0 / np.maximum(dd, 1e-300)
+                w = pu - A[u]  # vertex - A
+                tv = np.clip((w * D.conj()).real * inv, 0.0, 1.0)
+                x = w - tv * D
+                d2 = (x * x.conj()).real
+                x = w + np.clip((w * eeu).real, 0.0, 1.0) * eu  # A -> edge
+                d2 = np.minimum(d2, (x * x.conj()).real)
+                w = w - D  # vertex - B
+                x = w + np.clip((w * eeu).real, 0.0, 1.0) * eu  # B -> edge
+                d2 = np.minimum(d2, (x * x.conj()).real).min(axis=0)
+                dist[pi[u]] = np.sqrt(d2)
+        return dist, inside
+
+    def _segments(self, paths) -> tuple[np.ndarray, np.ndarray, int, int]:
+        pts = np.asarray(paths, dtype=float)
+        if pts.ndim == 2:
+            pts = pts[None]
+        if pts.ndim != 3 or pts.shape[-1] != 2:
+            raise ValueError(f"paths must have shape (P, M, 2) or (M, 2), got {pts.shape}")
+        P, M, _ = pts.shape
+        loc = self.frame.local(pts)
+        z = loc[..., 0] + 1j * loc[..., 1]
+        a = z[:, :-1].reshape(-1)
+        d = z[:, 1:].reshape(-1) - a
+        return a, d, P, M - 1
+
+    # -- public queries ---------------------------------------------------------------------
+    def crossings(self, paths, details: bool = False, penetration: bool = True
+                  ) -> DiscCrossings:
+        """Exact collision count and penetration for a batch of polylines.
+
+        Parameters
+        ----------
+        paths : array ``(P, M, 2)`` or ``(M, 2)``, world coordinates
+        details : bool
+            Also return per-segment counts and the colliding (path, segment, obstacle) pairs.
+        penetration : bool
+            Compute the penetration measure (else zeros).
+        """
+        a, d, P, S = self._segments(paths)
+        r, eps = self.radius, self.eps
+        zero = DiscCrossings(np.zeros(P, np.int64), np.zeros(P),
+                             np.zeros((P, max(S, 0)), np.int64) if details else None,
+                             (np.zeros(0, np.int64),) * 3 if details else None)
+        if self.n_items == 0 or S <= 0:
+            return zero
+        si, it = self._screen(a, d, r + 2 * eps)
+        if si.size == 0:
+            return zero
+        dist, inside = self.pair_geometry(si, it, a, d)
+        ob = self.item_obstacle[it]
+        key = si * self.n_obstacles + ob
+        # inside lengths add up over the pieces of one obstacle
+        ukey, inv = np.unique(key, return_inverse=True)
+        ins_tot = np.bincount(inv, weights=inside, minlength=len(ukey))
+        close = np.zeros(len(ukey), bool)
+        np.logical_or.at(close, inv, dist < r - eps)
+        hit_key = close | (ins_tot > eps)
+        keys = ukey[hit_key]
+        seg_u = keys // self.n_obstacles
+        count = np.bincount(seg_u // S, minlength=P).astype(np.int64)
+        pen = np.zeros(P)
+        if penetration and keys.size:
+            pair_hit = hit_key[inv] & ((dist < r) | (inside > 0))
+            val = np.where(pair_hit, np.maximum(r - dist, 0.0) + inside, 0.0)
+            pen = np.bincount(si // S, weights=val, minlength=P)
+        if not details:
+            return DiscCrossings(count, pen)
+        seg_count = np.bincount(seg_u, minlength=P * S).reshape(P, S).astype(np.int64)
+        return DiscCrossings(count, pen, seg_count,
+                             (seg_u // S, seg_u % S, keys % self.n_obstacles))
+
+    def segment_free(self, a, b) -> np.ndarray:
+        """Per segment ``a[k] -> b[k]`` (world, ``(K, 2)`` each): collision-free."""
+        a = np.asarray(a, dtype=float).reshape(-1, 2)
+        b = np.asarray(b, dtype=float).reshape(-1, 2)
+        if len(a) == 0:
+            return np.zeros(0, bool)
+        return self.crossings(np.stack([a, b], axis=1), penetration=False).count == 0
+
+    def clearance(self, paths, max_dist: float = math.inf) -> np.ndarray:
+        """Per path, the exact minimum distance to any obstacle minus the radius ``r``.
+
+        Negative when the path comes closer than ``r`` (``-r`` when it meets an obstacle,
+        ``-r - inside / 2`` when it runs inside one: a point robot's depth bound).  ``inf`` with
+        no obstacle within ``max_dist``.
+        """
+        a, d, P, S = self._segments(paths)
+        out = np.full(P, math.inf)
+        if self.n_items == 0 or S <= 0:
+            return out
+        # lower bound of the distance per (segment, item) from bounding circles, then the exact
+        # distance for the pairs that can beat the best upper bound of their segment
+        w = None
+        best = np.full(len(a), math.inf)
+        block = max(1, 2_000_000 // self.n_items)
+        for s0 in range(0, len(a), block):
+            aa, dd_ = a[s0:s0 + block], d[s0:s0 + block]
+            w = self.item_center[None, :] - aa[:, None]
+            dd = (dd_ * dd_.conj()).real
+            t = np.clip((w * dd_.conj()[:, None]).real / np.maximum(dd, 1e-300)[:, None],
+                        0.0, 1.0)
+            cd = np.abs(w - t * dd_[:, None])
+            lb = cd - self.item_reach[None, :]
+            ub = (cd + self.item_reach[None, :]).min(axis=1)
+            s, i = np.nonzero((lb <= ub[:, None]) & (lb <= max_dist))
+            s = s + s0
+            dist, inside = self.pair_geometry(s, i, a, d)
+            val = dist - 0.5 * inside
+            np.minimum.at(best, s, val)
+        np.minimum.at(out, np.arange(len(a)) // S, best)
+        return out - self.radius
+
+    def point_distances(self, points) -> np.ndarray:
+        """Exact distance from each point to the nearest obstacle (0 inside); ``inf`` if none."""
+        pts = np.asarray(points, dtype=float).reshape(-1, 2)
+        if len(pts) == 0:
+            return np.zeros(0)
+        c = self.clearance(np.stack([pts, pts], axis=1)) + self.radius
+        return np.maximum(c, 0.0)
+
+    def nearest(self, points, max_range: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest boundary point and distance for every (point, obstacle) pair.
+
+        Parameters
+        ----------
+        points : array ``(R, 2)`` or ``(2,)``, world coordinates
+        max_range : float
+            Obstacles farther than this are skipped (distance ``inf``, point ``nan``).
+
+        Returns
+        -------
+        nearest : ``(R, n_obstacles, 2)`` world coordinates of the nearest boundary point
+        dist : ``(R, n_obstacles)`` exact distance to the obstacle, 0 inside
+        """
+        pts = np.atleast_2d(np.asarray(points, dtype=float))
+        R, n = len(pts), self.n_obstacles
+        near = np.full((R, n, 2), np.nan)
+        dist = np.full((R, n), math.inf)
+        if self.n_items == 0 or R == 0:
+            return near, dist
+        loc = self.frame.local(pts)
+        z = loc[:, 0] + 1j * loc[:, 1]
+        si, it = self._screen(z, np.zeros_like(z), max_range)
+        if si.size == 0:
+            return near, dist
+        best_d = np.full(len(si), math.inf)
+        best_p = np.zeros(len(si), complex)
+        inside = np.zeros(len(si), bool)
+        isc = it >= self.n_pieces
+        ci = np.flatnonzero(isc)
+        if ci.size:
+            c = self.item_center[it[ci]]
+            ro = self.circle_radius[it[ci] - self.n_pieces]
+            v = z[si[ci]] - c
+            nv = np.abs(v)
+            u = np.where(nv > 0, v / np.where(nv > 0, nv, 1.0), 1.0)
+            best_p[ci] = c + u * ro
+            best_d[ci] = np.maximum(nv - ro, 0.0)
+            inside[ci] = nv < ro
+        pi = np.flatnonzero(~isc)
+        if pi.size:
+            p, e, nrm, ee, cc, _ = self.table.take(it[pi], axis=2)
+            q = z[si[pi]]
+            w = p - q
+            s = np.clip((w * ee).real, 0.0, 1.0)
+            x = p + s * e  # nearest point of each edge
+            d2 = np.abs(x - q) ** 2
+            d2 = np.where(self.boundary[:, it[pi]], d2, math.inf)  # boundary edges only
+            j = np.argmin(d2, axis=0)
+            col = np.arange(len(pi))
+            best_d[pi] = np.sqrt(d2[j, col])
+            best_p[pi] = x[j, col]
+            inside[pi] = ((nrm * q.conj()).real - cc.real <= 0).all(axis=0)
+        ob = self.item_obstacle[it]
+        # per (point, obstacle): the closest boundary candidate over its pieces
+        order = np.lexsort((best_d, ob, si))
+        si_o, ob_o = si[order], ob[order]
+        first = np.r_[True, (si_o[1:] != si_o[:-1]) | (ob_o[1:] != ob_o[:-1])]
+        sel = order[first]
+        ins = np.zeros((R, n), bool)
+        np.logical_or.at(ins, (si, ob), inside)
+        dd = best_d[sel]
+        keep = dd <= max_range
+        sel = sel[keep]
+        near[si[sel], ob[sel]] = self.frame.world(np.stack([best_p[sel].real,
+                                                            best_p[sel].imag], axis=1))
+        dist[si[sel], ob[sel]] = best_d[sel]
+        dist = np.where(ins & np.isfinite(dist), 0.0, dist)
+        return near, dist
+
+
+def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
+                 grid: bool | None = None) -> ObstacleSet:
+    """Build the :class:`ObstacleSet` of static ``obstacles`` for a disc of ``radius``.
+
+    Parameters
+    ----------
+    obstacles : iterable of :class:`optplan.problem.Obstacle`
+    radius : float
+        Robot radius (map units), >= 0.
+    frame : Frame
+        The map's local frame (:attr:`optplan.problem.Problem.frame`).
+    grid : bool or None
+        Use the uniform-grid screen; ``None`` decides by the number of items.
+    """
+    if not (radius >= 0 and math.isfinite(radius)):
+        raise ValueError(f"radius must be finite and >= 0, got {radius}")
+    obstacles = list(obstacles)
+    eps = frame.eps
+    shapes = clip_obstacles(obstacles, frame, radius + frame.length)
+    pieces, owner, bflags, circles, c_owner = [], [], [], [], []
+    for i, g in shapes:
+        if isinstance(g, tuple):
+            circles.append(g)
+            c_owner.append(i)
+            continue
+        for v, fl in convex_pieces(g):
+            pieces.append(v)
+            bflags.append(fl)
+            owner.append(i)
+    K = len(pieces)
+    table = np.zeros((6, PIECE_EDGES, K), dtype=complex)
+    boundary = np.zeros((PIECE_EDGES, K), bool)
+    pc, reach = np.zeros((K, 2)), np.zeros(K)
+    for k, (v, fl) in enumerate(zip(pieces, bflags)):
+        pad = PIECE_EDGES - len(v)
+        vv = np.vstack([v, v[-1:].repeat(pad, axis=0)])
+        nxt = np.roll(v, -1, axis=0)
+        qq = np.vstack([nxt, nxt[-1:].repeat(pad, axis=0)])
+        fb = np.r_[fl, np.repeat(fl[-1:], pad)]
+        p = vv[:, 0] + 1j * vv[:, 1]
+        ev = (qq[:, 0] + 1j * qq[:, 1]) - p
+        nrm = -1j * ev / np.abs(ev)  # outward normal of a CCW piece
+        c = (nrm.conj() * p).real
+        table[:, :, k] = [p, ev, nrm, -ev.conj() / np.abs(ev) ** 2, c, c - eps * fb]
+        boundary[:, k] = fb
+        pc[k] = v.mean(axis=0)
+        reach[k] = np.max(np.hypot(*(v - pc[k]).T))
+    circ = np.array(circles, dtype=float).reshape(-1, 3)
+    centers = np.vstack([pc, circ[:, :2]])
+    reach = np.concatenate([reach, circ[:, 2]])
+    item_obstacle = np.array(owner + c_owner, dtype=np.int64)
+    n_items = len(item_obstacle)
+    use_grid = n_items >= GRID_FROM if grid is None else bool(grid)
+    gd = None
+    if use_grid and n_items:
+        ext = reach + radius + 4 * eps
+        lo = (centers - ext[:, None]).min(axis=0)
+        hi = (centers + ext[:, None]).max(axis=0)
+        span = float(np.max(hi - lo))
+        h = max(2.0 * float(np.median(ext)), span / 256.0, eps)
+        nx = int(math.floor((hi[0] - lo[0]) / h)) + 1
+        ny = int(math.floor((hi[1] - lo[1]) / h)) + 1
+        i0 = np.clip(np.floor((centers[:, 0] - ext - lo[0]) / h), 0, nx - 1).astype(np.int64)
+        i1 = np.clip(np.floor((centers[:, 0] + ext - lo[0]) / h), 0, nx - 1).astype(np.int64)
+        j0 = np.clip(np.floor((centers[:, 1] - ext - lo[1]) / h), 0, ny - 1).astype(np.int64)
+        j1 = np.clip(np.floor((centers[:, 1] + ext - lo[1]) / h), 0, ny - 1).astype(np.int64)
+        cells, items = [], []
+        for k in range(n_items):
+            ii, jj = np.meshgrid(np.arange(i0[k], i1[k] + 1), np.arange(j0[k], j1[k] + 1))
+            cells.append((ii * ny + jj).ravel())
+            items.append(np.full(ii.size, k, np.int64))
+        cells_a, items_a = np.concatenate(cells), np.concatenate(items)
+        order = np.argsort(cells_a, kind="stable")
+        count = np.bincount(cells_a, minlength=nx * ny)
+        gd = {"h": h, "x0": float(lo[0]), "y0": float(lo[1]), "nx": nx, "ny": ny,
+              "items": items_a[order], "count": count, "reach": radius + 4 * eps,
+              "start": np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)}
+    return ObstacleSet(frame, float(radius), tuple(getattr(o, "name", "") for o in obstacles),
+                       tuple(shapes), K, item_obstacle, centers[:, 0] + 1j * centers[:, 1],
+                       reach, circ[:, 2], table, boundary, gd)
