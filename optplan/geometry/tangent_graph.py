@@ -1,0 +1,571 @@
+r"""Arc-exact shortest path of a disc robot: A* over the tangent visibility graph.
+
+Mathematics
+-----------
+A disc of radius ``r`` may be centred at ``x`` iff ``dist(x, O) >= r`` for every obstacle ``O``;
+its configuration-space obstacles are the Minkowski sums ``O + disc(r)``: polygons grow into
+rounded polygons (edges offset by ``r``, joined by arcs of radius ``r`` around the *convex*
+vertices), a circle of radius ``R`` grows to ``R + r``.  A shortest path of the centre consists of
+straight segments tangent to these arcs and arcs along them (Lozano-Pérez & Wesley 1979 for points;
+Chew 1985; Liu & Arimoto 1992, the *tangent graph*).  Reflex vertices never touch a shortest path.
+
+Construction used here (no graph is stored; edges are generated when a node is expanded):
+
+* **Circles**: radius ``r`` at every convex vertex of every polygon ring (holes included), with
+  its *normal cone* (the directions between the outward normals of the two edges); radius
+  ``R + r`` around every circle obstacle (all directions).  Start and goal are circles of radius 0.
+  For ``r = 0`` the circles are points: the classic visibility graph.
+* **Tangents**: travelling around circle ``i`` with sense ``s_i`` (+1 counter-clockwise) and
+  leaving towards circle ``j`` reached with sense ``s_j``, the unique common tangent has left
+  normal ``n = exp(i beta)``, ``beta = arg(c_j - c_i) + arccos(delta / d)``, with
+  ``delta = s_j rho_j - s_i rho_i`` and ``d = |c_j - c_i| > |delta|``; its tangent points are
+  ``c - s rho n`` and its length ``sqrt(d^2 - delta^2)``.
+* **Local filter**: a tangent point on a vertex circle must lie in the vertex's normal cone, and
+  the arc from the arrival to the departure point (in the travel sense) must stay inside it;
+  otherwise the path would cut into an offset edge.  This is the bitangent filter of the reduced
+  visibility graph and removes most candidates.
+* **Exact checks**: every tangent segment is tested with the exact segment predicate of
+  :class:`~optplan.geometry.ObstacleSet`; every arc with an exact arc-to-segment / arc-to-circle
+  distance against the items near its circle.
+* **Search**: A* (Euclidean heuristic, consistent) with lazy edge evaluation: the successors of
+  an expanded node are generated in one vectorised step, sorted by ``f = g + h`` and consumed in
+  order, and an edge is checked only when it is the cheapest open candidate.  An arrival on a
+  circle is dominated (not expanded) when an earlier expanded arrival on the same circle and
+  sense reaches it along a free arc at no greater cost.
+
+The length is exact up to round-off (segments plus arcs ``rho * angle``).  The returned polyline
+replaces each arc by a *circumscribed* polyline (vertices outside the circle, every chord tangent
+to it), so it stays ``>= r`` from the obstacle; its length is slightly larger and is reported
+apart.  Memory grows with the number of candidates generated, never with ``n^2`` dense arrays.
+
+Bounds: the search first ignores the bounds.  When its path stays inside them it is also the
+shortest path inside the bounds (certified).  Otherwise the search is repeated with tangent
+points restricted to the bounds; that path is feasible but not certified (a corner where an
+inflated obstacle meets the boundary of the bounds is not a graph node).
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from shapely.geometry.polygon import orient
+
+from optplan.geometry.obstacles import ObstacleSet
+
+__all__ = ["TangentPath", "Circles", "circles_of", "shortest_path", "arc_polyline"]
+
+TWO_PI = 2.0 * math.pi
+#: Angular slack (rad) of the normal-cone tests (tangents along an offset edge sit on the
+#: cone's boundary up to round-off).
+ANGLE_TOL = 1e-9
+
+
+@dataclass(frozen=True)
+class Circles:
+    """The circles of the tangent graph (local frame).
+
+    Attributes
+    ----------
+    center : complex array ``(n,)``
+    rho : array ``(n,)``
+        Radius (``r`` at polygon vertices, ``R + r`` for circle obstacles).
+    lo, width : arrays ``(n,)``
+        Normal cone: directions ``lo .. lo + width`` (rad, counter-clockwise);
+        ``width = 2 pi`` for circle obstacles.
+    full : bool array ``(n,)``
+        Circle obstacle (every direction allowed, arcs may wrap).
+    """
+
+    center: np.ndarray
+    rho: np.ndarray
+    lo: np.ndarray
+    width: np.ndarray
+    full: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return len(self.center)
+
+
+def _ring_vertices(ring: np.ndarray):
+    """Convex vertices of a ring whose solid lies on its left: (v, cone lo, cone width)."""
+    v = ring
+    prev, nxt = np.roll(v, 1, axis=0), np.roll(v, -1, axis=0)
+    e1, e2 = v - prev, nxt - v
+    l1, l2 = np.hypot(*e1.T), np.hypot(*e2.T)
+    ok = (l1 > 0) & (l2 > 0)
+    cr = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
+    convex = ok & (cr > 1e-12 * l1 * l2)
+    n1 = np.arctan2(-e1[:, 0], e1[:, 1])  # outward normal rot(-90) of the incoming edge
+    n2 = np.arctan2(-e2[:, 0], e2[:, 1])
+    width = np.mod(n2 - n1, TWO_PI)
+    return v[convex], n1[convex], width[convex]
+
+
+def circles_of(oset: ObstacleSet) -> Circles:
+    """Circles of the tangent graph for the obstacles of ``oset`` (radius ``oset.radius``)."""
+    r = oset.radius
+    cs, rh, lo, wd, full = [], [], [], [], []
+    for _, g in oset.shapes:
+        if isinstance(g, tuple):
+            cs.append(np.array([[g[0], g[1]]]))
+            rh.append(np.array([g[2] + r]))
+            lo.append(np.zeros(1))
+            wd.append(np.array([TWO_PI]))
+            full.append(np.ones(1, bool))
+            continue
+        for p in getattr(g, "geoms", [g]):
+            p = orient(p, 1.0)
+            for ring in (p.exterior, *p.interiors):
+                c = np.asarray(ring.coords)[:-1]
+                if len(c) < 3:
+                    continue
+                v, a, w = _ring_vertices(c)
+                cs.append(v)
+                rh.append(np.full(len(v), r))
+                lo.append(a)
+                wd.append(w)
+                full.append(np.zeros(len(v), bool))
+    if not cs:
+        z = np.zeros(0)
+        return Circles(z.astype(complex), z, z, z, z.astype(bool))
+    c = np.concatenate(cs)
+    return Circles(c[:, 0] + 1j * c[:, 1], np.concatenate(rh), np.concatenate(lo),
+                   np.concatenate(wd), np.concatenate(full))
+
+
+# --------------------------------------------------------------------------------------
+# exact arc tests
+# --------------------------------------------------------------------------------------
+
+
+def _in_arc(phi, start, sweep):
+    """Angle ``phi`` within the CCW arc ``start .. start + sweep``."""
+    return np.mod(phi - start, TWO_PI) <= sweep + ANGLE_TOL
+
+
+def _point_arc_dist(q, c, rho, start, sweep):
+    """Distance from points ``q`` to CCW arcs (broadcasting complex arrays)."""
+    v = q - c
+    inarc = _in_arc(np.angle(v), start, sweep)
+    p0 = c + rho * np.exp(1j * start)
+    p1 = c + rho * np.exp(1j * (start + sweep))
+    return np.where(inarc, np.abs(np.abs(v) - rho), np.minimum(np.abs(q - p0), np.abs(q - p1)))
+
+
+def _point_seg_dist(q, P, E):
+    """Distance from ``q`` to segments ``P -> P + E``."""
+    ee = (E * E.conj()).real
+    t = np.clip(((q - P) * E.conj()).real / np.maximum(ee, 1e-300), 0.0, 1.0)
+    return np.abs(q - (P + t * E))
+
+
+def _arc_seg_dist(c, rho, start, sweep, P, E):
+    """Exact distance between CCW arcs and segments ``P -> P + E`` (broadcast).
+
+    The minimum is attained at an arc end, a segment end, an intersection, or the arc point
+    whose radius is normal to the segment (foot inside the segment).
+    """
+    p0 = c + rho * np.exp(1j * start)
+    p1 = c + rho * np.exp(1j * (start + sweep))
+    d = np.minimum(_point_seg_dist(p0, P, E), _point_seg_dist(p1, P, E))
+    d = np.minimum(d, _point_arc_dist(P, c, rho, start, sweep))
+    d = np.minimum(d, _point_arc_dist(P + E, c, rho, start, sweep))
+    L = np.abs(E)
+    u = E / np.maximum(L, 1e-300)
+    # arc points with radius normal to the segment: c +- rho * i u
+    for sgn in (1.0, -1.0):
+        x = c + sgn * rho * 1j * u
+        t = ((x - P) * u.conj()).real
+        ok = (t >= 0) & (t <= L) & _in_arc(np.angle(sgn * 1j * u), start, sweep)
+        d = np.where(ok, np.minimum(d, np.abs(((x - P) * u.conj()).imag)), d)
+    # intersections of the circle with the segment's line
+    w = P - c
+    b = (w * u.conj()).real
+    h2 = b * b - (np.abs(w) ** 2 - rho * rho)
+    sq = np.sqrt(np.maximum(h2, 0.0))
+    for t in (-b - sq, -b + sq):
+        x = P + t * u
+        ok = (h2 >= 0) & (t >= 0) & (t <= L) & _in_arc(np.angle(x - c), start, sweep)
+        d = np.where(ok, 0.0, d)
+    return d
+
+
+@dataclass
+class _ArcChecker:
+    """Exact arc-free tests against the items near each circle (cached per circle)."""
+
+    oset: ObstacleSet
+    circles: Circles
+    cache: dict = field(default_factory=dict)
+
+    def _near(self, i: int):
+        if i not in self.cache:
+            S, C = self.oset, self.circles
+            reach = C.rho[i] + S.radius + 4 * S.eps
+            it = np.flatnonzero(np.abs(S.item_center - C.center[i]) - S.item_reach
+                                <= C.rho[i] + reach)
+            pk = it[it < S.n_pieces]
+            ck = it[it >= S.n_pieces]
+            P = S.table[0][:, pk].ravel()
+            E = S.table[1][:, pk].ravel()
+            self.cache[i] = (P, E, S.item_center[ck], S.circle_radius[ck - S.n_pieces])
+        return self.cache[i]
+
+    def free(self, i: int, theta0: np.ndarray, sweep: np.ndarray, sense: int) -> np.ndarray:
+        """Arcs on circle ``i`` from angles ``theta0`` over ``sweep >= 0`` in ``sense``: free."""
+        theta0 = np.atleast_1d(np.asarray(theta0, float))
+        sweep = np.atleast_1d(np.asarray(sweep, float))
+        out = np.ones(len(theta0), bool)
+        rho = float(self.circles.rho[i])
+        if rho == 0.0 or len(theta0) == 0:
+            return out
+        S = self.oset
+        start = theta0 if sense > 0 else theta0 - sweep
+        c = self.circles.center[i]
+        P, E, cc, cr = self._near(i)
+        lim = S.radius - S.eps
+        if len(P):
+            d = _arc_seg_dist(c, rho, start[:, None], sweep[:, None], P[None, :], E[None, :])
+            out &= ~(d < lim).any(axis=1)
+        if len(cc):
+            d = _point_arc_dist(cc[None, :], c, rho, start[:, None], sweep[:, None]) - cr[None, :]
+            out &= ~(d < lim).any(axis=1)
+        return out
+
+
+# --------------------------------------------------------------------------------------
+# the search
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class TangentPath:
+    """Result of :func:`shortest_path` (world coordinates).
+
+    Attributes
+    ----------
+    length : float
+        Exact length (segments + arcs) of the shortest path, ``inf`` when none exists.
+    polyline : numpy.ndarray or None
+        ``(m, 2)``: the path with each arc replaced by a circumscribed polyline.
+    waypoints : list
+        Per circle visited: ``(centre, radius, angle_in, sweep, sense)`` (local angles).
+    info : dict
+        ``n_circles``, ``n_expanded``, ``n_generated``, ``n_checked``, ``reason``,
+        ``bounds_active``, ``certified``.
+    """
+
+    length: float
+    polyline: np.ndarray | None
+    waypoints: list
+    info: dict
+
+
+class _Stream:
+    """Sorted successor candidates of one expanded node."""
+
+    __slots__ = ("node", "f", "g", "j", "sj", "pi", "pj", "th_d", "th_a", "sweep", "ok", "pos",
+                 "checked")
+
+    def __init__(self, node, f, g, j, sj, pi, pj, th_d, th_a, sweep):
+        order = np.argsort(f, kind="stable")
+        self.node = node
+        self.f, self.g, self.j, self.sj = f[order], g[order], j[order], sj[order]
+        self.pi, self.pj, self.th_d, self.sweep = pi[order], pj[order], th_d[order], \
+            sweep[order]
+        self.th_a = th_a[order]
+        self.ok = np.zeros(len(order), np.int8)  # 0 unknown, 1 free, -1 blocked
+        self.pos = 0
+        self.checked = 0
+
+
+def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = False,
+                  circles: Circles | None = None, arc_step: float = math.pi / 36,
+                  ) -> TangentPath:
+    """Arc-exact shortest path of a disc of radius ``oset.radius`` from ``start`` to ``goal``.
+
+    Parameters
+    ----------
+    oset : ObstacleSet
+        Static obstacles and radius (:meth:`optplan.problem.Problem.obstacle_set`).
+    start, goal : array-like ``(2,)``
+        World coordinates.
+    restrict_to_bounds : bool
+        Only use tangent points inside the bounds (module docstring).
+    circles : Circles, optional
+        Precomputed :func:`circles_of` (reused across queries).
+    arc_step : float
+        Largest angle (rad) spanned by one chord of the circumscribed arc polylines.
+
+    Returns
+    -------
+    TangentPath
+    """
+    fr = oset.frame
+    eps = fr.eps
+    r = oset.radius
+    s_loc = fr.local(np.asarray(start, float))
+    g_loc = fr.local(np.asarray(goal, float))
+    zs, zg = complex(s_loc[0], s_loc[1]), complex(g_loc[0], g_loc[1])
+    C = circles_of(oset) if circles is None else circles
+    info = {"n_circles": C.n, "n_expanded": 0, "n_generated": 0, "n_checked": 0,
+            "bounds_active": False, "certified": False}
+    for key, p in (("start", start), ("goal", goal)):
+        c = float(oset.point_distances(np.asarray(p, float)[None])[0])
+        if c < r - eps:
+            info["reason"] = (f"{key} {np.asarray(p).tolist()} lies within {r:g} of an "
+                              f"obstacle (distance {c:.6g})")
+            return TangentPath(math.inf, None, [], info)
+    arcs = _ArcChecker(oset, C)
+    x0, y0, x1, y1 = fr.local_bounds
+    n = C.n
+    cen, rho, lo, width, full = C.center, C.rho, C.lo, C.width, C.full
+
+    def in_box(z):
+        return ((z.real >= x0 - eps) & (z.real <= x1 + eps) & (z.imag >= y0 - eps)
+                & (z.imag <= y1 + eps))
+
+    def cone_off(k, th):
+        """Offset of angle ``th`` from the cone start of circle(s) ``k``, or nan outside."""
+        off = np.mod(th - lo[k], TWO_PI)
+        off = np.where(off > TWO_PI - ANGLE_TOL, 0.0, off)  # just below lo: on the boundary
+        ok = full[k] | (off <= width[k] + ANGLE_TOL)
+        return np.where(ok, np.minimum(off, np.where(full[k], off, width[k])), np.nan)
+
+    # nodes: arrival states.  node = (circle, sense, arrival angle, g, pred, seg)
+    nodes: list[tuple] = []
+    closed: set = set()
+    expanded: dict = {}  # (circle, sense) -> list of (theta, g)
+    heap: list = []
+    streams: list[_Stream] = []
+    all_j = np.arange(n)
+    senses = np.array([1, -1])
+
+    def expand(node_id: int) -> None:
+        i, si, th_a, g0 = nodes[node_id][:4]
+        info["n_expanded"] += 1
+        if i < 0:  # the start: a point
+            ci, ri = zs, 0.0
+        else:
+            ci, ri = cen[i], rho[i]
+        # candidates: every circle with both senses, plus the goal
+        jj = np.concatenate([np.repeat(all_j, 2), [-2]])
+        sj = np.concatenate([np.tile(senses, n), [1]])
+        cj = np.concatenate([np.repeat(cen, 2), [zg]])
+        rj = np.concatenate([np.repeat(rho, 2), [0.0]])
+        if i >= 0:
+            keep = jj != i
+            jj, sj, cj, rj = jj[keep], sj[keep], cj[keep], rj[keep]
+        D = cj - ci
+        dd = np.abs(D)
+        delta = sj * rj - (si * ri if i >= 0 else 0.0)
+        ok = dd > np.abs(delta) + eps * 1e-3
+        jj, sj, cj, rj, D, dd, delta = (x[ok] for x in (jj, sj, cj, rj, D, dd, delta))
+        beta = np.angle(D) + np.arccos(np.clip(delta / dd, -1.0, 1.0))
+        nl = np.exp(1j * beta)
+        pj = cj - sj * rj * nl
+        th_arr = np.angle(-sj * nl)
+        if i >= 0:
+            pi = ci - si * ri * nl
+            th_d = np.angle(-si * nl)
+            # departure point in the cone of circle i and the arc from th_a to th_d inside it
+            od = cone_off(np.full(len(th_d), i), th_d)
+            if full[i]:
+                sweep = np.mod((th_d - th_a) * si, TWO_PI)
+                sweep = np.where(sweep > TWO_PI - ANGLE_TOL, 0.0, sweep)
+            else:
+                oa = float(cone_off(np.array([i]), np.array([th_a]))[0])
+                sweep = (od - oa) * si
+                sweep = np.where((sweep < 0) & (sweep > -ANGLE_TOL), 0.0, sweep)
+            ok = np.isfinite(od) & (sweep >= 0)
+        else:
+            pi = np.full(len(jj), ci)
+            th_d = np.zeros(len(jj))
+            sweep = np.zeros(len(jj))
+            ok = np.ones(len(jj), bool)
+        # arrival point in the cone of circle j (the goal has none)
+        isg = jj < 0
+        kj = np.where(isg, 0, jj)
+        if n:
+            ok &= isg | np.isfinite(cone_off(kj, th_arr))
+        if restrict_to_bounds:
+            ok &= in_box(pj) & (in_box(pi) if i >= 0 else True)
+        seg = np.sqrt(np.maximum(dd * dd - delta * delta, 0.0))
+        g = g0 + ri * sweep + seg
+        f = g + np.abs(pj - zg)
+        sel = np.flatnonzero(ok)
+        info["n_generated"] += int(sel.size)
+        if sel.size == 0:
+            return
+        st = _Stream(node_id, f[sel], g[sel], jj[sel], sj[sel], pi[sel], pj[sel], th_d[sel],
+                     th_arr[sel], sweep[sel])
+        streams.append(st)
+        heapq.heappush(heap, (float(st.f[0]), len(streams) - 1))
+
+    def check(st: _Stream, k: int) -> bool:
+        """Exact checks of candidate ``k`` of ``st`` (and a batch after it)."""
+        if st.ok[k] == 0:
+            b = min(len(st.f), k + max(8, st.checked))
+            idx = np.arange(k, b)
+            idx = idx[st.ok[idx] == 0]
+            info["n_checked"] += len(idx)
+            pi_w = fr.world(np.stack([st.pi[idx].real, st.pi[idx].imag], axis=1))
+            pj_w = fr.world(np.stack([st.pj[idx].real, st.pj[idx].imag], axis=1))
+            free = oset.segment_free(pi_w, pj_w)
+            i, si, th_a = nodes[st.node][:3]
+            if i >= 0 and rho[i] > 0:
+                m = free & (st.sweep[idx] > 0)
+                if m.any():
+                    free[m] = arcs.free(i, np.full(int(m.sum()), th_a), st.sweep[idx][m], si)
+            st.ok[idx] = np.where(free, 1, -1)
+            st.checked += len(idx)
+        return st.ok[k] == 1
+
+    def dominated(j: int, sj: int, th: float, g: float) -> bool:
+        lst = expanded.get((j, sj))
+        if not lst:
+            return False
+        th_e = np.array([x[0] for x in lst])
+        g_e = np.array([x[1] for x in lst])
+        if full[j]:
+            sw = np.mod((th - th_e) * sj, TWO_PI)
+        else:
+            o_new = cone_off(np.array([j]), np.array([th]))[0]
+            o_e = cone_off(np.full(len(th_e), j), th_e)
+            sw = (o_new - o_e) * sj
+        cand = (sw >= 0) & (g_e + rho[j] * sw <= g + 1e-12 * max(1.0, g))
+        if not cand.any():
+            return False
+        if rho[j] == 0:
+            return True
+        idx = np.flatnonzero(cand)
+        return bool(arcs.free(j, th_e[idx], sw[idx], sj).any())
+
+    nodes.append((-1, 1, 0.0, 0.0, -1, None))
+    expand(0)
+    goal_node = None
+    while heap:
+        f0, sid = heapq.heappop(heap)
+        st = streams[sid]
+        k = st.pos
+        st.pos += 1
+        if st.pos < len(st.f):
+            heapq.heappush(heap, (float(st.f[st.pos]), sid))
+        j, sj = int(st.j[k]), int(st.sj[k])
+        i, si = nodes[st.node][:2]
+        key = (i, si, j, sj) if j >= 0 else (i, si, -2, 0)
+        if key in closed:
+            continue
+        if not check(st, k):
+            continue
+        closed.add(key)
+        g = float(st.g[k])
+        # arrival angle: direction from the centre to the tangent point (for a point circle
+        # the direction it would have for an infinitesimal radius)
+        th = float(st.th_a[k])
+        nodes.append((j, sj, th, g, st.node, (st.pi[k], st.pj[k], float(st.th_d[k]),
+                                             float(st.sweep[k]))))
+        if j < 0:
+            goal_node = len(nodes) - 1
+            break
+        if dominated(j, sj, th, g):
+            continue
+        expanded.setdefault((j, sj), []).append((th, g))
+        expand(len(nodes) - 1)
+    if goal_node is None:
+        info["reason"] = "the goal is not reachable from the start"
+        return TangentPath(math.inf, None, [], info)
+    # reconstruct
+    chain = []
+    k = goal_node
+    while k > 0:
+        chain.append(nodes[k])
+        k = nodes[k][4]
+    chain.reverse()
+    length = float(nodes[goal_node][3])
+    pts = [zs]
+    wps = []
+    for idx, nd in enumerate(chain):
+        pi_, pj_, th_d, sweep = nd[5]
+        if idx > 0:
+            prev = chain[idx - 1]
+            i, si, th_a = prev[0], prev[1], prev[2]
+            if rho[i] > 0 and sweep > 0:
+                pts.extend(arc_polyline(cen[i], rho[i], th_a, sweep * si, arc_step)[1:-1])
+            wps.append((cen[i], float(rho[i]), th_a, sweep, si))
+            pts.append(pi_)
+        pts.append(pj_)
+    z = np.array(pts)
+    poly = fr.world(np.stack([z.real, z.imag], axis=1))
+    keep = np.r_[True, np.any(np.diff(poly, axis=0) != 0, axis=1)]
+    poly = poly[keep]
+    poly[0], poly[-1] = np.asarray(start, float), np.asarray(goal, float)
+    return TangentPath(length, poly, wps, info)
+
+
+def arc_polyline(c: complex, rho: float, theta0: float, sweep: float,
+                 step: float = math.pi / 36) -> np.ndarray:
+    """Circumscribed polyline of the arc of circle ``(c, rho)`` from angle ``theta0`` over the
+    signed angle ``sweep``: the two arc ends on the circle, inner vertices at radius
+    ``rho / cos(delta / 2)`` so that every chord is tangent to the circle (complex array)."""
+    m = max(1, int(math.ceil(abs(sweep) / step)))
+    dl = sweep / m
+    ang = theta0 + (np.arange(m) + 0.5) * dl
+    inner = c + rho / math.cos(dl / 2) * np.exp(1j * ang)
+    return np.concatenate([[c + rho * np.exp(1j * theta0)], inner,
+                           [c + rho * np.exp(1j * (theta0 + sweep))]])
+
+
+def problem_shortest_path(problem, robot, known_only: bool = True,
+                          arc_step: float = math.pi / 36) -> TangentPath:
+    """:func:`shortest_path` of ``robot`` on ``problem``'s static map, cached per problem.
+
+    ``known_only``: plan on the known obstacles only (the map a global planner sees).  The
+    unrestricted search runs first; when its path leaves the bounds, the search is repeated with
+    tangent points inside the bounds and ``info["certified"]`` is False.
+    """
+    key = ("tangent_path", robot.id, bool(known_only), float(arc_step))
+    if key not in problem._cache:
+        oset = problem.obstacle_set(robot.radius, known_only=known_only)
+        res = shortest_path(oset, robot.start, robot.goal, arc_step=arc_step)
+        if res.polyline is not None and not np.all(problem.frame.in_bounds(res.polyline)):
+            free_len = res.length
+            res = shortest_path(oset, robot.start, robot.goal, restrict_to_bounds=True,
+                                arc_step=arc_step)
+            res.info["bounds_active"] = True
+            res.info["unbounded_length"] = free_len
+            if res.polyline is None:
+                res.info["reason"] = ("the shortest path leaves the bounds and no path with "
+                                      "tangent points inside the bounds was found")
+        else:
+            res.info["certified"] = res.polyline is not None
+        if res.polyline is not None:
+            # the circumscribed arcs stay >= r from the arc's own obstacle; refine where they
+            # come too close to a neighbour
+            step = arc_step
+            for _ in range(4):
+                if oset.crossings(res.polyline[None]).count[0] == 0:
+                    break
+                step /= 4
+                res = _rebuild_polyline(res, problem.frame, robot, step)
+        problem._cache[key] = res
+    return problem._cache[key]
+
+
+def _rebuild_polyline(res: TangentPath, frame, robot, step: float) -> TangentPath:
+    """``res`` with its arcs re-drawn with chords of at most ``step`` radians."""
+    z = [complex(*frame.local(robot.start))]
+    for c, rho, th, sweep, s in res.waypoints:
+        arc = arc_polyline(c, rho, th, sweep * s, step)
+        z.extend(arc if rho > 0 else arc[:1])
+    z.append(complex(*frame.local(robot.goal)))
+    z = np.array(z)
+    poly = frame.world(np.stack([z.real, z.imag], axis=1))
+    keep = np.r_[True, np.any(np.diff(poly, axis=0) != 0, axis=1)]
+    poly = poly[keep]
+    poly[0], poly[-1] = robot.start, robot.goal
+    return TangentPath(res.length, poly, res.waypoints, res.info)
