@@ -5,6 +5,7 @@
   (:class:`ObstacleSet`: true polygons and circles, disc robots of radius ``r >= 0``).
 * :mod:`~optplan.geometry.tangent_graph`: the arc-exact shortest path of a disc robot
   (the certified optimum).
+* :mod:`~optplan.geometry.pieces`: the one convex decomposition.
 * :mod:`~optplan.geometry.polyline`: polyline utilities.
 """
 
@@ -14,9 +15,9 @@ from optplan.geometry.obstacles import (
     DiscCrossings,
     ObstacleSet,
     clip_obstacles,
-    convex_pieces,
     obstacle_set,
 )
+from optplan.geometry.pieces import convex_decompose, convex_pieces
 from optplan.geometry.polyline import cumulative_length, path_lengths
 
 __all__ = [
@@ -26,6 +27,7 @@ __all__ = [
     "DiscCrossings",
     "ObstacleSet",
     "clip_obstacles",
+    "convex_decompose",
     "convex_pieces",
     "obstacle_set",
     "path_lengths",

@@ -47,12 +47,11 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 from shapely.geometry import Polygon
-from shapely.geometry.polygon import orient
 
 from optplan.geometry.frame import Frame
+from optplan.geometry.pieces import convex_pieces
 
-__all__ = ["PIECE_EDGES", "DiscCrossings", "ObstacleSet", "convex_pieces", "obstacle_set",
-           "clip_obstacles"]
+__all__ = ["PIECE_EDGES", "DiscCrossings", "ObstacleSet", "obstacle_set", "clip_obstacles"]
 
 #: Edges per convex piece (larger convex polygons are fan-split; triangles repeat an edge).
 PIECE_EDGES = 4
@@ -83,75 +82,6 @@ class DiscCrossings:
     penetration: np.ndarray
     seg_count: np.ndarray | None = None
     pairs: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-
-
-# --------------------------------------------------------------------------------------
-# convex pieces
-# --------------------------------------------------------------------------------------
-
-
-def _clean_ring(v: np.ndarray) -> np.ndarray:
-    """Drop repeated and collinear vertices (relative test: |sin angle| <= 1e-12)."""
-    for _ in range(3):
-        if len(v) < 3:
-            return v
-        prev, nxt = np.roll(v, 1, axis=0), np.roll(v, -1, axis=0)
-        a, b = v - prev, nxt - v
-        cr = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-        keep = np.abs(cr) > 1e-12 * np.hypot(*a.T) * np.hypot(*b.T)
-        if keep.all():
-            return v
-        v = v[keep]
-    return v
-
-
-def convex_pieces(geom, max_edges: int = PIECE_EDGES) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Convex pieces tiling a polygon (holes allowed), with boundary flags.
-
-    A convex polygon without holes is fan-split into pieces of at most ``max_edges`` vertices
-    sharing its first vertex (one piece for triangles and quadrilaterals); anything else is split
-    into the triangles of its constrained Delaunay triangulation
-    (``shapely.constrained_delaunay_triangles``).
-
-    Returns
-    -------
-    list of (vertices, boundary)
-        ``vertices``: CCW array ``(k, 2)``, ``3 <= k <= max_edges``; ``boundary``: ``(k,)``
-        bool, True where edge ``v[i] -> v[i+1]`` lies on the polygon's boundary (False for
-        internal diagonals).
-    """
-    polys = list(geom.geoms) if hasattr(geom, "geoms") else [geom]
-    out: list[tuple[np.ndarray, np.ndarray]] = []
-    for p in polys:
-        if p.is_empty or p.area <= 0:
-            continue
-        p = orient(p, 1.0)
-        x0, y0, x1, y1 = p.bounds
-        size = max(x1 - x0, y1 - y0)
-        ring = _clean_ring(np.asarray(p.exterior.coords)[:-1])
-        cr = None
-        if len(ring) >= 3:
-            a = ring - np.roll(ring, 1, axis=0)
-            b = np.roll(ring, -1, axis=0) - ring
-            cr = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-        if not p.interiors and cr is not None and np.all(cr > 0):
-            cand = [ring]
-        else:
-            cand = [_clean_ring(np.asarray(orient(t, 1.0).exterior.coords)[:-1])
-                    for t in shapely.constrained_delaunay_triangles(p).geoms if t.area > 0]
-        bnd = p.boundary
-        for v in cand:
-            if len(v) < 3:
-                continue
-            i = 1
-            while i < len(v) - 1:  # fan: (v0, v_i, ..., v_j)
-                j = min(i + max_edges - 2, len(v) - 1)
-                piece = np.vstack([v[:1], v[i:j + 1]])
-                mid = 0.5 * (piece + np.roll(piece, -1, axis=0))
-                flags = shapely.distance(shapely.points(mid), bnd) <= 1e-9 * size
-                out.append((piece, np.asarray(flags, dtype=bool)))
-                i = j
-    return out
 
 
 # --------------------------------------------------------------------------------------
@@ -605,7 +535,7 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
             circles.append(g)
             c_owner.append(i)
             continue
-        for v, fl in convex_pieces(g):
+        for v, fl in convex_pieces(g, PIECE_EDGES):
             pieces.append(v)
             bflags.append(fl)
             owner.append(i)

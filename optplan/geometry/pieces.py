@@ -1,0 +1,137 @@
+"""The one convex decomposition of optplan: polygons (holes allowed) into convex pieces.
+
+:func:`convex_decompose` gives few, large convex pieces (the NLP's separating-hyperplane
+constraints use them); :func:`convex_pieces` fan-splits those into pieces of at most
+``max_edges`` vertices with boundary flags (the collision engine's fixed-width edge tables).
+
+Decomposition: a convex polygon without holes is one piece.  Otherwise the polygon is
+triangulated by ``shapely.constrained_delaunay_triangles`` (its triangles use the polygon's own
+vertices) and triangles are merged greedily across shared edges while the merged ring stays
+convex (Hertel & Mehlhorn 1983: at most 4x the minimum number of convex pieces).  Every
+convexity and collinearity test is relative (``|sin angle| <= 1e-12``), never in absolute
+coordinates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import shapely
+from shapely.geometry.polygon import orient
+
+__all__ = ["convex_decompose", "convex_pieces", "clean_ring", "is_convex"]
+
+#: Relative tolerance of the collinearity / convexity tests (sine of the turning angle).
+SIN_TOL = 1e-12
+
+
+def _turns(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    a = v - np.roll(v, 1, axis=0)
+    b = np.roll(v, -1, axis=0) - v
+    cr = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return cr, np.hypot(*a.T) * np.hypot(*b.T)
+
+
+def clean_ring(v: np.ndarray) -> np.ndarray:
+    """Drop repeated and collinear vertices of a ring (no closing repeat)."""
+    v = np.asarray(v, dtype=float)
+    for _ in range(len(v)):
+        if len(v) < 3:
+            return v
+        cr, sc = _turns(v)
+        keep = np.abs(cr) > SIN_TOL * sc
+        if keep.all():
+            return v
+        v = v[keep]
+    return v
+
+
+def is_convex(v: np.ndarray) -> bool:
+    """A CCW ring without right turns (collinear vertices allowed)."""
+    cr, sc = _turns(np.asarray(v, dtype=float))
+    return bool(np.all(cr >= -SIN_TOL * sc))
+
+
+def convex_decompose(geom) -> list[np.ndarray]:
+    """Convex pieces (CCW vertex arrays ``(m, 2)``, collinear vertices removed) tiling ``geom``
+    (a shapely Polygon or MultiPolygon, holes allowed); see the module docstring."""
+    out: list[np.ndarray] = []
+    for poly in getattr(geom, "geoms", [geom]):
+        if poly.is_empty or poly.area <= 0:
+            continue
+        poly = orient(poly, 1.0)
+        ring = np.asarray(poly.exterior.coords)[:-1]
+        if not poly.interiors and is_convex(ring):
+            out.append(clean_ring(ring))
+            continue
+        rings: dict[int, list[tuple[float, float]]] = {}
+        for k, t in enumerate(getattr(shapely.constrained_delaunay_triangles(poly), "geoms",
+                                      [])):
+            if t.area > 0:
+                rings[k] = [tuple(map(float, q)) for q in
+                            np.asarray(orient(t, 1.0).exterior.coords)[:-1]]
+        owner: dict[tuple, int] = {}
+        for k, r in rings.items():
+            for u, w in zip(r, r[1:] + r[:1]):
+                owner[(u, w)] = k
+        changed = True
+        while changed:
+            changed = False
+            for k in sorted(rings, key=lambda q: -len(rings[q])):
+                if k not in rings:
+                    continue
+                r = rings[k]
+                for u, w in zip(r, r[1:] + r[:1]):
+                    q = owner.get((w, u))
+                    if q is None or q == k:
+                        continue
+                    rq = rings[q]
+                    ia, ib = r.index(w), rq.index(u)
+                    merged = (r[ia:] + r[:ia]) + (rq[ib:] + rq[:ib])[1:-1]
+                    if not is_convex(np.asarray(merged)):
+                        continue
+                    for ring_ in (r, rq):
+                        for x, y in zip(ring_, ring_[1:] + ring_[:1]):
+                            owner.pop((x, y), None)
+                    del rings[q]
+                    rings[k] = merged
+                    for x, y in zip(merged, merged[1:] + merged[:1]):
+                        owner[(x, y)] = k
+                    changed = True
+                    break
+        out.extend(clean_ring(np.asarray(r)) for r in rings.values())
+    return [v for v in out if len(v) >= 3]
+
+
+def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Pieces of :func:`convex_decompose` fan-split to at most ``max_edges`` vertices.
+
+    Returns
+    -------
+    list of (vertices, boundary)
+        ``vertices``: CCW ``(k, 2)``, ``3 <= k <= max_edges``; ``boundary``: ``(k,)`` bool, True
+        where edge ``v[i] -> v[i+1]`` lies on the polygon's boundary (False for the internal
+        diagonals of the decomposition and of the fan).
+    """
+    if max_edges < 3:
+        raise ValueError(f"max_edges must be >= 3, got {max_edges}")
+    out: list[tuple[np.ndarray, np.ndarray]] = []
+    for poly in getattr(geom, "geoms", [geom]):
+        if poly.is_empty or poly.area <= 0:
+            continue
+        x0, y0, x1, y1 = poly.bounds
+        tol = 1e-9 * max(x1 - x0, y1 - y0)
+        bnd = poly.boundary
+        for v in convex_decompose(poly):
+            mid = 0.5 * (v + np.roll(v, -1, axis=0))
+            flags = np.asarray(shapely.distance(shapely.points(mid), bnd) <= tol, dtype=bool)
+            i = 1
+            while i < len(v) - 1:  # fan: (v0, v_i, ..., v_j)
+                j = min(i + max_edges - 2, len(v) - 1)
+                piece = np.vstack([v[:1], v[i:j + 1]])
+                fl = np.zeros(len(piece), bool)
+                fl[1:-1] = flags[i:j]  # ring edges v_i -> v_{i+1} ... v_{j-1} -> v_j
+                fl[0] = flags[0] if i == 1 else False  # v0 -> v1 only in the first fan piece
+                fl[-1] = flags[-1] if j == len(v) - 1 else False  # v_last -> v0: last piece
+                out.append((piece, fl))
+                i = j
+    return out
