@@ -1,4 +1,5 @@
-"""Geometry kernel: the vectorised crossing test against shapely, and the inflation bracket."""
+"""The exact collision engine against an independent oracle (shapely distances, analytic
+circles) and metamorphic tests (translate, scale, far obstacle)."""
 
 from __future__ import annotations
 
@@ -7,307 +8,276 @@ import math
 import numpy as np
 import pytest
 import shapely
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
 from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry.polygon import orient
 
 from optplan.geometry import (
-    batch_crossings,
-    circumscribed_radius,
-    inflate,
+    Frame,
+    convex_decompose,
+    convex_pieces,
+    obstacle_set,
     path_lengths,
-    point_clearance,
 )
-from optplan.problem import CIRCLE_QUAD_SEGS, Obstacle
+from optplan.problem import Obstacle
 
-# ------------------------------------------------------------------------------------
-# helpers
-# ------------------------------------------------------------------------------------
-
-
-def rect(x0: float, y0: float, x1: float, y1: float, name: str = "") -> Obstacle:
-    return Obstacle("rectangle", shapely.box(x0, y0, x1, y1), name=name)
+SIDE = 100.0
+BOUNDS = (0.0, 0.0, SIDE, SIDE)
 
 
-def poly(verts, name: str = "") -> Obstacle:
-    return Obstacle("polygon", Polygon(verts), name=name)
+def circle(cx: float, cy: float, r: float, name: str = "c") -> Obstacle:
+    return Obstacle("circle", None, name=name, center=np.array([cx, cy], float), radius=float(r))
 
 
-def circle(cx: float, cy: float, r: float, name: str = "") -> Obstacle:
-    c = np.array([cx, cy], dtype=float)
-    return Obstacle("circle", Point(c).buffer(r, quad_segs=CIRCLE_QUAD_SEGS), name=name,
-                    center=c, radius=float(r))
+def polygon(geom, name: str = "p") -> Obstacle:
+    return Obstacle("polygon", orient(geom, 1.0), name=name)
 
 
-def shapely_inside_lengths(a, b, imap) -> np.ndarray:
-    """Length of segment ab inside the *interior* of every part, decided by shapely.
-
-    The segment is cut at every point where it meets the part's boundary; each piece is inside
-    when its midpoint is in the part and not on its boundary (a piece running along an edge is
-    on the boundary).  Robust where "intersection minus boundary overlap" is not: after a union,
-    vertices created at edge crossings lie only within round-off of the edges they came from.
-    """
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    out = np.zeros(imap.n)
-    d = b - a
-    length = float(np.hypot(*d))
-    if length == 0.0:
-        return out
-    seg = LineString([a, b])
-    scale = max(1.0, float(np.abs(imap.bbox).max()))
-    for k, part in enumerate(imap.parts):
-        # cut points: where shapely sees the boundary meet the segment, plus boundary vertices
-        # within round-off of it (shapely decides those exactly, i.e. by the rounding error)
-        verts = shapely.get_coordinates(part.boundary)
-        near = verts[shapely.distance(seg, shapely.points(verts)) <= 1e-9 * scale]
-        coords = np.vstack([shapely.get_coordinates(seg.intersection(part.boundary)), near])
-        ts = np.clip(((coords - a) @ d) / length**2, 0.0, 1.0) if len(coords) else np.zeros(0)
-        ts = np.unique(np.r_[0.0, ts, 1.0])
-        mids = a + np.outer((ts[:-1] + ts[1:]) / 2, d)
-        pts = shapely.points(mids)
-        inside = shapely.contains(part, pts) & (shapely.distance(part.boundary, pts) > 1e-9 * scale)
-        out[k] = float(np.sum(np.diff(ts)[inside])) * length
+def random_map(rng: np.random.Generator, k: int) -> list[Obstacle]:
+    """``k`` random obstacles: circles, star-shaped (often non-convex) polygons, rings with holes."""
+    out = []
+    for i in range(k):
+        c = rng.uniform(10, 90, 2)
+        t = rng.integers(4)
+        if t == 0:
+            out.append(circle(*c, rng.uniform(0.5, 10), f"c{i}"))
+        elif t in (1, 2):
+            n = int(rng.integers(3, 9))
+            ang = np.sort(rng.uniform(0, 2 * np.pi, n))
+            rad = rng.uniform(2, 12, n)
+            p = Polygon(c + np.c_[rad * np.cos(ang), rad * np.sin(ang)])
+            if not p.is_valid or p.area < 1:
+                p = p.convex_hull
+            out.append(polygon(p, f"p{i}"))
+        else:
+            s = rng.uniform(5, 12)
+            outer = shapely.box(*(c - s), *(c + s))
+            hole = shapely.box(*(c - s / 2), *(c + s / 2))
+            out.append(polygon(outer.difference(hole), f"h{i}"))
     return out
 
 
-# integer coordinates make touching, grazing and collinear cases common, which is the point
-coord = st.integers(-2, 22)
-pt = st.tuples(coord, coord)
+def oracle_distance(seg: LineString, o: Obstacle) -> float:
+    """Exact distance from a segment to an obstacle (shapely for polygons, analytic circles)."""
+    if o.is_circle:
+        return max(seg.distance(Point(o.center)) - o.radius, 0.0)
+    return seg.distance(o.geometry)
 
 
-@st.composite
-def obstacle(draw) -> Obstacle:
-    kind = draw(st.sampled_from(["rect", "tri", "quad", "circle"]))
-    if kind == "rect":
-        x0, y0 = draw(st.integers(0, 17)), draw(st.integers(0, 17))
-        w, h = draw(st.integers(1, 6)), draw(st.integers(1, 6))
-        return rect(x0, y0, x0 + w, y0 + h)
-    if kind == "circle":
-        return circle(draw(st.integers(2, 18)), draw(st.integers(2, 18)), draw(st.integers(1, 4)))
-    n = 3 if kind == "tri" else 4
-    verts = draw(st.lists(st.tuples(st.integers(0, 20), st.integers(0, 20)), min_size=n,
-                          max_size=n, unique=True))
-    p = Polygon(verts)
-    if not p.is_valid or p.area < 0.5:
-        # a simple fallback keeps the strategy total (no filtering / health-check failures)
-        x, y = verts[0]
-        return poly([(x, y), (x + 3, y), (x, y + 2)])
-    return Obstacle("polygon", p)
+def oracle_inside(seg: LineString, o: Obstacle) -> float:
+    """Length of the segment inside the obstacle (shapely; analytic chord for circles)."""
+    if o.is_circle:
+        a, b = np.asarray(seg.coords)
+        d = b - a
+        L = float(np.hypot(*d))
+        if L == 0:
+            return 0.0
+        u = d / L
+        w = o.center - a
+        t = float(w @ u)
+        h2 = o.radius**2 - float(np.hypot(*(w - t * u))) ** 2
+        if h2 <= 0:
+            return 0.0
+        h = math.sqrt(h2)
+        return max(0.0, min(t + h, L) - max(t - h, 0.0))
+    return seg.intersection(o.geometry).length
 
 
-maps = st.lists(obstacle(), min_size=1, max_size=5)
-
-radii = st.sampled_from([0.0, 0.0, 0.5, 1.0, 1.7])
-paths = st.lists(pt, min_size=2, max_size=6)
-
-
-# ------------------------------------------------------------------------------------
-# batch_crossings agrees with shapely
-# ------------------------------------------------------------------------------------
-
-
-@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(obstacles=maps, radius=radii, data=st.data())
-def test_batch_crossings_agree_with_shapely(obstacles, radius, data) -> None:
-    imap = inflate(obstacles, radius)
-    # path points: grid points and obstacle vertices (so segments run along edges, through
-    # corners and across diagonals, the cases where a crossing test goes wrong)
-    verts = [tuple(v) for part in imap.parts for v in np.asarray(part.exterior.coords)[:-1]]
-    point = st.one_of(pt, st.sampled_from(verts)) if verts else pt
-    batch = data.draw(st.lists(st.lists(point, min_size=2, max_size=6), min_size=1, max_size=4))
-    m = max(len(p) for p in batch)
-    # pad shorter paths by repeating their last point (zero-length segments: no crossings)
-    arr = np.array([list(p) + [p[-1]] * (m - len(p)) for p in batch], dtype=float)
-    res = batch_crossings(arr, imap)
-    scale = max(1.0, float(np.abs(imap.bbox).max())) if imap.n else 1.0
-    hi, lo = 1e-6 * scale, 1e-12 * scale
-    assert res.count.shape == (len(batch),) and res.seg_count.shape == (len(batch), m - 1)
-    for i in range(len(batch)):
-        total = 0.0
-        for s in range(m - 1):
-            inside = shapely_inside_lengths(arr[i, s], arr[i, s + 1], imap)
-            total += inside[inside > lo].sum()
-            sure = int(np.sum(inside > hi))
-            maybe = int(np.sum(inside > lo))
-            assert sure <= res.seg_count[i, s] <= maybe, (arr[i, s], arr[i, s + 1], inside)
-        assert res.penetration[i] == pytest.approx(total, abs=1e-6 * scale * m)
-        assert res.count[i] == res.seg_count[i].sum()
+def test_validator_agrees_with_an_independent_oracle_on_1000_random_maps() -> None:
+    """Accepted segments keep distance >= r - tol, rejected ones come closer than r - tol;
+    radii from 0 to 20 % of the map; polygons (convex, non-convex, with holes) and circles."""
+    rng = np.random.default_rng(20261201)
+    frame = Frame.from_bounds(BOUNDS)
+    tol = frame.eps
+    band = 1e-7 * SIDE  # oracle round-off band (far wider than either side's round-off)
+    n_acc = n_rej = 0
+    for trial in range(1000):
+        obs = random_map(rng, int(rng.integers(1, 5)))
+        r = 0.0 if trial % 4 == 0 else float(rng.uniform(0.0, 0.2 * SIDE))
+        oset = obstacle_set(obs, r, frame, grid=bool(trial % 2))
+        segs = rng.uniform(0, SIDE, (6, 2, 2))
+        if trial % 5 == 0:  # short segments: more near misses
+            segs[:, 1] = segs[:, 0] + rng.normal(0, 3, (6, 2))
+        cr = oset.crossings(segs, details=True)
+        for k, (a, b) in enumerate(segs):
+            seg = LineString([a, b])
+            rejected = bool(cr.seg_count[k].sum())
+            if r > tol:
+                d = min(oracle_distance(seg, o) for o in obs)
+                if rejected:
+                    assert d < r - tol + band, (trial, k, r, d)
+                else:
+                    assert d >= r - tol - band, (trial, k, r, d)
+            else:  # point robot: rejected iff it runs inside an obstacle
+                inside = max(oracle_inside(seg, o) for o in obs)
+                if rejected:
+                    assert inside > tol - band, (trial, k, inside)
+                else:
+                    assert inside <= 2 * tol + band, (trial, k, inside)
+            n_rej += rejected
+            n_acc += not rejected
+    assert n_acc > 1000 and n_rej > 1000  # both sides well exercised
 
 
-@settings(max_examples=60, deadline=None)
-@given(obstacles=maps, radius=radii, path=paths)
-def test_two_dim_input_and_lengths(obstacles, radius, path) -> None:
-    imap = inflate(obstacles, radius)
-    arr = np.array(path, dtype=float)
-    one = batch_crossings(arr, imap)
-    many = batch_crossings(arr[None], imap)
-    np.testing.assert_array_equal(one.count, many.count)
-    assert path_lengths(arr) == pytest.approx(LineString(arr).length if len(
-        set(map(tuple, path))) > 1 else 0.0)
-
-
-def test_touching_is_not_a_collision() -> None:
-    imap = inflate([rect(0, 0, 10, 10)], 0.0)
-    cases = {
-        "through a corner": [(-5, 5), (5, -5)],
-        "along an edge": [(-3, 0), (13, 0)],
-        "along an edge, partly": [(2, 10), (8, 10)],
-        "ends on the boundary": [(-5, 5), (0, 5)],
-        "starts on a corner, leaves": [(10, 10), (20, 15)],
-        "corner to corner outside": [(10, 0), (20, -10)],
-        "degenerate": [(3, 3), (3, 3)],
-    }
-    for why, seg in cases.items():
-        arr = np.array(seg, dtype=float)
-        if why == "degenerate":
-            res = batch_crossings(arr, imap)
-            assert res.count[0] == 0, why
-            continue
-        res = batch_crossings(arr, imap)
-        assert res.count[0] == 0 and res.penetration[0] == 0.0, why
-
-
-def test_crossings_counted_per_obstacle_with_penetration() -> None:
-    imap = inflate([rect(0, 0, 10, 10), rect(20, 0, 30, 10), circle(50, 5, 3)], 0.0)
-    res = batch_crossings(np.array([[-5.0, 5.0], [60.0, 5.0]]), imap)
-    assert res.count[0] == 3
-    chord = imap.parts[2].intersection(LineString([(40, 5), (60, 5)])).length
-    assert res.penetration[0] == pytest.approx(10 + 10 + chord, rel=1e-12)
-    # first segment ends inside the square, second leaves it, third runs free
-    res2 = batch_crossings(np.array([[[-5.0, 5.0], [5.0, 5.0], [15.0, 5.0], [15.0, 20.0]]]),
-                           imap)
-    assert res2.seg_count.tolist() == [[1, 1, 0]]
-    assert res2.penetration[0] == pytest.approx(10.0)
-
-
-def test_union_vertices_within_roundoff_of_the_line() -> None:
-    tri = poly([(0, 0), (0, 5), (3, 0)])
-    # a square poking out of the triangle's hypotenuse: the chord between the two crossing
-    # points of the union runs through the interior (square above, triangle below) ...
-    chord = batch_crossings(np.array([[2.0, 5.0 / 3.0], [1.8, 2.0]]),
-                            inflate([rect(0, 0, 2, 2), tri], 0.0))
-    assert chord.count[0] == 1
-    assert chord.penetration[0] == pytest.approx(math.hypot(0.2, 1.0 / 3.0))
-    # ... and a segment along the whole hypotenuse is inside only where the square covers it
-    along = batch_crossings(np.array([[0.0, 5.0], [3.0, 0.0]]),
-                            inflate([rect(1, 2, 2, 4), tri], 0.0))
-    assert along.penetration[0] == pytest.approx(math.hypot(0.8, 4.0 / 3.0))
-
-
-def test_non_convex_and_holes() -> None:
-    # a square ring (union of four walls) has a hole: crossing the hole is free
-    walls = [rect(0, 0, 10, 1), rect(0, 9, 10, 10), rect(0, 0, 1, 10), rect(9, 0, 10, 10)]
-    imap = inflate(walls, 0.0)
-    assert imap.n == 1 and len(imap.parts[0].interiors) == 1
-    across = batch_crossings(np.array([[-1.0, 5.0], [11.0, 5.0]]), imap)
-    assert across.count[0] == 1  # one (segment, part) pair ...
-    assert across.penetration[0] == pytest.approx(2.0)  # ... through two walls
-    inside = batch_crossings(np.array([[2.0, 2.0], [8.0, 8.0]]), imap)
-    assert inside.count[0] == 0
-    u = inflate([poly([(0, 0), (10, 0), (10, 10), (7, 10), (7, 3), (3, 3), (3, 10), (0, 10)])],
-                0.0)
-    mouth = batch_crossings(np.array([[5.0, 12.0], [5.0, 3.0]]), u)  # into the U, to its floor
-    assert mouth.count[0] == 0
-    floor = batch_crossings(np.array([[5.0, 12.0], [5.0, 2.0]]), u)
-    assert floor.count[0] == 1 and floor.penetration[0] == pytest.approx(1.0)
-
-
-def test_large_coordinates() -> None:
-    off = 1e6
-    imap = inflate([rect(off, off, off + 10, off + 10)], 1.0)
-    hit = batch_crossings(np.array([[off - 5, off + 5], [off + 15, off + 5]]), imap)
-    graze = batch_crossings(np.array([[off - 5, off - 1], [off + 15, off - 1]]), imap)
-    assert hit.count[0] == 1 and hit.penetration[0] == pytest.approx(12.0, rel=1e-9)
-    assert graze.count[0] == 0
-
-
-# ------------------------------------------------------------------------------------
-# inflation bracket
-# ------------------------------------------------------------------------------------
-
-
-def _exact_sum(obstacles, radius):
-    """The exact Minkowski sum, approximated from inside by a very fine buffer."""
-    fine = []
-    for o in obstacles:
-        if o.is_circle:
-            fine.append(Point(o.center).buffer(o.radius + radius, quad_segs=256))
+def test_clearance_and_nearest_match_the_oracle() -> None:
+    rng = np.random.default_rng(7)
+    frame = Frame.from_bounds(BOUNDS)
+    for trial in range(60):
+        obs = random_map(rng, 4)
+        r = float(rng.uniform(0, 5))
+        oset = obstacle_set(obs, r, frame)
+        path = rng.uniform(0, SIDE, (5, 2))
+        line = LineString(path)
+        d_or = min(oracle_distance(line, o) for o in obs)
+        got = float(oset.clearance(path[None])[0])
+        if d_or > 0:
+            assert got == pytest.approx(d_or - r, abs=1e-9 * SIDE)
         else:
-            fine.append(o.geometry.buffer(radius, quad_segs=256))
-    return shapely.unary_union(fine)
+            assert got <= -r + 1e-9 * SIDE
+        pts = rng.uniform(0, SIDE, (20, 2))
+        near, dist = oset.nearest(pts)
+        for j, o in enumerate(obs):
+            g = Point(o.center).buffer(o.radius, 1024) if o.is_circle else o.geometry
+            want = shapely.distance(shapely.points(pts), g)
+            if o.is_circle:
+                want = np.maximum(np.hypot(*(pts - o.center).T) - o.radius, 0.0)
+            assert np.allclose(dist[:, j], want, atol=1e-9 * SIDE)
+            outside = want > 0
+            # the nearest point lies on the boundary at the reported distance
+            assert np.allclose(np.hypot(*(near[outside, j] - pts[outside]).T),
+                               want[outside], atol=1e-9 * SIDE)
 
 
-@settings(max_examples=40, deadline=None)
-@given(obstacles=maps, radius=st.floats(0.1, 3.0))
-def test_circumscribed_covers_exact_disc(obstacles, radius) -> None:
-    cir = inflate(obstacles, radius, mode="circumscribed")
-    exact = _exact_sum(obstacles, radius)
-    assert cir.union.buffer(1e-9 * max(1.0, exact.length)).covers(exact)
+def test_touching_is_allowed_and_contact_is_exact() -> None:
+    frame = Frame.from_bounds(BOUNDS)
+    wall = polygon(shapely.box(40, 20, 60, 80))
+    disc = circle(20, 50, 5)
+    eps = frame.eps
+    for r in (0.0, 1.0):
+        oset = obstacle_set([wall, disc], r, frame)
+        # along the wall's edge at exactly distance r; tangent to the disc at distance r
+        along = np.array([[40 - r, 10.0], [40 - r, 90.0]])
+        tangent = np.array([[10.0, 55 + r], [30.0, 55 + r]])
+        assert oset.segment_free(along[:1], along[1:])[0]
+        assert oset.segment_free(tangent[:1], tangent[1:])[0]
+        if r > 0:  # 2 eps closer: a collision
+            assert not oset.segment_free(along[:1] + [2 * eps, 0], along[1:] + [2 * eps, 0])[0]
+            assert not oset.segment_free(tangent[:1] - [0, 2 * eps],
+                                         tangent[1:] - [0, 2 * eps])[0]
+    # a point robot through a vertex, grazing it, is free; one cutting the corner is not
+    oset = obstacle_set([wall], 0.0, frame)
+    assert oset.segment_free([[30.0, 10.0]], [[50.0, 30.0]])[0] is np.False_
+    assert oset.segment_free([[30.0, 30.0]], [[50.0, 10.0]])[0]  # touches (40, 20) only
 
 
-def test_circumscribed_covers_at_awkward_corner() -> None:
-    # a corner turning by 1.49 nominal arc steps: GEOS uses one fillet segment there
-    th = 1.49 * math.pi / 16
-    p = poly([(0, 0), (10, 0), (10 + 10 * math.cos(th), 10 * math.sin(th)), (0, 10)])
-    cir = inflate([p], 1.0, mode="circumscribed")
-    ring = cir.parts[0].exterior
-    pts = shapely.points([ring.interpolate(t, normalized=True).coords[0]
-                          for t in np.linspace(0, 1, 4001)])
-    gap = 1.0 - float(shapely.distance(pts, p.geometry).min())
-    assert gap <= 1e-9
+def test_point_robot_along_an_internal_diagonal_collides() -> None:
+    """An L-shaped polygon is tiled by pieces; a segment running exactly along an internal
+    diagonal of the tiling is inside the polygon (boundary erosion only on true edges)."""
+    frame = Frame.from_bounds(BOUNDS)
+    L = Polygon([(10, 10), (60, 10), (60, 30), (30, 30), (30, 60), (10, 60)])
+    oset = obstacle_set([polygon(L)], 0.0, frame)
+    pieces = convex_pieces(orient(L, 1.0), 4)
+    diag = [(v[i], v[(i + 1) % len(v)]) for v, fl in pieces for i in range(len(v)) if not fl[i]]
+    assert diag, "the L shape has internal diagonals"
+    for a, b in diag:
+        assert not oset.segment_free([a], [b])[0], (a, b)
 
 
-@settings(max_examples=40, deadline=None)
-@given(obstacles=maps, radius=st.floats(0.1, 3.0))
-def test_inflation_bracket(obstacles, radius) -> None:
-    ins = inflate(obstacles, radius, mode="inscribed")
-    cir = inflate(obstacles, radius, mode="circumscribed")
-    assert ins.mode == "inscribed" and cir.mode == "circumscribed"
-    assert ins.union.area < cir.union.area
-    exact = _exact_sum(obstacles, radius)
-    # circumscribed: covers the exact sum (up to round-off)
-    slack = 1e-9 * max(1.0, exact.length)
-    assert cir.union.buffer(slack).covers(exact)
-    # the inscribed polygon lies inside the exact sum: its vertices are within r of the obstacle
-    verts = np.concatenate([np.asarray(p.exterior.coords) for p in ins.parts])
-    raw = point_clearance(verts, obstacles)
-    assert np.all(raw <= radius * (1 + 1e-9))
-    assert ins.union.area <= exact.area * (1 + 1e-9) + 1e-9
+def test_convex_pieces_tile_the_polygon_and_flag_the_boundary() -> None:
+    rng = np.random.default_rng(3)
+    for k in range(30):
+        obs = [o for o in random_map(rng, 3) if not o.is_circle]
+        for o in obs:
+            pieces = convex_pieces(o.geometry, 4)
+            area = sum(Polygon(v).area for v, _ in pieces)
+            assert area == pytest.approx(o.geometry.area, rel=1e-9)
+            for v, fl in pieces:
+                assert 3 <= len(v) <= 4 and Polygon(v).exterior.is_ccw
+                mid = 0.5 * (v + np.roll(v, -1, axis=0))
+                on = shapely.distance(shapely.points(mid), o.geometry.boundary) <= 1e-9 * SIDE
+                assert np.array_equal(on, fl)
+            big = convex_decompose(o.geometry)
+            assert sum(Polygon(v).area for v in big) == pytest.approx(o.geometry.area,
+                                                                       rel=1e-9)
 
 
-def test_circumscribed_radius_formula() -> None:
-    r, q = 2.0, 8
-    R = circumscribed_radius(r, q)
-    # at least the radius whose regular polygon (q segments per quarter) has inradius r ...
-    assert R * math.cos(math.pi / (4 * q)) >= r * (1 - 1e-12)
-    disc = Point(0, 0).buffer(R, quad_segs=q)
-    assert disc.exterior.distance(Point(0, 0)) >= r * (1 - 1e-9)
-    # ... and not looser than needed for GEOS's widest fillet step (1.5 nominal steps)
-    assert R <= r / math.cos(3 * math.pi / (8 * q)) * (1 + 1e-12)
+def _transform(o: Obstacle, s: float, shift: np.ndarray) -> Obstacle:
+    if o.is_circle:
+        return circle(*(o.center * s + shift), o.radius * s, o.name)
+    g = shapely.affinity.scale(o.geometry, s, s, origin=(0, 0))
+    return polygon(shapely.affinity.translate(g, *shift), o.name)
 
 
-def test_inflate_merges_overlaps_and_names_parts() -> None:
-    imap = inflate([rect(0, 0, 10, 10, "a"), rect(11, 0, 20, 10, "b"), rect(50, 50, 60, 60, "c")],
-                   1.0)
-    assert imap.n == 2
-    assert sorted(imap.names) == [("a", "b"), ("c",)]
-    assert imap.edges.shape[0] == 2 and imap.edge_mask.shape == imap.edges.shape[:2]
-    assert imap.containing(np.array([10.5, 5.0])) == "a+b"
-    assert imap.containing(np.array([30.0, 30.0])) is None
-    empty = inflate([], 1.0)
-    assert empty.n == 0
-    assert batch_crossings(np.array([[0.0, 0.0], [1.0, 1.0]]), empty).count[0] == 0
+@pytest.mark.parametrize("s, shift", [(1.0, (5e5, 5e6)), (1e-3, (0.0, 0.0)),
+                                      (1e3, (0.0, 0.0)), (1e3, (-3e7, 2e8))])
+def test_metamorphic_translate_scale_and_far_obstacle(s: float, shift) -> None:
+    """Translating, scaling and adding an obstacle far outside the bounds leave every
+    collision decision and (scaled) clearance unchanged."""
+    rng = np.random.default_rng(11)
+    shift = np.asarray(shift, float)
+    base = Frame.from_bounds(BOUNDS)
+    moved = Frame.from_bounds((shift[0], shift[1], shift[0] + SIDE * s, shift[1] + SIDE * s))
+    for trial in range(40):
+        obs = random_map(rng, 4)
+        r = float(rng.uniform(0, 8)) if trial % 3 else 0.0
+        paths = rng.uniform(0, SIDE, (8, 4, 2))
+        a = obstacle_set(obs, r, base)
+        far = [circle(1e11, 1e11, 1.0, "far")]
+        b = obstacle_set([_transform(o, s, shift) for o in obs] + far, r * s, moved)
+        ca, cb = a.crossings(paths), b.crossings(paths * s + shift)
+        assert np.array_equal(ca.count, cb.count)
+        assert np.allclose(cb.penetration, ca.penetration * s, rtol=1e-7, atol=1e-9 * SIDE * s)
+        ka, kb = a.clearance(paths), b.clearance(paths * s + shift)
+        assert np.allclose(kb, ka * s, rtol=1e-7, atol=1e-8 * SIDE * s)
 
 
-def test_inflate_rejects_bad_arguments() -> None:
-    with pytest.raises(ValueError, match="mode"):
-        inflate([rect(0, 0, 1, 1)], 1.0, mode="outer")
+def test_far_obstacle_does_not_switch_collision_checking_off() -> None:
+    """A unit circle at (1e11, 1e11) beside a 100 x 100 map: a line through a 20-wide wall
+    still collides (it used to be accepted)."""
+    frame = Frame.from_bounds(BOUNDS)
+    wall = polygon(shapely.box(40, 0, 60, 100))
+    oset = obstacle_set([wall, circle(1e11, 1e11, 1.0)], 0.5, frame)
+    assert oset.crossings(np.array([[10.0, 50.0], [90.0, 50.0]])).count[0] == 1
+    # a wall reaching far below the map is clipped, not a precision problem
+    tall = polygon(shapely.box(40, -1e10, 60, 40))
+    oset = obstacle_set([tall], 0.5, frame)
+    assert oset.segment_free([[10.0, 60.0]], [[90.0, 60.0]])[0]
+    assert not oset.segment_free([[10.0, 20.0]], [[90.0, 20.0]])[0]
+
+
+def test_utm_coordinates_keep_walls_exact() -> None:
+    """At UTM-like coordinates a 10-unit wall is exact: a path through it collides."""
+    y0 = 5_000_000.0
+    frame = Frame.from_bounds((300_000.0, y0, 300_300.0, y0 + 300.0))
+    wall = polygon(shapely.box(300_100.0, y0 + 100.0, 300_110.0, y0 + 200.0))
+    oset = obstacle_set([wall], 0.5, frame)
+    a, b = np.array([[300_050.0, y0 + 150.0]]), np.array([[300_150.0, y0 + 150.0]])
+    assert not oset.segment_free(a, b)[0]
+    assert oset.segment_free(a + [0, 60.0], b + [0, 60.0])[0]
+    assert float(oset.clearance(np.vstack([a, b])[None] + [0, 60.0])[0]) == pytest.approx(
+        10.0 - 0.5, abs=1e-6)
+
+
+def test_precision_limits_are_rejected_with_a_clear_error() -> None:
+    with pytest.raises(ValueError, match="size"):
+        Frame.from_bounds((0.0, 0.0, 1e155, 1e155))
+    with pytest.raises(ValueError, match="double precision"):
+        Frame.from_bounds((1e15, 1e15, 1e15 + 100.0, 1e15 + 100.0))
+    frame = Frame.from_bounds(BOUNDS)
+    spike = polygon(Polygon([(10, 10), (1e15, 50), (10, 90)]), "spike")
+    with pytest.raises(ValueError, match="spike"):
+        obstacle_set([spike], 0.5, frame)
+
+
+def test_lengths_and_degenerate_input() -> None:
+    p = np.array([[0.0, 0.0], [3.0, 4.0], [3.0, 4.0], [6.0, 8.0]])
+    assert path_lengths(p) == pytest.approx(10.0)
+    assert np.allclose(path_lengths(np.stack([p, 2 * p])), [10.0, 20.0])
+    frame = Frame.from_bounds(BOUNDS)
+    oset = obstacle_set([circle(50, 50, 10)], 1.0, frame)
+    # a zero-length segment is a point
+    assert oset.crossings(np.array([[50.0, 39.5], [50.0, 39.5]])).count[0] == 1
+    assert oset.crossings(np.array([[50.0, 38.5], [50.0, 38.5]])).count[0] == 0
+    with pytest.raises(ValueError, match="shape"):
+        oset.crossings(np.zeros((2, 3)))
     with pytest.raises(ValueError, match="radius"):
-        inflate([rect(0, 0, 1, 1)], -1.0)
-
-
-def test_point_clearance() -> None:
-    obs = [rect(0, 0, 10, 10), circle(30, 5, 2)]
-    d = point_clearance(np.array([[5.0, 5.0], [15.0, 5.0], [30.0, 10.0], [-3.0, -4.0]]), obs)
-    np.testing.assert_allclose(d, [0.0, 5.0, 3.0, 5.0])
-    assert np.isinf(point_clearance(np.array([[0.0, 0.0]]), [])).all()
+        obstacle_set([], -1.0, frame)

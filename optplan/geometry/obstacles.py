@@ -122,10 +122,10 @@ def clip_obstacles(obstacles: Sequence, frame: Frame, margin: float) -> list[tup
         bhi = frame.local([wx1, wy1])
         if np.any(bhi < lo) or np.any(blo > hi):
             continue
-        frame.check_extent(float(max(np.max(np.abs(blo)), np.max(np.abs(bhi)))), label)
         g = shapely.transform(o.geometry, lambda xy: xy - frame.origin)
         if np.any(blo < lo) or np.any(bhi > hi):
-            g = shapely.intersection(g, box)
+            _check_far_edges(g, frame, lo, hi, label)
+            g = shapely.clip_by_rect(g, lo[0], lo[1], hi[0], hi[1])
             g = shapely.make_valid(g) if not g.is_valid else g
             polys = [q for q in getattr(g, "geoms", [g]) if isinstance(q, Polygon)
                      and not q.is_empty and q.area > 0]
@@ -134,6 +134,30 @@ def clip_obstacles(obstacles: Sequence, frame: Frame, margin: float) -> list[tup
             g = shapely.MultiPolygon(polys) if len(polys) > 1 else polys[0]
         out.append((i, g))
     return out
+
+
+def _check_far_edges(g, frame: Frame, lo: np.ndarray, hi: np.ndarray, label: str) -> None:
+    """Reject an oblique edge that reaches into the region from beyond ``1e6 L``.
+
+    Clipping such an edge at the region's border would place the new vertex with an error of
+    about ``1e-16 x`` the far coordinate, above the tolerance.  Axis-parallel edges clip
+    exactly (a wall reaching to ``y = -1e10`` is fine).
+    """
+    lim = 1e6 * frame.length
+    for poly in getattr(g, "geoms", [g]):
+        for ring in (poly.exterior, *poly.interiors):
+            c = np.asarray(ring.coords)
+            a, b = c[:-1], c[1:]
+            far = (np.abs(a).max(axis=1) > lim) | (np.abs(b).max(axis=1) > lim)
+            if not far.any():
+                continue
+            oblique = (a[:, 0] != b[:, 0]) & (a[:, 1] != b[:, 1])
+            emin, emax = np.minimum(a, b), np.maximum(a, b)
+            meets = np.all(emin <= hi, axis=1) & np.all(emax >= lo, axis=1)
+            if np.any(far & oblique & meets):
+                k = int(np.flatnonzero(far & oblique & meets)[0])
+                frame.check_extent(float(max(np.abs(a[k]).max(), np.abs(b[k]).max())),
+                                   f"{label}, an oblique edge reaching into the map")
 
 
 @dataclass(frozen=True, eq=False)
@@ -540,23 +564,33 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
             bflags.append(fl)
             owner.append(i)
     K = len(pieces)
-    table = np.zeros((6, PIECE_EDGES, K), dtype=complex)
-    boundary = np.zeros((PIECE_EDGES, K), bool)
-    pc, reach = np.zeros((K, 2)), np.zeros(K)
+    # padded vertex / flag arrays (K, 4): a triangle repeats its last vertex (a zero-length
+    # edge would have no normal, so the last *edge* is repeated instead)
+    V = np.zeros((K, PIECE_EDGES, 2))
+    Q = np.zeros((K, PIECE_EDGES, 2))
+    FB = np.zeros((K, PIECE_EDGES), bool)
     for k, (v, fl) in enumerate(zip(pieces, bflags)):
-        pad = PIECE_EDGES - len(v)
-        vv = np.vstack([v, v[-1:].repeat(pad, axis=0)])
-        nxt = np.roll(v, -1, axis=0)
-        qq = np.vstack([nxt, nxt[-1:].repeat(pad, axis=0)])
-        fb = np.r_[fl, np.repeat(fl[-1:], pad)]
-        p = vv[:, 0] + 1j * vv[:, 1]
-        ev = (qq[:, 0] + 1j * qq[:, 1]) - p
-        nrm = -1j * ev / np.abs(ev)  # outward normal of a CCW piece
-        c = (nrm.conj() * p).real
-        table[:, :, k] = [p, ev, nrm, -ev.conj() / np.abs(ev) ** 2, c, c - eps * fb]
-        boundary[:, k] = fb
-        pc[k] = v.mean(axis=0)
-        reach[k] = np.max(np.hypot(*(v - pc[k]).T))
+        m = len(v)
+        V[k, :m] = v
+        V[k, m:] = v[-1]
+        Q[k, :m - 1] = v[1:]
+        Q[k, m - 1:] = v[0]
+        FB[k, :m] = fl
+        FB[k, m:] = fl[-1]
+    p = (V[..., 0] + 1j * V[..., 1]).T  # (4, K)
+    ev = (Q[..., 0] + 1j * Q[..., 1]).T - p
+    nrm = -1j * ev / np.abs(ev)  # outward normal of a CCW piece
+    c = (nrm.conj() * p).real
+    table = np.stack([p, ev, nrm, -ev.conj() / np.abs(ev) ** 2, c + 0j, c - eps * FB.T + 0j])
+    boundary = FB.T.copy()
+    nv = np.array([len(v) for v in pieces], dtype=float)
+    if K:
+        pc = np.stack([(V[..., 0] * (np.arange(PIECE_EDGES) < nv[:, None])).sum(1) / nv,
+                       (V[..., 1] * (np.arange(PIECE_EDGES) < nv[:, None])).sum(1) / nv],
+                      axis=1)
+        reach = np.max(np.hypot(V[..., 0] - pc[:, :1], V[..., 1] - pc[:, 1:]), axis=1)
+    else:
+        pc, reach = np.zeros((0, 2)), np.zeros(0)
     circ = np.array(circles, dtype=float).reshape(-1, 3)
     centers = np.vstack([pc, circ[:, :2]])
     reach = np.concatenate([reach, circ[:, 2]])

@@ -25,10 +25,12 @@ SIN_TOL = 1e-12
 
 
 def _turns(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    a = v - np.roll(v, 1, axis=0)
-    b = np.roll(v, -1, axis=0) - v
-    cr = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    return cr, np.hypot(*a.T) * np.hypot(*b.T)
+    """Cross products of consecutive edges at each vertex, and the products of their lengths."""
+    e = np.concatenate((v[1:], v[:1])) - v  # edge i: v[i] -> v[i+1]
+    a = np.concatenate((e[-1:], e[:-1]))  # incoming edge at vertex i
+    cr = a[:, 0] * e[:, 1] - a[:, 1] * e[:, 0]
+    ln = np.hypot(e[:, 0], e[:, 1])
+    return cr, np.concatenate((ln[-1:], ln[:-1])) * ln
 
 
 def clean_ring(v: np.ndarray) -> np.ndarray:
@@ -120,10 +122,15 @@ def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray
             continue
         x0, y0, x1, y1 = poly.bounds
         tol = 1e-9 * max(x1 - x0, y1 - y0)
-        bnd = poly.boundary
-        for v in convex_decompose(poly):
-            mid = 0.5 * (v + np.roll(v, -1, axis=0))
-            flags = np.asarray(shapely.distance(shapely.points(mid), bnd) <= tol, dtype=bool)
+        bnd = poly.boundary if poly.interiors or not is_convex(
+            np.asarray(orient(poly, 1.0).exterior.coords)[:-1]) else None
+        parts = convex_decompose(poly)
+        for v in parts:
+            if len(parts) == 1 and not poly.interiors:
+                flags = np.ones(len(v), bool)  # the polygon itself: every edge is boundary
+            else:
+                mid = 0.5 * (v + np.concatenate((v[1:], v[:1])))
+                flags = np.asarray(shapely.distance(shapely.points(mid), bnd) <= tol, bool)
             i = 1
             while i < len(v) - 1:  # fan: (v0, v_i, ..., v_j)
                 j = min(i + max_edges - 2, len(v) - 1)

@@ -93,8 +93,8 @@ class Circles:
 def _ring_vertices(ring: np.ndarray):
     """Convex vertices of a ring whose solid lies on its left: (v, cone lo, cone width)."""
     v = ring
-    prev, nxt = np.roll(v, 1, axis=0), np.roll(v, -1, axis=0)
-    e1, e2 = v - prev, nxt - v
+    e2 = np.concatenate((v[1:], v[:1])) - v
+    e1 = np.concatenate((e2[-1:], e2[:-1]))
     l1, l2 = np.hypot(*e1.T), np.hypot(*e2.T)
     ok = (l1 > 0) & (l2 > 0)
     cr = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
