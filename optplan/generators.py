@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 import shapely
-from shapely.geometry import Point, Polygon
+from shapely.geometry import Polygon
 
 from optplan.problem import Follower, Formation, Obstacle, Problem, Robot, parse_problem
 
@@ -141,8 +141,8 @@ def random_obstacles(n: int, seed: int = 0, side: float = 500.0,
         s = size * rng.uniform(0.5, 1.5)
         kind = i % 5
         if kind == 0:
-            out.append(Obstacle("circle", Point(c).buffer(s / 2, quad_segs=16), True, f"c{i}",
-                                center=c, radius=s / 2))
+            # exact circle: centre and radius are the model, no polygon (geometry None)
+            out.append(Obstacle("circle", None, True, f"c{i}", center=c, radius=s / 2))
             continue
         if kind == 1:
             v = [[-s / 2, -s / 3], [s / 2, -s / 3], [s / 2, s / 3], [-s / 2, s / 3]]

@@ -11,9 +11,10 @@ also write it (PNG, or GIF with Pillow for :func:`animate`; no ffmpeg needed).
 >>> fig = plot_result(res, out="/tmp/open-field.png")
 
 Conventions: known static obstacles are filled grey, temporary ones (``known = false``,
-unseen by global planners) orange and hatched; the inflated outlines (first robot's radius)
-are dashed; dynamic obstacles show their start shape and their track dotted; starts are
-circles, goals stars.  ``matplotlib`` is imported when this module is imported, so
+unseen by global planners) orange and hatched; circles are drawn as true circles
+(``matplotlib.patches.Circle``, the exact centre and radius); the inflated outlines (first
+robot's radius) are dashed; dynamic obstacles show their start shape and their track dotted;
+starts are circles, goals stars.  ``matplotlib`` is imported when this module is imported, so
 ``import optplan`` stays light as long as this module is not imported.
 """
 
@@ -108,11 +109,40 @@ def _draw_poly(ax: Axes, geom: Any, **kw: Any) -> list[PathPatch]:
     return patches
 
 
-def _outline(ax: Axes, geom: Any, **kw: Any) -> None:
-    for poly in _polygons(geom):
-        for ring in (poly.exterior, *poly.interiors):
-            c = np.asarray(ring.coords)
-            ax.plot(c[:, 0], c[:, 1], **kw)
+def _draw_obstacle(ax: Axes, o: Any, **kw: Any) -> list:
+    """Draw a static obstacle: a true circle for circles, its polygon (holes included) else."""
+    if o.is_circle:
+        patch = Circle((float(o.center[0]), float(o.center[1])), float(o.radius), **kw)
+        ax.add_patch(patch)
+        return [patch]
+    return _draw_poly(ax, o.geometry, **kw)
+
+
+def _draw_inflated(ax: Axes, obstacles: Sequence, r: float, **kw: Any) -> None:
+    """Dashed outlines of the obstacles grown by ``r``, from the exact model.
+
+    Circles: true circles of radius ``R + r``.  Polygons: shapely ``buffer(r)`` of the exact
+    polygon, FOR DRAWING ONLY (a polygonised rounding of the corners; no collision decision
+    anywhere uses it, those go to :meth:`optplan.problem.Problem.obstacle_set`).  Overlapping
+    polygon outlines are merged.
+    """
+    import shapely
+
+    label = kw.pop("label", None)
+    polys = [o.geometry.buffer(r, quad_segs=16) for o in obstacles if not o.is_circle]
+    for g in ([shapely.union_all(polys)] if polys else []):
+        for poly in _polygons(g):
+            for ring in (poly.exterior, *poly.interiors):
+                c = np.asarray(ring.coords)
+                ax.plot(c[:, 0], c[:, 1], label=label, **kw)
+                label = None
+    for o in obstacles:
+        if o.is_circle:
+            ax.add_patch(Circle((float(o.center[0]), float(o.center[1])),
+                                float(o.radius) + r, fill=False, ec=kw.get("color"),
+                                ls=kw.get("ls"), lw=kw.get("lw"), zorder=kw.get("zorder"),
+                                label=label))
+            label = None
 
 
 def _robot_colour(problem: Problem, rid: str) -> str:
@@ -178,20 +208,17 @@ def plot_problem(problem: Problem, ax: Axes | None = None, inflate: bool = True,
     first_known = first_temp = True
     for o in problem.obstacles:
         if o.known:
-            _draw_poly(ax, o.geometry, fc=KNOWN_FILL, ec="#424242", lw=0.8, zorder=2,
-                       label="obstacle" if first_known else None)
+            _draw_obstacle(ax, o, fc=KNOWN_FILL, ec="#424242", lw=0.8, zorder=2,
+                           label="obstacle" if first_known else None)
             first_known = False
         else:
-            _draw_poly(ax, o.geometry, fc=TEMP_FILL, ec="#e65100", lw=0.8, hatch="//",
-                       zorder=2, label="temporary obstacle" if first_temp else None)
+            _draw_obstacle(ax, o, fc=TEMP_FILL, ec="#e65100", lw=0.8, hatch="//",
+                           zorder=2, label="temporary obstacle" if first_temp else None)
             first_temp = False
-    if inflate and problem.obstacles:
-        imap = problem.inflated(problem.robots[0].radius)
-        first = True
-        for part in imap.parts:
-            _outline(ax, part, color="#616161", ls="--", lw=0.7, zorder=2,
-                     label=f"inflated (r = {problem.robots[0].radius:g})" if first else None)
-            first = False
+    r0 = problem.robots[0].radius
+    if inflate and problem.obstacles and r0 > 0:  # a point robot: nothing to grow
+        _draw_inflated(ax, problem.obstacles, r0, color="#616161", ls="--", lw=0.7, zorder=2,
+                       label=f"inflated (r = {r0:g})")
     if problem.dynamic_obstacles:
         horizon = _dyn_horizon(problem, t_end)
         for k, d in enumerate(problem.dynamic_obstacles):

@@ -1,10 +1,16 @@
 """Problem model and the TOML scenario format (design §3).
 
 A :class:`Problem` is an immutable description of a 2-D workspace: rectangular bounds,
-disc robots with start/goal, static obstacles (polygons, rectangles, circles; each either
-*known* to a global planner or *temporary*), dynamic obstacles moving along time-stamped
-waypoints or with a constant velocity, an optional leader-follower formation and an optional
-sensing range.  ``problems/README.md`` documents every key with its unit.
+disc robots (radius ``>= 0``; ``0`` is a point robot) with start/goal, static obstacles
+(polygons with optional holes, rectangles, circles; each either *known* to a global planner or
+*temporary*), dynamic obstacles moving along time-stamped waypoints or with a constant velocity,
+an optional leader-follower formation and an optional sensing range.  ``problems/README.md``
+documents every key with its unit.
+
+Static obstacles are kept exactly: polygons as the vertices the user wrote (shapely
+``Polygon``), circles as centre and radius (never polygonised).  Collision and clearance
+questions go to the one exact engine, :meth:`Problem.obstacle_set`
+(:class:`optplan.geometry.ObstacleSet`).
 
 All parsing errors raise :class:`ProblemError` naming the file and the key.
 """
@@ -34,8 +40,20 @@ __all__ = [
     "read_problem",
 ]
 
-#: Segments per quarter circle used to polygonise circles (shapely ``quad_segs``).
+#: Segments per quarter circle of the ``local_geometry`` polygon of a *dynamic* circle (shapely
+#: ``quad_segs``; used for drawing and shapely queries only, the distance is exact).  Static
+#: circles are never polygonised.
 CIRCLE_QUAD_SEGS = 16
+
+#: Largest magnitude accepted for an obstacle coordinate or size (map units).  Squares of such
+#: numbers (and of their differences) stay finite doubles (``1e300 < 1.8e308``).  Obstacles far
+#: outside the bounds are accepted below this and ignored by the geometry core; those reaching
+#: into the map must further satisfy :meth:`optplan.geometry.Frame.check_extent`.
+MAX_COORD = 1e150
+
+#: A closing vertex within this fraction of the polygon's own size (bounding-box diagonal of
+#: its vertices) of the first vertex repeats it and is dropped; zero-area tests use the square.
+CLOSE_REL = 1e-12
 
 
 class ProblemError(ValueError):
@@ -59,7 +77,9 @@ class Robot:
         Positions, shape ``(2,)``, map units.  ``goal`` is ``None`` for a follower whose
         goal is its formation slot.
     radius : float
-        Disc radius (map units); obstacles are inflated by it.
+        Disc radius (map units), ``>= 0``; ``0`` is a point robot.  A robot is clear of an
+        obstacle when the exact distance from its centre is ``>= radius - eps``
+        (:attr:`Problem.frame`).
     max_speed : float
         Speed limit (map units per second) used by time-stepping controllers.
     """
@@ -75,14 +95,20 @@ class Robot:
 class Obstacle:
     """A static obstacle.
 
-    ``kind`` is ``"polygon"``, ``"rectangle"`` or ``"circle"``.  ``geometry`` is the shapely
-    polygon (circles polygonised with :data:`CIRCLE_QUAD_SEGS`); circles also keep their exact
-    ``center`` and ``radius``.  ``known = False`` marks a temporary obstacle that global planners
-    do not see but local planners and the validator do.
+    ``kind`` is ``"polygon"``, ``"rectangle"`` or ``"circle"``.
+
+    * polygons and rectangles: ``geometry`` is the shapely ``Polygon`` of the vertices as given
+      (CCW exterior, holes allowed); ``center`` and ``radius`` are ``None``.
+    * circles: ``geometry`` is ``None``.  The exact ``center`` (shape ``(2,)``) and ``radius``
+      *are* the model; nothing polygonises a static circle (draw it with
+      ``matplotlib.patches.Circle``, query it through :meth:`Problem.obstacle_set`).
+
+    ``known = False`` marks a temporary obstacle that global planners do not see but local
+    planners and the validator do.
     """
 
     kind: str
-    geometry: Polygon
+    geometry: Polygon | None
     known: bool = True
     name: str = ""
     center: np.ndarray | None = None
@@ -91,6 +117,15 @@ class Obstacle:
     @property
     def is_circle(self) -> bool:
         return self.kind == "circle"
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """Exact axis-aligned bounding box ``(xmin, ymin, xmax, ymax)`` (world coordinates)."""
+        if self.is_circle:
+            cx, cy = (float(v) for v in self.center)
+            r = float(self.radius)
+            return (cx - r, cy - r, cx + r, cy + r)
+        return tuple(float(v) for v in self.geometry.bounds)
 
 
 @dataclass(frozen=True, eq=False)
@@ -254,19 +289,47 @@ class Problem:
         return self._cache[key]
 
     def goal_tol(self, robot: Robot) -> float:
-        """Goal tolerance for ``robot``: the scenario's ``goal_tolerance`` or the robot radius."""
-        return float(self.goal_tolerance if self.goal_tolerance is not None else robot.radius)
+        """Goal tolerance for ``robot`` (map units).
 
-    def inflated(self, radius: float, mode: str = "inscribed", known_only: bool = False):
-        """Obstacles inflated by ``radius`` (cached); see :func:`optplan.geometry.inflate`."""
-        from optplan.geometry_old import inflate
+        The scenario's ``goal_tolerance`` when given, else the robot radius; for a point robot
+        (``radius = 0``) without ``goal_tolerance`` it is :data:`POINT_GOAL_TOL_REL` ``x``
+        :attr:`extent` (``1e-6`` of the bounds diagonal), so that "reached" stays a
+        tolerance test rather than exact equality.
+        """
+        if self.goal_tolerance is not None:
+            return float(self.goal_tolerance)
+        if robot.radius > 0:
+            return float(robot.radius)
+        return POINT_GOAL_TOL_REL * self.extent
 
-        key = ("inflated", round(float(radius), 12), mode, known_only)
-        if key not in self._cache:
-            self._cache[key] = inflate(
-                self.static_obstacles(known_only), radius, mode=mode, bounds=self.bounds
-            )
-        return self._cache[key]
+    def blocking_obstacle(self, point, radius: float, known_only: bool = False) -> int | None:
+        """Index (into :meth:`static_obstacles`) of an obstacle a disc at ``point`` overlaps.
+
+        Exact test on the true obstacles (:meth:`obstacle_set`): the disc of ``radius`` at
+        ``point`` overlaps an obstacle when the signed distance from ``point`` to it (negative
+        inside: minus the distance to its boundary) is ``< radius - eps``.  For ``radius > eps``
+        that is ``ObstacleSet.point_distances(point) < radius - eps``; a point robot
+        (``radius = 0``) may touch a boundary but not be inside by more than ``eps``.  The most
+        deeply overlapped obstacle is returned, ``None`` when the disc is free.
+
+        Raises
+        ------
+        ValueError
+            From the geometry core, for obstacles double precision cannot resolve in this map.
+        """
+        oset = self.obstacle_set(radius, known_only)
+        if oset.n_items == 0:
+            return None
+        p = np.asarray(point, dtype=float).reshape(1, 2)
+        near, dist = oset.nearest(p)
+        d = dist[0]
+        depth = np.hypot(*(self.frame.local(near[0]) - self.frame.local(p)).T)
+        with np.errstate(invalid="ignore"):
+            signed = np.where(d > 0, d, -depth)
+            bad = np.flatnonzero(signed < float(radius) - self.frame.eps)
+        if bad.size == 0:
+            return None
+        return int(bad[np.argmin(signed[bad])])
 
     def obstacle_set(self, radius: float, known_only: bool = False):
         """The exact collision/clearance engine for a disc of ``radius`` (cached).
@@ -308,6 +371,10 @@ class Problem:
         return "\n".join(lines)
 
 
+#: Default goal tolerance of a point robot, relative to the bounds diagonal (:meth:`goal_tol`).
+POINT_GOAL_TOL_REL = 1e-6
+
+
 # --------------------------------------------------------------------------------------
 # parsing
 # --------------------------------------------------------------------------------------
@@ -327,7 +394,7 @@ _TOP_KEYS = {
 }
 _ROBOT_KEYS = {"id", "start", "goal", "radius", "max_speed"}
 _OBST_KEYS = {
-    "polygon": {"type", "vertices", "known", "name"},
+    "polygon": {"type", "vertices", "holes", "known", "name"},
     "rectangle": {"type", "min", "max", "center", "size", "known", "name"},
     "circle": {"type", "center", "radius", "known", "name"},
 }
@@ -361,39 +428,93 @@ class _Ctx:
             raise self.err(f"{prefix}{key}", "missing required key")
         return table[key]
 
-    def number(self, v: Any, key: str, *, positive: bool = False, nonneg: bool = False) -> float:
+    def number(self, v: Any, key: str, *, positive: bool = False, nonneg: bool = False,
+               coord: bool = False) -> float:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise self.err(key, f"expected a number, got {v!r}")
-        x = float(v)
+        try:
+            x = float(v)
+        except OverflowError:  # a TOML integer beyond the double range
+            raise self.err(key, f"must be finite, got {v!r}") from None
         if not math.isfinite(x):
             raise self.err(key, f"must be finite, got {v!r}")
         if positive and x <= 0:
             raise self.err(key, f"must be > 0, got {v!r}")
         if nonneg and x < 0:
             raise self.err(key, f"must be >= 0, got {v!r}")
+        if coord and abs(x) > MAX_COORD:
+            raise self.err(key, f"magnitude {abs(x):.3g} is beyond {MAX_COORD:g}: double "
+                                "precision cannot compute distances with it (its square "
+                                "overflows)")
         return x
 
-    def point(self, v: Any, key: str) -> np.ndarray:
+    def string(self, table: dict, key: str, prefix: str, default: str | None = None) -> str:
+        """A string value (``default`` when absent; required when ``default`` is None)."""
+        v = self.require(table, key, prefix) if default is None else table.get(key, default)
+        if not isinstance(v, str):
+            raise self.err(f"{prefix}{key}", f"expected a string, got {v!r}")
+        return v
+
+    def point(self, v: Any, key: str, coord: bool = False) -> np.ndarray:
         if not isinstance(v, list) or len(v) != 2:
             raise self.err(key, f"expected a point [x, y], got {v!r}")
-        return np.array([self.number(v[0], f"{key}[0]"), self.number(v[1], f"{key}[1]")])
+        return np.array([self.number(v[0], f"{key}[0]", coord=coord),
+                         self.number(v[1], f"{key}[1]", coord=coord)])
 
-    def points(self, v: Any, key: str, min_len: int) -> np.ndarray:
+    def points(self, v: Any, key: str, min_len: int, coord: bool = False) -> np.ndarray:
         if not isinstance(v, list) or len(v) < min_len:
             raise self.err(key, f"expected a list of at least {min_len} points [x, y]")
-        return np.array([self.point(p, f"{key}[{i}]") for i, p in enumerate(v)])
+        return np.array([self.point(p, f"{key}[{i}]", coord) for i, p in enumerate(v)])
 
-    def polygon(self, verts: np.ndarray, key: str) -> Polygon:
-        if len(verts) >= 2 and np.allclose(verts[0], verts[-1]):
-            verts = verts[:-1]
-        if len(verts) < 3:
-            raise self.err(key, "a polygon needs at least 3 distinct vertices")
+    def ring(self, verts: np.ndarray, key: str, what: str = "polygon") -> Polygon:
+        """A simple polygon of ``verts`` (no holes), every vertex kept.
+
+        Only a closing vertex that repeats the first one (exactly, or within
+        :data:`CLOSE_REL` ``x`` the ring's own size) is dropped.  Rejected: fewer than 3
+        distinct vertices, a self-intersecting or otherwise invalid ring, zero area (relative:
+        ``area <= CLOSE_REL x size^2``).
+        """
+        verts = np.asarray(verts, dtype=float).reshape(-1, 2)
+        if len(verts) >= 2:
+            size = float(np.hypot(*np.ptp(verts, axis=0)))
+            gap = float(np.hypot(*(verts[-1] - verts[0])))
+            if gap == 0.0 or gap <= CLOSE_REL * size:
+                verts = verts[:-1]
+        distinct = verts[np.any(verts != np.roll(verts, 1, axis=0), axis=1)] \
+            if len(verts) > 1 else verts
+        if len(distinct) < 3:
+            raise self.err(key, f"a {what} needs at least 3 distinct vertices "
+                                f"(consecutive repeats count once)")
         poly = Polygon(verts)
         if not poly.is_valid:
             reason = shapely.is_valid_reason(poly)
-            raise self.err(key, f"polygon is degenerate or self-intersecting ({reason})")
-        if poly.area <= 0:
-            raise self.err(key, "polygon has zero area")
+            raise self.err(key, f"{what} is degenerate or self-intersecting ({reason})")
+        size = float(np.hypot(*np.ptp(verts, axis=0)))
+        if not poly.area > CLOSE_REL * size * size:
+            raise self.err(key, f"{what} has zero area (its vertices are collinear up to "
+                                f"{CLOSE_REL:g} x its size)")
+        return poly
+
+    def polygon(self, verts: np.ndarray, key: str, holes: list | None = None,
+                holes_key: str = "") -> Polygon:
+        """:meth:`ring` plus optional holes (each a ring inside the outer one); CCW oriented."""
+        shell = self.ring(verts, key)
+        if not holes:
+            return shapely.geometry.polygon.orient(shell, 1.0)
+        rings = []
+        for k, h in enumerate(holes):
+            hk = f"{holes_key}[{k}]"
+            hp = self.ring(h, hk, "hole")
+            if not shell.contains(hp):
+                raise self.err(hk, "the hole is not inside the outer ring (vertices)")
+            rings.append(np.asarray(hp.exterior.coords))
+        poly = Polygon(np.asarray(shell.exterior.coords), rings)
+        if not poly.is_valid:
+            reason = shapely.is_valid_reason(poly)
+            raise self.err(holes_key, f"holes overlap each other or cut the outer ring "
+                                      f"({reason})")
+        if not poly.area > 0:
+            raise self.err(holes_key, "the holes leave no area")
         return shapely.geometry.polygon.orient(poly, 1.0)
 
 
@@ -411,29 +532,73 @@ def _parse_obstacle(ctx: _Ctx, o: Any, i: int) -> Obstacle:
     known = o.get("known", True)
     if not isinstance(known, bool):
         raise ctx.err(f"{pre}known", f"expected true or false, got {known!r}")
-    name = str(o.get("name", f"obstacle{i}"))
+    name = ctx.string(o, "name", pre, f"obstacle{i}")
     if kind == "circle":
-        c = ctx.point(ctx.require(o, "center", pre), f"{pre}center")
-        r = ctx.number(ctx.require(o, "radius", pre), f"{pre}radius", positive=True)
-        geom = Point(c).buffer(r, quad_segs=CIRCLE_QUAD_SEGS)
-        return Obstacle("circle", geom, known, name, center=c, radius=r)
+        c = ctx.point(ctx.require(o, "center", pre), f"{pre}center", coord=True)
+        r = ctx.number(ctx.require(o, "radius", pre), f"{pre}radius", positive=True, coord=True)
+        return Obstacle("circle", None, known, name, center=c, radius=r)
     if kind == "rectangle":
         if ("min" in o or "max" in o) and ("center" in o or "size" in o):
             raise ctx.err(f"{pre}center", "give either min/max or center/size, not both")
         if "min" in o or "max" in o:
-            lo = ctx.point(ctx.require(o, "min", pre), f"{pre}min")
-            hi = ctx.point(ctx.require(o, "max", pre), f"{pre}max")
+            key = f"{pre}min"
+            lo = ctx.point(ctx.require(o, "min", pre), f"{pre}min", coord=True)
+            hi = ctx.point(ctx.require(o, "max", pre), f"{pre}max", coord=True)
         else:
-            c = ctx.point(ctx.require(o, "center", pre), f"{pre}center")
-            s = ctx.point(ctx.require(o, "size", pre), f"{pre}size")
+            key = f"{pre}center"
+            c = ctx.point(ctx.require(o, "center", pre), f"{pre}center", coord=True)
+            s = ctx.point(ctx.require(o, "size", pre), f"{pre}size", coord=True)
             lo, hi = c - s / 2, c + s / 2
         if np.any(hi <= lo):
             raise ctx.err(f"{pre}max", "rectangle needs min < max in both axes, got "
                           f"{lo.tolist()} {hi.tolist()}")
         verts = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
-        return Obstacle("rectangle", ctx.polygon(verts, pre + "min"), known, name)
-    verts = ctx.points(ctx.require(o, "vertices", pre), f"{pre}vertices", 3)
-    return Obstacle("polygon", ctx.polygon(verts, f"{pre}vertices"), known, name)
+        return Obstacle("rectangle", ctx.polygon(verts, key), known, name)
+    verts = ctx.points(ctx.require(o, "vertices", pre), f"{pre}vertices", 3, coord=True)
+    holes = None
+    if "holes" in o:
+        raw = o["holes"]
+        if not isinstance(raw, list):
+            raise ctx.err(f"{pre}holes", "expected a list of rings [[[x, y], ...], ...]")
+        holes = [ctx.points(h, f"{pre}holes[{k}]", 3, coord=True) for k, h in enumerate(raw)]
+    poly = ctx.polygon(verts, f"{pre}vertices", holes, f"{pre}holes")
+    return Obstacle("polygon", poly, known, name)
+
+
+def _extent_key(o: dict, i: int) -> str:
+    """The key named when obstacle ``i`` has coordinates the map's frame cannot resolve."""
+    pre = f"obstacles[{i}]."
+    kind = o.get("type")
+    if kind == "circle":
+        return pre + "center"
+    if kind == "rectangle":
+        return pre + ("min" if "min" in o else "center")
+    return pre + "vertices"
+
+
+def _check_extent(ctx: _Ctx, frame, o: Obstacle, key: str, margin: float) -> None:
+    """Reject an obstacle reaching into the working region (bounds grown by ``margin``) with
+    coordinates beyond :meth:`~optplan.geometry.Frame.check_extent`; the same region and extent
+    as :func:`optplan.geometry.clip_obstacles` (obstacles outside it are ignored there)."""
+    x0, y0, x1, y1 = frame.local_bounds
+    lo = np.array([x0 - margin, y0 - margin])
+    hi = np.array([x1 + margin, y1 + margin])
+    if o.is_circle:
+        c = frame.local(o.center)
+        R = float(o.radius)
+        if np.any(c + R < lo) or np.any(c - R > hi):
+            return
+        extent = float(np.max(np.abs(c))) + R
+    else:
+        wx0, wy0, wx1, wy1 = o.geometry.bounds
+        blo, bhi = frame.local([wx0, wy0]), frame.local([wx1, wy1])
+        if np.any(bhi < lo) or np.any(blo > hi):
+            return
+        extent = float(max(np.max(np.abs(blo)), np.max(np.abs(bhi))))
+    try:
+        frame.check_extent(extent, f"obstacle {o.name!r}")
+    except ValueError as e:
+        raise ctx.err(key, str(e)) from None
 
 
 def _parse_dynamic(ctx: _Ctx, o: Any, i: int) -> DynamicObstacle:
@@ -444,17 +609,19 @@ def _parse_dynamic(ctx: _Ctx, o: Any, i: int) -> DynamicObstacle:
     kind = ctx.require(o, "type", pre)
     radius = None
     if kind == "circle":
-        radius = ctx.number(ctx.require(o, "radius", pre), f"{pre}radius", positive=True)
+        radius = ctx.number(ctx.require(o, "radius", pre), f"{pre}radius", positive=True,
+                            coord=True)
         local = Point(0.0, 0.0).buffer(radius, quad_segs=CIRCLE_QUAD_SEGS)
     elif kind == "polygon":
-        verts = ctx.points(ctx.require(o, "vertices", pre), f"{pre}vertices", 3)
+        verts = ctx.points(ctx.require(o, "vertices", pre), f"{pre}vertices", 3, coord=True)
         local = ctx.polygon(verts, f"{pre}vertices")
     else:
         raise ctx.err(f"{pre}type", f"dynamic obstacles are 'circle' or 'polygon', got {kind!r}")
-    wps = ctx.points(ctx.require(o, "waypoints", pre), f"{pre}waypoints", 1)
+    name = ctx.string(o, "name", pre, f"dynamic{i}")
+    wps = ctx.points(ctx.require(o, "waypoints", pre), f"{pre}waypoints", 1, coord=True)
     velocity = None
     if "velocity" in o:
-        velocity = ctx.point(o["velocity"], f"{pre}velocity")
+        velocity = ctx.point(o["velocity"], f"{pre}velocity", coord=True)
         if len(wps) != 1:
             raise ctx.err(f"{pre}waypoints", "with 'velocity' give exactly one start waypoint")
         raw_t = o.get("times", [0.0])
@@ -471,8 +638,7 @@ def _parse_dynamic(ctx: _Ctx, o: Any, i: int) -> DynamicObstacle:
     after = o.get("after", "hold")
     if after not in ("hold", "loop", "bounce"):
         raise ctx.err(f"{pre}after", f"expected 'hold', 'loop' or 'bounce', got {after!r}")
-    return DynamicObstacle(kind, local, times, wps, velocity, after,
-                           str(o.get("name", f"dynamic{i}")), radius)
+    return DynamicObstacle(kind, local, times, wps, velocity, after, name, radius)
 
 
 def parse_problem(data: dict, where: str = "<problem>") -> Problem:
@@ -487,14 +653,21 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
     if not isinstance(data, dict):
         raise ctx.err("<root>", "expected a table")
     ctx.check_keys(data, _TOP_KEYS, "")
-    name = str(ctx.require(data, "name", ""))
+    name = ctx.string(data, "name", "")
+    description = ctx.string(data, "description", "", "")
+    source = ctx.string(data, "source", "", "")
     b = ctx.require(data, "bounds", "")
     if not isinstance(b, list) or len(b) != 4:
         raise ctx.err("bounds", "expected [xmin, ymin, xmax, ymax]")
     bounds = tuple(ctx.number(v, f"bounds[{k}]") for k, v in enumerate(b))
     if bounds[0] >= bounds[2] or bounds[1] >= bounds[3]:
         raise ctx.err("bounds", f"need xmin < xmax and ymin < ymax, got {list(bounds)}")
-    box = shapely.box(*bounds)
+    from optplan.geometry import Frame
+
+    try:
+        frame = Frame.from_bounds(bounds)
+    except ValueError as e:
+        raise ctx.err("bounds", str(e)) from None
 
     for key in ("obstacles", "dynamic_obstacles", "robots"):
         if key in data and not isinstance(data[key], list):
@@ -526,7 +699,7 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
         goal = None
         if "goal" in r or rid not in follower_ids:
             goal = ctx.point(ctx.require(r, "goal", pre), f"{pre}goal")
-        radius = ctx.number(ctx.require(r, "radius", pre), f"{pre}radius", positive=True)
+        radius = ctx.number(ctx.require(r, "radius", pre), f"{pre}radius", nonneg=True)
         vmax = ctx.number(r.get("max_speed", 1.0), f"{pre}max_speed", positive=True)
         robots.append(Robot(rid, start, goal, radius, vmax))
 
@@ -563,6 +736,9 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
                 raise ctx.err(f"{pre}phi", f"must be in [-pi, pi] rad, got {phi}")
             followers.append(Follower(fid, L, phi))
         rmax = max(r.radius for r in robots)
+        if "safety_distance" not in formation_tbl and rmax == 0:
+            raise ctx.err("formation.safety_distance", "missing: the default 2 x the largest "
+                          "robot radius is 0 for point robots; give safety_distance > 0")
         sd = ctx.number(formation_tbl.get("safety_distance", 2 * rmax),
                         "formation.safety_distance", positive=True)
         formation = Formation(leader, tuple(followers), sd)
@@ -584,26 +760,32 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
     prob = Problem(
         name=name, bounds=bounds, robots=tuple(robots), obstacles=obstacles,
         dynamic_obstacles=dyn, formation=formation, sensing_range=sensing,
-        goal_tolerance=gtol, description=str(data.get("description", "")),
-        source=str(data.get("source", "")), tags=tuple(tags),
+        goal_tolerance=gtol, description=description, source=source, tags=tuple(tags),
         path=where if where != "<problem>" else None,
     )
-    # starts and goals: inside bounds and outside the inflated static obstacles
+    prob._cache["frame"] = frame
+    # obstacles reaching into the working region must be resolvable in the map's frame
+    margin = max(r.radius for r in robots) + frame.length
+    raw_obst = data.get("obstacles", [])
+    for i, o in enumerate(obstacles):
+        _check_extent(ctx, frame, o, _extent_key(raw_obst[i], i), margin)
+    # starts and goals: inside the bounds and clear of every static obstacle (exact test)
     for i, r in enumerate(robots):
-        infl = prob.inflated(r.radius)
         for key, p in (("start", r.start), ("goal", r.goal)):
             if p is None:
                 continue
-            if not box.covers(Point(p)):
+            if not frame.in_bounds(p)[0]:
                 raise ctx.err(f"robots[{i}].{key}",
                               f"{p.tolist()} lies outside the bounds {list(bounds)}")
-            hit = infl.containing(p)
+            try:
+                hit = prob.blocking_obstacle(p, r.radius)
+            except ValueError as e:  # the core's precision checks (normally caught above)
+                raise ctx.err("obstacles", str(e)) from None
             if hit is not None:
-                raise ctx.err(
-                    f"robots[{i}].{key}",
-                    f"{p.tolist()} lies inside obstacle {hit!r} inflated by the robot radius "
-                    f"{r.radius:g}",
-                )
+                how = (f"inflated by the robot radius {r.radius:g}" if r.radius > 0
+                       else "(a point robot, radius 0)")
+                raise ctx.err(f"robots[{i}].{key}", f"{p.tolist()} lies inside obstacle "
+                              f"{obstacles[hit].name!r} (obstacles[{hit}]) {how}")
     return prob
 
 

@@ -64,6 +64,12 @@ def team_result(scene: op.Problem) -> Result:
     )
 
 
+def _robot_discs(ax) -> list:
+    """Circle patches that are not the circle obstacle (centre (25, 70)) or its outline."""
+    return [p for p in ax.patches if type(p).__name__ == "Circle"
+            and tuple(p.center) != (25.0, 70.0)]
+
+
 def _png_ok(path) -> None:
     assert path.is_file() and path.stat().st_size > 1000
     with PIL.open(path) as im:
@@ -80,13 +86,38 @@ def test_plot_problem_draws_everything(scene, tmp_path):
     assert "temporary obstacle" in labels and "moving obstacle track" in labels
     assert any(lab.startswith("inflated") for lab in labels)
     assert ax.get_xlim()[0] < 0 < 100 < ax.get_xlim()[1]
+    # the circle obstacle is a true circle (exact centre and radius) and so is its inflated
+    # outline (R + r), dashed and unfilled
+    circles = [p for p in ax.patches if type(p).__name__ == "Circle"
+               and tuple(p.center) == (25.0, 70.0)]
+    assert sorted(c.radius for c in circles) == [8.0, 10.0]
+    filled = next(c for c in circles if c.radius == 8.0)
+    assert filled.get_hatch() == "//" and filled.get_fill()
+    outline = next(c for c in circles if c.radius == 10.0)
+    assert not outline.get_fill() and outline.get_linestyle() == "--"
     fig.savefig(tmp_path / "map.png")
     _png_ok(tmp_path / "map.png")
 
 
 def test_plot_problem_without_inflation_has_no_dashed_outline(scene):
-    labels = plot.plot_problem(scene, inflate=False).axes[0].get_legend_handles_labels()[1]
+    ax = plot.plot_problem(scene, inflate=False).axes[0]
+    labels = ax.get_legend_handles_labels()[1]
     assert not any(lab.startswith("inflated") for lab in labels)
+    assert [p.radius for p in ax.patches if type(p).__name__ == "Circle"
+            and tuple(p.center) == (25.0, 70.0)] == [8.0]
+
+
+def test_plot_problem_holes_and_point_robot():
+    """A polygon with a hole is drawn with the hole; a point robot gets no inflated outline."""
+    prob = op.parse_problem({
+        "name": "holes", "bounds": [0, 0, 100, 100],
+        "robots": [{"id": "p", "start": [50, 50], "goal": [90, 90], "radius": 0}],
+        "obstacles": [{"type": "polygon", "vertices": [[30, 30], [70, 30], [70, 70], [30, 70]],
+                       "holes": [[[40, 40], [60, 40], [60, 60], [40, 60]]]}]})
+    ax = plot.plot_problem(prob).axes[0]
+    assert not any(lab.startswith("inflated") for lab in ax.get_legend_handles_labels()[1])
+    path = next(p for p in ax.patches if p.get_label() == "obstacle").get_path()
+    assert list(path.codes).count(path.MOVETO) == 2  # outer ring and the hole
 
 
 def test_plot_result_team_with_extras(scene, team_result, tmp_path):
@@ -96,14 +127,12 @@ def test_plot_result_team_with_extras(scene, team_result, tmp_path):
     labels = fig.axes[0].get_legend_handles_labels()[1]
     assert {"global path", "inflection points", "L (leader)", "F1", "F2"} <= set(labels)
     # snapshots at steps 0, 6, 12, 18, 24: 3 robot discs each plus the 3 start circles
-    discs = [p for p in fig.axes[0].patches if type(p).__name__ == "Circle"]
-    assert len(discs) == 3 + 5 * 3
+    assert len(_robot_discs(fig.axes[0])) == 3 + 5 * 3
 
 
 def test_plot_result_snapshots_can_be_disabled(scene, team_result):
     fig = plot.plot_result(team_result, problem=scene, snapshot_every=0)
-    discs = [p for p in fig.axes[0].patches if type(p).__name__ == "Circle"]
-    assert len(discs) == 3
+    assert len(_robot_discs(fig.axes[0])) == 3
 
 
 def test_plot_result_loads_catalogue_problem(tmp_path):

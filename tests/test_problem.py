@@ -47,7 +47,7 @@ BAD_CASES: dict[str, tuple[str, str]] = {
     "degenerate-polygon": ("obstacles[0].vertices", "degenerate"),
     "self-intersecting-polygon": ("obstacles[0].vertices", "self-intersecting"),
     "zero-circle-radius": ("obstacles[0].radius", "> 0"),
-    "negative-robot-radius": ("robots[0].radius", "> 0"),
+    "negative-robot-radius": ("robots[0].radius", ">= 0"),
     "zero-dynamic-radius": ("dynamic_obstacles[0].radius", "> 0"),
     "inverted-rectangle": ("obstacles[0].max", "min < max"),
     "bounds-min-ge-max": ("bounds", "xmin < xmax"),
@@ -134,11 +134,21 @@ def test_reconstructions_say_so(name):
 # --------------------------------------------------------------------------------------
 
 
+def _shape(o, grow: float = 0.0, quad_segs: int = 64):
+    """Shapely region of obstacle ``o`` grown by ``grow``, inscribed in the exact one (a circle's
+    or a rounded corner's polygon has its vertices on the true arc): any length inside it is a
+    true overlap."""
+    if o.is_circle:
+        return shapely.Point(o.center).buffer(o.radius + grow, quad_segs=quad_segs)
+    return o.geometry.buffer(grow, quad_segs=quad_segs) if grow > 0 else o.geometry
+
+
 def _interior_overlap(path: np.ndarray, problem: op.Problem, robot, known_only: bool) -> float:
-    """Length of ``path`` strictly inside the inflated obstacles, by shapely (independent check)."""
-    imap = problem.inflated(robot.radius, known_only=known_only)
+    """Length of ``path`` strictly inside the obstacles inflated by the robot radius, by shapely
+    (independent of the geometry core)."""
     line = shapely.LineString(path)
-    return float(sum(line.intersection(part.buffer(-1e-6)).length for part in imap.parts))
+    return float(sum(line.intersection(_shape(o, robot.radius).buffer(-1e-6)).length
+                     for o in problem.static_obstacles(known_only)))
 
 
 @pytest.mark.parametrize("name, lo, hi", [("paper-env1", 725.0, 750.0),
@@ -150,8 +160,9 @@ def test_pso_maps_optimum_in_paper_range(name, lo, hi):
     straight = float(np.hypot(*(rob.goal - rob.start)))
     length = r.metrics["length"]
     assert lo <= length <= hi
-    assert r.metrics["length_inscribed"] <= r.metrics["length_circumscribed"] + 1e-9
-    assert r.metrics["length_circumscribed"] - r.metrics["length_inscribed"] < 0.5
+    # the exact optimum (segments + arcs) is below the returned circumscribed polyline
+    assert r.metrics["length_exact"] <= length + 1e-9
+    assert length - r.metrics["length_exact"] < 0.5
     # the straight line is blocked, and the returned path is really collision-free
     assert _interior_overlap(np.vstack([rob.start, rob.goal]), p, rob, True) > 0
     assert _interior_overlap(r.paths[rob.id], p, rob, True) == pytest.approx(0.0, abs=1e-6)
@@ -205,7 +216,7 @@ def test_hybrid_scene_temporary_obstacles_block_known_optimum():
     line = shapely.LineString(r.paths[rob.id])
     for o in p.obstacles:
         if not o.known:
-            assert line.intersects(o.geometry), o.name
+            assert line.intersects(_shape(o)), o.name
     # avoidable: planning around them too is feasible and a little longer
     full = op.get_solver("visgraph", see_temporary=True).solve(p)
     assert full.metrics["length"] > r.metrics["length"]
@@ -413,3 +424,240 @@ followers = [{ id = "f", L = 10.0, phi = 0.0 }]
     assert p.formation.safety_distance == pytest.approx(3.0)  # 2 x the largest radius
     assert p.robot("f").goal is None
     assert p.planned_robots == [p.robot("r")]
+
+
+# --------------------------------------------------------------------------------------
+# exact obstacle model: closing vertex, circles, point robots, holes, precision limits
+# --------------------------------------------------------------------------------------
+
+
+def _scene(obstacles, robot=None, bounds=(0.0, 0.0, 100.0, 100.0), **top):
+    rob = {"id": "r", "start": [5.0, 5.0], "goal": [95.0, 95.0], "radius": 1.0}
+    rob.update(robot or {})
+    return {"name": "t", "bounds": list(bounds), "robots": [rob], "obstacles": obstacles, **top}
+
+
+def _parse(data):
+    return op.parse_problem(data, "scene.toml")
+
+
+def _reject(data) -> str:
+    with pytest.raises(op.ProblemError) as ei:
+        _parse(data)
+    msg = str(ei.value)
+    assert msg.startswith("scene.toml: ") and "\n" not in msg
+    return msg
+
+
+def _n_vertices(o) -> int:
+    return len(o.geometry.exterior.coords) - 1
+
+
+_SQ = [[40.0, 40.0], [50.0, 40.0], [50.0, 50.0], [40.0, 50.0]]
+
+
+def test_closing_vertex_exact_repeat_is_dropped():
+    p = _parse(_scene([{"type": "polygon", "vertices": _SQ + [_SQ[0]]}]))
+    assert _n_vertices(p.obstacles[0]) == 4
+
+
+def test_closing_vertex_near_repeat_relative_to_size():
+    size = math.hypot(10.0, 10.0)
+    near = [[40.0 + 0.5e-12 * size, 40.0]]  # within 1e-12 x size of the first: a repeat
+    p = _parse(_scene([{"type": "polygon", "vertices": _SQ + near}]))
+    assert _n_vertices(p.obstacles[0]) == 4
+    far = [[40.0, 40.0 + 1e-6]]  # a real (short) edge: kept
+    p = _parse(_scene([{"type": "polygon", "vertices": _SQ + far}]))
+    assert _n_vertices(p.obstacles[0]) == 5
+    # relative to the polygon's own size, not to the coordinates: a tiny polygon keeps a
+    # vertex 1e-9 from its first one (np.allclose would have dropped it)
+    tiny = [[50.0, 50.0], [50.0 + 1e-8, 50.0], [50.0 + 1e-8, 50.0 + 1e-8], [50.0, 50.0 + 1e-8],
+            [50.0, 50.0 + 5e-9]]
+    p = _parse(_scene([{"type": "polygon", "vertices": tiny}]))
+    assert _n_vertices(p.obstacles[0]) == 5
+
+
+def test_utm_rectangles_keep_four_vertices():
+    y0 = 5.0e6
+    bounds = (0.0, y0 - 50.0, 100.0, y0 + 50.0)
+    robot = {"start": [5.0, y0 - 45.0], "goal": [95.0, y0 + 45.0]}
+    obst = [{"type": "polygon", "vertices": [[20.0, y0], [30.0, y0], [30.0, y0 + 10.0],
+                                             [20.0, y0 + 10.0]]},
+            {"type": "rectangle", "min": [60.0, y0], "max": [70.0, y0 + 10.0]},
+            {"type": "rectangle", "center": [45.0, y0 - 20.0], "size": [10.0, 10.0]}]
+    p = _parse(_scene(obst, robot, bounds))
+    for o in p.obstacles:
+        assert _n_vertices(o) == 4
+        assert o.geometry.area == pytest.approx(100.0)
+    # the exact start check works there too: 0.5 from the polygon with radius 1 is rejected
+    bad = dict(robot, start=[19.5, y0 + 5.0])
+    assert "robots[0].start: " in _reject(_scene(obst, bad, bounds))
+
+
+def test_circles_are_exact_not_polygonised():
+    p = _parse(_scene([{"type": "circle", "center": [50.0, 50.0], "radius": 10.0}]))
+    o = p.obstacles[0]
+    assert o.is_circle and o.geometry is None
+    np.testing.assert_array_equal(o.center, [50.0, 50.0])
+    assert o.radius == 10.0 and o.bounds == (40.0, 40.0, 60.0, 60.0)
+    # a start at distance exactly r from the true circle is allowed (a 16-segment polygon
+    # would have been off by ~0.2 % of the radius in either direction)
+    d = 11.0 / math.sqrt(2.0)
+    ok = _parse(_scene([{"type": "circle", "center": [50.0, 50.0], "radius": 10.0}],
+                       {"start": [50.0 + d, 50.0 + d]}))
+    assert ok.blocking_obstacle(ok.robots[0].start, 1.0) is None
+    msg = _reject(_scene([{"type": "circle", "center": [50.0, 50.0], "radius": 10.0,
+                           "name": "disc"}], {"start": [50.0 + 0.99 * d, 50.0 + 0.99 * d]}))
+    assert "robots[0].start: " in msg and "'disc'" in msg and "obstacles[0]" in msg
+    assert "radius 1" in msg
+
+
+def test_point_robot_radius_zero_and_goal_tol():
+    obst = [{"type": "rectangle", "min": [40.0, 40.0], "max": [60.0, 60.0]}]
+    p = _parse(_scene(obst, {"radius": 0, "start": [40.0, 50.0]}))  # on the boundary
+    r = p.robots[0]
+    assert r.radius == 0.0
+    assert p.goal_tol(r) == pytest.approx(1e-6 * p.extent)
+    assert p.goal_tol(r) == pytest.approx(1e-6 * math.hypot(100.0, 100.0))
+    # a given goal_tolerance wins; robots with a radius default to it
+    assert _parse(_scene(obst, {"radius": 0}, goal_tolerance=0.5)).goal_tol(r) == 0.5
+    q = _parse(_scene(obst, {"radius": 2.5}))
+    assert q.goal_tol(q.robots[0]) == 2.5
+    msg = _reject(_scene(obst, {"radius": 0, "start": [40.5, 50.0]}))
+    assert "robots[0].start: " in msg and "point robot" in msg
+    assert "robots[0].radius: " in _reject(_scene(obst, {"radius": -1.0}))
+
+
+def test_point_robot_formation_needs_safety_distance():
+    data = _scene([], {"radius": 0})
+    data["robots"].append({"id": "f", "start": [5.0, 20.0], "radius": 0})
+    data["formation"] = {"leader": "r", "followers": [{"id": "f", "L": 10.0, "phi": 0.0}]}
+    assert "formation.safety_distance: " in _reject(data)
+    data["formation"]["safety_distance"] = 1.0
+    assert _parse(data).formation.safety_distance == 1.0
+
+
+_RING = {"type": "polygon", "name": "ring",
+         "vertices": [[30.0, 30.0], [70.0, 30.0], [70.0, 70.0], [30.0, 70.0]],
+         "holes": [[[40.0, 40.0], [60.0, 40.0], [60.0, 60.0], [40.0, 60.0]]]}
+
+
+def test_polygon_holes_parse_and_start_checks():
+    p = _parse(_scene([_RING], {"start": [50.0, 50.0]}))  # in the hole's free area
+    g = p.obstacles[0].geometry
+    assert len(g.interiors) == 1 and g.area == pytest.approx(1600.0 - 400.0)
+    assert p.obstacle_set(1.0).point_distances(np.array([[50.0, 50.0]]))[0] == pytest.approx(10)
+    # near the hole's wall (closer than the radius) and inside the solid ring: rejected
+    assert "robots[0].start: " in _reject(_scene([_RING], {"start": [40.5, 50.0]}))
+    msg = _reject(_scene([_RING], {"start": [35.0, 50.0]}))
+    assert "robots[0].start: " in msg and "'ring'" in msg
+    # a closing vertex in a hole follows the same rule
+    h = dict(_RING, holes=[_RING["holes"][0] + [[40.0, 40.0]]])
+    assert len(_parse(_scene([h])).obstacles[0].geometry.interiors[0].coords) == 5
+
+
+@pytest.mark.parametrize("holes, key, text", [
+    ([[[10.0, 10.0], [20.0, 10.0], [20.0, 20.0]]], "obstacles[0].holes[0]", "inside"),
+    ([[[40.0, 40.0], [80.0, 40.0], [80.0, 60.0], [40.0, 60.0]]], "obstacles[0].holes[0]",
+     "inside"),
+    ([[[40.0, 40.0], [60.0, 60.0], [60.0, 40.0], [40.0, 60.0]]], "obstacles[0].holes[0]",
+     "self-intersecting"),
+    ([[[40.0, 40.0], [50.0, 50.0], [60.0, 60.0]]], "obstacles[0].holes[0]", "degenerate"),
+    ([[[40.0, 40.0], [60.0, 40.0]]], "obstacles[0].holes[0]", "at least 3"),
+    ([[[40.0, 40.0], [60.0, 40.0], [60.0, 60.0], [40.0, 60.0]],
+      [[50.0, 50.0], [65.0, 50.0], [65.0, 65.0], [50.0, 65.0]]], "obstacles[0].holes", "overlap"),
+    ("square", "obstacles[0].holes", "list of rings"),
+])
+def test_bad_holes_rejected(holes, key, text):
+    msg = _reject(_scene([dict(_RING, holes=holes)]))
+    assert f": {key}: " in msg and text in msg, msg
+
+
+def test_degenerate_polygons_rejected():
+    rep = [[40.0, 40.0], [50.0, 40.0], [50.0, 40.0], [40.0, 40.0]]  # repeats: 2 distinct
+    msg = _reject(_scene([{"type": "polygon", "vertices": rep}]))
+    assert ": obstacles[0].vertices: " in msg and "3 distinct" in msg
+    flat = [[40.0, 40.0], [50.0, 40.0 + 1e-14], [60.0, 40.0]]  # area 1e-13 x size^2
+    msg = _reject(_scene([{"type": "polygon", "vertices": flat}]))
+    assert ": obstacles[0].vertices: " in msg and ("zero area" in msg or "degenerate" in msg)
+    # a repeated vertex in an otherwise fine polygon is kept and harmless
+    ok = _SQ[:2] + [_SQ[1]] + _SQ[2:]
+    assert _parse(_scene([{"type": "polygon", "vertices": ok}])).obstacles[0].geometry.area \
+        == pytest.approx(100.0)
+
+
+def test_far_obstacles_are_allowed_and_ignored():
+    far = [{"type": "circle", "center": [1e11, 1e11], "radius": 1.0},
+           {"type": "polygon", "vertices": [[-1e12, 0.0], [-1e12 + 5.0, 0.0], [-1e12, 5.0]]}]
+    p = _parse(_scene(far))
+    assert len(p.obstacles) == 2
+    assert p.obstacle_set(1.0).n_items == 0
+    assert np.isinf(p.obstacle_set(1.0).point_distances(np.array([[50.0, 50.0]]))[0])
+
+
+def _precision_case(tmp_path, text: str) -> str:
+    f = tmp_path / "precision.toml"
+    f.write_text(text, encoding="utf-8")
+    msg = _err(f)
+    assert msg.startswith(f"{f}: ") and "\n" not in msg
+    return msg
+
+
+_PREC = 'name = "p"\nbounds = [0.0, 0.0, 100.0, 100.0]\n' \
+        '[[robots]]\nid = "r"\nstart = [5.0, 5.0]\ngoal = [95.0, 95.0]\nradius = 1.0\n'
+
+
+def test_precision_bounds_too_large(tmp_path):
+    msg = _precision_case(tmp_path, _PREC.replace("100.0, 100.0]", "1e155, 1e155]"))
+    assert ": bounds: " in msg and "supported range" in msg
+
+
+def test_precision_bounds_far_from_origin(tmp_path):
+    msg = _precision_case(tmp_path, _PREC.replace(
+        "bounds = [0.0, 0.0, 100.0, 100.0]", "bounds = [1e12, 0.0, 1.00000000001e12, 100.0]"))
+    assert ": bounds: " in msg
+
+
+def test_precision_polygon_vertex_at_1e15_crossing_the_map(tmp_path):
+    msg = _precision_case(tmp_path, _PREC + '[[obstacles]]\ntype = "polygon"\nname = "wedge"\n'
+                          "vertices = [[40.0, 40.0], [60.0, 40.0], [1e15, 1e15], [40.0, 1e15]]\n")
+    assert ": obstacles[0].vertices: " in msg and "'wedge'" in msg
+    assert "double precision" in msg
+    # a sliver (width 20, length 1.4e15) is degenerate relative to its own size
+    msg = _precision_case(tmp_path, _PREC + '[[obstacles]]\ntype = "polygon"\n'
+                          "vertices = [[40.0, 40.0], [60.0, 40.0], [1e15, 1e15]]\n")
+    assert ": obstacles[0].vertices: " in msg and "zero area" in msg
+
+
+def test_precision_circle_centre_minus_1e300(tmp_path):
+    msg = _precision_case(tmp_path, _PREC + '[[obstacles]]\ntype = "circle"\n'
+                          "center = [-1e300, 50.0]\nradius = 1.0\n")
+    assert ": obstacles[0].center[0]: " in msg and "1e+300" in msg
+
+
+def test_precision_huge_circle_reaching_in(tmp_path):
+    msg = _precision_case(tmp_path, _PREC + '[[obstacles]]\ntype = "circle"\n'
+                          "center = [-1e20, 50.0]\nradius = 1.00000000001e20\n")
+    assert ": obstacles[0].center: " in msg and "double precision" in msg
+
+
+def test_precision_rectangle_reaching_in(tmp_path):
+    msg = _precision_case(tmp_path, _PREC + '[[obstacles]]\ntype = "rectangle"\n'
+                          "center = [50.0, 50.0]\nsize = [1e12, 10.0]\n")
+    assert ": obstacles[0].center: " in msg
+
+
+@pytest.mark.parametrize("patch, key", [
+    ({"name": 3}, "name"),
+    ({"description": 1.5}, "description"),
+    ({"source": ["paper"]}, "source"),
+    ({"obstacles": [{"type": "circle", "center": [50, 50], "radius": 2, "name": 7}]},
+     "obstacles[0].name"),
+    ({"dynamic_obstacles": [{"type": "circle", "radius": 2, "waypoints": [[50, 50]],
+                             "times": [0], "name": True}]}, "dynamic_obstacles[0].name"),
+])
+def test_strings_must_be_strings(patch, key):
+    data = _scene([])
+    data.update(patch)
+    msg = _reject(data)
+    assert f"scene.toml: {key}: expected a string" in msg, msg

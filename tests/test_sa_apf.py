@@ -106,6 +106,24 @@ def test_jitter_variants_are_seeded_and_valid():
     assert not a[1].obstacles[0].geometry.equals(a[0].obstacles[0].geometry)
 
 
+def test_jitter_moves_exact_circles():
+    """A circle obstacle moves its exact centre and stays unpolygonised; starts stay clear."""
+    base, *var = traps.variants("trap-gnron", 3, 0, 4.0)
+    o0 = base.obstacles[0]
+    assert o0.is_circle and o0.geometry is None
+    for p in var:
+        o = p.obstacles[0]
+        assert o.is_circle and o.geometry is None and o.radius == o0.radius
+        d = o.center - o0.center
+        assert 0 < np.max(np.abs(d)) <= 4.0
+        x0, y0, x1, y1 = p.bounds
+        bx0, by0, bx1, by1 = o.bounds
+        assert x0 <= bx0 and y0 <= by0 and bx1 <= x1 and by1 <= y1
+        r = p.robots[0]
+        dist = p.obstacle_set(r.radius).point_distances(np.array([r.start, r.goal]))
+        assert np.all(dist >= r.radius - p.frame.eps)
+
+
 def _check_stats(n_variants: int, min_rate: float):
     rows = traps.run(n_variants=n_variants, seed=0)
     for r in rows:  # never solved with a collision

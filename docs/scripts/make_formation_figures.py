@@ -13,6 +13,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.patches import Circle  # noqa: E402
 
 import optplan as op  # noqa: E402
 
@@ -23,8 +24,12 @@ SOLVERS = (("leader-follower-paper", "leader-follower-paper (eqs 39-52)"),
 
 def draw(ax, prob: op.Problem, res: op.Result, title: str, n_snap: int = 10) -> None:
     for o in prob.obstacles:
-        x, y = o.geometry.exterior.xy
-        ax.fill(x, y, color="0.25" if o.known else "0.6", alpha=0.8, lw=0)
+        colour = "0.25" if o.known else "0.6"
+        if o.is_circle:  # exact centre and radius (circles have no polygon geometry)
+            ax.add_patch(Circle(tuple(o.center), o.radius, color=colour, alpha=0.8, lw=0))
+        else:
+            x, y = o.geometry.exterior.xy
+            ax.fill(x, y, color=colour, alpha=0.8, lw=0)
     for d in prob.dynamic_obstacles:
         for t in res.times[:: max(1, len(res.times) // 8)]:
             x, y = d.geometry_at(t).exterior.xy

@@ -5,7 +5,8 @@
 For every trap scene (``trap-saddle``, ``trap-gnron``, ``trap-channel``, ``trap-u``) the
 catalogue scene and ``N`` seeded variants (every obstacle translated by a uniform random offset
 in ``[-J, J]^2``, drawn from ``numpy.random.default_rng(seed)``; offsets that would put the start
-or goal inside an inflated obstacle are redrawn) are solved by each solver.  Printed per trap
+or goal within the robot radius of an obstacle (exact test, :meth:`Problem.blocking_obstacle`)
+or move an obstacle out of the bounds are redrawn) are solved by each solver.  Printed per trap
 and solver: success rate, median time to goal and median length ratio to the ``visgraph``
 optimum (over successful runs), local minima detected, escapes, SA steps, statuses and the
 median wall time.
@@ -33,20 +34,22 @@ SOLVERS = ("apf-paper", "sa-apf-paper")
 
 
 def _moved(o: Obstacle, d: np.ndarray) -> Obstacle:
+    """``o`` translated by ``d``: circles move their exact centre (no geometry), polygons
+    their shapely polygon."""
+    if o.is_circle:
+        return dataclasses.replace(o, center=o.center + d)
     g = shapely.affinity.translate(o.geometry, float(d[0]), float(d[1]))
-    c = None if o.center is None else o.center + d
-    return dataclasses.replace(o, geometry=g, center=c)
+    return dataclasses.replace(o, geometry=g)
 
 
 def _valid(prob: Problem) -> bool:
     x0, y0, x1, y1 = prob.bounds
     for r in prob.robots:
-        imap = prob.inflated(r.radius)
         for p in (r.start, r.goal):
-            if p is not None and imap.containing(p) is not None:
+            if p is not None and prob.blocking_obstacle(p, r.radius) is not None:
                 return False
     for o in prob.obstacles:
-        bx0, by0, bx1, by1 = o.geometry.bounds
+        bx0, by0, bx1, by1 = o.bounds
         if bx0 < x0 or by0 < y0 or bx1 > x1 or by1 > y1:
             return False
     return True
@@ -56,8 +59,8 @@ def jitter_problem(problem: Problem, rng: np.random.Generator, jitter: float,
                    name: str | None = None, tries: int = 100) -> Problem:
     """A copy of ``problem`` with every static obstacle translated by ``U[-jitter, jitter]^2``.
 
-    Offsets are redrawn (up to ``tries`` times) while a start or goal would lie inside an
-    inflated obstacle or an obstacle would leave the bounds.
+    Offsets are redrawn (up to ``tries`` times) while a start or goal would lie within the
+    robot radius of an obstacle (exact) or an obstacle would leave the bounds.
     """
     for _ in range(tries):
         d = rng.uniform(-jitter, jitter, size=(len(problem.obstacles), 2))
