@@ -33,7 +33,7 @@ def polygon(geom, name: str = "p") -> Obstacle:
 
 
 def random_map(rng: np.random.Generator, k: int) -> list[Obstacle]:
-    """``k`` random obstacles: circles, star-shaped (often non-convex) polygons, rings with holes."""
+    """``k`` random obstacles: circles, star-shaped (often non-convex) polygons, holed rings."""
     out = []
     for i in range(k):
         c = rng.uniform(10, 90, 2)
@@ -121,7 +121,7 @@ def test_validator_agrees_with_an_independent_oracle_on_1000_random_maps() -> No
 def test_clearance_and_nearest_match_the_oracle() -> None:
     rng = np.random.default_rng(7)
     frame = Frame.from_bounds(BOUNDS)
-    for trial in range(60):
+    for _trial in range(60):
         obs = random_map(rng, 4)
         r = float(rng.uniform(0, 5))
         oset = obstacle_set(obs, r, frame)
@@ -184,7 +184,7 @@ def test_point_robot_along_an_internal_diagonal_collides() -> None:
 
 def test_convex_pieces_tile_the_polygon_and_flag_the_boundary() -> None:
     rng = np.random.default_rng(3)
-    for k in range(30):
+    for _k in range(30):
         obs = [o for o in random_map(rng, 3) if not o.is_circle]
         for o in obs:
             pieces = convex_pieces(o.geometry, 4)

@@ -105,7 +105,6 @@ def clip_obstacles(obstacles: Sequence, frame: Frame, margin: float) -> list[tup
     x0, y0, x1, y1 = frame.local_bounds
     lo = np.array([x0 - margin, y0 - margin])
     hi = np.array([x1 + margin, y1 + margin])
-    box = shapely.box(lo[0], lo[1], hi[0], hi[1])
     out: list[tuple[int, object]] = []
     for i, o in enumerate(obstacles):
         label = f"obstacle {i} ({o.name!r})" if getattr(o, "name", "") else f"obstacle {i}"
