@@ -160,15 +160,11 @@ def cmd_show(args: argparse.Namespace, out: TextIO) -> int:
     ref = solve(prob, "visgraph")
     if ref.status.value != "optimal":
         print(f"  visgraph: {ref.status.value}: {ref.message}", file=out)
-    if "length_inscribed" in ref.metrics:
-        m = ref.metrics
-        lens = m.get("lengths", {})
-        for rid, length in lens.items():
-            line = f"  visgraph optimum ({rid}, known static map): {length:.4f}"
-            if rid == m.get("leader") and m.get("length_circumscribed") is not None:
-                line += (f"  (disc-robot bracket [{m['length_inscribed']:.4f}, "
-                         f"{m['length_circumscribed']:.4f}])")
-            print(line, file=out)
+    exact = ref.metrics.get("lengths_exact", {})
+    for rid, length in exact.items():
+        poly = ref.metrics.get("lengths", {}).get(rid, float("nan"))
+        print(f"  visgraph optimum ({rid}, known static map): {length:.4f} exact "
+              f"(segments + arcs; returned polyline {poly:.4f})", file=out)
     if args.out:
         from optplan.plot import plot_problem
 
