@@ -1,9 +1,9 @@
 """The one validator: every solver's result is graded here, never by the solver itself.
 
 :func:`evaluate` checks bounds, static obstacles (known and temporary alike: temporary
-obstacles are real even if a global planner cannot see them), contacts with dynamic obstacles at
-the time stamps of a trajectory, goal reach, lengths, clearances and, for teams, separation and
-formation error.
+obstacles are real even if a global planner cannot see them), contacts with dynamic obstacles and
+between robots *in continuous time* (a geometric path is timed at the robot's ``max_speed``),
+goal reach, lengths, clearances and, for teams, separation and formation error.
 
 Static feasibility is exact (:class:`optplan.geometry.ObstacleSet`): a segment is free when its
 Euclidean distance to every true polygon and circle is ``>= r - eps``, ``eps = 1e-9 x`` the
@@ -14,14 +14,16 @@ shows a negative clearance.
 
 from __future__ import annotations
 
+import itertools
 from typing import Any
 
 import numpy as np
 
-from optplan.geometry import path_lengths
+from optplan.geometry import cumulative_length, path_lengths
+from optplan.geometry.motion import positions_at, relative_contact, shape_set, track_breakpoints
 from optplan.problem import Problem, Robot
 
-__all__ = ["evaluate", "leader_headings", "formation_errors"]
+__all__ = ["evaluate", "leader_headings", "formation_errors", "time_stamps", "time_checks"]
 
 
 
@@ -76,8 +78,8 @@ def formation_errors(problem: Problem, paths: dict[str, np.ndarray]) -> dict[str
     return {"position": pos, "distance": dist - L, "angle": ang}
 
 
-def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray,
-                   times: np.ndarray | None) -> dict[str, Any]:
+def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray) -> dict[str, Any]:
+    """Static part for one robot: bounds, exact obstacle test, clearance, goal, lengths."""
     frame = problem.frame
     tol = frame.eps
     in_bounds = bool(np.all(frame.in_bounds(path)))
@@ -86,13 +88,6 @@ def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray,
     cr = oset.crossings(seg_path[None], details=True)
     static_coll = int(cr.count[0])
     crossed = sorted({oset.names[int(k)] for k in cr.pairs[2]})
-    dyn_contacts = 0
-    min_dyn = float("inf")
-    if times is not None and problem.dynamic_obstacles:
-        for d in problem.dynamic_obstacles:
-            dist = d.distance(path, times) - robot.radius
-            min_dyn = min(min_dyn, float(dist.min()))
-            dyn_contacts += int(np.sum(dist < -tol))
     clear = float(oset.clearance(seg_path[None])[0])
     if -tol <= clear < 0.0:
         clear = 0.0  # contact within the tolerance: touching is allowed
@@ -105,17 +100,121 @@ def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray,
         "static_collisions": static_coll,
         "penetration": float(cr.penetration[0]),
         "crossed": crossed,
-        "dynamic_contacts": dyn_contacts,
         "min_clearance": float(clear),
-        "min_clearance_dynamic": float(min_dyn),
         "reached": reached,
         "starts_at_start": bool(np.hypot(*(path[0] - robot.start)) <= tol),
     }
 
 
+def time_stamps(problem: Problem, paths: dict[str, np.ndarray],
+                times: np.ndarray | None) -> dict[str, np.ndarray]:
+    """Time stamps of every path: the shared ``times`` of a simulated trajectory, else the
+    documented parameterisation of a geometric path: each robot from its start at t = 0 at its
+    ``max_speed`` (``t_k = arc length to point k / max_speed``)."""
+    if times is not None:
+        return {k: times for k in paths}
+    return {k: cumulative_length(v) / problem.robot(k).max_speed for k, v in paths.items()}
+
+
+def _shape_set(problem: Problem, k: int, radius: float):
+    key = ("moving_shape_set", k, float(radius))
+    if key not in problem._cache:
+        d = problem.dynamic_obstacles[k]
+        problem._cache[key] = shape_set(d.kind, d.radius, d.local_geometry, radius,
+                                        problem.extent)
+    return problem._cache[key]
+
+
+def _disc_set(problem: Problem, r_other: float, radius: float):
+    key = ("disc_set", float(r_other), float(radius))
+    if key not in problem._cache:
+        problem._cache[key] = shape_set("circle", r_other, None, radius, problem.extent)
+    return problem._cache[key]
+
+
+def _merged(tk: np.ndarray, extra: np.ndarray, t_end: float) -> np.ndarray:
+    return np.unique(np.concatenate([tk, extra, [0.0, t_end]]))
+
+
+def time_checks(problem: Problem, paths: dict[str, np.ndarray],
+                stamps: dict[str, np.ndarray]) -> dict[str, Any]:
+    """Exact continuous-time contacts with dynamic obstacles and between robots.
+
+    Every robot follows its polyline linearly between its stamps and holds its last position
+    until the last robot's last stamp (the horizon).  Per (robot, dynamic obstacle) and per robot
+    pair, the relative motion on the merged stamps is tested with the exact engine
+    (:mod:`optplan.geometry.motion`), so nothing can pass between two stamps unseen.
+    """
+    ids = list(paths)
+    t_end = max(float(stamps[k][-1]) for k in ids)
+    per_dyn: dict[str, float] = {}
+    contacts: list[dict] = []
+    n_dyn = 0
+    for k in ids:
+        r = problem.robot(k).radius
+        best = float("inf")
+        for j, d in enumerate(problem.dynamic_obstacles):
+            T = _merged(stamps[k], track_breakpoints(d, t_end), t_end)
+            rel = positions_at(stamps[k], paths[k], T) - d.position(T)
+            oset = _shape_set(problem, j, r)
+            best = min(best, float(oset.clearance(rel[None])[0]))
+            c = relative_contact(rel, T, oset)
+            if c is not None:
+                n_dyn += 1
+                pos = positions_at(stamps[k], paths[k], np.array([c.time]))[0]
+                contacts.append({"kind": "moving obstacle", "robot": k, "other": d.name,
+                                 "time": c.time, "position": pos.tolist()})
+        per_dyn[k] = best
+    n_sep = 0
+    min_sep = float("inf")
+    for a, b in itertools.combinations(ids, 2):
+        T = _merged(stamps[a], stamps[b], t_end)
+        rel = positions_at(stamps[a], paths[a], T) - positions_at(stamps[b], paths[b], T)
+        min_sep = min(min_sep, float(_disc_set(problem, 0.0, 0.0).clearance(rel[None])[0]))
+        oset = _disc_set(problem, problem.robot(b).radius, problem.robot(a).radius)
+        c = relative_contact(rel, T, oset)
+        if c is not None:
+            n_sep += 1
+            pos = positions_at(stamps[a], paths[a], np.array([c.time]))[0]
+            contacts.append({"kind": "robot", "robot": a, "other": b, "time": c.time,
+                             "position": pos.tolist()})
+    first = min(contacts, key=lambda c: c["time"]) if contacts else None
+    return {"dynamic_contacts": n_dyn, "separation_violations": n_sep,
+            "min_clearance_dynamic_per_robot": per_dyn, "min_separation": min_sep,
+            "first_contact": first, "contacts": contacts}
+
+
+def _formation_metrics(problem: Problem, P: dict[str, np.ndarray]) -> dict[str, Any]:
+    fe = formation_errors(problem, P)
+    return {"_fe_final": fe["position"][-1],
+            "formation_rmse": float(np.sqrt(np.mean(fe["position"] ** 2))),
+            "formation_max_error": float(np.max(fe["position"])),
+            "formation_distance_rmse": float(np.sqrt(np.mean(fe["distance"] ** 2))),
+            "formation_angle_rmse": float(np.sqrt(np.mean(fe["angle"] ** 2))),
+            "formation_final_error": float(np.max(fe["position"][-1]))}
+
+
+def _reached(problem: Problem, P: dict, per: dict, fe_final) -> bool:
+    """All robots with a goal reached it; a follower without a goal sits within L / 4 of its
+    slot at the end while the leader has reached."""
+    form = problem.formation
+    reached = []
+    for k, m in per.items():
+        if m["reached"] is None and form is not None and form.leader in P:
+            fl = next(x for x in form.followers if x.id == k)
+            end_err = None
+            if fe_final is not None:
+                end_err = float(fe_final[[x.id for x in form.followers].index(k)])
+            m["reached"] = bool(per[form.leader]["reached"] and end_err is not None
+                                and end_err <= 0.25 * fl.L)
+        if m["reached"] is not None:
+            reached.append(m["reached"])
+    return bool(all(reached)) if reached else False
+
+
 def evaluate(problem: Problem, paths: dict[str, np.ndarray],
              times: np.ndarray | None = None) -> dict[str, Any]:
-    """Grade paths (or synchronised trajectories) against a problem.
+    """Grade paths (or synchronised trajectories) against a problem, in continuous time.
 
     Parameters
     ----------
@@ -123,19 +222,22 @@ def evaluate(problem: Problem, paths: dict[str, np.ndarray],
     paths : dict
         ``robot id -> (n_points, 2)`` array, first point = the robot's start.
     times : array, optional
-        ``(n_points,)`` time stamps shared by all paths (simulated trajectories).  With times,
-        contacts with dynamic obstacles and inter-robot separation are checked at every stamp.
+        ``(n_points,)`` time stamps shared by all paths (simulated trajectories).  Without
+        times a geometric path is time-parameterised at the robot's ``max_speed``
+        (:func:`time_stamps`).  Either way, contacts with dynamic obstacles and between robots
+        are checked exactly between the stamps (:func:`time_checks`).
 
     Returns
     -------
     dict
         ``feasible``, ``length`` (leader / first robot), ``lengths``, ``min_clearance``,
-        ``min_clearance_dynamic``, ``collisions`` (static crossings + dynamic contacts +
-        separation violations), ``static_collisions``, ``dynamic_contacts``, ``reached``
-        (all robots with a goal, followers by their slot), ``per_robot``; for teams
-        ``min_separation``, ``separation_violations`` and, with a formation,
-        ``formation_rmse``, ``formation_max_error``, ``formation_distance_rmse``,
-        ``formation_angle_rmse``.
+        ``min_clearance_dynamic``, ``collisions`` (static crossings + colliding (robot, moving
+        obstacle) pairs + colliding robot pairs), ``static_collisions``, ``dynamic_contacts``,
+        ``separation_violations``, ``first_contact`` (``None`` or ``kind``, ``robot``,
+        ``other``, ``time``, ``position``), ``reached`` (all robots with a goal, followers by
+        their slot), ``per_robot``, ``timing`` (``"simulated"`` or ``"max_speed"``); for teams
+        ``min_separation`` and, with a formation, ``formation_rmse``, ``formation_max_error``,
+        ``formation_distance_rmse``, ``formation_angle_rmse``.
     """
     if not paths:
         raise ValueError("evaluate() needs at least one path")
@@ -147,7 +249,11 @@ def evaluate(problem: Problem, paths: dict[str, np.ndarray],
         for k, v in P.items():
             if len(v) != len(times):
                 raise ValueError(f"path {k!r} has {len(v)} points but times has {len(times)}")
-    per = {k: _robot_metrics(problem, problem.robot(k), v, times) for k, v in P.items()}
+    per = {k: _robot_metrics(problem, problem.robot(k), v) for k, v in P.items()}
+    stamps = time_stamps(problem, P, times)
+    tc = time_checks(problem, P, stamps)
+    for k, m in per.items():
+        m["min_clearance_dynamic"] = tc["min_clearance_dynamic_per_robot"][k]
     lead = problem.leader.id if problem.leader.id in P else next(iter(P))
     out: dict[str, Any] = {
         "leader": lead,
@@ -156,60 +262,29 @@ def evaluate(problem: Problem, paths: dict[str, np.ndarray],
         "min_clearance": min(m["min_clearance"] for m in per.values()),
         "min_clearance_dynamic": min(m["min_clearance_dynamic"] for m in per.values()),
         "static_collisions": sum(m["static_collisions"] for m in per.values()),
-        "dynamic_contacts": sum(m["dynamic_contacts"] for m in per.values()),
+        "dynamic_contacts": tc["dynamic_contacts"],
+        "separation_violations": tc["separation_violations"],
+        "first_contact": tc["first_contact"],
         "penetration": sum(m["penetration"] for m in per.values()),
         "crossed": sorted({n for m in per.values() for n in m["crossed"]}),
         "in_bounds": all(m["in_bounds"] for m in per.values()),
-        "dynamic_checked": times is not None,
+        "timing": "simulated" if times is not None else "max_speed",
         "per_robot": per,
     }
-    sep_viol = 0
-    if len(P) > 1 and times is not None:
-        ids = list(P)
-        arr = np.stack([P[k] for k in ids], axis=1)  # (T, R, 2)
-        diff = arr[:, :, None, :] - arr[:, None, :, :]
-        dist = np.hypot(diff[..., 0], diff[..., 1])
-        iu = np.triu_indices(len(ids), 1)
-        pair = dist[:, iu[0], iu[1]]
-        out["min_separation"] = float(pair.min())
-        if problem.formation is not None:
-            safety = problem.formation.safety_distance
-        else:
-            safety = 2 * max(problem.robot(k).radius for k in ids)
-        out["safety_distance"] = float(safety)
-        radii = np.array([problem.robot(k).radius for k in ids])
-        contact = radii[iu[0]] + radii[iu[1]]
-        sep_viol = int(np.sum(pair < contact[None, :] - problem.frame.eps))
-        out["separation_violations"] = sep_viol
-    reached = []
+    if len(P) > 1:
+        out["min_separation"] = tc["min_separation"]
+        out["safety_distance"] = float(problem.formation.safety_distance if problem.formation
+                                       else 2 * max(problem.robot(k).radius for k in P))
     form = problem.formation
-    if form is not None and times is not None and all(
-        x.id in P for x in form.followers
-    ) and form.leader in P:
-        fe = formation_errors(problem, P)
-        out["_fe_final"] = fe["position"][-1]
-        out["formation_rmse"] = float(np.sqrt(np.mean(fe["position"] ** 2)))
-        out["formation_max_error"] = float(np.max(fe["position"]))
-        out["formation_distance_rmse"] = float(np.sqrt(np.mean(fe["distance"] ** 2)))
-        out["formation_angle_rmse"] = float(np.sqrt(np.mean(fe["angle"] ** 2)))
-        out["formation_final_error"] = float(np.max(fe["position"][-1]))
-    for k, m in per.items():
-        if m["reached"] is not None:
-            reached.append(m["reached"])
-        elif form is not None and form.leader in P:
-            # a follower without a goal has reached when the leader has and it sits within
-            # a quarter of L of its slot at the end
-            fl = next(x for x in form.followers if x.id == k)
-            lead_ok = per[form.leader]["reached"]
-            end_err = None
-            if "_fe_final" in out:
-                idx = [x.id for x in form.followers].index(k)
-                end_err = float(out["_fe_final"][idx])
-            m["reached"] = bool(lead_ok and end_err is not None and end_err <= 0.25 * fl.L)
-            reached.append(m["reached"])
-    out.pop("_fe_final", None)
-    out["reached"] = bool(all(reached)) if reached else False
-    out["collisions"] = out["static_collisions"] + out["dynamic_contacts"] + sep_viol
+    fe_final = None
+    if form is not None and times is not None and form.leader in P and all(
+            x.id in P for x in form.followers):
+        fm = _formation_metrics(problem, P)
+        fe_final = fm.pop("_fe_final")
+        out.update(fm)
+    out["reached"] = _reached(problem, P, per, fe_final)
+    out["collisions"] = (out["static_collisions"] + out["dynamic_contacts"]
+                         + out["separation_violations"])
     out["starts_ok"] = all(m["starts_at_start"] for m in per.values())
     out["feasible"] = bool(out["in_bounds"] and out["collisions"] == 0 and out["starts_ok"])
     return out

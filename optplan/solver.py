@@ -303,8 +303,16 @@ class Backend:
         if status in (Status.optimal, Status.solved):
             if not (metrics["feasible"] and metrics["reached"]):
                 why = []
-                if metrics["collisions"]:
-                    why.append(f"{metrics['collisions']} collision(s)")
+                if metrics["static_collisions"]:
+                    why.append(f"{metrics['static_collisions']} static collision(s) with "
+                               + ", ".join(repr(n) for n in metrics["crossed"]))
+                fc = metrics.get("first_contact")
+                if fc is not None:
+                    n_t = metrics["dynamic_contacts"] + metrics["separation_violations"]
+                    why.append(f"{n_t} contact(s) in time ({metrics['timing']} timing); first: "
+                               f"{fc['robot']} with {fc['kind']} {fc['other']!r} at "
+                               f"t={fc['time']:.3f} near ({fc['position'][0]:.4g}, "
+                               f"{fc['position'][1]:.4g})")
                 if not metrics["in_bounds"]:
                     why.append("out of bounds")
                 if not metrics["reached"]:
