@@ -269,6 +269,7 @@ def evaluate(problem: Problem, paths: dict[str, np.ndarray],
         "crossed": sorted({n for m in per.values() for n in m["crossed"]}),
         "in_bounds": all(m["in_bounds"] for m in per.values()),
         "timing": "simulated" if times is not None else "max_speed",
+        "dynamic_checked": True,  # always, in continuous time (kept for older readers)
         "per_robot": per,
     }
     if len(P) > 1:

@@ -84,14 +84,14 @@ def test_show_prints_summary_and_optimum(capsys, tmp_path):
 def test_solve_summary_json_and_plot(capsys, tmp_path):
     js, png = tmp_path / "r.json", tmp_path / "r.png"
     rc, out, err = run(capsys, "solve", "open-field", "visgraph", "--seed", "4",
-                       "--set", "bracket=false", "--json", str(js), "--plot", str(png))
+                       "--set", "arc_step=0.05", "--json", str(js), "--plot", str(png))
     assert rc == 0, err
     assert "status      optimal" in out
     assert "length      106.3015   ratio to optimum 1.0000" in out
     assert "collisions  0" in out and "ms" in out and "message" in out
     res = Result.load(js)
     assert res.status.value == "optimal" and res.seed == 4
-    assert res.options["bracket"] is False
+    assert res.options["arc_step"] == 0.05
     assert png.is_file() and png.stat().st_size > 1000
 
 
@@ -104,8 +104,8 @@ def test_misspelled_problem_exits_2_with_suggestion(capsys):
 
 @pytest.mark.parametrize(("argv", "needle"), [
     (["solve", "open-field", "visgrahp"], "did you mean 'visgraph'"),
-    (["solve", "open-field", "visgraph", "--set", "brakcet=true"], "did you mean 'bracket'"),
-    (["solve", "open-field", "visgraph", "--set", "bracket=3"], "must be true or false"),
+    (["solve", "open-field", "visgraph", "--set", "arc_stp=0.1"], "did you mean 'arc_step'"),
+    (["solve", "open-field", "visgraph", "--set", "see_temporary=3"], "must be true or false"),
     (["solve", "open-field", "visgraph", "--set", "oops"], "key=value"),
     (["solve", "no/such/file.toml", "visgraph"], "no such scenario file"),
     (["show", "paper-env9"], "unknown problem"),
