@@ -115,7 +115,7 @@ def run_one(problem: str, solver: str, seed: int,
     from optplan.solver import solve
 
     try:
-        res = solve(problem, solver, rng=seed, **dict(overrides or {}))
+        res = solve(problem, solver, rng=seed, reference=True, **dict(overrides or {}))
     except Exception as e:  # noqa: BLE001 - one broken run must not stop the grid
         last = traceback.extract_tb(e.__traceback__)[-1] if e.__traceback__ else None
         where = f" at {Path(last.filename).name}:{last.lineno}" if last else ""

@@ -219,7 +219,8 @@ def cmd_solve(args: argparse.Namespace, out: TextIO) -> int:
     from optplan.solver import solve
 
     overrides = parse_set(args.set)
-    res = solve(args.problem, args.solver, rng=args.seed, **overrides)
+    res = solve(args.problem, args.solver, rng=args.seed, time_limit=args.time_limit,
+                reference=not args.no_reference, **overrides)
     for line in _result_lines(res):
         print(line, file=out)
     if args.json:
@@ -377,6 +378,10 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("problem", help="catalogue name or .toml path")
     s.add_argument("solver", help="preset name, backend name or .toml preset")
     s.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    s.add_argument("--time-limit", type=float, default=None, metavar="S",
+                   help="stop after S seconds and return the best result so far")
+    s.add_argument("--no-reference", action="store_true",
+                   help="do not compute the certified optimum (no ratio to optimum)")
     s.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override an option; VALUE is a TOML literal (repeatable)")
     s.add_argument("--json", metavar="FILE", help="save the Result as JSON")

@@ -7,7 +7,7 @@ goal reach, lengths, clearances and, for teams, separation and formation error.
 
 Static feasibility is exact (:class:`optplan.geometry.ObstacleSet`): a segment is free when its
 Euclidean distance to every true polygon and circle is ``>= r - eps``, ``eps = 1e-9 x`` the
-bounds diagonal (``docs/tolerances.md``).  ``min_clearance`` is the exact minimum distance minus
+bounds diagonal (``docs/geometry.md``).  ``min_clearance`` is the exact minimum distance minus
 the radius; a value within ``eps`` of contact is reported as 0, so a path called feasible never
 shows a negative clearance.
 """

@@ -116,6 +116,8 @@ class Result:
     message: str = ""
     history: History = field(default_factory=History)
     extras: dict[str, Any] = field(default_factory=dict)
+    stop_reason: str = ""
+    """Why the run stopped early: ``"time_limit"``, ``"callback"``, or ``""`` (it finished)."""
 
     @property
     def success(self) -> bool:
@@ -153,6 +155,7 @@ class Result:
             "n_eval": self.n_eval,
             "wall_time": self.wall_time,
             "message": self.message,
+            "stop_reason": self.stop_reason,
             "history": self.history.to_dict(),
             "extras": _jsonable(self.extras),
         }
@@ -174,6 +177,7 @@ class Result:
             n_eval=d.get("n_eval", 0),
             wall_time=d.get("wall_time", 0.0),
             message=d.get("message", ""),
+            stop_reason=d.get("stop_reason", ""),
             history=History({k: _unjson(v) for k, v in d.get("history", {}).items()}),
             extras=_unjson(d.get("extras", {})),
         )

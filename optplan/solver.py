@@ -337,23 +337,45 @@ class Backend:
 # --------------------------------------------------------------------------------------
 
 
-def _reference_length(problem: Problem) -> float | None:
-    """Certified optimum of the planned robot on the static map (cached), for ratios."""
-    key = ("visgraph_length",)
-    if key not in problem._cache:
-        try:
-            from optplan.backends.visgraph import shortest_length
+def reference_optimum(problem: Problem) -> dict[str, Any]:
+    """The certified optimum of the planned robot on the known static map, cached per problem.
 
-            problem._cache[key] = shortest_length(problem, problem.leader)
-        except Exception:  # noqa: BLE001 - the ratio is informative only
-            problem._cache[key] = None
-    return problem._cache[key]
+    Returns ``{"optimum": float or None, "reference_time": s, "reference_error": str or None}``:
+    the exact length of the tangent-graph shortest path (:mod:`optplan.geometry.tangent_graph`)
+    when it is certified, else ``None`` with the reason.  The time is that of the first
+    computation (0 when cached).
+    """
+    from optplan.geometry.tangent_graph import problem_shortest_path
+
+    key = ("reference_optimum",)
+    if key in problem._cache:
+        return {**problem._cache[key], "reference_time": 0.0}
+    t0 = time.perf_counter()
+    res = problem_shortest_path(problem, problem.leader, known_only=True)
+    err = None
+    if res.polyline is None:
+        err = res.info.get("reason", "no path")
+    elif not res.info.get("certified"):
+        err = "the shortest path is constrained by the bounds (not certified)"
+    out = {"optimum": res.length if err is None else None,
+           "reference_time": time.perf_counter() - t0, "reference_error": err}
+    problem._cache[key] = out
+    return out
+
+
+def _early_stop_status(res: Result) -> Status:
+    """The one status of a run stopped by its callback or time limit: ``solved`` when the best
+    path so far is feasible and reaches the goal, else ``approximate``."""
+    m = res.metrics
+    return Status.solved if (m.get("feasible") and m.get("reached")) else Status.approximate
 
 
 def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
           rng: int | np.random.Generator | None = None,
           init: dict[str, np.ndarray] | np.ndarray | None = None,
           callback: Callable[[Progress], Any] | None = None,
+          time_limit: float | None = None,
+          reference: bool = False,
           **overrides: Any) -> Result:
     """Solve ``problem`` with ``solver`` and grade the result with the shared validator.
 
@@ -368,7 +390,16 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
     init : dict or array, optional
         Paths from an earlier stage (``robot id -> (n, 2)``); a bare array means the leader.
     callback : callable, optional
-        ``callback(progress)`` every iteration/step; raising ``StopIteration`` stops early.
+        ``callback(progress)`` every iteration/step; raising ``StopIteration`` stops early; any
+        other exception propagates unchanged.
+    time_limit : float, optional
+        Seconds (> 0).  The run stops at the first iteration/step after the limit and returns
+        its best result with ``stop_reason = "time_limit"``.
+    reference : bool
+        Also compute the certified optimum of the known static map (:func:`reference_optimum`,
+        cached per problem): ``metrics["optimum"]``, ``metrics["ratio_to_optimum"]`` and
+        ``metrics["reference_time"]`` (not part of ``wall_time``), or
+        ``metrics["reference_error"]`` when there is no certified optimum.
     **overrides
         Replace preset options (unknown names raise ``ValueError``).
 
@@ -383,13 +414,39 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         init = {prob.leader.id: np.asarray(init, dtype=float)}
     if init is not None:
         init = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in init.items()}
+    if time_limit is not None and (isinstance(time_limit, bool) or not isinstance(
+            time_limit, (int, float)) or not (0 < time_limit < math.inf)):
+        raise ValueError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
+    stop = {"reason": ""}
     t0 = time.perf_counter()
-    res = backend.solve(prob, rng=gen, init=init, callback=callback)
+    cb = callback
+    if time_limit is not None or callback is not None:
+        def cb(progress: Progress) -> None:
+            if callback is not None:
+                try:
+                    callback(progress)
+                except StopIteration:
+                    stop["reason"] = "callback"
+                    raise
+            if time_limit is not None and time.perf_counter() - t0 >= time_limit:
+                stop["reason"] = "time_limit"
+                raise StopIteration
+    res = backend.solve(prob, rng=gen, init=init, callback=cb)
     wall = time.perf_counter() - t0
     metrics = dict(res.metrics)
-    ref = _reference_length(prob)
-    if ref and "length" in metrics and prob.leader.id in res.paths:
-        metrics["optimum"] = ref
-        metrics["ratio_to_optimum"] = metrics["length"] / ref
+    status, message = res.status, res.message
+    if stop["reason"]:
+        status = _early_stop_status(res)
+        what = "time limit" if stop["reason"] == "time_limit" else "callback"
+        message = (f"stopped by the {what} after {wall:.3f} s; " + message).rstrip("; ")
+    if reference:
+        ref = reference_optimum(prob)
+        metrics["reference_time"] = ref["reference_time"]
+        if ref["optimum"] is not None and "length" in metrics and prob.leader.id in res.paths:
+            metrics["optimum"] = ref["optimum"]
+            metrics["ratio_to_optimum"] = metrics["length"] / ref["optimum"]
+        elif ref["reference_error"] is not None:
+            metrics["reference_error"] = ref["reference_error"]
     return dataclasses.replace(res, seed=seed, wall_time=res.wall_time or wall,
-                               metrics=metrics)
+                               metrics=metrics, status=status, message=message,
+                               stop_reason=stop["reason"])

@@ -14,7 +14,7 @@ One length scale ``L`` (the diagonal of the bounds) defines every tolerance:
 Nothing is scaled by the largest coordinate anywhere: an obstacle far outside the bounds is
 dropped (or clipped, when it reaches into the working region) and cannot loosen anything
 inside.  Input the double format cannot resolve at this tolerance is rejected (see
-:meth:`Frame.check_extent`).  ``docs/tolerances.md`` is the user-facing page.
+:meth:`Frame.check_extent`).  ``docs/geometry.md`` is the user-facing page.
 """
 
 from __future__ import annotations

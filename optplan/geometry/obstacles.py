@@ -524,7 +524,7 @@ class ObstacleSet:
         ins = np.zeros((R, n), bool)
         np.logical_or.at(ins, (si, ob), inside)
         dd = best_d[sel]
-        keep = dd <= max_range
+        keep = (dd <= max_range) | ins[si[sel], ob[sel]]  # inside: distance 0 at any range
         sel = sel[keep]
         near[si[sel], ob[sel]] = self.frame.world(np.stack([best_p[sel].real,
                                                             best_p[sel].imag], axis=1))
