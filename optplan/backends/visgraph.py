@@ -28,7 +28,7 @@ import numpy as np
 
 from optplan.geometry.tangent_graph import problem_shortest_path
 from optplan.problem import Problem, Robot
-from optplan.result import History, Status
+from optplan.result import History, Progress, Status, notify
 from optplan.solver import Backend
 
 __all__ = ["VisGraph", "shortest_length"]
@@ -77,8 +77,18 @@ class VisGraph(Backend):
         known_only = not self.see_temporary
         paths, infos, exact = {}, {}, {}
         status, msgs = Status.optimal, []
-        for r in problem.planned_robots:
+        stopped = False
+        for k, r in enumerate(problem.planned_robots):
+            if stopped:
+                paths[r.id] = np.vstack([r.start, r.start])
+                status = Status.approximate
+                continue
             res = problem_shortest_path(problem, r, known_only, float(self.arc_step))
+            # one phase per planned robot: the callback sees it (and may stop the run)
+            stopped = notify(callback, Progress(iteration=k + 1, best_cost=res.length,
+                                                n_eval=k + 1,
+                                                elapsed=time.perf_counter() - t0,
+                                                info={"robot": r.id, **res.info}))
             infos[r.id] = dict(res.info)
             if res.polyline is None:
                 bounds = res.info.get("bounds_active")

@@ -1,0 +1,154 @@
+"""Honest statuses: continuous-time validation, early stops, time limits, the optional reference."""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+import optplan as op
+from optplan.generators import swap_scene
+from optplan.metrics import evaluate
+from optplan.problem import parse_problem
+
+
+def crossing_scene(speed: float = 2.0) -> op.Problem:
+    """A robot goes straight along y = 50 at max speed 2; a disc crosses x = 50 from below and
+    is there exactly when the robot is (t = 20)."""
+    return parse_problem({
+        "name": "crossing", "bounds": [0.0, 0.0, 100.0, 100.0],
+        "robots": [{"id": "r", "start": [10.0, 50.0], "goal": [90.0, 50.0], "radius": 1.0,
+                    "max_speed": speed}],
+        "dynamic_obstacles": [{"type": "circle", "name": "cart", "radius": 3.0,
+                               "waypoints": [[50.0, 10.0], [50.0, 90.0]],
+                               "times": [0.0, 40.0]}]})
+
+
+def test_a_crossing_moving_obstacle_makes_the_straight_path_unsuccessful() -> None:
+    res = op.solve(crossing_scene(), "visgraph")
+    assert not res.success
+    assert res.metrics["static_collisions"] == 0 and res.metrics["dynamic_contacts"] == 1
+    fc = res.metrics["first_contact"]
+    assert fc["other"] == "cart" and fc["robot"] == "r"
+    # contact starts when the centres are 4 apart: |(10 + 2t, 50) - (50, 10 + 2t)| = 4
+    t_contact = min(t for t in np.linspace(0, 40, 400001)
+                    if math.hypot(10 + 2 * t - 50, 50 - 10 - 2 * t) < 4.0)
+    assert fc["time"] == pytest.approx(t_contact, abs=1e-3)
+    assert "'cart'" in res.message and f"t={fc['time']:.3f}" in res.message
+    # at another speed the robot passes before the cart: a success again
+    assert op.solve(crossing_scene(speed=5.0), "visgraph").status is op.Status.optimal
+
+
+def test_a_fast_obstacle_between_two_stamps_is_detected() -> None:
+    """The robot stands still; a disc of radius 1 crosses it at speed 100 between two stamps
+    one second apart: at both stamps it is 50 away, in between it passes through."""
+    prob = parse_problem({
+        "name": "fast", "bounds": [0.0, 0.0, 200.0, 100.0],
+        "robots": [{"id": "r", "start": [100.0, 50.0], "goal": [100.0, 50.0], "radius": 1.0}],
+        "dynamic_obstacles": [{"type": "circle", "name": "bullet", "radius": 1.0,
+                               "waypoints": [[50.0, 50.0]], "times": [0.0],
+                               "velocity": [100.0, 0.0]}]})
+    path = np.array([[100.0, 50.0], [100.0, 50.0]])
+    m = evaluate(prob, {"r": path}, times=np.array([0.0, 1.0]))
+    assert m["dynamic_contacts"] == 1 and not m["feasible"]
+    assert m["first_contact"]["time"] == pytest.approx(0.48, abs=1e-6)  # centres 2 apart
+
+
+def test_sa_apf_run_with_a_fast_crosser_is_checked_between_stamps() -> None:
+    """An SA-APF run whose simulation steps are coarse next to a fast crossing obstacle: the
+    validator replays it in continuous time."""
+    prob = parse_problem({
+        "name": "fast-cross", "bounds": [0.0, 0.0, 200.0, 100.0],
+        "robots": [{"id": "r", "start": [20.0, 50.0], "goal": [180.0, 50.0], "radius": 2.0,
+                    "max_speed": 5.0}],
+        "dynamic_obstacles": [{"type": "circle", "name": "bullet", "radius": 1.0,
+                               "waypoints": [[100.0, -2000.0]], "times": [0.0],
+                               "velocity": [0.0, 130.0]}]})
+    res = op.solve(prob, "sa-apf-paper", rng=0)
+    t, p = res.times, res.path
+    # recompute: did the bullet pass within 3 of the robot between two stamps?
+    ts = np.linspace(t[0], t[-1], 200001)
+    rob = np.stack([np.interp(ts, t, p[:, 0]), np.interp(ts, t, p[:, 1])], axis=1)
+    bul = np.stack([np.full_like(ts, 100.0), -2000.0 + 130.0 * ts], axis=1)
+    hit = np.hypot(*(rob - bul).T).min() < 3.0
+    at_stamps = np.hypot(p[:, 0] - 100.0, p[:, 1] - (-2000.0 + 130.0 * t)).min() < 3.0
+    assert res.metrics["dynamic_contacts"] == int(hit)
+    if hit:
+        assert not res.success and "bullet" in res.message
+    assert hit or not at_stamps
+
+
+def test_two_robots_swapping_on_straight_paths_are_flagged() -> None:
+    res = op.solve(swap_scene(), "visgraph")
+    assert not res.success
+    assert res.metrics["separation_violations"] == 1
+    fc = res.metrics["first_contact"]
+    assert fc["kind"] == "robot"
+    # they meet head-on at speed 5 each: centres 6 apart when 160 - 10 t = 6
+    assert fc["time"] == pytest.approx((160.0 - 6.0) / 10.0, abs=1e-6)
+    # offset far enough sideways they pass
+    assert op.solve(swap_scene(dy=7.0), "visgraph").status is op.Status.optimal
+
+
+def test_the_reference_is_optional_and_timed_apart() -> None:
+    prob = op.load_problem("paper-env1")
+    res = op.solve(prob, "pso-paper", rng=0, k_max=5)
+    assert "optimum" not in res.metrics and "ratio_to_optimum" not in res.metrics
+    fresh = op.load_problem("paper-env1")
+    ref = op.solve(fresh, "pso-paper", rng=0, k_max=5, reference=True)
+    assert ref.metrics["optimum"] == pytest.approx(737.9795766677917, rel=1e-9)
+    assert ref.metrics["ratio_to_optimum"] == pytest.approx(
+        ref.metrics["length"] / ref.metrics["optimum"])
+    assert ref.metrics["reference_time"] > 0
+    again = op.solve(fresh, "pso-paper", rng=0, k_max=5, reference=True)
+    assert again.metrics["reference_time"] == 0.0  # cached per problem
+    # no certified optimum: the reason is reported, not swallowed
+    boxed = parse_problem({
+        "name": "boxed", "bounds": [0.0, 0.0, 100.0, 100.0],
+        "robots": [{"id": "r", "start": [10.0, 10.0], "goal": [50.0, 50.0], "radius": 1.0}],
+        "obstacles": [{"type": "polygon", "vertices": [[30, 30], [70, 30], [70, 70], [30, 70]],
+                       "holes": [[[40, 40], [60, 40], [60, 60], [40, 60]]]}]})
+    res = op.solve(boxed, "pso-paper", rng=0, k_max=3, reference=True)
+    assert "not reachable" in res.metrics["reference_error"]
+
+
+@pytest.mark.parametrize("solver, problem, over", [
+    ("ipso", "paper-env1", {"k_max": 10**6}),
+    ("nlp-ipopt", "paper-env1", {}),
+    ("sa-apf-paper", "paper-hybrid", {}),
+    ("hybrid-paper", "paper-hybrid", {}),
+])
+def test_time_limit_stops_every_kind_of_backend(solver, problem, over) -> None:
+    prob = op.load_problem(problem)
+    op.solve(prob, solver, rng=0, time_limit=0.01, **over)  # warm caches and imports
+    t0 = time.perf_counter()
+    res = op.solve(prob, solver, rng=0, time_limit=0.02, **over)
+    took = time.perf_counter() - t0
+    assert res.stop_reason == "time_limit", res.message
+    assert res.status in (op.Status.solved, op.Status.approximate)
+    assert "time limit" in res.message
+    assert took < 2.0  # generous: the benchmark, not this test, measures the 0.3 s target
+
+
+def test_callback_stop_and_errors() -> None:
+    def stop(p):
+        raise StopIteration
+
+    res = op.solve("paper-env1", "ipso", rng=0, callback=stop)
+    assert res.stop_reason == "callback"
+    assert res.status in (op.Status.solved, op.Status.approximate)
+
+    class Boom(Exception):
+        pass
+
+    def boom(p):
+        raise Boom("from the callback")
+
+    for solver in ("ipso", "sa-apf-paper", "visgraph"):
+        with pytest.raises(Boom):
+            op.solve("paper-env1" if solver != "sa-apf-paper" else "paper-apf-env1", solver,
+                     rng=0, callback=boom)
+    with pytest.raises(ValueError, match="time_limit"):
+        op.solve("paper-env1", "visgraph", time_limit=-1)
