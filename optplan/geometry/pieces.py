@@ -120,13 +120,19 @@ def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray
     for poly in getattr(geom, "geoms", [geom]):
         if poly.is_empty or poly.area <= 0:
             continue
-        x0, y0, x1, y1 = poly.bounds
-        tol = 1e-9 * max(x1 - x0, y1 - y0)
-        bnd = poly.boundary if poly.interiors or not is_convex(
-            np.asarray(orient(poly, 1.0).exterior.coords)[:-1]) else None
-        parts = convex_decompose(poly)
+        parts = None
+        if not poly.interiors:  # fast path: a convex polygon is its own single piece
+            ring = np.asarray(poly.exterior.coords)[:-1]
+            ring = clean_ring(ring if poly.exterior.is_ccw else ring[::-1])
+            if len(ring) >= 3 and is_convex(ring):
+                parts, flag_all = [ring], True
+        if parts is None:
+            x0, y0, x1, y1 = poly.bounds
+            tol = 1e-9 * max(x1 - x0, y1 - y0)
+            bnd = poly.boundary
+            parts, flag_all = convex_decompose(poly), False
         for v in parts:
-            if len(parts) == 1 and not poly.interiors:
+            if flag_all:
                 flags = np.ones(len(v), bool)  # the polygon itself: every edge is boundary
             else:
                 mid = 0.5 * (v + np.concatenate((v[1:], v[:1])))

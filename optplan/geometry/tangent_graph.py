@@ -51,7 +51,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from shapely.geometry.polygon import orient
 
 from optplan.geometry.obstacles import ObstacleSet
 
@@ -90,15 +89,14 @@ class Circles:
         return len(self.center)
 
 
-def _ring_vertices(ring: np.ndarray):
-    """Convex vertices of a ring whose solid lies on its left: (v, cone lo, cone width)."""
-    v = ring
-    e2 = np.concatenate((v[1:], v[:1])) - v
-    e1 = np.concatenate((e2[-1:], e2[:-1]))
+def _convex_vertices(v: np.ndarray, prv: np.ndarray, nxt: np.ndarray):
+    """Convex vertices of rings whose solid lies on their left (all rings concatenated in
+    ``v``, with the index of each vertex's ring neighbours): (vertices, cone lo, cone width)."""
+    e2 = v[nxt] - v
+    e1 = v - v[prv]
     l1, l2 = np.hypot(*e1.T), np.hypot(*e2.T)
-    ok = (l1 > 0) & (l2 > 0)
     cr = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-    convex = ok & (cr > 1e-12 * l1 * l2)
+    convex = (l1 > 0) & (l2 > 0) & (cr > 1e-12 * l1 * l2)
     n1 = np.arctan2(-e1[:, 0], e1[:, 1])  # outward normal rot(-90) of the incoming edge
     n2 = np.arctan2(-e2[:, 0], e2[:, 1])
     width = np.mod(n2 - n1, TWO_PI)
@@ -108,33 +106,34 @@ def _ring_vertices(ring: np.ndarray):
 def circles_of(oset: ObstacleSet) -> Circles:
     """Circles of the tangent graph for the obstacles of ``oset`` (radius ``oset.radius``)."""
     r = oset.radius
-    cs, rh, lo, wd, full = [], [], [], [], []
+    rings, circ = [], []
     for _, g in oset.shapes:
         if isinstance(g, tuple):
-            cs.append(np.array([[g[0], g[1]]]))
-            rh.append(np.array([g[2] + r]))
-            lo.append(np.zeros(1))
-            wd.append(np.array([TWO_PI]))
-            full.append(np.ones(1, bool))
+            circ.append(g)
             continue
         for p in getattr(g, "geoms", [g]):
-            p = orient(p, 1.0)
-            for ring in (p.exterior, *p.interiors):
-                c = np.asarray(ring.coords)[:-1]
-                if len(c) < 3:
-                    continue
-                v, a, w = _ring_vertices(c)
-                cs.append(v)
-                rh.append(np.full(len(v), r))
-                lo.append(a)
-                wd.append(w)
-                full.append(np.zeros(len(v), bool))
-    if not cs:
-        z = np.zeros(0)
-        return Circles(z.astype(complex), z, z, z, z.astype(bool))
-    c = np.concatenate(cs)
-    return Circles(c[:, 0] + 1j * c[:, 1], np.concatenate(rh), np.concatenate(lo),
-                   np.concatenate(wd), np.concatenate(full))
+            ext = np.asarray(p.exterior.coords)[:-1]
+            rings.append(ext if p.exterior.is_ccw else ext[::-1])  # solid on the left
+            for h in p.interiors:
+                c = np.asarray(h.coords)[:-1]
+                rings.append(c[::-1] if h.is_ccw else c)
+    rings = [q for q in rings if len(q) >= 3]
+    if rings:
+        sizes = np.array([len(q) for q in rings])
+        start = np.repeat(np.cumsum(sizes) - sizes, sizes)
+        idx = np.arange(int(sizes.sum()))
+        pos = idx - start
+        size = np.repeat(sizes, sizes)
+        v, lo, wd = _convex_vertices(np.concatenate(rings), start + (pos - 1) % size,
+                                     start + (pos + 1) % size)
+    else:
+        v, lo, wd = np.zeros((0, 2)), np.zeros(0), np.zeros(0)
+    cc = np.array(circ, dtype=float).reshape(-1, 3)
+    return Circles(np.concatenate([v[:, 0] + 1j * v[:, 1], cc[:, 0] + 1j * cc[:, 1]]),
+                   np.concatenate([np.full(len(v), r), cc[:, 2] + r]),
+                   np.concatenate([lo, np.zeros(len(cc))]),
+                   np.concatenate([wd, np.full(len(cc), TWO_PI)]),
+                   np.concatenate([np.zeros(len(v), bool), np.ones(len(cc), bool)]))
 
 
 # --------------------------------------------------------------------------------------
