@@ -1,5 +1,5 @@
 # optplan: two-command start.  `make demo` and `make test` each create .venv (python3 -m venv)
-# and install optplan with its dev, docs and fast extras on first use; later runs skip the install
+# and install optplan with its dev and docs extras on first use; later runs skip the install
 # (a stamp file in .venv records it and is refreshed when pyproject.toml changes).
 
 PYTHON ?= python3
@@ -8,8 +8,6 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.optplan-installed
 
 export NO_MKDOCS_2_WARNING := 1
-# tests that exercise the fitness kernel and the swarm steps (run twice by `make test`)
-NUMPY_ENGINE_TESTS := tests/test_swarm.py tests/test_ipso.py tests/test_geometry.py
 
 .PHONY: demo test lint docs docs-serve bench clean distclean help
 
@@ -24,8 +22,8 @@ $(BIN)/python:
 	@$(PYTHON) -m venv $(VENV) || { echo "error: '$(PYTHON) -m venv' failed; install the venv module (e.g. apt install python3-venv)" >&2; exit 1; }
 
 $(STAMP): pyproject.toml | $(BIN)/python
-	@echo "installing optplan[dev,docs,fast] into $(VENV) (first run only; a few minutes)"
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[dev,docs,fast]'
+	@echo "installing optplan[dev,docs] into $(VENV) (first run only; a few minutes)"
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[dev,docs]'
 	@touch $@
 
 demo: $(STAMP)
@@ -34,8 +32,6 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/python -m pytest -m "not slow" -q
-	@echo "the swarm and kernel tests again with the numpy engine (no compiled code):"
-	OPTPLAN_ENGINE=numpy $(BIN)/python -m pytest -m "not slow" -q -p no:cacheprovider $(NUMPY_ENGINE_TESTS)
 	$(BIN)/mkdocs build --strict --quiet
 
 lint: $(STAMP)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -10,7 +11,8 @@ import shapely
 
 import optplan as op
 from optplan.backends import swarm as sw
-from optplan.geometry import PIECE_EDGES, batch_crossings, convex_pieces, obstacle_set
+from optplan.backends.ipso import IPSO
+from optplan.geometry import PIECE_EDGES, convex_pieces, obstacle_set
 
 
 def _problem(obstacles=None, **kw) -> op.Problem:
@@ -64,7 +66,7 @@ def _hexagon_problem() -> op.Problem:
 @pytest.mark.parametrize("radius", [0.0, 1.5])
 def test_obstacle_set_is_the_exact_disc_test(grid, radius):
     prob = _hexagon_problem()
-    obs = obstacle_set(prob.obstacles, radius, grid=grid)
+    obs = obstacle_set(prob.obstacles, radius, prob.frame, grid=grid)
     rng = np.random.default_rng(4)
     paths = rng.uniform(-5, 105, (300, 4, 2))
     paths[0] = [[10, 50], [10, 50], [50, 50], [50, 50]]  # degenerate segments, one inside
@@ -99,22 +101,23 @@ def test_obstacle_set_grid_and_all_pairs_agree_on_many_obstacles():
             obstacles.append({"type": "rectangle", "center": c.tolist(), "size": [2.0, 1.0]})
     prob = _problem(obstacles=obstacles)
     paths = rng.uniform(0, 100, (40, 6, 2))
-    a = obstacle_set(prob.obstacles, 0.5, grid=False).crossings(paths, details=True)
-    b = obstacle_set(prob.obstacles, 0.5, grid=True).crossings(paths, details=True)
-    assert obstacle_set(prob.obstacles, 0.5).grid is not None  # default: grid from 48 items
+    a = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=False).crossings(paths, details=True)
+    b = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=True).crossings(paths, details=True)
+    # default: a grid from 48 items on
+    assert obstacle_set(prob.obstacles, 0.5, prob.frame).grid is not None
     np.testing.assert_array_equal(a.seg_count, b.seg_count)
     np.testing.assert_allclose(a.penetration, b.penetration)
 
 
-def test_disc_test_is_stricter_than_the_validator():
-    """Fitness-feasible (disc test) implies validator-feasible (inscribed round buffer)."""
+def test_fitness_kernel_decides_like_the_validator_at_rounded_corners():
+    """The fitness uses the validator's exact disc test (on the known obstacles), so a
+    fitness-feasible path is validator-feasible, also where the free space has rounded corners."""
     prob = _hexagon_problem()
     r = 2.0
-    obs = obstacle_set(prob.obstacles, r)
-    imap = prob.inflated(r)
+    obs = sw.make_space(prob, dataclasses.replace(prob.robots[0], radius=r), 1).obstacles
     rng = np.random.default_rng(1)
     segs = rng.uniform(0, 100, (6000, 2, 2))
-    # plus segments grazing the rounded corners (where the two tests differ)
+    # plus segments grazing the rounded corners
     corners = np.array([[40.0, 30.0], [60.0, 40.0], [90.0, 80.0]])
     ang = rng.uniform(0, 2 * np.pi, 3000)
     c = corners[rng.integers(0, 3, 3000)]
@@ -123,32 +126,32 @@ def test_disc_test_is_stricter_than_the_validator():
     tang = np.stack([-np.sin(ang), np.cos(ang)], axis=1)
     near = np.stack([foot - 3 * tang, foot + 3 * tang], axis=1)
     segs = np.concatenate([segs, near])
-    disc = obs.crossings(segs).count
-    val = batch_crossings(segs, imap).count
-    assert np.all(val[disc == 0] == 0)
-    assert np.any((disc > 0) & (val == 0))  # strictly stricter near the corners
-    # a pinned case: 1.995 from a raw corner, between the buffer's vertices
-    th = np.deg2rad(180 + 39.375)  # lower-left corner (40, 30), direction between vertices
+    fit = obs.crossings(segs).count
+    val = prob.obstacle_set(r).crossings(segs).count  # what metrics.evaluate uses
+    np.testing.assert_array_equal(fit, val)
+    assert np.any(fit[6000:] > 0) and np.any(fit[6000:] == 0)
+    # a pinned case: 1.995 from a raw corner (the disc touches the corner): a collision
+    th = np.deg2rad(180 + 39.375)  # lower-left corner (40, 30), pointing away from it
     f = np.array([40.0, 30.0]) + 1.995 * np.array([np.cos(th), np.sin(th)])
     t = np.array([-np.sin(th), np.cos(th)])
     seg = np.array([[f - 0.2 * t, f + 0.2 * t]])
-    assert obs.crossings(seg).count[0] == 1 and batch_crossings(seg, imap).count[0] == 0
+    assert obs.crossings(seg).count[0] == 1
 
 
 def test_convex_pieces_and_penetration():
     sq = shapely.box(0, 0, 10, 10)
-    assert [len(v) for v in convex_pieces(sq)] == [4]
+    assert [len(v) for v, _ in convex_pieces(sq, PIECE_EDGES)] == [4]
     hexagon = shapely.Point(0, 0).buffer(5, quad_segs=2).convex_hull  # 8 vertices
-    pieces = convex_pieces(hexagon)
+    pieces = [v for v, _ in convex_pieces(hexagon, PIECE_EDGES)]
     assert all(3 <= len(v) <= PIECE_EDGES for v in pieces)
     assert sum(shapely.Polygon(v).area for v in pieces) == pytest.approx(hexagon.area)
     u = shapely.Polygon([[0, 0], [3, 0], [3, 3], [2, 3], [2, 1], [1, 1], [1, 3], [0, 3]])
-    pieces = convex_pieces(u)
+    pieces = [v for v, _ in convex_pieces(u, PIECE_EDGES)]
     assert sum(shapely.Polygon(v).area for v in pieces) == pytest.approx(u.area)
     assert all(shapely.Polygon(v).exterior.is_ccw for v in pieces)
     # penetration: r - distance outside, r + inside length through the raw obstacle
     prob = _problem(obstacles=[{"type": "rectangle", "min": [40.0, 30.0], "max": [60.0, 70.0]}])
-    obs = obstacle_set(prob.obstacles, 2.0)
+    obs = obstacle_set(prob.obstacles, 2.0, prob.frame)
     res = obs.crossings(np.array([[[30.0, 50.0], [70.0, 50.0]], [[30.0, 71.5], [70.0, 71.5]],
                                   [[30.0, 80.0], [70.0, 80.0]]]))
     assert res.count.tolist() == [1, 1, 0]
@@ -156,10 +159,11 @@ def test_convex_pieces_and_penetration():
 
 
 def test_obstacle_set_empty_map_and_single_point():
-    obs = obstacle_set([], 1.0)
+    prob = _problem()
+    obs = obstacle_set([], 1.0, prob.frame)
     res = obs.crossings(np.zeros((3, 4, 2)), details=True)
     assert res.count.tolist() == [0, 0, 0] and res.seg_count.shape == (3, 3)
-    one = obstacle_set(_problem().obstacles, 1.0).crossings(np.array([[5.0, 5.0]]))
+    one = obstacle_set(prob.obstacles, 1.0, prob.frame).crossings(np.array([[5.0, 5.0]]))
     assert one.count.tolist() == [0]
 
 
@@ -188,29 +192,71 @@ def test_fitness_is_length_plus_penalty_times_crossings():
 
 def test_fitness_calls_the_kernel_once_per_evaluation(monkeypatch):
     prob = _problem()
-    disc_space = sw.make_space(prob, prob.robots[0], 3)
-    geo_space = sw.make_space(prob, prob.robots[0], 3, kernel="geometry")
+    space = sw.make_space(prob, prob.robots[0], 3)
+    # the fitness kernel is the problem's (cached) obstacle set for the robot's radius
+    assert space.obstacles is prob.obstacle_set(prob.robots[0].radius, known_only=True)
     calls = []
-    real = type(disc_space.obstacles).crossings
-    real_bc = sw.batch_crossings
+    real = type(space.obstacles).crossings
 
     def spy(self, paths, *a, **k):
-        calls.append(("disc", np.asarray(paths).shape))
+        calls.append((np.asarray(paths).shape, k))
         return real(self, paths, *a, **k)
 
-    def spy_bc(paths, imap, *a, **k):
-        calls.append(("geometry", np.asarray(paths).shape))
-        return real_bc(paths, imap, *a, **k)
+    monkeypatch.setattr(type(space.obstacles), "crossings", spy)
+    X = sw.initial_swarm(space, 50, "uniform", np.random.default_rng(0))
+    ev = sw.evaluate_swarm(X, space)
+    assert calls == [((50, 5, 2), {"penetration": False})]
+    assert ev.count.sum() > 0  # uniform waypoints among six obstacles: some collide
+    # the validator's test on the same paths gives the same counts
+    val = prob.obstacle_set(1.0).crossings(sw.decode(X, space), penetration=False).count
+    np.testing.assert_array_equal(ev.count, val)
 
-    monkeypatch.setattr(type(disc_space.obstacles), "crossings", spy)
-    monkeypatch.setattr(sw, "batch_crossings", spy_bc)
-    X = sw.initial_swarm(disc_space, 50, "uniform", np.random.default_rng(0))
-    disc = sw.evaluate_swarm(X, disc_space)
-    geo = sw.evaluate_swarm(X, geo_space)
-    assert calls == [("disc", (50, 5, 2)), ("geometry", (50, 5, 2))]
-    # the disc test is stricter: every validator-map collision is a disc collision
-    assert np.all(disc.count[geo.count > 0] > 0)
-    np.testing.assert_allclose(geo.length, disc.length)
+
+def test_fitness_without_obstacles_counts_no_crossings():
+    prob = _problem(obstacles=[])
+    space = sw.make_space(prob, prob.robots[0], 2, penetration_weight=1.0)
+    X = sw.initial_swarm(space, 8, "uniform", np.random.default_rng(0))
+    ev = sw.evaluate_swarm(X, space)
+    assert ev.count.tolist() == [0] * 8 and ev.penetration.tolist() == [0.0] * 8
+    np.testing.assert_allclose(ev.cost, ev.length)
+    # and the same with no obstacle set at all
+    bare = sw.SwarmSpace(space.start, space.goal, 2, space.lo, space.hi, None,
+                         space.penalty_weight, 1.0)
+    ev2 = sw.evaluate_swarm(X, bare)
+    np.testing.assert_array_equal(ev2.cost, ev.cost)
+    assert ev2.count.tolist() == [0] * 8
+    assert sw.segment_free(X[:, :2], X[:, 2:], bare).all()
+
+
+def test_snap_targets_are_the_pushed_out_convex_corners():
+    prob = _problem(obstacles=[
+        {"type": "rectangle", "min": [40.0, 30.0], "max": [60.0, 70.0]},
+        {"type": "circle", "center": [20.0, 20.0], "radius": 5.0},  # no corner: no target
+        # U shape: 8 vertices, the 2 inner ones (65, 85), (85, 85) are reflex
+        {"type": "polygon", "vertices": [[60, 80], [90, 80], [90, 95], [85, 95], [85, 85],
+                                         [65, 85], [65, 95], [60, 95]]},
+        # a square whose corner (62, 67) lies inside the rectangle above: dropped
+        {"type": "rectangle", "min": [59.0, 64.0], "max": [62.0, 67.0]},
+    ])
+    space = sw.make_space(prob, prob.robots[0], 2)
+    t = sw.snap_targets(space, 0.5)
+    d = (1.0 + 0.5) / math.sqrt(2)  # radius + push along the diagonal bisector
+    expect = [[40 - d, 30 - d], [60 + d, 30 - d], [60 + d, 70 + d], [40 - d, 70 + d],
+              [60 - d, 80 - d], [90 + d, 80 - d], [90 + d, 95 + d], [85 - d, 95 + d],
+              [65 + d, 95 + d], [60 - d, 95 + d],
+              [62 + d, 64 - d], [62 + d, 67 + d]]
+    assert len(t) == len(expect)
+    for e in expect:
+        assert np.min(np.hypot(*(t - e).T)) < 1e-9, e
+    assert space.obstacles.crossings(np.stack([t, t], axis=1)).count.sum() == 0
+
+    # the option uses them: around a wall, snapped candidates are accepted, paths stay valid
+    wall = _problem(obstacles=[{"type": "rectangle", "min": [45.0, 20.0], "max": [55.0, 80.0]}])
+    b = IPSO(n_particles=20, k_max=30, snap=True, position_update="step", inertia="linear",
+             n_waypoints=2)
+    runs = [op.solve(wall, b, rng=s) for s in range(4)]
+    assert all(r.success and r.metrics["collisions"] == 0 for r in runs)
+    assert sum(r.extras["per_robot"]["r"]["snapped"] for r in runs) >= 1
 
 
 def test_default_penalty_makes_every_feasible_path_win():
@@ -329,15 +375,10 @@ def test_path_buffer_particles_are_views_of_the_polylines():
     np.testing.assert_array_equal(ev.cost, ref.cost)
 
 
-def test_engine_option_without_numba(monkeypatch):
-    """engine = 'numba' without numba: a clear error naming the option; 'auto' falls back."""
-    from optplan import numba_kernel
-
-    monkeypatch.setattr(numba_kernel, "AVAILABLE", False)
-    monkeypatch.delenv("OPTPLAN_ENGINE", raising=False)
-    with pytest.raises(ValueError, match="option 'engine' of backend 'ipso'.*optplan\\[fast\\]"):
-        op.get_solver("ipso-paper", engine="numba")
+@pytest.mark.parametrize("option", ["engine", "kernel"])
+def test_removed_swarm_options_are_unknown(option):
+    """One fitness kernel, one implementation: ``engine`` and ``kernel`` are not options."""
+    with pytest.raises(ValueError, match=option):
+        op.get_solver("ipso-paper", **{option: "numpy"})
     res = op.solve("open-field", "ipso-paper", rng=0, k_max=3)
-    assert res.extras["per_robot"]["r1"]["engine"] == "numpy"
-    with pytest.raises(ValueError, match="engine"):
-        op.get_solver("pso-paper", engine="gpu")
+    assert "engine" not in res.extras["per_robot"]["r1"]

@@ -60,7 +60,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.backends.ipso_compiled import absorb, breed, move_and_bound, select_pairs
 from optplan.backends.swarm import (
     PathBuffer,
     SwarmBackend,
@@ -90,9 +89,6 @@ __all__ = [
 ]
 
 INERTIA_MODES = ("paper", "linear")
-_NO_VMAX = np.zeros(0)
-_NO_ROWS = np.zeros((0, 0))
-_NO_ISLANDS = np.zeros(0, np.int64)
 POSITION_MODES = ("paper", "frame", "step")
 
 
@@ -218,9 +214,10 @@ class IPSO(SwarmBackend):
         gbest (same batch); one that is not worse replaces gbest and the worst particle.
     snap : bool
         Beyond the paper: every iteration also score, for each waypoint of gbest, the move
-        of that waypoint onto the nearest convex vertex of the inflated map (pushed out by
-        1e-6 of the map size), plus all waypoints snapped at once; shortest paths bend only
-        there.  A better candidate replaces gbest and the worst particle.
+        of that waypoint onto the nearest convex obstacle corner, moved out to the robot
+        radius plus 1e-6 of the map size (:func:`optplan.backends.swarm.snap_targets`), plus
+        all waypoints snapped at once; shortest paths bend only there.  A better candidate
+        replaces gbest and the worst particle.
     local_trials : int
         Beyond the paper: every iteration also score this many Gaussian trials around gbest
         with an adaptive step (x2 after a success, x0.8 otherwise); a better one replaces
@@ -242,7 +239,7 @@ class IPSO(SwarmBackend):
         returned (one extra history row).  The returned path then has as many vertices as the
         tightening needs (more than ``n_waypoints`` around rounded corners).
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
-penetration_weight, kernel, engine
+penetration_weight
         Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
     """
 
@@ -293,7 +290,7 @@ penetration_weight, kernel, engine
         state.stats.update(w=self.w_max, vnorms=[0.0], crossovers=0, mutations_kept=0,
                            local_sigma=0.01, local_accepted=0, redistributed=0, snapped=0)
         if self.snap:
-            state.stats["_snap"] = snap_targets(space.imap, 1e-6 * space.diag)
+            state.stats["_snap"] = snap_targets(space, 1e-6 * space.diag)
         state.stats["_ones"] = np.ones(space.dim)
         state.stats["_vmax"] = self._vmax(space)  # constant over the run
         state.stats["_c12"] = np.array([self.c1, self.c2])[:, None, None]
@@ -302,10 +299,6 @@ penetration_weight, kernel, engine
         n = space.n_waypoints
         extra = (n if self.redistribute else 0) + (n + 1 if self.snap else 0) + self.local_trials
         state.stats["_buffer"] = PathBuffer(space, self.n_particles + 2 * self.A + extra)
-        # the compiled twins of the swarm arithmetic (bit-identical) cover these modes
-        state.stats["_compiled"] = (state.stats.get("engine") == "numba"
-                                    and self.position_update in ("paper", "step")
-                                    and self.bounds_mode in ("reflect", "clip"))
         if self._n_islands > 1:
             self._update_islands(state)
 
@@ -433,40 +426,6 @@ penetration_weight, kernel, engine
         np.add(MX, CX, out=out[:m])  # child + C_k
         return m, CV, (np.concatenate([isl, isl]) if isl is not None else None)
 
-    def _step_compiled(self, space: SwarmSpace, state: SwarmState, w: float, k: int,
-                       rng: np.random.Generator, B: np.ndarray):
-        """:meth:`_children`, :meth:`_move` and the bounds handling with the compiled twins of
-        :mod:`optplan.backends.ipso_compiled` (same random draws, bit-identical results).
-
-        Returns ``(m, children's velocities, island of each child, V^{k+1})``.
-        """
-        st = state
-        P, D = st.X.shape
-        I = self._n_islands
-        A = self._selection_size(P)
-        psi = position_factor(k, self.k_max)
-        m, CV, isl = 0, None, None
-        if A >= 2:
-            thr = ((self.crossover_tol * space.diag) ** 2 if math.isfinite(self.crossover_tol)
-                   else math.inf)
-            pairs, pisl = select_pairs(st.F, st.X, A, I, thr)
-            h = len(pairs)
-            if h:
-                m = 2 * h
-                pc = rng.random(h)
-                Z = rng.standard_normal((m, D))
-                CV = np.empty((m, D))
-                breed(st.X, st.V, pairs, pc, Z, st.stats["_mut_sigma"] * psi, B[P:], CV)
-                isl = np.concatenate([pisl, pisl]) if I > 1 else None
-        U = rng.random((3, P, D))
-        social = st.stats["_social"] if I > 1 else st.gbest[None, :]
-        vmax = st.stats["_vmax"]
-        V = np.empty_like(st.V)
-        move_and_bound(st.X, st.V, st.pbest, social, U, self.c1, self.c2, w, psi,
-                       _NO_VMAX if vmax is None else vmax, self.position_update == "step",
-                       space.lo, space.hi, self.bounds_mode == "clip", B, P + m, V)
-        return m, CV, isl, V
-
     def _absorb(self, st: SwarmState, X: np.ndarray, V: np.ndarray, cost: np.ndarray,
                 B: np.ndarray, m: int, CV: np.ndarray | None, isl: np.ndarray | None
                 ) -> tuple[np.ndarray, int]:
@@ -501,16 +460,6 @@ penetration_weight, kernel, engine
         st.pbest_f[slots] = kc
         return F, kept
 
-    def _absorb_compiled(self, st: SwarmState, X: np.ndarray, V: np.ndarray,
-                         cost: np.ndarray, B: np.ndarray, m: int, CV: np.ndarray | None,
-                         isl: np.ndarray | None) -> tuple[np.ndarray, int]:
-        """:meth:`_absorb` with the compiled twin :func:`~optplan.backends.ipso_compiled.absorb`
-        (bit-identical)."""
-        F = np.empty(len(X))
-        kept = absorb(X, V, F, st.pbest, st.pbest_f, cost, B, _NO_ROWS if CV is None else CV,
-                      _NO_ISLANDS if isl is None else isl, m, self._n_islands)
-        return F, int(kept)
-
     def _worst_slots(self, F: np.ndarray, isl: np.ndarray) -> np.ndarray:
         """Slots of the worst particles: the r-th child of island i takes the r-th worst
         particle of island i (children sorted by island)."""
@@ -532,15 +481,11 @@ penetration_weight, kernel, engine
         buf = st.stats["_buffer"]
         B = buf.X(it)  # this iteration's batch: swarm, mutants, children, extra candidates
         mode = self.bounds_mode
-        if st.stats["_compiled"]:
-            m, CV, isl, V = self._step_compiled(space, st, w, k, rng, B)
-            X = B[:P]
-        else:
-            m, CV, isl = self._children(space, st, k, rng, B[P:])
-            X, V = self._move(space, st, w, k, rng, out=B[:P])
-            out = bound_positions(B[:P + m], space.lo, space.hi, mode, rng)  # swarm, mutants
-            if out is not None:
-                V = bounce_velocity(V, out[:P], mode)
+        m, CV, isl = self._children(space, st, k, rng, B[P:])
+        X, V = self._move(space, st, w, k, rng, out=B[:P])
+        out = bound_positions(B[:P + m], space.lo, space.hi, mode, rng)  # swarm, mutants
+        if out is not None:
+            V = bounce_velocity(V, out[:P], mode)
         main = P + 2 * m
         # beyond-the-paper moves around the global best; with islands, around one island's
         # best per iteration (round robin), so that no island is pulled into another's class
@@ -570,8 +515,7 @@ penetration_weight, kernel, engine
         cost = ev.cost
         st.n_eval += pos
         # the moved swarm and its memories; the children replace the worst particles
-        absorb = self._absorb_compiled if st.stats["_compiled"] else self._absorb
-        F, kept = absorb(st, X, V, cost, B, m, CV, isl)
+        F, kept = self._absorb(st, X, V, cost, B, m, CV, isl)
         st.X, st.V, st.F = X, V, F
         # gbest and the best collision-free particle over everything scored (a rejected
         # mutant costs at least as much as its child, so it never wins alone)

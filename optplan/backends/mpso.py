@@ -82,7 +82,7 @@ class MPSO(SwarmBackend):
         Trial points per iteration for ``gbest_local`` (evaluated in the same batch as the
         swarm).
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
-penetration_weight, kernel, engine
+penetration_weight
         Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
     """
 

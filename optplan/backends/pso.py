@@ -53,7 +53,7 @@ class PSO(SwarmBackend):
     w : float
         Inertia weight of eq 1 (paper §VI.A: 0.5).
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
-penetration_weight, kernel, engine
+penetration_weight
         Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
     """
 

@@ -7,10 +7,11 @@ Encoding
 
 Fitness (eqs 31-33)
     ``fit = f_1 + f_2`` with ``f_1`` the polyline length (eq 31) and
-    ``f_2 = penalty_weight * sum_i alpha_i`` (eq 32), ``alpha_i`` the number of inflated
-    obstacles whose *interior* segment ``i`` enters (touching is not a collision).  Beyond the
-    paper, ``penetration_weight * (length of path inside obstacles)`` can be added: it gives
-    the swarm a gradient out of obstacles (the count alone is a flat landscape).
+    ``f_2 = penalty_weight * sum_i alpha_i`` (eq 32), ``alpha_i`` the number of obstacles
+    the robot's disc hits along segment ``i`` (touching is not a collision).  Beyond the
+    paper, ``penetration_weight * penetration`` can be added (how deep the path goes into
+    obstacles, see below): it gives the swarm a gradient out of obstacles (the count alone is
+    a flat landscape).
 
     **Default penalty weight** ``(n + 1) * diag`` (``diag`` = diagonal of the map bounds).
     Every waypoint stays inside the bounds (bounds handling below), so each of the ``n + 1``
@@ -20,15 +21,12 @@ Fitness (eqs 31-33)
     fitness is lexicographic (feasibility first, then length) and gbest can never be a
     colliding shortcut while a feasible particle exists.
 
-    The whole swarm is scored with one call of the collision test per evaluation.
-    ``kernel = "disc"`` (default) calls :meth:`optplan.geometry.ObstacleSet.crossings`: the
-    exact disc-robot test against the raw obstacles (``alpha_i`` = number of obstacles closer
-    than the robot radius to segment ``i``; penetration = ``r - distance`` or
-    ``r + inside length`` per colliding convex piece).  It is stricter than the validator's
-    inscribed-polygon test, so a fitness-feasible path is validator-feasible.
-    ``kernel = "geometry"`` calls :func:`optplan.geometry.batch_crossings` on exactly the
-    validator's map (interior crossings of the inscribed round buffer; penetration = length
-    inside): the reference, several times slower.
+    The whole swarm is scored with one call of the collision test per evaluation,
+    :meth:`optplan.geometry.ObstacleSet.crossings`: the exact disc-robot test against the raw
+    obstacles (``alpha_i`` = number of obstacles closer than the robot radius to segment
+    ``i``; penetration = ``r - distance`` or ``r + inside length`` per colliding convex
+    piece).  It is the validator's own test (on the known obstacles), so a fitness-feasible
+    path is validator-feasible as far as the known obstacles go.
 
 Bounds handling (option ``bounds_mode``)
     ``"reflect"`` (default): a coordinate beyond a bound is mirrored back into the map and the
@@ -64,21 +62,19 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
+import shapely
+from shapely.geometry.polygon import orient
 
-from optplan.geometry import (
-    KERNEL_ENGINES,
-    InflatedMap,
-    ObstacleSet,
-    batch_crossings,
-    kernel_engine,
-    obstacle_set,
-)
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
 from optplan.solver import Backend, check_choice, check_int, check_range, make_rng
+
+if TYPE_CHECKING:
+    from optplan.geometry import ObstacleSet
+    from optplan.problem import Obstacle
 
 __all__ = [
     "SwarmSpace",
@@ -104,7 +100,6 @@ __all__ = [
 
 BOUNDS_MODES = ("reflect", "clip", "random")
 INIT_MODES = ("sorted", "uniform", "line", "roadmap")
-KERNELS = ("disc", "geometry")
 #: Relative tolerance of the "improved by" tests on fitness values.
 _EPS = 1e-12
 
@@ -126,18 +121,23 @@ def default_penalty(bounds: tuple[float, float, float, float], n_waypoints: int)
 
 @dataclass(frozen=True, eq=False)
 class SwarmSpace:
-    """The search space of one robot: endpoints, box bounds per dimension, the fitness map."""
+    """The search space of one robot: endpoints, box bounds per dimension, the fitness map.
+
+    ``obstacles`` is the fitness kernel (None: no obstacles, every path is collision-free).
+    ``static`` (the known static obstacles) and ``radius`` (the robot's) are read only for
+    the obstacle corners of ``ipso``'s ``snap`` option (:func:`snap_targets`).
+    """
 
     start: np.ndarray
     goal: np.ndarray
     n_waypoints: int
     lo: np.ndarray
     hi: np.ndarray
-    imap: InflatedMap
     obstacles: ObstacleSet | None
     penalty_weight: float
     penetration_weight: float = 0.0
-    engine: str = "numpy"
+    static: tuple[Obstacle, ...] = ()
+    radius: float = 0.0
 
     @property
     def dim(self) -> int:
@@ -162,31 +162,22 @@ class SwarmSpace:
 
 
 def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
-               penalty_weight: float | None = None, penetration_weight: float = 0.0,
-               kernel: str = "disc", engine: str = "auto") -> SwarmSpace:
+               penalty_weight: float | None = None,
+               penetration_weight: float = 0.0) -> SwarmSpace:
     """Build the :class:`SwarmSpace` of ``robot`` on the map ``problem`` (pass a known view).
 
-    ``kernel = "disc"`` scores with the :class:`~optplan.geometry.ObstacleSet` of the known
-    static obstacles for the robot's radius (built once per problem and radius, cached);
-    ``"geometry"`` with ``batch_crossings`` on the validator's inflated map.  ``engine`` is
-    resolved once here (:func:`optplan.geometry.kernel_engine`) and used by every fitness call
-    of the run (and by the compiled swarm steps).
+    The fitness scores with :meth:`optplan.problem.Problem.obstacle_set` of the known static
+    obstacles for the robot's radius (the exact disc-robot test, built once per problem and
+    radius, cached).
     """
-    imap = problem.inflated(robot.radius, known_only=True)
     x0, y0, x1, y1 = problem.bounds
     lo = np.tile([x0, y0], n_waypoints).astype(float)
     hi = np.tile([x1, y1], n_waypoints).astype(float)
-    obs = None
-    if kernel == "disc":
-        key = ("swarm-obstacle-set", round(float(robot.radius), 12))
-        if key not in problem._cache:
-            problem._cache[key] = obstacle_set(problem.static_obstacles(known_only=True),
-                                               float(robot.radius))
-        obs = problem._cache[key]
+    obs = problem.obstacle_set(robot.radius, known_only=True)
     pw = default_penalty(problem.bounds, n_waypoints) if penalty_weight is None else penalty_weight
     return SwarmSpace(np.asarray(robot.start, float), np.asarray(robot.goal, float),
-                      n_waypoints, lo, hi, imap, obs, float(pw), float(penetration_weight),
-                      kernel_engine(engine))
+                      n_waypoints, lo, hi, obs, float(pw), float(penetration_weight),
+                      problem.static_obstacles(known_only=True), float(robot.radius))
 
 
 def decode(X: np.ndarray, space: SwarmSpace) -> np.ndarray:
@@ -223,12 +214,11 @@ def evaluate_paths(paths: np.ndarray, space: SwarmSpace) -> SwarmEval:
     """Eqs 31-33 for already decoded polylines ``(P, n + 2, 2)`` (see :class:`PathBuffer`)."""
     z = paths.view(np.complex128)[..., 0]  # points as complex numbers
     length = np.abs(z[:, 1:] - z[:, :-1]) @ space._seg_ones
-    if space.obstacles is not None:
-        cr = space.obstacles.crossings(paths, penetration=space.penetration_weight > 0,
-                                       engine=space.engine)
+    if space.obstacles is None:  # no obstacles: nothing to cross
+        count, pen = np.zeros(len(paths), np.int64), np.zeros(len(paths))
     else:
-        cr = batch_crossings(paths, space.imap)
-    count, pen = cr.count, cr.penetration
+        cr = space.obstacles.crossings(paths, penetration=space.penetration_weight > 0)
+        count, pen = cr.count, cr.penetration
     cost = length + space.penalty_weight * count
     if space.penetration_weight:
         cost += space.penetration_weight * pen
@@ -380,11 +370,9 @@ def segment_free(a: np.ndarray, b: np.ndarray, space: SwarmSpace) -> np.ndarray:
     segs = np.stack([a, b], axis=1)
     if len(segs) == 0:
         return np.zeros(0, dtype=bool)
-    if space.obstacles is not None:
-        count = space.obstacles.crossings(segs, penetration=False, engine=space.engine).count
-    else:
-        count = batch_crossings(segs, space.imap).count
-    return count == 0
+    if space.obstacles is None:  # no obstacles: every segment is free
+        return np.ones(len(segs), dtype=bool)
+    return space.obstacles.crossings(segs, penetration=False).count == 0
 
 
 def shortcut(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
@@ -511,31 +499,41 @@ def tighten(path: np.ndarray, space: SwarmSpace, rounds: int = 30,
     return p, n_eval
 
 
-def snap_targets(imap: InflatedMap, push: float) -> np.ndarray:
-    """Convex vertices of the inflated map pushed outward by ``push`` along their bisector.
+def snap_targets(space: SwarmSpace, push: float) -> np.ndarray:
+    """Convex corners of the known polygonal obstacles, moved out along their bisector to
+    ``radius + push`` from the corner (the middle of the arc the disc robot's free space has
+    there), keeping those the fitness finds collision-free.
 
-    Shortest paths among polygons bend only at convex obstacle vertices (de Berg et al.,
-    Lemma 15.1); a waypoint snapped to a slightly pushed-out vertex makes the path hug that
-    corner without touching it (touching paths are fragile for floating-point tests).
+    Shortest paths among polygons bend only at convex obstacle corners (de Berg et al.,
+    Lemma 15.1), for a disc robot on the arcs of radius ``r`` around them; a waypoint snapped
+    to a slightly pushed-out target makes the path hug that corner without touching it
+    (touching paths are fragile for floating-point tests).  Circles have no corners and give
+    no target.  Hole rings count with the solid on the other side.
     """
     out = []
-    for part in imap.parts:
-        for ring in (part.exterior, *part.interiors):
-            c = np.asarray(ring.coords)[:-1]
-            if len(c) < 3:
-                continue
-            prev, nxt = np.roll(c, 1, axis=0), np.roll(c, -1, axis=0)
-            a, b = c - prev, nxt - c
-            cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-            keep = cross > 1e-12
-            na = np.stack([a[:, 1], -a[:, 0]], 1)  # outward normals (solid on the left)
-            nb = np.stack([b[:, 1], -b[:, 0]], 1)
-            na /= np.maximum(np.hypot(*na.T), 1e-300)[:, None]
-            nb /= np.maximum(np.hypot(*nb.T), 1e-300)[:, None]
-            bis = na + nb
-            bis /= np.maximum(np.hypot(*bis.T), 1e-300)[:, None]
-            out.append((c + push * bis)[keep])
-    return np.concatenate(out) if out else np.zeros((0, 2))
+    for ob in space.static:
+        if ob.is_circle or ob.geometry is None:
+            continue
+        for poly in getattr(ob.geometry, "geoms", [ob.geometry]):
+            poly = orient(poly, 1.0)  # CCW exterior, CW holes: the solid is on the left
+            for ring in (poly.exterior, *poly.interiors):
+                c = shapely.get_coordinates(ring)[:-1]
+                if len(c) < 3:
+                    continue
+                prev, nxt = np.roll(c, 1, axis=0), np.roll(c, -1, axis=0)
+                a, b = c - prev, nxt - c
+                cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+                la, lb = np.hypot(*a.T), np.hypot(*b.T)
+                keep = cross > 1e-12 * la * lb  # left turn: a convex corner of the solid
+                na = np.stack([a[:, 1], -a[:, 0]], 1) / np.maximum(la, 1e-300)[:, None]
+                nb = np.stack([b[:, 1], -b[:, 0]], 1) / np.maximum(lb, 1e-300)[:, None]
+                bis = na + nb  # outward (away from the solid)
+                bis /= np.maximum(np.hypot(*bis.T), 1e-300)[:, None]
+                out.append((c + (space.radius + push) * bis)[keep])
+    t = np.concatenate(out) if out else np.zeros((0, 2))
+    if len(t) and space.obstacles is not None:  # drop corners inside another obstacle
+        t = t[space.obstacles.crossings(np.stack([t, t], axis=1), penetration=False).count == 0]
+    return t
 
 
 def converged_iteration(best: np.ndarray, rel: float = 1e-3) -> int:
@@ -650,20 +648,6 @@ class SwarmBackend(Backend):
     penetration_weight : float
         Weight of the inside-obstacle length added to the fitness (beyond the paper; 0 in the
         ``-paper`` presets).
-    kernel : {"disc", "geometry"}
-        Collision test of the fitness: ``"disc"``, the exact disc-robot test against the raw
-        obstacles (:class:`optplan.geometry.ObstacleSet`; stricter than the validator), or
-        ``"geometry"``, ``optplan.geometry.batch_crossings`` on the validator's inflated map
-        (the reference, slower).
-    engine : {"auto", "numpy", "numba"}
-        Implementation of the ``"disc"`` fitness kernel and of the compiled swarm steps
-        (:func:`optplan.geometry.kernel_engine`): ``"numba"`` needs the optional dependency
-        (``pip install optplan[fast]``); ``"auto"`` uses it when installed (the environment
-        variable ``OPTPLAN_ENGINE`` can force ``numpy``).  The engine used is recorded in
-        ``result.extras["per_robot"][id]["engine"]``.  Runs are bit-identical across engines
-        whenever the kernels' collision decisions agree, i.e. unless a segment falls within
-        ~1e-16 relative of the collision threshold (tested on whole ``ipso-paper`` and
-        ``ipso`` runs; see ``docs/solvers/pso.md``).
     roadmap_samples : int
         Random samples per roadmap for ``init_mode = "roadmap"`` (beyond the paper).
     """
@@ -682,8 +666,6 @@ class SwarmBackend(Backend):
     init_mode: str = "sorted"
     penalty_weight: float | None = None
     penetration_weight: float = 0.0
-    kernel: str = "disc"
-    engine: str = "auto"
     roadmap_samples: int = 60
 
     def __post_init__(self) -> None:
@@ -698,15 +680,6 @@ class SwarmBackend(Backend):
         if self.penalty_weight is not None:
             check_range(self, "penalty_weight", 0.0, math.inf)
         check_range(self, "penetration_weight", 0.0, math.inf)
-        check_choice(self, "kernel", KERNELS)
-        check_choice(self, "engine", KERNEL_ENGINES)
-        if self.engine == "numba":
-            try:
-                kernel_engine("numba")
-            except ValueError:
-                raise ValueError(f"option 'engine' of backend {self.name!r} is 'numba', but "
-                                 "numba is not installed: pip install optplan[fast] (or use "
-                                 "engine = 'auto' / 'numpy')") from None
         check_int(self, "roadmap_samples", 2, 100_000)
 
     # -- hooks for subclasses ------------------------------------------------------
@@ -745,8 +718,7 @@ class SwarmBackend(Backend):
                    init_path: np.ndarray | None, callback, t0: float, it_offset: int):
         space = make_space(problem, robot, self.n_waypoints,
                            penalty_weight=self.penalty_weight,
-                           penetration_weight=self.penetration_weight,
-                           kernel=self.kernel, engine=self.engine)
+                           penetration_weight=self.penetration_weight)
         X = initial_swarm(space, self.n_particles,
                           "sorted" if self.init_mode == "roadmap" else self.init_mode, rng)
         if self.init_mode == "roadmap":
@@ -761,8 +733,6 @@ class SwarmBackend(Backend):
         V = np.zeros_like(X)
         ev = evaluate_swarm(X, space)
         state = new_state(X, V, ev)
-        # the engine of the fitness kernel (and of compiled swarm steps), recorded in the result
-        state.stats["engine"] = space.engine
         self._start(space, state, rng)
         rows: list[dict[str, Any]] = []
 

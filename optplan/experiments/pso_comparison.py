@@ -26,7 +26,6 @@ from pathlib import Path
 import numpy as np
 
 import optplan as op
-from optplan.geometry import kernel_engine
 
 __all__ = ["main", "run", "PAPER"]
 
@@ -167,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     res = run(args.maps, args.solvers, args.seeds)
     print(f"PSO / MPSO / IPSO comparison (paper Tables 2-3): {args.seeds} common seeds, "
           f"machine: {os.cpu_count()} cores, {platform.python_implementation()} "
-          f"{platform.python_version()}, numpy {np.__version__}, engine {kernel_engine()}")
+          f"{platform.python_version()}, numpy {np.__version__}")
     print("Lengths in map units (the paper's cm); success = collision-free and at the goal "
           "(shared validator); best/median/worst over successful runs.")
     print()
