@@ -3,12 +3,20 @@
 Table 1 (polish, ``paper-env1``): for seeds ``0 .. --seeds-1`` each heuristic (the presets
 ``ipso-paper`` and ``ipso``) is solved, then the NLP is warm-started from its path.  Medians
 of the heuristic time, the NLP time and their sum, the lengths and the gap to the certified
-visgraph optimum.  Target (issue 4): IPSO + NLP polish
-<= 250 ms median.
+optimum (the exact, segments + arcs, length of the tangent-graph path).  Target (issue 4):
+IPSO + NLP polish <= 250 ms median.
 
-Table 2 (reference): the NLP started from the visgraph path (no ``init``) on the paper maps
-in both clearance modes, temporary obstacles included (``see_temporary = true``): status,
-length ratio to visgraph, IPOPT iterations and the median wall time over ``--reps`` runs.
+Table 2 (reference): the NLP started from the visgraph polyline (no ``init``) on the paper
+maps, temporary obstacles included (``see_temporary = true``): status, the exact optimum, the
+visgraph polyline's and the NLP's lengths, the NLP's ratio to the exact optimum, IPOPT
+iterations, pairs, segments and the median wall time over ``--reps`` runs; last row: the
+first map translated by (5e5, 5e6) (UTM-like coordinates; the local frame makes it the same
+solve).
+
+Table 3 (a circle, handled natively): a circle of radius 30 at the centre of a 200 x 200 map,
+a robot of radius 0.5 from x = 5 to x = 195 at height ``100 + y0``: the NLP's length against
+the tangent-arc optimum and its exact clearance (``ObstacleSet.clearance``, in units of the
+validator's tolerance ``eps``), for N = 20 and N = 100 segments.
 
 Run: ``python benchmarks/bench_nlp.py [--seeds 15] [--reps 5]``.  Timings are wall-clock
 medians on a shared machine; the printed header says how many cores it has and its load.
@@ -17,12 +25,17 @@ medians on a shared machine; the printed header says how many cores it has and i
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import platform
 import statistics
 import time
 
+import numpy as np
+import shapely
+
 import optplan as op
+from optplan.geometry.tangent_graph import problem_shortest_path
 
 TARGET_MS = 250.0
 
@@ -34,7 +47,7 @@ def _ms(xs: list[float]) -> str:
 def polish_table(problem: str, heuristic: str, seeds: int) -> str:
     prob = op.load_problem(problem)
     rid = prob.leader.id
-    L_opt = op.solve(prob, "visgraph").metrics["length"]
+    L_opt = op.solve(prob, "visgraph").metrics["length_exact"]
     op.solve(prob, "nlp-ipopt")  # build the CasADi structures once (not timed)
     th, tn, tt, Lh, Ln, gh, gn, st, fh = [], [], [], [], [], [], [], [], []
     for s in range(seeds):
@@ -66,25 +79,63 @@ def polish_table(problem: str, heuristic: str, seeds: int) -> str:
     return "\n".join(lines)
 
 
+def shifted(base: op.Problem, off) -> op.Problem:
+    """``base`` translated by ``off``."""
+    off = np.asarray(off, float)
+    x0, y0, x1, y1 = base.bounds
+    return dataclasses.replace(
+        base, bounds=(x0 + off[0], y0 + off[1], x1 + off[0], y1 + off[1]),
+        robots=tuple(dataclasses.replace(r, start=r.start + off,
+                                         goal=None if r.goal is None else r.goal + off)
+                     for r in base.robots),
+        obstacles=tuple(dataclasses.replace(
+            o, geometry=None if o.geometry is None
+            else shapely.affinity.translate(o.geometry, *off),
+            center=None if o.center is None else o.center + off) for o in base.obstacles),
+        _cache={})
+
+
 def reference_table(problems: list[str], reps: int) -> str:
-    lines = ["| problem | clearance mode | status | L visgraph | L NLP | ratio | iterations "
-             "| pairs | t NLP ms |",
-             "|---|---|---|---:|---:|---:|---:|---:|---:|"]
-    for name in problems:
-        prob = op.load_problem(name)
+    lines = ["| problem | status | L* exact | L visgraph polyline | L NLP | NLP / L* - 1 "
+             "| iterations | pairs | segments | t NLP ms |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    cases = [(name, op.load_problem(name)) for name in problems]
+    cases.append((f"{problems[0]} + (5e5, 5e6)", shifted(cases[0][1], (5e5, 5e6))))
+    for name, prob in cases:
         rid = prob.leader.id
         vg = op.solve(prob, "visgraph", see_temporary=True)
-        for mode in ("exact", "inscribed"):
-            ts = []
-            for _ in range(reps + 1):
-                t0 = time.perf_counter()
-                r = op.solve(prob, "nlp-ipopt", clearance_mode=mode, see_temporary=True)
-                ts.append(time.perf_counter() - t0)
-            e = r.extras["ipopt"][rid]
-            lines.append(
-                f"| {name} | {mode} | {r.status.value} | {vg.metrics['length']:.3f} "
-                f"| {r.metrics['length']:.3f} | {r.metrics['length'] / vg.metrics['length']:.6f} "
-                f"| {e['iterations']} | {e['n_pairs']} | {_ms(ts[1:])} |")
+        ts = []
+        for _ in range(reps + 1):
+            t0 = time.perf_counter()
+            r = op.solve(prob, "nlp-ipopt", see_temporary=True)
+            ts.append(time.perf_counter() - t0)
+        e = r.extras["ipopt"][rid]
+        L_star = vg.metrics["length_exact"]
+        lines.append(
+            f"| {name} | {r.status.value} | {L_star:.6f} | {vg.metrics['length']:.6f} "
+            f"| {r.metrics['length']:.6f} | {r.metrics['length'] / L_star - 1:.2e} "
+            f"| {e['iterations']} | {e['n_pairs']} | {e['rounds'][-1]['n_seg']} "
+            f"| {_ms(ts[1:])} |")
+    return "\n".join(lines)
+
+
+def disc_table(offsets=(0.0, 20.0, 28.0, 29.5), segments=(20, 100)) -> str:
+    lines = ["| y0 | N | status | L* tangent-arc | L NLP | NLP / L* - 1 | clearance / eps |",
+             "|---:|---:|---|---:|---:|---:|---:|"]
+    for y0 in offsets:
+        prob = op.parse_problem({
+            "name": f"disc-{y0:g}", "bounds": [0.0, 0.0, 200.0, 200.0],
+            "robots": [{"id": "r", "start": [5.0, 100.0 + y0], "goal": [195.0, 100.0 + y0],
+                        "radius": 0.5, "max_speed": 1.0}],
+            "obstacles": [{"type": "circle", "name": "c30", "center": [100.0, 100.0],
+                           "radius": 30.0}]})
+        L_star = problem_shortest_path(prob, prob.robots[0]).length
+        for n in segments:
+            r = op.solve(prob, "nlp-ipopt", n_segments=n)
+            cl = prob.obstacle_set(0.5).clearance(r.paths["r"][None])[0]
+            lines.append(f"| {y0:g} | {n} | {r.status.value} | {L_star:.6f} "
+                         f"| {r.metrics['length']:.6f} | {r.metrics['length'] / L_star - 1:.2e} "
+                         f"| {cl / prob.frame.eps:.0f} |")
     return "\n".join(lines)
 
 
@@ -104,6 +155,8 @@ def main(argv: list[str] | None = None) -> int:
         print(table if i == 0 else table.split("\n", 2)[2])
     print("\n### NLP from the visgraph path (reference consistency)\n")
     print(reference_table(["paper-env1", "paper-env2", "paper-warehouse"], args.reps))
+    print("\n### A circle of radius 30, robot radius 0.5 (native disc constraint)\n")
+    print(disc_table())
     return 0
 
 

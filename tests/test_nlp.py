@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -11,54 +12,110 @@ from shapely.geometry import Polygon
 
 import optplan as op
 from optplan.backends.nlp import (
+    SAFETY_REL,
     WaypointNLP,
-    convex_decompose,
     init_hyperplanes,
     objective_function,
     obstacle_pieces,
+    pair_distances,
+    piece_distances,
     resample_path,
 )
 from optplan.experiments.validate import (
     format_table,
+    obstacle_points,
     same_homotopy,
     summarize,
     validate,
     winding_numbers,
 )
-from optplan.geometry import path_lengths
+from optplan.geometry import convex_decompose, path_lengths
+from optplan.geometry.tangent_graph import problem_shortest_path
 
 
 def _scene(obstacles: list[dict], start=(5.0, 50.0), goal=(95.0, 50.0), radius=2.0,
-           name="nlp-test") -> op.Problem:
+           name="nlp-test", size=100.0) -> op.Problem:
     return op.parse_problem({
         "name": name,
-        "bounds": [0.0, 0.0, 100.0, 100.0],
+        "bounds": [0.0, 0.0, size, size],
         "robots": [{"id": "r", "start": list(start), "goal": list(goal), "radius": radius,
                     "max_speed": 1.0}],
         "obstacles": obstacles,
     })
 
 
+def _shifted(base: op.Problem, off) -> op.Problem:
+    """``base`` translated by ``off`` (bounds, robots, obstacles; circles by their centre)."""
+    off = np.asarray(off, float)
+    x0, y0, x1, y1 = base.bounds
+    return dataclasses.replace(
+        base, bounds=(x0 + off[0], y0 + off[1], x1 + off[0], y1 + off[1]),
+        robots=tuple(dataclasses.replace(r, start=r.start + off,
+                                         goal=None if r.goal is None else r.goal + off)
+                     for r in base.robots),
+        obstacles=tuple(dataclasses.replace(
+            o, geometry=None if o.geometry is None
+            else shapely.affinity.translate(o.geometry, *off),
+            center=None if o.center is None else o.center + off) for o in base.obstacles),
+        _cache={})
+
+
 BOX = {"type": "rectangle", "name": "box", "min": [40.0, 35.0], "max": [60.0, 60.0]}
 DISC = {"type": "circle", "name": "disc", "center": [50.0, 48.0], "radius": 10.0}
+ELL = {"type": "polygon", "name": "ell",
+       "vertices": [[20, 10], [40, 10], [40, 15], [25, 15], [25, 30], [20, 30]]}
+RING = {"type": "polygon", "name": "ring", "vertices": [[60, 70], [90, 70], [90, 95], [60, 95]],
+        "holes": [[[70, 78], [70, 88], [80, 88], [80, 78]]]}
 
 
 # -- geometry helpers ------------------------------------------------------------------
 
 
-def test_convex_decompose_l_shape_and_hole() -> None:
-    ell = Polygon([(0, 0), (4, 0), (4, 1), (1, 1), (1, 4), (0, 4)])
-    pieces = convex_decompose(ell)
-    assert 2 <= len(pieces) <= 3
-    polys = [Polygon(p) for p in pieces]
-    assert all(abs(q.convex_hull.area - q.area) < 1e-12 for q in polys)
-    assert math.isclose(sum(q.area for q in polys), ell.area, rel_tol=1e-12)
-    assert shapely.unary_union(polys).symmetric_difference(ell).area < 1e-9
-    ring = Polygon([(0, 0), (6, 0), (6, 6), (0, 6)], [[(2, 2), (2, 4), (4, 4), (4, 2)]])
-    pieces = [Polygon(p) for p in convex_decompose(ring)]
-    assert all(abs(q.convex_hull.area - q.area) < 1e-12 for q in pieces)
-    assert math.isclose(sum(q.area for q in pieces), ring.area, rel_tol=1e-12)
-    assert len(convex_decompose(Polygon([(0, 0), (1, 0), (1, 1), (0, 1)]))) == 1
+def test_pieces_are_the_core_decomposition_in_the_local_frame() -> None:
+    prob = _scene([ELL, RING, {**DISC, "center": [20.0, 80.0], "radius": 5.0}])
+    rob = prob.robots[0]
+    pc = obstacle_pieces(prob, rob)
+    o = prob.frame.origin
+    safety = SAFETY_REL * prob.extent
+    for k, ob in enumerate(prob.obstacles[:2]):
+        mine = [v for v, i in zip(pc.verts, pc.obstacle) if i == k]
+        core = convex_decompose(shapely.affinity.translate(ob.geometry, -o[0], -o[1]))
+        assert len(mine) == len(core) >= 2
+        for a, b in zip(mine, core):
+            np.testing.assert_array_equal(a, b)
+        polys = [Polygon(v) for v in mine]
+        assert all(abs(q.convex_hull.area - q.area) < 1e-12 * q.area for q in polys)
+        assert math.isclose(sum(q.area for q in polys), ob.geometry.area, rel_tol=1e-12)
+    # the circle: one vertex at its local centre, clearance R + r (+ safety)
+    j = int(np.flatnonzero(pc.obstacle == 2)[0])
+    np.testing.assert_allclose(pc.verts[j], [[20.0 - o[0], 80.0 - o[1]]])
+    assert pc.need[j] == 5.0 + 2.0 and pc.radius[j] == 5.0
+    assert pc.clear[j] == pytest.approx(7.0 + safety, rel=1e-15)
+    assert np.all(pc.clear[pc.obstacle < 2] == 2.0 + safety)
+
+
+def test_pair_distances_are_the_exact_engine() -> None:
+    """Per obstacle, the smallest piece distance is the validator's exact clearance; the disc
+    distance is to its boundary (+ R); shapely agrees (an independent check)."""
+    prob = _scene([ELL, RING, BOX, {**DISC, "center": [20.0, 80.0], "radius": 5.0}])
+    rob = prob.robots[0]
+    pc = obstacle_pieces(prob, rob)
+    oset = prob.obstacle_set(rob.radius, known_only=True)
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(0, 100, size=(400, 2))
+    loc = prob.frame.local(pts)
+    D = piece_distances(loc, pc)  # 399 segments
+    assert D.shape == (399, pc.n)
+    np.testing.assert_allclose(pair_distances(loc, pc), D - pc.clear)
+    geoms = [shapely.Point(v[0]) if len(v) == 1 else Polygon(v) for v in pc.verts]
+    for s in range(len(loc) - 1):
+        seg = shapely.LineString(loc[s:s + 2])
+        ref = np.array([seg.distance(g) for g in geoms])
+        ref = np.where(pc.radius > 0, np.maximum(ref, pc.radius), ref)
+        np.testing.assert_allclose(D[s], ref, atol=1e-9 * prob.extent)
+        c = oset.clearance(pts[s:s + 2][None])[0]
+        if c >= 0:  # the segment meets no obstacle: clearance = min over pieces
+            assert c == pytest.approx(float(np.min(D[s] - pc.need)), abs=1e-12 * prob.extent)
 
 
 def test_resample_keeps_vertices_and_length() -> None:
@@ -76,26 +133,33 @@ def test_resample_keeps_vertices_and_length() -> None:
     np.testing.assert_allclose(np.diff(r[:, 0]), 0.2)
 
 
-def test_hyperplane_init_is_unit_normal_and_support() -> None:
-    prob = _scene([BOX])
-    pieces = obstacle_pieces(prob, prob.robots[0], mode="exact")
-    path = np.array([[5.0, 80.0], [95.0, 80.0]])
-    a, c = init_hyperplanes(path, pieces, np.array([0]), np.array([0]))
-    np.testing.assert_allclose(a[0], [0.0, 1.0], atol=1e-12)
-    assert math.isclose(c[0], 60.0)
-    # with clearances: c moves to the middle of the gap (80 - 2 - 60) / 2
-    a, c = init_hyperplanes(path, pieces, np.array([0]), np.array([0]), pieces.clear)
-    assert math.isclose(c[0], 60.0 + (80.0 - pieces.clear[0] - 60.0) / 2)
-
-
-def test_pieces_modes_and_disc_is_native() -> None:
+def test_hyperplane_init_is_the_separating_direction() -> None:
     prob = _scene([BOX, {**DISC, "center": [20.0, 80.0], "radius": 5.0}])
-    ex = obstacle_pieces(prob, prob.robots[0], mode="exact")
-    assert ex.n == 2 and len(ex.verts[1]) == 1
-    assert ex.clear[1] == pytest.approx(5.0 + 2.0, abs=1e-3)
-    ins = obstacle_pieces(prob, prob.robots[0], mode="inscribed")
-    assert ins.n == 2 and min(len(v) for v in ins.verts) > 20
-    assert np.all(ins.clear < 1e-3)
+    pc = obstacle_pieces(prob, prob.robots[0])
+    fr = prob.frame
+    path = fr.local(np.array([[5.0, 80.0], [95.0, 80.0]]))
+    a, c = init_hyperplanes(path, pc, np.array([0]), np.array([0]))
+    np.testing.assert_allclose(a[0], [0.0, 1.0], atol=1e-12)
+    assert math.isclose(c[0], 60.0 - fr.origin[1])  # the box top, local
+    # with clearances: c moves to the middle of the gap (80 - 2 - 60) / 2
+    a, c = init_hyperplanes(path, pc, np.array([0]), np.array([0]), pc.clear)
+    assert math.isclose(c[0], 60.0 - fr.origin[1] + (80.0 - pc.clear[0] - 60.0) / 2)
+    # disjoint segment and piece: a . p - c is the exact distance (vertex-endpoint case)
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        q = fr.local(rng.uniform(0, 100, size=(2, 2)))
+        d = piece_distances(q, pc)[0]
+        for j in range(pc.n):
+            if d[j] <= (pc.radius[j] + 1e-6):
+                continue  # meets the piece
+            a, c = init_hyperplanes(q, pc, np.array([0]), np.array([j]))
+            assert np.hypot(*a[0]) == pytest.approx(1.0, abs=1e-12)
+            sep = min(q[0] @ a[0], q[1] @ a[0]) - c[0]
+            assert sep == pytest.approx(d[j], abs=1e-9 * prob.extent)
+    # a segment through the box still gets a unit normal
+    q = fr.local(np.array([[30.0, 50.0], [70.0, 45.0]]))
+    a, _ = init_hyperplanes(q, pc, np.array([0]), np.array([0]))
+    assert np.hypot(*a[0]) == pytest.approx(1.0, abs=1e-12)
 
 
 # -- twin test -------------------------------------------------------------------------
@@ -138,23 +202,24 @@ def test_spacing_regulariser_formula() -> None:
 
 @pytest.mark.parametrize("init_from", ["visgraph", "straight"])
 def test_open_field_is_the_straight_line(init_from: str) -> None:
-    res = op.solve("open-field", "nlp-ipopt", init_from=init_from)
+    prob = op.load_problem("open-field")
+    res = op.solve(prob, "nlp-ipopt", init_from=init_from)
     assert res.status is op.Status.optimal
-    assert f"{res.metrics['ratio_to_optimum']:.6f}" == "1.000000"
+    opt = problem_shortest_path(prob, prob.leader).length
+    assert res.metrics["length"] == pytest.approx(opt, rel=1e-12)
     assert res.metrics["collisions"] == 0
 
 
-@pytest.mark.parametrize("mode", ["exact", "inscribed"])
-def test_box_matches_visgraph(mode: str) -> None:
+def test_box_matches_the_exact_optimum() -> None:
     prob = _scene([BOX])
     vg = op.solve(prob, "visgraph")
-    res = op.solve(prob, "nlp-ipopt", clearance_mode=mode)
+    res = op.solve(prob, "nlp-ipopt")
     assert res.status is op.Status.optimal, res.message
     assert res.metrics["collisions"] == 0
-    gap = res.metrics["length"] / vg.metrics["length"] - 1
-    assert -1e-9 <= gap < 1e-3
-    if mode == "exact":
-        assert res.metrics["min_clearance"] >= -1e-6
+    gap = res.metrics["length"] / vg.metrics["length_exact"] - 1
+    assert 0.0 <= gap < 1e-3
+    assert res.metrics["min_clearance"] >= 0.0
+    assert "clearance_mode" not in res.options
 
 
 def test_disc_handled_natively_against_the_analytic_optimum() -> None:
@@ -166,9 +231,48 @@ def test_disc_handled_natively_against_the_analytic_optimum() -> None:
     t = math.sqrt(d * d - R * R)
     arc = R * (math.pi - 2 * math.acos(R / d))
     exact = 2 * t + arc
+    assert problem_shortest_path(prob, prob.robots[0]).length == pytest.approx(exact,
+                                                                               rel=1e-12)
     L = res.metrics["length"]
-    assert exact - 1e-6 <= L <= exact * (1 + 5e-4)
-    assert res.metrics["min_clearance"] >= -1e-6
+    assert exact <= L <= exact * (1 + 5e-4)
+    assert res.metrics["min_clearance"] >= 0.0
+
+
+def test_circle_exact_clearance_and_the_tangent_arc_optimum() -> None:
+    """A circle of radius 30 and a robot of radius 0.5: the NLP keeps the exact clearance
+    ``||x - c|| >= R + r`` (to the validator's tolerance) and, on a path that wraps a short arc,
+    its length is the tangent-arc optimum to 1e-6."""
+    circ = {"type": "circle", "name": "c30", "center": [100.0, 100.0], "radius": 30.0}
+    prob = _scene([circ], start=(5.0, 129.5), goal=(195.0, 129.5), radius=0.5, size=200.0)
+    rob = prob.robots[0]
+    assert prob.obstacles[0].is_circle
+    res = op.solve(prob, "nlp-ipopt")
+    assert res.status is op.Status.optimal, res.message
+    path = res.paths["r"]
+    eps = prob.frame.eps
+    clear = prob.obstacle_set(rob.radius).clearance(path[None])[0]
+    assert clear >= -eps
+    # the same from the centre: every segment stays R + r - eps away
+    c = np.array([100.0, 100.0])
+    a, b = path[:-1], path[1:]
+    t = np.clip(np.sum((c - a) * (b - a), 1) / np.sum((b - a) ** 2, 1), 0, 1)
+    assert np.min(np.hypot(*(a + t[:, None] * (b - a) - c).T)) >= 30.5 - eps
+    opt = problem_shortest_path(prob, rob).length
+    assert res.metrics["length"] >= opt
+    assert res.metrics["length"] == pytest.approx(opt, rel=1e-6)
+
+
+def test_translation_to_utm_coordinates_changes_nothing() -> None:
+    """paper-env1 moved by (5e5, 5e6) solves like paper-env1 (local frame)."""
+    base = op.load_problem("paper-env1")
+    far = _shifted(base, (5e5, 5e6))
+    a = op.solve(base, "nlp-ipopt")
+    b = op.solve(far, "nlp-ipopt")
+    assert b.status is a.status is op.Status.optimal, b.message
+    assert b.n_iter == a.n_iter
+    assert b.metrics["collisions"] == 0
+    assert b.metrics["length"] == pytest.approx(a.metrics["length"], rel=1e-6)
+    np.testing.assert_allclose(b.paths["r1"] - (5e5, 5e6), a.paths["r1"], atol=1e-6)
 
 
 def test_pruned_pairs_are_added_back_when_violated() -> None:
@@ -192,18 +296,26 @@ def test_guard_never_returns_a_longer_path_and_polishes_a_heuristic() -> None:
     assert op.evaluate(prob, {"r": detour})["feasible"]
     res = op.solve(prob, "nlp-ipopt", init=detour)
     assert res.metrics["length"] < path_lengths(detour)
-    assert res.metrics["length"] / vg.metrics["length"] - 1 < 1e-3
-    # the certified optimum as init: the NLP (exact clearance) is slightly longer -> kept
+    assert res.metrics["length"] / vg.metrics["length_exact"] - 1 < 1e-3
+    # the certified optimum's polyline as init: the NLP is not shorter (the safety margin,
+    # the regulariser) -> the initial guess is kept
     res2 = op.solve(prob, "nlp-ipopt", init=vg.paths)
     assert res2.metrics["length"] <= vg.metrics["length"] * (1 + 1e-12)
     assert res2.success and res2.metrics["collisions"] == 0
 
 
 def test_infeasible_statuses() -> None:
+    ring = {"type": "polygon", "name": "moat",
+            "vertices": [[70, 30], [99, 30], [99, 70], [70, 70]],
+            "holes": [[[75, 35], [75, 65], [97, 65], [97, 35]]]}
+    prob = _scene([ring], goal=(86.0, 50.0))
+    res = op.solve(prob, "nlp-ipopt")  # the tangent graph proves the goal unreachable
+    assert res.status is op.Status.infeasible
+    assert "not reachable" in res.message
     wall = {"type": "rectangle", "name": "wall", "min": [45.0, -1.0], "max": [55.0, 101.0]}
     prob = _scene([wall])
-    res = op.solve(prob, "nlp-ipopt")  # visgraph finds no path: proven infeasible
-    assert res.status is op.Status.infeasible
+    res = op.solve(prob, "nlp-ipopt")  # only a path leaving the bounds: not proven -> failed
+    assert res.status is op.Status.failed
     res = op.solve(prob, "nlp-ipopt", init_from="straight", max_iter=200)
     assert res.status is op.Status.approximate and not res.metrics["feasible"]
     assert "IPOPT" in res.message
@@ -236,12 +348,17 @@ def test_callback_and_stop() -> None:
     assert res.status is not op.Status.optimal
 
 
-@pytest.mark.parametrize("bad", [{"n_segments": 0}, {"clearance_mode": "round"},
+@pytest.mark.parametrize("bad", [{"n_segments": 0}, {"init_from": "inflated"},
                                  {"prune_distance": -1.0}, {"mu_strategy": "x"},
                                  {"guard": 1}, {"eps": 1.0}])
 def test_option_validation(bad: dict) -> None:
     with pytest.raises(ValueError, match=next(iter(bad))):
         WaypointNLP(**bad)
+
+
+def test_clearance_mode_is_gone() -> None:
+    with pytest.raises(ValueError, match="clearance_mode"):
+        op.get_solver("nlp-ipopt", clearance_mode="exact")
 
 
 @pytest.mark.parametrize("name", ["paper-env1", "paper-env2", "paper-warehouse"])
@@ -252,7 +369,7 @@ def test_visgraph_warm_start_on_paper_maps(name: str) -> None:
     assert vg.status is op.Status.optimal
     assert res.status is op.Status.optimal, res.message
     assert res.metrics["collisions"] == 0
-    assert abs(res.metrics["length"] / vg.metrics["length"] - 1) < 1e-3
+    assert 0.0 <= res.metrics["length"] / vg.metrics["length_exact"] - 1 < 1e-3
 
 
 # -- validate --------------------------------------------------------------------------
@@ -268,13 +385,28 @@ def test_winding_and_homotopy() -> None:
     assert same_homotopy(above, below, [[5.0, 5.0]])
 
 
+def test_obstacle_points_lie_inside_the_obstacles() -> None:
+    prob = _scene([ELL, RING, BOX, {**DISC, "center": [20.0, 80.0], "radius": 5.0}])
+    pts = obstacle_points(prob, 2.0)
+    assert len(pts) >= 4
+    assert prob.obstacle_set(0.0).point_distances(pts).max() == 0.0
+    inside = [any(o.geometry.contains(shapely.Point(p)) for o in prob.obstacles[:3])
+              or np.hypot(*(p - (20.0, 80.0))) < 5.0 for p in pts]
+    assert all(inside)
+
+
 def test_validate_rows_and_table() -> None:
     prob = _scene([BOX])
     rows = validate(prob, "visgraph", seeds=2)
     assert [r["seed"] for r in rows] == [0, 1]
+    vg = op.solve(prob, "visgraph")
     for r in rows:
         assert r["optimal_class"] and r["nlp_optimal_class"]
-        assert abs(r["total_gap_pct"]) < 1e-9
+        assert r["L_opt"] == vg.metrics["length_exact"]
+        # the heuristic is the visgraph polyline: its gap is the circumscribed arcs' excess
+        assert r["total_gap_pct"] == pytest.approx(
+            100 * (vg.metrics["length"] / vg.metrics["length_exact"] - 1), rel=1e-9)
+        assert 0.0 <= r["total_gap_pct"] < 0.05
         assert r["L_nlp"] <= r["L_heuristic"] * (1 + 1e-12)
     s = summarize(rows)
     assert s["n_optimal_class"] == 2

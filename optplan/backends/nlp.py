@@ -13,8 +13,8 @@ the map bounds.  The objective is the smoothed length plus a tiny spacing regula
            + w N \sum_{i=1}^{N-1} \lVert \Delta_i - \Delta_{i-1} \rVert^2 ,
     \qquad \Delta_i = p_{i+1} - p_i ,
 
-(coordinates normalised by the map diagonal, so :math:`\varepsilon` and :math:`w` are
-dimensionless); the *reported* length is the plain polyline length.
+(coordinates in the map's local frame divided by the map diagonal, so :math:`\varepsilon` and
+:math:`w` are dimensionless); the *reported* length is the plain polyline length.
 
 Collision avoidance is imposed on whole segments.  Every obstacle is cut into convex pieces
 :math:`O_j = \mathrm{conv}\{v_{j1}, \dots, v_{jm}\}` with a clearance :math:`d_j`; for every
@@ -34,32 +34,39 @@ constraint is *exact* for convex pieces (domain-notes §2.3 (b)-(c), OBCA dualit
 (centre :math:`o`, radius :math:`R`) is the one-vertex piece :math:`\{o\}` with clearance
 :math:`R + d`: :math:`a^\top (p - o) \ge R + d`.
 
-Clearance modes
-    ``"exact"`` (default) uses the raw obstacles with clearance = robot radius (discs natively):
-    the true disc-robot problem, with 3-5 vertices per piece, well conditioned and fast.  Its
-    paths are always accepted by the validator, whose inflated polygons are inscribed in the true
-    Minkowski sum; its optimum is slightly longer than the ``visgraph`` optimum on those polygons
-    (measured 0.009-0.012 % on the paper maps).  ``"inscribed"`` uses the validator's own map: the
-    robot-radius round buffer (shapely, ``quad_segs = 8``, merged where obstacles overlap,
-    :meth:`Problem.inflated`) cut into convex pieces, with zero extra clearance; it compares
-    like with like with ``visgraph`` but has ~36 vertices per piece (3-10x slower).  Both add
-    ``margin`` and a numerical safety of ``1e-6`` x map diagonal.
+Clearance
+    The true disc-robot problem: the raw polygons with clearance = robot radius, circles natively
+    (:math:`\lVert x - c \rVert \ge R + r`), plus ``margin`` and a numerical safety of
+    ``SAFETY_REL`` x map diagonal (``1e-6 L``, far above the validator's tolerance
+    ``eps = 1e-9 L``, so an IPOPT point that meets its constraints to IPOPT's tolerance is
+    accepted by the validator).  The geometry is the exact engine's
+    (:meth:`Problem.obstacle_set`): its local, clipped shapes are the input of the pieces.
+
+Local frame
+    Everything is computed in the map's local frame (:attr:`Problem.frame`: coordinates
+    relative to the centre of the bounds), subtracted once when the pieces and the initial path
+    are built and added back to the returned waypoints.  The NLP variables are local
+    coordinates divided by the map diagonal ``L``, so a map at UTM coordinates solves like the
+    same map at the origin (IPOPT's tolerances are absolute in its variables).
 
 Convex decomposition
-    Non-convex polygons (and merged inflated unions, holes included) are triangulated with
-    :func:`shapely.constrained_delaunay_triangles` and the triangles greedily merged across
-    shared edges while the union stays convex (Hertel-Mehlhorn style).
+    :func:`optplan.geometry.convex_decompose` (the one decomposition of optplan: convex
+    polygons are one piece, others the Hertel-Mehlhorn merge of a constrained Delaunay
+    triangulation, holes included).
 
 Pair pruning
     Only pairs whose piece lies within ``prune_distance`` (fraction of the map diagonal) of the
     *initial* segment, beyond the piece's clearance, are constrained.  After each solve every
-    (segment, piece) distance is checked exactly (shapely); a violated pruned pair is added (with
-    the pairs near the new segments) and the NLP re-solved, up to ``max_rounds`` solves; the
-    last one constrains every pair.  A re-solve starts from the previous round's solution
-    (``resolve_from = "last"``, default: it already satisfies the kept pairs, so IPOPT only
-    clears the added ones; from overlapping heuristic guesses this halves the iterations and
-    more often keeps the optimal homotopy class) or from the initial guess again (``"init"``).
-    If the shared validator still objects, all pairs are added.
+    (segment, piece) distance is computed exactly by the collision engine
+    (:meth:`ObstacleSet.pair_geometry` on an :class:`~optplan.geometry.ObstacleSet` whose
+    obstacles are the NLP's convex pieces: the engine fan-splits a piece into items of at most
+    four vertices, and the distance to the piece is the smallest over its items); a violated
+    pruned pair is added (with the pairs near the new segments) and the NLP re-solved, up to
+    ``max_rounds`` solves; the last one constrains every pair.  A re-solve starts from the
+    previous round's solution (``resolve_from = "last"``, default: it already satisfies the kept
+    pairs, so IPOPT only clears the added ones; from overlapping heuristic guesses this halves
+    the iterations and more often keeps the optimal homotopy class) or from the initial guess
+    again (``"init"``).  If the shared validator still objects, all pairs are added.
 
 Structure re-use
     The NLP is built once per structure ``(N, slots per segment, vertices per slot, IPOPT
@@ -70,20 +77,25 @@ Structure re-use
 Warm start
     ``init`` (any path, e.g. an IPSO or visgraph result) keeps all its vertices and gains
     collinear points on its longest segments, proportionally to arc length, until it has ``N``
-    segments (``N = max(n_segments, len(init) - 1)``).  Hyperplanes start at the unit normal of
-    the nearest points (:func:`shapely.shortest_line`) with ``c`` = the piece's support value.
-    Without ``init`` the start is the ``visgraph`` path (``init_from = "visgraph"``) or the
-    straight line (``"straight"``).  IPOPT is local: the homotopy class is the initial guess's.
+    segments (``N = max(n_segments, len(init) - 1)``).  Each hyperplane starts at the best of
+    the candidate normals that contain the optimal separating direction of a segment and a
+    convex piece (the piece's edge normals, the segment's normals, the directions from the
+    piece's vertices to the segment's endpoints), with ``c`` in the middle of the gap.
+    Without ``init`` the start is the arc-exact tangent-graph path
+    (:func:`optplan.geometry.tangent_graph.problem_shortest_path`, ``init_from = "visgraph"``)
+    or the straight line (``"straight"``).  IPOPT is local: the homotopy class is the initial
+    guess's.
 
 Statuses
-    IPOPT ``Solve_Succeeded`` and validator pass -> ``optimal`` (a KKT point: locally optimal in
-    the initial guess's homotopy class); acceptable level / iteration or time limit / user stop
-    with a feasible path -> ``solved``; IPOPT infeasibility or failure -> ``approximate`` with the
-    IPOPT message; start or goal inside an obstacle, or no path at all (visgraph) ->
-    ``infeasible``.  Guard: with a caller's ``init``, if IPOPT returns a path that the validator
-    rejects or that is longer, the (validator-feasible) initial guess is returned instead, as
-    ``solved`` with a message; the NLP's own length stays in ``extras``.  (The backend's own
-    visgraph start is not guarded: its result is the NLP optimum, reported as is.)
+    IPOPT ``Solve_Succeeded`` -> claim ``optimal`` (a KKT point: locally optimal in the initial
+    guess's homotopy class); acceptable level / iteration or time limit / user stop -> claim
+    ``solved``; IPOPT infeasibility or failure -> ``approximate`` with the IPOPT message; start
+    or goal within ``r`` of an obstacle, or no path at all (tangent graph) -> ``infeasible``.
+    The backend never decides feasibility: the shared validator grades every claim
+    (:meth:`Backend.finish`).  Guard: with a caller's ``init``, if IPOPT returns a path that the
+    validator rejects or that is longer, the (validator-feasible) initial guess is returned
+    instead, as ``solved`` with a message; the NLP's own length stays in ``extras``.  (The
+    backend's own visgraph start is not guarded: its result is the NLP optimum, reported as is.)
 """
 
 from __future__ import annotations
@@ -96,21 +108,23 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-import shapely
 from shapely.geometry import Polygon
-from shapely.geometry.polygon import orient
 
+from optplan.geometry import Frame, ObstacleSet, convex_decompose, obstacle_set
+from optplan.geometry.polyline import path_lengths
+from optplan.geometry.tangent_graph import problem_shortest_path
 from optplan.metrics import evaluate
-from optplan.problem import Problem, Robot
+from optplan.problem import Obstacle, Problem, Robot
 from optplan.result import History, Progress, Result, Status, notify
 from optplan.solver import Backend, check_choice, check_int, check_range
 
 __all__ = [
     "WaypointNLP",
     "Pieces",
-    "convex_decompose",
     "obstacle_pieces",
     "resample_path",
+    "piece_distances",
+    "pair_distances",
     "select_pairs",
     "init_hyperplanes",
     "objective_function",
@@ -136,108 +150,46 @@ _SOLVED = {
 
 
 # --------------------------------------------------------------------------------------
-# geometry: convex pieces
+# geometry: convex pieces (local frame)
 # --------------------------------------------------------------------------------------
-
-
-def _ring(poly: Polygon) -> np.ndarray:
-    """CCW exterior vertices without the closing repeat."""
-    return np.asarray(orient(poly, 1.0).exterior.coords)[:-1]
-
-
-def _is_convex(ring: np.ndarray, rel_tol: float = 1e-12) -> bool:
-    """True when a CCW ring has no right turn (collinear vertices allowed)."""
-    a = ring - np.roll(ring, 1, axis=0)
-    b = np.roll(ring, -1, axis=0) - ring
-    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    scale = np.hypot(a[:, 0], a[:, 1]) * np.hypot(b[:, 0], b[:, 1])
-    return bool(np.all(cross >= -rel_tol * np.maximum(scale, 1e-300)))
-
-
-def _drop_collinear(ring: np.ndarray, rel_tol: float = 1e-12) -> np.ndarray:
-    a = ring - np.roll(ring, 1, axis=0)
-    b = np.roll(ring, -1, axis=0) - ring
-    cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-    scale = np.hypot(a[:, 0], a[:, 1]) * np.hypot(b[:, 0], b[:, 1])
-    keep = np.abs(cross) > rel_tol * np.maximum(scale, 1e-300)
-    return ring[keep] if keep.sum() >= 3 else ring
-
-
-def convex_decompose(poly: Polygon) -> list[np.ndarray]:
-    """Cut a polygon (holes allowed) into convex pieces; CCW vertex arrays ``(m, 2)``.
-
-    A convex polygon without holes is returned as one piece.  Otherwise the polygon is
-    triangulated (:func:`shapely.constrained_delaunay_triangles`, whose triangles use the
-    polygon's own vertices) and triangles are merged greedily across shared edges while the
-    merged ring stays convex (Hertel-Mehlhorn style: at most 4x the minimum piece count).
-    """
-    poly = orient(poly, 1.0)
-    ring = _ring(poly)
-    if not poly.interiors and _is_convex(ring):
-        return [_drop_collinear(ring)]
-    tris = shapely.constrained_delaunay_triangles(poly)
-    rings: dict[int, list[tuple[float, float]]] = {}
-    for k, t in enumerate(getattr(tris, "geoms", [])):
-        if t.area <= 0:
-            continue
-        rings[k] = [tuple(map(float, v)) for v in _ring(t)]
-    owner: dict[tuple, int] = {}
-    for k, r in rings.items():
-        for u, v in zip(r, r[1:] + r[:1]):
-            owner[(u, v)] = k
-    changed = True
-    while changed:
-        changed = False
-        for k in sorted(rings, key=lambda q: -len(rings[q])):
-            if k not in rings:
-                continue
-            r = rings[k]
-            for u, v in zip(r, r[1:] + r[:1]):
-                q = owner.get((v, u))
-                if q is None or q == k:
-                    continue
-                rq = rings[q]
-                ia = r.index(v)
-                a_part = r[ia:] + r[:ia]           # v ... u
-                ib = rq.index(u)
-                b_part = rq[ib:] + rq[:ib]         # u ... v
-                merged = a_part + b_part[1:-1]
-                arr = np.asarray(merged)
-                if not _is_convex(arr):
-                    continue
-                for x, y in zip(r, r[1:] + r[:1]):
-                    owner.pop((x, y), None)
-                for x, y in zip(rq, rq[1:] + rq[:1]):
-                    owner.pop((x, y), None)
-                del rings[q]
-                rings[k] = merged
-                for x, y in zip(merged, merged[1:] + merged[:1]):
-                    owner[(x, y)] = k
-                changed = True
-                break
-    return [_drop_collinear(np.asarray(r)) for r in rings.values()]
 
 
 @dataclass(frozen=True, eq=False)
 class Pieces:
-    """Convex obstacle pieces for the NLP.
+    """Convex obstacle pieces for the NLP, in the map's local frame.
 
     Attributes
     ----------
+    frame : Frame
+        The map's frame; ``verts`` are ``frame.local`` coordinates.
     verts : list of (m_j, 2) arrays
-        Vertices of each convex piece (a disc is its single centre vertex).
+        Vertices of each convex piece, CCW (a circle is its single centre vertex).
     clear : (J,) array
-        Required distance from each piece (robot radius, disc radius, margin, safety).
-    geoms : (J,) array of shapely geometries
-        The piece as a Polygon (or a Point for a disc), for exact distance checks.
+        Required distance from ``conv(verts[j])``: robot radius (plus the circle radius for a
+        circle), ``margin`` and the safety ``SAFETY_REL * L``.
+    need : (J,) array
+        The clearance the validator requires (robot radius, plus the circle radius): ``clear``
+        without margin and safety.
+    radius : (J,) array
+        Circle radius (0 for polygon pieces): the engine measures the distance to the disc,
+        the NLP to its centre.
+    obstacle : (J,) int array
+        Index of the source obstacle in ``problem.static_obstacles(known_only)``.
     names : list of str
-        Obstacle name(s) each piece comes from.
+        Name of each piece's obstacle.
+    engine : ObstacleSet
+        The exact collision engine over the pieces themselves (obstacle ``j`` = piece ``j``,
+        frame origin 0: local coordinates in and out), for the exact pair distances.
     """
 
+    frame: Frame
     verts: list[np.ndarray]
     clear: np.ndarray
-    geoms: np.ndarray
+    need: np.ndarray
+    radius: np.ndarray
+    obstacle: np.ndarray
     names: list[str]
+    engine: ObstacleSet
 
     @property
     def n(self) -> int:
@@ -248,49 +200,53 @@ class Pieces:
         return max((len(v) for v in self.verts), default=1)
 
 
-def obstacle_pieces(problem: Problem, robot: Robot, *, mode: str = "inscribed",
-                    known_only: bool = True, margin: float = 0.0) -> Pieces:
+def obstacle_pieces(problem: Problem, robot: Robot, *, known_only: bool = True,
+                    margin: float = 0.0) -> Pieces:
     """Convex pieces and clearances for ``robot`` (cached on the problem).
 
-    ``mode = "inscribed"``: pieces of the validator's inflated map with zero clearance;
-    ``"exact"``: raw obstacles with clearance = robot radius (discs natively).  Both add
-    ``margin`` and ``SAFETY_REL * problem.extent``.
+    The input is the exact engine's view of the map (:meth:`Problem.obstacle_set`: local
+    coordinates, obstacles clipped to the working region): each polygon is cut by
+    :func:`optplan.geometry.convex_decompose` with clearance ``r``; each circle is one
+    vertex with clearance ``R + r``.  Both add ``margin`` and ``SAFETY_REL * L``.
     """
-    key = ("nlp_pieces", mode, round(float(robot.radius), 12), known_only, float(margin))
+    key = ("nlp_pieces", float(robot.radius), bool(known_only), float(margin))
     if key in problem._cache:
         return problem._cache[key]
-    safety = SAFETY_REL * problem.extent
-    verts, clear, geoms, names = [], [], [], []
-    if mode == "inscribed":
-        imap = problem.inflated(robot.radius, known_only=known_only)
-        for part, nm in zip(imap.parts, imap.names):
-            for v in convex_decompose(part):
-                verts.append(v)
-                clear.append(margin + safety)
-                geoms.append(Polygon(v))
-                names.append("+".join(nm))
-    elif mode == "exact":
-        for o in problem.static_obstacles(known_only):
-            if o.is_circle:
-                verts.append(np.asarray(o.center, float)[None, :])
-                clear.append(float(o.radius) + robot.radius + margin + safety)
-                geoms.append(shapely.Point(o.center))
-                names.append(o.name)
-            else:
-                for v in convex_decompose(o.geometry):
-                    verts.append(v)
-                    clear.append(robot.radius + margin + safety)
-                    geoms.append(Polygon(v))
-                    names.append(o.name)
-    else:
-        raise ValueError(f"clearance mode must be 'inscribed' or 'exact', got {mode!r}")
-    out = Pieces(verts, np.asarray(clear, float), np.asarray(geoms, dtype=object), names)
+    frame = problem.frame
+    safety = SAFETY_REL * frame.length
+    r = float(robot.radius)
+    oset = problem.obstacle_set(r, known_only=known_only)
+    verts, need, rad, owner, names, objs = [], [], [], [], [], []
+    for i, g in oset.shapes:
+        nm = oset.names[i]
+        if isinstance(g, tuple):  # circle (cx, cy, R), local
+            cx, cy, R = g
+            verts.append(np.array([[cx, cy]]))
+            need.append(R + r)
+            rad.append(R)
+            owner.append(i)
+            names.append(nm)
+            objs.append(Obstacle(kind="circle", geometry=None, name=nm,
+                                 center=np.array([cx, cy]), radius=R))
+            continue
+        for v in convex_decompose(g):
+            verts.append(v)
+            need.append(r)
+            rad.append(0.0)
+            owner.append(i)
+            names.append(nm)
+            objs.append(Obstacle(kind="polygon", geometry=Polygon(v), name=nm))
+    need_a = np.asarray(need, float)
+    # the pieces' own engine: local coordinates (origin 0), the map's length scale and bounds
+    local = Frame(frame.local_bounds, np.zeros(2), frame.length)
+    out = Pieces(frame, verts, need_a + margin + safety, need_a, np.asarray(rad, float),
+                 np.asarray(owner, np.int64), names, obstacle_set(objs, r, local))
     problem._cache[key] = out
     return out
 
 
 # --------------------------------------------------------------------------------------
-# paths, pairs, hyperplane warm start
+# paths, pairs, hyperplane warm start (local frame)
 # --------------------------------------------------------------------------------------
 
 
@@ -328,16 +284,39 @@ def resample_path(path: np.ndarray, n_segments: int) -> np.ndarray:
     return np.asarray(out)
 
 
-def _segments(path: np.ndarray) -> np.ndarray:
-    return shapely.linestrings(np.stack([path[:-1], path[1:]], axis=1))
+def piece_distances(path: np.ndarray, pieces: Pieces) -> np.ndarray:
+    """``(N, J)`` exact distance from each segment of ``path`` (local, ``(N + 1, 2)``) to each
+    piece's vertex hull; for a circle piece, to its centre (``max(dist to the disc, 0) + R``,
+    so ``R`` for a segment that meets the disc).
+
+    Computed by the collision engine (:meth:`ObstacleSet.pair_geometry`) over every (segment,
+    item) pair of the pieces' own engine, reduced to the piece by the smallest item distance
+    (0 where the segment meets the piece).  Pieces the engine dropped (beyond the working
+    region) get ``inf``.
+    """
+    p = np.asarray(path, dtype=float).reshape(-1, 2)
+    N = len(p) - 1
+    out = np.full((N, pieces.n), np.inf)
+    eng = pieces.engine
+    if pieces.n == 0 or N <= 0 or eng.n_items == 0:
+        return out
+    z = p[:, 0] + 1j * p[:, 1]
+    a, d = z[:-1], np.diff(z)
+    K = eng.n_items
+    block = max(1, 1_000_000 // K)
+    for s0 in range(0, N, block):
+        s1 = min(N, s0 + block)
+        si = np.repeat(np.arange(s0, s1), K)
+        it = np.tile(np.arange(K), s1 - s0)
+        dist, _ = eng.pair_geometry(si, it, a, d)
+        np.minimum.at(out, (si, eng.item_obstacle[it]), dist)
+    return out + pieces.radius[None, :]
 
 
 def pair_distances(path: np.ndarray, pieces: Pieces) -> np.ndarray:
-    """``(N, J)`` distance from each segment to each piece minus the piece's clearance."""
-    if pieces.n == 0:
-        return np.zeros((len(path) - 1, 0))
-    d = shapely.distance(_segments(path)[:, None], pieces.geoms[None, :])
-    return d - pieces.clear[None, :]
+    """``(N, J)`` slack: exact distance from each segment (local path) to each piece minus
+    the piece's clearance ``pieces.clear``."""
+    return piece_distances(path, pieces) - pieces.clear[None, :]
 
 
 def select_pairs(path: np.ndarray, pieces: Pieces, prune: float) -> np.ndarray:
@@ -348,37 +327,74 @@ def select_pairs(path: np.ndarray, pieces: Pieces, prune: float) -> np.ndarray:
 def init_hyperplanes(path: np.ndarray, pieces: Pieces, seg: np.ndarray,
                      piece: np.ndarray, clear: np.ndarray | None = None
                      ) -> tuple[np.ndarray, np.ndarray]:
-    """Initial ``(a, c)`` for the pairs ``(seg[k], piece[k])``.
+    """Initial ``(a, c)`` for the pairs ``(seg[k], piece[k])`` (local path and pieces).
 
-    ``a`` = unit vector from the piece's nearest point to the segment's nearest point
-    (:func:`shapely.shortest_line`); if they touch or overlap, from the piece's centroid to the
-    segment midpoint.  ``c`` = max over the piece's vertices of ``a . v`` (the support value);
-    with ``clear`` (per-piece clearances) ``c`` is moved to the middle of the slack between
-    the support value and the segment's nearer endpoint, when there is any.
+    For a segment disjoint from the piece, ``a`` maximises the separation
+    ``h(a) = min(a . p_i, a . p_{i+1}) - max_k a . v_k`` over the unit candidates: the piece's
+    outward edge normals, the segment's two normals and the directions from each vertex to
+    each endpoint.  These contain the direction of the nearest points of a segment and a
+    disjoint convex piece (vertex-segment, endpoint-edge or endpoint-vertex), where ``h`` is
+    the distance.  For a segment that meets the piece (``h <= 0`` for every candidate) ``a``
+    is the unit vector from the piece's centroid to the segment's midpoint: the side the
+    segment mostly lies on (the least-penetration candidate instead sends IPOPT to a worse
+    homotopy class more often from overlapping heuristic guesses).  ``c`` = max over the
+    piece's vertices of ``a . v`` (the support value); with ``clear`` (per-piece clearances)
+    ``c`` is moved to the middle of the slack between the support value and the segment's
+    nearer endpoint, when there is any.
     """
     K = len(seg)
     if K == 0:
         return np.zeros((0, 2)), np.zeros(0)
-    lines = _segments(path)[seg]
-    sl = shapely.shortest_line(pieces.geoms[piece], lines)
-    c = shapely.get_coordinates(sl).reshape(K, 2, 2)
-    a = c[:, 1] - c[:, 0]
-    n = np.hypot(a[:, 0], a[:, 1])
-    bad = n < 1e-12
-    if np.any(bad):
-        cen = shapely.get_coordinates(shapely.centroid(pieces.geoms[piece[bad]]))
-        mid = 0.5 * (path[seg[bad]] + path[seg[bad] + 1])
-        a[bad] = mid - cen
-        n[bad] = np.hypot(a[bad, 0], a[bad, 1])
-        still = n < 1e-12
-        a[still] = [1.0, 0.0]
-        n[still] = 1.0
-    a = a / n[:, None]
-    support = np.array([np.max(pieces.verts[j] @ a[k]) for k, j in enumerate(piece)])
+    path = np.asarray(path, dtype=float)
+    P0, P1 = path[seg], path[seg + 1]
+    nv = np.array([len(pieces.verts[j]) for j in piece])
+    M = int(nv.max())
+    V = np.zeros((K, M, 2))
+    for k, j in enumerate(piece):
+        v = pieces.verts[j]
+        V[k, : len(v)] = v
+        V[k, len(v):] = v[-1]  # padding repeats a vertex: the support value is unchanged
+    idx = np.arange(M)[None, :]
+    valid_v = idx < nv[:, None]
+    nxt = np.where(idx + 1 < nv[:, None], idx + 1, 0)
+    E = np.take_along_axis(V, nxt[..., None], axis=1) - V  # edge v_k -> v_{k+1}
+    cands = [np.stack([E[..., 1], -E[..., 0]], axis=-1)]  # outward normals (CCW pieces)
+    okc = [valid_v & (nv[:, None] >= 3)]
+    t = P1 - P0
+    nrm = np.stack([-t[:, 1], t[:, 0]], axis=-1)[:, None, :]
+    cands += [nrm, -nrm, P0[:, None, :] - V, P1[:, None, :] - V]
+    okc += [np.ones((K, 1), bool)] * 2 + [valid_v] * 2
+    A = np.concatenate(cands, axis=1)
+    ok = np.concatenate(okc, axis=1)
+    ln = np.hypot(A[..., 0], A[..., 1])
+    ok &= ln > 0
+    A = A / np.where(ln > 0, ln, 1.0)[..., None]
+    sup = np.einsum("kcd,kmd->kcm", A, V).max(axis=2)
+    near = np.minimum(np.einsum("kcd,kd->kc", A, P0), np.einsum("kcd,kd->kc", A, P1))
+    h = np.where(ok, near - sup, -np.inf)
+    best = np.argmax(h, axis=1)
+    rows = np.arange(K)
+    a = A[rows, best]
+    meets = ~(h[rows, best] > 0)
+    if meets.any():
+        # area centroid of the piece (shoelace; a circle piece: its centre)
+        W = V[meets]
+        Wn = np.take_along_axis(W, nxt[meets][..., None], axis=1)
+        cr = np.where(valid_v[meets], W[..., 0] * Wn[..., 1] - Wn[..., 0] * W[..., 1], 0.0)
+        ar = cr.sum(axis=1)
+        cen = np.einsum("km,kmd->kd", cr, W + Wn) / np.where(ar != 0, 3.0 * ar, 1.0)[:, None]
+        flat = ~(np.abs(ar) > 0)
+        cen[flat] = (W[flat] * valid_v[meets][flat][..., None]).sum(axis=1) / nv[meets][flat,
+                                                                                  None]
+        dv = 0.5 * (P0[meets] + P1[meets]) - cen
+        nd = np.hypot(dv[:, 0], dv[:, 1])
+        dv = np.where(nd[:, None] > 0, dv / np.where(nd > 0, nd, 1.0)[:, None], [1.0, 0.0])
+        a[meets] = dv
+    support = np.einsum("kmd,kd->km", V, a).max(axis=1)
     if clear is None:
         return a, support
     # put the hyperplane in the middle of the gap, so that neither side starts at zero slack
-    near = np.minimum(np.sum(a * path[seg], axis=1), np.sum(a * path[seg + 1], axis=1))
+    near = np.minimum(np.sum(a * P0, axis=1), np.sum(a * P1, axis=1))
     gap = near - clear[piece] - support
     return a, support + 0.5 * np.maximum(gap, 0.0)
 
@@ -560,10 +576,15 @@ class NLPOutcome:
     violation: float = 0.0
 
 
-def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, origin: np.ndarray,
-                scale: float, bounds, eps: float, w: float, rho: float, ipopt_opts: tuple,
+
+def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, scale: float,
+                bounds, eps: float, w: float, rho: float, ipopt_opts: tuple,
                 on_iter: Callable[[float], bool] | None) -> tuple[np.ndarray, dict, float]:
-    """One IPOPT solve from ``path0`` with the pairs in ``mask``; returns (path, stats, build)."""
+    """One IPOPT solve from ``path0`` with the pairs in ``mask``; returns (path, stats, build).
+
+    ``path0``, the pieces and ``bounds`` are local-frame coordinates; the NLP runs on them
+    divided by ``scale`` (the map diagonal).  The returned path is local.
+    """
     N = len(path0) - 1
     seg, piece = np.nonzero(mask)
     counts = np.bincount(seg, minlength=N)
@@ -572,7 +593,7 @@ def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, origin: 
     tb = time.perf_counter()
     built = _build(N, K, V, ipopt_opts, on_iter is not None)
     build_time = time.perf_counter() - tb
-    u = (path0 - origin) / scale
+    u = path0 / scale
     # slot assignment: k-th pair of segment i -> slot (i, k)
     order = np.argsort(seg, kind="stable")
     seg, piece = seg[order], piece[order]
@@ -580,11 +601,10 @@ def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, origin: 
     slot = np.arange(len(seg)) - first[seg]
     sidx = seg * K + slot
     a0, c0 = init_hyperplanes(path0, pieces, seg, piece, pieces.clear)
-    c0n = (c0 - a0 @ origin) / scale  # a.x - c in normalised coordinates: c' = (c - a.o)/s
     Vt = np.zeros((N * K, V, 2))
     vmask = np.zeros((N * K, V), bool)
     for s, j in zip(sidx, piece):
-        vj = (pieces.verts[j] - origin) / scale
+        vj = pieces.verts[j] / scale
         Vt[s, : len(vj)] = vj
         Vt[s, len(vj):] = vj[-1]
         vmask[s, : len(vj)] = True
@@ -594,8 +614,8 @@ def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, origin: 
     clear[sidx] = pieces.clear[piece] / scale
     # bounds on x
     x0b, y0b, x1b, y1b = bounds
-    lo = (np.array([x0b, y0b]) - origin) / scale
-    hi = (np.array([x1b, y1b]) - origin) / scale
+    lo = np.array([x0b, y0b]) / scale
+    hi = np.array([x1b, y1b]) / scale
     nW = max(N - 1, 0)
     lbx = np.r_[np.tile(lo, nW), np.full(N * K * 2, -1.0), np.full(N * K, -np.inf)]
     ubx = np.r_[np.tile(hi, nW), np.full(N * K * 2, 1.0), np.full(N * K, np.inf)]
@@ -609,7 +629,7 @@ def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, origin: 
     A0 = np.zeros((N * K, 2))
     C0 = np.zeros(N * K)
     A0[sidx] = a0
-    C0[sidx] = c0n
+    C0[sidx] = c0 / scale
     x0 = np.r_[np.clip(u[1:-1], lo, hi).ravel(), A0.ravel(), C0]
     # constraint bounds, rows per slot: V vertex rows, 2 endpoint rows, 1 norm row
     R = V + 3
@@ -632,9 +652,7 @@ def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, origin: 
         st["return_status"] = st.get("return_status", "") + " (non-finite iterate)"
         st["success"] = False
     Wsol = xs[: 2 * nW].reshape(nW, 2)
-    un = np.vstack([u[0], Wsol, u[-1]])
-    out = un * scale + origin
-    out[0], out[-1] = path0[0], path0[-1]
+    out = np.vstack([path0[0], Wsol * scale, path0[-1]])
     info = {k: st.get(k) for k in ("return_status", "success", "iter_count")}
     info.update(t_wall=sum(float(v) for k, v in st.items() if k.startswith("t_wall_")),
                 n_pairs=int(len(seg)), slots=K, verts=V, n_seg=N, build_time=build_time)
@@ -647,7 +665,6 @@ def solve_waypoint_nlp(
     init_path: np.ndarray,
     *,
     n_segments: int = 20,
-    mode: str = "exact",
     known_only: bool = True,
     margin: float = 0.0,
     prune_distance: float = 0.05,
@@ -659,26 +676,31 @@ def solve_waypoint_nlp(
     ipopt_options: dict | None = None,
     on_iter: Callable[[float], bool] | None = None,
 ) -> NLPOutcome:
-    """Solve the waypoint NLP for ``robot`` from ``init_path`` (map units in and out).
+    """Solve the waypoint NLP for ``robot`` from ``init_path`` (world coordinates in and out).
 
-    Multi-round: solve with the pruned pairs, check every (segment, piece) distance exactly,
-    add the violated pairs (and those near the new segments) and re-solve (at most
-    ``max_rounds`` solves), from the previous round's solution (``resolve_from = "last"``) or
-    from the initial guess (``"init"``).
+    The initial path is taken to the map's local frame once; the NLP, the pair checks and the
+    hyperplanes work there, and the solution is taken back to world coordinates at the end
+    (start and goal are the robot's, bit for bit).  Multi-round: solve with the pruned pairs,
+    check every (segment, piece) distance exactly, add the violated pairs (and those near the
+    new segments) and re-solve (at most ``max_rounds`` solves), from the previous round's
+    solution (``resolve_from = "last"``) or from the initial guess (``"init"``).
     ``on_iter(f)`` is called every IPOPT iteration; returning True stops IPOPT.
     """
-    pieces = obstacle_pieces(problem, robot, mode=mode, known_only=known_only, margin=margin)
-    x0, y0, _, _ = problem.bounds
-    origin = np.array([x0, y0], float)
-    scale = problem.extent
-    p = np.asarray(init_path, float).reshape(-1, 2)
-    if not np.allclose(p[0], robot.start):
-        p = np.vstack([robot.start, p])
-    if robot.goal is not None and not np.allclose(p[-1], robot.goal):
-        p = np.vstack([p, robot.goal])
+    pieces = obstacle_pieces(problem, robot, known_only=known_only, margin=margin)
+    frame = problem.frame
+    scale = frame.length
+    start = frame.local(robot.start)
+    goal = None if robot.goal is None else frame.local(robot.goal)
+    p = frame.local(np.asarray(init_path, float).reshape(-1, 2))
+    if np.hypot(*(p[0] - start)) > frame.eps:
+        p = np.vstack([start, p])
+    if goal is not None and np.hypot(*(p[-1] - goal)) > frame.eps:
+        p = np.vstack([p, goal])
     n_eff = min(max(n_segments, len(p) - 1), MAX_SEGMENTS)
     path = resample_path(p, n_eff)
-    path[0], path[-1] = robot.start, robot.goal
+    path[0] = start
+    if goal is not None:
+        path[-1] = goal
     opts = tuple(sorted((ipopt_options or {}).items()))
     prune_abs = prune_distance * scale if math.isfinite(prune_distance) else np.inf
     mask = select_pairs(path, pieces, prune_abs) if pieces.n else np.zeros((n_eff, 0), bool)
@@ -692,13 +714,21 @@ def solve_waypoint_nlp(
     rounds = 0
     full = False
     start_path = path
+    view = problem.known_view() if known_only else problem
+
+    def world(q: np.ndarray) -> np.ndarray:
+        out = frame.world(q)
+        out[0] = robot.start
+        if robot.goal is not None:
+            out[-1] = robot.goal
+        return out
+
     while rounds < max_rounds:
         rounds += 1
         t0 = time.perf_counter()
-        new, info, bt = _solve_once(start_path, pieces, mask, origin=origin, scale=scale,
-                                    bounds=problem.bounds, eps=eps, w=spacing_weight,
-                                    rho=hyperplane_weight,
-                                    ipopt_opts=opts, on_iter=on_iter)
+        new, info, bt = _solve_once(start_path, pieces, mask, scale=scale,
+                                    bounds=frame.local_bounds, eps=eps, w=spacing_weight,
+                                    rho=hyperplane_weight, ipopt_opts=opts, on_iter=on_iter)
         solve_t += time.perf_counter() - t0 - bt
         build += bt
         stats.append(info)
@@ -718,7 +748,7 @@ def solve_waypoint_nlp(
         if not missing.any():
             if bad.any() or full:
                 break
-            m = evaluate(problem.known_view() if known_only else problem, {robot.id: path})
+            m = evaluate(view, {robot.id: world(path)})
             if m["static_collisions"] == 0 or mask.all():
                 break
             mask = np.ones_like(mask)  # validator objects: constrain every pair
@@ -730,8 +760,8 @@ def solve_waypoint_nlp(
         if rounds == max_rounds - 1:
             mask = np.ones_like(mask)  # the last solve gets every pair
             full = True
-    length = float(np.sum(np.hypot(*np.diff(path, axis=0).T)))
-    return NLPOutcome(path=path, length=length, return_status=status, success=success,
+    length = float(path_lengths(path))
+    return NLPOutcome(path=world(path), length=length, return_status=status, success=success,
                       iterations=iters, rounds=rounds, n_pairs=int(mask.sum()),
                       pruned=int(mask.size - mask.sum()), solve_time=solve_t,
                       build_time=build, stats=stats, stopped=stopped, violation=viol)
@@ -740,10 +770,6 @@ def solve_waypoint_nlp(
 # --------------------------------------------------------------------------------------
 # the backend
 # --------------------------------------------------------------------------------------
-
-
-def _plen(p: np.ndarray) -> float:
-    return float(np.sum(np.hypot(*np.diff(np.asarray(p, float), axis=0).T)))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -758,16 +784,13 @@ class WaypointNLP(Backend):
     n_segments : int
         :math:`N`, number of path segments (waypoints between start and goal: :math:`N-1`).
         An initial guess with more segments raises :math:`N` to keep all its vertices.
-    clearance_mode : {"exact", "inscribed"}
-        ``"exact"`` (default): avoid the raw obstacles by the robot radius (the true disc-robot
-        problem, discs handled natively, 3-5 vertices per piece); ``"inscribed"``: avoid the
-        validator's inflated polygons (the map ``visgraph`` certifies on; ~36 vertices per
-        piece, slower).
     margin : float
-        Extra clearance (map units) on top of the mode's clearance.
+        Extra clearance (map units) on top of the robot radius (the NLP always avoids the
+        true polygons and circles by ``r + margin``, plus a safety of ``SAFETY_REL`` x the
+        map diagonal).
     init_from : {"visgraph", "straight"}
-        Initial guess when no ``init`` is given: the certified visgraph path or the straight
-        start-goal line.
+        Initial guess when no ``init`` is given: the arc-exact tangent-graph path (the
+        ``visgraph`` polyline) or the straight start-goal line.
     prune_distance : float
         Pair pruning radius as a fraction of the map diagonal: a (segment, piece) pair is
         constrained when its initial slack ``dist - clearance`` is at most this
@@ -810,7 +833,6 @@ class WaypointNLP(Backend):
     contract_overrides: ClassVar[dict] = {"n_segments": 8}
 
     n_segments: int = 20
-    clearance_mode: str = "exact"
     margin: float = 0.0
     init_from: str = "visgraph"
     prune_distance: float = 0.05
@@ -830,7 +852,6 @@ class WaypointNLP(Backend):
 
     def __post_init__(self) -> None:
         check_int(self, "n_segments", 1, MAX_SEGMENTS)
-        check_choice(self, "clearance_mode", ("inscribed", "exact"))
         check_range(self, "margin", 0.0)
         check_choice(self, "init_from", ("visgraph", "straight"))
         check_range(self, "prune_distance", 0.0, math.inf)
@@ -858,18 +879,19 @@ class WaypointNLP(Backend):
                 "bound_push": self.bound_push, "bound_frac": self.bound_push,
                 "slack_bound_push": self.bound_push, "slack_bound_frac": self.bound_push}
 
-    def _initial(self, problem: Problem, robot: Robot, init) -> tuple[np.ndarray | None, str]:
+    def _initial(self, problem: Problem, robot: Robot, init
+                 ) -> tuple[np.ndarray | None, str, Status]:
+        """(initial path, its source, status if there is none)."""
         if init is not None and robot.id in init:
-            return np.asarray(init[robot.id], float).reshape(-1, 2), "init"
+            return np.asarray(init[robot.id], float).reshape(-1, 2), "init", Status.solved
         if self.init_from == "visgraph":
-            from optplan.backends.visgraph import shortest_path
-
-            imap = problem.inflated(robot.radius, known_only=not self.see_temporary)
-            path, info = shortest_path(imap, robot.start, robot.goal, problem.bounds)
-            if path is None:
-                return None, info.get("reason", "visgraph found no path")
-            return path, "visgraph"
-        return np.vstack([robot.start, robot.goal]), "straight"
+            res = problem_shortest_path(problem, robot, known_only=not self.see_temporary)
+            if res.polyline is None:
+                # proven only when the search was not restricted to the bounds
+                st = Status.failed if res.info.get("bounds_active") else Status.infeasible
+                return None, res.info.get("reason", "the tangent graph has no path"), st
+            return res.polyline, "visgraph", Status.solved
+        return np.vstack([robot.start, robot.goal]), "straight", Status.solved
 
     def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
               init: dict[str, np.ndarray] | None = None,
@@ -880,7 +902,7 @@ class WaypointNLP(Backend):
         paths: dict[str, np.ndarray] = {}
         msgs: list[str] = []
         claims: list[Status] = []
-        extras: dict[str, Any] = {"ipopt": {}, "clearance_mode": self.clearance_mode}
+        extras: dict[str, Any] = {"ipopt": {}}
         hist = History()
         counter = {"it": 0, "stop": False}
         best = [math.inf]
@@ -900,27 +922,28 @@ class WaypointNLP(Backend):
                 claims.append(Status.approximate)
                 msgs.append(f"{robot.id}: not planned (stopped by callback)")
                 continue
-            guess, source = self._initial(view, robot, init)
+            guess, source, why_none = self._initial(problem, robot, init)
             if guess is None:
                 paths[robot.id] = np.vstack([robot.start, robot.start])
-                claims.append(Status.infeasible)
+                claims.append(why_none)
                 msgs.append(f"{robot.id}: {source}")
                 continue
-            pieces = obstacle_pieces(view, robot, mode=self.clearance_mode,
-                                     known_only=known_only, margin=self.margin)
-            if pieces.n:
-                ends = shapely.points(np.vstack([robot.start, robot.goal]))
-                dd = shapely.distance(ends[:, None], pieces.geoms[None, :]) - pieces.clear
-                tol = 10 * SAFETY_REL * problem.extent
-                if dd.min() < -tol:
-                    which = "start" if dd[0].min() < -tol else "goal"
+            pieces = obstacle_pieces(problem, robot, known_only=known_only, margin=self.margin)
+            if pieces.n and robot.goal is not None:
+                # start and goal against the validator's clearance r (touching allowed)
+                ends = problem.frame.local(np.vstack([robot.start, robot.start, robot.goal,
+                                                      robot.goal]))  # segments 0, 2: points
+                dd = piece_distances(ends, pieces)[[0, 2]] - pieces.need[None, :]
+                if dd.min() < -problem.frame.eps:
+                    which = "start" if dd[0].min() < -problem.frame.eps else "goal"
                     paths[robot.id] = np.vstack([robot.start, robot.start])
                     claims.append(Status.infeasible)
-                    msgs.append(f"{robot.id}: {which} lies within the clearance of an obstacle")
+                    msgs.append(f"{robot.id}: {which} lies within the robot radius of an "
+                                "obstacle")
                     continue
             try:
                 out = solve_waypoint_nlp(
-                    view, robot, guess, n_segments=self.n_segments, mode=self.clearance_mode,
+                    problem, robot, guess, n_segments=self.n_segments,
                     known_only=known_only, margin=self.margin,
                     prune_distance=self.prune_distance, max_rounds=self.max_rounds,
                     resolve_from=self.resolve_from,
@@ -936,7 +959,7 @@ class WaypointNLP(Backend):
                 "rounds": out.stats, "return_status": out.return_status,
                 "iterations": out.iterations, "n_pairs": out.n_pairs, "pruned": out.pruned,
                 "solve_time": out.solve_time, "build_time": out.build_time,
-                "init_source": source, "init_length": _plen(guess),
+                "init_source": source, "init_length": path_lengths(guess),
                 "nlp_length": out.length, "max_violation": out.violation,
             }
             if out.success and out.return_status in _SUCCESS:
@@ -964,8 +987,9 @@ class WaypointNLP(Backend):
             paths[robot.id] = path
             claims.append(claim)
             msgs.append(msg)
-            best[0] = min(best[0], _plen(path)) if len(problem.planned_robots) == 1 else best[0]
-            hist.append(iteration=counter["it"] or out.iterations, best_cost=_plen(path),
+            if len(problem.planned_robots) == 1:
+                best[0] = min(best[0], path_lengths(path))
+            hist.append(iteration=counter["it"] or out.iterations, best_cost=path_lengths(path),
                         n_eval=out.iterations, time=time.perf_counter() - t0,
                         robot=robot.id, rounds=out.rounds)
         order = [Status.failed, Status.infeasible, Status.approximate, Status.solved,
@@ -975,7 +999,7 @@ class WaypointNLP(Backend):
             claim = Status.solved
         lead = problem.leader.id if problem.leader.id in paths else next(iter(paths))
         return self.finish(
-            problem, paths, claim=claim, cost=_plen(paths[lead]), message="; ".join(msgs),
+            problem, paths, claim=claim, cost=path_lengths(paths[lead]), message="; ".join(msgs),
             n_iter=sum(e["iterations"] for e in extras["ipopt"].values()),
             n_eval=sum(e["iterations"] for e in extras["ipopt"].values()),
             history=hist, extras=extras, wall_time=time.perf_counter() - t0)

@@ -15,8 +15,12 @@ compared with the certified ``visgraph`` optimum of the same (known) map:
 The ``optimal class`` column says whether the heuristic's (and the NLP's) path is in the optimum's
 homotopy class ("-" for an infeasible path, whose class is undefined),
 decided topologically: the closed loop "heuristic path, then the optimum backwards" must
-wind zero times around every obstacle (one representative point per connected component of
-the inflated known map).
+wind zero times around every obstacle of the known map (one interior point per convex piece and
+the centre of every circle of the exact collision engine, :meth:`Problem.obstacle_set`; a
+feasible path never enters an obstacle, so it cannot pass between two points of one obstacle,
+nor between obstacles closer than the robot's diameter).  The optimum ``L*`` is the exact
+(segments + arcs) length of the tangent-graph path, ``metrics["length_exact"]`` of
+``visgraph``, not the length of its circumscribed polyline.
 
 Python::
 
@@ -35,7 +39,6 @@ import tomllib
 from typing import Any
 
 import numpy as np
-import shapely
 
 from optplan.catalog import load_problem
 from optplan.problem import Problem
@@ -60,11 +63,17 @@ def winding_numbers(loop: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 def obstacle_points(problem: Problem, radius: float, known_only: bool = True) -> np.ndarray:
-    """One interior point per connected component of the inflated map."""
-    imap = problem.inflated(radius, known_only=known_only)
-    if not imap.parts:
-        return np.zeros((0, 2))
-    return shapely.get_coordinates(shapely.point_on_surface(np.asarray(imap.parts, object)))
+    """Interior points of the static obstacles, world coordinates ``(K, 2)``.
+
+    One per item of the exact engine (:meth:`Problem.obstacle_set`): the vertex mean of each
+    convex piece (inside it) and the centre of each circle.  For feasible paths, winding zero
+    around all of them is the same test as around one point per connected component of the
+    inflated map: a feasible path cannot pass between points of one obstacle, nor between
+    obstacles less than ``2 r`` apart.
+    """
+    oset = problem.obstacle_set(radius, known_only=known_only)
+    z = oset.item_center
+    return oset.frame.world(np.stack([z.real, z.imag], axis=1)).reshape(-1, 2)
 
 
 def same_homotopy(path_a: np.ndarray, path_b: np.ndarray, points: np.ndarray) -> bool:
@@ -115,7 +124,9 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
     pol = get_solver(nlp, **(nlp_options or {}))
     ref = solve(prob, reference)
     rid = prob.leader.id
-    L_opt = float(ref.metrics["length"]) if rid in ref.paths else float("nan")
+    # the exact optimum (segments + arcs) when the reference reports it, else its polyline
+    L_opt = (float(ref.metrics.get("length_exact", ref.metrics["length"]))
+             if rid in ref.paths else float("nan"))
     pts = obstacle_points(prob, prob.leader.radius)
     rows = []
     for seed in range(first_seed, first_seed + seeds):
