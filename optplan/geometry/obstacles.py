@@ -30,24 +30,27 @@ Working region and frame
     clipped to the working region (the bounds grown by ``r + L``); obstacles entirely outside
     it are dropped.  Inside the bounds every distance below ``r + L`` is exact.
 
-Candidate pairs
-    Each item has a bounding circle.  With few items (< 48) all (segment, item) pairs are
-    screened by one matrix product (distance of each centre to the segment's line and along
-    it); with many, a uniform grid lists items by the cells their bounding square covers and
-    each segment visits the cells it crosses, so the work per segment grows with the obstacles
-    near it.  The screens keep a margin of ``2 eps`` beyond the collision threshold.
+Candidate pairs and the compiled loops
+    Each item has a bounding circle.  With few items (< 48) every item's bounding circle is
+    tested against the segment; with many, a uniform grid lists items by the cells their
+    bounding square covers and each segment visits the cells it crosses (column by column), so
+    the work per segment grows with the obstacles near it.  The screens keep a margin of
+    ``2 eps`` beyond the collision threshold.  The loops are compiled with numba
+    (:mod:`optplan.geometry.kernel`, the only implementation; shapely is the oracle of the
+    tests).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
+from optplan.geometry import kernel
 from optplan.geometry.frame import Frame
 from optplan.geometry.pieces import convex_pieces
 
@@ -204,6 +207,7 @@ class ObstacleSet:
     table: np.ndarray
     boundary: np.ndarray
     grid: dict | None
+    _cache: dict = field(default_factory=dict, repr=False)
 
     @property
     def n_obstacles(self) -> int:
@@ -217,144 +221,48 @@ class ObstacleSet:
     def eps(self) -> float:
         return self.frame.eps
 
-    # -- candidate pairs ----------------------------------------------------------------
-    def _screen(self, a: np.ndarray, d: np.ndarray, reach: float) -> tuple[np.ndarray,
-                                                                            np.ndarray]:
-        """(segment, item) pairs whose item's bounding circle is within ``reach`` of the
-        segment ``a -> a + d`` (local complex); a superset of the pairs closer than that."""
-        K = self.n_items
-        if K == 0 or len(a) == 0:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        if self.grid is None or reach > self.grid["reach"]:
-            si_l, it_l = [], []
-            block = max(1, 2_000_000 // K)
-            for s0 in range(0, len(a), block):
-                aa, dd_ = a[s0:s0 + block], d[s0:s0 + block]
-                w = self.item_center[None, :] - aa[:, None]
-                dd = (dd_ * dd_.conj()).real
-                t = np.clip((w * dd_.conj()[:, None]).real / np.maximum(dd, 1e-300)[:, None],
-                            0.0, 1.0)
-                gap = np.abs(w - t * dd_[:, None]) - self.item_reach[None, :]
-                s, i = np.nonzero(gap <= reach)
-                si_l.append(s + s0)
-                it_l.append(i)
-            return np.concatenate(si_l), np.concatenate(it_l)
-        si, it = self._grid_pairs(a, a + d)
-        w = self.item_center[it] - a[si]
-        ds = d[si]
-        dd = (ds * ds.conj()).real
-        t = np.clip((w * ds.conj()).real / np.maximum(dd, 1e-300), 0.0, 1.0)
-        keep = np.abs(w - t * ds) - self.item_reach[it] <= reach
-        return si[keep], it[keep]
+    @property
+    def arrays(self) -> tuple:
+        """Real arrays of the compiled kernel ``(K, P, E, N, C, CE, B, IC, IR, CR, OWN)``."""
+        if "arrays" not in self._cache:
+            t = self.table
+            K = self.n_pieces
 
-    def _grid_pairs(self, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(segment, item) pairs whose segment crosses a grid cell listing the item (exact
-        supercover, column by column)."""
+            def xy(z):  # (4, K) complex -> (K, 4, 2) real
+                return np.ascontiguousarray(np.stack([z.real.T, z.imag.T], axis=-1))
+
+            self._cache["arrays"] = (
+                K, xy(t[0]), xy(t[1]), xy(t[2]), np.ascontiguousarray(t[4].real.T),
+                np.ascontiguousarray(t[5].real.T), np.ascontiguousarray(self.boundary.T),
+                np.ascontiguousarray(np.stack([self.item_center.real,
+                                               self.item_center.imag], axis=1)),
+                np.ascontiguousarray(self.item_reach, dtype=float),
+                np.ascontiguousarray(self.circle_radius, dtype=float),
+                np.ascontiguousarray(self.item_obstacle, dtype=np.int64))
+        return self._cache["arrays"]
+
+    def _grid_args(self) -> tuple:
         g = self.grid
-        h, gx0, gy0, nx, ny = g["h"], g["x0"], g["y0"], g["nx"], g["ny"]
-        sw = b.real < a.real
-        pa = np.where(sw, b, a)
-        pb = np.where(sw, a, b)
-        xa, ya, xb, yb = pa.real, pa.imag, pb.real, pb.imag
-        i0 = np.clip(np.floor((xa - gx0) / h), 0, nx - 1).astype(np.int64)
-        i1 = np.clip(np.floor((xb - gx0) / h), 0, nx - 1).astype(np.int64)
-        ncol = i1 - i0 + 1
-        seg = np.repeat(np.arange(len(xa)), ncol)
-        first = np.cumsum(ncol) - ncol
-        col = i0[seg] + np.arange(len(seg)) - first[seg]
-        lo = np.where(col == 0, -np.inf, gx0 + col * h)
-        hi = np.where(col == nx - 1, np.inf, gx0 + (col + 1) * h)
-        xs, xe, ys, ye = xa[seg], xb[seg], ya[seg], yb[seg]
-        xl = np.maximum(xs, lo)
-        xr = np.minimum(xe, hi)
-        dx = xe - xs
-        slope = np.divide(ye - ys, dx, out=np.zeros_like(dx), where=dx > 0)
-        flat = ~(dx > 0)
-        y1 = np.where(flat, ys, ys + (xl - xs) * slope)
-        y2 = np.where(flat, ye, ys + (xr - xs) * slope)
-        j0 = np.clip(np.floor((np.minimum(y1, y2) - gy0) / h), 0, ny - 1).astype(np.int64)
-        j1 = np.clip(np.floor((np.maximum(y1, y2) - gy0) / h), 0, ny - 1).astype(np.int64)
-        nrow = j1 - j0 + 1
-        k = np.repeat(np.arange(len(seg)), nrow)
-        first = np.cumsum(nrow) - nrow
-        cell = col[k] * ny + j0[k] + np.arange(len(k)) - first[k]
-        seg = seg[k]
-        cs, cc = g["start"][cell], g["count"][cell]
-        m = np.repeat(np.arange(len(cell)), cc)
-        first = np.cumsum(cc) - cc
-        item = g["items"][cs[m] + np.arange(len(m)) - first[m]]
-        key = np.unique(seg[m] * self.n_items + item)
-        return np.divmod(key, self.n_items)
+        if g is None:
+            z = np.zeros(1, np.int64)
+            return False, 1.0, 0.0, 0.0, 1, 1, z, z, z
+        return (True, float(g["h"]), float(g["x0"]), float(g["y0"]), int(g["nx"]),
+                int(g["ny"]), g["start"], g["count"], g["items"])
 
-    # -- the exact pair kernel --------------------------------------------------------------
     def pair_geometry(self, si: np.ndarray, it: np.ndarray, a: np.ndarray,
                       d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Exact ``dist`` and eroded ``inside`` length of (segment ``si``, item ``it``) pairs.
 
         ``a``, ``d``: local complex segment starts and vectors.  See the module docstring.
         """
-        dist = np.zeros(len(si))
-        inside = np.zeros(len(si))
-        if len(si) == 0:
-            return dist, inside
-        eps = self.eps
-        isc = it >= self.n_pieces
-        ci = np.flatnonzero(isc)
-        if ci.size:
-            s, c = si[ci], it[ci]
-            A, D = a[s], d[s]
-            dd = (D * D.conj()).real
-            inv = 1.0 / np.maximum(dd, 1e-300)
-            w = self.item_center[c] - A
-            tl = (w * D.conj()).real * inv
-            ro = self.circle_radius[c - self.n_pieces]
-            dist[ci] = np.maximum(np.abs(w - np.clip(tl, 0.0, 1.0) * D) - ro, 0.0)
-            re = np.maximum(ro - eps, 0.0)
-            h2 = re * re - np.abs(w - tl * D) ** 2
-            half = np.sqrt(np.maximum(h2, 0.0) * inv)
-            inside[ci] = np.maximum(np.minimum(tl + half, 1.0) - np.maximum(tl - half, 0.0),
-                                    0.0) * np.sqrt(dd) * (h2 > 0)
-        pi = np.flatnonzero(~isc)
-        if pi.size:
-            s, k = si[pi], it[pi]
-            p, e, n, ee, cc, ce = self.table.take(k, axis=2)  # (4, pairs) each
-            A, D = a[s], d[s]
-            Ac, Dc = A.conj(), D.conj()
-            nA = (n * Ac).real  # n . A
-            den = (n * Dc).real  # n . D
-            den_s = np.where(den == 0, -1e-300, den)
-
-            def clip(c):
-                g = nA - c.real  # > 0: A outside the half-plane
-                tt = g / -den_s
-                neg = den_s < 0
-                t_in = np.maximum(np.where(neg, tt, -np.inf).max(axis=0), 0.0)
-                t_out = np.minimum(np.where(neg, np.inf, tt).min(axis=0), 1.0)
-                return t_in, t_out
-
-            t_in, t_out = clip(cc)
-            meets = t_in <= t_out
-            t_in2, t_out2 = clip(ce)
-            dl = np.sqrt((D * Dc).real)
-            inside[pi] = np.maximum(t_out2 - t_in2, 0.0) * dl
-            u = np.flatnonzero(~meets)
-            if u.size:
-                D, pu, eu, eeu = D[u], p[:, u], e[:, u], ee[:, u]
-                dd = (D * D.conj()).real
-                inv = 1.0 / np.maximum(dd, 1e-300)
-                w = pu - A[u]  # vertex - A
-                tv = np.clip((w * D.conj()).real * inv, 0.0, 1.0)
-                x = w - tv * D
-                d2 = (x * x.conj()).real
-                x = w + np.clip((w * eeu).real, 0.0, 1.0) * eu  # A -> edge
-                d2 = np.minimum(d2, (x * x.conj()).real)
-                w = w - D  # vertex - B
-                x = w + np.clip((w * eeu).real, 0.0, 1.0) * eu  # B -> edge
-                d2 = np.minimum(d2, (x * x.conj()).real).min(axis=0)
-                dist[pi[u]] = np.sqrt(d2)
-        return dist, inside
+        K, P, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
+        A = np.ascontiguousarray(np.stack([np.real(a), np.imag(a)], axis=1), dtype=float)
+        D = np.ascontiguousarray(np.stack([np.real(d), np.imag(d)], axis=1), dtype=float)
+        return kernel.pairs(np.asarray(si, np.int64), np.asarray(it, np.int64), A, D, K, P, E,
+                            N, C, CE, IC, CR, self.eps)
 
     def _segments(self, paths) -> tuple[np.ndarray, np.ndarray, int, int]:
+        """Local segment starts and vectors ``(n, 2)`` of a batch of polylines."""
         pts = np.asarray(paths, dtype=float)
         if pts.ndim == 2:
             pts = pts[None]
@@ -362,10 +270,9 @@ class ObstacleSet:
             raise ValueError(f"paths must have shape (P, M, 2) or (M, 2), got {pts.shape}")
         P, M, _ = pts.shape
         loc = self.frame.local(pts)
-        z = loc[..., 0] + 1j * loc[..., 1]
-        a = z[:, :-1].reshape(-1)
-        d = z[:, 1:].reshape(-1) - a
-        return a, d, P, M - 1
+        A = np.ascontiguousarray(loc[:, :-1].reshape(-1, 2))
+        D = np.ascontiguousarray(loc[:, 1:].reshape(-1, 2)) - A
+        return A, D, P, M - 1
 
     # -- public queries ---------------------------------------------------------------------
     def crossings(self, paths, details: bool = False, penetration: bool = True
@@ -380,38 +287,29 @@ class ObstacleSet:
         penetration : bool
             Compute the penetration measure (else zeros).
         """
-        a, d, P, S = self._segments(paths)
-        r, eps = self.radius, self.eps
-        zero = DiscCrossings(np.zeros(P, np.int64), np.zeros(P),
-                             np.zeros((P, max(S, 0)), np.int64) if details else None,
-                             (np.zeros(0, np.int64),) * 3 if details else None)
+        A, D, P, S = self._segments(paths)
         if self.n_items == 0 or S <= 0:
-            return zero
-        si, it = self._screen(a, d, r + 2 * eps)
-        if si.size == 0:
-            return zero
-        dist, inside = self.pair_geometry(si, it, a, d)
-        ob = self.item_obstacle[it]
-        key = si * self.n_obstacles + ob
-        # inside lengths add up over the pieces of one obstacle
-        ukey, inv = np.unique(key, return_inverse=True)
-        ins_tot = np.bincount(inv, weights=inside, minlength=len(ukey))
-        close = np.zeros(len(ukey), bool)
-        np.logical_or.at(close, inv, dist < r - eps)
-        hit_key = close | (ins_tot > eps)
-        keys = ukey[hit_key]
-        seg_u = keys // self.n_obstacles
-        count = np.bincount(seg_u // S, minlength=P).astype(np.int64)
-        pen = np.zeros(P)
-        if penetration and keys.size:
-            pair_hit = hit_key[inv] & ((dist < r) | (inside > 0))
-            val = np.where(pair_hit, np.maximum(r - dist, 0.0) + inside, 0.0)
-            pen = np.bincount(si // S, weights=val, minlength=P)
+            return DiscCrossings(np.zeros(P, np.int64), np.zeros(P),
+                                 np.zeros((P, max(S, 0)), np.int64) if details else None,
+                                 (np.zeros(0, np.int64),) * 3 if details else None)
+        K, Pt, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
+        cap = 4 * len(A) + 16 if details else 0
+        while True:
+            hits = np.empty((cap, 2), np.int64)
+            count, pen, n_hits = kernel.crossings(
+                A, D, S, K, Pt, E, N, C, CE, IC, IR, CR, OWN, self.n_obstacles,
+                self.radius, self.eps, bool(penetration), *self._grid_args(), hits)
+            if not details or n_hits <= cap:
+                break
+            cap = int(n_hits)
+        if not penetration:
+            pen = np.zeros(P)
         if not details:
             return DiscCrossings(count, pen)
-        seg_count = np.bincount(seg_u, minlength=P * S).reshape(P, S).astype(np.int64)
-        return DiscCrossings(count, pen, seg_count,
-                             (seg_u // S, seg_u % S, keys % self.n_obstacles))
+        hits = hits[:n_hits]
+        seg = hits[:, 0]
+        seg_count = np.bincount(seg, minlength=P * S).reshape(P, S).astype(np.int64)
+        return DiscCrossings(count, pen, seg_count, (seg // S, seg % S, hits[:, 1].copy()))
 
     def segment_free(self, a, b) -> np.ndarray:
         """Per segment ``a[k] -> b[k]`` (world, ``(K, 2)`` each): collision-free."""
@@ -428,31 +326,14 @@ class ObstacleSet:
         ``-r - inside / 2`` when it runs inside one: a point robot's depth bound).  ``inf`` with
         no obstacle within ``max_dist``.
         """
-        a, d, P, S = self._segments(paths)
+        A, D, P, S = self._segments(paths)
         out = np.full(P, math.inf)
         if self.n_items == 0 or S <= 0:
             return out
-        # lower bound of the distance per (segment, item) from bounding circles, then the exact
-        # distance for the pairs that can beat the best upper bound of their segment
-        w = None
-        best = np.full(len(a), math.inf)
-        block = max(1, 2_000_000 // self.n_items)
-        for s0 in range(0, len(a), block):
-            aa, dd_ = a[s0:s0 + block], d[s0:s0 + block]
-            w = self.item_center[None, :] - aa[:, None]
-            dd = (dd_ * dd_.conj()).real
-            t = np.clip((w * dd_.conj()[:, None]).real / np.maximum(dd, 1e-300)[:, None],
-                        0.0, 1.0)
-            cd = np.abs(w - t * dd_[:, None])
-            lb = cd - self.item_reach[None, :]
-            ub = (cd + self.item_reach[None, :]).min(axis=1)
-            s, i = np.nonzero((lb <= ub[:, None]) & (lb <= max_dist))
-            s = s + s0
-            dist, inside = self.pair_geometry(s, i, a, d)
-            val = dist - 0.5 * inside
-            np.minimum.at(best, s, val)
-        np.minimum.at(out, np.arange(len(a)) // S, best)
-        return out - self.radius
+        K, Pt, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
+        best = kernel.clearance(A, D, K, Pt, E, N, C, CE, IC, IR, CR, self.eps,
+                                float(max_dist))
+        return best.reshape(P, S).min(axis=1) - self.radius
 
     def point_distances(self, points) -> np.ndarray:
         """Exact distance from each point to the nearest obstacle (0 inside); ``inf`` if none."""
@@ -469,7 +350,8 @@ class ObstacleSet:
         ----------
         points : array ``(R, 2)`` or ``(2,)``, world coordinates
         max_range : float
-            Obstacles farther than this are skipped (distance ``inf``, point ``nan``).
+            Obstacles farther than this are skipped (distance ``inf``, point ``nan``); a point
+            inside an obstacle gets distance 0 at any range.
 
         Returns
         -------
@@ -478,59 +360,12 @@ class ObstacleSet:
         """
         pts = np.atleast_2d(np.asarray(points, dtype=float))
         R, n = len(pts), self.n_obstacles
-        near = np.full((R, n, 2), np.nan)
-        dist = np.full((R, n), math.inf)
         if self.n_items == 0 or R == 0:
-            return near, dist
-        loc = self.frame.local(pts)
-        z = loc[:, 0] + 1j * loc[:, 1]
-        si, it = self._screen(z, np.zeros_like(z), max_range)
-        if si.size == 0:
-            return near, dist
-        best_d = np.full(len(si), math.inf)
-        best_p = np.zeros(len(si), complex)
-        inside = np.zeros(len(si), bool)
-        isc = it >= self.n_pieces
-        ci = np.flatnonzero(isc)
-        if ci.size:
-            c = self.item_center[it[ci]]
-            ro = self.circle_radius[it[ci] - self.n_pieces]
-            v = z[si[ci]] - c
-            nv = np.abs(v)
-            u = np.where(nv > 0, v / np.where(nv > 0, nv, 1.0), 1.0)
-            best_p[ci] = c + u * ro
-            best_d[ci] = np.maximum(nv - ro, 0.0)
-            inside[ci] = nv < ro
-        pi = np.flatnonzero(~isc)
-        if pi.size:
-            p, e, nrm, ee, cc, _ = self.table.take(it[pi], axis=2)
-            q = z[si[pi]]
-            w = p - q
-            s = np.clip((w * ee).real, 0.0, 1.0)
-            x = p + s * e  # nearest point of each edge
-            d2 = np.abs(x - q) ** 2
-            d2 = np.where(self.boundary[:, it[pi]], d2, math.inf)  # boundary edges only
-            j = np.argmin(d2, axis=0)
-            col = np.arange(len(pi))
-            best_d[pi] = np.sqrt(d2[j, col])
-            best_p[pi] = x[j, col]
-            inside[pi] = ((nrm * q.conj()).real - cc.real <= 0).all(axis=0)
-        ob = self.item_obstacle[it]
-        # per (point, obstacle): the closest boundary candidate over its pieces
-        order = np.lexsort((best_d, ob, si))
-        si_o, ob_o = si[order], ob[order]
-        first = np.r_[True, (si_o[1:] != si_o[:-1]) | (ob_o[1:] != ob_o[:-1])]
-        sel = order[first]
-        ins = np.zeros((R, n), bool)
-        np.logical_or.at(ins, (si, ob), inside)
-        dd = best_d[sel]
-        keep = (dd <= max_range) | ins[si[sel], ob[sel]]  # inside: distance 0 at any range
-        sel = sel[keep]
-        near[si[sel], ob[sel]] = self.frame.world(np.stack([best_p[sel].real,
-                                                            best_p[sel].imag], axis=1))
-        dist[si[sel], ob[sel]] = best_d[sel]
-        dist = np.where(ins & np.isfinite(dist), 0.0, dist)
-        return near, dist
+            return np.full((R, n, 2), np.nan), np.full((R, n), math.inf)
+        K, Pt, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
+        near, dist = kernel.nearest(np.ascontiguousarray(self.frame.local(pts)), K, Pt, E, N,
+                                    C, B, IC, IR, CR, OWN, n, float(max_range))
+        return near + self.frame.origin, dist
 
 
 def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,

@@ -1,0 +1,392 @@
+"""Compiled loops of the exact collision engine (numba; the only implementation).
+
+Every function here is ``@njit(cache=True)``: compiled on first use (a few seconds once per
+machine; the machine code is cached in ``__pycache__``) and tested against shapely in
+``tests/test_geometry.py``.  Why compiled: the engine answers many small queries (a swarm's
+fitness: tens of paths x a few segments x the obstacles near them, thousands of times per run);
+per-query numpy overhead, not arithmetic, would dominate, and early exits per (segment, item)
+pair are natural in loops.  The maths is in :mod:`optplan.geometry.obstacles`' docstring.
+
+Data layout (local frame, built by :func:`optplan.geometry.obstacles.obstacle_set`):
+
+* pieces ``k < K``: ``P[k, j]`` edge start, ``E[k, j]`` edge vector, ``N[k, j]`` outward unit
+  normal, ``C[k, j] = N . P``, ``CE[k, j]`` the offset eroded by ``eps`` on boundary edges,
+  ``B[k, j]`` boundary flag (4 edges; a triangle repeats its last edge);
+* circles ``k >= K``: centre and radius ``CR[k - K]``;
+* every item: bounding circle ``(IC[k], IR[k])``, owning obstacle ``OWN[k]``;
+* optional uniform grid: cell size ``h``, origin, shape, CSR item lists.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+__all__ = ["pair", "pairs", "crossings", "clearance", "nearest"]
+
+_jit = numba.njit(cache=True, fastmath=False, nogil=True)
+
+
+@_jit
+def _clamp01(t):
+    if t < 0.0:
+        return 0.0
+    if t > 1.0:
+        return 1.0
+    return t
+
+
+@_jit
+def _pt_seg2(qx, qy, px, py, ex, ey):
+    """Squared distance from point q to segment p -> p + e."""
+    ee = ex * ex + ey * ey
+    t = 0.0
+    if ee > 0.0:
+        t = _clamp01(((qx - px) * ex + (qy - py) * ey) / ee)
+    dx = px + t * ex - qx
+    dy = py + t * ey - qy
+    return dx * dx + dy * dy
+
+
+@_jit
+def _clip(ax, ay, dx, dy, k, N, C):
+    """Cyrus-Beck: parameter interval of A + tD, t in [0, 1], inside the half-planes
+    ``N[k, j] . x <= C[k, j]``."""
+    t_in = 0.0
+    t_out = 1.0
+    for j in range(4):
+        nx = N[k, j, 0]
+        ny = N[k, j, 1]
+        g = nx * ax + ny * ay - C[k, j]
+        den = nx * dx + ny * dy
+        if den == 0.0:
+            if g > 0.0:
+                return 1.0, 0.0
+            continue
+        t = -g / den
+        if den < 0.0:
+            if t > t_in:
+                t_in = t
+        elif t < t_out:
+            t_out = t
+        if t_in > t_out:
+            return t_in, t_out
+    return t_in, t_out
+
+
+@_jit
+def pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps):
+    """Exact ``(dist, inside)`` of segment ``A -> A + D`` and item ``k`` (module docstring)."""
+    dl = math.sqrt(dx * dx + dy * dy)
+    if k >= K:  # circle
+        cx = IC[k, 0]
+        cy = IC[k, 1]
+        R = CR[k - K]
+        wx = cx - ax
+        wy = cy - ay
+        dd = dx * dx + dy * dy
+        tl = 0.0
+        if dd > 0.0:
+            tl = (wx * dx + wy * dy) / dd
+        t = _clamp01(tl)
+        fx = wx - t * dx
+        fy = wy - t * dy
+        dist = math.sqrt(fx * fx + fy * fy) - R
+        if dist < 0.0:
+            dist = 0.0
+        inside = 0.0
+        re = R - eps
+        if re > 0.0 and dd > 0.0:
+            lx = wx - tl * dx
+            ly = wy - tl * dy
+            h2 = re * re - (lx * lx + ly * ly)
+            if h2 > 0.0:
+                half = math.sqrt(h2 / dd)
+                a = tl - half
+                b = tl + half
+                if a < 0.0:
+                    a = 0.0
+                if b > 1.0:
+                    b = 1.0
+                if b > a:
+                    inside = (b - a) * dl
+        return dist, inside
+    t_in, t_out = _clip(ax, ay, dx, dy, k, N, C)
+    if t_in <= t_out:
+        e_in, e_out = _clip(ax, ay, dx, dy, k, N, CE)
+        inside = 0.0
+        if e_out > e_in:
+            inside = (e_out - e_in) * dl
+        return 0.0, inside
+    bx = ax + dx
+    by = ay + dy
+    d2 = math.inf
+    for j in range(4):
+        px = P[k, j, 0]
+        py = P[k, j, 1]
+        ex = E[k, j, 0]
+        ey = E[k, j, 1]
+        v = _pt_seg2(px, py, ax, ay, dx, dy)  # vertex -> segment
+        if v < d2:
+            d2 = v
+        v = _pt_seg2(ax, ay, px, py, ex, ey)  # A -> edge
+        if v < d2:
+            d2 = v
+        v = _pt_seg2(bx, by, px, py, ex, ey)  # B -> edge
+        if v < d2:
+            d2 = v
+    return math.sqrt(d2), 0.0
+
+
+@_jit
+def _near_item(ax, ay, dx, dy, k, IC, IR, lim):
+    """The item's bounding circle comes within ``lim`` of the segment."""
+    wx = IC[k, 0] - ax
+    wy = IC[k, 1] - ay
+    dd = dx * dx + dy * dy
+    t = 0.0
+    if dd > 0.0:
+        t = _clamp01((wx * dx + wy * dy) / dd)
+    fx = wx - t * dx
+    fy = wy - t * dy
+    r = IR[k] + lim
+    return fx * fx + fy * fy <= r * r
+
+
+@_jit
+def _candidates(ax, ay, dx, dy, n_items, IC, IR, lim, use_grid, gh, gx0, gy0, gnx, gny,
+                gstart, gcount, gitems, stamp, sid, out):
+    """Items whose bounding circle is within ``lim`` of the segment, written to ``out``
+    (de-duplicated with ``stamp``); returns their number."""
+    m = 0
+    if not use_grid:
+        for k in range(n_items):
+            if _near_item(ax, ay, dx, dy, k, IC, IR, lim):
+                out[m] = k
+                m += 1
+        return m
+    bx = ax + dx
+    by = ay + dy
+    xa, ya, xb, yb = ax, ay, bx, by
+    if xb < xa:
+        xa, ya, xb, yb = bx, by, ax, ay
+    i0 = int(math.floor((xa - gx0) / gh))
+    i1 = int(math.floor((xb - gx0) / gh))
+    i0 = min(max(i0, 0), gnx - 1)
+    i1 = min(max(i1, 0), gnx - 1)
+    sx = xb - xa
+    for col in range(i0, i1 + 1):
+        lo = -math.inf if col == 0 else gx0 + col * gh
+        hi = math.inf if col == gnx - 1 else gx0 + (col + 1) * gh
+        xl = max(xa, lo)
+        xr = min(xb, hi)
+        if sx > 0.0:
+            y1 = ya + (xl - xa) * (yb - ya) / sx
+            y2 = ya + (xr - xa) * (yb - ya) / sx
+        else:
+            y1 = ya
+            y2 = yb
+        j0 = int(math.floor((min(y1, y2) - gy0) / gh))
+        j1 = int(math.floor((max(y1, y2) - gy0) / gh))
+        j0 = min(max(j0, 0), gny - 1)
+        j1 = min(max(j1, 0), gny - 1)
+        for row in range(j0, j1 + 1):
+            cell = col * gny + row
+            s = gstart[cell]
+            for q in range(s, s + gcount[cell]):
+                k = gitems[q]
+                if stamp[k] == sid:
+                    continue
+                stamp[k] = sid
+                if _near_item(ax, ay, dx, dy, k, IC, IR, lim):
+                    out[m] = k
+                    m += 1
+    return m
+
+
+@_jit
+def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_pen,
+              use_grid, gh, gx0, gy0, gnx, gny, gstart, gcount, gitems, hits):
+    """Collision count (and penetration) per path for segments ``A[s] -> A[s] + D[s]``, ``S``
+    segments per path; colliding (segment, obstacle) pairs into ``hits`` (rows ``(s, o)``).
+
+    Returns ``(count per path, penetration per path, number of hits)``; when the number of
+    hits exceeds ``len(hits)`` only the first ones are stored (the caller retries larger).
+    """
+    n_seg = A.shape[0]
+    P_n = n_seg // S if S > 0 else 0
+    count = np.zeros(P_n, np.int64)
+    pen = np.zeros(P_n)
+    n_items = IC.shape[0]
+    stamp = np.full(n_items, -1, np.int64)
+    cand = np.empty(n_items, np.int64)
+    o_stamp = np.full(n_obs, -1, np.int64)
+    o_close = np.zeros(n_obs, np.bool_)
+    o_in = np.zeros(n_obs)
+    o_pen = np.zeros(n_obs)
+    touched = np.empty(n_items, np.int64)
+    lim = r + 2.0 * eps
+    n_hits = 0
+    for s in range(n_seg):
+        ax = A[s, 0]
+        ay = A[s, 1]
+        dx = D[s, 0]
+        dy = D[s, 1]
+        m = _candidates(ax, ay, dx, dy, n_items, IC, IR, lim, use_grid, gh, gx0, gy0, gnx,
+                        gny, gstart, gcount, gitems, stamp, s, cand)
+        nt = 0
+        for q in range(m):
+            k = cand[q]
+            dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
+            o = OWN[k]
+            if o_stamp[o] != s:
+                o_stamp[o] = s
+                o_close[o] = False
+                o_in[o] = 0.0
+                o_pen[o] = 0.0
+                touched[nt] = o
+                nt += 1
+            if dist < r - eps:
+                o_close[o] = True
+            o_in[o] += inside
+            if want_pen and (dist < r or inside > 0.0):
+                v = r - dist
+                if v < 0.0:
+                    v = 0.0
+                o_pen[o] += v + inside
+        path = s // S
+        for q in range(nt):
+            o = touched[q]
+            if o_close[o] or o_in[o] > eps:
+                count[path] += 1
+                pen[path] += o_pen[o]
+                if n_hits < hits.shape[0]:
+                    hits[n_hits, 0] = s
+                    hits[n_hits, 1] = o
+                n_hits += 1
+    return count, pen, n_hits
+
+
+@_jit
+def clearance(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist):
+    """Per segment the exact minimum of ``dist - inside / 2`` over all items (``inf`` with no
+    item within ``max_dist``); bounding circles prune items that cannot beat the best bound."""
+    n_seg = A.shape[0]
+    n_items = IC.shape[0]
+    out = np.full(n_seg, math.inf)
+    cd = np.empty(n_items)
+    for s in range(n_seg):
+        ax = A[s, 0]
+        ay = A[s, 1]
+        dx = D[s, 0]
+        dy = D[s, 1]
+        dd = dx * dx + dy * dy
+        ub = math.inf
+        for k in range(n_items):
+            wx = IC[k, 0] - ax
+            wy = IC[k, 1] - ay
+            t = 0.0
+            if dd > 0.0:
+                t = _clamp01((wx * dx + wy * dy) / dd)
+            fx = wx - t * dx
+            fy = wy - t * dy
+            cd[k] = math.sqrt(fx * fx + fy * fy)
+            if cd[k] + IR[k] < ub:
+                ub = cd[k] + IR[k]
+        best = math.inf
+        for k in range(n_items):
+            lb = cd[k] - IR[k]
+            if lb > ub or lb > max_dist or lb > best:
+                continue
+            dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
+            v = dist - 0.5 * inside
+            if v < best:
+                best = v
+        out[s] = best
+    return out
+
+
+@_jit
+def nearest(Q, K, P, E, N, C, B, IC, IR, CR, OWN, n_obs, max_range):
+    """Nearest boundary point and exact distance (0 inside) per (point, obstacle); obstacles
+    whose bounding circles are all farther than ``max_range`` are skipped (inf, nan)."""
+    R = Q.shape[0]
+    near = np.full((R, n_obs, 2), np.nan)
+    dist = np.full((R, n_obs), math.inf)
+    inside = np.zeros((R, n_obs), np.bool_)
+    n_items = IC.shape[0]
+    for i in range(R):
+        qx = Q[i, 0]
+        qy = Q[i, 1]
+        for k in range(n_items):
+            wx = IC[k, 0] - qx
+            wy = IC[k, 1] - qy
+            if math.sqrt(wx * wx + wy * wy) - IR[k] > max_range:
+                continue
+            o = OWN[k]
+            if k >= K:
+                R_ = CR[k - K]
+                vx = qx - IC[k, 0]
+                vy = qy - IC[k, 1]
+                nv = math.sqrt(vx * vx + vy * vy)
+                ux, uy = 1.0, 0.0
+                if nv > 0.0:
+                    ux = vx / nv
+                    uy = vy / nv
+                d = nv - R_
+                if d < 0.0:
+                    d = 0.0
+                    inside[i, o] = True
+                if d < dist[i, o]:
+                    dist[i, o] = d
+                    near[i, o, 0] = IC[k, 0] + ux * R_
+                    near[i, o, 1] = IC[k, 1] + uy * R_
+                continue
+            ins = True
+            for j in range(4):
+                if N[k, j, 0] * qx + N[k, j, 1] * qy - C[k, j] > 0.0:
+                    ins = False
+            if ins:
+                inside[i, o] = True
+            for j in range(4):
+                if not B[k, j]:
+                    continue
+                px = P[k, j, 0]
+                py = P[k, j, 1]
+                ex = E[k, j, 0]
+                ey = E[k, j, 1]
+                ee = ex * ex + ey * ey
+                t = 0.0
+                if ee > 0.0:
+                    t = _clamp01(((qx - px) * ex + (qy - py) * ey) / ee)
+                x = px + t * ex
+                y = py + t * ey
+                d = math.sqrt((x - qx) ** 2 + (y - qy) ** 2)
+                if d < dist[i, o]:
+                    dist[i, o] = d
+                    near[i, o, 0] = x
+                    near[i, o, 1] = y
+    for i in range(R):
+        for o in range(n_obs):
+            if inside[i, o]:
+                dist[i, o] = 0.0
+            elif dist[i, o] > max_range:
+                dist[i, o] = math.inf
+                near[i, o, 0] = np.nan
+                near[i, o, 1] = np.nan
+    return near, dist
+
+
+@_jit
+def pairs(SI, IT, A, D, K, P, E, N, C, CE, IC, CR, eps):
+    """:func:`pair` for explicit (segment ``SI[q]``, item ``IT[q]``) pairs."""
+    n = SI.shape[0]
+    dist = np.empty(n)
+    inside = np.empty(n)
+    for q in range(n):
+        s = SI[q]
+        dist[q], inside[q] = pair(A[s, 0], A[s, 1], D[s, 0], D[s, 1], IT[q], K, P, E, N, C,
+                                  CE, IC, CR, eps)
+    return dist, inside
