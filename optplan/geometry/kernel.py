@@ -141,6 +141,20 @@ def pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps):
 
 
 @_jit
+def _apart(ax, ay, dx, dy, k, N, C, lim):
+    """Both segment ends at least ``lim`` outside one edge line of piece ``k``: the segment is
+    farther than ``lim`` from the piece (a separating axis), so the pair cannot collide."""
+    bx = ax + dx
+    by = ay + dy
+    for j in range(4):
+        nx = N[k, j, 0]
+        ny = N[k, j, 1]
+        if nx * ax + ny * ay - C[k, j] >= lim and nx * bx + ny * by - C[k, j] >= lim:
+            return True
+    return False
+
+
+@_jit
 def _near_item(ax, ay, dx, dy, k, IC, IR, lim):
     """The item's bounding circle comes within ``lim`` of the segment."""
     wx = IC[k, 0] - ax
@@ -239,6 +253,8 @@ def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_p
         nt = 0
         for q in range(m):
             k = cand[q]
+            if k < K and _apart(ax, ay, dx, dy, k, N, C, lim):
+                continue
             dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
             o = OWN[k]
             if o_stamp[o] != s:
