@@ -14,6 +14,8 @@ coordinates.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import shapely
 from shapely.geometry.polygon import orient
@@ -53,6 +55,21 @@ def is_convex(v: np.ndarray) -> bool:
     return bool(np.all(cr >= -SIN_TOL * sc))
 
 
+def _convex_list(r: list[tuple[float, float]]) -> bool:
+    """:func:`is_convex` for a short ring given as a list (plain Python: the merge loop tests
+    many rings of 3-8 vertices, where array overhead would dominate)."""
+    n = len(r)
+    for i in range(n):
+        ax, ay = r[i - 1]
+        bx, by = r[i]
+        cx, cy = r[(i + 1) % n]
+        ux, uy, vx, vy = bx - ax, by - ay, cx - bx, cy - by
+        cr = ux * vy - uy * vx
+        if cr < -SIN_TOL * math.hypot(ux, uy) * math.hypot(vx, vy):
+            return False
+    return True
+
+
 def convex_decompose(geom) -> list[np.ndarray]:
     """Convex pieces (CCW vertex arrays ``(m, 2)``, collinear vertices removed) tiling ``geom``
     (a shapely Polygon or MultiPolygon, holes allowed); see the module docstring."""
@@ -89,7 +106,7 @@ def convex_decompose(geom) -> list[np.ndarray]:
                     rq = rings[q]
                     ia, ib = r.index(w), rq.index(u)
                     merged = (r[ia:] + r[:ia]) + (rq[ib:] + rq[:ib])[1:-1]
-                    if not is_convex(np.asarray(merged)):
+                    if not _convex_list(merged):
                         continue
                     for ring_ in (r, rq):
                         for x, y in zip(ring_, ring_[1:] + ring_[:1]):
