@@ -21,15 +21,9 @@ from optplan.backends.nlp import (
     piece_distances,
     resample_path,
 )
-from optplan.experiments.validate import (
-    format_table,
-    obstacle_points,
-    same_homotopy,
-    summarize,
-    validate,
-    winding_numbers,
-)
+from optplan.experiments.validate import format_table, summarize, validate
 from optplan.geometry import convex_decompose, path_lengths
+from optplan.geometry.homotopy import obstacle_points, same_homotopy, winding_numbers
 from optplan.geometry.tangent_graph import problem_shortest_path
 
 
@@ -381,13 +375,20 @@ def test_winding_and_homotopy() -> None:
     assert winding_numbers(sq[::-1], [[1, 1]]).tolist() == [-1]
     above = np.array([[0.0, 0.0], [1.0, 2.0], [2.0, 0.0]])
     below = np.array([[0.0, 0.0], [1.0, -2.0], [2.0, 0.0]])
-    assert not same_homotopy(above, below, [[1.0, 0.0]])
-    assert same_homotopy(above, below, [[5.0, 5.0]])
+    loop = np.vstack([above, below[::-1]])
+    assert winding_numbers(loop, [[1.0, 0.0]]).tolist() != [0]
+    assert winding_numbers(loop, [[5.0, 5.0]]).tolist() == [0]
+    prob = _scene([{**DISC, "center": [50.0, 50.0], "radius": 5.0}])
+    oset = prob.obstacle_set(1.0)
+    over = np.array([[5.0, 50.0], [50.0, 70.0], [95.0, 50.0]])
+    under = np.array([[5.0, 50.0], [50.0, 30.0], [95.0, 50.0]])
+    assert not same_homotopy(over, under, oset)
+    assert same_homotopy(over, over + [0.0, 5.0] * np.array([[0], [1], [0]]), oset)
 
 
 def test_obstacle_points_lie_inside_the_obstacles() -> None:
     prob = _scene([ELL, RING, BOX, {**DISC, "center": [20.0, 80.0], "radius": 5.0}])
-    pts = obstacle_points(prob, 2.0)
+    pts = prob.frame.world(obstacle_points(prob.obstacle_set(2.0)))
     assert len(pts) >= 4
     assert prob.obstacle_set(0.0).point_distances(pts).max() == 0.0
     inside = [any(o.geometry.contains(shapely.Point(p)) for o in prob.obstacles[:3])

@@ -152,3 +152,26 @@ def test_callback_stop_and_errors() -> None:
                      rng=0, callback=boom)
     with pytest.raises(ValueError, match="time_limit"):
         op.solve("paper-env1", "visgraph", time_limit=-1)
+
+
+def test_nlp_is_optimal_only_in_the_certified_homotopy_class() -> None:
+    prob = op.load_problem("paper-env1")
+    good = op.solve(prob, "nlp-ipopt")  # started from the certified (tangent-graph) path
+    assert good.status is op.Status.optimal, good.message
+    # seed 1 of ipso-paper lands in another corridor: a KKT point there is only "solved"
+    wrong = op.solve(prob, "ipso-paper", rng=1)
+    res = op.solve(prob, "nlp-ipopt", init=wrong.paths)
+    assert res.status is op.Status.solved
+    assert "locally optimal (KKT)" in res.message and "homotopy" in res.message
+
+
+def test_nlp_callback_errors_propagate_without_a_dump(capfd) -> None:
+    class Boom(Exception):
+        pass
+
+    def boom(p):
+        raise Boom("stop here")
+
+    with pytest.raises(Boom):
+        op.solve("paper-env1", "nlp-ipopt", callback=boom)
+    assert "Boom" not in capfd.readouterr().err

@@ -41,45 +41,12 @@ from typing import Any
 import numpy as np
 
 from optplan.catalog import load_problem
+from optplan.geometry.homotopy import same_homotopy
 from optplan.problem import Problem
 from optplan.result import Result
 from optplan.solver import Backend, get_solver, solve
 
-__all__ = ["validate", "format_table", "summarize", "winding_numbers", "same_homotopy", "main"]
-
-
-def winding_numbers(loop: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """Winding number of the closed polyline ``loop`` (``(m, 2)``) around each point."""
-    loop = np.asarray(loop, float)
-    pts = np.asarray(points, float).reshape(-1, 2)
-    if len(pts) == 0:
-        return np.zeros(0, int)
-    a = loop[None, :, :] - pts[:, None, :]
-    b = np.roll(a, -1, axis=1)
-    cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    dot = np.sum(a * b, axis=-1)
-    ang = np.arctan2(cross, dot).sum(axis=1)
-    return np.rint(ang / (2 * np.pi)).astype(int)
-
-
-def obstacle_points(problem: Problem, radius: float, known_only: bool = True) -> np.ndarray:
-    """Interior points of the static obstacles, world coordinates ``(K, 2)``.
-
-    One per item of the exact engine (:meth:`Problem.obstacle_set`): the vertex mean of each
-    convex piece (inside it) and the centre of each circle.  For feasible paths, winding zero
-    around all of them is the same test as around one point per connected component of the
-    inflated map: a feasible path cannot pass between points of one obstacle, nor between
-    obstacles less than ``2 r`` apart.
-    """
-    oset = problem.obstacle_set(radius, known_only=known_only)
-    z = oset.item_center
-    return oset.frame.world(np.stack([z.real, z.imag], axis=1)).reshape(-1, 2)
-
-
-def same_homotopy(path_a: np.ndarray, path_b: np.ndarray, points: np.ndarray) -> bool:
-    """True when two paths with common endpoints wind the same way around every point."""
-    loop = np.vstack([np.asarray(path_a, float), np.asarray(path_b, float)[::-1]])
-    return bool(np.all(winding_numbers(loop, points) == 0))
+__all__ = ["validate", "format_table", "summarize", "main"]
 
 
 def _pct(a: float, b: float) -> float:
@@ -127,7 +94,7 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
     # the exact optimum (segments + arcs) when the reference reports it, else its polyline
     L_opt = (float(ref.metrics.get("length_exact", ref.metrics["length"]))
              if rid in ref.paths else float("nan"))
-    pts = obstacle_points(prob, prob.leader.radius)
+    oset = prob.obstacle_set(prob.leader.radius, known_only=True)
     rows = []
     for seed in range(first_seed, first_seed + seeds):
         t0 = time.perf_counter()
@@ -140,8 +107,8 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
         hf = bool(h.metrics["feasible"] and h.metrics["reached"])
         nf = bool(n.metrics["feasible"] and n.metrics["reached"])
         has_ref = rid in ref.paths and ref.success
-        cls = hf and has_ref and same_homotopy(h.paths[rid], ref.paths[rid], pts)
-        ncls = nf and has_ref and same_homotopy(n.paths[rid], ref.paths[rid], pts)
+        cls = hf and has_ref and same_homotopy(h.paths[rid], ref.paths[rid], oset)
+        ncls = nf and has_ref and same_homotopy(n.paths[rid], ref.paths[rid], oset)
         info = n.extras.get("ipopt", {}).get(rid, {})
         rows.append({
             "seed": seed,
