@@ -11,7 +11,15 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Status", "Result", "History", "Progress", "notify"]
+__all__ = ["Status", "Result", "History", "Progress", "notify", "ResultFileError",
+           "SCHEMA_VERSION"]
+
+#: Version of the Result JSON layout written by :meth:`Result.save`.
+SCHEMA_VERSION = 1
+
+
+class ResultFileError(ValueError):
+    """A result file (or dict) is malformed; the message names the file and the key."""
 
 
 class Status(enum.StrEnum):
@@ -141,6 +149,7 @@ class Result:
     # -- JSON round trip -------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
         return {
+            "schema": SCHEMA_VERSION,
             "status": self.status.value,
             "problem": self.problem,
             "solver": self.solver,
@@ -161,10 +170,19 @@ class Result:
         }
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> Result:
+    def from_dict(cls, d: dict[str, Any], where: str = "<result>") -> Result:
+        """Rebuild a Result from :meth:`to_dict` output, validating every field.
+
+        Raises
+        ------
+        ResultFileError
+            Naming ``where`` (the file) and the offending key.
+        """
+        d = _check_result_dict(d, where)
         return cls(
             status=Status(d["status"]),
-            paths={k: np.asarray(v, dtype=float) for k, v in d["paths"].items()},
+            paths={k: np.asarray(v, dtype=float).reshape(-1, 2)
+                   for k, v in d["paths"].items()},
             times=None if d.get("times") is None else np.asarray(d["times"], dtype=float),
             metrics=_unjson(d.get("metrics", {})),
             solver=d["solver"],
@@ -187,7 +205,88 @@ class Result:
 
     @classmethod
     def load(cls, path: str | Path) -> Result:
-        return cls.from_dict(json.loads(Path(path).read_text(encoding="utf-8")))
+        """Read a result saved by :meth:`save`; raises :class:`ResultFileError` naming the
+        file and the key for anything malformed (unreadable, not JSON, wrong schema, shapes,
+        types, lengths)."""
+        p = Path(path)
+        try:
+            text = p.read_text(encoding="utf-8")
+        except OSError as e:
+            raise ResultFileError(f"{p}: cannot read file ({e.strerror or e})") from None
+        except UnicodeDecodeError as e:
+            raise ResultFileError(f"{p}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as e:
+            raise ResultFileError(f"{p}: invalid JSON ({e.msg} at line {e.lineno}, column "
+                                  f"{e.colno})") from None
+        except RecursionError:
+            raise ResultFileError(f"{p}: JSON nested too deeply") from None
+        return cls.from_dict(data, str(p))
+
+
+def _check_result_dict(d: Any, where: str) -> dict[str, Any]:
+    """Validate the layout of a result dict (schema version, keys, types, shapes, lengths)."""
+
+    def err(key: str, msg: str) -> ResultFileError:
+        return ResultFileError(f"{where}: {key}: {msg}")
+
+    if not isinstance(d, dict):
+        raise err("<root>", f"expected a JSON object, got {type(d).__name__}")
+    schema = d.get("schema", SCHEMA_VERSION)
+    if isinstance(schema, bool) or not isinstance(schema, int) or schema > SCHEMA_VERSION:
+        raise err("schema", f"unsupported result schema {schema!r} (this optplan reads "
+                  f"<= {SCHEMA_VERSION})")
+    for key in ("status", "solver", "backend", "paths"):
+        if key not in d:
+            raise err(key, "missing required key")
+    if d["status"] not in {s.value for s in Status}:
+        raise err("status", f"unknown status {d['status']!r} (allowed: "
+                  + ", ".join(s.value for s in Status) + ")")
+    for key in ("solver", "backend", "problem", "message", "stop_reason"):
+        if key in d and not isinstance(d[key], str):
+            raise err(key, f"expected a string, got {type(d[key]).__name__}")
+    paths = d["paths"]
+    if not isinstance(paths, dict) or not paths:
+        raise err("paths", "expected a non-empty object robot id -> list of [x, y]")
+    n_pts = set()
+    for rid, v in paths.items():
+        try:
+            a = np.asarray(v, dtype=float)
+        except (TypeError, ValueError):
+            raise err(f"paths.{rid}", "expected a list of [x, y] numbers") from None
+        if a.ndim != 2 or a.shape[1] != 2 or len(a) == 0:
+            raise err(f"paths.{rid}", f"expected shape (n >= 1, 2), got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise err(f"paths.{rid}", "non-finite coordinates")
+        n_pts.add(len(a))
+    times = d.get("times")
+    if times is not None:
+        try:
+            t = np.asarray(times, dtype=float)
+        except (TypeError, ValueError):
+            raise err("times", "expected a list of numbers") from None
+        if t.ndim != 1 or n_pts != {len(t)}:
+            raise err("times", f"expected one time stamp per path point ({sorted(n_pts)}), got "
+                      f"shape {t.shape}")
+    for key in ("metrics", "options", "history", "extras"):
+        if key in d and not isinstance(d[key], dict):
+            raise err(key, f"expected an object, got {type(d[key]).__name__}")
+    for key in ("n_iter", "n_eval"):
+        if key in d and (isinstance(d[key], bool) or not isinstance(d[key], int)
+                         or d[key] < 0):
+            raise err(key, f"expected a non-negative integer, got {d[key]!r}")
+    if "wall_time" in d and (isinstance(d["wall_time"], bool)
+                             or not isinstance(d["wall_time"], (int, float))):
+        raise err("wall_time", f"expected a number of seconds, got {d['wall_time']!r}")
+    if "seed" in d and d["seed"] is not None and (isinstance(d["seed"], bool)
+                                                  or not isinstance(d["seed"], int)):
+        raise err("seed", f"expected an integer or null, got {d['seed']!r}")
+    hist = d.get("history", {})
+    lens = {len(v) for v in hist.values() if isinstance(v, list)}
+    if any(not isinstance(v, list) for v in hist.values()) or len(lens) > 1:
+        raise err("history", "expected columns of equal length")
+    return d
 
 
 def _jsonable(x: Any) -> Any:

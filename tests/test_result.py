@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.result import History, Progress, Result, Status, notify
+from optplan.result import History, Progress, Result, ResultFileError, Status, notify
 
 
 def _result(**kw) -> Result:
@@ -58,7 +58,9 @@ def test_json_round_trip(tmp_path) -> None:
     h = History()
     h.append(iteration=0, best_cost=10.0, n_eval=5, time=0.1)
     h.append(iteration=1, best_cost=8.0, n_eval=10, time=0.2, escapes=1)
-    r = _result(history=h, times=np.array([0.0, 1.0, 2.0]), cost=float("inf"))
+    r = _result(history=h, times=np.array([0.0, 1.0, 2.0]), cost=float("inf"),
+                paths={"r1": np.array([[0.0, 0.0], [1.5, 2.0], [3.0, 4.0]]),
+                       "r2": np.array([[1.0, 1.0], [2.0, 2.0], [2.0, 2.0]])})
     f = tmp_path / "r.json"
     r.save(f)
     json.loads(f.read_text())  # valid JSON (nan / inf encoded as strings)
@@ -140,3 +142,38 @@ def test_notify_stop_protocol() -> None:
 def test_summary_mentions_status_and_length() -> None:
     s = _result().summary()
     assert "status solved" in s and "length 5.0000" in s and s.startswith("open-field / my-preset")
+
+
+@pytest.mark.parametrize("text, match", [
+    ("", "invalid JSON"),
+    ('{"status": "solved", "solver": "x", "backend": "y", "paths": {"r": [[0, 0]]', "invalid JSON"),
+    ("{}", "status: missing required key"),
+    ("[]", "expected a JSON object"),
+    ('{"status": "great", "solver": "x", "backend": "y", "paths": {"r": [[0, 0]]}}',
+     "unknown status"),
+    ('{"status": "solved", "solver": "x", "backend": "y", "paths": {"r": [[0, 0, 0]]}}',
+     r"paths.r: expected shape \(n >= 1, 2\)"),
+    ('{"status": "solved", "solver": "x", "backend": "y", "paths": {"r": [0, 1, 2, 3]}}',
+     "paths.r: expected shape"),
+    ('{"status": "solved", "solver": "x", "backend": "y", "paths": {"r": [[0, 0]]}, '
+     '"metrics": [1, 2]}', "metrics: expected an object"),
+    ('{"status": "solved", "solver": "x", "backend": "y", "paths": {"r": [[0, 0], [1, 1]]}, '
+     '"times": [0, 1, 2]}', "times: expected one time stamp per path point"),
+    ('{"schema": 99, "status": "solved", "solver": "x", "backend": "y", "paths": {}}',
+     "unsupported result schema"),
+])
+def test_corrupted_result_files_name_file_and_key(tmp_path, text, match) -> None:
+    f = tmp_path / "bad.json"
+    f.write_text(text)
+    with pytest.raises(ResultFileError, match=match) as ei:
+        Result.load(f)
+    assert str(f) in str(ei.value)
+
+
+def test_non_utf8_and_missing_result_files(tmp_path) -> None:
+    f = tmp_path / "bin.json"
+    f.write_bytes(b"\xff\xfe{")
+    with pytest.raises(ResultFileError, match="not UTF-8"):
+        Result.load(f)
+    with pytest.raises(ResultFileError, match="cannot read"):
+        Result.load(tmp_path / "missing.json")
