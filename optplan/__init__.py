@@ -9,7 +9,7 @@
 from optplan.catalog import list_problems, load_problem
 from optplan.metrics import evaluate
 from optplan.problem import Problem, ProblemError, parse_problem, read_problem
-from optplan.result import History, Progress, Result, Status
+from optplan.result import History, Progress, Result, ResultFileError, Status
 from optplan.solver import Backend, get_solver, list_backends, list_solvers, register, solve
 
 __version__ = "0.1.0"
@@ -21,6 +21,7 @@ __all__ = [
     "ProblemError",
     "Progress",
     "Result",
+    "ResultFileError",
     "Status",
     "evaluate",
     "get_solver",
