@@ -1,5 +1,8 @@
 """Find and parse the scenario catalogue (``problems/*.toml``) and presets (``solvers/*.toml``).
 
+The shipped occupancy maps the map scenes were imported from live in ``problems/maps/``
+(:func:`map_files`, :func:`find_map`).
+
 The catalogues are data directories, not import packages.  They are looked up in order:
 ``$OPTPLAN_CATALOG`` (a directory holding ``problems/`` and ``solvers/``), the source checkout
 next to the package (editable installs), and the copy shipped inside the wheel
@@ -17,7 +20,10 @@ from pathlib import Path
 from optplan.problem import Problem, ProblemError, read_problem
 
 __all__ = ["catalog_dir", "problem_files", "preset_files", "load_problem", "list_problems",
-           "read_preset"]
+           "read_preset", "map_files", "find_map"]
+
+#: Suffixes of the shipped occupancy maps in ``problems/maps/`` (:func:`map_files`).
+MAP_SUFFIXES = (".yaml", ".yml", ".map")
 
 
 def _candidates() -> list[Path]:
@@ -48,6 +54,29 @@ def problem_files() -> dict[str, Path]:
 
 def preset_files() -> dict[str, Path]:
     return {p.stem: p for p in sorted(catalog_dir("solvers").glob("*.toml"))}
+
+
+def map_files() -> dict[str, Path]:
+    """The shipped occupancy maps, ``problems/maps/*.yaml`` (ROS ``map_server``, with their
+    images) and ``*.map`` (MovingAI), by file stem; read them with :mod:`optplan.maps`."""
+    d = catalog_dir("problems") / "maps"
+    if not d.is_dir():
+        return {}
+    return {p.stem: p for p in sorted(d.iterdir()) if p.suffix.lower() in MAP_SUFFIXES}
+
+
+def find_map(name_or_path: str | Path) -> Path:
+    """A map file: an existing path as given, else a shipped map by name (``"warehouse"``)."""
+    p = Path(name_or_path)
+    if p.exists():
+        return p
+    files = map_files()
+    if str(name_or_path) in files:
+        return files[str(name_or_path)]
+    close = difflib.get_close_matches(str(name_or_path), list(files), n=3)
+    hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+    raise ProblemError(f"{name_or_path}: no such map file and no shipped map of that name{hint} "
+                       f"(shipped: {', '.join(files) or 'none'})")
 
 
 @lru_cache(maxsize=64)

@@ -16,6 +16,7 @@ import importlib.util
 import json
 import math
 import os
+import re
 import sys
 import time
 import tomllib
@@ -344,6 +345,62 @@ def cmd_animate(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _xy(text: str, flag: str) -> tuple[float, ...]:
+    try:
+        vals = tuple(float(t) for t in text.replace(",", " ").split())
+    except ValueError:
+        vals = ()
+    if len(vals) != 2 or not all(math.isfinite(v) for v in vals):
+        raise CLIError(f"{flag}: expected X,Y (two numbers), got {text!r}")
+    return vals
+
+
+def cmd_import_map(args: argparse.Namespace, out: TextIO) -> int:
+    from optplan.catalog import find_map
+    from optplan.maps import import_map, to_toml
+
+    path = find_map(args.map)
+    starts = [_xy(s, "--start") for s in args.start]
+    goals = [_xy(g, "--goal") for g in args.goal]
+    if len(starts) != len(goals):
+        raise CLIError(f"give one --goal per --start (got {len(starts)} and {len(goals)})")
+    if args.robot and len(args.robot) != len(starts):
+        raise CLIError(f"give one --robot per --start (got {len(args.robot)} and {len(starts)})")
+    origin = None
+    if args.origin is not None:
+        try:
+            origin = [float(t) for t in args.origin.replace(",", " ").split()]
+        except ValueError:
+            origin = []
+        if len(origin) not in (2, 3):
+            raise CLIError(f"--origin: expected X,Y or X,Y,YAW, got {args.origin!r}")
+    info: dict[str, Any] = {}
+    t0 = time.perf_counter()
+    prob = import_map(
+        path, radius=args.radius, start=starts, goal=goals, robot_id=args.robot or None,
+        max_speed=args.max_speed, resolution=args.resolution, origin=origin,
+        negate=True if args.negate else None, mode=args.mode,
+        occupied_thresh=args.occupied_thresh, free_thresh=args.free_thresh,
+        unknown=args.unknown, grow=args.grow, simplify=args.simplify, join=args.join,
+        fill_unreachable=not args.keep_holes, name=args.name, info=info)
+    dt = time.perf_counter() - t0
+    header = (f"Imported from {path} by 'optplan import-map' (grow {args.grow:g} cells, "
+              f"simplify {args.simplify:g} cells, unknown = {args.unknown}).")
+    text = to_toml(prob, header)
+    if not args.out:
+        out.write(text)
+        return 0
+    dest = Path(args.out)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    dest.write_text(text, encoding="utf-8")
+    c = info["cells"]
+    print(f"{path}: {c['occupied']} occupied, {c['unknown']} unknown, {c['free']} free cells "
+          f"-> {info['polygons']} polygons, {info['vertices']} vertices "
+          f"({info['holes_filled']} unreachable holes filled) in {dt * 1e3:.0f} ms", file=out)
+    print(f"wrote {dest} (try: {PROG} solve {dest} visgraph)", file=out)
+    return 0
+
+
 # --------------------------------------------------------------------------------------
 # parser and entry point
 # --------------------------------------------------------------------------------------
@@ -424,6 +481,50 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--max-frames", type=int, default=150, help="frame limit (default 150)")
     s.add_argument("--problem", help="problem name or .toml path (default: the result's)")
     s.set_defaults(func=cmd_animate)
+
+    s = sub.add_parser(
+        "import-map", help="turn an occupancy map into a scenario TOML",
+        description="Import a ROS map_server YAML (+ image), a bare PNG/PGM image (with "
+                    "--resolution and --origin) or a MovingAI .map as a scenario: obstacle "
+                    "cells become conservative polygons (every cell inside; docs/maps.md). "
+                    "MAP may also name a shipped map (problems/maps/), e.g. 'warehouse'.")
+    # values such as "-11,-11.5" are points, not options (argparse only knows "-11" and "-1.5")
+    s._negative_number_matcher = re.compile(r"^-\d+$|^-\d*\.\d+$|^-\d*\.?\d*(e-?\d+)?[, ]")
+    s.add_argument("map", help="map file (.yaml, .png/.pgm/..., .map) or shipped map name")
+    s.add_argument("--radius", type=float, required=True, help="robot radius (map units)")
+    s.add_argument("--start", action="append", required=True, metavar="X,Y",
+                   help="start of a robot (repeat for several robots)")
+    s.add_argument("--goal", action="append", required=True, metavar="X,Y",
+                   help="goal of a robot (one per --start)")
+    s.add_argument("--robot", action="append", metavar="ID",
+                   help="robot id (one per --start; default r1, r2, ...)")
+    s.add_argument("--max-speed", type=float, default=1.0, metavar="V",
+                   help="speed limit of every robot (map units / s, default 1)")
+    s.add_argument("--out", metavar="TOML", help="scenario file to write (default: stdout)")
+    s.add_argument("--name", help="scenario name (default: the map file's stem)")
+    s.add_argument("--resolution", type=float, metavar="RES",
+                   help="cell size of a bare image or MovingAI map (map units per cell)")
+    s.add_argument("--origin", metavar="X,Y[,YAW]",
+                   help="world pose of the lower-left corner of a bare image or .map")
+    s.add_argument("--negate", action="store_true", help="bare image: dark pixels are free")
+    s.add_argument("--mode", choices=["trinary", "scale", "raw"],
+                   help="bare image: map_server mode (default trinary)")
+    s.add_argument("--occupied-thresh", type=float, metavar="P",
+                   help="bare image: occupied above this probability (default 0.65)")
+    s.add_argument("--free-thresh", type=float, metavar="P",
+                   help="bare image: free below this probability (default 0.196)")
+    s.add_argument("--unknown", choices=["occupied", "free"], default="occupied",
+                   help="what unknown cells are (default occupied)")
+    s.add_argument("--grow", type=float, default=0.5, metavar="CELLS",
+                   help="growth of the cell union before simplifying (cells, default 0.5)")
+    s.add_argument("--simplify", type=float, default=0.5, metavar="CELLS",
+                   help="Douglas-Peucker tolerance (cells, default 0.5; reduced where the "
+                        "simplified polygon would not cover every cell)")
+    s.add_argument("--join", choices=["round", "mitre"], default="round",
+                   help="growth corners: round (Euclidean, default) or mitre (square)")
+    s.add_argument("--keep-holes", action="store_true",
+                   help="keep free holes no start or goal lies in (default: fill them)")
+    s.set_defaults(func=cmd_import_map)
     return p
 
 
