@@ -3,7 +3,9 @@
 1. A full ``sa-apf-paper`` run on ``paper-apf-env1`` (simulation + validator): median wall time,
    target <= 100 ms.
 2. Per-step controller cost vs the number of obstacles *outside* the sensing range: the
-   simulator's bounding-box pre-filter should keep it flat.
+   geometry core's bounding-circle screen (behind ``ObstacleField.nearest``) should keep it flat.
+3. One ``ObstacleField.nearest`` call (one point, the sensing range 22): the small query the
+   controllers and the contact check make several times per step.
 
 Run: ``.venv/bin/python benchmarks/bench_apf.py [--repeat N]``.  Prints markdown tables.
 """
@@ -65,6 +67,19 @@ def per_step(n_far: int, steps: int = 300) -> float:
     return (time.perf_counter() - t0) / steps
 
 
+def per_query(name: str, n: int = 2000) -> float:
+    prob = op.load_problem(name)
+    fld = ObstacleField(prob)
+    x = np.asarray(prob.robots[0].start, float)[None] + [30.0, 3.0]
+    best = np.inf
+    for _ in range(5):
+        t0 = time.perf_counter()
+        for _ in range(n):
+            fld.nearest(x, 1.0, max_range=22.0)
+        best = min(best, (time.perf_counter() - t0) / n)
+    return best
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--repeat", type=int, default=15)
@@ -84,6 +99,10 @@ def main() -> None:
         v = float(np.median([per_step(n) for _ in range(3)]))
         base = base or v
         print(f"| {n} | {1e6 * v:.0f} us ({v / base:.2f}x) |")
+    print("\n| map | one `ObstacleField.nearest` call (1 point, range 22; best of 5) |")
+    print("|---|---|")
+    for name in ("paper-apf-env1", "paper-hybrid", "trap-gnron"):
+        print(f"| {name} | {1e6 * per_query(name):.1f} us |")
 
 
 if __name__ == "__main__":

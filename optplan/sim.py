@@ -8,10 +8,13 @@ the policy returning ``None`` (it gave up), a ``StopIteration`` from the callbac
 budget.
 
 Sensing.  :class:`ObstacleField` answers, for a position and time, the nearest boundary point
-and distance of every obstacle (static polygons, circles, and dynamic obstacles at time t)
+and exact distance of every obstacle (static polygons, circles, and dynamic obstacles at time t)
 within a range.  Distances are to the raw obstacle (not inflated); inside an obstacle the
-distance is 0.  A bounding-box pre-filter discards obstacles farther than the range before any
-edge-level work, so obstacles outside the sensing range cost one vectorised comparison.
+distance is 0.  The static obstacles are answered by the one exact geometry core
+(:meth:`optplan.geometry.ObstacleSet.nearest`, whose bounding-circle screen discards obstacles
+farther than the range before any edge-level work); the simulator keeps no distance code of its
+own beyond a moving circle's centre and radius.  Contacts are checked with the map tolerance
+:attr:`optplan.geometry.Frame.eps`.
 """
 
 from __future__ import annotations
@@ -22,23 +25,44 @@ from typing import Any
 
 import numpy as np
 
-from optplan.problem import Problem
+from optplan.geometry import Frame, ObstacleSet, obstacle_set
+from optplan.problem import Obstacle, Problem
 from optplan.result import Progress, notify
 
 __all__ = ["ObstacleField", "SimState", "SimOutcome", "simulate"]
 
 
-def _edges_of(poly) -> np.ndarray:
-    rings = [poly.exterior, *poly.interiors]
-    out = []
-    for r in rings:
-        c = np.asarray(r.coords)
-        out.append(np.hstack([c[:-1], c[1:]]))
-    return np.vstack(out)
+def _circle_nearest(pts: np.ndarray, c: np.ndarray, r: np.ndarray,
+                    max_range: float) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest boundary points ``(R, m, 2)`` and distances ``(R, m)`` of circles (centres
+    ``c``, radii ``r``): exact, 0 inside; skipped (``nan`` / ``inf``) beyond ``max_range``."""
+    v = pts[:, None, :] - c
+    nv = np.hypot(v[..., 0], v[..., 1])
+    d = nv - r
+    if d.min() > max_range:  # the usual case: every moving circle out of range
+        return np.full(v.shape, np.nan), np.full(d.shape, np.inf)
+    np.maximum(d, 0.0, out=d)
+    if nv.min() > 0.0:
+        p = c + v * (r / nv)[..., None]
+    else:  # a point at a centre: any boundary point will do, the one towards +x
+        z = nv == 0.0
+        p = c + v * (r / np.where(z, 1.0, nv))[..., None]
+        p[z] = (c + np.stack([r, np.zeros_like(r)], axis=1))[np.nonzero(z)[1]]
+    if not d.max() <= max_range:
+        ok = d <= max_range
+        d = np.where(ok, d, np.inf)
+        p = np.where(ok[..., None], p, np.nan)
+    return p, d
 
 
 class ObstacleField:
     """Nearest-point queries against a problem's static and dynamic obstacles.
+
+    The static obstacles are answered by the exact geometry core
+    (:meth:`optplan.geometry.ObstacleSet.nearest` on the problem's obstacle set of radius 0);
+    a moving circle is its centre and radius at time ``t``; a moving polygon is an
+    :class:`~optplan.geometry.ObstacleSet` of its local shape (in the frame of the shape's own
+    bounds), queried with the points relative to the obstacle's position at ``t``.
 
     Parameters
     ----------
@@ -54,55 +78,29 @@ class ObstacleField:
     def __init__(self, problem: Problem, include_temporary: bool = True,
                  include_dynamic: bool = True):
         self.problem = problem
-        self.static = [o for o in problem.obstacles if o.known or include_temporary]
+        known_only = not include_temporary
+        self.static = list(problem.static_obstacles(known_only))
         self.dynamic = list(problem.dynamic_obstacles) if include_dynamic else []
         self.names = [o.name for o in self.static] + [d.name for d in self.dynamic]
         self.n_static = len(self.static)
         self.n = len(self.names)
-        # each obstacle as: circle (centre, radius) or padded polygon edges, in its own frame
-        kinds, centers, radii, edge_list = [], [], [], []
-        for o in self.static:
-            if o.is_circle:
-                kinds.append(0)
-                centers.append(o.center)
-                radii.append(o.radius)
-                edge_list.append(np.zeros((0, 4)))
-            else:
-                kinds.append(1)
-                centers.append(np.zeros(2))
-                radii.append(0.0)
-                edge_list.append(_edges_of(o.geometry))
-        for d in self.dynamic:
-            if d.kind == "circle":
-                kinds.append(0)
-                centers.append(np.zeros(2))
-                radii.append(d.radius)
-                edge_list.append(np.zeros((0, 4)))
-            else:
-                kinds.append(1)
-                centers.append(np.zeros(2))
-                radii.append(0.0)
-                edge_list.append(_edges_of(d.local_geometry))
-        self.is_circle = np.array(kinds, dtype=int) == 0
-        self.center0 = np.array(centers, dtype=float).reshape(-1, 2)
-        self.radius = np.array(radii, dtype=float)
-        e_max = max([len(e) for e in edge_list] + [1])
-        self.edges = np.zeros((self.n, e_max, 4))
-        self.edge_mask = np.zeros((self.n, e_max), bool)
-        for i, e in enumerate(edge_list):
-            self.edges[i, : len(e)] = e
-            self.edge_mask[i, : len(e)] = True
-        # local-frame bounding boxes
-        bb = np.zeros((self.n, 4))
-        for i in range(self.n):
-            if self.is_circle[i]:
-                c, r = self.center0[i], self.radius[i]
-                bb[i] = [c[0] - r, c[1] - r, c[0] + r, c[1] + r]
-            else:
-                e = edge_list[i]
-                bb[i] = [e[:, [0, 2]].min(), e[:, [1, 3]].min(), e[:, [0, 2]].max(),
-                         e[:, [1, 3]].max()]
-        self.bbox0 = bb
+        # static: the problem's cached engine, built from exactly this list of obstacles
+        self._static_set = problem.obstacle_set(0.0, known_only) if self.static else None
+        # dynamic: circles by index and radius; polygons as (index, engine of the local shape)
+        circ = [(self.n_static + k, float(d.radius)) for k, d in enumerate(self.dynamic)
+                if d.kind == "circle"]
+        self._circ_idx = np.array([j for j, _ in circ], dtype=np.int64)
+        self._circ_r = np.array([r for _, r in circ], dtype=float)
+        m = len(circ)  # a slice when the circles are the last m obstacles (the usual case)
+        self._circ_sel = (slice(self.n - m, self.n) if m and np.array_equal(
+            self._circ_idx, np.arange(self.n - m, self.n)) else self._circ_idx)
+        self._dyn_polys: list[tuple[int, ObstacleSet]] = []
+        for k, d in enumerate(self.dynamic):
+            if d.kind != "circle":
+                g = d.local_geometry
+                oset = obstacle_set([Obstacle("polygon", g, True, d.name)], 0.0,
+                                    Frame.from_bounds(g.bounds))
+                self._dyn_polys.append((self.n_static + k, oset))
         self._off_t: float | None = None
         self._off = np.zeros((self.n, 2))
 
@@ -131,62 +129,32 @@ class ObstacleField:
         t : float
             Time (positions of dynamic obstacles).
         max_range : float
-            Obstacles whose bounding box is farther than this are skipped (distance ``inf``).
+            Obstacles farther than this (exact distance) are skipped (distance ``inf``).
 
         Returns
         -------
         nearest : array ``(R, n, 2)``
             Nearest boundary point (``nan`` where skipped).
         dist : array ``(R, n)``
-            Distance to the obstacle (0 inside, ``inf`` where skipped).
+            Exact distance to the obstacle (0 inside, ``inf`` where skipped).
         """
         pts = np.atleast_2d(np.asarray(points, dtype=float))
-        R = len(pts)
-        near = np.full((R, self.n, 2), np.nan)
-        dist = np.full((R, self.n), np.inf)
-        if self.n == 0:
-            return near, dist
+        R, ns = len(pts), self.n_static
+        if self._static_set is not None and ns == self.n:
+            return self._static_set.nearest(pts, max_range)
+        if self.n == 0 or R == 0:
+            return np.full((R, self.n, 2), np.nan), np.full((R, self.n), np.inf)
+        near = np.empty((R, self.n, 2))  # every column is filled below
+        dist = np.empty((R, self.n))
+        if self._static_set is not None:
+            near[:, :ns], dist[:, :ns] = self._static_set.nearest(pts, max_range)
         off = self.offsets(t)
-        rel = pts[:, None, :] - off[None, :, :]  # point in each obstacle's frame, (R, n, 2)
-        bb = self.bbox0
-        dx = np.maximum(np.maximum(bb[None, :, 0] - rel[..., 0], rel[..., 0] - bb[None, :, 2]), 0)
-        dy = np.maximum(np.maximum(bb[None, :, 1] - rel[..., 1], rel[..., 1] - bb[None, :, 3]), 0)
-        cand = np.hypot(dx, dy) <= max_range
-        # circles
-        ci = cand & self.is_circle[None, :]
-        if ci.any():
-            r_idx, o_idx = np.nonzero(ci)
-            v = rel[r_idx, o_idx] - self.center0[o_idx]
-            nv = np.hypot(v[:, 0], v[:, 1])
-            safe = np.where(nv > 1e-12, nv, 1.0)
-            u = np.where(nv[:, None] > 1e-12, v / safe[:, None], np.array([1.0, 0.0]))
-            near[r_idx, o_idx] = self.center0[o_idx] + u * self.radius[o_idx, None] + off[o_idx]
-            dist[r_idx, o_idx] = np.maximum(nv - self.radius[o_idx], 0.0)
-        # polygons: project onto every edge, keep the closest; inside -> distance 0
-        pi_ = cand & ~self.is_circle[None, :]
-        if pi_.any():
-            r_idx, o_idx = np.nonzero(pi_)
-            q = rel[r_idx, o_idx][:, None, :]  # (K, 1, 2)
-            E = self.edges[o_idx]  # (K, E, 4)
-            a, b = E[..., 0:2], E[..., 2:4]
-            ab = b - a
-            L2 = np.sum(ab * ab, axis=-1)
-            s = np.clip(np.sum((q - a) * ab, axis=-1) / np.where(L2 > 0, L2, 1.0), 0.0, 1.0)
-            proj = a + s[..., None] * ab
-            d2 = np.sum((q - proj) ** 2, axis=-1)
-            d2 = np.where(self.edge_mask[o_idx], d2, np.inf)
-            k = np.argmin(d2, axis=1)
-            best = proj[np.arange(len(k)), k]
-            dd = np.sqrt(d2[np.arange(len(k)), k])
-            # inside test (crossing number with a +x ray)
-            y = q[..., 1]
-            straddle = ((a[..., 1] > y) != (b[..., 1] > y)) & self.edge_mask[o_idx]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                xc = a[..., 0] + (y - a[..., 1]) * ab[..., 0] / np.where(ab[..., 1] == 0, 1,
-                                                                         ab[..., 1])
-            inside = (np.sum(straddle & (xc > q[..., 0]), axis=1) % 2) == 1
-            near[r_idx, o_idx] = best + off[o_idx]
-            dist[r_idx, o_idx] = np.where(inside, 0.0, dd)
+        if len(self._circ_idx):
+            j = self._circ_sel
+            near[:, j], dist[:, j] = _circle_nearest(pts, off[j], self._circ_r, max_range)
+        for j, oset in self._dyn_polys:
+            q, d = oset.nearest(pts - off[j], max_range)
+            near[:, j], dist[:, j] = q[:, 0] + off[j], d[:, 0]
         return near, dist
 
 
@@ -271,7 +239,7 @@ def simulate(
     times = [t0]
     traj = [pos.copy()]
     reason, coll = "budget", ""
-    tol = 1e-9 * max(1.0, problem.extent)
+    tol = problem.frame.eps
     for k in range(max_steps):
         state.k, state.t = k, t0 + k * dt
         if done(state):

@@ -183,11 +183,12 @@ def evaluate_field(points: np.ndarray, goal: np.ndarray, fld: ObstacleField, t: 
                    p: FieldParams) -> dict[str, np.ndarray]:
     """Total potential and force at ``points`` ``(P, 2)`` for obstacles sensed from each point.
 
-    Only (point, obstacle) pairs inside the sensing range are evaluated (the simulator's
-    bounding-box pre-filter discards the rest), so the cost does not grow with obstacles out of
-    range.  Returns a dict with ``U``, ``U_att``, ``U_rep`` ``(P,)``, ``F`` ``(P, 2)`` and
-    ``clearance`` ``(P,)`` (min raw clearance robot disc - obstacle, unclamped; ``inf`` if none
-    is sensed), plus the sensor readings ``near`` ``(P, n, 2)`` and ``dist`` ``(P, n)``.
+    Only (point, obstacle) pairs inside the sensing range are evaluated (the geometry core's
+    bounding-circle screen behind :meth:`ObstacleField.nearest` discards the rest), so the cost
+    barely grows with obstacles out of range.  Returns a dict with ``U``, ``U_att``, ``U_rep``
+    ``(P,)``, ``F`` ``(P, 2)`` and ``clearance`` ``(P,)`` (min raw clearance robot disc -
+    obstacle, unclamped; ``inf`` if none is sensed), plus the sensor readings ``near``
+    ``(P, n, 2)`` and ``dist`` ``(P, n)``.
     """
     pts = np.atleast_2d(np.asarray(points, dtype=float))
     P = len(pts)
