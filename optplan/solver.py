@@ -212,7 +212,10 @@ def make_rng(rng: int | np.random.Generator | None) -> tuple[np.random.Generator
 
 def check_range(obj: Any, name: str, lo: float = -math.inf, hi: float = math.inf, *,
                 lo_open: bool = False, hi_open: bool = False) -> None:
-    """Raise ``ValueError`` unless option ``name`` of ``obj`` is a finite number in range."""
+    """Raise ``ValueError`` unless option ``name`` of ``obj`` is a finite number in range.
+
+    Infinity is never accepted (an unbounded option is still finite).
+    """
     v = getattr(obj, name)
     bname = getattr(obj, "name", type(obj).__name__)
     lb = "(" if lo_open else "["
@@ -221,7 +224,7 @@ def check_range(obj: Any, name: str, lo: float = -math.inf, hi: float = math.inf
     if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
         raise ValueError(f"option {name!r} of backend {bname!r} must be a number in {rng_s}, "
                          f"got {v!r}")
-    ok = math.isfinite(float(v)) or (math.isinf(float(v)) and math.isinf(hi) and v > 0)
+    ok = math.isfinite(float(v))
     ok = ok and (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
     if not ok:
         raise ValueError(f"option {name!r} of backend {bname!r} must be in {rng_s}, got {v!r}")
@@ -363,6 +366,48 @@ def reference_optimum(problem: Problem) -> dict[str, Any]:
     return out
 
 
+#: Largest number of points accepted in one ``init`` path.
+MAX_INIT_POINTS = 100_000
+
+
+def check_init(problem: Problem, init: Any) -> dict[str, np.ndarray]:
+    """Validate ``solve``'s ``init``: ``robot id -> (n, 2)`` finite arrays (a bare array means
+    the leader), 1 <= n <= :data:`MAX_INIT_POINTS`, coordinates the geometry core can resolve.
+
+    Raises
+    ------
+    ValueError
+        Naming ``init[robot id]``, the value's shape or problem and the allowed form.
+    """
+    if not isinstance(init, dict):
+        init = {problem.leader.id: init}
+    out = {}
+    ids = problem.robot_ids
+    for k, v in init.items():
+        key = f"init[{k!r}]"
+        if k not in ids:
+            raise ValueError(f"{key}: problem {problem.name!r} has no robot {k!r} "
+                             f"(robots: {', '.join(ids)})")
+        try:
+            a = np.asarray(v, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{key}: expected an (n, 2) array of numbers, got "
+                             f"{type(v).__name__}") from None
+        if a.ndim != 2 or a.shape[1] != 2 or not 1 <= len(a) <= MAX_INIT_POINTS:
+            raise ValueError(f"{key}: expected shape (n, 2) with 1 <= n <= {MAX_INIT_POINTS}, "
+                             f"got {a.shape}")
+        if not np.all(np.isfinite(a)):
+            bad = np.argwhere(~np.isfinite(a))[0]
+            raise ValueError(f"{key}: non-finite coordinate at row {bad[0]} ({a[tuple(bad)]})")
+        ext = float(np.max(np.abs(problem.frame.local(a))))
+        try:
+            problem.frame.check_extent(ext, key)
+        except ValueError as e:
+            raise ValueError(str(e)) from None
+        out[k] = a
+    return out
+
+
 def _early_stop_status(res: Result) -> Status:
     """The one status of a run stopped by its callback or time limit: ``solved`` when the best
     path so far is feasible and reaches the goal, else ``approximate``."""
@@ -410,10 +455,8 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
     prob = load_problem(problem)
     backend = get_solver(solver, **overrides)
     gen, seed = make_rng(rng)
-    if init is not None and not isinstance(init, dict):
-        init = {prob.leader.id: np.asarray(init, dtype=float)}
     if init is not None:
-        init = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in init.items()}
+        init = check_init(prob, init)
     if time_limit is not None and (isinstance(time_limit, bool) or not isinstance(
             time_limit, (int, float)) or not (0 < time_limit < math.inf)):
         raise ValueError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")

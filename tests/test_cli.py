@@ -128,7 +128,7 @@ def test_malformed_result_json(capsys, tmp_path):
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
     rc, _, err = run(capsys, "plot", str(bad), "--out", str(tmp_path / "x.png"))
-    assert rc == 2 and "not an optplan result JSON" in _one_line_error(err)
+    assert rc == 2 and "invalid JSON" in _one_line_error(err)
 
 
 def test_traceback_flag_reraises():
