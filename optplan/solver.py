@@ -23,6 +23,13 @@ Writing a backend::
 
 and add ``"my-planner": "optplan.backends.my_planner:MyPlanner"`` to :data:`BACKENDS` (or call
 :func:`register`).
+
+Plugins: an installed distribution declares backends in the entry-point group
+``optplan.backends`` (``my-planner = "my_pkg.planner:MyPlanner"``) and presets in
+``optplan.presets`` (``my_pkg = "my_pkg.presets"``: a package whose directory holds preset
+``*.toml`` files).  They are discovered lazily, the first time the registry is used, in every
+process (so they also work in the CLI and in ``optplan bench`` worker processes; a backend added
+with :func:`register` in a script exists only in that process).
 """
 
 from __future__ import annotations
@@ -74,6 +81,52 @@ BACKENDS: dict[str, str] = {
 }
 
 
+#: Entry-point groups of plugin distributions.
+BACKEND_GROUP = "optplan.backends"
+PRESET_GROUP = "optplan.presets"
+
+_plugins: dict[str, Any] = {}
+
+
+def _discover() -> None:
+    """Register the backends of installed plugin distributions (once per process)."""
+    if "done" in _plugins:
+        return
+    _plugins["done"] = True
+    from importlib.metadata import entry_points
+
+    for ep in entry_points(group=BACKEND_GROUP):
+        if ep.name not in BACKENDS:
+            BACKENDS[ep.name] = ep.value
+        elif BACKENDS[ep.name] != ep.value:
+            _plugins.setdefault("conflicts", []).append(
+                f"plugin backend {ep.name!r} = {ep.value!r} ignored: the name is taken by "
+                f"{BACKENDS[ep.name]!r}")
+
+
+def plugin_preset_files() -> dict[str, Path]:
+    """Presets shipped by plugin distributions (entry-point group ``optplan.presets``)."""
+    if "presets" not in _plugins:
+        from importlib.metadata import entry_points
+        from importlib.resources import files
+
+        out: dict[str, Path] = {}
+        for ep in entry_points(group=PRESET_GROUP):
+            try:
+                root = Path(str(files(ep.value)))
+            except (ModuleNotFoundError, TypeError):
+                continue
+            for f in sorted(root.glob("*.toml")):
+                out.setdefault(f.stem, f)
+        _plugins["presets"] = out
+    return dict(_plugins["presets"])
+
+
+def _all_presets() -> dict[str, Path]:
+    """Shipped presets, then plugin presets (a shipped name wins)."""
+    return {**plugin_preset_files(), **preset_files()}
+
+
 def register(name: str, entry_point: str) -> None:
     """Register a backend ``name -> "module:Class"``; raises on a name collision."""
     if name in BACKENDS and BACKENDS[name] != entry_point:
@@ -90,14 +143,16 @@ def _available(entry: str) -> bool:
 
 
 def list_backends() -> list[str]:
-    """Backend names whose implementation is present."""
+    """Backend names whose implementation is present (plugins included)."""
+    _discover()
     return [n for n, e in BACKENDS.items() if _available(e)]
 
 
 def list_solvers(backends: bool = False) -> list[str]:
     """Preset names whose backend is present (and bare backend names with ``backends=True``)."""
+    _discover()
     out = []
-    for name, path in preset_files().items():
+    for name, path in _all_presets().items():
         try:
             b = read_preset(path)["backend"]
         except ValueError:
@@ -110,6 +165,7 @@ def list_solvers(backends: bool = False) -> list[str]:
 
 
 def _load_class(name: str) -> type[Backend]:
+    _discover()
     if name not in BACKENDS:
         close = difflib.get_close_matches(name, list(BACKENDS), n=3)
         hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
@@ -170,13 +226,14 @@ def get_solver(spec: str | Path | Backend, **overrides: Any) -> Backend:
             raise ValueError(f"{s}: no such preset file")
         data, where, preset = read_preset(path), str(path), path.stem
     else:
-        presets = preset_files()
+        _discover()
+        presets = _all_presets()
         if s in presets:
             data, where, preset = read_preset(presets[s]), str(presets[s]), s
         elif s in BACKENDS:
             data, where, preset = {"backend": s, "options": {}}, f"backend {s}", None
         else:
-            names = list(presets) + list(BACKENDS)
+            names = list(dict.fromkeys([*presets, *BACKENDS]))
             close = difflib.get_close_matches(s, names, n=3)
             hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
             raise ValueError(f"unknown solver {s!r}{hint} (see optplan.list_solvers())")

@@ -417,7 +417,9 @@ class QPFormationController:
         sense = o.sensing_range or prob.sensing_range or 100.0
         near = dist = None
         if fld.n and (K or o.adapt_phi):  # one sensing query serves the rows and eq 52
-            near, dist = fld.nearest(xc, state.t, max_range=max(sense, o.rho_0_f))
+            # eq 52 needs the clearance (distance - radius) up to rho_0_f
+            near, dist = fld.nearest(xc, state.t,
+                                     max_range=max(sense, o.rho_0_f + float(radii.max())))
         if K and fld.n:
             vel = (fld.offsets(state.t + dt) - fld.offsets(state.t)) / dt  # (n_obs, 2)
             order = np.argsort(dist, axis=1)[:, :K]
