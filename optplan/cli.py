@@ -101,8 +101,8 @@ def _run_experiment(module: Any, argv: list[str]) -> int:
 
 
 def cmd_list(args: argparse.Namespace, out: TextIO) -> int:
-    from optplan.catalog import load_problem, preset_files, problem_files, read_preset
-    from optplan.solver import BACKENDS, list_backends
+    from optplan.catalog import load_problem, problem_files, read_preset
+    from optplan.solver import BACKENDS, all_preset_files, list_backends
 
     what = args.what or "all"
     if what in ("all", "problems"):
@@ -126,7 +126,7 @@ def cmd_list(args: argparse.Namespace, out: TextIO) -> int:
             print(file=out)
         avail = set(list_backends())
         rows = []
-        for name, path in preset_files().items():
+        for name, path in all_preset_files().items():
             try:
                 data = read_preset(path)
             except ValueError as e:
@@ -267,6 +267,8 @@ class _Bar:
 
 
 def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
+    import shlex
+
     from optplan.bench import run_grid, summarise, to_markdown, write_csv
     from optplan.catalog import list_problems
 
@@ -282,23 +284,42 @@ def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
     solvers = _split_list(args.solvers)
     if not solvers:
         raise CLIError("bench needs --solvers x,y")
+    if args.scheduler and args.dask_local is not None:
+        raise CLIError("give --scheduler ADDRESS or --dask-local N, not both")
+    if (args.scheduler or args.dask_local is not None) and args.workers != 1:
+        raise CLIError("--workers is the local process pool; with --scheduler/--dask-local the "
+                       "Dask workers run the sweep (drop --workers)")
     overrides = {"*": parse_set(args.set)} if args.set else None
     bar = _Bar(sys.stderr) if not args.quiet else None
+    engine = (f"Dask scheduler {args.scheduler}" if args.scheduler else
+              f"Dask LocalCluster of {args.dask_local} workers" if args.dask_local is not None
+              else f"workers {args.workers}")
     t0 = time.perf_counter()
-    rows = run_grid(problems, solvers, args.seeds, workers=args.workers, overrides=overrides,
-                    progress=bar)
+    try:
+        rows = run_grid(problems, solvers, args.seeds, workers=args.workers,
+                        overrides=overrides, progress=bar, time_limit=args.time_limit,
+                        db=args.db, scheduler=args.scheduler, dask_local=args.dask_local,
+                        command_line=shlex.join([PROG, *sys.argv[1:]]))
+    except KeyboardInterrupt:
+        kept = (f"; every finished run is in {args.db}: run the same command again to resume"
+                if args.db else " (no --db: nothing was kept)")
+        print(f"\n{PROG}: interrupted{kept}", file=sys.stderr)
+        return 130
     wall = time.perf_counter() - t0
     summary = summarise(rows)
     table = to_markdown(summary)
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
     write_csv(rows, outdir / "results.csv")
+    limit = f"; time limit {args.time_limit:g} s per run" if args.time_limit else ""
     head = (f"# optplan bench\n\nproblems: {', '.join(problems)}; solvers: "
             f"{', '.join(solvers)}; seeds 0..{args.seeds - 1} (common to every solver); "
-            f"workers {args.workers}; total wall time {wall:.1f} s.\n"
-            "Medians and inter-quartile ranges over the runs that returned a path; "
-            "success = status optimal or solved; ratio = length / certified optimum "
-            "(visgraph on the known static map).\n\n")
+            f"{engine}{limit}; total wall time {wall:.1f} s"
+            + (f"; database {args.db}" if args.db else "") + ".\n"
+            "Length and ratio: medians and inter-quartile ranges over the successful runs only "
+            "(status optimal or solved, the success column); time over every run that did not "
+            "raise; each run solves a fresh copy of its problem (no cached results); ratio = "
+            "length / certified optimum (exact shortest path on the known static map).\n\n")
     if overrides:
         head = head.replace("\n\n", f"\noverrides: {overrides['*']}\n\n", 1)
     (outdir / "summary.md").write_text(head + table + "\n", encoding="utf-8")
@@ -306,7 +327,25 @@ def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
     errors = [r for r in rows if r["status"] == "error"]
     if errors:
         print(f"\n{len(errors)} run(s) raised; first: {errors[0]['message']}", file=out)
-    print(f"\nwrote {outdir / 'results.csv'} and {outdir / 'summary.md'}", file=out)
+    killed = [r for r in rows if r["status"] == "time_limit"]
+    if killed:
+        print(f"\n{len(killed)} run(s) ignored the time limit and were stopped by the harness",
+              file=out)
+    written = f"{outdir / 'results.csv'} and {outdir / 'summary.md'}"
+    if args.db:
+        written += f"; runs stored in {args.db} (optplan report {args.db} --out DIR)"
+    print(f"\nwrote {written}", file=out)
+    return 0
+
+
+def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
+    from optplan.report import write_report
+
+    t0 = time.perf_counter()
+    index = write_report(args.db, args.out, dpi=args.dpi)
+    n_png = len(list(index.parent.glob("*.png")))
+    print(f"wrote {index} ({n_png} PNGs in {index.parent}) in {time.perf_counter() - t0:.1f} s",
+          file=out)
     return 0
 
 
@@ -459,7 +498,28 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override an option of every solver (TOML literal; repeatable)")
     s.add_argument("--tag", help="experiment name or problem tag")
     s.add_argument("--quiet", action="store_true", help="no progress bar")
+    s.add_argument("--db", metavar="FILE.sqlite",
+                   help="store every run in this SQLite file as it finishes; rerunning the "
+                        "same command resumes (finished problem/solver/seed cells are skipped)")
+    s.add_argument("--time-limit", type=float, default=None, metavar="S",
+                   help="seconds per run: the solver stops at its first iteration after S; a "
+                        "run still going at S + max(1, S/2) is stopped by the harness")
+    s.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run on an existing Dask cluster (e.g. tcp://host:8786; needs "
+                        "dask[distributed])")
+    s.add_argument("--dask-local", type=int, default=None, metavar="N",
+                   help="run on a Dask LocalCluster of N worker processes")
     s.set_defaults(func=cmd_bench)
+
+    s = sub.add_parser("report", help="HTML + PNG report of a bench results database",
+                       description="Write a static HTML page (no server) with PNG plots per "
+                                   "problem from a database written by 'optplan bench --db': "
+                                   "outcome and success rate, length / optimum and wall-time "
+                                   "box plots per solver, convergence curves, summary tables.")
+    s.add_argument("db", help="results database (SQLite) written by 'optplan bench --db'")
+    s.add_argument("--out", default="report", help="output directory (default report)")
+    s.add_argument("--dpi", type=int, default=100, help="PNG resolution (default 100)")
+    s.set_defaults(func=cmd_report)
 
     s = sub.add_parser("validate", add_help=False,
                        help="certify a solver against the exact references "

@@ -122,7 +122,7 @@ def plugin_preset_files() -> dict[str, Path]:
     return dict(_plugins["presets"])
 
 
-def _all_presets() -> dict[str, Path]:
+def all_preset_files() -> dict[str, Path]:
     """Shipped presets, then plugin presets (a shipped name wins)."""
     return {**plugin_preset_files(), **preset_files()}
 
@@ -152,7 +152,7 @@ def list_solvers(backends: bool = False) -> list[str]:
     """Preset names whose backend is present (and bare backend names with ``backends=True``)."""
     _discover()
     out = []
-    for name, path in _all_presets().items():
+    for name, path in all_preset_files().items():
         try:
             b = read_preset(path)["backend"]
         except ValueError:
@@ -227,7 +227,7 @@ def get_solver(spec: str | Path | Backend, **overrides: Any) -> Backend:
         data, where, preset = read_preset(path), str(path), path.stem
     else:
         _discover()
-        presets = _all_presets()
+        presets = all_preset_files()
         if s in presets:
             data, where, preset = read_preset(presets[s]), str(presets[s]), s
         elif s in BACKENDS:
