@@ -90,7 +90,10 @@ class Progress:
     best_cost: float
     n_eval: int
     elapsed: float
+    """Wall-clock seconds since the backend started (every backend)."""
     info: dict = field(default_factory=dict)
+    sim_time: float | None = None
+    """Simulated time (s) of time-stepping backends (potential fields, formations, hybrid)."""
 
 
 def notify(callback: Callable[[Progress], Any] | None, progress: Progress) -> bool:

@@ -19,6 +19,7 @@ own beyond a moving circle's centre and radius.  Contacts are checked with the m
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -225,10 +226,12 @@ def simulate(
     stop_on_collision : bool
         Stop at the first contact (robot disc overlapping an obstacle or another robot).
     callback : callable, optional
-        Receives a :class:`~optplan.result.Progress` each step; ``StopIteration`` stops.
+        Receives a :class:`~optplan.result.Progress` each step (``elapsed``: wall seconds,
+        ``sim_time``: simulated time); ``StopIteration`` stops.
     progress_cost : callable, optional
         Scalar reported as ``best_cost`` to the callback (e.g. distance to goal).
     """
+    wall0 = time.perf_counter()
     fld = field_ or ObstacleField(problem)
     robots = [problem.robot(i) for i in ids]
     radii = np.array([r.radius for r in robots])
@@ -280,7 +283,8 @@ def simulate(
                 reason = "collision"
                 break
         cost = progress_cost(state) if progress_cost else float("nan")
-        if notify(callback, Progress(k, cost, k + 1, t_new - t0, {})):
+        if notify(callback, Progress(k, cost, k + 1, time.perf_counter() - wall0, {},
+                                     sim_time=t_new)):
             reason = "callback"
             break
     else:

@@ -224,7 +224,8 @@ def _wrap_callback(callback: Callable[[Progress], Any] | None, offset: list[int]
         return None
 
     def cb(p: Progress) -> None:
-        q = Progress(p.iteration + offset[0], p.best_cost, p.n_eval, p.elapsed, p.info)
+        q = Progress(p.iteration + offset[0], p.best_cost, p.n_eval, p.elapsed, p.info,
+                     p.sim_time)
         if notify(callback, q):
             stopped[0] = True
             raise StopIteration
