@@ -28,7 +28,8 @@ max = [30.0, 35.0]
 
 
 def _strip_time(rows):
-    return [{k: v for k, v in r.items() if k != "wall_time"} for r in rows]
+    return [{k: v for k, v in r.items() if k not in ("wall_time", "reference_time")}
+            for r in rows]
 
 
 def test_run_grid_rows_order_and_common_seeds(tmp_path):
@@ -48,12 +49,17 @@ def test_run_grid_rows_order_and_common_seeds(tmp_path):
     for r in rows[:4]:
         assert r["status"] == "optimal" and r["success"] is True and r["collisions"] == 0
     box = [r for r in rows if r["problem"] == str(scene)]
-    ref = op.solve(str(scene), "visgraph")
+    ref = op.solve(str(scene), "visgraph", reference=True)
     assert {r["status"] for r in box} == {ref.status.value}
     assert {r["collisions"] for r in box} == {ref.metrics["collisions"]}
     # around the 10 x 20 block inflated by 1: the straight line (40) is blocked
     assert box[0]["length"] > 40.0
     assert box[0]["length"] == pytest.approx(ref.metrics["length"])
+    # the harness's reference (computed once, on a cold copy) is solve(reference=True)'s
+    assert box[0]["ratio"] == ref.metrics["ratio_to_optimum"]
+    assert box[0]["optimum"] == ref.metrics["optimum"]
+    assert box[0]["stop_reason"] == "" and box[0]["backend"] == "visgraph"
+    assert '"arc_step"' in box[0]["options"]
 
 
 def test_seeds_int_means_range():
@@ -107,7 +113,10 @@ def test_overrides_reach_the_solver(monkeypatch):
     monkeypatch.setattr(optplan.solver, "solve", spy)
     bench.run_grid(["open-field"], ["visgraph"], seeds=[5],
                    overrides={"*": {"arc_step": 0.05}, "visgraph": {"see_temporary": True}})
+    assert len(seen) == 1 and callable(seen[0].pop("callback"))  # records the progress
     assert seen == [{"rng": 5, "arc_step": 0.05, "see_temporary": True}]
+    bench.run_grid(["open-field"], ["visgraph"], seeds=[5], time_limit=2.5)
+    assert seen[-1]["time_limit"] == 2.5
 
 
 def test_a_run_that_raises_becomes_an_error_row(monkeypatch):
@@ -132,26 +141,74 @@ def test_a_run_that_raises_becomes_an_error_row(monkeypatch):
 def _row(p, s, seed, length, success=True, status="solved", t=0.01):
     return {"problem": p, "solver": s, "seed": seed, "status": status, "success": success,
             "length": length, "ratio": length / 2.0, "collisions": 0 if success else 2,
-            "min_clearance": 0.5, "wall_time": t, "n_iter": 10, "n_eval": 100, "message": ""}
+            "min_clearance": 0.5, "wall_time": t, "n_iter": 10, "n_eval": 100, "message": "",
+            "optimum": 2.0, "reference_time": 0.001, "stop_reason": "", "backend": "x",
+            "options": "{}"}
 
 
 def test_summarise_median_iqr_success():
-    rows = [_row("p", "a", k, x, success=k != 3, status="solved" if k != 3 else "approximate")
+    rows = [_row("p", "a", k, x, success=k != 3, status="solved" if k != 3 else "approximate",
+                 t=0.01 * (k + 1))
             for k, x in enumerate([1.0, 2.0, 3.0, 4.0])]
     rows += [_row("p", "b", 0, float("nan"), success=False, status="failed")]
     s = {x["solver"]: x for x in bench.summarise(rows)}
     a = s["a"]
-    assert a["runs"] == 4 and a["success"] == 0.75
-    assert a["length_median"] == 2.5
-    assert a["length_iqr"] == pytest.approx(3.25 - 1.75)
-    assert a["ratio_median"] == 1.25
+    assert a["runs"] == 4 and a["success"] == 0.75 and a["n_success"] == 3
+    # quality over the successful runs only (1, 2, 3; not the approximate 4)
+    assert a["length_median"] == 2.0
+    assert a["length_iqr"] == pytest.approx(2.5 - 1.5)
+    assert a["ratio_median"] == 1.0
+    # failure descriptors and time over every run that returned
     assert a["collisions_median"] == 0.0
+    assert a["time_median"] == pytest.approx(0.025)
     assert math.isnan(s["b"]["length_median"]) and s["b"]["success"] == 0
     md = bench.to_markdown(bench.summarise(rows)).splitlines()
     assert md[0].startswith("| problem | solver | runs | success |")
     assert len(md) == 4
-    assert "| p | a | 4 | 75 % | 2.50 | 1.50 | 1.2500 |" in md[2]
+    assert "| p | a | 4 | 75 % | 2.00 | 1.00 | 1.0000 |" in md[2]
     assert "| - |" in md[3]  # nan printed as '-'
+
+
+def test_quality_medians_ignore_failing_runs():
+    # the issue's case: a colliding PSO run shows a ratio of 0.97 to the certified optimum
+    rows = [_row("p", "pso", 0, 2.2), _row("p", "pso", 1, 1.94, success=False,
+                                           status="approximate")]
+    s = bench.summarise(rows)[0]
+    assert s["ratio_median"] == pytest.approx(1.1) and s["success"] == 0.5
+    none_ok = bench.summarise([_row("p", "pso", 1, 1.94, success=False, status="approximate")])
+    assert math.isnan(none_ok[0]["ratio_median"])
+    assert math.isnan(none_ok[0]["length_median"])
+
+
+def test_summarise_counts_timeouts():
+    rows = [_row("p", "a", 0, 2.0), _row("p", "a", 1, 2.0, success=False, status="time_limit"),
+            _row("p", "a", 2, 2.0, status="solved")]
+    rows[1]["stop_reason"] = "hard_limit"
+    rows[2]["stop_reason"] = "time_limit"
+    s = bench.summarise(rows)[0]
+    assert s["timeouts"] == 2 and s["errors"] == 0
+    assert "(2 at time limit)" in bench.to_markdown([s])
+
+
+def test_visgraph_times_are_not_cache_hits():
+    """Every run solves a cold copy: later seeds are not the 0.0 ms of a cached graph."""
+    rows = bench.run_grid(["paper-env1"], ["visgraph"], seeds=4)
+    t = [r["wall_time"] for r in rows]
+    assert min(t) > 0.2 * max(t), t
+    # the reference is computed once per problem and process, and reported for every run
+    assert len({r["reference_time"] for r in rows}) == 1 and rows[0]["reference_time"] > 0
+    base = op.load_problem("paper-env1")
+    fresh = bench._fresh(base)
+    assert fresh._cache is not base._cache and set(fresh._cache) <= {"frame"}
+
+
+def test_cooperative_time_limit_is_recorded():
+    rows = bench.run_grid(["paper-env1"], ["pso-paper"], seeds=1, time_limit=1e-3)
+    r = rows[0]
+    assert r["stop_reason"] == "time_limit" and r["status"] in ("solved", "approximate")
+    assert r["n_iter"] < 200 and "time limit" in r["message"]
+    with pytest.raises(ValueError, match="time_limit"):
+        bench.run_grid(["open-field"], ["visgraph"], seeds=1, time_limit=0)
 
 
 def test_csv_round_trip(tmp_path):
@@ -162,5 +219,6 @@ def test_csv_round_trip(tmp_path):
     assert header[: len(bench.COLUMNS)] == list(bench.COLUMNS) and header[-1] == "extra"
     back = bench.read_csv(path)
     assert back[0]["length"] == 1.5 and back[0]["success"] is True and back[0]["seed"] == 0
+    assert back[0]["optimum"] == 2.0 and back[0]["reference_time"] == 0.001
     assert np.isnan(back[1]["length"]) and back[1]["success"] is False
     assert bench.summarise(back)[0]["length_median"] == 1.5

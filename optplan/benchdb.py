@@ -1,0 +1,410 @@
+"""The benchmark results database: one SQLite file, written one run at a time.
+
+``optplan bench ... --db runs.sqlite`` (or :func:`optplan.bench.run_grid` with ``db=``) stores
+every finished run as soon as it finishes, in its own transaction, so a crash or Ctrl-C loses at
+most the runs that were still going.  Re-running the same sweep on the same file resumes it:
+finished (problem, solver, seed) cells are read back instead of run again.
+
+The file is plain SQLite (stdlib :mod:`sqlite3`, rollback journal, so it is a single file when
+no sweep is writing) and can be read with ``sqlite3``, pandas or DuckDB::
+
+    import sqlite3, pandas as pd
+    con = sqlite3.connect("runs.sqlite")
+    runs = pd.read_sql("SELECT * FROM runs", con)
+    conv = pd.read_sql("SELECT * FROM progress JOIN runs ON runs.id = progress.run_id", con)
+
+Schema (version :data:`SCHEMA_VERSION`; ``docs/benchmarks.md`` has the same table):
+
+``experiment``: one row per invocation of a sweep (a resumed sweep adds a row)
+    ``id``, ``started`` / ``finished`` (ISO 8601, UTC), ``outcome`` (``complete``,
+    ``interrupted``, ``error``; NULL while running or after a hard crash), ``optplan_version``,
+    ``git_revision`` (``HEAD`` of the source checkout, ``+dirty`` when tracked files changed;
+    NULL outside a checkout), ``python``, ``packages`` (JSON: name -> version or null),
+    ``machine`` (JSON: host, platform, processor, CPU count), ``command_line``, ``spec`` (JSON:
+    problems, solvers, seeds, overrides, time limit, engine), ``runs_planned``,
+    ``runs_skipped`` (already in the file), ``runs_done`` (finished by this invocation).
+
+``runs``: one row per (problem, solver, seed), UNIQUE on those three
+    ``id``, ``experiment_id``, ``problem``, ``solver``, ``seed``, ``status`` (a
+    :class:`optplan.Status` value, ``error`` when the run raised, ``time_limit`` when the
+    harness had to stop a run that ignored its time limit), ``success`` (0/1: status optimal or
+    solved), ``length``, ``optimum`` (certified optimum of the known static map, NULL when
+    none), ``ratio`` (length / optimum), ``min_clearance``, ``collisions``, ``wall_time`` (s),
+    ``reference_time`` (s, the certified optimum's computation on a cold problem, once per
+    problem and worker process), ``n_iter``, ``n_eval``, ``stop_reason`` (``""`` finished,
+    ``time_limit`` stopped itself at the limit, ``hard_limit`` stopped by the harness),
+    ``message``, ``backend``, ``options`` (JSON: the effective backend options), ``config``
+    (JSON: the sweep's overrides and time limit for this solver; a resume must match it),
+    ``worker`` (host:pid or Dask worker address), ``finished`` (ISO 8601, UTC).
+    NaN is stored as NULL; an infinite clearance (no obstacle) as ``Inf``.
+
+``progress``: the convergence trace of each run
+    ``run_id``, ``iteration``, ``best_cost`` (the backend's objective, as passed to the
+    callback), ``n_eval``, ``time`` (wall seconds since the run started, measured by the
+    harness the same way for every backend).  Only the first iteration, every improvement of
+    the best cost and the last iteration are kept, thinned evenly to at most
+    :data:`MAX_PROGRESS` rows per run.
+
+``meta``: ``key``/``value`` pairs (``schema_version``).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import math
+import os
+import platform
+import sqlite3
+import subprocess
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = ["SCHEMA", "SCHEMA_VERSION", "MAX_PROGRESS", "ResultsDB", "experiment_info",
+           "read_runs", "read_progress", "read_experiments", "thin_progress"]
+
+SCHEMA_VERSION = 1
+#: at most this many progress rows are stored per run
+MAX_PROGRESS = 500
+
+SCHEMA = """
+CREATE TABLE IF NOT EXISTS meta (
+    key   TEXT PRIMARY KEY,
+    value TEXT
+);
+CREATE TABLE IF NOT EXISTS experiment (
+    id              INTEGER PRIMARY KEY AUTOINCREMENT,
+    started         TEXT NOT NULL,
+    finished        TEXT,
+    outcome         TEXT,
+    optplan_version TEXT,
+    git_revision    TEXT,
+    python          TEXT,
+    packages        TEXT,
+    machine         TEXT,
+    command_line    TEXT,
+    spec            TEXT,
+    runs_planned    INTEGER,
+    runs_skipped    INTEGER,
+    runs_done       INTEGER
+);
+CREATE TABLE IF NOT EXISTS runs (
+    id             INTEGER PRIMARY KEY AUTOINCREMENT,
+    experiment_id  INTEGER NOT NULL REFERENCES experiment(id),
+    problem        TEXT NOT NULL,
+    solver         TEXT NOT NULL,
+    seed           INTEGER NOT NULL,
+    status         TEXT NOT NULL,
+    success        INTEGER NOT NULL,
+    length         REAL,
+    optimum        REAL,
+    ratio          REAL,
+    min_clearance  REAL,
+    collisions     INTEGER,
+    wall_time      REAL,
+    reference_time REAL,
+    n_iter         INTEGER,
+    n_eval         INTEGER,
+    stop_reason    TEXT,
+    message        TEXT,
+    backend        TEXT,
+    options        TEXT,
+    config         TEXT NOT NULL,
+    worker         TEXT,
+    finished       TEXT,
+    UNIQUE (problem, solver, seed)
+);
+CREATE TABLE IF NOT EXISTS progress (
+    run_id    INTEGER NOT NULL REFERENCES runs(id) ON DELETE CASCADE,
+    iteration INTEGER NOT NULL,
+    best_cost REAL,
+    n_eval    INTEGER,
+    time      REAL NOT NULL
+);
+CREATE INDEX IF NOT EXISTS progress_run ON progress(run_id);
+"""
+
+#: columns of ``runs`` that come from a tidy row (:data:`optplan.bench.COLUMNS`)
+_ROW_COLS = ("problem", "solver", "seed", "status", "success", "length", "optimum", "ratio",
+             "min_clearance", "collisions", "wall_time", "reference_time", "n_iter", "n_eval",
+             "stop_reason", "message", "backend", "options")
+_FLOATS = ("length", "optimum", "ratio", "min_clearance", "wall_time", "reference_time")
+_INTS = ("seed", "collisions", "n_iter", "n_eval")
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="milliseconds")
+
+
+def _float_in(x: Any) -> float | None:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        return None
+    return None if math.isnan(v) else v
+
+
+def _float_out(x: Any) -> float:
+    return float("nan") if x is None else float(x)
+
+
+def thin_progress(trace: Sequence[tuple[int, float, int, float]],
+                  cap: int = MAX_PROGRESS) -> list[tuple[int, float, int, float]]:
+    """Keep the first row, every improvement of ``best_cost`` and the last row; at most ``cap``.
+
+    ``trace`` rows are ``(iteration, best_cost, n_eval, time)``.  When more than ``cap`` rows
+    remain, evenly spaced ones are kept (always the first and the last).
+
+    >>> thin_progress([(0, 5.0, 1, 0.0), (1, 5.0, 2, 0.1), (2, 4.0, 3, 0.2), (3, 4.0, 4, 0.3)])
+    [(0, 5.0, 1, 0.0), (2, 4.0, 3, 0.2), (3, 4.0, 4, 0.3)]
+    """
+    if not trace:
+        return []
+    keep = [0]
+    best = trace[0][1]
+    for i in range(1, len(trace)):
+        c = trace[i][1]
+        if c == c and (best != best or c < best):  # c < best, nan-safe
+            keep.append(i)
+            best = c
+    if keep[-1] != len(trace) - 1:
+        keep.append(len(trace) - 1)
+    if len(keep) > cap:
+        pick = sorted({round(j * (len(keep) - 1) / (cap - 1)) for j in range(cap)})
+        keep = [keep[j] for j in pick]
+    return [tuple(trace[i]) for i in keep]  # type: ignore[misc]
+
+
+# --------------------------------------------------------------------------------------
+# provenance
+# --------------------------------------------------------------------------------------
+
+#: packages whose versions are recorded in ``experiment.packages``
+PACKAGES = ("numpy", "scipy", "shapely", "casadi", "cvxpy", "clarabel", "matplotlib", "numba",
+            "dask", "distributed")
+
+
+def _git_revision() -> str | None:
+    root = Path(__file__).resolve().parent.parent
+    if not (root / ".git").exists():
+        return None
+    try:
+        rev = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
+                             text=True, timeout=5)
+        if rev.returncode != 0:
+            return None
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain",
+                                "--untracked-files=no"], capture_output=True, text=True,
+                               timeout=5)
+    except (OSError, subprocess.SubprocessError):
+        return None
+    out = rev.stdout.strip()
+    if dirty.returncode == 0 and dirty.stdout.strip():
+        out += "+dirty"
+    return out
+
+
+def experiment_info(command_line: str | None = None,
+                    spec: Mapping[str, Any] | None = None) -> dict[str, Any]:
+    """Provenance of a sweep: versions, git revision, machine, command line, spec."""
+    from importlib import metadata
+
+    from optplan import __version__
+
+    pkgs: dict[str, str | None] = {}
+    for name in PACKAGES:
+        try:
+            pkgs[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            pkgs[name] = None
+    machine = {"host": platform.node(), "platform": platform.platform(),
+               "machine": platform.machine(), "processor": platform.processor(),
+               "cpu_count": os.cpu_count()}
+    if command_line is None:
+        command_line = " ".join(sys.argv)
+    return {"optplan_version": __version__, "git_revision": _git_revision(),
+            "python": sys.version.split()[0] + f" ({platform.python_implementation()})",
+            "packages": pkgs, "machine": machine, "command_line": command_line,
+            "spec": dict(spec or {})}
+
+
+# --------------------------------------------------------------------------------------
+# the database
+# --------------------------------------------------------------------------------------
+
+
+class ResultsDB:
+    """A results database file (created with :data:`SCHEMA` when new).
+
+    >>> import tempfile, os
+    >>> db = ResultsDB(os.path.join(tempfile.mkdtemp(), "runs.sqlite"))
+    >>> exp = db.begin_experiment(experiment_info("doctest"), planned=0, skipped=0)
+    >>> db.end_experiment(exp, "complete", 0); db.close()
+    """
+
+    def __init__(self, path: str | Path):
+        self.path = Path(path)
+        if self.path.parent and not self.path.parent.exists():
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            self.con = sqlite3.connect(str(self.path), timeout=30.0)
+            self.con.execute("PRAGMA foreign_keys = ON")
+            self.con.execute("PRAGMA synchronous = NORMAL")
+            with self.con:
+                self.con.executescript(SCHEMA)
+                row = self.con.execute("SELECT value FROM meta WHERE key = 'schema_version'"
+                                       ).fetchone()
+                if row is None:
+                    self.con.execute("INSERT INTO meta VALUES ('schema_version', ?)",
+                                     (str(SCHEMA_VERSION),))
+                elif int(row[0]) != SCHEMA_VERSION:
+                    raise ValueError(f"{self.path}: results database schema version {row[0]}, "
+                                     f"this optplan writes version {SCHEMA_VERSION}")
+        except sqlite3.DatabaseError as e:
+            raise ValueError(f"{self.path}: not an optplan results database ({e})") from None
+
+    # -- writing ---------------------------------------------------------------------
+    def begin_experiment(self, info: Mapping[str, Any], planned: int, skipped: int) -> int:
+        with self.con:
+            cur = self.con.execute(
+                "INSERT INTO experiment (started, optplan_version, git_revision, python, "
+                "packages, machine, command_line, spec, runs_planned, runs_skipped, runs_done) "
+                "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, 0)",
+                (_now(), info.get("optplan_version"), info.get("git_revision"),
+                 info.get("python"), json.dumps(info.get("packages", {}), sort_keys=True),
+                 json.dumps(info.get("machine", {}), sort_keys=True),
+                 info.get("command_line"), json.dumps(info.get("spec", {}), default=str),
+                 int(planned), int(skipped)))
+        return int(cur.lastrowid)
+
+    def end_experiment(self, experiment_id: int, outcome: str, done: int) -> None:
+        with self.con:
+            self.con.execute("UPDATE experiment SET finished = ?, outcome = ?, runs_done = ? "
+                             "WHERE id = ?", (_now(), outcome, int(done), int(experiment_id)))
+
+    def add_run(self, experiment_id: int, row: Mapping[str, Any], config: str,
+                progress: Iterable[Sequence[Any]] = (), worker: str = "") -> int:
+        """Insert one finished run and its progress rows in one transaction (committed)."""
+        vals = []
+        for c in _ROW_COLS:
+            v = row.get(c)
+            if c in _FLOATS:
+                v = _float_in(v)
+            elif c == "success":
+                v = int(bool(v))
+            elif c in _INTS:
+                v = None if v is None else int(v)
+            vals.append(v)
+        with self.con:
+            cur = self.con.execute(
+                f"INSERT INTO runs (experiment_id, {', '.join(_ROW_COLS)}, config, worker, "
+                f"finished) VALUES ({', '.join('?' * (len(_ROW_COLS) + 4))})",
+                (int(experiment_id), *vals, config, worker, _now()))
+            run_id = int(cur.lastrowid)
+            self.con.executemany(
+                "INSERT INTO progress (run_id, iteration, best_cost, n_eval, time) "
+                "VALUES (?, ?, ?, ?, ?)",
+                [(run_id, int(it), _float_in(c), int(ne), float(t))
+                 for it, c, ne, t in progress])
+        return run_id
+
+    # -- reading ---------------------------------------------------------------------
+    def finished(self) -> dict[tuple[str, str, int], tuple[str, dict[str, Any]]]:
+        """``(problem, solver, seed) -> (config, tidy row)`` of every stored run."""
+        out = {}
+        for r in self.runs(with_ids=True):
+            out[(r["problem"], r["solver"], r["seed"])] = (r.pop("config"), r)
+            r.pop("id"), r.pop("worker"), r.pop("finished")
+        return out
+
+    def runs(self, with_ids: bool = False) -> list[dict[str, Any]]:
+        """Every run as a tidy row (NULL -> nan, success -> bool), in insertion order."""
+        extra = ", id, config, worker, finished" if with_ids else ""
+        cur = self.con.execute(f"SELECT {', '.join(_ROW_COLS)}{extra} FROM runs ORDER BY id")
+        names = [d[0] for d in cur.description]
+        out = []
+        for rec in cur:
+            r = dict(zip(names, rec))
+            for c in _FLOATS:
+                r[c] = _float_out(r[c])
+            r["success"] = bool(r["success"])
+            for c in _INTS:
+                r[c] = 0 if r[c] is None else int(r[c])
+            for c in ("stop_reason", "message", "backend", "options"):
+                r[c] = r[c] or ""
+            out.append(r)
+        return out
+
+    def close(self) -> None:
+        self.con.close()
+
+    def __enter__(self) -> ResultsDB:
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def _connect_ro(path: str | Path) -> sqlite3.Connection:
+    p = Path(path)
+    if not p.is_file():
+        raise FileNotFoundError(f"{p}: no such results database")
+    con = sqlite3.connect(f"file:{p}?mode=ro", uri=True, timeout=30.0)
+    try:
+        con.execute("SELECT 1 FROM runs LIMIT 1")
+    except sqlite3.DatabaseError as e:
+        con.close()
+        raise ValueError(f"{p}: not an optplan results database ({e})") from None
+    return con
+
+
+def read_runs(path: str | Path) -> list[dict[str, Any]]:
+    """The tidy rows of a results database, with ``id``, ``config``, ``worker``, ``finished``."""
+    con = _connect_ro(path)
+    try:
+        db = ResultsDB.__new__(ResultsDB)
+        db.path, db.con = Path(path), con
+        return db.runs(with_ids=True)
+    finally:
+        con.close()
+
+
+def read_progress(path: str | Path) -> dict[int, dict[str, list[float]]]:
+    """``run id -> {"iteration": [...], "best_cost": [...], "n_eval": [...], "time": [...]}``."""
+    con = _connect_ro(path)
+    out: dict[int, dict[str, list[float]]] = {}
+    try:
+        for rid, it, c, ne, t in con.execute(
+                "SELECT run_id, iteration, best_cost, n_eval, time FROM progress "
+                "ORDER BY run_id, rowid"):
+            d = out.setdefault(int(rid), {"iteration": [], "best_cost": [], "n_eval": [],
+                                          "time": []})
+            d["iteration"].append(int(it))
+            d["best_cost"].append(_float_out(c))
+            d["n_eval"].append(int(ne or 0))
+            d["time"].append(float(t))
+    finally:
+        con.close()
+    return out
+
+
+def read_experiments(path: str | Path) -> list[dict[str, Any]]:
+    """The ``experiment`` rows (JSON columns decoded)."""
+    con = _connect_ro(path)
+    try:
+        cur = con.execute("SELECT * FROM experiment ORDER BY id")
+        names = [d[0] for d in cur.description]
+        out = []
+        for rec in cur:
+            r = dict(zip(names, rec))
+            for k in ("packages", "machine", "spec"):
+                try:
+                    r[k] = json.loads(r[k]) if r[k] else {}
+                except json.JSONDecodeError:
+                    pass
+            out.append(r)
+        return out
+    finally:
+        con.close()
