@@ -22,9 +22,9 @@ square lies inside the polygons.  The construction, in cell units:
 2. ``U`` grown by ``grow`` cells (Minkowski sum with a disc, ``shapely.buffer``);
 3. simplified (Douglas-Peucker, topology preserved) with the tolerance ``simplify`` cells;
 4. verified: the simplified polygon must cover ``U`` (``shapely.covers``, exact for the
-   integer squares); if not, the tolerance is halved and step 3 repeated, down to no
-   simplification at all.  The result ``S`` satisfies ``U <= S <= U + disc(grow + simplify)``
-   (Minkowski sums).
+   integer squares); if not, step 3 is repeated with 0.9, 0.75, 0.5 and 0.25 times the
+   tolerance, and finally without simplification.  The result ``S`` satisfies
+   ``U <= S <= U + disc(grow + simplify)`` (Minkowski sums).
 
 :func:`import_map` adds robots and returns a validated :class:`~optplan.Problem` (its errors
 are :class:`~optplan.ProblemError` naming the file and key); :func:`write_toml` writes any
@@ -156,10 +156,12 @@ class Grid:
     def cell_of(self, point: Sequence[float]) -> tuple[int, int] | None:
         """``(row, col)`` of the cell containing a world point (``None`` outside the grid)."""
         x, y = self.world_to_cell(np.asarray(point, dtype=float))[0]
-        col, row = int(math.floor(x)), int(math.floor(self.height - y))
-        if 0 <= row < self.height and 0 <= col < self.width:
-            return row, col
-        return None
+        tol = 1e-9 * max(self.width, self.height)  # points on the outline belong to the grid
+        if not (-tol <= x <= self.width + tol and -tol <= y <= self.height + tol):
+            return None
+        col = min(max(int(math.floor(x)), 0), self.width - 1)
+        row = min(max(int(math.floor(self.height - y)), 0), self.height - 1)
+        return row, col
 
     def cell_centre(self, row: int, col: int) -> np.ndarray:
         """World position of the centre of cell ``(row, col)``."""
@@ -505,6 +507,11 @@ def _polys(g: Any) -> list[Polygon]:
     return [q for q in getattr(g, "geoms", []) if isinstance(q, Polygon) and not q.is_empty]
 
 
+#: Fractions of the simplification tolerance tried in turn until the simplified polygon covers
+#: its cells (the last, no simplification, always does).
+_FALLBACK = (1.0, 0.9, 0.75, 0.5, 0.25, 0.0)
+
+
 @dataclass
 class _Stats:
     components: int = 0
@@ -518,15 +525,14 @@ def _conservative(u: Any, grow: float, simplify: float, join: str, stats: _Stats
         g = shapely.buffer(u, grow, quad_segs=4, join_style=join, mitre_limit=2.0)
     else:
         g = u
-    tol = simplify
-    while True:
+    for k, f in enumerate(_FALLBACK):
+        tol = simplify * f
         s = shapely.simplify(g, tol, preserve_topology=True) if tol > 0 else g
         if not s.is_valid:
             s = shapely.make_valid(s)
         if tol <= 0 or shapely.covers(s, u):
+            stats.fallbacks += k
             break
-        stats.fallbacks += 1
-        tol = tol / 2 if tol > simplify / 64 else 0.0
     stats.tolerance_min = min(stats.tolerance_min, tol)
     return [shapely.geometry.polygon.orient(q, 1.0) for q in _polys(s)]
 
@@ -538,11 +544,11 @@ def grid_polygons(mask: np.ndarray, *, grow: float = 0.5, simplify: float = 0.5,
     Each 8-connected component of ``mask`` (``skimage.measure.label``) becomes the exact union
     ``U`` of its cell squares, grown by ``grow`` cells (``join``: ``"round"``, the Euclidean
     Minkowski sum, or ``"mitre"``, the square grown by ``grow`` in every axis), simplified with
-    the tolerance ``simplify`` cells and checked to cover ``U`` (tolerance halved until it
-    does).  Every result covers its component; with ``join = "round"`` it lies inside
+    the tolerance ``simplify`` cells and checked to cover ``U`` (with a smaller tolerance
+    until it does).  Every result covers its component; with ``join = "round"`` it lies inside
     ``U + disc(grow + simplify)`` (``"mitre"``: ``U + disc(sqrt(2) grow + simplify)``).
 
-    ``stats``, if given, receives ``components``, ``fallbacks`` (tolerance halvings) and
+    ``stats``, if given, receives ``components``, ``fallbacks`` (tolerance reductions) and
     ``tolerance_min`` (the smallest tolerance used).
     """
     from skimage import measure
