@@ -1,0 +1,32 @@
+"""Print the status of every catalogue scene with every preset (seed 0) as a TSV table.
+
+    .venv/bin/python docs/scripts/status_table.py > statuses.tsv
+
+Columns: problem, solver, status, collisions, message (first 160 characters).  Used to list,
+in docs/changes.md, every scene whose status changed between two versions (run the same script
+in both checkouts and compare).
+"""
+
+from __future__ import annotations
+
+import sys
+
+import optplan as op
+
+
+def main() -> None:
+    print("problem\tsolver\tstatus\tcollisions\tmessage")
+    for name in op.list_problems():
+        for solver in op.list_solvers():
+            try:
+                res = op.solve(name, solver, rng=0)
+                row = (res.status.value, str(res.metrics.get("collisions", "")),
+                       res.message.replace("\t", " ").replace("\n", " ")[:160])
+            except Exception as e:  # noqa: BLE001 - a table of outcomes, errors included
+                row = ("error", "", f"{type(e).__name__}: {e}"[:160])
+            print("\t".join((name, solver, *row)))
+            sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    main()
