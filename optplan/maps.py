@@ -34,6 +34,7 @@ rows covers ``origin + R(yaw) @ resolution * ([col, col + 1] x [H - 1 - row, H -
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import json
 import math
@@ -885,7 +886,9 @@ def read_scen(path: str | Path, *, map_path: str | Path | None = None, radius: f
                                                      join=join)]
     obstacles = [_polygon_table(q, f"{Path(map_path).stem}-{k}") for k, q in enumerate(polys)]
     res = grid.resolution
-    out = []
+    stem = re.sub(r"(\.map)?\.scen$", "", p.name) or p.stem
+    out: list[Problem] = []
+    template: Problem | None = None
     for e in entries:
         key = f"line {e.line}"
         if (e.width, e.height) != (grid.width, grid.height):
@@ -898,20 +901,40 @@ def read_scen(path: str | Path, *, map_path: str | Path | None = None, radius: f
                 raise _err(p, key, f"{what} cell ({x}, {y}) is blocked in {map_path}")
         s = grid.cell_centre(e.start[1], e.start[0])
         g = grid.cell_centre(e.goal[1], e.goal[0])
-        data = {
-            "name": f"{p.stem}-{e.line}",
+        keys = {
+            "name": f"{stem}-{e.line}",
             "description": f"MovingAI {p.name} line {e.line}: bucket {e.bucket}, cell "
                            f"({e.start[0]}, {e.start[1]}) -> ({e.goal[0]}, {e.goal[1]}), "
                            f"octile length {e.optimal_length * res!r} (map units)",
-            "source": f"MovingAI benchmark {p.name} on {Path(map_path).name} "
-                      f"(optplan.maps.read_scen, grow={grow:g}, simplify={simplify:g} cells)",
-            "tags": ["movingai", f"bucket-{e.bucket}"],
-            "bounds": list(grid.bounds),
-            "robots": [{"id": "r1", "start": s.tolist(), "goal": g.tolist(), "radius": radius,
-                        "max_speed": max_speed}],
-            "obstacles": obstacles,
+            "tags": ("movingai", f"bucket-{e.bucket}"),
         }
-        out.append(parse_problem(data, f"{p}:{e.line}"))
+        where = f"{p}:{e.line}"
+        if template is None:  # the first line goes through the parser ...
+            data = {
+                **keys, "tags": list(keys["tags"]),
+                "source": f"MovingAI benchmark {p.name} on {Path(map_path).name} "
+                          f"(optplan.maps.read_scen, grow={grow:g}, simplify={simplify:g} "
+                          "cells)",
+                "bounds": list(grid.bounds),
+                "robots": [{"id": "r1", "start": s.tolist(), "goal": g.tolist(),
+                            "radius": radius, "max_speed": max_speed}],
+                "obstacles": obstacles,
+            }
+            template = parse_problem(data, where)
+            out.append(template)
+            continue
+        # ... the others share its validated obstacles and exact engine (same checks)
+        for k, q in (("start", s), ("goal", g)):
+            hit = template.blocking_obstacle(q, template.robots[0].radius)
+            if hit is not None:
+                raise _err(where, f"robots[0].{k}", f"{q.tolist()} lies inside obstacle "
+                           f"{template.obstacles[hit].name!r} (obstacles[{hit}]) inflated by "
+                           f"the robot radius {template.robots[0].radius:g}")
+        shared = {k: v for k, v in template._cache.items()
+                  if k == "frame" or (isinstance(k, tuple) and k[0] == "obstacle_set")}
+        robot = dataclasses.replace(template.robots[0], start=s, goal=g)
+        out.append(dataclasses.replace(template, robots=(robot,), path=where, _cache=shared,
+                                       **keys))
     return out
 
 

@@ -428,6 +428,8 @@ def test_movingai_scen_batch_is_shorter_than_octile(movingai, tmp_path):
     assert [(e.start, e.goal) for e in entries] == [(s, t) for s, t, _ in pairs]
     probs = read_scen(scen)
     assert len(probs) == len(pairs)
+    assert [q.name for q in probs] == [f"arena-{k + 2}" for k in range(len(pairs))]
+    assert all(q.obstacles is probs[0].obstacles for q in probs)  # imported once
     for prob, (s, t, L) in zip(probs, pairs):
         assert scen_octile_length(prob) == pytest.approx(L, abs=1e-7)
         res = op.solve(prob, "visgraph")
@@ -453,6 +455,10 @@ def test_movingai_scen_options_and_errors(movingai, tmp_path):
     p = read_scen(scen, map_path=m, resolution=0.5, origin=(10, 20), limit=1)[0]
     assert scen_octile_length(p) == pytest.approx(pairs[0][2] * 0.5, abs=1e-7)
     assert p.bounds == (10.0, 20.0, 10 + 0.5 * len(rows[0]), 20 + 0.5 * len(rows))
+    # a disc robot too big for the cells next to the walls: the line is named
+    with pytest.raises(ProblemError, match=r"arena\.map\.scen:\d+: robots\[0\]\.(start|goal): "
+                                           r".* inside obstacle"):
+        read_scen(scen, radius=2.0)
     bad = tmp_path / "bad.scen"
     bad.write_text("version 1\n0\tarena.map\t10\t10\t1\t1\t2\t2\t1.4\n", encoding="utf-8")
     with pytest.raises(ProblemError, match=r"bad\.scen: map: cannot find the map"):
