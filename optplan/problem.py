@@ -1,4 +1,4 @@
-"""Problem model and the TOML scenario format (design §3).
+"""Problem model and the TOML scenario format (problems/README.md).
 
 A :class:`Problem` is an immutable description of a 2-D workspace: rectangular bounds,
 disc robots (radius ``>= 0``; ``0`` is a point robot) with start/goal, static obstacles
@@ -339,6 +339,8 @@ class Problem:
         """
         from optplan.geometry import obstacle_set
 
+        # without temporary obstacles the known map is the whole map: one set serves both
+        known_only = known_only and any(not o.known for o in self.obstacles)
         key = ("obstacle_set", float(radius), known_only)
         if key not in self._cache:
             self._cache[key] = obstacle_set(self.static_obstacles(known_only), float(radius),

@@ -1,4 +1,4 @@
-"""Result, Status, History and Progress: what every solver returns (design §2, contract)."""
+"""Result, Status, History and Progress: what every solver returns (the API contract, docs/api.md)."""
 
 from __future__ import annotations
 
@@ -109,7 +109,7 @@ def notify(callback: Callable[[Progress], Any] | None, progress: Progress) -> bo
 
 @dataclass(frozen=True)
 class Result:
-    """The outcome of :func:`optplan.solve` (see design §2 for every field)."""
+    """The outcome of :func:`optplan.solve` (every field is described in docs/api.md, "Results")."""
 
     status: Status
     paths: dict[str, np.ndarray]

@@ -1,4 +1,4 @@
-"""The Solver interface: registry, presets, :func:`solve` (design §2, contract).
+"""The Solver interface: registry, presets, :func:`solve` (the API contract, docs/api.md).
 
 A *backend* is an implementation: a frozen, keyword-only dataclass in ``optplan/backends/``
 whose fields are its options, with a ``solve(problem, /, *, rng, init, callback)`` method.

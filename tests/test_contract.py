@@ -1,4 +1,4 @@
-"""The Solver contract (design §2 and §6), checked for every registered solver preset.
+"""The Solver contract (docs/api.md), checked for every registered solver preset.
 
 Each backend class names a catalogue scene it solves quickly (``contract_problem``, default
 ``open-field``) and options that make the run fast (``contract_overrides``, default none).

@@ -1,5 +1,5 @@
 r"""Exact waypoint NLP (CasADi + IPOPT): a local optimum of path length with whole-segment
-collision constraints (domain-notes §2.3).
+collision constraints (docs/solvers/nlp.md).
 
 Mathematics
 -----------
@@ -30,7 +30,7 @@ kept (segment :math:`i`, piece :math:`j`) pair there is a separating hyperplane
 Because :math:`a^\top y - c` is affine and :math:`\lVert a \rVert \le 1`, it is a lower bound
 of :math:`\mathrm{dist}(y, O_j)`; holding at both endpoints it holds on the whole segment.
 Conversely two convex sets at distance :math:`\ge d` admit such a hyperplane, so the
-constraint is *exact* for convex pieces (domain-notes §2.3 (b)-(c), OBCA duality).  A disc
+constraint is *exact* for convex pieces (the separating-hyperplane form of OBCA duality: Zhang, Liniger & Borrelli 2021).  A disc
 (centre :math:`o`, radius :math:`R`) is the one-vertex piece :math:`\{o\}` with clearance
 :math:`R + d`: :math:`a^\top (p - o) \ge R + d`.
 
@@ -786,7 +786,7 @@ class WaypointNLP(Backend):
     r"""Waypoint NLP with separating-hyperplane segment constraints, solved by IPOPT.
 
     Locally optimal path length in the homotopy class of the initial guess
-    (domain-notes §2.3; see the module docstring for the maths).
+    (see the module docstring for the maths).
 
     Parameters
     ----------
