@@ -1,4 +1,4 @@
-"""Result, Status, History and Progress: what every solver returns (the API contract, docs/api.md)."""
+"""Result, Status, History and Progress: what every solver returns (contract: docs/api.md)."""
 
 from __future__ import annotations
 

@@ -30,9 +30,9 @@ kept (segment :math:`i`, piece :math:`j`) pair there is a separating hyperplane
 Because :math:`a^\top y - c` is affine and :math:`\lVert a \rVert \le 1`, it is a lower bound
 of :math:`\mathrm{dist}(y, O_j)`; holding at both endpoints it holds on the whole segment.
 Conversely two convex sets at distance :math:`\ge d` admit such a hyperplane, so the
-constraint is *exact* for convex pieces (the separating-hyperplane form of OBCA duality: Zhang, Liniger & Borrelli 2021).  A disc
-(centre :math:`o`, radius :math:`R`) is the one-vertex piece :math:`\{o\}` with clearance
-:math:`R + d`: :math:`a^\top (p - o) \ge R + d`.
+constraint is *exact* for convex pieces (the separating-hyperplane form of OBCA duality:
+Zhang, Liniger & Borrelli 2021).  A disc (centre :math:`o`, radius :math:`R`) is the
+one-vertex piece :math:`\{o\}` with clearance :math:`R + d`: :math:`a^\top (p - o) \ge R + d`.
 
 Clearance
     The true disc-robot problem: the raw polygons with clearance = robot radius, circles natively
