@@ -465,6 +465,20 @@ def check_init(problem: Problem, init: Any) -> dict[str, np.ndarray]:
     return out
 
 
+def with_reference(metrics: dict[str, Any], problem: Problem, paths: dict[str, Any],
+                   ref: dict[str, Any]) -> dict[str, Any]:
+    """``metrics`` plus what a reference (:func:`reference_optimum`) adds: ``reference_time``,
+    and ``optimum`` with ``ratio_to_optimum`` or ``reference_error``."""
+    out = dict(metrics)
+    out["reference_time"] = ref["reference_time"]
+    if ref["optimum"] is not None and "length" in out and problem.leader.id in paths:
+        out["optimum"] = ref["optimum"]
+        out["ratio_to_optimum"] = out["length"] / ref["optimum"]
+    elif ref["reference_error"] is not None:
+        out["reference_error"] = ref["reference_error"]
+    return out
+
+
 def _early_stop_status(res: Result) -> Status:
     """The one status of a run stopped by its callback or time limit: ``solved`` when the best
     path so far is feasible and reaches the goal, else ``approximate``."""
@@ -540,13 +554,7 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         what = "time limit" if stop["reason"] == "time_limit" else "callback"
         message = (f"stopped by the {what} after {wall:.3f} s; " + message).rstrip("; ")
     if reference:
-        ref = reference_optimum(prob)
-        metrics["reference_time"] = ref["reference_time"]
-        if ref["optimum"] is not None and "length" in metrics and prob.leader.id in res.paths:
-            metrics["optimum"] = ref["optimum"]
-            metrics["ratio_to_optimum"] = metrics["length"] / ref["optimum"]
-        elif ref["reference_error"] is not None:
-            metrics["reference_error"] = ref["reference_error"]
+        metrics = with_reference(metrics, prob, res.paths, reference_optimum(prob))
     return dataclasses.replace(res, seed=seed, wall_time=res.wall_time or wall,
                                metrics=metrics, status=status, message=message,
                                stop_reason=stop["reason"])
