@@ -368,7 +368,8 @@ def cmd_plot(args: argparse.Namespace, out: TextIO) -> int:
     from optplan.plot import plot_result
 
     res, prob = _load_result(args.result, args.problem)
-    plot_result(res, problem=prob, out=args.out, snapshot_every=args.snapshot_every)
+    plot_result(res, problem=prob, out=args.out, snapshot_every=args.snapshot_every,
+                dpi=args.dpi)
     print(f"wrote {args.out}", file=out)
     return 0
 
@@ -379,7 +380,8 @@ def cmd_animate(args: argparse.Namespace, out: TextIO) -> int:
     if args.fps <= 0:
         raise CLIError(f"--fps must be > 0, got {args.fps}")
     res, prob = _load_result(args.result, args.problem)
-    animate(res, args.out, problem=prob, fps=args.fps, max_frames=args.max_frames)
+    animate(res, args.out, problem=prob, fps=args.fps, max_frames=args.max_frames,
+            dpi=args.dpi)
     print(f"wrote {args.out}", file=out)
     return 0
 
@@ -526,9 +528,11 @@ def build_parser() -> argparse.ArgumentParser:
                             "(optplan.experiments.validate; 'optplan validate -h')")
     s.set_defaults(func=None)
 
-    s = sub.add_parser("plot", help="draw a saved result (JSON) as a PNG")
+    s = sub.add_parser("plot", help="draw a saved result (JSON) as a PNG, SVG or PDF")
     s.add_argument("result", help="result JSON written by 'optplan solve --json'")
-    s.add_argument("--out", required=True, help="PNG to write")
+    s.add_argument("--out", required=True,
+                   help="figure to write: .png, .svg or .pdf (the suffix picks the format)")
+    s.add_argument("--dpi", type=float, default=100, help="PNG resolution (default 100)")
     s.add_argument("--snapshot-every", type=int, default=None, metavar="K",
                    help="formation snapshot every K steps (0: none; default about 8 per run)")
     s.add_argument("--problem", help="problem name or .toml path (default: the result's)")
@@ -537,6 +541,7 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("animate", help="animate a saved result (JSON) as a GIF")
     s.add_argument("result", help="result JSON written by 'optplan solve --json'")
     s.add_argument("--out", required=True, help="GIF to write")
+    s.add_argument("--dpi", type=float, default=80, help="frame resolution (default 80)")
     s.add_argument("--fps", type=float, default=10, help="frames per second (default 10)")
     s.add_argument("--max-frames", type=int, default=150, help="frame limit (default 150)")
     s.add_argument("--problem", help="problem name or .toml path (default: the result's)")

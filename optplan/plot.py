@@ -3,7 +3,8 @@
 Everything here draws on a :class:`matplotlib.figure.Figure` attached to the Agg canvas
 directly, never through ``pyplot``: no display is needed, no global backend is switched and
 no window is ever opened.  Every function returns the figure; those with an ``out`` argument
-also write it (PNG, or GIF with Pillow for :func:`animate`; no ffmpeg needed).
+also write it (PNG, SVG or PDF chosen by the suffix, at ``dpi``; GIF with Pillow for
+:func:`animate`; no ffmpeg needed).
 
 >>> import optplan as op
 >>> from optplan.plot import plot_result
@@ -14,8 +15,14 @@ Conventions: known static obstacles are filled grey, temporary ones (``known = f
 unseen by global planners) orange and hatched; circles are drawn as true circles
 (``matplotlib.patches.Circle``, the exact centre and radius); the inflated outlines (first
 robot's radius) are dashed; dynamic obstacles show their start shape and their track dotted;
-starts are circles, goals stars.  ``matplotlib`` is imported when this module is imported, so
-``import optplan`` stays light as long as this module is not imported.
+starts are circles, goals stars.  What the validator rejects is drawn in red on top: the
+path segments that collide with a static obstacle (recomputed with the exact engine), each
+robot's first static contact point, the contacts in time with moving obstacles or other robots
+(from ``result.metrics``) and the path points outside the bounds.  Red is reserved for this; no
+robot is drawn red.  Legends never sit on the data: outside the axes (the figures made here
+use matplotlib's constrained layout to make room), or in the corner of the axes with the least
+drawn data.  ``matplotlib`` is imported when this module is imported, so ``import optplan``
+stays light as long as this module is not imported.
 """
 
 from __future__ import annotations
@@ -38,13 +45,19 @@ from optplan.result import Result
 
 __all__ = ["plot_problem", "plot_result", "plot_convergence", "animate", "new_figure"]
 
-#: colours: one per robot (leader first), obstacles, temporary obstacles, dynamic obstacles
-ROBOT_COLOURS = ("#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#8c564b", "#e377c2",
+#: colours: one per robot (leader first; no red, which marks collisions), obstacles, temporary
+#: obstacles, dynamic obstacles, the global path, collisions and excursions
+ROBOT_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2",
                  "#17becf", "#bcbd22")
 KNOWN_FILL = "#9e9e9e"
 TEMP_FILL = "#ffb74d"
 DYN_COLOUR = "#6a1b9a"
 GLOBAL_COLOUR = "#000000"
+COLLISION_COLOUR = "#ff0000"
+#: file formats of the static figures, by suffix
+FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
+#: legend placements of :func:`plot_problem` / :func:`plot_result`
+LEGEND_PLACES = ("auto", "outside", "corner")
 #: history columns holding the best feasible length so far (first one present is drawn)
 LENGTH_COLUMNS = ("best_length", "feasible_best_length")
 
@@ -54,26 +67,141 @@ LENGTH_COLUMNS = ("best_length", "feasible_best_length")
 # --------------------------------------------------------------------------------------
 
 
-def new_figure(size: tuple[float, float] = (6.0, 6.0), dpi: int = 100) -> Figure:
-    """A figure on the Agg canvas (headless, no pyplot state)."""
-    fig = Figure(figsize=size, dpi=dpi)
+def new_figure(size: tuple[float, float] = (6.0, 6.0), dpi: int = 100,
+               layout: str | None = None) -> Figure:
+    """A figure on the Agg canvas (headless, no pyplot state).
+
+    ``layout="constrained"`` makes room for legends placed outside the axes (the default
+    placement of :func:`plot_problem` and :func:`plot_result` in such a figure).
+    """
+    fig = Figure(figsize=size, dpi=dpi, layout=layout)
     FigureCanvasAgg(fig)
     return fig
 
 
-def _get_ax(ax: Axes | None, size: tuple[float, float] = (6.0, 6.0)) -> tuple[Figure, Axes]:
+def _get_ax(ax: Axes | None, size: tuple[float, float] = (7.6, 6.0)) -> tuple[Figure, Axes]:
     if ax is not None:
         return ax.figure, ax
-    fig = new_figure(size)
+    fig = new_figure(size, layout="constrained")
     return fig, fig.add_subplot(1, 1, 1)
 
 
-def _save(fig: Figure, out: str | Path | None, dpi: int | None = None) -> None:
+def _save(fig: Figure, out: str | Path | None, dpi: float | None = None) -> None:
+    """Write ``fig`` to ``out`` (PNG, SVG or PDF by its suffix) at ``dpi`` (raster)."""
     if out is None:
         return
     p = Path(out)
+    fmt = FORMATS.get(p.suffix.lower())
+    if fmt is None:
+        raise ValueError(f"{p}: unsupported figure format {p.suffix!r}; use one of "
+                         + ", ".join(FORMATS))
+    if dpi is not None and not dpi > 0:
+        raise ValueError(f"dpi must be > 0, got {dpi}")
     p.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(p, dpi=dpi or fig.dpi, bbox_inches="tight")
+    fig.savefig(p, format=fmt, dpi=dpi or fig.dpi, bbox_inches="tight")
+
+
+def _renderer(fig: Figure) -> Any:
+    canvas = fig.canvas
+    if hasattr(canvas, "get_renderer"):
+        return canvas.get_renderer()
+    return fig._get_renderer()  # a bare Figure (animate): a throw-away Agg renderer
+
+
+def _data_samples(ax: Axes, renderer: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Display coordinates of what is drawn in ``ax`` and a weight per sample.
+
+    Lines are sampled every few pixels along their segments (markers at their points), with
+    weight 1 (0.25 for the inflated outlines of obstacles); annotations by the corners and
+    centre of their box (weight 1); filled patches (obstacles) by the points of a 48 x 48 grid
+    over the axes that they contain (weight 0.25); unfilled patches by their outline (weight
+    0.5).  The map's frame is not data.
+    """
+    pts, wts = [], []
+    for ln in ax.lines:
+        if not ln.get_visible():
+            continue
+        xy = np.asarray(ln.get_xydata(), dtype=float).reshape(-1, 2)
+        xy = xy[np.all(np.isfinite(xy), axis=1)]
+        if not len(xy):
+            continue
+        d = ln.get_transform().transform(xy)
+        if ln.get_linestyle() not in ("None", "none", " ", "") and len(d) > 1:
+            seg = np.diff(d, axis=0)
+            n = np.maximum(1, np.ceil(np.hypot(*seg.T) / 3.0)).astype(int)
+            u = [np.arange(k) / k for k in n]
+            d = np.concatenate([d[:-1].repeat(n, axis=0)
+                                + np.concatenate(u)[:, None] * seg.repeat(n, axis=0), d[-1:]])
+        pts.append(d)
+        wts.append(np.full(len(d), 0.25 if ln.get_gid() == "outline" else 1.0))
+    for t in ax.texts:
+        if t.get_visible() and t.get_text():
+            b = t.get_window_extent(renderer)
+            pts.append(np.array([[b.x0, b.y0], [b.x1, b.y0], [b.x0, b.y1], [b.x1, b.y1],
+                                 [(b.x0 + b.x1) / 2, (b.y0 + b.y1) / 2]]))
+            wts.append(np.ones(5))
+    box = ax.get_window_extent(renderer)
+    gx, gy = np.meshgrid(np.linspace(box.x0, box.x1, 48), np.linspace(box.y0, box.y1, 48))
+    grid = np.stack([gx.ravel(), gy.ravel()], axis=1)
+    covered = np.zeros(len(grid), bool)
+    for patch in ax.patches:
+        if not patch.get_visible() or patch.get_gid() == "bounds":
+            continue
+        if patch.get_fill():
+            path = patch.get_transform().transform_path(patch.get_path())
+            covered |= path.contains_points(grid)
+        else:
+            path = patch.get_transform().transform_path(patch.get_path().interpolated(8))
+            pts.append(path.vertices)
+            wts.append(np.full(len(path.vertices), 0.5))
+    pts.append(grid[covered])
+    wts.append(np.full(int(covered.sum()), 0.25))
+    return np.concatenate(pts), np.concatenate(wts)
+
+
+def _corner_legend(ax: Axes, fontsize: float) -> Any:
+    """A legend in the corner of ``ax`` covering the least drawn data (:func:`_data_samples`).
+
+    Ties go to the first of upper right, upper left, lower left, lower right.
+    """
+    renderer = _renderer(ax.figure)
+    ax.apply_aspect()  # the box the axes will be drawn in (equal aspect)
+    pts, wts = _data_samples(ax, renderer)
+    best = None
+    for loc in ("upper right", "upper left", "lower left", "lower right"):
+        leg = ax.legend(loc=loc, fontsize=fontsize, framealpha=0.9)
+        b = leg.get_window_extent(renderer)
+        inside = ((pts[:, 0] >= b.x0) & (pts[:, 0] <= b.x1) & (pts[:, 1] >= b.y0)
+                  & (pts[:, 1] <= b.y1))
+        score = float(wts[inside].sum())
+        if best is None or score < best[0]:
+            best = (score, loc)
+    return ax.legend(loc=best[1], fontsize=fontsize, framealpha=0.9)
+
+
+def _place_legend(ax: Axes, where: str | None, own_figure: bool, fontsize: float = 8) -> Any:
+    """Put the legend of ``ax`` where it covers no data; returns it (None without entries).
+
+    ``where``: ``"outside"`` (right of the axes, top-aligned), ``"corner"`` (the corner with
+    the least drawn data), ``"auto"`` (outside when this module made the figure or the figure
+    uses the constrained layout, which makes room for it; the corner otherwise, since an
+    outside legend would run into neighbouring axes), ``None`` (no legend).
+    """
+    if where is not None and where not in LEGEND_PLACES:
+        raise ValueError(f"legend must be one of {LEGEND_PLACES} or None, got {where!r}")
+    old = ax.get_legend()
+    if old is not None:
+        old.remove()
+    if where is None or not ax.get_legend_handles_labels()[0]:
+        return None
+    if where == "auto":
+        eng = ax.figure.get_layout_engine()
+        constrained = type(eng).__name__ == "ConstrainedLayoutEngine"
+        where = "outside" if own_figure or constrained else "corner"
+    if where == "corner":
+        return _corner_legend(ax, fontsize)
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0.0,
+                     fontsize=fontsize, framealpha=0.9)
 
 
 def _polygons(geom: Any) -> list:
@@ -134,7 +262,7 @@ def _draw_inflated(ax: Axes, obstacles: Sequence, r: float, **kw: Any) -> None:
         for poly in _polygons(g):
             for ring in (poly.exterior, *poly.interiors):
                 c = np.asarray(ring.coords)
-                ax.plot(c[:, 0], c[:, 1], label=label, **kw)
+                ax.plot(c[:, 0], c[:, 1], label=label, gid="outline", **kw)
                 label = None
     for o in obstacles:
         if o.is_circle:
@@ -175,13 +303,123 @@ def _problem_of(result: Result, problem: Problem | None) -> Problem:
     return load_problem(result.problem)
 
 
+def _first_static_contact(oset: Any, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The first point of the colliding segment ``a -> b`` where the disc touches an obstacle.
+
+    Whether the prefix ``a -> a + u (b - a)`` collides is monotone in ``u``; two rounds of 64
+    exact prefix tests locate the entry to 1/4096 of the segment.
+    """
+    if not oset.segment_free(a[None], a[None])[0]:
+        return a.copy()
+    lo, hi = 0.0, 1.0
+    for _ in range(2):
+        u = np.linspace(lo, hi, 65)
+        free = oset.segment_free(np.repeat(a[None], len(u), axis=0), a + u[:, None] * (b - a))
+        k = int(np.argmin(free)) if not free.all() else len(u) - 1
+        lo, hi = float(u[max(k - 1, 0)]), float(u[k])
+    return a + hi * (b - a)
+
+
+def _violations(prob: Problem, paths: Mapping[str, np.ndarray], metrics: Mapping,
+                times: np.ndarray | None) -> dict[str, list]:
+    """Where the validator's complaints are, on the map.
+
+    ``segments``: runs of consecutive path segments colliding with a static obstacle,
+    recomputed with the exact engine (``problem.obstacle_set(radius).crossings(...,
+    details=True).pairs``); ``entries``: each colliding robot's first static contact point;
+    ``contacts``: the contacts in time (moving obstacles, other robots) with ``time`` and
+    ``position``, from ``metrics["contacts"]``, else ``metrics["first_contact"]`` (and, when
+    the metrics count more than one, all of them recomputed by
+    :func:`optplan.metrics.time_checks`); ``outside``: runs of path points outside the bounds,
+    with the neighbouring points inside (the excursion).
+    """
+    out: dict[str, list] = {"segments": [], "entries": [], "contacts": [], "outside": [],
+                            "outside_points": []}
+    own = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in paths.items()
+           if k in prob.robot_ids and len(np.asarray(v))}
+    for rid, p in own.items():
+        oset = prob.obstacle_set(prob.robot(rid).radius)
+        sp = p if len(p) > 1 else np.vstack([p, p])
+        cr = oset.crossings(sp[None], details=True, penetration=False)
+        bad = np.unique(cr.pairs[1])
+        if bad.size:
+            for run in np.split(bad, np.flatnonzero(np.diff(bad) > 1) + 1):
+                out["segments"].append(sp[run[0]: run[-1] + 2])
+            out["entries"].append(_first_static_contact(oset, sp[bad[0]], sp[bad[0] + 1]))
+        off = np.flatnonzero(~prob.frame.in_bounds(p))
+        if off.size:
+            out["outside_points"].append(p[off])
+            for run in np.split(off, np.flatnonzero(np.diff(off) > 1) + 1):
+                out["outside"].append(p[max(run[0] - 1, 0): run[-1] + 2])
+    contacts = metrics.get("contacts")
+    if contacts is None:
+        first = metrics.get("first_contact")
+        contacts = [first] if first else []
+        n = int(metrics.get("dynamic_contacts", 0) or 0) + int(
+            metrics.get("separation_violations", 0) or 0)
+        if first and n > 1 and set(own) == set(paths):
+            from optplan.metrics import time_checks, time_stamps
+
+            tc = time_checks(prob, own, time_stamps(prob, own, times))
+            contacts = sorted(tc["contacts"], key=lambda c: c["time"]) or contacts
+    out["contacts"] = [c for c in contacts if c and c.get("position") is not None]
+    return out
+
+
+def _draw_violations(ax: Axes, v: Mapping[str, list]) -> None:
+    """Red marks for :func:`_violations`; legend entries "collision" and "outside the map"."""
+    label = "collision"
+    for seg in v["segments"]:
+        ax.plot(seg[:, 0], seg[:, 1], "-", color=COLLISION_COLOUR, lw=3.2, alpha=0.9,
+                solid_capstyle="round", zorder=8.5, gid="collision", label=label)
+        label = None
+    pts = [np.asarray(c["position"], dtype=float) for c in v["contacts"]] + list(v["entries"])
+    if pts:
+        q = np.asarray(pts).reshape(-1, 2)
+        ax.plot(q[:, 0], q[:, 1], "X", color=COLLISION_COLOUR, mec="black", mew=0.6, ms=9,
+                ls="none", zorder=10, gid="collision-point", label=label)
+    if v["contacts"]:
+        c = min(v["contacts"], key=lambda c: c["time"])
+        ax.annotate(f"first contact t={c['time']:.3g}", tuple(c["position"]),
+                    textcoords="offset points", xytext=(6, 6), fontsize=7,
+                    color=COLLISION_COLOUR, zorder=10)
+    label = "outside the map"
+    for run in v["outside"]:
+        ax.plot(run[:, 0], run[:, 1], "--", color=COLLISION_COLOUR, lw=1.6, zorder=8.5,
+                gid="outside", label=label)
+        label = None
+    if v["outside_points"]:
+        q = np.concatenate(v["outside_points"])
+        ax.plot(q[:, 0], q[:, 1], "o", color=COLLISION_COLOUR, ms=3.5, ls="none", zorder=8.5,
+                gid="outside")
+
+
+def _include_points(ax: Axes, prob: Problem, paths: Mapping[str, np.ndarray]) -> None:
+    """Widen the limits so that points outside the bounds are in view."""
+    pts = [np.asarray(p, dtype=float).reshape(-1, 2) for p in paths.values()]
+    pts = np.concatenate(pts) if pts else np.zeros((0, 2))
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    if not len(pts):
+        return
+    x0, y0, x1, y1 = prob.bounds
+    lo = np.minimum(pts.min(axis=0), (x0, y0))
+    hi = np.maximum(pts.max(axis=0), (x1, y1))
+    if np.all(lo >= (x0, y0)) and np.all(hi <= (x1, y1)):
+        return
+    pad = 0.02 * float(max(hi - lo))
+    ax.set_xlim(lo[0] - pad, hi[0] + pad)
+    ax.set_ylim(lo[1] - pad, hi[1] + pad)
+
+
 # --------------------------------------------------------------------------------------
 # maps
 # --------------------------------------------------------------------------------------
 
 
 def plot_problem(problem: Problem, ax: Axes | None = None, inflate: bool = True, *,
-                 t_end: float | None = None, labels: bool = True) -> Figure:
+                 t_end: float | None = None, labels: bool = True,
+                 legend: str | None = "auto", out: str | Path | None = None,
+                 dpi: float | None = None) -> Figure:
     """Draw a scenario: bounds, obstacles, inflated outlines, dynamic tracks, starts and goals.
 
     Parameters
@@ -196,15 +434,27 @@ def plot_problem(problem: Problem, ax: Axes | None = None, inflate: bool = True,
         default; constant-velocity ones long enough to cross the map, clipped to the bounds).
     labels : bool
         Annotate robots with their ids and add a legend.
+    legend : {"auto", "outside", "corner"} or None
+        Where the legend goes: ``"outside"`` the axes (right of them), ``"corner"``: the
+        corner of the axes with the least drawn data; ``"auto"`` (default): outside when the
+        figure is made here or uses the constrained layout
+        (``new_figure(..., layout="constrained")``), the corner otherwise (an outside legend
+        would run into neighbouring axes); ``None``: no legend.
+    out : path, optional
+        Write the figure: PNG, SVG or PDF, from the suffix.
+    dpi : float, optional
+        Resolution of a PNG (default: the figure's, 100).
 
     Returns
     -------
     matplotlib.figure.Figure
     """
+    own = ax is None
     fig, ax = _get_ax(ax)
     x0, y0, x1, y1 = problem.bounds
     ax.add_patch(PathPatch(MplPath([(x0, y0), (x1, y0), (x1, y1), (x0, y1), (x0, y0)],
-                                   closed=True), fill=False, lw=1.2, ec="black", zorder=1))
+                                   closed=True), fill=False, lw=1.2, ec="black", zorder=1,
+                           gid="bounds"))
     first_known = first_temp = True
     for o in problem.obstacles:
         if o.known:
@@ -253,8 +503,9 @@ def plot_problem(problem: Problem, ax: Axes | None = None, inflate: bool = True,
     ax.set_ylabel("y")
     if not ax.get_title():
         ax.set_title(problem.name)
-    if labels and ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="best", fontsize=7, framealpha=0.8)
+    if labels:
+        _place_legend(ax, legend, own)
+    _save(fig, out, dpi)
     return fig
 
 
@@ -277,14 +528,18 @@ def _snapshot_indices(n: int, every: int | None) -> np.ndarray:
 
 
 def plot_result(result: Result, problem: Problem | None = None, ax: Axes | None = None,
-                out: str | Path | None = None, snapshot_every: int | None = None) -> Figure:
+                out: str | Path | None = None, snapshot_every: int | None = None, *,
+                legend: str | None = "auto", dpi: float | None = None) -> Figure:
     """Draw a result on its map.
 
     Paths of every robot (leader thicker); the global path and its inflection points when
     ``result.extras`` has ``global_path`` / ``inflection_points`` (hybrid planner); for
     time-stamped results (``result.times`` set) snapshots every ``snapshot_every`` steps: robots
     as discs, formation links leader -> followers and the moving obstacles where they were at
-    that time.
+    that time.  In red: the segments that collide with a static obstacle and each robot's
+    first contact point with one, the contacts in time with moving obstacles or other robots
+    (the first one labelled with its time), and the excursions outside the bounds (dashed, the
+    points outside as dots; the view is widened to show them).
 
     Parameters
     ----------
@@ -293,9 +548,13 @@ def plot_result(result: Result, problem: Problem | None = None, ax: Axes | None 
         Defaults to ``optplan.load_problem(result.problem)``.
     ax : matplotlib Axes, optional
     out : path, optional
-        Write a PNG.
+        Write the figure: PNG, SVG or PDF, from the suffix.
     snapshot_every : int, optional
         Steps between snapshots (default: about 8 snapshots per run; 0 disables them).
+    legend : {"auto", "outside", "corner"} or None
+        Where the legend goes (see :func:`plot_problem`).
+    dpi : float, optional
+        Resolution of a PNG (default: the figure's, 100).
 
     Returns
     -------
@@ -304,8 +563,9 @@ def plot_result(result: Result, problem: Problem | None = None, ax: Axes | None 
     prob = _problem_of(result, problem)
     times = None if result.times is None else np.asarray(result.times, dtype=float)
     t_end = float(times[-1]) if times is not None and len(times) else None
+    own = ax is None
     fig, ax = _get_ax(ax)
-    plot_problem(prob, ax=ax, t_end=t_end)
+    plot_problem(prob, ax=ax, t_end=t_end, legend=None)
     lead = result.metrics.get("leader") or prob.leader.id
     gp = result.extras.get("global_path") if result.extras else None
     if gp is not None:
@@ -347,14 +607,19 @@ def plot_result(result: Result, problem: Problem | None = None, ax: Axes | None 
             if prob.dynamic_obstacles and ids:
                 ax.annotate(f"t={times[i]:.3g}", pos[ids[0]], textcoords="offset points",
                             xytext=(5, -10), fontsize=6, color="#37474f", zorder=9)
-    m = result.metrics
+    m = result.metrics or {}
+    paths = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in result.paths.items()}
+    _draw_violations(ax, _violations(prob, paths, m, times))
+    _include_points(ax, prob, paths)
     bits = [f"{result.status.value}", f"length {m.get('length', float('nan')):.2f}"]
     if m.get("ratio_to_optimum") is not None:
         bits.append(f"ratio {m['ratio_to_optimum']:.3f}")
     bits.append(f"collisions {m.get('collisions', '?')}")
+    if m.get("in_bounds") is False:
+        bits.append("outside the map")
     ax.set_title(f"{prob.name} / {result.solver}\n" + ", ".join(bits), fontsize=10)
-    ax.legend(loc="best", fontsize=7, framealpha=0.8)
-    _save(fig, out)
+    _place_legend(ax, legend, own)
+    _save(fig, out, dpi)
     return fig
 
 
@@ -412,7 +677,8 @@ def _quartiles(vals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def plot_convergence(results: Result | Sequence[Result] | Mapping[str, Sequence[Result]],
-                     out: str | Path | None = None, *, log: bool = False) -> Figure:
+                     out: str | Path | None = None, *, log: bool = False,
+                     dpi: float | None = None) -> Figure:
     """Convergence curves from ``result.history``: median and inter-quartile band.
 
     Parameters
@@ -420,15 +686,18 @@ def plot_convergence(results: Result | Sequence[Result] | Mapping[str, Sequence[
     results : Result, list of Result or dict name -> list of Result
         One curve per group (e.g. per solver over seeds).
     out : path, optional
-        Write a PNG.
+        Write the figure: PNG, SVG or PDF, from the suffix.
     log : bool
         Logarithmic y axis.
+    dpi : float, optional
+        Resolution of a PNG (default: the figure's, 100).
 
     Draws ``best_cost`` against ``iteration`` and, when some history has a ``best_length``
     (or ``feasible_best_length``) column, the length of the best *feasible* path so far, a
     second panel with it.  There, a run without a feasible path yet (``nan``) counts as
     ``+inf``: the median curve starts once half of the runs are feasible and is monotone.
-    Elsewhere ``nan`` entries are ignored.  Quantiles use numpy's linear interpolation.
+    Elsewhere ``nan`` entries are ignored.  Quantiles use numpy's linear interpolation.  Each
+    panel's legend is outside it, on its right.
 
     Returns
     -------
@@ -448,7 +717,7 @@ def plot_convergence(results: Result | Sequence[Result] | Mapping[str, Sequence[
         if any(c in r.history for rs in groups.values() for r in rs):
             cols.append(c)
             break
-    fig = new_figure((6.0 * len(cols), 4.2))
+    fig = new_figure((7.2 * len(cols), 4.2), layout="constrained")
     axes = [fig.add_subplot(1, len(cols), i + 1) for i in range(len(cols))]
     titles = {"best_cost": "best cost", **{c: "best feasible length" for c in LENGTH_COLUMNS}}
     for ax, col in zip(axes, cols):
@@ -477,10 +746,8 @@ def plot_convergence(results: Result | Sequence[Result] | Mapping[str, Sequence[
         if log:
             ax.set_yscale("log")
         ax.grid(alpha=0.3)
-        if ax.get_legend_handles_labels()[0]:
-            ax.legend(fontsize=8)
-    fig.tight_layout()
-    _save(fig, out)
+        _place_legend(ax, "outside", True)
+    _save(fig, out, dpi)
     return fig
 
 
@@ -524,7 +791,9 @@ def animate(result: Result, out: str | Path, problem: Problem | None = None, fps
     Uses :class:`matplotlib.animation.FuncAnimation` with the Pillow writer: no display and
     no ffmpeg are needed.  The time samples are subsampled evenly to at most ``max_frames``
     frames (first and last always kept).  Results without ``times`` are animated by
-    travelling each path at the robot's ``max_speed``.
+    travelling each path at the robot's ``max_speed``.  The legend is outside the axes, on
+    their right; the clock above them, on the right of the title, so nothing covers it.  The
+    collisions and excursions of :func:`plot_result` are marked in red for the whole run.
 
     Parameters
     ----------
@@ -538,7 +807,7 @@ def animate(result: Result, out: str | Path, problem: Problem | None = None, fps
     max_frames : int
         Upper bound on the number of frames.
     dpi : int
-        Resolution of the frames.
+        Resolution of the frames (the GIF is 7.2 x 5.5 inches at this resolution).
     trail : bool
         Draw each robot's trajectory so far.
 
@@ -557,13 +826,19 @@ def animate(result: Result, out: str | Path, problem: Problem | None = None, fps
     frames = np.unique(np.linspace(0, n - 1, min(n, int(max_frames))).round().astype(int))
     # a bare Figure (base canvas): FuncAnimation's per-frame draw_idle is then a no-op and
     # each frame is rendered once, by the writer's savefig (which uses Agg).
-    fig = Figure(figsize=(5.5, 5.5), dpi=dpi)
+    if not dpi > 0:
+        raise ValueError(f"dpi must be > 0, got {dpi}")
+    fig = Figure(figsize=(7.2, 5.5), dpi=dpi, layout="constrained")
     ax = fig.add_subplot(1, 1, 1)
-    plot_problem(prob, ax=ax, t_end=float(t[-1]) if n else None)
+    plot_problem(prob, ax=ax, t_end=float(t[-1]) if n else None, legend=None)
     gp = result.extras.get("global_path") if result.extras else None
     if gp is not None:
         g = np.asarray(gp, dtype=float).reshape(-1, 2)
-        ax.plot(g[:, 0], g[:, 1], "--", color=GLOBAL_COLOUR, lw=1.0, zorder=6)
+        ax.plot(g[:, 0], g[:, 1], "--", color=GLOBAL_COLOUR, lw=1.0, zorder=6,
+                label="global path")
+    paths = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in result.paths.items()}
+    _draw_violations(ax, _violations(prob, paths, result.metrics or {}, result.times))
+    _include_points(ax, prob, paths)
     ids = list(pos)
     discs, trails = {}, {}
     for k in ids:
@@ -571,10 +846,11 @@ def animate(result: Result, out: str | Path, problem: Problem | None = None, fps
         rad = prob.robot(k).radius if k in prob.robot_ids else 1.0
         # keep tiny robots visible on big maps
         rad_draw = max(rad, 0.006 * prob.extent)
-        discs[k] = Circle(tuple(pos[k][0]), rad_draw, fc=c, ec="black", lw=0.6, zorder=9)
+        discs[k] = Circle(tuple(pos[k][0]), rad_draw, fc=c, ec="black", lw=0.6, zorder=9,
+                          label=None if trail else k)
         ax.add_patch(discs[k])
         if trail:
-            (trails[k],) = ax.plot([], [], "-", color=c, lw=1.4, zorder=7)
+            (trails[k],) = ax.plot([], [], "-", color=c, lw=1.4, zorder=7, label=k)
     links = []
     if prob.formation is not None and prob.formation.leader in pos:
         for f in prob.formation.followers:
@@ -586,9 +862,17 @@ def animate(result: Result, out: str | Path, problem: Problem | None = None, fps
         patches = _draw_poly(ax, d.geometry_at(float(t[0])), fc=DYN_COLOUR, ec="black",
                              lw=0.6, alpha=0.8, zorder=6)
         dyn_patches.append((d, patches))
-    label = ax.text(0.02, 0.97, "", transform=ax.transAxes, va="top", fontsize=9,
-                    bbox={"fc": "white", "alpha": 0.7, "lw": 0})
-    ax.set_title(f"{prob.name} / {result.solver}", fontsize=10)
+    # the clock: above the axes on the right, the title on the left, the legend outside on
+    # the right of the axes, so neither the data nor the legend can hide it
+    ax.set_title(f"{prob.name} / {result.solver}", fontsize=10, loc="left")
+    label = ax.text(1.0, 1.0 + 0.02, "", transform=ax.transAxes, ha="right", va="bottom",
+                    fontsize=10, family="monospace", gid="clock")
+    _place_legend(ax, "outside", True)
+    # lay the figure out once, with the widest clock, and keep it: no jitter between frames
+    # and no layout cost per frame
+    label.set_text(f"t = {float(t[-1]) if n else 0.0:.2f}")
+    fig.draw_without_rendering()
+    fig.set_layout_engine("none")
 
     def update(i: int) -> list:
         ti = float(t[i])
