@@ -48,7 +48,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon, box
 
-from optplan.problem import Problem, ProblemError, parse_problem
+from optplan.problem import Problem, ProblemError, parse_problem, problem_to_dict, ring_points
 
 __all__ = [
     "FREE",
@@ -622,15 +622,10 @@ def _fill_unreachable(polys: list[Polygon], points: np.ndarray) -> tuple[list[Po
 # --------------------------------------------------------------------------------------
 
 
-def _ring_list(ring: Any) -> list[list[float]]:
-    xy = np.asarray(ring.coords)[:-1]
-    return [[float(x), float(y)] for x, y in xy]
-
-
 def _polygon_table(q: Polygon, name: str) -> dict[str, Any]:
-    t: dict[str, Any] = {"type": "polygon", "name": name, "vertices": _ring_list(q.exterior)}
+    t: dict[str, Any] = {"type": "polygon", "name": name, "vertices": ring_points(q.exterior)}
     if q.interiors:
-        t["holes"] = [_ring_list(h) for h in q.interiors]
+        t["holes"] = [ring_points(h) for h in q.interiors]
     return t
 
 
@@ -976,61 +971,18 @@ def _toml_points(pts: Sequence, indent: str = "  ", per_line: int = 4) -> str:
 
 
 def _problem_tables(problem: Problem) -> tuple[dict, list[tuple[str, dict]]]:
-    """Top-level keys and the ``[[array]]``/``[table]`` sections of a problem."""
-    top: dict[str, Any] = {"name": problem.name}
-    if problem.description:
-        top["description"] = problem.description
-    if problem.source:
-        top["source"] = problem.source
-    if problem.tags:
-        top["tags"] = list(problem.tags)
-    top["bounds"] = [float(v) for v in problem.bounds]
-    if problem.goal_tolerance is not None:
-        top["goal_tolerance"] = float(problem.goal_tolerance)
+    """Top-level keys and the ``[[array]]``/``[table]`` sections of a problem
+    (:func:`optplan.problem.problem_to_dict`, laid out for TOML)."""
+    d = problem_to_dict(problem)
+    top = {k: v for k, v in d.items()
+           if k not in ("sensing", "formation", "robots", "obstacles", "dynamic_obstacles")}
     sections: list[tuple[str, dict]] = []
-    if problem.sensing_range is not None:
-        sections.append(("[sensing]", {"range": float(problem.sensing_range)}))
-    if problem.formation is not None:
-        f = problem.formation
-        sections.append(("[formation]", {
-            "leader": f.leader, "safety_distance": float(f.safety_distance),
-            "followers": [{"id": x.id, "L": float(x.L), "phi": float(x.phi)}
-                          for x in f.followers]}))
-    for r in problem.robots:
-        t: dict[str, Any] = {"id": r.id, "start": [float(v) for v in r.start]}
-        if r.goal is not None:
-            t["goal"] = [float(v) for v in r.goal]
-        t["radius"] = float(r.radius)
-        t["max_speed"] = float(r.max_speed)
-        sections.append(("[[robots]]", t))
-    for o in problem.obstacles:
-        t = {"type": o.kind, "name": o.name}
-        if o.is_circle:
-            t["center"] = [float(v) for v in o.center]
-            t["radius"] = float(o.radius)
-        elif o.kind == "rectangle":
-            x0, y0, x1, y1 = o.geometry.bounds
-            t["min"], t["max"] = [x0, y0], [x1, y1]
-        else:
-            t["vertices"] = _ring_list(o.geometry.exterior)
-            if o.geometry.interiors:
-                t["holes"] = [_ring_list(h) for h in o.geometry.interiors]
-        if not o.known:
-            t["known"] = False
-        sections.append(("[[obstacles]]", t))
-    for d in problem.dynamic_obstacles:
-        t = {"type": d.kind, "name": d.name}
-        if d.kind == "circle":
-            t["radius"] = float(d.radius)
-        else:
-            t["vertices"] = _ring_list(d.local_geometry.exterior)
-        t["waypoints"] = [[float(x), float(y)] for x, y in d.waypoints]
-        t["times"] = [float(x) for x in d.times]
-        if d.velocity is not None:
-            t["velocity"] = [float(v) for v in d.velocity]
-        else:
-            t["after"] = d.after
-        sections.append(("[[dynamic_obstacles]]", t))
+    if "sensing" in d:
+        sections.append(("[sensing]", d["sensing"]))
+    if "formation" in d:
+        sections.append(("[formation]", d["formation"]))
+    for key in ("robots", "obstacles", "dynamic_obstacles"):
+        sections += [(f"[[{key}]]", t) for t in d.get(key, [])]
     return top, sections
 
 

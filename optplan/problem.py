@@ -803,3 +803,80 @@ def read_problem(path: str | Path) -> Problem:
     except tomllib.TOMLDecodeError as e:
         raise ProblemError(f"{p}: invalid TOML: {e}") from None
     return parse_problem(data, str(p))
+
+
+# --------------------------------------------------------------------------------------
+# writing
+# --------------------------------------------------------------------------------------
+
+
+def ring_points(ring) -> list[list[float]]:
+    """Vertices of a shapely ring as ``[[x, y], ...]`` without the closing repeat."""
+    return [[float(x), float(y)] for x, y in list(ring.coords)[:-1]]
+
+
+def problem_to_dict(problem: Problem) -> dict[str, Any]:
+    """The scenario table of ``problem``: what :func:`parse_problem` reads back into an equal
+    problem (every key of the TOML format it uses; numbers as Python floats)."""
+    out: dict[str, Any] = {"name": problem.name}
+    if problem.description:
+        out["description"] = problem.description
+    if problem.source:
+        out["source"] = problem.source
+    if problem.tags:
+        out["tags"] = list(problem.tags)
+    out["bounds"] = [float(v) for v in problem.bounds]
+    if problem.goal_tolerance is not None:
+        out["goal_tolerance"] = float(problem.goal_tolerance)
+    if problem.sensing_range is not None:
+        out["sensing"] = {"range": float(problem.sensing_range)}
+    if problem.formation is not None:
+        f = problem.formation
+        out["formation"] = {
+            "leader": f.leader, "safety_distance": float(f.safety_distance),
+            "followers": [{"id": x.id, "L": float(x.L), "phi": float(x.phi)}
+                          for x in f.followers]}
+    robots = []
+    for r in problem.robots:
+        t: dict[str, Any] = {"id": r.id, "start": [float(v) for v in r.start]}
+        if r.goal is not None:
+            t["goal"] = [float(v) for v in r.goal]
+        t["radius"] = float(r.radius)
+        t["max_speed"] = float(r.max_speed)
+        robots.append(t)
+    out["robots"] = robots
+    obstacles = []
+    for o in problem.obstacles:
+        t = {"type": o.kind, "name": o.name}
+        if o.is_circle:
+            t["center"] = [float(v) for v in o.center]
+            t["radius"] = float(o.radius)
+        elif o.kind == "rectangle":
+            x0, y0, x1, y1 = o.geometry.bounds
+            t["min"], t["max"] = [x0, y0], [x1, y1]
+        else:
+            t["vertices"] = ring_points(o.geometry.exterior)
+            if o.geometry.interiors:
+                t["holes"] = [ring_points(h) for h in o.geometry.interiors]
+        if not o.known:
+            t["known"] = False
+        obstacles.append(t)
+    if obstacles:
+        out["obstacles"] = obstacles
+    dyn = []
+    for d in problem.dynamic_obstacles:
+        t = {"type": d.kind, "name": d.name}
+        if d.kind == "circle":
+            t["radius"] = float(d.radius)
+        else:
+            t["vertices"] = ring_points(d.local_geometry.exterior)
+        t["waypoints"] = [[float(x), float(y)] for x, y in d.waypoints]
+        t["times"] = [float(x) for x in d.times]
+        if d.velocity is not None:
+            t["velocity"] = [float(v) for v in d.velocity]
+        else:
+            t["after"] = d.after
+        dyn.append(t)
+    if dyn:
+        out["dynamic_obstacles"] = dyn
+    return out

@@ -129,6 +129,19 @@ class Result:
     extras: dict[str, Any] = field(default_factory=dict)
     stop_reason: str = ""
     """Why the run stopped early: ``"time_limit"``, ``"callback"``, or ``""`` (it finished)."""
+    scenario: Any = field(default=None, repr=False, compare=False)
+    """The problem that was solved (a :class:`optplan.Problem`, or its scenario table after
+    :meth:`load`), embedded in the JSON so that plots redraw the map that was solved."""
+
+    def scenario_problem(self):
+        """The solved :class:`optplan.Problem` (from the embedded scenario), or ``None``."""
+        from optplan.problem import Problem, parse_problem
+
+        if isinstance(self.scenario, Problem):
+            return self.scenario
+        if isinstance(self.scenario, dict):
+            return parse_problem(self.scenario, f"<scenario embedded in result {self.problem}>")
+        return None
 
     @property
     def success(self) -> bool:
@@ -168,6 +181,7 @@ class Result:
             "wall_time": self.wall_time,
             "message": self.message,
             "stop_reason": self.stop_reason,
+            "scenario": _scenario_dict(self.scenario),
             "history": self.history.to_dict(),
             "extras": _jsonable(self.extras),
         }
@@ -199,6 +213,7 @@ class Result:
             wall_time=d.get("wall_time", 0.0),
             message=d.get("message", ""),
             stop_reason=d.get("stop_reason", ""),
+            scenario=d.get("scenario"),
             history=History({k: _unjson(v) for k, v in d.get("history", {}).items()}),
             extras=_unjson(d.get("extras", {})),
         )
@@ -272,6 +287,9 @@ def _check_result_dict(d: Any, where: str) -> dict[str, Any]:
         if t.ndim != 1 or n_pts != {len(t)}:
             raise err("times", f"expected one time stamp per path point ({sorted(n_pts)}), got "
                       f"shape {t.shape}")
+    if d.get("scenario") is not None and not isinstance(d["scenario"], dict):
+        raise err("scenario", f"expected an object (a scenario table), got "
+                  f"{type(d['scenario']).__name__}")
     for key in ("metrics", "options", "history", "extras"):
         if key in d and not isinstance(d[key], dict):
             raise err(key, f"expected an object, got {type(d[key]).__name__}")
@@ -290,6 +308,14 @@ def _check_result_dict(d: Any, where: str) -> dict[str, Any]:
     if any(not isinstance(v, list) for v in hist.values()) or len(lens) > 1:
         raise err("history", "expected columns of equal length")
     return d
+
+
+def _scenario_dict(scenario: Any) -> dict | None:
+    from optplan.problem import Problem, problem_to_dict
+
+    if isinstance(scenario, Problem):
+        return problem_to_dict(scenario)
+    return scenario if isinstance(scenario, dict) else None
 
 
 def _jsonable(x: Any) -> Any:

@@ -557,4 +557,4 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         metrics = with_reference(metrics, prob, res.paths, reference_optimum(prob))
     return dataclasses.replace(res, seed=seed, wall_time=res.wall_time or wall,
                                metrics=metrics, status=status, message=message,
-                               stop_reason=stop["reason"])
+                               stop_reason=stop["reason"], scenario=prob)

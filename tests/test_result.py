@@ -177,3 +177,17 @@ def test_non_utf8_and_missing_result_files(tmp_path) -> None:
         Result.load(f)
     with pytest.raises(ResultFileError, match="cannot read"):
         Result.load(tmp_path / "missing.json")
+
+
+def test_result_embeds_the_solved_scenario(tmp_path) -> None:
+    prob = op.parse_problem({
+        "name": "paper-env1", "bounds": [0.0, 0.0, 100.0, 100.0],
+        "robots": [{"id": "r1", "start": [5.0, 5.0], "goal": [95.0, 95.0], "radius": 1.0}],
+        "obstacles": [{"type": "circle", "center": [50.0, 50.0], "radius": 10.0}]})
+    res = op.solve(prob, "visgraph")
+    res.save(tmp_path / "r.json")
+    back = Result.load(tmp_path / "r.json")
+    p = back.scenario_problem()
+    # an edited copy named like a catalogue scene: the embedded map is the one that was solved
+    assert p.bounds == prob.bounds and len(p.obstacles) == 1 and p.obstacles[0].is_circle
+    assert back.metrics["optimum"] == pytest.approx(res.metrics["optimum"])
