@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import reprlib
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,9 +56,37 @@ MAX_COORD = 1e150
 #: its vertices) of the first vertex repeats it and is dropped; zero-area tests use the square.
 CLOSE_REL = 1e-12
 
+#: Largest speed (``max_speed``, dynamic-obstacle ``velocity`` and the speed implied by
+#: consecutive ``waypoints`` / ``times``) and sensing range, as a multiple of the bounds
+#: diagonal ``L`` (per second for speeds): beyond it the map is crossed in under a microsecond
+#: (or sensed a million times over) and squares of positions reached in one step stop being
+#: resolvable.
+MAX_REL_SPEED = 1e6
+
+#: Largest magnitude of a dynamic-obstacle time stamp (seconds; about 31,700 years, so Unix
+#: epoch times fit).
+MAX_TIME = 1e12
+
+#: Largest number of points (polygon and hole vertices, dynamic-obstacle vertices and
+#: waypoints) in one scenario.
+MAX_POINTS = 100_000
+
 
 class ProblemError(ValueError):
     """A scenario (or an option) is malformed; the message names the file and key."""
+
+
+_REPR = reprlib.Repr()
+_REPR.maxlevel, _REPR.maxlist, _REPR.maxtuple, _REPR.maxdict = 3, 6, 6, 4
+_REPR.maxstring, _REPR.maxlong, _REPR.maxother = 60, 40, 60
+
+
+def _show(v: Any) -> str:
+    """A short ``repr`` of a TOML value for messages (long and deeply nested values cut)."""
+    try:
+        return _REPR.repr(v)
+    except RecursionError:  # pragma: no cover - reprlib stops at maxlevel
+        return f"<deeply nested {type(v).__name__}>"
 
 
 # --------------------------------------------------------------------------------------
@@ -401,6 +430,7 @@ _OBST_KEYS = {
     "circle": {"type", "center", "radius", "known", "name"},
 }
 _DYN_KEYS = {"type", "radius", "vertices", "waypoints", "times", "velocity", "after", "name"}
+_DYN_TYPE_KEYS = {"circle": _DYN_KEYS - {"vertices"}, "polygon": _DYN_KEYS - {"radius"}}
 _FORM_KEYS = {"leader", "followers", "safety_distance"}
 _FOLL_KEYS = {"id", "L", "phi"}
 _SENS_KEYS = {"range"}
@@ -411,6 +441,7 @@ class _Ctx:
 
     def __init__(self, where: str):
         self.where = where
+        self.n_points = 0
 
     def err(self, key: str, msg: str) -> ProblemError:
         return ProblemError(f"{self.where}: {key}: {msg}")
@@ -431,13 +462,16 @@ class _Ctx:
         return table[key]
 
     def number(self, v: Any, key: str, *, positive: bool = False, nonneg: bool = False,
-               coord: bool = False) -> float:
+               coord: bool = False, hi: float | None = None, hi_what: str = "") -> float:
+        """A finite number; ``positive`` (> 0), ``nonneg`` (>= 0), ``coord`` (magnitude at
+        most :data:`MAX_COORD`) and ``hi`` (at most ``hi``, described by ``hi_what``)."""
         if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.err(key, f"expected a number, got {v!r}")
+            raise self.err(key, f"expected a number, got {_show(v)}")
         try:
             x = float(v)
         except OverflowError:  # a TOML integer beyond the double range
-            raise self.err(key, f"must be finite, got {v!r}") from None
+            raise self.err(key, f"must be finite, got an integer of {len(str(abs(v)))} "
+                                "digits") from None
         if not math.isfinite(x):
             raise self.err(key, f"must be finite, got {v!r}")
         if positive and x <= 0:
@@ -448,24 +482,32 @@ class _Ctx:
             raise self.err(key, f"magnitude {abs(x):.3g} is beyond {MAX_COORD:g}: double "
                                 "precision cannot compute distances with it (its square "
                                 "overflows)")
+        if hi is not None and x > hi:
+            raise self.err(key, f"must be <= {hi:.6g} ({hi_what}), got {x:.6g}")
         return x
 
     def string(self, table: dict, key: str, prefix: str, default: str | None = None) -> str:
         """A string value (``default`` when absent; required when ``default`` is None)."""
         v = self.require(table, key, prefix) if default is None else table.get(key, default)
         if not isinstance(v, str):
-            raise self.err(f"{prefix}{key}", f"expected a string, got {v!r}")
+            raise self.err(f"{prefix}{key}", f"expected a string, got {_show(v)}")
         return v
 
     def point(self, v: Any, key: str, coord: bool = False) -> np.ndarray:
         if not isinstance(v, list) or len(v) != 2:
-            raise self.err(key, f"expected a point [x, y], got {v!r}")
+            raise self.err(key, f"expected a point [x, y], got {_show(v)}")
         return np.array([self.number(v[0], f"{key}[0]", coord=coord),
                          self.number(v[1], f"{key}[1]", coord=coord)])
 
     def points(self, v: Any, key: str, min_len: int, coord: bool = False) -> np.ndarray:
         if not isinstance(v, list) or len(v) < min_len:
-            raise self.err(key, f"expected a list of at least {min_len} points [x, y]")
+            got = f"{len(v)} point(s)" if isinstance(v, list) else _show(v)
+            raise self.err(key, f"expected a list of at least {min_len} points [x, y], "
+                                f"got {got}")
+        self.n_points += len(v)
+        if self.n_points > MAX_POINTS:
+            raise self.err(key, f"too many points: the scenario's vertices and waypoints "
+                                f"exceed {MAX_POINTS} in all")
         return np.array([self.point(p, f"{key}[{i}]", coord) for i, p in enumerate(v)])
 
     def ring(self, verts: np.ndarray, key: str, what: str = "polygon") -> Polygon:
@@ -523,17 +565,20 @@ class _Ctx:
 def _parse_obstacle(ctx: _Ctx, o: Any, i: int) -> Obstacle:
     pre = f"obstacles[{i}]."
     if not isinstance(o, dict):
-        raise ctx.err(f"obstacles[{i}]", "expected a table")
+        raise ctx.err(f"obstacles[{i}]", f"expected a table, got {_show(o)}")
     kind = ctx.require(o, "type", pre)
+    if not isinstance(kind, str):
+        raise ctx.err(f"{pre}type", f"expected a string ({', '.join(map(repr, _OBST_KEYS))}), "
+                                    f"got {_show(kind)}")
     if kind not in _OBST_KEYS:
-        close = difflib.get_close_matches(str(kind), list(_OBST_KEYS), n=1)
+        close = difflib.get_close_matches(kind, list(_OBST_KEYS), n=1)
         hint = f"; did you mean {close[0]!r}?" if close else ""
-        raise ctx.err(f"{pre}type", f"unknown obstacle type {kind!r}{hint} "
+        raise ctx.err(f"{pre}type", f"unknown obstacle type {_show(kind)}{hint} "
                       f"(allowed: {', '.join(_OBST_KEYS)})")
     ctx.check_keys(o, _OBST_KEYS[kind], pre)
     known = o.get("known", True)
     if not isinstance(known, bool):
-        raise ctx.err(f"{pre}known", f"expected true or false, got {known!r}")
+        raise ctx.err(f"{pre}known", f"expected true or false, got {_show(known)}")
     name = ctx.string(o, "name", pre, f"obstacle{i}")
     if kind == "circle":
         c = ctx.point(ctx.require(o, "center", pre), f"{pre}center", coord=True)
@@ -546,14 +591,17 @@ def _parse_obstacle(ctx: _Ctx, o: Any, i: int) -> Obstacle:
             key = f"{pre}min"
             lo = ctx.point(ctx.require(o, "min", pre), f"{pre}min", coord=True)
             hi = ctx.point(ctx.require(o, "max", pre), f"{pre}max", coord=True)
+            if np.any(hi <= lo):
+                raise ctx.err(f"{pre}max", "rectangle needs min < max in both axes, got "
+                              f"{lo.tolist()} {hi.tolist()}")
         else:
             key = f"{pre}center"
             c = ctx.point(ctx.require(o, "center", pre), f"{pre}center", coord=True)
             s = ctx.point(ctx.require(o, "size", pre), f"{pre}size", coord=True)
             lo, hi = c - s / 2, c + s / 2
-        if np.any(hi <= lo):
-            raise ctx.err(f"{pre}max", "rectangle needs min < max in both axes, got "
-                          f"{lo.tolist()} {hi.tolist()}")
+            if np.any(hi <= lo):
+                raise ctx.err(f"{pre}size", f"rectangle needs a size > 0 in both axes (that "
+                              f"double precision resolves at its centre), got {s.tolist()}")
         verts = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
         return Obstacle("rectangle", ctx.polygon(verts, key), known, name)
     verts = ctx.points(ctx.require(o, "vertices", pre), f"{pre}vertices", 3, coord=True)
@@ -561,7 +609,8 @@ def _parse_obstacle(ctx: _Ctx, o: Any, i: int) -> Obstacle:
     if "holes" in o:
         raw = o["holes"]
         if not isinstance(raw, list):
-            raise ctx.err(f"{pre}holes", "expected a list of rings [[[x, y], ...], ...]")
+            raise ctx.err(f"{pre}holes", f"expected a list of rings [[[x, y], ...], ...], got "
+                                         f"{_show(raw)}")
         holes = [ctx.points(h, f"{pre}holes[{k}]", 3, coord=True) for k, h in enumerate(raw)]
     poly = ctx.polygon(verts, f"{pre}vertices", holes, f"{pre}holes")
     return Obstacle("polygon", poly, known, name)
@@ -603,44 +652,113 @@ def _check_extent(ctx: _Ctx, frame, o: Obstacle, key: str, margin: float) -> Non
         raise ctx.err(key, str(e)) from None
 
 
-def _parse_dynamic(ctx: _Ctx, o: Any, i: int) -> DynamicObstacle:
+def _parse_dynamic(ctx: _Ctx, o: Any, i: int, length: float) -> DynamicObstacle:
     pre = f"dynamic_obstacles[{i}]."
     if not isinstance(o, dict):
-        raise ctx.err(f"dynamic_obstacles[{i}]", "expected a table")
-    ctx.check_keys(o, _DYN_KEYS, pre)
+        raise ctx.err(f"dynamic_obstacles[{i}]", f"expected a table, got {_show(o)}")
     kind = ctx.require(o, "type", pre)
+    if not isinstance(kind, str) or kind not in _DYN_TYPE_KEYS:
+        raise ctx.err(f"{pre}type", f"dynamic obstacles are 'circle' or 'polygon', got "
+                                    f"{_show(kind)}")
+    ctx.check_keys(o, _DYN_TYPE_KEYS[kind], pre)
     radius = None
     if kind == "circle":
         radius = ctx.number(ctx.require(o, "radius", pre), f"{pre}radius", positive=True,
                             coord=True)
         local = Point(0.0, 0.0).buffer(radius, quad_segs=CIRCLE_QUAD_SEGS)
-    elif kind == "polygon":
+    else:
         verts = ctx.points(ctx.require(o, "vertices", pre), f"{pre}vertices", 3, coord=True)
         local = ctx.polygon(verts, f"{pre}vertices")
-    else:
-        raise ctx.err(f"{pre}type", f"dynamic obstacles are 'circle' or 'polygon', got {kind!r}")
     name = ctx.string(o, "name", pre, f"dynamic{i}")
     wps = ctx.points(ctx.require(o, "waypoints", pre), f"{pre}waypoints", 1, coord=True)
+    vmax = MAX_REL_SPEED * length
     velocity = None
     if "velocity" in o:
         velocity = ctx.point(o["velocity"], f"{pre}velocity", coord=True)
+        if float(np.hypot(*velocity)) > vmax:
+            raise ctx.err(f"{pre}velocity", f"speed {float(np.hypot(*velocity)):.6g} is above "
+                          f"{vmax:.6g} ({MAX_REL_SPEED:g} x the bounds diagonal per second)")
         if len(wps) != 1:
             raise ctx.err(f"{pre}waypoints", "with 'velocity' give exactly one start waypoint")
         raw_t = o.get("times", [0.0])
         if not isinstance(raw_t, list) or len(raw_t) != 1:
             raise ctx.err(f"{pre}times", "with 'velocity' give one start time, e.g. times = [0.0]")
-        times = np.array([ctx.number(raw_t[0], f"{pre}times[0]")])
+        times = np.array([_time(ctx, raw_t[0], f"{pre}times[0]")])
     else:
         raw_t = ctx.require(o, "times", pre)
         if not isinstance(raw_t, list) or len(raw_t) != len(wps):
-            raise ctx.err(f"{pre}times", f"expected {len(wps)} time stamps (one per waypoint)")
-        times = np.array([ctx.number(t, f"{pre}times[{k}]") for k, t in enumerate(raw_t)])
+            got = f"{len(raw_t)}" if isinstance(raw_t, list) else _show(raw_t)
+            raise ctx.err(f"{pre}times", f"expected {len(wps)} time stamps (one per waypoint), "
+                                         f"got {got}")
+        times = np.array([_time(ctx, t, f"{pre}times[{k}]") for k, t in enumerate(raw_t)])
         if np.any(np.diff(times) <= 0):
             raise ctx.err(f"{pre}times", "time stamps must be strictly increasing")
+        if len(wps) > 1:
+            step = np.hypot(*np.diff(wps, axis=0).T)
+            with np.errstate(over="ignore", divide="ignore"):
+                speed = step / np.diff(times)
+            k = int(np.argmax(speed))
+            if not speed[k] <= vmax:
+                raise ctx.err(f"{pre}times", f"waypoints {k} -> {k + 1} imply a speed of "
+                              f"{speed[k]:.6g}, above {vmax:.6g} ({MAX_REL_SPEED:g} x the bounds "
+                              "diagonal per second)")
     after = o.get("after", "hold")
-    if after not in ("hold", "loop", "bounce"):
-        raise ctx.err(f"{pre}after", f"expected 'hold', 'loop' or 'bounce', got {after!r}")
+    if not isinstance(after, str) or after not in ("hold", "loop", "bounce"):
+        raise ctx.err(f"{pre}after", f"expected 'hold', 'loop' or 'bounce', got {_show(after)}")
     return DynamicObstacle(kind, local, times, wps, velocity, after, name, radius)
+
+
+def _time(ctx: _Ctx, v: Any, key: str) -> float:
+    t = ctx.number(v, key)
+    if abs(t) > MAX_TIME:
+        raise ctx.err(key, f"magnitude {abs(t):.3g} s is beyond {MAX_TIME:g} s")
+    return t
+
+
+def _parse_formation(ctx: _Ctx, tbl: Any, robots: list[Robot], diag: float) -> Formation:
+    if not isinstance(tbl, dict):
+        raise ctx.err("formation", f"expected a table, got {_show(tbl)}")
+    ctx.check_keys(tbl, _FORM_KEYS, "formation.")
+    ids = [r.id for r in robots]
+    diag_s = f"the bounds diagonal {diag:.6g}"
+    leader = ctx.require(tbl, "leader", "formation.")
+    if not isinstance(leader, str):
+        raise ctx.err("formation.leader", f"expected a robot id string, got {_show(leader)}")
+    if leader not in ids:
+        raise ctx.err("formation.leader", f"names no robot: {leader!r} (robots: {sorted(ids)})")
+    fl = ctx.require(tbl, "followers", "formation.")
+    if not isinstance(fl, list) or not fl:
+        got = "an empty list" if isinstance(fl, list) else _show(fl)
+        raise ctx.err("formation.followers", f"expected at least one follower table "
+                                             f"{{ id = ..., L = ..., phi = ... }}, got {got}")
+    followers: list[Follower] = []
+    for k, f in enumerate(fl):
+        pre = f"formation.followers[{k}]."
+        if not isinstance(f, dict):
+            raise ctx.err(f"formation.followers[{k}]", f"expected a table, got {_show(f)}")
+        ctx.check_keys(f, _FOLL_KEYS, pre)
+        fid = ctx.require(f, "id", pre)
+        if not isinstance(fid, str):
+            raise ctx.err(f"{pre}id", f"expected a robot id string, got {_show(fid)}")
+        if fid in {x.id for x in followers}:
+            raise ctx.err(f"{pre}id", f"follower {fid!r} is listed twice")
+        if fid not in ids:
+            raise ctx.err(f"{pre}id", f"names no robot: {fid!r} (robots: {sorted(ids)})")
+        if fid == leader:
+            raise ctx.err(f"{pre}id", f"the leader {leader!r} cannot also be a follower")
+        L = ctx.number(ctx.require(f, "L", pre), f"{pre}L", positive=True, hi=diag,
+                       hi_what=diag_s)
+        phi = ctx.number(ctx.require(f, "phi", pre), f"{pre}phi")
+        if abs(phi) > math.pi:
+            raise ctx.err(f"{pre}phi", f"must be in [-pi, pi] rad, got {phi}")
+        followers.append(Follower(fid, L, phi))
+    rmax = max(r.radius for r in robots)
+    if "safety_distance" not in tbl and rmax == 0:
+        raise ctx.err("formation.safety_distance", "missing: the default 2 x the largest "
+                      "robot radius is 0 for point robots; give safety_distance > 0")
+    sd = ctx.number(tbl.get("safety_distance", 2 * rmax), "formation.safety_distance",
+                    positive=True, hi=diag, hi_what=diag_s)
+    return Formation(leader, tuple(followers), sd)
 
 
 def parse_problem(data: dict, where: str = "<problem>") -> Problem:
@@ -653,14 +771,22 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
     """
     ctx = _Ctx(where)
     if not isinstance(data, dict):
-        raise ctx.err("<root>", "expected a table")
+        raise ctx.err("<root>", f"expected a table, got {_show(data)}")
+    try:
+        return _parse(ctx, data)
+    except RecursionError:  # defensive: nothing above recurses into the values
+        raise ctx.err("<root>", "values nested too deeply") from None
+
+
+def _parse(ctx: _Ctx, data: dict) -> Problem:
+    where = ctx.where
     ctx.check_keys(data, _TOP_KEYS, "")
     name = ctx.string(data, "name", "")
     description = ctx.string(data, "description", "", "")
     source = ctx.string(data, "source", "", "")
     b = ctx.require(data, "bounds", "")
     if not isinstance(b, list) or len(b) != 4:
-        raise ctx.err("bounds", "expected [xmin, ymin, xmax, ymax]")
+        raise ctx.err("bounds", f"expected [xmin, ymin, xmax, ymax], got {_show(b)}")
     bounds = tuple(ctx.number(v, f"bounds[{k}]") for k, v in enumerate(b))
     if bounds[0] >= bounds[2] or bounds[1] >= bounds[3]:
         raise ctx.err("bounds", f"need xmin < xmax and ymin < ymax, got {list(bounds)}")
@@ -670,94 +796,74 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
         frame = Frame.from_bounds(bounds)
     except ValueError as e:
         raise ctx.err("bounds", str(e)) from None
+    diag = frame.length
+    diag_s = f"the bounds diagonal {diag:.6g}"
 
     for key in ("obstacles", "dynamic_obstacles", "robots"):
         if key in data and not isinstance(data[key], list):
             raise ctx.err(key, f"expected an array of tables: write [[{key}]] for each entry")
     obstacles = tuple(_parse_obstacle(ctx, o, i) for i, o in enumerate(data.get("obstacles", [])))
-    dyn = tuple(_parse_dynamic(ctx, o, i) for i, o in enumerate(data.get("dynamic_obstacles", [])))
+    dyn = tuple(_parse_dynamic(ctx, o, i, diag)
+                for i, o in enumerate(data.get("dynamic_obstacles", [])))
 
     raw_robots = ctx.require(data, "robots", "")
     if not isinstance(raw_robots, list) or not raw_robots:
         raise ctx.err("robots", "expected at least one [[robots]] table")
-    formation_tbl = data.get("formation")
-    follower_ids: set[str] = set()
-    if isinstance(formation_tbl, dict):
-        fl_raw = formation_tbl.get("followers", [])
-        follower_ids = {f.get("id") for f in (fl_raw if isinstance(fl_raw, list) else [])
-                        if isinstance(f, dict) and isinstance(f.get("id"), str)}
     robots: list[Robot] = []
+    no_goal: list[int] = []
     for i, r in enumerate(raw_robots):
         pre = f"robots[{i}]."
         if not isinstance(r, dict):
-            raise ctx.err(f"robots[{i}]", "expected a table")
+            raise ctx.err(f"robots[{i}]", f"expected a table, got {_show(r)}")
         ctx.check_keys(r, _ROBOT_KEYS, pre)
         rid = ctx.require(r, "id", pre)
         if not isinstance(rid, str) or not rid:
-            raise ctx.err(f"{pre}id", f"expected a non-empty string, got {rid!r}")
+            raise ctx.err(f"{pre}id", f"expected a non-empty string, got {_show(rid)}")
         if rid in {x.id for x in robots}:
             raise ctx.err(f"{pre}id", f"duplicate robot id {rid!r}")
         start = ctx.point(ctx.require(r, "start", pre), f"{pre}start")
         goal = None
-        if "goal" in r or rid not in follower_ids:
-            goal = ctx.point(ctx.require(r, "goal", pre), f"{pre}goal")
-        radius = ctx.number(ctx.require(r, "radius", pre), f"{pre}radius", nonneg=True)
-        vmax = ctx.number(r.get("max_speed", 1.0), f"{pre}max_speed", positive=True)
+        if "goal" in r:
+            goal = ctx.point(r["goal"], f"{pre}goal")
+        else:
+            no_goal.append(i)
+        radius = ctx.number(ctx.require(r, "radius", pre), f"{pre}radius", nonneg=True,
+                            hi=diag, hi_what=diag_s)
+        vmax = ctx.number(r.get("max_speed", 1.0), f"{pre}max_speed", positive=True,
+                          hi=MAX_REL_SPEED * diag,
+                          hi_what=f"{MAX_REL_SPEED:g} x {diag_s} per second")
         robots.append(Robot(rid, start, goal, radius, vmax))
 
     formation = None
-    if formation_tbl is not None:
-        if not isinstance(formation_tbl, dict):
-            raise ctx.err("formation", "expected a table")
-        ctx.check_keys(formation_tbl, _FORM_KEYS, "formation.")
-        ids = {r.id for r in robots}
-        leader = ctx.require(formation_tbl, "leader", "formation.")
-        if leader not in ids:
-            raise ctx.err("formation.leader", f"names no robot: {leader!r} (robots: {sorted(ids)})")
-        fl = ctx.require(formation_tbl, "followers", "formation.")
-        if not isinstance(fl, list) or not fl:
-            raise ctx.err("formation.followers", "expected at least one follower table")
-        followers = []
-        for k, f in enumerate(fl):
-            pre = f"formation.followers[{k}]."
-            if not isinstance(f, dict):
-                raise ctx.err(f"formation.followers[{k}]", "expected a table")
-            ctx.check_keys(f, _FOLL_KEYS, pre)
-            fid = ctx.require(f, "id", pre)
-            if not isinstance(fid, str):
-                raise ctx.err(f"{pre}id", f"expected a robot id string, got {fid!r}")
-            if fid in {x.id for x in followers}:
-                raise ctx.err(f"{pre}id", f"follower {fid!r} is listed twice")
-            if fid not in ids:
-                raise ctx.err(f"{pre}id", f"names no robot: {fid!r} (robots: {sorted(ids)})")
-            if fid == leader:
-                raise ctx.err(f"{pre}id", "the leader cannot also be a follower")
-            L = ctx.number(ctx.require(f, "L", pre), f"{pre}L", positive=True)
-            phi = ctx.number(ctx.require(f, "phi", pre), f"{pre}phi")
-            if abs(phi) > math.pi:
-                raise ctx.err(f"{pre}phi", f"must be in [-pi, pi] rad, got {phi}")
-            followers.append(Follower(fid, L, phi))
-        rmax = max(r.radius for r in robots)
-        if "safety_distance" not in formation_tbl and rmax == 0:
-            raise ctx.err("formation.safety_distance", "missing: the default 2 x the largest "
-                          "robot radius is 0 for point robots; give safety_distance > 0")
-        sd = ctx.number(formation_tbl.get("safety_distance", 2 * rmax),
-                        "formation.safety_distance", positive=True)
-        formation = Formation(leader, tuple(followers), sd)
+    if "formation" in data:
+        formation = _parse_formation(ctx, data["formation"], robots, diag)
+    # every robot but a formation follower needs a goal (checked after the formation, so a
+    # broken formation is reported as such, not as a follower's missing goal)
+    followers = {f.id for f in formation.followers} if formation else set()
+    for i in no_goal:
+        if robots[i].id not in followers:
+            why = (f"robot {robots[i].id!r} is not a formation follower" if formation else
+                   "only formation followers may omit it")
+            raise ctx.err(f"robots[{i}].goal", f"missing required key ({why})")
 
     sensing = None
     if "sensing" in data:
         st = data["sensing"]
         if not isinstance(st, dict):
-            raise ctx.err("sensing", "expected a table")
+            raise ctx.err("sensing", f"expected a table, got {_show(st)}")
         ctx.check_keys(st, _SENS_KEYS, "sensing.")
-        sensing = ctx.number(ctx.require(st, "range", "sensing."), "sensing.range", positive=True)
+        sensing = ctx.number(ctx.require(st, "range", "sensing."), "sensing.range", positive=True,
+                             hi=MAX_REL_SPEED * diag, hi_what=f"{MAX_REL_SPEED:g} x {diag_s}")
     gtol = None
     if "goal_tolerance" in data:
-        gtol = ctx.number(data["goal_tolerance"], "goal_tolerance", positive=True)
+        gtol = ctx.number(data["goal_tolerance"], "goal_tolerance", positive=True, hi=diag,
+                          hi_what=diag_s)
     tags = data.get("tags", [])
-    if not isinstance(tags, list) or not all(isinstance(t, str) for t in tags):
-        raise ctx.err("tags", "expected a list of strings")
+    if not isinstance(tags, list):
+        raise ctx.err("tags", f"expected a list of strings, got {_show(tags)}")
+    for k, t in enumerate(tags):
+        if not isinstance(t, str):
+            raise ctx.err(f"tags[{k}]", f"expected a string, got {_show(t)}")
 
     prob = Problem(
         name=name, bounds=bounds, robots=tuple(robots), obstacles=obstacles,
@@ -794,14 +900,22 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
 def read_problem(path: str | Path) -> Problem:
     """Read and validate a scenario TOML file."""
     p = Path(path)
+    if p.is_dir():
+        raise ProblemError(f"{p}: is a directory, not a scenario file")
     try:
         text = p.read_text(encoding="utf-8")
     except OSError as e:
-        raise ProblemError(f"{p}: cannot read file ({e.strerror})") from None
+        raise ProblemError(f"{p}: cannot read file ({e.strerror or e})") from None
+    except UnicodeDecodeError as e:
+        raise ProblemError(f"{p}: not UTF-8 text ({e.reason} at byte {e.start}); TOML files "
+                           "are UTF-8") from None
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise ProblemError(f"{p}: invalid TOML: {e}") from None
+    except RecursionError:
+        raise ProblemError(f"{p}: invalid TOML: arrays or inline tables nested too deeply "
+                           "for the TOML reader") from None
     return parse_problem(data, str(p))
 
 
