@@ -88,12 +88,21 @@ def load_problem(name_or_path: str | Path | Problem) -> Problem:
     """Load a scenario by catalogue name (``"paper-env1"``) or path to a ``.toml`` file."""
     if isinstance(name_or_path, Problem):
         return name_or_path
+    if not isinstance(name_or_path, (str, Path)):
+        raise ProblemError(f"expected a problem name, a .toml path or a Problem, got "
+                           f"{type(name_or_path).__name__}")
     s = str(name_or_path)
     p = Path(s)
+    if p.is_dir() and (s.endswith(".toml") or s not in problem_files()):
+        raise ProblemError(f"{s}: is a directory, not a scenario file")
     if s.endswith(".toml") or p.is_file():
         if not p.is_file():
             raise ProblemError(f"{s}: no such scenario file")
-        return _load_cached(str(p.resolve()), p.stat().st_mtime)
+        try:
+            mtime = p.stat().st_mtime
+        except OSError as e:
+            raise ProblemError(f"{s}: cannot read file ({e.strerror or e})") from None
+        return _load_cached(str(p.resolve()), mtime)
     files = problem_files()
     if s not in files:
         close = difflib.get_close_matches(s, list(files), n=3)
@@ -112,11 +121,28 @@ def list_problems(tag: str | None = None) -> list[str]:
 
 
 def read_preset(path: Path) -> dict:
-    """Parse a preset file: ``backend``, ``summary``, ``[options]``."""
+    """Parse a preset file: ``backend``, ``summary``, ``[options]``.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the key: unreadable, not UTF-8, invalid TOML, unknown or missing
+        keys, ``backend`` / ``summary`` not strings, ``options`` not a table.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"{path}: is a directory, not a preset file")
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as e:
+        raise ValueError(f"{path}: cannot read file ({e.strerror or e})") from None
+    except UnicodeDecodeError as e:
+        raise ValueError(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
     except tomllib.TOMLDecodeError as e:
         raise ValueError(f"{path}: invalid TOML: {e}") from None
+    except RecursionError:
+        raise ValueError(f"{path}: invalid TOML: arrays or inline tables nested too "
+                         "deeply") from None
     allowed = {"backend", "summary", "options"}
     for k in data:
         if k not in allowed:
@@ -125,7 +151,10 @@ def read_preset(path: Path) -> dict:
             raise ValueError(f"{path}: {k}: unknown key{hint} (allowed: {sorted(allowed)})")
     if "backend" not in data:
         raise ValueError(f"{path}: backend: missing required key")
+    for k in ("backend", "summary"):
+        if k in data and not isinstance(data[k], str):
+            raise ValueError(f"{path}: {k}: expected a string, got {type(data[k]).__name__}")
     opts = data.get("options", {})
     if not isinstance(opts, dict):
-        raise ValueError(f"{path}: options: expected a table")
+        raise ValueError(f"{path}: options: expected a table, got {type(opts).__name__}")
     return {"backend": data["backend"], "summary": data.get("summary", ""), "options": opts}
