@@ -303,49 +303,100 @@ def _problem_of(result: Result, problem: Problem | None) -> Problem:
     return load_problem(result.problem)
 
 
-def _first_static_contact(oset: Any, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The first point of the colliding segment ``a -> b`` where the disc touches an obstacle.
+def _contact_spans(oset: Any, a: np.ndarray, b: np.ndarray, short: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Per colliding segment ``a[k] -> b[k]``: the parameters of its first and last contact.
 
-    Whether the prefix ``a -> a + u (b - a)`` collides is monotone in ``u``; two rounds of 64
-    exact prefix tests locate the entry to 1/4096 of the segment.
+    Whether the prefix ``a -> a + u (b - a)`` collides grows with ``u`` and whether the suffix
+    ``a + u (b - a) -> b`` does shrinks with it; two rounds of 64 exact tests of each locate
+    the first and the last contact to 1/4096 of the segment (the span drawn red is never
+    shorter than the contact).  Segments shorter than ``short`` are kept whole.
     """
-    if not oset.segment_free(a[None], a[None])[0]:
-        return a.copy()
-    lo, hi = 0.0, 1.0
-    for _ in range(2):
-        u = np.linspace(lo, hi, 65)
-        free = oset.segment_free(np.repeat(a[None], len(u), axis=0), a + u[:, None] * (b - a))
-        k = int(np.argmin(free)) if not free.all() else len(u) - 1
-        lo, hi = float(u[max(k - 1, 0)]), float(u[k])
-    return a + hi * (b - a)
+    k = len(a)
+    u0, u1 = np.zeros(k), np.ones(k)
+    todo = np.flatnonzero(np.hypot(*(b - a).T) >= short)
+    if not todo.size:
+        return u0, u1
+    A, D = a[todo], (b - a)[todo]
+    grid = np.linspace(0.0, 1.0, 65)
+    rows = np.repeat(np.arange(len(todo)), len(grid))
+
+    def bad(lo: np.ndarray, hi: np.ndarray, prefix: bool) -> tuple[np.ndarray, np.ndarray]:
+        u = lo[:, None] + (hi - lo)[:, None] * grid[None, :]
+        pts = A[rows] + u.reshape(-1, 1) * D[rows]
+        ends = A[rows] if prefix else A[rows] + D[rows]
+        return u, ~oset.segment_free(ends, pts).reshape(u.shape)
+
+    lo, hi = np.zeros(len(todo)), np.ones(len(todo))
+    for _ in range(2):  # the first contact: the first u whose prefix collides
+        u, hit = bad(lo, hi, True)
+        j = np.where(hit.any(axis=1), hit.argmax(axis=1), len(grid) - 1)
+        lo, hi = u[np.arange(len(u)), np.maximum(j - 1, 0)], u[np.arange(len(u)), j]
+    u0[todo] = lo
+    lo, hi = np.zeros(len(todo)), np.ones(len(todo))
+    for _ in range(2):  # the last contact: the last u whose suffix collides
+        u, hit = bad(lo, hi, False)
+        j = np.where(hit.any(axis=1), len(grid) - 1 - hit[:, ::-1].argmax(axis=1), 0)
+        lo = u[np.arange(len(u)), j]
+        hi = u[np.arange(len(u)), np.minimum(j + 1, len(grid) - 1)]
+    u1[todo] = hi
+    return u0, u1
 
 
 def _violations(prob: Problem, paths: Mapping[str, np.ndarray], metrics: Mapping,
                 times: np.ndarray | None) -> dict[str, list]:
     """Where the validator's complaints are, on the map.
 
-    ``segments``: runs of consecutive path segments colliding with a static obstacle,
-    recomputed with the exact engine (``problem.obstacle_set(radius).crossings(...,
-    details=True).pairs``); ``entries``: each colliding robot's first static contact point;
+    ``segments``: the path segments colliding with a static obstacle, recomputed with the
+    exact engine (``problem.obstacle_set(radius).crossings(..., details=True).pairs``), each
+    trimmed to its spans of contact with each obstacle it meets (:func:`_contact_spans`),
+    joined into one polyline where consecutive spans meet; ``entries``: each colliding robot's
+    first static contact point;
     ``contacts``: the contacts in time (moving obstacles, other robots) with ``time`` and
     ``position``, from ``metrics["contacts"]``, else ``metrics["first_contact"]`` (and, when
     the metrics count more than one, all of them recomputed by
-    :func:`optplan.metrics.time_checks`); ``outside``: runs of path points outside the bounds,
-    with the neighbouring points inside (the excursion).
+    :func:`optplan.metrics.time_checks`); ``moving``: the shapes of the moving obstacles met,
+    where they were at the contact (first 10 contacts); ``outside``: runs of path points
+    outside the bounds, with the neighbouring points inside (the excursion).
     """
-    out: dict[str, list] = {"segments": [], "entries": [], "contacts": [], "outside": [],
-                            "outside_points": []}
+    from optplan.geometry import obstacle_set
+
+    out: dict[str, list] = {"segments": [], "entries": [], "contacts": [], "moving": [],
+                            "outside": [], "outside_points": []}
     own = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in paths.items()
            if k in prob.robot_ids and len(np.asarray(v))}
     for rid, p in own.items():
         oset = prob.obstacle_set(prob.robot(rid).radius)
         sp = p if len(p) > 1 else np.vstack([p, p])
         cr = oset.crossings(sp[None], details=True, penetration=False)
-        bad = np.unique(cr.pairs[1])
-        if bad.size:
-            for run in np.split(bad, np.flatnonzero(np.diff(bad) > 1) + 1):
-                out["segments"].append(sp[run[0]: run[-1] + 2])
-            out["entries"].append(_first_static_contact(oset, sp[bad[0]], sp[bad[0] + 1]))
+        seg, obs = cr.pairs[1], cr.pairs[2]
+        if seg.size:
+            # the contact span of every (segment, obstacle) pair, against that obstacle alone
+            u0, u1 = np.zeros(len(seg)), np.ones(len(seg))
+            for j in np.unique(obs):
+                sel = np.flatnonzero(obs == j)
+                one = obstacle_set([prob.obstacles[int(j)]], oset.radius, prob.frame)
+                u0[sel], u1[sel] = _contact_spans(one, sp[seg[sel]], sp[seg[sel] + 1],
+                                                  2e-3 * prob.extent)
+            order = np.lexsort((u0, seg))
+            spans: list[list] = []  # [segment, u0, u1], overlaps on a segment merged
+            for i in order:
+                if spans and spans[-1][0] == seg[i] and u0[i] <= spans[-1][2]:
+                    spans[-1][2] = max(spans[-1][2], u1[i])
+                else:
+                    spans.append([int(seg[i]), float(u0[i]), float(u1[i])])
+            line: list = []
+            for i, (k, a0, a1) in enumerate(spans):
+                a, d = sp[k], sp[k + 1] - sp[k]
+                joined = (i > 0 and spans[i - 1][0] == k - 1 and spans[i - 1][2] == 1.0
+                          and a0 == 0.0)
+                if line and not joined:
+                    out["segments"].append(np.asarray(line))
+                    line = []
+                line += [a + a1 * d] if line else [a + a0 * d, a + a1 * d]
+            out["segments"].append(np.asarray(line))
+            k, a0 = spans[0][0], spans[0][1]
+            out["entries"].append(sp[k] + a0 * (sp[k + 1] - sp[k]))
         off = np.flatnonzero(~prob.frame.in_bounds(p))
         if off.size:
             out["outside_points"].append(p[off])
@@ -363,6 +414,10 @@ def _violations(prob: Problem, paths: Mapping[str, np.ndarray], metrics: Mapping
             tc = time_checks(prob, own, time_stamps(prob, own, times))
             contacts = sorted(tc["contacts"], key=lambda c: c["time"]) or contacts
     out["contacts"] = [c for c in contacts if c and c.get("position") is not None]
+    movers = {d.name: d for d in prob.dynamic_obstacles}
+    out["moving"] = [movers[c["other"]].geometry_at(float(c["time"]))
+                     for c in out["contacts"][:10]
+                     if c.get("kind") == "moving obstacle" and c.get("other") in movers]
     return out
 
 
@@ -370,8 +425,9 @@ def _draw_violations(ax: Axes, v: Mapping[str, list]) -> None:
     """Red marks for :func:`_violations`; legend entries "collision" and "outside the map"."""
     label = "collision"
     for seg in v["segments"]:
-        ax.plot(seg[:, 0], seg[:, 1], "-", color=COLLISION_COLOUR, lw=3.2, alpha=0.9,
-                solid_capstyle="round", zorder=8.5, gid="collision", label=label)
+        # a wide red band under the path: the robot's colour stays visible along its middle
+        ax.plot(seg[:, 0], seg[:, 1], "-", color=COLLISION_COLOUR, lw=6.0, alpha=0.75,
+                solid_capstyle="round", zorder=6.9, gid="collision", label=label)
         label = None
     pts = [np.asarray(c["position"], dtype=float) for c in v["contacts"]] + list(v["entries"])
     if pts:
@@ -380,9 +436,11 @@ def _draw_violations(ax: Axes, v: Mapping[str, list]) -> None:
                 ls="none", zorder=10, gid="collision-point", label=label)
     if v["contacts"]:
         c = min(v["contacts"], key=lambda c: c["time"])
-        ax.annotate(f"first contact t={c['time']:.3g}", tuple(c["position"]),
+        ax.annotate(f"{c.get('other', 'contact')}, t={c['time']:.3g}", tuple(c["position"]),
                     textcoords="offset points", xytext=(6, 6), fontsize=7,
                     color=COLLISION_COLOUR, zorder=10)
+    for c in v["moving"]:  # the moving obstacle where it was at the contact
+        _draw_poly(ax, c, fc="none", ec=COLLISION_COLOUR, lw=1.0, ls="--", zorder=8.5)
     label = "outside the map"
     for run in v["outside"]:
         ax.plot(run[:, 0], run[:, 1], "--", color=COLLISION_COLOUR, lw=1.6, zorder=8.5,
@@ -864,6 +922,7 @@ def animate(result: Result, out: str | Path, problem: Problem | None = None, fps
         dyn_patches.append((d, patches))
     # the clock: above the axes on the right, the title on the left, the legend outside on
     # the right of the axes, so neither the data nor the legend can hide it
+    ax.set_title("")  # plot_problem's centred title
     ax.set_title(f"{prob.name} / {result.solver}", fontsize=10, loc="left")
     label = ax.text(1.0, 1.0 + 0.02, "", transform=ax.transAxes, ha="right", va="bottom",
                     fontsize=10, family="monospace", gid="clock")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 
@@ -233,3 +234,214 @@ def test_feasible_length_median_starts_when_half_are_feasible():
     y = fig.axes[1].lines[0].get_ydata()
     assert np.all(np.isnan(y[:3]))  # fewer than 2 of 3 runs feasible
     np.testing.assert_allclose(y[3:], [17.0, 16.0, 15.0])
+
+
+# -- legends, clock, collisions, formats (issue 17) ----------------------------------------
+
+
+def _drawn(fig):
+    """Attach an Agg canvas if needed, draw, return the renderer."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    if not isinstance(fig.canvas, FigureCanvasAgg):
+        FigureCanvasAgg(fig)
+    fig.canvas.draw()
+    return fig.canvas.get_renderer()
+
+
+def _path_display_points(ax, paths, per_segment=50):
+    """Display coordinates of points densely spaced along every path."""
+    pts = []
+    for p in paths.values():
+        p = np.asarray(p, dtype=float)
+        for a, b in zip(p[:-1], p[1:]):
+            u = np.linspace(0.0, 1.0, per_segment)[:, None]
+            pts.append(a + u * (b - a))
+    return ax.transData.transform(np.concatenate(pts))
+
+
+def _inside(bbox, pts, pad=0.0):
+    return ((pts[:, 0] >= bbox.x0 - pad) & (pts[:, 0] <= bbox.x1 + pad)
+            & (pts[:, 1] >= bbox.y0 - pad) & (pts[:, 1] <= bbox.y1 + pad))
+
+
+def _overlap(a, b) -> bool:
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+def _red_lines(ax, gid="collision"):
+    return [ln for ln in ax.lines if ln.get_gid() == gid
+            and ln.get_color() == plot.COLLISION_COLOUR]
+
+
+def test_legend_is_outside_the_axes_and_inside_the_figure(scene, team_result):
+    for fig in (plot.plot_result(team_result, problem=scene), plot.plot_problem(scene)):
+        r = _drawn(fig)
+        ax = fig.axes[0]
+        leg = ax.get_legend().get_window_extent(r)
+        box = ax.get_window_extent(r)
+        assert leg.x0 >= box.x1  # right of the axes: it covers no data
+        # the constrained layout made room: a plain savefig (no bbox_inches) keeps it whole
+        assert fig.bbox.x0 <= leg.x0 and leg.x1 <= fig.bbox.x1
+        assert fig.bbox.y0 <= leg.y0 and leg.y1 <= fig.bbox.y1
+
+
+def test_corner_legend_covers_no_path(scene, team_result):
+    """In a figure without a layout engine (neighbouring axes possible) the legend goes into
+    the corner with the least data: none of the paths' points is under it."""
+    fig = plot.new_figure((12, 6))
+    a, b = fig.add_subplot(1, 2, 1), fig.add_subplot(1, 2, 2)
+    for ax in (a, b):
+        plot.plot_result(team_result, problem=scene, ax=ax, snapshot_every=0)
+    r = _drawn(fig)
+    for ax in (a, b):
+        leg = ax.get_legend().get_window_extent(r)
+        assert _overlap(leg, ax.get_window_extent(r))  # inside the axes ...
+        assert not _inside(leg, _path_display_points(ax, team_result.paths)).any()  # ... free
+        assert not _overlap(leg, (b if ax is a else a).get_window_extent(r))
+
+
+def test_legend_choices(scene, team_result):
+    fig = plot.plot_result(team_result, problem=scene, legend="corner")
+    r = _drawn(fig)
+    ax = fig.axes[0]
+    leg = ax.get_legend().get_window_extent(r)
+    assert not _inside(leg, _path_display_points(ax, team_result.paths)).any()
+    assert plot.plot_result(team_result, problem=scene, legend=None).axes[0].get_legend() is None
+    with pytest.raises(ValueError, match="legend must be one of"):
+        plot.plot_problem(scene, legend="best")
+
+
+def test_animation_clock_is_visible_and_not_under_the_legend(scene, team_result, tmp_path):
+    fig = plot.animate(team_result, tmp_path / "c.gif", problem=scene, max_frames=5, dpi=60)
+    ax = fig.axes[0]
+    clock = next(t for t in ax.texts if t.get_gid() == "clock")
+    assert re.fullmatch(r"t = \d+\.\d\d", clock.get_text())
+    clock.set_text(f"t = {team_result.times[-1]:.2f}")  # the widest clock, the last frame's
+    r = _drawn(fig)
+    cb = clock.get_window_extent(r)
+    assert fig.bbox.x0 <= cb.x0 and cb.x1 <= fig.bbox.x1
+    assert fig.bbox.y0 <= cb.y0 and cb.y1 <= fig.bbox.y1
+    leg = ax.get_legend().get_window_extent(r)
+    assert not _overlap(cb, leg)
+    assert not _overlap(cb, ax.get_window_extent(r))  # above the axes: no robot passes it
+    title = ax._left_title.get_window_extent(r)
+    assert not _overlap(cb, title)
+    # the legend is outside the axes and whole in the frame
+    assert leg.x0 >= ax.get_window_extent(r).x1 and leg.x1 <= fig.bbox.x1
+    with PIL.open(tmp_path / "c.gif") as im:
+        assert im.size == (round(7.2 * 60), round(5.5 * 60))
+
+
+def _hand(prob, paths, times=None):
+    return Result(status=Status.approximate, paths=paths,
+                  metrics=op.evaluate(prob, paths, times), solver="hand", backend="hand",
+                  options={}, seed=0, problem=prob.name, times=times)
+
+
+def test_colliding_path_gets_red_segments_and_its_first_contact(scene):
+    # L (radius 2) enters the rectangle [40, 60] x [15, 40] and leaves it: one red span
+    path = np.array([[10.0, 10.0], [50.0, 28.0], [50.0, 90.0]])
+    res = _hand(scene, {"L": path})
+    assert res.metrics["static_collisions"] == 2 and len(res.metrics["crossed"]) == 1
+    ax = plot.plot_result(res, problem=scene).axes[0]
+    red = _red_lines(ax)
+    assert len(red) == 1
+    xy = red[0].get_xydata()
+    # trimmed to the contact: from the entry (x = 40 - r) to the exit (y = 40 + r)
+    np.testing.assert_allclose(xy[0], [38.0, 10 + 0.7 * 18], atol=0.05)
+    np.testing.assert_allclose(xy[1], [50.0, 28.0])
+    np.testing.assert_allclose(xy[2], [50.0, 42.0], atol=0.05)
+    assert len(xy) == 3
+    mark = next(ln for ln in ax.lines if ln.get_gid() == "collision-point")
+    # the static entry (x = 38 on the first segment) among the marks (this path also meets
+    # the moving triangle, whose contact is marked too)
+    assert np.min(np.hypot(*(mark.get_xydata() - [38.0, 22.6]).T)) < 0.05
+    assert "collision" in ax.get_legend_handles_labels()[1]
+
+
+def test_red_spans_per_obstacle_and_none_for_a_free_path(scene):
+    # one segment through the rectangle and, further on, the triangle: two red spans
+    path = np.array([[30.0, 20.0], [90.0, 70.0]])
+    res = _hand(scene, {"L": path})
+    ax = plot.plot_result(res, problem=scene).axes[0]
+    assert len(_red_lines(ax)) == res.metrics["static_collisions"] == 2
+    free = np.array([[10.0, 10.0], [10.0, 90.0], [90.0, 90.0]])
+    ax = plot.plot_result(_hand(scene, {"L": free}), problem=scene).axes[0]
+    assert _red_lines(ax) == [] and "collision" not in ax.get_legend_handles_labels()[1]
+
+
+def test_contact_with_a_moving_obstacle_is_marked_where_and_when(scene):
+    # the moving circle (radius 4) goes (80, 20) -> (80, 50) in 10 s; L crosses x = 80 at
+    # y = 35 at t = 5, when the circle is there
+    t = np.linspace(0.0, 10.0, 41)
+    path = np.stack([np.linspace(60.0, 100.0, 41), np.full(41, 35.0)], axis=1)
+    path[:, 0] = np.clip(path[:, 0], 0, 99)
+    res = _hand(scene, {"L": path}, t)
+    fc = res.metrics["first_contact"]
+    assert fc is not None and fc["kind"] == "moving obstacle"
+    ax = plot.plot_result(res, problem=scene, snapshot_every=0).axes[0]
+    mark = next(ln for ln in ax.lines if ln.get_gid() == "collision-point")
+    np.testing.assert_allclose(mark.get_xydata()[0], fc["position"])
+    assert any(fc["other"] in t.get_text() and f"t={fc['time']:.3g}" in t.get_text()
+               for t in ax.texts)
+    red_outline = [p for p in ax.patches if p.get_edgecolor()[:3] == (1.0, 0.0, 0.0)]
+    assert len(red_outline) == 1  # the moving obstacle where it was at the contact
+
+
+def test_excursion_outside_the_map_is_red_and_in_view(scene):
+    path = np.array([[10.0, 10.0], [30.0, -12.0], [35.0, 5.0], [90.0, 90.0]])
+    res = _hand(scene, {"L": path})
+    assert res.metrics["in_bounds"] is False
+    ax = plot.plot_result(res, problem=scene).axes[0]
+    assert "outside the map" in ax.get_legend_handles_labels()[1]
+    assert "outside the map" in ax.get_title()
+    dots = [ln for ln in ax.lines if ln.get_gid() == "outside" and ln.get_linestyle() == "None"]
+    np.testing.assert_allclose(dots[0].get_xydata(), [[30.0, -12.0]])
+    excursion = [ln for ln in _red_lines(ax, "outside") if ln.get_linestyle() == "--"]
+    np.testing.assert_allclose(excursion[0].get_xydata(), path[:3])
+    assert ax.get_ylim()[0] < -12.0
+
+
+def test_vector_formats_are_written(scene, team_result, tmp_path):
+    plot.plot_result(team_result, problem=scene, out=tmp_path / "r.svg")
+    plot.plot_problem(scene, out=tmp_path / "m.pdf")
+    plot.plot_convergence(team_result, out=tmp_path / "c.pdf")
+    svg = (tmp_path / "r.svg").read_text(encoding="utf-8")
+    assert len(svg) > 10_000 and "<svg" in svg[:1000]
+    for name in ("m.pdf", "c.pdf"):
+        data = (tmp_path / name).read_bytes()
+        assert data.startswith(b"%PDF") and len(data) > 5_000
+    with pytest.raises(ValueError, match="unsupported figure format"):
+        plot.plot_problem(scene, out=tmp_path / "m.jpg")
+
+
+def test_dpi_sets_the_png_size(scene, team_result, tmp_path):
+    sizes = {}
+    for dpi in (50, 100):
+        plot.plot_result(team_result, problem=scene, out=tmp_path / f"r{dpi}.png", dpi=dpi)
+        with PIL.open(tmp_path / f"r{dpi}.png") as im:
+            sizes[dpi] = im.size
+    # bbox_inches="tight" crops to the drawn extent, which text hinting moves by a few pixels
+    assert sizes[100][0] == pytest.approx(2 * sizes[50][0], rel=0.02)
+    assert sizes[100][1] == pytest.approx(2 * sizes[50][1], rel=0.02)
+    with pytest.raises(ValueError, match="dpi must be > 0"):
+        plot.plot_problem(scene, out=tmp_path / "x.png", dpi=0)
+
+
+def test_cli_plot_svg_and_dpi(tmp_path):
+    from optplan import cli
+
+    js = tmp_path / "r.json"
+    assert cli.main(["solve", "open-field", "visgraph", "--json", str(js)]) == 0
+    assert cli.main(["plot", str(js), "--out", str(tmp_path / "r.svg")]) == 0
+    assert "<svg" in (tmp_path / "r.svg").read_text(encoding="utf-8")[:1000]
+    for dpi in ("40", "80"):
+        assert cli.main(["plot", str(js), "--out", str(tmp_path / f"r{dpi}.png"),
+                         "--dpi", dpi]) == 0
+    with PIL.open(tmp_path / "r40.png") as a, PIL.open(tmp_path / "r80.png") as b:
+        assert b.size[0] == pytest.approx(2 * a.size[0], rel=0.02)
+    assert cli.main(["animate", str(js), "--out", str(tmp_path / "r.gif"), "--dpi", "40",
+                     "--max-frames", "3"]) == 0
+    with PIL.open(tmp_path / "r.gif") as im:
+        assert im.size == (round(7.2 * 40), round(5.5 * 40))
