@@ -501,9 +501,14 @@ def _run_dask(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
     distributed = _import_dask()
     cluster = None
     if dask_local:
-        cluster = distributed.LocalCluster(n_workers=int(dask_local), threads_per_worker=1,
-                                           processes=True, dashboard_address=None,
-                                           silence_logs=logging.ERROR)
+        import dask
+
+        # the workers' statistical profiler samples every thread's stack every 10 ms (under
+        # the GIL): it slows pure-Python runs down measurably, and a sweep does not need it
+        with dask.config.set({"distributed.worker.profile.enabled": False}):
+            cluster = distributed.LocalCluster(n_workers=int(dask_local), threads_per_worker=1,
+                                               processes=True, dashboard_address=None,
+                                               silence_logs=logging.ERROR)
         client = distributed.Client(cluster)
     else:
         try:
@@ -529,13 +534,17 @@ def _run_dask(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
             f.release()
             record(i, row, trace, wid)
     finally:
-        try:
-            if futures:
-                client.cancel(futures)
-            client.close(timeout=2)
-        finally:
-            if cluster is not None:
-                cluster.close(timeout=2)
+        # every finished run is stored by now: a slow or failing shutdown must not lose the
+        # sweep (e.g. a TimeoutError closing a busy cluster on a loaded machine)
+        steps = [lambda: client.cancel(futures) if futures else None,
+                 lambda: client.close(timeout=5)]
+        if cluster is not None:
+            steps.append(lambda: cluster.close(timeout=5))
+        for step in steps:
+            try:
+                step()
+            except Exception:  # noqa: BLE001, S110 - best effort
+                pass
 
 
 def _check_inputs(problems: Sequence[str], solvers: Sequence[str],

@@ -5,8 +5,9 @@ every finished run as soon as it finishes, in its own transaction, so a crash or
 most the runs that were still going.  Re-running the same sweep on the same file resumes it:
 finished (problem, solver, seed) cells are read back instead of run again.
 
-The file is plain SQLite (stdlib :mod:`sqlite3`, rollback journal, so it is a single file when
-no sweep is writing) and can be read with ``sqlite3``, pandas or DuckDB::
+The file is plain SQLite (stdlib :mod:`sqlite3`; write-ahead log, whose ``-wal`` / ``-shm``
+side files exist only while a sweep writes, so it is a single file when none is running) and
+can be read with ``sqlite3``, pandas or DuckDB, also while a sweep is writing::
 
     import sqlite3, pandas as pd
     con = sqlite3.connect("runs.sqlite")
@@ -251,6 +252,11 @@ class ResultsDB:
         try:
             self.con = sqlite3.connect(str(self.path), timeout=30.0)
             self.con.execute("PRAGMA foreign_keys = ON")
+            # WAL + synchronous NORMAL: a commit costs ~0.2 ms instead of ~15 ms (no fsync per
+            # run); committed runs survive a crash or kill of the sweep (not a power cut, where
+            # the last runs may be lost, never the file).  The -wal/-shm side files exist only
+            # while a sweep writes: the file is a single file again once it closes.
+            self.con.execute("PRAGMA journal_mode = WAL")
             self.con.execute("PRAGMA synchronous = NORMAL")
             with self.con:
                 self.con.executescript(SCHEMA)
@@ -347,11 +353,13 @@ class ResultsDB:
         self.close()
 
 
-def _connect_ro(path: str | Path) -> sqlite3.Connection:
+def _connect_read(path: str | Path) -> sqlite3.Connection:
     p = Path(path)
     if not p.is_file():
         raise FileNotFoundError(f"{p}: no such results database")
-    con = sqlite3.connect(f"file:{p}?mode=ro", uri=True, timeout=30.0)
+    # a read-write connection (that only reads): the last connection to close removes the
+    # write-ahead log's side files, which a read-only one would leave behind
+    con = sqlite3.connect(str(p), timeout=30.0)
     try:
         con.execute("SELECT 1 FROM runs LIMIT 1")
     except sqlite3.DatabaseError as e:
@@ -362,7 +370,7 @@ def _connect_ro(path: str | Path) -> sqlite3.Connection:
 
 def read_runs(path: str | Path) -> list[dict[str, Any]]:
     """The tidy rows of a results database, with ``id``, ``config``, ``worker``, ``finished``."""
-    con = _connect_ro(path)
+    con = _connect_read(path)
     try:
         db = ResultsDB.__new__(ResultsDB)
         db.path, db.con = Path(path), con
@@ -373,7 +381,7 @@ def read_runs(path: str | Path) -> list[dict[str, Any]]:
 
 def read_progress(path: str | Path) -> dict[int, dict[str, list[float]]]:
     """``run id -> {"iteration": [...], "best_cost": [...], "n_eval": [...], "time": [...]}``."""
-    con = _connect_ro(path)
+    con = _connect_read(path)
     out: dict[int, dict[str, list[float]]] = {}
     try:
         for rid, it, c, ne, t in con.execute(
@@ -392,7 +400,7 @@ def read_progress(path: str | Path) -> dict[int, dict[str, list[float]]]:
 
 def read_experiments(path: str | Path) -> list[dict[str, Any]]:
     """The ``experiment`` rows (JSON columns decoded)."""
-    con = _connect_ro(path)
+    con = _connect_read(path)
     try:
         cur = con.execute("SELECT * FROM experiment ORDER BY id")
         names = [d[0] for d in cur.description]

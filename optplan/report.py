@@ -94,7 +94,13 @@ def _box(ax: Any, data: list[np.ndarray], solvers: Sequence[str], colours: Seque
     y = np.arange(len(solvers))[::-1]
     present = [i for i, d in enumerate(data) if len(d)]
     if present:
-        bp = ax.boxplot([data[i] for i in present], positions=y[present], vert=False,
+        import matplotlib
+
+        # matplotlib >= 3.10 says orientation=; vert= is deprecated from 3.11
+        horiz = ({"orientation": "horizontal"} if tuple(
+            int(x) for x in matplotlib.__version__.split(".")[:2]) >= (3, 10)
+            else {"vert": False})
+        bp = ax.boxplot([data[i] for i in present], positions=y[present], **horiz,
                         widths=0.55, patch_artist=True, showfliers=True,
                         flierprops={"markersize": 3, "alpha": 0.5},
                         medianprops={"color": "black"})
