@@ -11,7 +11,6 @@ import shapely
 
 import optplan as op
 from optplan.backends import swarm as sw
-from optplan.backends.ipso import IPSO
 from optplan.geometry import PIECE_EDGES, convex_pieces, obstacle_set
 
 
@@ -228,37 +227,6 @@ def test_fitness_without_obstacles_counts_no_crossings():
     assert sw.segment_free(X[:, :2], X[:, 2:], bare).all()
 
 
-def test_snap_targets_are_the_pushed_out_convex_corners():
-    prob = _problem(obstacles=[
-        {"type": "rectangle", "min": [40.0, 30.0], "max": [60.0, 70.0]},
-        {"type": "circle", "center": [20.0, 20.0], "radius": 5.0},  # no corner: no target
-        # U shape: 8 vertices, the 2 inner ones (65, 85), (85, 85) are reflex
-        {"type": "polygon", "vertices": [[60, 80], [90, 80], [90, 95], [85, 95], [85, 85],
-                                         [65, 85], [65, 95], [60, 95]]},
-        # a square whose corner (62, 67) lies inside the rectangle above: dropped
-        {"type": "rectangle", "min": [59.0, 64.0], "max": [62.0, 67.0]},
-    ])
-    space = sw.make_space(prob, prob.robots[0], 2)
-    t = sw.snap_targets(space, 0.5)
-    d = (1.0 + 0.5) / math.sqrt(2)  # radius + push along the diagonal bisector
-    expect = [[40 - d, 30 - d], [60 + d, 30 - d], [60 + d, 70 + d], [40 - d, 70 + d],
-              [60 - d, 80 - d], [90 + d, 80 - d], [90 + d, 95 + d], [85 - d, 95 + d],
-              [65 + d, 95 + d], [60 - d, 95 + d],
-              [62 + d, 64 - d], [62 + d, 67 + d]]
-    assert len(t) == len(expect)
-    for e in expect:
-        assert np.min(np.hypot(*(t - e).T)) < 1e-9, e
-    assert space.obstacles.crossings(np.stack([t, t], axis=1)).count.sum() == 0
-
-    # the option uses them: around a wall, snapped candidates are accepted, paths stay valid
-    wall = _problem(obstacles=[{"type": "rectangle", "min": [45.0, 20.0], "max": [55.0, 80.0]}])
-    b = IPSO(n_particles=20, k_max=30, snap=True, position_update="step", inertia="linear",
-             n_waypoints=2)
-    runs = [op.solve(wall, b, rng=s) for s in range(4)]
-    assert all(r.success and r.metrics["collisions"] == 0 for r in runs)
-    assert sum(r.extras["per_robot"]["r"]["snapped"] for r in runs) >= 1
-
-
 def test_default_penalty_makes_every_feasible_path_win():
     prob = _problem()
     n = 3
@@ -309,15 +277,22 @@ def test_initial_swarm(mode):
         assert np.all(np.diff(proj, axis=1) >= 0)
 
 
-def test_resample_path_keeps_a_path_with_few_bends_exactly():
+def test_resample_polyline_keeps_every_vertex_or_follows_the_arc_length():
     path = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]])
-    w = sw.resample_path(path, 4)
-    assert w.shape == (4, 2)
-    full = np.vstack([path[0], w, path[-1]])
-    assert np.hypot(*np.diff(full, axis=0).T).sum() == pytest.approx(20.0)
-    assert any(np.allclose(p, [10.0, 0.0]) for p in w)  # the corner is kept
+    q = sw.resample_polyline(path, 5)
+    assert q.shape == (6, 2)
+    np.testing.assert_array_equal(q[[0, -1]], path[[0, -1]])
+    assert np.hypot(*np.diff(q, axis=0).T).sum() == pytest.approx(20.0)
+    assert any(np.allclose(p, [10.0, 0.0]) for p in q)  # the corner is kept
+    # segments split in proportion to their length (largest remainder): 3 + 2 for 12 : 8
+    q = sw.resample_polyline(np.array([[0.0, 0.0], [12.0, 0.0], [12.0, 8.0]]), 5)
+    np.testing.assert_allclose(q, [[0, 0], [4, 0], [8, 0], [12, 0], [12, 4], [12, 8]])
+    # consecutive duplicates are dropped
+    d = sw.resample_polyline(np.array([[0.0, 0.0], [0.0, 0.0], [4.0, 0.0]]), 2)
+    np.testing.assert_allclose(d, [[0, 0], [2, 0], [4, 0]])
+    # more segments than asked: evenly spaced by arc length
     many = np.column_stack([np.linspace(0, 10, 20), np.zeros(20)])
-    np.testing.assert_allclose(sw.resample_path(many, 4)[:, 0], [2, 4, 6, 8])
+    np.testing.assert_allclose(sw.resample_polyline(many, 5)[:, 0], [0, 2, 4, 6, 8, 10])
 
 
 def test_converged_iteration_definition():
@@ -375,10 +350,11 @@ def test_path_buffer_particles_are_views_of_the_polylines():
     np.testing.assert_array_equal(ev.cost, ref.cost)
 
 
-@pytest.mark.parametrize("option", ["engine", "kernel"])
+@pytest.mark.parametrize("option", ["engine", "kernel", "snap", "redistribute", "local_trials"])
 def test_removed_swarm_options_are_unknown(option):
-    """One fitness kernel, one implementation: ``engine`` and ``kernel`` are not options."""
+    """One fitness kernel, one implementation: ``engine`` and ``kernel`` are not options; the
+    beyond-the-paper moves ``snap``, ``redistribute`` and ``local_trials`` were removed."""
     with pytest.raises(ValueError, match=option):
-        op.get_solver("ipso-paper", **{option: "numpy"})
+        op.get_solver("ipso-paper", **{option: 1})
     res = op.solve("open-field", "ipso-paper", rng=0, k_max=3)
     assert "engine" not in res.extras["per_robot"]["r1"]

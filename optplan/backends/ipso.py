@@ -20,7 +20,7 @@ Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration
    The text around the equations ("if dw = delta, w decreases linearly"; ``beta > 1`` gives a
    stronger reduction) describes instead ``w(k) = w(k-1) - dw(k-1)`` from ``w_max`` to
    ``w_min``; that is ``inertia = "linear"`` (clipped to ``[w_min, w_max]``).
-2. **Velocity** (eq 22): eq 1 with ``w(k)``.
+2. **Velocity** (eq 22): eq 1 with ``w(k)`` (:func:`optplan.backends.swarm.velocity_update`).
 3. **Position** (eqs 23-24)::
 
        psi(k)  = 1 - tanh(k / (k_max + 1))               (23)
@@ -50,6 +50,16 @@ Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration
    worst particles of the moved swarm ("weakly adapted individuals die out"); their personal
    best is reset to themselves.  Swarm, children and mutants are scored in one batch.
 5. Fitness: eqs 30-33, see :mod:`optplan.backends.swarm`.
+
+Implementation: the per-iteration steps (:func:`ga_pairs`, :func:`ga_children`,
+:func:`move`, :func:`absorb`) are compiled with numba (the only implementation); every random
+number is drawn in Python from the run's generator, in this order per iteration: ``p_c`` (one
+per crossed pair), the mutation noise ``(children, D)``, then ``eps, eta, R`` as one
+``(3, P, D)`` draw (and, with ``bounds_mode = "random"``, the re-draws of the bounds handling).
+
+Beyond the paper (options, all off in ``ipso-paper``): islands, roadmap seeding with
+several homotopy classes (``init_mode = "roadmap"``, ``corridors``), corridor-aware restarts
+(``restart_every``) and the end-game (``tighten_rounds``, ``endgame``); see :class:`IPSO`.
 """
 
 from __future__ import annotations
@@ -58,25 +68,32 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
+import numba
 import numpy as np
 
 from optplan.backends.swarm import (
+    BOUND_CODES,
     PathBuffer,
     SwarmBackend,
     SwarmSpace,
     SwarmState,
-    bounce_velocity,
-    bound_positions,
+    as_particle,
+    bound_rows,
     decode,
     evaluate_paths,
     evaluate_swarm,
-    snap_targets,
+    initial_swarm,
+    redraw_out,
+    signature_hashes,
     tighten,
+    velocity_update,
 )
+from optplan.geometry import path_lengths
 from optplan.solver import check_choice, check_int, check_range
 
 __all__ = [
     "IPSO",
+    "IPSORun",
     "inertia_alpha",
     "inertia_delta",
     "velocity_ratio",
@@ -84,12 +101,24 @@ __all__ = [
     "position_factor",
     "crossover",
     "greedy_mutation",
-    "redistribute_candidates",
-    "snap_candidates",
+    "ga_pairs",
+    "ga_children",
+    "move",
+    "advance",
+    "absorb",
 ]
 
 INERTIA_MODES = ("paper", "linear")
-POSITION_MODES = ("paper", "frame", "step")
+POSITION_MODES = ("paper", "step", "frame")
+ENDGAME_MODES = ("islands", "classes")
+
+_jit = numba.njit(cache=True, nogil=True)
+_NO_DRAW = np.zeros(0)
+
+
+# --------------------------------------------------------------------------------------
+# the paper's equations
+# --------------------------------------------------------------------------------------
 
 
 def inertia_alpha(w_max: float) -> float:
@@ -102,9 +131,9 @@ def inertia_delta(w_max: float, w_min: float, k_max: int) -> float:
     return (w_max - w_min) / max(k_max, 1)
 
 
-def velocity_ratio(v_prev: float, v_cur: float) -> float:
+def velocity_ratio(v_prev: float | None, v_cur: float) -> float:
     """Eq 21: ``beta = (V_{k-1} + V_k) / (2 V_{k-1})``; 1 when ``V_{k-1}`` is 0 or undefined."""
-    if not (v_prev > 0 and math.isfinite(v_prev) and math.isfinite(v_cur)):
+    if v_prev is None or not (v_prev > 0 and math.isfinite(v_prev) and math.isfinite(v_cur)):
         return 1.0
     return (v_prev + v_cur) / (2.0 * v_prev)
 
@@ -124,18 +153,18 @@ def position_factor(k: float | np.ndarray, k_max: int) -> float | np.ndarray:
     return 1.0 - np.tanh(np.asarray(k, dtype=float) / (k_max + 1.0))
 
 
-def crossover(x1: np.ndarray, x2: np.ndarray, v1: np.ndarray, v2: np.ndarray,
-              pc: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+@_jit
+def crossover(x1, x2, v1, v2, pc):
     """Eqs 25-28 for a batch of pairs: ``pc`` has one value per pair (shape ``(m,)``).
 
-    Returns ``(child1_x, child2_x, child1_v, child2_v)``, each the stated convex combination.
+    Returns ``(child1_x, child2_x, child1_v, child2_v)``::
+
+        child_1 = p_c parent_1 + (1 - p_c) parent_2 = parent_2 + p_c (parent_1 - parent_2)
+        child_2 = (1 - p_c) parent_1 + p_c parent_2 = parent_1 - p_c (parent_1 - parent_2)
     """
-    p = np.asarray(pc, dtype=float)[:, None]
-    dx = x1 - x2
-    dx *= p
-    dv = v1 - v2
-    dv *= p
-    # p x1 + (1 - p) x2 = x2 + p (x1 - x2); (1 - p) x1 + p x2 = x1 - p (x1 - x2)
+    p = pc.reshape(-1, 1)
+    dx = (x1 - x2) * p
+    dv = (v1 - v2) * p
     return x2 + dx, x1 - dx, v2 + dv, v1 - dv
 
 
@@ -144,46 +173,229 @@ def greedy_mutation(cost_child: np.ndarray, cost_mutant: np.ndarray) -> np.ndarr
     return np.asarray(cost_mutant) < np.asarray(cost_child)
 
 
-def redistribute_candidates(x: np.ndarray, start: np.ndarray, goal: np.ndarray) -> np.ndarray:
-    """For each waypoint ``i`` of particle ``x``: drop it and re-insert a waypoint at the
-    midpoint of the longest segment of what remains.  Returns ``(n, 2n)`` candidates.
+# --------------------------------------------------------------------------------------
+# the compiled steps of one iteration
+# --------------------------------------------------------------------------------------
 
-    A waypoint the path does not need (e.g. collinear) can so move to where one is missing
-    (a second vertex around a wide corner); the re-inserted midpoint leaves the path unchanged.
-    Beyond the paper (option ``redistribute``).
+
+@_jit
+def ga_pairs(F, X, n_islands, n_select, tol2):
+    """Selection of eqs 25-28: per island (blocks of consecutive particles) its ``n_select``
+    best particles by cost, in stable rank order, paired 1st-2nd, 3rd-4th, ...; a pair is kept
+    when some corresponding waypoints are closer than ``sqrt(tol2)`` ("locally identical path
+    information"; ``tol2 = inf`` keeps every pair).
+
+    Returns the kept pairs ``(h, 2)`` (particle indices, island by island) and their islands.
     """
-    W = x.reshape(-1, 2)
-    n = len(W)
-    if n < 2:
-        return x[None, :].copy()
-    keep = np.array([[j for j in range(n) if j != i] for i in range(n)])  # (n, n-1)
-    Wd = W[keep]  # (n, n-1, 2)
-    full = np.concatenate([np.broadcast_to(start, (n, 1, 2)), Wd,
-                           np.broadcast_to(goal, (n, 1, 2))], axis=1)  # (n, n+1, 2)
-    seg = np.hypot(*np.diff(full, axis=1).transpose(2, 0, 1))  # (n, n)
-    j = np.argmax(seg, axis=1)
-    r = np.arange(n)
-    mid = 0.5 * (full[r, j] + full[r, j + 1])
-    out = np.empty((n, n + 2, 2))
-    out[:, : n + 1] = full
-    # insert mid after point j: shift the tail by one
-    idx = np.arange(n + 2)[None, :]
-    src = np.where(idx <= j[:, None], idx, idx - 1)
-    out = full[r[:, None], np.clip(src, 0, n)]
-    out[r, j + 1] = mid
-    return out[:, 1:-1].reshape(n, -1)
+    P, D = X.shape
+    m_i = P // n_islands
+    half = n_select // 2
+    pairs = np.empty((n_islands * half, 2), np.int64)
+    isl = np.empty(n_islands * half, np.int64)
+    h = 0
+    for i in range(n_islands):
+        order = np.argsort(F[i * m_i:(i + 1) * m_i], kind="mergesort") + i * m_i
+        for r in range(half):
+            a = order[2 * r]
+            b = order[2 * r + 1]
+            close = tol2 == np.inf
+            if not close:
+                for j in range(0, D, 2):
+                    dx = X[a, j] - X[b, j]
+                    dy = X[a, j + 1] - X[b, j + 1]
+                    if dx * dx + dy * dy <= tol2:
+                        close = True
+                        break
+            if close:
+                pairs[h, 0] = a
+                pairs[h, 1] = b
+                isl[h] = i
+                h += 1
+    return pairs[:h], isl[:h]
 
 
-def snap_candidates(x: np.ndarray, targets: np.ndarray) -> np.ndarray:
-    """``n + 1`` candidates: waypoint ``i`` moved onto its nearest target, and all at once."""
-    W = x.reshape(-1, 2)
-    n = len(W)
-    d = np.hypot(W[:, None, 0] - targets[None, :, 0], W[:, None, 1] - targets[None, :, 1])
-    near = targets[np.argmin(d, axis=1)]  # (n, 2)
-    C = np.repeat(W[None], n + 1, axis=0)
-    C[np.arange(n), np.arange(n)] = near
-    C[n] = near
-    return C.reshape(n + 1, -1)
+@_jit
+def ga_children(X, V, pairs, pc, noise, sigma, out):
+    """Eqs 25-28 and the mutation candidates of eq 29 for the ``h`` crossed pairs.
+
+    Children go to ``out[m:2m]`` (first children of every pair, then second children,
+    ``m = 2h``) and the mutants ``child + C_k`` with ``C_k = noise * sigma`` to ``out[:m]``;
+    returns the children's velocities ``(m, D)`` (eqs 27-28).
+    """
+    h = pairs.shape[0]
+    m = 2 * h
+    a, b = pairs[:, 0], pairs[:, 1]
+    c1x, c2x, c1v, c2v = crossover(X[a], X[b], V[a], V[b], pc)
+    out[m:m + h] = c1x
+    out[m + h:2 * m] = c2x
+    for r in range(m):
+        out[r] = noise[r] * sigma + out[m + r]  # child + C_k
+    cv = np.empty((m, X.shape[1]))
+    cv[:h] = c1v
+    cv[h:] = c2v
+    return cv
+
+
+@_jit
+def move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal, out_X,
+         out_V):
+    """Eqs 22-24 for the whole swarm: ``V^{k+1}`` into ``out_V`` (eq 22 with ``eps = U[0]``,
+    ``eta = U[1]``), then ``X^{k+1}`` into ``out_X`` with ``psi(k) R``, ``R = U[2]``::
+
+        mode 0 ("paper"):  x^{k+1} = psi R x^k + v^{k+1}                      (24)
+        mode 1 ("step"):   x^{k+1} = x^k + psi R v^{k+1}
+        mode 2 ("frame"):  x^{k+1} = foot + psi R (x^k - foot) + v^{k+1}, foot = the
+                           waypoint's projection on the start-goal line
+
+    Bounds are not handled here.
+    """
+    velocity_update(V, X, pbest, guides, leader, w, c1, c2, U[0], U[1], vmax, out_V)
+    P, D = X.shape
+    ux = goal[0] - start[0]
+    uy = goal[1] - start[1]
+    uu = ux * ux + uy * uy
+    for i in range(P):
+        for j in range(0, D, 2):
+            for d in range(j, j + 2):
+                R = U[2, i, d] * psi  # psi(k) R, eq 23
+                if mode == 0:  # eq 24 as printed
+                    out_X[i, d] = R * X[i, d] + out_V[i, d]
+                elif mode == 1:  # on the step
+                    out_X[i, d] = R * out_V[i, d] + X[i, d]
+                else:  # on the lateral offset from the start-goal line
+                    t = 0.0
+                    if uu > 0:
+                        t = ((X[i, j] - start[0]) * ux + (X[i, j + 1] - start[1]) * uy) / uu
+                    foot = start[d - j] + t * (ux if d == j else uy)
+                    out_X[i, d] = (X[i, d] - foot) * R + foot + out_V[i, d]
+
+
+@_jit
+def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal,
+            pairs, pc, noise, sigma, lo, hi, bound_code, B, V_new):
+    """The pre-evaluation part of one iteration, into the batch ``B``: GA children and
+    mutants (:func:`ga_children`, rows ``P .. P + 2m``), the move (:func:`move`, rows
+    ``:P`` and ``V_new``), then bounds handling of swarm and mutants (``bound_code``: see
+    :func:`optplan.backends.swarm.bound_rows`; velocities of reflected coordinates reversed,
+    of clipped ones zeroed).  Returns the children's velocities and the out-of-bounds mask
+    (for ``random`` mode, whose re-draws the caller makes)."""
+    P = X.shape[0]
+    m = 2 * pairs.shape[0]
+    cv = ga_children(X, V, pairs, pc, noise, sigma, B[P:])
+    move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal, B[:P],
+         V_new)
+    out, anyout = bound_rows(B[:P + m], lo, hi, bound_code)
+    if anyout:
+        for i in range(P):
+            for d in range(V_new.shape[1]):
+                if out[i, d]:
+                    V_new[i, d] = -V_new[i, d] if bound_code == 1 else 0.0
+    return cv, out, anyout
+
+
+@_jit
+def _worst_slots(F, isl, n_islands):
+    """Slots of the worst particles: the r-th child of island i takes the r-th worst particle
+    of island i (``isl`` sorted by island; one island: the worst of the whole swarm)."""
+    P = F.shape[0]
+    m_i = P // n_islands
+    slots = np.empty(isl.shape[0], np.int64)
+    q = 0
+    for i in range(n_islands):
+        order = np.argsort(F[i * m_i:(i + 1) * m_i], kind="mergesort")[::-1]
+        r = 0
+        while q < isl.shape[0] and isl[q] == i:
+            slots[q] = order[min(r, m_i - 1)] + i * m_i
+            r += 1
+            q += 1
+    return slots
+
+
+@_jit
+def absorb(X, V, cost, length, count, B, m, cv, isl, pbest, pbest_f, n_islands):
+    """Memories after the evaluation of the batch ``B`` (swarm ``:P``, mutants, children),
+    in place: the best scored row and the shortest collision-free row (their positions are
+    copied out *before* any slot changes), the personal bests of the moved swarm ``X``, then
+    eq 29 (the better of mutant ``B[P + r]`` and child ``B[P + m + r]``) and the replacement of
+    the worst particles of each child's island by the kept children.
+
+    Returns ``(F, mutants kept, best row, its position, shortest feasible row or -1, its
+    position)``.
+    """
+    P = X.shape[0]
+    n = P + 2 * m
+    j_best = np.argmin(cost[:n])
+    best_x = B[j_best].copy()
+    j_feas = -1
+    for r in range(n):
+        if count[r] == 0 and (j_feas < 0 or length[r] < length[j_feas]):
+            j_feas = r
+    feas_x = B[max(j_feas, 0)].copy()
+    F = cost[:P].copy()
+    for i in range(P):
+        if F[i] < pbest_f[i]:
+            pbest[i] = X[i]
+            pbest_f[i] = F[i]
+    kept = 0
+    if m > 0:
+        use_m = cost[P:P + m] < cost[P + m:P + 2 * m]  # eq 29, greedy
+        o = np.argsort(isl, kind="mergesort")
+        slots = _worst_slots(F, isl[o], n_islands)
+        for q in range(m):
+            r = o[q]
+            row = P + r if use_m[r] else P + m + r
+            s = slots[q]
+            X[s] = B[row]  # the weakly adapted individuals die out
+            V[s] = cv[r]
+            F[s] = cost[row]
+            pbest[s] = B[row]
+            pbest_f[s] = cost[row]
+            kept += use_m[r]
+    return F, kept, j_best, best_x, j_feas, feas_x
+
+
+@_jit
+def island_bests(pbest_f, n_islands):
+    """Index of each island's best personal best (islands = blocks of consecutive particles)."""
+    m_i = pbest_f.shape[0] // n_islands
+    out = np.empty(n_islands, np.int64)
+    for i in range(n_islands):
+        out[i] = np.argmin(pbest_f[i * m_i:(i + 1) * m_i]) + i * m_i
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# the backend
+# --------------------------------------------------------------------------------------
+
+
+@dataclass(eq=False)
+class IPSORun:
+    """Constants and algorithm state of one IPSO run (one robot); see :class:`IPSO`."""
+
+    buffer: PathBuffer
+    vmax: np.ndarray
+    mut_sigma: np.ndarray
+    n_islands: int
+    n_select: int
+    tol2: float
+    position_code: int
+    seeds: list
+    leader: np.ndarray
+    island_idx: np.ndarray
+    ones: np.ndarray
+    w: float
+    v_prev: float | None = None
+    v_cur: float = 0.0
+    crossovers: int = 0
+    mutations_kept: int = 0
+    restarts: int = 0
+    seeds_used: int = 0
+
+    def stats(self) -> dict[str, Any]:
+        """The public per-robot counters (``extras["per_robot"]``)."""
+        return {"w": self.w, "crossovers": self.crossovers,
+                "mutations_kept": self.mutations_kept, "restarts": self.restarts}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -197,8 +409,8 @@ class IPSO(SwarmBackend):
     inertia : {"paper", "linear"}
         ``"paper"``: eq 17 literally (w stays near 0.5); ``"linear"``: the text's reading
         ``w(k) = w(k-1) - delta beta`` from w_max toward w_min (module docstring).
-    position_update : {"paper", "frame", "step"}
-        Eq 24 as printed (absolute coordinates), in the start-goal frame, or on the step
+    position_update : {"paper", "step", "frame"}
+        Eq 24 as printed (absolute coordinates), on the step, or in the start-goal frame
         (module docstring).
     A : int
         Number of best particles selected for crossover (even; the paper does not give it).
@@ -209,37 +421,34 @@ class IPSO(SwarmBackend):
     mutation_scale : float
         Standard deviation of the mutation ``C_k`` of eq 29 as a fraction of the map range,
         multiplied by ``psi(k)``.
-    redistribute : bool
-        Beyond the paper: every iteration also score the :func:`redistribute_candidates` of
-        gbest (same batch); one that is not worse replaces gbest and the worst particle.
-    snap : bool
-        Beyond the paper: every iteration also score, for each waypoint of gbest, the move
-        of that waypoint onto the nearest convex obstacle corner, moved out to the robot
-        radius plus 1e-6 of the map size (:func:`optplan.backends.swarm.snap_targets`), plus
-        all waypoints snapped at once; shortest paths bend only there.  A better candidate
-        replaces gbest and the worst particle.
-    local_trials : int
-        Beyond the paper: every iteration also score this many Gaussian trials around gbest
-        with an adaptive step (x2 after a success, x0.8 otherwise); a better one replaces
-        gbest and the worst particle.
     islands : int
         Beyond the paper (diversity): the swarm is split into this many equal islands of
         consecutive particles, each following its own island best in eq 22 instead of the
-        global best (GA and the beyond-the-paper moves still use the whole swarm and gbest).
-        Each island also runs its own GA (its ``A / islands`` best are crossed and replace its
-        worst) and the beyond-the-paper moves visit one island's best per iteration (round
-        robin), so the islands are independent sub-swarms scored in one batch: they keep
-        several homotopy classes alive.  1 = the paper's single global best.  The number used
-        is the largest divisor of ``n_particles`` that is at most ``islands`` and leaves at
-        least 2 particles per island.
+        global best, each running its own GA (its ``A / islands`` best are crossed and replace
+        its worst): independent sub-swarms scored in one batch, which keep several homotopy
+        classes alive.  1 = the paper's single global best.  The number used is the largest
+        divisor of ``n_particles`` that is at most ``islands`` and leaves at least 2 particles
+        per island.
+    restart_every : int
+        Beyond the paper (corridor-aware restarts, needs islands): every ``restart_every``
+        iterations the island bests' homotopy signatures are compared; an island whose best
+        is in the same class as a better island's best, or has no collision-free best, is
+        re-seeded: its first particle with the next roadmap corridor of a class no island
+        holds (a fresh ``sorted`` particle when there is none left), the others ``sorted``,
+        velocities zero.  0 = off.
     tighten_rounds : int
-        Beyond the paper: after the ``k_max`` iterations, :func:`optplan.backends.swarm.tighten`
-        (deterministic corner cutting + string pulling, at most this many rounds) is applied to
-        the best collision-free particle and to every island's best; the shortest result is
-        returned (one extra history row).  The returned path then has as many vertices as the
-        tightening needs (more than ``n_waypoints`` around rounded corners).
+        Beyond the paper (the end-game): after the ``k_max`` iterations,
+        :func:`optplan.backends.swarm.tighten` (deterministic corner cutting + string pulling,
+        at most this many rounds) is applied to the candidates of ``endgame``; the shortest
+        result is returned (one extra history row).  The returned path then has as many
+        vertices as the tightening needs (more than ``n_waypoints`` around rounded corners).
+    endgame : {"islands", "classes"}
+        Candidates of the end-game: ``"islands"``: the best collision-free particle and every
+        island's best; ``"classes"``: those and the roadmap corridors, reduced to the
+        shortest candidate of each homotopy class (by signature), so that every class the run
+        has seen is compared after tightening.
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
-penetration_weight
+penetration_weight, roadmap_samples, corridors
         Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
     """
 
@@ -254,11 +463,10 @@ penetration_weight
     A: int = 10
     crossover_tol: float = 0.05
     mutation_scale: float = 0.05
-    redistribute: bool = False
-    snap: bool = False
-    local_trials: int = 0
     islands: int = 1
+    restart_every: int = 0
     tighten_rounds: int = 0
+    endgame: str = "islands"
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -275,314 +483,202 @@ penetration_weight
                              f"got {self.A!r}")
         check_range(self, "crossover_tol", 0.0, math.inf)
         check_range(self, "mutation_scale", 0.0, 10.0)
-        if not isinstance(self.redistribute, bool):
-            raise ValueError(f"option 'redistribute' of backend 'ipso' must be true or false, "
-                             f"got {self.redistribute!r}")
-        if not isinstance(self.snap, bool):
-            raise ValueError(f"option 'snap' of backend 'ipso' must be true or false, "
-                             f"got {self.snap!r}")
-        check_int(self, "local_trials", 0, 100_000)
-        check_int(self, "tighten_rounds", 0, 100_000)
         check_int(self, "islands", 1, 10_000)
-
-    # ---------------------------------------------------------------------------------
-    def _start(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator) -> None:
-        state.stats.update(w=self.w_max, vnorms=[0.0], crossovers=0, mutations_kept=0,
-                           local_sigma=0.01, local_accepted=0, redistributed=0, snapped=0)
-        if self.snap:
-            state.stats["_snap"] = snap_targets(space, 1e-6 * space.diag)
-        state.stats["_ones"] = np.ones(space.dim)
-        state.stats["_vmax"] = self._vmax(space)  # constant over the run
-        state.stats["_c12"] = np.array([self.c1, self.c2])[:, None, None]
-        state.stats["_mut_sigma"] = self.mutation_scale * space.span
-        # rows scored per iteration: swarm, children, mutants, beyond-the-paper candidates
-        n = space.n_waypoints
-        extra = (n if self.redistribute else 0) + (n + 1 if self.snap else 0) + self.local_trials
-        state.stats["_buffer"] = PathBuffer(space, self.n_particles + 2 * self.A + extra)
-        if self._n_islands > 1:
-            self._update_islands(state)
+        check_int(self, "restart_every", 0, 1_000_000)
+        check_int(self, "tighten_rounds", 0, 100_000)
+        check_choice(self, "endgame", ENDGAME_MODES)
 
     @property
-    def _n_islands(self) -> int:
+    def n_islands(self) -> int:
         """Islands actually used (see the ``islands`` option)."""
-        return max(i for i in range(1, min(self.islands, self.n_particles // 2, self.n_particles)
-                                    + 1) if self.n_particles % i == 0) if self.islands > 1 else 1
+        top = min(self.islands, self.n_particles // 2)
+        return max((i for i in range(1, top + 1) if self.n_particles % i == 0), default=1)
 
-    def _update_islands(self, state: SwarmState) -> None:
-        """Each island's best personal best (islands = blocks of consecutive particles)."""
-        I = self._n_islands
-        m = len(state.pbest_f) // I
-        j = np.argmin(state.pbest_f.reshape(I, m), axis=1) + m * np.arange(I)
-        state.stats["_island_idx"] = j
-        state.stats["_social"] = np.repeat(state.pbest[j], m, axis=0)
-
-    def _selection_size(self, P: int) -> int:
+    def _selection_size(self) -> int:
         """Particles selected for crossover per island: ``A / islands``, at most the island
         size, rounded down to even."""
-        A = min(self.A // self._n_islands, P // self._n_islands)
+        I = self.n_islands
+        A = min(self.A // I, self.n_particles // I)
         return A - A % 2
 
-    def _inertia(self, state: SwarmState) -> float:
-        vn = state.stats["vnorms"]
-        beta = velocity_ratio(vn[-2], vn[-1]) if len(vn) >= 2 else 1.0
+    def _seed_blocks(self, n_seeds: int) -> int:
+        """Roadmap corridors placed in the initial swarm: one per island (the rest wait for
+        the restarts and the end-game); with one island all, spread over the swarm."""
+        if self.n_islands > 1:
+            return min(n_seeds, self.n_islands)
+        return super()._seed_blocks(n_seeds)
+
+    # ---------------------------------------------------------------------------------
+    def _start(self, space: SwarmSpace, state: SwarmState, seeds: list[np.ndarray],
+               rng: np.random.Generator) -> IPSORun:
+        I = self.n_islands
+        P = self.n_particles
+        tol = self.crossover_tol * space.diag
+        run = IPSORun(
+            buffer=PathBuffer(space, P + 2 * self.A),  # swarm, mutants, children
+            vmax=self._vmax(space), mut_sigma=self.mutation_scale * space.span,
+            n_islands=I, n_select=self._selection_size(),
+            tol2=tol * tol if math.isfinite(tol) else math.inf,
+            position_code=POSITION_MODES.index(self.position_update), seeds=list(seeds),
+            leader=np.arange(P) // (P // I) if I > 1 else np.zeros(P, np.int64),
+            island_idx=island_bests(state.pbest_f, I), ones=np.ones(space.dim), w=self.w_max,
+            seeds_used=self._seed_blocks(len(seeds)))
+        return run
+
+    def _inertia(self, run: IPSORun) -> float:
+        """Eqs 17-21 (``inertia = "paper"``) or the linear reading."""
+        beta = velocity_ratio(run.v_prev, run.v_cur)
         dw = inertia_delta(self.w_max, self.w_min, self.k_max) * beta
         if self.inertia == "paper":
             return inertia_weight(dw, self.w_max)
-        if len(vn) < 2:  # first move: w(0) = w_max
+        if run.v_prev is None:  # first move: w(0) = w_max
             return self.w_max
-        return float(min(max(state.stats["w"] - dw, self.w_min), self.w_max))
+        return float(min(max(run.w - dw, self.w_min), self.w_max))
 
-    def _move(self, space: SwarmSpace, state: SwarmState, w: float, k: int,
-              rng: np.random.Generator, out: np.ndarray | None = None
-              ) -> tuple[np.ndarray, np.ndarray]:
-        """Eqs 22-24 for the whole swarm: ``(X^{k+1}, V^{k+1})`` before bounds handling.
-
-        ``eps``, ``eta`` and ``R`` ~ U(0, 1) per particle and coordinate (one draw).  The new
-        positions are written into ``out`` when given.
-        """
-        P, D = state.X.shape
-        U = rng.random((3, P, D))
-        X = state.X
-        U[:2] *= state.stats["_c12"]  # c1 eps, c2 eta
-        V = state.V * w
-        T = state.pbest - X
-        T *= U[0]
-        V += T
-        social = state.stats["_social"] if self._n_islands > 1 else state.gbest
-        np.subtract(social, X, out=T)
-        T *= U[1]
-        V += T  # eq 22
-        vmax = state.stats["_vmax"]
-        if vmax is not None:
-            np.minimum(V, vmax, out=V)
-            np.maximum(V, -vmax, out=V)
-        R = U[2]
-        R *= position_factor(k, self.k_max)  # psi(k) R, eq 23
-        Xn = np.empty_like(X) if out is None else out
-        if self.position_update == "paper":
-            np.multiply(R, X, out=Xn)
-            Xn += V  # eq 24 as printed
-        elif self.position_update == "step":
-            np.multiply(R, V, out=Xn)
-            Xn += X
-        else:  # lateral offsets from the start-goal line
-            s, g = space.start, space.goal
-            u = g - s
-            uu = float(u @ u)
-            W = X.reshape(P, -1, 2)
-            tpar = ((W - s) @ u) / uu if uu > 0 else np.zeros(W.shape[:2])
-            foot = (s + tpar[..., None] * u).reshape(P, D)
-            np.subtract(X, foot, out=Xn)
-            Xn *= R
-            Xn += foot
-            Xn += V
-        return Xn, V
-
-    def _children(self, space: SwarmSpace, state: SwarmState, k: int,
-                  rng: np.random.Generator, out: np.ndarray):
-        """Selection, crossover (eqs 25-28) and the mutation candidates ``child + C_k``.
-
-        Writes the ``m`` mutants (bounds not yet handled) into ``out[:m]`` and the children
-        into ``out[m:2m]``; returns ``(m, children's velocities, island of each child)``, with
-        ``m = 0`` when no pair crosses.  With islands, each island selects its own
-        ``A / islands`` best (rounded down to even).
-        """
-        I = self._n_islands
-        P = len(state.F)
-        m_i = P // I
-        A = self._selection_size(P)
-        if A < 2:
-            return 0, None, None
-        if I == 1:
-            order = state.F.argsort(kind="stable")[:A]
-        else:
-            order = (np.argsort(state.F.reshape(I, m_i), axis=1, kind="stable")[:, :A]
-                     + m_i * np.arange(I)[:, None]).reshape(-1)
-        isl = np.repeat(np.arange(I), A // 2) if I > 1 else None
-        xs = state.X[order]  # rank order: pairs (1st, 2nd), (3rd, 4th), ...
-        x1, x2 = xs[0::2], xs[1::2]
-        pairs = order.reshape(-1, 2)
-        if math.isfinite(self.crossover_tol):
-            dx = x1 - x2
-            dx *= dx
-            d2 = dx[:, 0::2] + dx[:, 1::2]  # squared waypoint distances, (pairs, n)
-            gate = np.minimum.reduce(d2, axis=1) <= (self.crossover_tol * space.diag) ** 2
-            if np.count_nonzero(gate) < len(gate):
-                x1, x2, pairs = x1[gate], x2[gate], pairs[gate]
-                isl = isl[gate] if isl is not None else None
-        h = len(pairs)
-        if h == 0:
-            return 0, None, None
-        m = 2 * h
-        pc = rng.random(h)
-        vs = state.V[pairs.reshape(-1)]
-        c1x, c2x, c1v, c2v = crossover(x1, x2, vs[0::2], vs[1::2], pc)  # eqs 25-28
-        CX = out[m:2 * m]
-        CX[:h] = c1x
-        CX[h:] = c2x
-        CV = np.concatenate([c1v, c2v])
-        MX = rng.standard_normal((m, out.shape[1]))
-        MX *= state.stats["_mut_sigma"] * position_factor(k, self.k_max)
-        np.add(MX, CX, out=out[:m])  # child + C_k
-        return m, CV, (np.concatenate([isl, isl]) if isl is not None else None)
-
-    def _absorb(self, st: SwarmState, X: np.ndarray, V: np.ndarray, cost: np.ndarray,
-                B: np.ndarray, m: int, CV: np.ndarray | None, isl: np.ndarray | None
-                ) -> tuple[np.ndarray, int]:
-        """Personal bests of the moved swarm ``X`` (rows ``:P`` of ``cost``), then eq 29 (the
-        better of child and mutant, rows ``P + m + r`` and ``P + r`` of ``B`` / ``cost``) and
-        the replacement of the worst particles by the kept children, in place.
-
-        Returns ``(F, number of mutants kept)``.
-        """
-        P = len(X)
-        F = cost[:P].copy()
-        better = F < st.pbest_f
-        np.copyto(st.pbest, X, where=better[:, None])
-        np.minimum(st.pbest_f, F, out=st.pbest_f)
-        if not m:
-            return F, 0
-        cm, cc = cost[P:P + m], cost[P + m:P + 2 * m]
-        use_m = cm < cc  # eq 29, greedy
-        kept = int(np.count_nonzero(use_m))
-        KX = np.where(use_m[:, None], B[P:P + m], B[P + m:P + 2 * m])
-        kc = np.where(use_m, cm, cc)
-        if self._n_islands > 1:
-            o = np.argsort(isl, kind="stable")
-            KX, CV, kc, isl = KX[o], CV[o], kc[o], isl[o]
-            slots = self._worst_slots(F, isl)
-        else:
-            slots = self._worst_slots(F, np.zeros(m, np.int64))
-        X[slots] = KX  # the weakly adapted individuals die out
-        V[slots] = CV
-        F[slots] = kc
-        st.pbest[slots] = KX
-        st.pbest_f[slots] = kc
-        return F, kept
-
-    def _worst_slots(self, F: np.ndarray, isl: np.ndarray) -> np.ndarray:
-        """Slots of the worst particles: the r-th child of island i takes the r-th worst
-        particle of island i (children sorted by island)."""
-        I = self._n_islands
-        if I == 1:
-            return F.argsort(kind="stable")[::-1][:len(isl)]
-        m_i = len(F) // I
-        worst = np.argsort(F.reshape(I, m_i), axis=1, kind="stable")[:, ::-1]
-        first = np.searchsorted(isl, isl)  # isl is sorted
-        rank = np.arange(len(isl)) - first
-        return worst[isl, np.minimum(rank, m_i - 1)] + m_i * isl
-
-    def _iterate(self, space: SwarmSpace, state: SwarmState, it: int,
+    def _iterate(self, space: SwarmSpace, state: SwarmState, run: IPSORun, it: int,
                  rng: np.random.Generator) -> dict[str, Any]:
         st = state
         k = it - 1
-        w = self._inertia(st)
-        P = len(st.F)
-        buf = st.stats["_buffer"]
-        B = buf.X(it)  # this iteration's batch: swarm, mutants, children, extra candidates
-        mode = self.bounds_mode
-        m, CV, isl = self._children(space, st, k, rng, B[P:])
-        X, V = self._move(space, st, w, k, rng, out=B[:P])
-        out = bound_positions(B[:P + m], space.lo, space.hi, mode, rng)  # swarm, mutants
-        if out is not None:
-            V = bounce_velocity(V, out[:P], mode)
+        w = self._inertia(run)
+        psi = position_factor(k, self.k_max)
+        P, D = st.X.shape
+        B = run.buffer.X(it)  # this iteration's batch: swarm, mutants, children
+        # GA selection on the swarm as evaluated before the move (eqs 25-26)
+        pairs, isl = ga_pairs(st.F, st.X, run.n_islands, run.n_select, run.tol2)
+        h = len(pairs)
+        m = 2 * h
+        pc = rng.random(h) if h else _NO_DRAW
+        noise = rng.standard_normal((m, D)) if h else _NO_DRAW.reshape(0, 1)
+        U = rng.random((3, P, D))
+        guides = st.pbest[run.island_idx] if run.n_islands > 1 else st.gbest[None]
+        V = np.empty_like(st.V)
+        # crossover, mutants, move, bounds (eqs 22-29 up to the evaluation)
+        cv, out, anyout = advance(
+            st.X, st.V, st.pbest, guides, run.leader, w, self.c1, self.c2, U, run.vmax, psi,
+            run.position_code, space.start, space.goal, pairs, pc, noise, run.mut_sigma * psi,
+            space.lo, space.hi, BOUND_CODES[self.bounds_mode], B, V)
+        if anyout and self.bounds_mode == "random":
+            redraw_out(B[:P + m], out, space.lo, space.hi, rng)
         main = P + 2 * m
-        # beyond-the-paper moves around the global best; with islands, around one island's
-        # best per iteration (round robin), so that no island is pulled into another's class
-        if self._n_islands > 1:
-            focus_isl = it % self._n_islands
-            focus = st.pbest[st.stats["_island_idx"][focus_isl]]
-        else:
-            focus_isl, focus = 0, st.gbest
-        extra = []
-        pos = main
-        if self.redistribute or self.snap or self.local_trials:
-            if self.redistribute:
-                extra.append(("redistributed", redistribute_candidates(
-                    focus, space.start, space.goal)))
-            if self.snap and len(st.stats["_snap"]):
-                extra.append(("snapped", snap_candidates(focus, st.stats["_snap"])))
-            if self.local_trials:
-                T = focus + (st.stats["local_sigma"] * space.span) * rng.standard_normal(
-                    (self.local_trials, space.dim))
-                bound_positions(T, space.lo, space.hi, mode, rng)
-                extra.append(("local_accepted", T))
-            for _, C in extra:
-                B[pos:pos + len(C)] = C
-                pos += len(C)
-        batch = B[:pos]
-        ev = evaluate_paths(buf.paths(it)[:pos], space)  # one collision test for all rows
-        cost = ev.cost
-        st.n_eval += pos
-        # the moved swarm and its memories; the children replace the worst particles
-        F, kept = self._absorb(st, X, V, cost, B, m, CV, isl)
-        st.X, st.V, st.F = X, V, F
-        # gbest and the best collision-free particle over everything scored (a rejected
-        # mutant costs at least as much as its child, so it never wins alone)
-        st.offer_gbest(batch, ev, n=main)
-        st.offer_feasible(batch, ev)
-        pos = main
-        m_i = P // self._n_islands
-        for key, C in extra:
-            n_c = len(C)
-            q = int(np.argmin(cost[pos:pos + n_c])) + pos
-            pos += n_c
-            ref = float(st.pbest_f[st.stats["_island_idx"][focus_isl]]) if self._n_islands > 1 \
-                else st.gbest_f
-            tol = 1e-12 * max(1.0, abs(ref))
-            ok = cost[q] <= ref + tol if key == "redistributed" else cost[q] < ref
-            if key == "local_accepted":
-                f = 2.0 if ok else 0.8
-                st.stats["local_sigma"] = min(max(st.stats["local_sigma"] * f, 1e-6), 0.1)
-            if ok:
-                st.stats[key] += 1
-                worst = focus_isl * m_i + int(np.argmax(st.F[focus_isl * m_i:
-                                                               (focus_isl + 1) * m_i]))
-                st.X[worst] = st.pbest[worst] = batch[q]
-                st.V[worst] = 0.0
-                st.F[worst] = st.pbest_f[worst] = cost[q]
-                if self._n_islands > 1:
-                    st.stats["_island_idx"][focus_isl] = worst
-                if cost[q] <= st.gbest_f + tol:
-                    st.gbest = batch[q].copy()
-                    st.gbest_f = float(cost[q])
-                    st.gbest_len = float(ev.length[q])
-                    st.gbest_count = int(ev.count[q])
-        if self._n_islands > 1:
-            self._update_islands(st)
-        vnorm = float(np.add.reduce(np.sqrt((V * V) @ st.stats["_ones"]))) / P
-        st.stats["vnorms"] = [st.stats["vnorms"][-1], vnorm]
-        st.stats["w"] = w
-        st.stats["crossovers"] += m // 2
-        st.stats["mutations_kept"] += kept
-        return {"w": w, "psi": position_factor(k, self.k_max), "children": m,
-                "mean_speed": vnorm}
+        ev = evaluate_paths(run.buffer.paths(it)[:main], space)  # one collision test
+        st.n_eval += main
+        # memories, eq 29, the children replace the worst particles
+        F, kept, jb, bx, jf, fx = absorb(B[:P], V, ev.cost, ev.length, ev.count, B, m, cv,
+                                         np.concatenate((isl, isl)), st.pbest, st.pbest_f,
+                                         run.n_islands)
+        st.X, st.V, st.F = B[:P], V, F
+        if ev.cost[jb] < st.gbest_f:
+            st.gbest, st.gbest_f, st.gbest_count = bx, float(ev.cost[jb]), int(ev.count[jb])
+        if jf >= 0 and ev.length[jf] < st.feas_len:
+            st.feas_x, st.feas_len = fx, float(ev.length[jf])
+        if run.n_islands > 1:
+            run.island_idx = island_bests(st.pbest_f, run.n_islands)
+        vnorm = float(np.add.reduce(np.sqrt((V * V) @ run.ones))) / P
+        run.v_prev, run.v_cur, run.w = run.v_cur, vnorm, w
+        run.crossovers += h
+        run.mutations_kept += kept
+        if (self.restart_every and run.n_islands > 1 and it % self.restart_every == 0
+                and it < self.k_max):
+            self._restart(space, st, run, rng)
+        return {"w": w, "psi": psi, "children": m, "mean_speed": vnorm}
 
-    def _finish(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator):
-        """Beyond the paper: :func:`~optplan.backends.swarm.tighten` the best collision-free
-        particle and every island's best; the shortest result is the answer."""
+    def _stats(self, run: IPSORun) -> dict[str, Any]:
+        return run.stats()
+
+    # -- beyond the paper: corridor-aware restarts and the end-game ---------------------
+    def _restart(self, space: SwarmSpace, st: SwarmState, run: IPSORun,
+                 rng: np.random.Generator) -> None:
+        """Re-seed the islands whose best duplicates a better island's homotopy class or is
+        not collision-free (see the ``restart_every`` option)."""
+        I = run.n_islands
+        idx = run.island_idx
+        best = decode(st.pbest[idx], space)
+        ev = evaluate_paths(best, space)
+        st.n_eval += I
+        sig = signature_hashes(best, space)
+        held, redo = set(), []
+        for i in np.argsort(st.pbest_f[idx], kind="stable"):
+            if ev.count[i] == 0 and sig[i] not in held:
+                held.add(int(sig[i]))
+            else:
+                redo.append(int(i))
+        if not redo:
+            return
+        m_i = self.n_particles // I
+        Xn = initial_swarm(space, len(redo) * m_i, "sorted", rng)
+        q = 0
+        while q < len(redo) and run.seeds_used < len(run.seeds):
+            seed = run.seeds[run.seeds_used]
+            run.seeds_used += 1
+            h = int(signature_hashes(seed, space)[0])
+            if h not in held:  # a corridor of a class no island holds
+                held.add(h)
+                Xn[q * m_i] = as_particle(seed, space)
+                q += 1
+        rows = np.concatenate([np.arange(i * m_i, (i + 1) * m_i) for i in redo])
+        evn = evaluate_swarm(Xn, space)
+        st.n_eval += len(Xn)
+        st.X[rows] = Xn
+        st.V[rows] = 0.0
+        st.F[rows] = evn.cost
+        st.pbest[rows] = Xn
+        st.pbest_f[rows] = evn.cost
+        st.offer(Xn, evn)
+        run.island_idx = island_bests(st.pbest_f, I)
+        run.restarts += len(redo)
+
+    def _endgame_candidates(self, space: SwarmSpace, st: SwarmState, run: IPSORun
+                            ) -> list[np.ndarray]:
+        """Collision-free candidate paths of the end-game (see the ``endgame`` option),
+        shortest first."""
+        X = [st.feas_x] if st.feas_x is not None else []
+        if run.n_islands > 1:
+            X += list(st.pbest[run.island_idx])
+        paths = list(decode(np.array(X), space)) if X else []
+        if self.endgame == "classes":
+            paths += [np.asarray(p, float) for p in run.seeds]
+        if not paths:
+            return []
+        M = max(len(p) for p in paths)
+        # repeated end points add zero-length segments (no crossing, no ray crossing)
+        padded = np.array([np.vstack([p, np.repeat(p[-1:], M - len(p), axis=0)])
+                           for p in paths])
+        st.n_eval += len(paths)
+        feas = (np.ones(len(paths), bool) if space.obstacles is None else
+                space.obstacles.crossings(padded, penetration=False).count == 0)
+        lens = [path_lengths(p) for p in paths]
+        cand = sorted((lens[i], i) for i in range(len(paths)) if feas[i])
+        if self.endgame == "classes":
+            sig = signature_hashes(padded, space)
+            seen: set[int] = set()
+            keep = []
+            for L, i in cand:  # the shortest candidate of each class
+                if sig[i] not in seen:
+                    seen.add(sig[i])
+                    keep.append((L, i))
+            cand = keep
+        return [paths[i] for _, i in cand]
+
+    def _finish(self, space: SwarmSpace, state: SwarmState, run: IPSORun,
+                rng: np.random.Generator):
+        """Beyond the paper: :func:`~optplan.backends.swarm.tighten` the end-game candidates;
+        the shortest result is the answer."""
         if not self.tighten_rounds:
             return
         st = state
-        starts = [st.feas_x] if st.feas_x is not None else []
-        if self._n_islands > 1:
-            starts += list(st.pbest[st.stats["_island_idx"]])
-        if not starts:
+        cand = self._endgame_candidates(space, st, run)
+        if not cand:
             return
-        X = np.array(starts)
-        ev = evaluate_swarm(X, space)
-        st.n_eval += len(X)
-        best_path, best_len = None, math.inf
-        for x in X[ev.count == 0]:
-            path, n = tighten(decode(x[None], space)[0], space, rounds=self.tighten_rounds)
-            st.n_eval += n
-            L = float(np.hypot(*np.diff(path, axis=0).T).sum())
-            if L < best_len:
-                best_path, best_len = path, L
-        if best_path is not None and best_len < st.feas_len:
-            st.stats["_final_path"] = best_path
+        out, n = tighten(cand, space, rounds=self.tighten_rounds)
+        st.n_eval += n
+        lens = [path_lengths(p) for p in out]
+        j = int(np.argmin(lens))
+        best_len = lens[j]
+        if best_len < st.feas_len:
+            st.final_path = out[j]
             st.stats["tightened_from"] = st.feas_len
             st.feas_len = best_len
             if best_len < st.gbest_f:
-                st.gbest_f, st.gbest_len, st.gbest_count = best_len, best_len, 0
+                st.gbest_f, st.gbest_count = best_len, 0
+        st.stats["endgame_candidates"] = len(cand)
         yield {"tightened": best_len}

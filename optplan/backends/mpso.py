@@ -2,7 +2,7 @@
 
 The paper only names the method and two parameters, the mutation threshold ``p_t = 0.8`` and
 the refined-search coefficient ``delta = 0.056``; it gives no equations.  The reading
-implemented here is the common one (domain-notes §1.1):
+implemented here is the common one:
 
 * standard PSO moves (eqs 1-2, constant ``w``);
 * **mutation**: after each move, each particle with probability ``1 - p_t`` (drawn as
@@ -104,7 +104,7 @@ penetration_weight
         check_choice(self, "refine_mode", REFINE_MODES)
         check_int(self, "n_refine", 0, 10_000)
 
-    def _iterate(self, space: SwarmSpace, state: SwarmState, k: int,
+    def _iterate(self, space: SwarmSpace, state: SwarmState, run: Any, k: int,
                  rng: np.random.Generator) -> dict[str, Any]:
         X, V = pso_step(state, self.w, self.c1, self.c2, self._vmax(space), rng)
         if self.refine_mode == "step_scale":

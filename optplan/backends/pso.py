@@ -25,23 +25,27 @@ from optplan.backends.swarm import (
     SwarmState,
     evaluate_swarm,
     handle_bounds,
+    velocity_update,
 )
 from optplan.solver import check_range
 
 __all__ = ["PSO", "pso_step"]
 
 
-def pso_step(state: SwarmState, w: float, c1: float, c2: float, vmax: np.ndarray | None,
+def pso_step(state: SwarmState, w: float, c1: float, c2: float, vmax: np.ndarray,
              rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """Eqs 1-2 for the whole swarm: returns the new ``(X, V)`` (bounds not yet handled)."""
+    """Eqs 1-2 for the whole swarm: returns the new ``(X, V)`` (bounds not yet handled).
+
+    ``eps`` then ``eta`` ~ U(0, 1) per particle and coordinate are drawn from ``rng``; the
+    velocity is :func:`optplan.backends.swarm.velocity_update` with gbest as the one guide,
+    clamped to ``vmax`` per coordinate (``inf``: none).
+    """
     P, D = state.X.shape
     eps = rng.random((P, D))
     eta = rng.random((P, D))
-    V = (w * state.V + c1 * eps * (state.pbest - state.X)
-         + c2 * eta * (state.gbest[None, :] - state.X))
-    if vmax is not None:
-        V = np.clip(V, -vmax, vmax)
-    return state.X + V, V
+    V = velocity_update(state.V, state.X, state.pbest, state.gbest[None, :],
+                        np.zeros(P, np.int64), w, c1, c2, eps, eta, vmax, np.empty((P, D)))
+    return state.X + V, V  # eq 2
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -67,7 +71,7 @@ penetration_weight
         super().__post_init__()
         check_range(self, "w", 0.0, 2.0)
 
-    def _iterate(self, space: SwarmSpace, state: SwarmState, k: int,
+    def _iterate(self, space: SwarmSpace, state: SwarmState, run: Any, k: int,
                  rng: np.random.Generator) -> dict[str, Any]:
         X, V = pso_step(state, self.w, self.c1, self.c2, self._vmax(space), rng)
         X, V = handle_bounds(X, V, space.lo, space.hi, self.bounds_mode, rng)

@@ -3,7 +3,7 @@
 Encoding
     A particle is the ``D = 2 n`` coordinates of ``n`` intermediate waypoints, interleaved
     ``[x_1, y_1, x_2, y_2, ..., x_n, y_n]``; the path is ``start -> p_1 -> ... -> p_n -> goal``
-    (domain-notes §1.2, Cartesian encoding).  ``n`` is the option ``n_waypoints``.
+    (Cartesian encoding).  ``n`` is the option ``n_waypoints``.
 
 Fitness (eqs 31-33)
     ``fit = f_1 + f_2`` with ``f_1`` the polyline length (eq 31) and
@@ -28,23 +28,37 @@ Fitness (eqs 31-33)
     piece).  It is the validator's own test (on the known obstacles), so a fitness-feasible
     path is validator-feasible as far as the known obstacles go.
 
+Velocity update (eq 1, and eq 22 of IPSO)
+    :func:`velocity_update` is the one PSO velocity update of the package (``pso``, ``mpso``
+    and ``ipso`` call it), compiled with numba; the random factors are drawn by the caller
+    from the run's ``rng``.
+
 Bounds handling (option ``bounds_mode``)
     ``"reflect"`` (default): a coordinate beyond a bound is mirrored back into the map and the
     velocity component is reversed; ``"clip"``: put on the bound, velocity component zeroed;
     ``"random"``: the coordinate is re-drawn uniformly in the bounds, velocity zeroed.
-    (pyswarms' stuck-particle reports, domain-notes §1.2.)
 
 Initialisation (option ``init_mode``)
     ``"uniform"``: waypoints uniform in the map; ``"sorted"`` (default): uniform, then ordered
     along the start->goal direction (no initial back-tracking zig-zags); ``"line"``: on the
     straight line plus Gaussian noise of ``0.1 * diag``; ``"roadmap"`` (beyond the paper):
-    ``"sorted"`` plus ``n_particles // 10`` particles, spread evenly over the swarm, seeded
-    with collision-free paths from small random roadmaps (:func:`roadmap_paths`).  An ``init``
-    path (from an earlier stage) seeds particle 0 (:func:`resample_path`: exact when it has at
-    most ``n`` bends).
+    ``"sorted"``, then particles seeded with the ``corridors`` shortest start-goal paths of
+    distinct homotopy classes of one sparse random roadmap (:func:`roadmap_corridors`), one
+    per block of ``n_particles / corridors`` consecutive particles (one per island of
+    ``ipso``).  An ``init`` path (from an earlier stage) seeds particle 0
+    (:func:`resample_polyline`: exact when it has at most ``n`` bends).
+
+Homotopy classes (beyond the paper)
+    A path's class is summarised by an integer *signature*: for every item of the fitness
+    kernel (convex piece or circle) a reference point inside it and the upward vertical ray from
+    it; each segment crossing a ray adds ``+1`` (left to right) or ``-1`` to that item's count,
+    and the signature hashes the count vector (:func:`signature_hashes`).  Two paths with
+    common endpoints have the same signature iff their loop winds zero times around every
+    item (see :mod:`optplan.geometry.homotopy`); the counts add over concatenated segments, so
+    a roadmap search can carry them along its edges.
 
 Local refinement (beyond the paper)
-    :func:`tighten`: deterministic corner cutting and string pulling of a collision-free path
+    :func:`tighten`: deterministic corner cutting and string pulling of collision-free paths
     with the fitness kernel only (used by ``ipso``'s ``tighten_rounds``).  Backends add such
     post-iteration steps through :meth:`SwarmBackend._finish` (one history row each, not
     counted as iterations).
@@ -57,6 +71,7 @@ Convergence bookkeeping
 
 from __future__ import annotations
 
+import heapq
 import math
 import time
 from collections.abc import Callable
@@ -64,17 +79,17 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, ClassVar
 
+import numba
 import numpy as np
-import shapely
-from shapely.geometry.polygon import orient
 
+from optplan.geometry import path_lengths
+from optplan.geometry.homotopy import obstacle_points
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
 from optplan.solver import Backend, check_choice, check_int, check_range, make_rng
 
 if TYPE_CHECKING:
     from optplan.geometry import ObstacleSet
-    from optplan.problem import Obstacle
 
 __all__ = [
     "SwarmSpace",
@@ -87,21 +102,27 @@ __all__ = [
     "evaluate_swarm",
     "evaluate_paths",
     "PathBuffer",
+    "velocity_update",
+    "bound_rows",
     "bound_positions",
     "bounce_velocity",
     "handle_bounds",
-    "clamp_velocity",
     "initial_swarm",
-    "resample_path",
-    "converged_iteration",
-    "densify",
+    "resample_polyline",
+    "as_particle",
+    "segment_free",
+    "shortcut",
     "tighten",
+    "signature_hashes",
+    "roadmap_corridors",
+    "converged_iteration",
 ]
 
 BOUNDS_MODES = ("reflect", "clip", "random")
 INIT_MODES = ("sorted", "uniform", "line", "roadmap")
-#: Relative tolerance of the "improved by" tests on fitness values.
-_EPS = 1e-12
+
+#: Compiled helpers (numba; cached on disk after the first run, see docs/solvers/pso.md).
+_jit = numba.njit(cache=True, nogil=True)
 
 
 # --------------------------------------------------------------------------------------
@@ -124,8 +145,6 @@ class SwarmSpace:
     """The search space of one robot: endpoints, box bounds per dimension, the fitness map.
 
     ``obstacles`` is the fitness kernel (None: no obstacles, every path is collision-free).
-    ``static`` (the known static obstacles) and ``radius`` (the robot's) are read only for
-    the obstacle corners of ``ipso``'s ``snap`` option (:func:`snap_targets`).
     """
 
     start: np.ndarray
@@ -136,8 +155,6 @@ class SwarmSpace:
     obstacles: ObstacleSet | None
     penalty_weight: float
     penetration_weight: float = 0.0
-    static: tuple[Obstacle, ...] = ()
-    radius: float = 0.0
 
     @property
     def dim(self) -> int:
@@ -160,6 +177,18 @@ class SwarmSpace:
         """Ones over the ``n + 1`` segments (row sums by a matrix-vector product)."""
         return np.ones(self.n_waypoints + 1)
 
+    @cached_property
+    def signature_points(self) -> np.ndarray:
+        """One reference point per kernel item (world coordinates), shape ``(K, 2)``."""
+        if self.obstacles is None or self.obstacles.n_items == 0:
+            return np.zeros((0, 2))
+        return np.ascontiguousarray(obstacle_points(self.obstacles) + self.obstacles.frame.origin)
+
+    @cached_property
+    def signature_keys(self) -> np.ndarray:
+        """Per reference point a 64-bit key (splitmix64 of its index) hashed into signatures."""
+        return _splitmix_keys(len(self.signature_points))
+
 
 def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
                penalty_weight: float | None = None,
@@ -176,8 +205,7 @@ def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
     obs = problem.obstacle_set(robot.radius, known_only=True)
     pw = default_penalty(problem.bounds, n_waypoints) if penalty_weight is None else penalty_weight
     return SwarmSpace(np.asarray(robot.start, float), np.asarray(robot.goal, float),
-                      n_waypoints, lo, hi, obs, float(pw), float(penetration_weight),
-                      problem.static_obstacles(known_only=True), float(robot.radius))
+                      n_waypoints, lo, hi, obs, float(pw), float(penetration_weight))
 
 
 def decode(X: np.ndarray, space: SwarmSpace) -> np.ndarray:
@@ -260,38 +288,84 @@ class PathBuffer:
 # --------------------------------------------------------------------------------------
 
 
+@_jit
+def velocity_update(V, X, pbest, guides, leader, w, c1, c2, eps, eta, vmax, out):
+    """Eq 1 (PSO) and eq 22 (IPSO) for the whole swarm, written into ``out`` (returned)::
+
+        v_id <- w v_id + c1 eps_id (p_id - x_id) + c2 eta_id (g_d - x_id)      (1), (22)
+
+    then clamped to ``[-vmax_d, vmax_d]`` (``inf``: no clamp).  ``g`` is particle ``i``'s
+    guide ``guides[leader[i]]``: the global best (one guide, every leader 0) or its island's
+    best.  ``eps``, ``eta`` ~ U(0, 1) per particle and coordinate are drawn by the caller from
+    the run's generator.  ``out`` may be ``V``.
+    """
+    P, D = X.shape
+    for i in range(P):
+        g = leader[i]
+        for d in range(D):
+            x = X[i, d]
+            v = (w * V[i, d] + (c1 * eps[i, d]) * (pbest[i, d] - x)
+                 + (c2 * eta[i, d]) * (guides[g, d] - x))
+            v = min(v, vmax[d])
+            out[i, d] = max(v, -vmax[d])
+    return out
+
+
+@_jit
+def bound_rows(X, lo, hi, code):
+    """Bounds handling of the rows of ``X`` into ``[lo, hi]``, in place: ``code`` 1 =
+    ``reflect``, 2 = ``clip``, 0 = ``random`` (nothing moves here: the caller re-draws the
+    coordinates of the returned mask, :func:`redraw_out`).  Returns the out-of-bounds mask and
+    whether any coordinate was out.  Coordinates inside are never changed, not even in the
+    last bit (the mirror is ``2 clip(x) - x``)."""
+    P, D = X.shape
+    out = np.zeros((P, D), np.bool_)
+    anyout = False
+    for i in range(P):
+        for d in range(D):
+            x = X[i, d]
+            c = min(max(x, lo[d]), hi[d])
+            if c == x:
+                continue
+            out[i, d] = True
+            anyout = True
+            if code == 2:
+                X[i, d] = c
+            elif code == 1:
+                y = 2.0 * c - x  # mirror at the crossed bound
+                if min(max(y, lo[d]), hi[d]) != y:
+                    # far out (beyond a whole span): mirror repeatedly, triangle wave of
+                    # period 2 span
+                    span = hi[d] - lo[d]
+                    u = np.mod(y - lo[d], 2.0 * span)
+                    y = lo[d] + (2.0 * span - u if u > span else u)
+                X[i, d] = y
+    return out, anyout
+
+
+BOUND_CODES = {"random": 0, "reflect": 1, "clip": 2}
+
+
+def redraw_out(X: np.ndarray, out: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+               rng: np.random.Generator) -> None:
+    """``random`` bounds mode: re-draw the coordinates of the mask ``out`` uniformly in the
+    bounds (one ``rng.random(X.shape)`` draw), in place."""
+    fresh = lo + (hi - lo) * rng.random(X.shape)
+    np.copyto(X, fresh, where=out)
+
+
 def bound_positions(X: np.ndarray, lo: np.ndarray, hi: np.ndarray, mode: str,
                     rng: np.random.Generator) -> np.ndarray | None:
     """Bring positions back into ``[lo, hi]`` per dimension, **in place**.
 
-    Returns the mask of the coordinates that were out (None when none was).  Coordinates
-    inside the bounds are never changed, not even in the last bit: the mirror of ``reflect``
-    is computed as ``2 clip(x) - x``, which is exactly ``x`` inside (``2x`` is exact and
-    ``2x - x`` is exact by Sterbenz's lemma).  Modes: module docstring.
+    Returns the mask of the coordinates that were out (None when none was).  Modes: module
+    docstring (:func:`bound_rows`, :func:`redraw_out`).
     """
-    # (ufuncs rather than np.clip / ndarray.any: same result, less per-call overhead on the
-    # small arrays of a swarm)
-    C = np.maximum(X, lo)
-    np.minimum(C, hi, out=C)
-    out = C != X
-    if not np.count_nonzero(out):
+    out, anyout = bound_rows(X, lo, hi, BOUND_CODES[mode])
+    if not anyout:
         return None
-    if mode == "reflect":
-        C *= 2.0
-        np.subtract(C, X, out=X)  # mirror at the crossed bound
-        np.maximum(X, lo, out=C)
-        np.minimum(C, hi, out=C)
-        far = C != X
-        if np.count_nonzero(far):
-            # far out (beyond a whole span): mirror repeatedly, triangle wave of period 2 span
-            span = hi - lo
-            u = np.mod(X - lo, 2 * span)
-            np.copyto(X, lo + np.where(u > span, 2 * span - u, u), where=far)
-    elif mode == "clip":
-        X[...] = C
-    else:  # random
-        fresh = lo + (hi - lo) * rng.random(X.shape)
-        np.copyto(X, fresh, where=out)
+    if mode == "random":
+        redraw_out(X, out, lo, hi, rng)
     return out
 
 
@@ -315,14 +389,10 @@ def bounce_velocity(V: np.ndarray, out: np.ndarray, mode: str) -> np.ndarray:
     return np.where(out, -V, V) if mode == "reflect" else np.where(out, 0.0, V)
 
 
-def clamp_velocity(V: np.ndarray, vmax: np.ndarray | None) -> np.ndarray:
-    """Clip each velocity component to ``[-vmax, vmax]`` (``None``: no clamp)."""
-    return V if vmax is None else np.clip(V, -vmax, vmax)
-
-
 def initial_swarm(space: SwarmSpace, n_particles: int, mode: str,
                   rng: np.random.Generator) -> np.ndarray:
-    """Initial positions ``(n_particles, 2n)`` (modes: module docstring)."""
+    """Initial positions ``(n_particles, 2n)`` (modes: module docstring; ``roadmap`` starts
+    from ``sorted``, its seeds are placed by the driver)."""
     n, D = space.n_waypoints, space.dim
     if mode == "line":
         frac = np.arange(1, n + 1) / (n + 1)
@@ -331,7 +401,7 @@ def initial_swarm(space: SwarmSpace, n_particles: int, mode: str,
         X = np.clip(X, space.lo, space.hi)
     else:
         X = space.lo + space.span * rng.random((n_particles, D))
-        if mode == "sorted" and n > 1:
+        if mode in ("sorted", "roadmap") and n > 1:
             W = X.reshape(n_particles, n, 2)
             axis = space.goal - space.start
             proj = (W - space.start) @ axis
@@ -340,200 +410,365 @@ def initial_swarm(space: SwarmSpace, n_particles: int, mode: str,
     return X
 
 
-def resample_path(path: np.ndarray, n: int) -> np.ndarray:
-    """``n`` waypoints describing a polyline, shape ``(n, 2)`` (start and goal excluded).
+# --------------------------------------------------------------------------------------
+# polylines: resampling, visibility, string pulling, tightening
+# --------------------------------------------------------------------------------------
 
-    With at most ``n`` interior vertices the polyline is reproduced exactly: its vertices are
-    kept and the longest segments are split at their midpoints until there are ``n``.  With
-    more, ``n`` points evenly spaced by arc length approximate it.
+
+def resample_polyline(path: np.ndarray, n_segments: int) -> np.ndarray:
+    """Polyline with exactly ``n_segments`` segments through every vertex of ``path``.
+
+    Consecutive duplicates are dropped; each remaining segment is split into ``m_s >= 1``
+    equal parts with ``m_s`` proportional to its length (largest remainder).  With more
+    segments than ``n_segments`` the path is resampled uniformly by arc length instead (the
+    arc-length variant: ``n_segments + 1`` points evenly spaced along the path).  Returns
+    ``(n_segments + 1, 2)`` points, first and last the path's ends.  (The same contract as
+    ``optplan.backends.nlp.resample_path``.)
     """
     p = np.asarray(path, dtype=float).reshape(-1, 2)
-    inner = p[1:-1]
-    if len(p) >= 2 and len(inner) <= n:
-        pts = list(p)
-        while len(pts) - 2 < n:
-            q = np.asarray(pts)
-            seg = np.hypot(*np.diff(q, axis=0).T)
-            j = int(np.argmax(seg))
-            pts.insert(j + 1, 0.5 * (q[j] + q[j + 1]))
-        return np.asarray(pts[1:-1])
+    if len(p) > 1:
+        d = np.hypot(*np.diff(p, axis=0).T)
+        p = np.vstack([p[0], p[1:][d > 0]]) if np.any(d > 0) else p[:1]
+    if len(p) == 1:
+        p = np.vstack([p, p])
     seg = np.hypot(*np.diff(p, axis=0).T)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    if s[-1] <= 0:
-        return np.repeat(p[:1], n, axis=0)
-    q = s[-1] * np.arange(1, n + 1) / (n + 1)
-    return np.stack([np.interp(q, s, p[:, 0]), np.interp(q, s, p[:, 1])], axis=1)
+    S = len(seg)
+    if S > n_segments:
+        s = np.r_[0.0, np.cumsum(seg)]
+        t = np.linspace(0.0, s[-1], n_segments + 1)
+        return np.stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])], axis=1)
+    extra = n_segments - S
+    tot = seg.sum()
+    share = extra * seg / tot if tot > 0 else np.full(S, extra / S)
+    m = 1 + np.floor(share).astype(int)
+    rem = n_segments - m.sum()
+    if rem > 0:
+        order = np.argsort(-(share - np.floor(share)), kind="stable")
+        m[order[:rem]] += 1
+    out = [p[0]]
+    for k in range(S):
+        f = np.arange(1, m[k] + 1)[:, None] / m[k]
+        out.extend(p[k] + f * (p[k + 1] - p[k]))
+    return np.asarray(out)
+
+
+def as_particle(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
+    """A path as a particle: its ``n_waypoints`` interior points, clipped into the bounds."""
+    w = resample_polyline(path, space.n_waypoints + 1)[1:-1].reshape(-1)
+    return np.clip(w, space.lo, space.hi)
 
 
 def segment_free(a: np.ndarray, b: np.ndarray, space: SwarmSpace) -> np.ndarray:
     """Collision-free flags of segments ``a[i] -> b[i]`` (one crossing-test call)."""
-    segs = np.stack([a, b], axis=1)
-    if len(segs) == 0:
+    if len(a) == 0:
         return np.zeros(0, dtype=bool)
     if space.obstacles is None:  # no obstacles: every segment is free
-        return np.ones(len(segs), dtype=bool)
-    return space.obstacles.crossings(segs, penetration=False).count == 0
+        return np.ones(len(a), dtype=bool)
+    return space.obstacles.segment_free(a, b)
 
 
 def shortcut(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
     """Greedy string pulling: from each kept vertex jump to the farthest visible later vertex."""
-    p = np.asarray(path, dtype=float)
-    m = len(p)
-    if m <= 2:
-        return p
-    i, j = np.triu_indices(m, 1)
-    free = np.zeros((m, m), dtype=bool)
-    free[i, j] = segment_free(p[i], p[j], space)
-    out = [0]
-    while out[-1] != m - 1:
-        cur = out[-1]
-        vis = np.flatnonzero(free[cur, cur + 1:]) + cur + 1
-        out.append(int(vis.max()) if vis.size else cur + 1)
-    return p[out]
+    return _shortcut_many([np.asarray(path, dtype=float)], space)[0]
 
 
-def roadmap_paths(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
-                  n_samples: int = 60) -> list[np.ndarray]:
-    """Collision-free start-goal paths from small random roadmaps (beyond the paper).
-
-    Each roadmap: ``n_samples`` uniform points plus start and goal, every pair connected when
-    the segment is collision-free (one crossing-test call for all pairs), Dijkstra, then
-    :func:`shortcut`.  Used by ``init_mode = "roadmap"`` to seed particles in (usually) the
-    right homotopy class; a roadmap that does not connect gives no path.
-    """
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import dijkstra
-
-    out = []
-    for _ in range(n_paths):
-        pts = space.lo[:2] + (space.hi[:2] - space.lo[:2]) * rng.random((n_samples, 2))
-        nodes = np.vstack([space.start, space.goal, pts])
-        i, j = np.triu_indices(len(nodes), 1)
-        ok = segment_free(nodes[i], nodes[j], space)
-        i, j = i[ok], j[ok]
-        w = np.hypot(*(nodes[i] - nodes[j]).T)
-        n = len(nodes)
-        g = csr_matrix((np.r_[w, w], (np.r_[i, j], np.r_[j, i])), shape=(n, n))
-        dist, pred = dijkstra(g, directed=False, indices=0, return_predecessors=True)
-        if not np.isfinite(dist[1]):
+def _shortcut_many(paths: list[np.ndarray], space: SwarmSpace) -> list[np.ndarray]:
+    """:func:`shortcut` of several paths with one visibility test for all vertex pairs."""
+    a, b, spans = [], [], []
+    for p in paths:
+        i, j = np.triu_indices(len(p), 1)
+        a.append(p[i])
+        b.append(p[j])
+        spans.append((i, j))
+    if not paths:
+        return []
+    free_all = segment_free(np.concatenate(a), np.concatenate(b), space)
+    out, pos = [], 0
+    for p, (i, j) in zip(paths, spans):
+        m = len(p)
+        if m <= 2:
+            out.append(p)
             continue
-        order = [1]
-        while order[-1] != 0:
-            order.append(int(pred[order[-1]]))
-        out.append(shortcut(nodes[order[::-1]], space))
+        free = np.zeros((m, m), dtype=bool)
+        free[i, j] = free_all[pos:pos + len(i)]
+        pos += len(i)
+        keep = [0]
+        while keep[-1] != m - 1:
+            cur = keep[-1]
+            vis = np.flatnonzero(free[cur, cur + 1:]) + cur + 1
+            keep.append(int(vis.max()) if vis.size else cur + 1)
+        out.append(p[keep])
     return out
-
-
-def densify(path: np.ndarray, spacing: float) -> np.ndarray:
-    """The same polyline with extra points every ~``spacing`` along each segment (vertices
-    kept, so the geometric path is unchanged)."""
-    p = np.asarray(path, dtype=float)
-    seg = np.hypot(*np.diff(p, axis=0).T)
-    k = np.maximum(1, np.ceil(seg / spacing).astype(int))
-    t = np.concatenate([np.arange(m) / m for m in k])
-    i = np.repeat(np.arange(len(seg)), k)
-    return np.vstack([p[i] + t[:, None] * (p[i + 1] - p[i]), p[-1:]])
 
 
 #: Corner-cut fractions of :func:`tighten` (how far along each adjacent segment).
 CUT_FRACTIONS = 0.5 ** np.arange(1, 11)
 
 
-def tighten(path: np.ndarray, space: SwarmSpace, rounds: int = 30,
-            rel_tol: float = 1e-7, min_gain: float = 1e-5) -> tuple[np.ndarray, int]:
-    """Deterministic corner cutting and string pulling of a collision-free polyline (beyond
-    the paper).
+def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
+            rel_tol: float = 1e-7, min_gain: float = 1e-5) -> tuple[list[np.ndarray], int]:
+    """Deterministic corner cutting and string pulling of collision-free polylines (beyond
+    the paper), all paths together (one visibility test per round for all of them).
 
     Each round, for every interior vertex ``v`` with neighbours ``a``, ``b``, the cuts
     ``p = v + s (a - v)``, ``q = v + t (b - v)`` for ``s, t`` in :data:`CUT_FRACTIONS` are
     tested (one batch of segments ``p -> q``); each vertex takes its collision-free cut with the
     largest length gain.  Fractions are at most 1/2, so the cuts of neighbouring vertices do
     not overlap and ``a -> p``, ``q -> b`` are sub-segments of collision-free segments.  Then a
-    greedy :func:`shortcut` drops the vertices that are no longer needed.  The path stays
+    greedy :func:`shortcut` drops the vertices that are no longer needed.  A path stays
     collision-free for the fitness (hence for the validator), never gets longer, and contracts
     onto the obstacle corners it wraps (the locally shortest path of its homotopy class).
     A cut must gain more than ``min_gain`` x the path length (this bounds the number of
     vertices spent on approximating the rounded corners of the disc robot's free space).
-    Stops after ``rounds`` rounds or when a round gains less than ``rel_tol`` of the length.
-    Returns ``(path, number of segments tested)``.
+    A path stops after ``rounds`` rounds or when a round gains less than ``rel_tol`` of its
+    length.  Returns ``(paths, number of segments tested)``.
     """
-    p = shortcut(np.asarray(path, dtype=float), space)
-    length = float(np.hypot(*np.diff(p, axis=0).T).sum())
+    cur = _shortcut_many([np.asarray(p, dtype=float) for p in paths], space)
+    n_eval = sum(len(p) * (len(p) - 1) // 2 for p in paths)
+    lengths = [path_lengths(p) for p in cur]
+    active = [i for i, p in enumerate(cur) if len(p) > 2]
     f = CUT_FRACTIONS
     F = len(f)
-    n_eval = 0
     for _ in range(rounds):
-        if len(p) <= 2:
+        if not active:
             break
-        v, a, b = p[1:-1], p[:-2], p[2:]
-        P = v[:, None, :] + f[None, :, None] * (a - v)[:, None, :]  # (V, F, 2)
-        Q = v[:, None, :] + f[None, :, None] * (b - v)[:, None, :]
-        Pp = np.broadcast_to(P[:, :, None, :], (len(v), F, F, 2))
-        Qq = np.broadcast_to(Q[:, None, :, :], (len(v), F, F, 2))
-        ok = segment_free(Pp.reshape(-1, 2), Qq.reshape(-1, 2), space).reshape(len(v), F, F)
-        n_eval += ok.size
-        gain = (np.hypot(*(Pp - v[:, None, None, :]).transpose(3, 0, 1, 2))
-                + np.hypot(*(Qq - v[:, None, None, :]).transpose(3, 0, 1, 2))
-                - np.hypot(*(Qq - Pp).transpose(3, 0, 1, 2)))
-        gain = np.where(ok, gain, -1.0).reshape(len(v), -1)
-        j = np.argmax(gain, axis=1)
-        g = gain[np.arange(len(v)), j]
-        cut = g > min_gain * length
-        if not cut.any():
-            break
-        pts = [p[:1]]
-        for i in range(len(v)):
-            if cut[i]:
-                pts.append(np.stack([P[i, j[i] // F], Q[i, j[i] % F]]))
-            else:
-                pts.append(v[i:i + 1])
-        pts.append(p[-1:])
-        q = shortcut(np.concatenate(pts), space)
-        new = float(np.hypot(*np.diff(q, axis=0).T).sum())
-        if new >= length:
-            break
-        done = new > length * (1.0 - rel_tol)
-        p, length = q, new
-        if done:
-            break
-    return p, n_eval
+        cuts, A, B = [], [], []
+        for i in active:
+            p = cur[i]
+            v, a, b = p[1:-1], p[:-2], p[2:]
+            P = v[:, None, :] + f[None, :, None] * (a - v)[:, None, :]  # (V, F, 2)
+            Q = v[:, None, :] + f[None, :, None] * (b - v)[:, None, :]
+            Pp = np.broadcast_to(P[:, :, None, :], (len(v), F, F, 2))
+            Qq = np.broadcast_to(Q[:, None, :, :], (len(v), F, F, 2))
+            cuts.append((v, P, Q, Pp, Qq))
+            A.append(Pp.reshape(-1, 2))
+            B.append(Qq.reshape(-1, 2))
+        ok_all = segment_free(np.concatenate(A), np.concatenate(B), space)
+        n_eval += len(ok_all)
+        pos, cand, owners = 0, [], []
+        for i, (v, P, Q, Pp, Qq) in zip(active, cuts):
+            ok = ok_all[pos:pos + Pp.size // 2].reshape(len(v), F, F)
+            pos += Pp.size // 2
+            gain = (np.hypot(*(Pp - v[:, None, None, :]).transpose(3, 0, 1, 2))
+                    + np.hypot(*(Qq - v[:, None, None, :]).transpose(3, 0, 1, 2))
+                    - np.hypot(*(Qq - Pp).transpose(3, 0, 1, 2)))
+            gain = np.where(ok, gain, -1.0).reshape(len(v), -1)
+            j = np.argmax(gain, axis=1)
+            cut = gain[np.arange(len(v)), j] > min_gain * lengths[i]
+            if not cut.any():
+                continue
+            p = cur[i]
+            pts = [p[:1]]
+            for r in range(len(v)):
+                pts.append(np.stack([P[r, j[r] // F], Q[r, j[r] % F]]) if cut[r]
+                           else v[r:r + 1])
+            pts.append(p[-1:])
+            cand.append(np.concatenate(pts))
+            owners.append(i)
+        pulled = _shortcut_many(cand, space)
+        n_eval += sum(len(p) * (len(p) - 1) // 2 for p in cand)
+        still = []
+        for i, q in zip(owners, pulled):
+            new = path_lengths(q)
+            if new >= lengths[i]:
+                continue
+            done = new > lengths[i] * (1.0 - rel_tol)
+            cur[i], lengths[i] = q, new
+            if not done and len(q) > 2:
+                still.append(i)
+        active = still
+    return cur, n_eval
 
 
-def snap_targets(space: SwarmSpace, push: float) -> np.ndarray:
-    """Convex corners of the known polygonal obstacles, moved out along their bisector to
-    ``radius + push`` from the corner (the middle of the arc the disc robot's free space has
-    there), keeping those the fitness finds collision-free.
+# --------------------------------------------------------------------------------------
+# homotopy classes and the sparse roadmap (beyond the paper)
+# --------------------------------------------------------------------------------------
 
-    Shortest paths among polygons bend only at convex obstacle corners (de Berg et al.,
-    Lemma 15.1), for a disc robot on the arcs of radius ``r`` around them; a waypoint snapped
-    to a slightly pushed-out target makes the path hug that corner without touching it
-    (touching paths are fragile for floating-point tests).  Circles have no corners and give
-    no target.  Hole rings count with the solid on the other side.
+
+def _splitmix_keys(n: int) -> np.ndarray:
+    """``n`` 64-bit keys (splitmix64 of 1..n as signed int64): hashing, not randomness."""
+    mask = (1 << 64) - 1
+    out = np.empty(n, np.int64)
+    for i in range(n):
+        z = ((i + 1) * 0x9E3779B97F4A7C15) & mask
+        z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & mask
+        z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & mask
+        z ^= z >> 31
+        out[i] = z - (1 << 64) if z >= 1 << 63 else z
+    return out
+
+
+@_jit
+def _segment_hashes(A, B, Z, keys):
+    """Per segment ``A[s] -> B[s]`` the sum of ``keys[o]`` times its signed crossing of the
+    upward ray from ``Z[o]`` (wrapping int64 arithmetic)."""
+    n = A.shape[0]
+    out = np.zeros(n, np.int64)
+    for s in range(n):
+        ax, ay, bx, by = A[s, 0], A[s, 1], B[s, 0], B[s, 1]
+        h = np.int64(0)
+        for o in range(Z.shape[0]):
+            zx = Z[o, 0]
+            ra = ax > zx
+            rb = bx > zx
+            if ra == rb:
+                continue
+            y = ay + (zx - ax) * (by - ay) / (bx - ax)
+            if y > Z[o, 1]:
+                if rb:
+                    h += keys[o]
+                else:
+                    h -= keys[o]
+        out[s] = h
+    return out
+
+
+def signature_hashes(paths: np.ndarray, space: SwarmSpace) -> np.ndarray:
+    """Homotopy signature (an int64 hash, module docstring) of each polyline ``(P, M, 2)``;
+    equal for two paths with common endpoints iff they wind alike around every item."""
+    p = np.asarray(paths, dtype=float)
+    if p.ndim == 2:
+        p = p[None]
+    P, M, _ = p.shape
+    if M < 2:
+        return np.zeros(P, np.int64)
+    A = np.ascontiguousarray(p[:, :-1].reshape(-1, 2))
+    B = np.ascontiguousarray(p[:, 1:].reshape(-1, 2))
+    h = _segment_hashes(A, B, space.signature_points, space.signature_keys)
+    return h.reshape(P, M - 1).sum(axis=1)
+
+
+@_jit
+def _k_classes(indptr, nbr, weight, ehash, src, dst, k_goal, k_node):
+    """Label-setting search for the ``k_goal`` shortest ``src -> dst`` walks of distinct
+    homotopy signatures (each node settles at most ``k_node`` signatures, shortest first).
+
+    Returns the goal labels (shortest first), each label's node and parent label.
     """
-    out = []
-    for ob in space.static:
-        if ob.is_circle or ob.geometry is None:
+    n = indptr.shape[0] - 1
+    cap = k_node * nbr.shape[0] + 1  # every settled label pushes one label per edge
+    lab_node = np.empty(cap, np.int64)
+    lab_hash = np.empty(cap, np.int64)
+    lab_par = np.empty(cap, np.int64)
+    lab_node[0] = src
+    lab_hash[0] = 0
+    lab_par[0] = -1
+    n_lab = 1
+    settled = np.zeros(n, np.int64)
+    shash = np.empty((n, k_node), np.int64)
+    goals = np.empty(k_goal, np.int64)
+    n_goal = 0
+    heap = [(0.0, 0)]
+    while len(heap) > 0 and n_goal < k_goal:
+        d, lab = heapq.heappop(heap)
+        v = lab_node[lab]
+        h = lab_hash[lab]
+        if settled[v] >= k_node:
             continue
-        for poly in getattr(ob.geometry, "geoms", [ob.geometry]):
-            poly = orient(poly, 1.0)  # CCW exterior, CW holes: the solid is on the left
-            for ring in (poly.exterior, *poly.interiors):
-                c = shapely.get_coordinates(ring)[:-1]
-                if len(c) < 3:
-                    continue
-                prev, nxt = np.roll(c, 1, axis=0), np.roll(c, -1, axis=0)
-                a, b = c - prev, nxt - c
-                cross = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
-                la, lb = np.hypot(*a.T), np.hypot(*b.T)
-                keep = cross > 1e-12 * la * lb  # left turn: a convex corner of the solid
-                na = np.stack([a[:, 1], -a[:, 0]], 1) / np.maximum(la, 1e-300)[:, None]
-                nb = np.stack([b[:, 1], -b[:, 0]], 1) / np.maximum(lb, 1e-300)[:, None]
-                bis = na + nb  # outward (away from the solid)
-                bis /= np.maximum(np.hypot(*bis.T), 1e-300)[:, None]
-                out.append((c + (space.radius + push) * bis)[keep])
-    t = np.concatenate(out) if out else np.zeros((0, 2))
-    if len(t) and space.obstacles is not None:  # drop corners inside another obstacle
-        t = t[space.obstacles.crossings(np.stack([t, t], axis=1), penetration=False).count == 0]
-    return t
+        dup = False
+        for q in range(settled[v]):
+            if shash[v, q] == h:
+                dup = True
+                break
+        if dup:
+            continue
+        shash[v, settled[v]] = h
+        settled[v] += 1
+        if v == dst:
+            goals[n_goal] = lab
+            n_goal += 1
+            continue
+        for e in range(indptr[v], indptr[v + 1]):
+            u = nbr[e]
+            if settled[u] >= k_node:
+                continue
+            lab_node[n_lab] = u
+            lab_hash[n_lab] = h + ehash[e]
+            lab_par[n_lab] = lab
+            heapq.heappush(heap, (d + weight[e], n_lab))
+            n_lab += 1
+    return goals[:n_goal], lab_node[:n_lab], lab_par[:n_lab]
+
+
+def _free_points(space: SwarmSpace, pts: np.ndarray) -> np.ndarray:
+    """The points where the robot's disc is collision-free (one kernel call)."""
+    if space.obstacles is None or len(pts) == 0:
+        return pts
+    return pts[space.obstacles.crossings(np.stack([pts, pts], axis=1),
+                                         penetration=False).count == 0]
+
+
+def roadmap_nodes(space: SwarmSpace, n_samples: int, rng: np.random.Generator) -> np.ndarray:
+    """Start, goal and collision-free samples: ``n_samples`` uniform draws plus as many
+    Gaussian obstacle-boundary draws (a uniform point and a partner at distance
+    ``~N(0, (diag / 40)^2)`` per axis; the free one of a free/blocked pair is kept), which put
+    nodes beside obstacles and in narrow passages where shortest paths run."""
+    lo, hi = space.lo[:2], space.hi[:2]
+    U = lo + (hi - lo) * rng.random((n_samples, 2))
+    G = np.clip(U + (space.diag / 40.0) * rng.standard_normal((n_samples, 2)), lo, hi)
+    if space.obstacles is None:
+        return np.vstack([space.start, space.goal, U])
+    both = np.vstack([U, G])
+    blocked = space.obstacles.crossings(np.stack([both, both], axis=1),
+                                        penetration=False).count > 0
+    bu, bg = blocked[:n_samples], blocked[n_samples:]
+    edge = np.where(bu & ~bg, True, False)
+    pick = np.vstack([U[~bu], G[edge]])  # free uniform draws, free partners of blocked ones
+    return np.vstack([space.start, space.goal, pick])
+
+
+def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
+                      n_samples: int = 150, k_neighbours: int = 12) -> list[np.ndarray]:
+    """Collision-free start-goal paths in up to ``n_paths`` distinct homotopy classes, the
+    shortest first, from one sparse random roadmap (beyond the paper; no exact planner).
+
+    Nodes: :func:`roadmap_nodes`.  Edges: each node to its ``k_neighbours`` nearest nodes
+    (start and goal to twice as many), kept when the fitness kernel finds the segment
+    collision-free (one call for all).  Search: the ``n_paths`` shortest roadmap walks of
+    distinct homotopy signatures (:func:`signature_hashes`, label setting with at most
+    ``n_paths`` signatures per node), each string-pulled with :func:`shortcut` (which can only
+    shorten it).  A roadmap that does not connect start and goal gives no path.
+    """
+    from scipy.spatial import cKDTree
+
+    nodes = roadmap_nodes(space, n_samples, rng)
+    n = len(nodes)
+    k = min(k_neighbours, n - 1)
+    if k < 1 or n_paths < 1:
+        return []
+    _, nb = cKDTree(nodes).query(nodes, k=min(2 * k, n - 1) + 1)
+    nb = nb[:, 1:]
+    i = np.repeat(np.arange(n), k)
+    j = nb[:, :k].reshape(-1)
+    ends = np.repeat([0, 1], nb.shape[1])
+    i = np.concatenate([i, ends])
+    j = np.concatenate([j, nb[:2].reshape(-1)])
+    lo_, hi_ = np.minimum(i, j), np.maximum(i, j)
+    key = np.unique(lo_ * n + hi_)
+    i, j = key // n, key % n
+    ok = segment_free(nodes[i], nodes[j], space)
+    i, j = i[ok], j[ok]
+    if len(i) == 0:
+        return []
+    w = np.hypot(*(nodes[i] - nodes[j]).T)
+    eh = _segment_hashes(nodes[i], nodes[j], space.signature_points, space.signature_keys)
+    # both directions, CSR by source node
+    src = np.concatenate([i, j])
+    dst = np.concatenate([j, i])
+    order = np.argsort(src, kind="stable")
+    indptr = np.searchsorted(src[order], np.arange(n + 1))
+    goals, lab_node, lab_par = _k_classes(
+        indptr.astype(np.int64), dst[order].astype(np.int64), np.concatenate([w, w])[order],
+        np.concatenate([eh, -eh])[order], 0, 1, int(n_paths), int(n_paths))
+    walks = []
+    for g in goals:
+        seq = []
+        lab = int(g)
+        while lab >= 0:
+            seq.append(int(lab_node[lab]))
+            lab = int(lab_par[lab])
+        walks.append(nodes[seq[::-1]])
+    return _shortcut_many(walks, space)
 
 
 def converged_iteration(best: np.ndarray, rel: float = 1e-3) -> int:
@@ -556,7 +791,12 @@ def converged_iteration(best: np.ndarray, rel: float = 1e-3) -> int:
 
 @dataclass(eq=False)
 class SwarmState:
-    """Mutable state of one swarm run (positions, velocities, memories, bookkeeping)."""
+    """Mutable state of one swarm run (positions, velocities, memories, bookkeeping).
+
+    ``stats`` holds the backend's public counters (reported in ``extras["per_robot"]``);
+    ``final_path`` is an answer that is not a particle (e.g. a tightened path with more
+    vertices than ``n_waypoints``), set by a backend's :meth:`SwarmBackend._finish`.
+    """
 
     X: np.ndarray
     V: np.ndarray
@@ -565,11 +805,11 @@ class SwarmState:
     pbest_f: np.ndarray
     gbest: np.ndarray
     gbest_f: float
-    gbest_len: float
     gbest_count: int
     feas_len: float = math.inf
     feas_x: np.ndarray | None = None
     n_eval: int = 0
+    final_path: np.ndarray | None = None
     stats: dict = field(default_factory=dict)
 
     def absorb(self, X: np.ndarray, ev: SwarmEval, slots: np.ndarray | None = None) -> None:
@@ -595,7 +835,6 @@ class SwarmState:
         if ev.cost[j] < self.gbest_f:
             self.gbest = X[j].copy()
             self.gbest_f = float(ev.cost[j])
-            self.gbest_len = float(ev.length[j])
             self.gbest_count = int(ev.count[j])
 
     def offer_feasible(self, X: np.ndarray, ev: SwarmEval) -> None:
@@ -613,8 +852,7 @@ def new_state(X: np.ndarray, V: np.ndarray, ev: SwarmEval) -> SwarmState:
     j = int(np.argmin(ev.cost))
     st = SwarmState(X=X.copy(), V=V.copy(), F=ev.cost.copy(), pbest=X.copy(),
                     pbest_f=ev.cost.copy(), gbest=X[j].copy(), gbest_f=float(ev.cost[j]),
-                    gbest_len=float(ev.length[j]), gbest_count=int(ev.count[j]),
-                    n_eval=len(X))
+                    gbest_count=int(ev.count[j]), n_eval=len(X))
     st.offer(X, ev)
     return st
 
@@ -640,7 +878,7 @@ class SwarmBackend(Backend):
         disables it.  Not in the paper.
     bounds_mode : {"reflect", "clip", "random"}
         Handling of coordinates that leave the map (see module docstring).
-    init_mode : {"sorted", "uniform", "line"}
+    init_mode : {"sorted", "uniform", "line", "roadmap"}
         Initial swarm (see module docstring).
     penalty_weight : float or None
         ``delta`` of eq 32 (map units per crossing); ``None`` = ``(n_waypoints + 1) * diag``,
@@ -649,7 +887,11 @@ class SwarmBackend(Backend):
         Weight of the inside-obstacle length added to the fitness (beyond the paper; 0 in the
         ``-paper`` presets).
     roadmap_samples : int
-        Random samples per roadmap for ``init_mode = "roadmap"`` (beyond the paper).
+        Uniform samples (and as many obstacle-boundary draws) of the roadmap of
+        ``init_mode = "roadmap"`` (beyond the paper).
+    corridors : int
+        Homotopy classes seeded by ``init_mode = "roadmap"``: the ``corridors`` shortest
+        roadmap paths of distinct classes (beyond the paper).
     """
 
     name: ClassVar[str] = "swarm"
@@ -667,6 +909,7 @@ class SwarmBackend(Backend):
     penalty_weight: float | None = None
     penetration_weight: float = 0.0
     roadmap_samples: int = 60
+    corridors: int = 5
 
     def __post_init__(self) -> None:
         check_int(self, "n_particles", 2, 100_000)
@@ -681,17 +924,23 @@ class SwarmBackend(Backend):
             check_range(self, "penalty_weight", 0.0, math.inf)
         check_range(self, "penetration_weight", 0.0, math.inf)
         check_int(self, "roadmap_samples", 2, 100_000)
+        check_int(self, "corridors", 1, 1000)
 
     # -- hooks for subclasses ------------------------------------------------------
-    def _start(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator) -> None:
-        """Called once after the initial evaluation (set up algorithm-specific state)."""
+    def _start(self, space: SwarmSpace, state: SwarmState, seeds: list[np.ndarray],
+               rng: np.random.Generator) -> Any:
+        """Called once after the initial evaluation; returns the backend's per-run object
+        (constants and algorithm state), passed to :meth:`_iterate` and :meth:`_finish`.
+        ``seeds`` are the roadmap corridors (``init_mode = "roadmap"``, else empty)."""
+        return None
 
-    def _iterate(self, space: SwarmSpace, state: SwarmState, k: int,
+    def _iterate(self, space: SwarmSpace, state: SwarmState, run: Any, k: int,
                  rng: np.random.Generator) -> dict[str, Any]:
         """One iteration ``k`` (1-based); returns extra history columns."""
         raise NotImplementedError
 
-    def _finish(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator):
+    def _finish(self, space: SwarmSpace, state: SwarmState, run: Any,
+                rng: np.random.Generator):
         """Optional steps after the ``k_max`` iterations (a generator of history columns).
 
         Each yielded dict adds one history row (numbered on from ``k_max``); these rows are not
@@ -699,19 +948,35 @@ class SwarmBackend(Backend):
         """
         return iter(())
 
-    # -- shared helpers --------------------------------------------------------------
-    def _vmax(self, space: SwarmSpace) -> np.ndarray | None:
-        return None if math.isinf(self.v_max) else self.v_max * space.span
+    def _stats(self, run: Any) -> dict[str, Any]:
+        """The backend's public per-robot counters of a run (``extras["per_robot"]``)."""
+        return {}
 
-    def _velocity(self, state: SwarmState, w: float, rng: np.random.Generator,
-                  space: SwarmSpace) -> np.ndarray:
-        """Eq 1 / eq 22 for the whole swarm (``epsilon``, ``eta`` ~ U(0,1) per coordinate)."""
-        P, D = state.X.shape
-        eps = rng.random((P, D))
-        eta = rng.random((P, D))
-        V = (w * state.V + self.c1 * eps * (state.pbest - state.X)
-             + self.c2 * eta * (state.gbest[None, :] - state.X))
-        return clamp_velocity(V, self._vmax(space))
+    # -- shared helpers --------------------------------------------------------------
+    def _vmax(self, space: SwarmSpace) -> np.ndarray:
+        """Velocity clamp per coordinate (``inf`` everywhere when there is none)."""
+        if math.isinf(self.v_max):
+            return np.full(space.dim, math.inf)
+        return self.v_max * space.span
+
+    def _initial(self, space: SwarmSpace, init_path: np.ndarray | None,
+                 rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray]]:
+        """Initial positions and the roadmap corridors that seeded some of them."""
+        X = initial_swarm(space, self.n_particles, self.init_mode, rng)
+        seeds: list[np.ndarray] = []
+        if self.init_mode == "roadmap":
+            seeds = roadmap_corridors(space, self.corridors, rng, n_samples=self.roadmap_samples)
+            blocks = self._seed_blocks(len(seeds))
+            for i, pth in enumerate(seeds[:blocks]):  # one per block of particles
+                X[i * self.n_particles // blocks] = as_particle(pth, space)
+        if init_path is not None and len(init_path) >= 2:
+            X[0] = as_particle(init_path, space)
+        return X, seeds
+
+    def _seed_blocks(self, n_seeds: int) -> int:
+        """How many roadmap corridors the initial swarm holds (one per block of consecutive
+        particles): all of them, at most one per particle."""
+        return min(n_seeds, self.n_particles)
 
     # -- the driver --------------------------------------------------------------------
     def _run_robot(self, problem: Problem, robot: Robot, rng: np.random.Generator,
@@ -719,21 +984,11 @@ class SwarmBackend(Backend):
         space = make_space(problem, robot, self.n_waypoints,
                            penalty_weight=self.penalty_weight,
                            penetration_weight=self.penetration_weight)
-        X = initial_swarm(space, self.n_particles,
-                          "sorted" if self.init_mode == "roadmap" else self.init_mode, rng)
-        if self.init_mode == "roadmap":
-            seeds = roadmap_paths(space, max(1, self.n_particles // 10), rng,
-                                  n_samples=self.roadmap_samples)
-            for i, pth in enumerate(seeds):  # spread over the swarm (one per island)
-                X[i * self.n_particles // len(seeds)] = np.clip(
-                    resample_path(pth, self.n_waypoints).reshape(-1), space.lo, space.hi)
-        if init_path is not None and len(init_path) >= 2:
-            X[0] = np.clip(resample_path(init_path, self.n_waypoints).reshape(-1),
-                           space.lo, space.hi)
+        X, seeds = self._initial(space, init_path, rng)
         V = np.zeros_like(X)
         ev = evaluate_swarm(X, space)
         state = new_state(X, V, ev)
-        self._start(space, state, rng)
+        run = self._start(space, state, seeds, rng)
         rows: list[dict[str, Any]] = []
 
         def record(k: int, extra: dict[str, Any]) -> bool:
@@ -757,16 +1012,17 @@ class SwarmBackend(Backend):
         k = 0
         while not stopped and k < self.k_max:
             k += 1
-            extra = self._iterate(space, state, k, rng)
+            extra = self._iterate(space, state, run, k, rng)
             stopped = record(k, extra)
-        state.stats["_iterations"] = k
+        iterations = k
+        state.stats.update(self._stats(run))
         if not stopped:
-            for extra in self._finish(space, state, rng):
+            for extra in self._finish(space, state, run, rng):
                 k += 1
                 if record(k, extra):
                     stopped = True
                     break
-        return space, state, rows, stopped
+        return space, state, rows, stopped, iterations
 
     def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
               init: dict[str, np.ndarray] | None = None,
@@ -784,29 +1040,28 @@ class SwarmBackend(Backend):
             if robot.goal is None:
                 continue
             ip = None if not init else init.get(robot.id)
-            space, st, rows, stopped = self._run_robot(view, robot, rng, ip, callback, t0,
-                                                       n_iter)
+            space, st, rows, stopped, iters = self._run_robot(view, robot, rng, ip, callback,
+                                                              t0, n_iter)
             all_rows.append(rows)
             n_eval += st.n_eval
-            n_iter += st.stats["_iterations"]
+            n_iter += iters
             stopped_any |= stopped
             # the answer: the best collision-free particle ever seen, else gbest
             x = st.feas_x if st.feas_x is not None else st.gbest
             ok = st.feas_x is not None
             all_ok &= ok
-            final = st.stats.get("_final_path") if ok else None
+            final = st.final_path if ok else None
             paths[robot.id] = final if final is not None else decode(x[None], space)[0]
             # over the swarm iterations (a final tightening row is not an iteration)
-            best = np.array([r["best_cost"] for r in rows[:st.stats["_iterations"] + 1]])
-            conv = converged_iteration(best)
+            best = np.array([r["best_cost"] for r in rows[:iters + 1]])
             cost += st.feas_len if ok else st.gbest_f
             per_robot[robot.id] = {
-                "converged_iteration": conv,
+                "converged_iteration": converged_iteration(best),
                 "final_best_cost": st.gbest_f,
                 "feasible_best_length": st.feas_len if ok else None,
                 "crossings": st.gbest_count,
                 "penalty_weight": space.penalty_weight,
-                **{k: v for k, v in st.stats.items() if not k.startswith("_")},
+                **st.stats,
             }
             if not ok:
                 msgs.append(f"{robot.id}: no collision-free particle found "
