@@ -797,6 +797,15 @@ def plot_convergence(results: Result | Sequence[Result] | Mapping[str, Sequence[
             ax.plot(it, med, color=c, lw=1.6, label=lab)
             if len(vals) > 1:
                 ax.fill_between(it, lo, hi, color=c, alpha=0.2, lw=0)
+        if ax.lines and not any(np.isfinite(ln.get_ydata()).any() for ln in ax.lines):
+            # no median is ever defined: say so instead of an empty, meaningless axis
+            xs = np.concatenate([ln.get_xdata() for ln in ax.lines])
+            ax.set_xlim(float(xs.min()), float(max(xs.max(), xs.min() + 1)))
+            ax.set_yticks([])
+            ax.text(0.5, 0.5, "no median to draw:\n" + (
+                "fewer than half of each group's runs\nare ever feasible"
+                if col in LENGTH_COLUMNS else "no finite values"), transform=ax.transAxes,
+                ha="center", va="center", fontsize=9, color="#424242")
         ax.set_xlabel("iteration")
         ax.set_ylabel(titles[col])
         ax.set_title(titles[col] + (" (median, IQR band)" if any(
