@@ -71,6 +71,14 @@ MAX_TIME = 1e12
 #: waypoints) in one scenario.
 MAX_POINTS = 100_000
 
+#: Largest ratio of the longer to the shorter side of the bounds: beyond it the tolerance
+#: ``1e-9 x`` the diagonal is no longer small against the shorter side.
+MAX_ASPECT = 1e6
+
+#: Largest scenario file :func:`read_problem` reads (bytes; 100,000 points take about 4 MB),
+#: so that reading a rejected file takes a few seconds at most.
+MAX_FILE_BYTES = 8 * 2**20
+
 
 class ProblemError(ValueError):
     """A scenario (or an option) is malformed; the message names the file and key."""
@@ -652,7 +660,7 @@ def _check_extent(ctx: _Ctx, frame, o: Obstacle, key: str, margin: float) -> Non
         raise ctx.err(key, str(e)) from None
 
 
-def _parse_dynamic(ctx: _Ctx, o: Any, i: int, length: float) -> DynamicObstacle:
+def _parse_dynamic(ctx: _Ctx, o: Any, i: int, frame) -> DynamicObstacle:
     pre = f"dynamic_obstacles[{i}]."
     if not isinstance(o, dict):
         raise ctx.err(f"dynamic_obstacles[{i}]", f"expected a table, got {_show(o)}")
@@ -670,8 +678,21 @@ def _parse_dynamic(ctx: _Ctx, o: Any, i: int, length: float) -> DynamicObstacle:
         verts = ctx.points(ctx.require(o, "vertices", pre), f"{pre}vertices", 3, coord=True)
         local = ctx.polygon(verts, f"{pre}vertices")
     name = ctx.string(o, "name", pre, f"dynamic{i}")
+    # the shape and every waypoint must be resolvable in the map's frame (moving obstacles are
+    # compared with robots in relative coordinates; one far away has no business in the map)
+    size = float(radius) if radius is not None else float(np.max(np.abs(verts)))
+    try:
+        frame.check_extent(size, f"the shape of dynamic obstacle {name!r}")
+    except ValueError as e:
+        raise ctx.err(f"{pre}{'radius' if radius is not None else 'vertices'}", str(e)) from None
     wps = ctx.points(ctx.require(o, "waypoints", pre), f"{pre}waypoints", 1, coord=True)
-    vmax = MAX_REL_SPEED * length
+    far = np.max(np.abs(frame.local(wps)), axis=1) + size
+    k = int(np.argmax(far))
+    try:
+        frame.check_extent(float(far[k]), f"dynamic obstacle {name!r} at this waypoint")
+    except ValueError as e:
+        raise ctx.err(f"{pre}waypoints[{k}]", str(e)) from None
+    vmax = MAX_REL_SPEED * frame.length
     velocity = None
     if "velocity" in o:
         velocity = ctx.point(o["velocity"], f"{pre}velocity", coord=True)
@@ -790,6 +811,10 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
     bounds = tuple(ctx.number(v, f"bounds[{k}]") for k, v in enumerate(b))
     if bounds[0] >= bounds[2] or bounds[1] >= bounds[3]:
         raise ctx.err("bounds", f"need xmin < xmax and ymin < ymax, got {list(bounds)}")
+    w, h = bounds[2] - bounds[0], bounds[3] - bounds[1]
+    if max(w, h) > MAX_ASPECT * min(w, h):
+        raise ctx.err("bounds", f"a {w:.3g} x {h:.3g} map: the longer side may be at most "
+                                f"{MAX_ASPECT:g} x the shorter one")
     from optplan.geometry import Frame
 
     try:
@@ -803,7 +828,7 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
         if key in data and not isinstance(data[key], list):
             raise ctx.err(key, f"expected an array of tables: write [[{key}]] for each entry")
     obstacles = tuple(_parse_obstacle(ctx, o, i) for i, o in enumerate(data.get("obstacles", [])))
-    dyn = tuple(_parse_dynamic(ctx, o, i, diag)
+    dyn = tuple(_parse_dynamic(ctx, o, i, frame)
                 for i, o in enumerate(data.get("dynamic_obstacles", [])))
 
     raw_robots = ctx.require(data, "robots", "")
@@ -902,6 +927,13 @@ def read_problem(path: str | Path) -> Problem:
     p = Path(path)
     if p.is_dir():
         raise ProblemError(f"{p}: is a directory, not a scenario file")
+    try:
+        size = p.stat().st_size
+    except OSError as e:
+        raise ProblemError(f"{p}: cannot read file ({e.strerror or e})") from None
+    if size > MAX_FILE_BYTES:
+        raise ProblemError(f"{p}: file of {size / 2**20:.1f} MB is larger than the "
+                           f"{MAX_FILE_BYTES // 2**20} MB a scenario may have")
     try:
         text = p.read_text(encoding="utf-8")
     except OSError as e:
