@@ -247,3 +247,32 @@ def test_bounds_active_is_not_certified() -> None:
     res = op.solve(prob, "visgraph")
     assert res.status in (op.Status.solved, op.Status.failed, op.Status.approximate)
     assert "optimum" not in res.metrics or res.status is not op.Status.optimal
+
+
+@pytest.mark.parametrize("seed, r", [(1, 0.0), (2, 0.0), (3, 1.0), (4, 1.0)])
+def test_courtyard_with_a_door_and_obstacles_inside(seed: int, r: float) -> None:
+    """A polygon with a hole (a walled courtyard with a door) and obstacles inside it: the
+    plain visibility graph (r = 0) or the fine polygonal bracket (r > 0) agree."""
+    rng = np.random.default_rng(seed)
+    ring = shapely.box(10, 10, 90, 90).difference(shapely.box(20, 20, 80, 80))
+    door = shapely.box(45, 5, 55, 25) if seed % 2 else shapely.box(75, 45, 95, 55)
+    ring = orient(ring.difference(door), 1.0)
+    inner = [p for p in random_polygons(rng, 3) if p.within(shapely.box(25, 25, 75, 75))
+             and not p.buffer(r + 0.5).contains(shapely.Point(50.0, 50.0))]
+    polys = [ring, *inner]
+    oset = obstacle_set([polygon(p) for p in polys], r, Frame.from_bounds(BOUNDS))
+    res = shortest_path(oset, (50.0, 50.0), (2.0, 2.0))
+    assert oset.crossings(res.polyline[None]).count[0] == 0
+    if r == 0:
+        want = plain_visibility_length(polys, (50.0, 50.0), (2.0, 2.0))
+        assert res.length == pytest.approx(want, rel=1e-9)
+        return
+
+    def grown(d):
+        u = shapely.unary_union([p.buffer(d, quad_segs=16) for p in polys])
+        return [orient(g, 1.0) for g in getattr(u, "geoms", [u])]
+
+    lo = plain_visibility_length(grown(r), (50.0, 50.0), (2.0, 2.0))
+    hi = plain_visibility_length(grown(r / math.cos(3 * math.pi / 128)), (50.0, 50.0),
+                                 (2.0, 2.0))
+    assert lo - 1e-9 <= res.length <= hi + 1e-9
