@@ -519,11 +519,12 @@ class _Ctx:
         return np.array([self.point(p, f"{key}[{i}]", coord) for i, p in enumerate(v)])
 
     def ring(self, verts: np.ndarray, key: str, what: str = "polygon") -> Polygon:
-        """A simple polygon of ``verts`` (no holes), every vertex kept.
+        """A simple polygon of ``verts`` (no holes), every distinct vertex kept.
 
-        Only a closing vertex that repeats the first one (exactly, or within
-        :data:`CLOSE_REL` ``x`` the ring's own size) is dropped.  Rejected: fewer than 3
-        distinct vertices, a self-intersecting or otherwise invalid ring, zero area (relative:
+        Dropped: a closing vertex that repeats the first one (exactly, or within
+        :data:`CLOSE_REL` ``x`` the ring's own size) and exact consecutive repeats (zero-length
+        edges carry no geometry).  Rejected: fewer than 3 distinct vertices, a
+        self-intersecting or otherwise invalid ring, zero area (relative:
         ``area <= CLOSE_REL x size^2``).
         """
         verts = np.asarray(verts, dtype=float).reshape(-1, 2)
@@ -532,9 +533,9 @@ class _Ctx:
             gap = float(np.hypot(*(verts[-1] - verts[0])))
             if gap == 0.0 or gap <= CLOSE_REL * size:
                 verts = verts[:-1]
-        distinct = verts[np.any(verts != np.roll(verts, 1, axis=0), axis=1)] \
-            if len(verts) > 1 else verts
-        if len(distinct) < 3:
+        if len(verts) > 1:
+            verts = verts[np.any(verts != np.roll(verts, 1, axis=0), axis=1)]
+        if len(verts) < 3:
             raise self.err(key, f"a {what} needs at least 3 distinct vertices "
                                 f"(consecutive repeats count once)")
         poly = Polygon(verts)

@@ -580,10 +580,11 @@ def test_degenerate_polygons_rejected():
     flat = [[40.0, 40.0], [50.0, 40.0 + 1e-14], [60.0, 40.0]]  # area 1e-13 x size^2
     msg = _reject(_scene([{"type": "polygon", "vertices": flat}]))
     assert ": obstacles[0].vertices: " in msg and ("zero area" in msg or "degenerate" in msg)
-    # a repeated vertex in an otherwise fine polygon is kept and harmless
+    # an exact consecutive repeat in an otherwise fine polygon is dropped (a zero-length edge
+    # made the exact geometry core ignore the whole obstacle: issue 14 fuzzing)
     ok = _SQ[:2] + [_SQ[1]] + _SQ[2:]
-    assert _parse(_scene([{"type": "polygon", "vertices": ok}])).obstacles[0].geometry.area \
-        == pytest.approx(100.0)
+    o = _parse(_scene([{"type": "polygon", "vertices": ok}])).obstacles[0]
+    assert o.geometry.area == pytest.approx(100.0) and _n_vertices(o) == 4
 
 
 def test_far_obstacles_are_allowed_and_ignored():
