@@ -476,9 +476,15 @@ def _import_dask() -> Any:
     return distributed
 
 
-def _dask_task(task: Task, init: Mapping[str, Any], hard: float | None
-               ) -> tuple[dict[str, Any], Trace, str]:
-    """A run on a Dask worker (in one of its threads)."""
+#: a Dask task runs consecutive runs for about this many seconds (see :func:`_run_dask`)
+DASK_CHUNK_SECONDS = 0.5
+#: and at most this many runs
+DASK_CHUNK_MAX = 64
+
+
+def _dask_chunk(chunk: Sequence[Task], init: Mapping[str, Any], hard: float | None
+                ) -> list[tuple[dict[str, Any], Trace, str]]:
+    """Consecutive runs on a Dask worker (in one of its threads)."""
     _worker_setup(init)
     try:
         from distributed import get_worker
@@ -486,20 +492,21 @@ def _dask_task(task: Task, init: Mapping[str, Any], hard: float | None
         wid = str(get_worker().address)
     except (ImportError, ValueError):
         wid = _worker_id()
-    t0 = time.perf_counter()
-    out, how = _guarded(task, hard)
-    if out is None:
-        return _limit_row(task, time.perf_counter() - t0, how), [], wid
-    return out[0], out[1], wid
+    out = []
+    for task in chunk:
+        t0 = time.perf_counter()
+        res, how = _guarded(task, hard)
+        if res is None:
+            out.append((_limit_row(task, time.perf_counter() - t0, how), [], wid))
+        else:
+            out.append((res[0], res[1], wid))
+    return out
 
 
-def _run_dask(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
-              init: Mapping[str, Any], record: Record, scheduler: str | None,
-              dask_local: int | None) -> None:
+def _dask_client(distributed: Any, scheduler: str | None, dask_local: int | None
+                 ) -> tuple[Any, Any]:
     import logging
 
-    distributed = _import_dask()
-    cluster = None
     if dask_local:
         import dask
 
@@ -509,41 +516,103 @@ def _run_dask(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
             cluster = distributed.LocalCluster(n_workers=int(dask_local), threads_per_worker=1,
                                                processes=True, dashboard_address=None,
                                                silence_logs=logging.ERROR)
-        client = distributed.Client(cluster)
-    else:
-        try:
-            client = distributed.Client(scheduler, timeout="10s")
-        except (OSError, TimeoutError) as e:
-            raise OSError(f"cannot connect to the Dask scheduler at {scheduler}: {e}") from None
-    futures: list[Any] = []
+        return distributed.Client(cluster), cluster
     try:
+        return distributed.Client(scheduler, timeout="10s"), None
+    except (OSError, TimeoutError) as e:
+        raise OSError(f"cannot connect to the Dask scheduler at {scheduler}: {e}") from None
+
+
+def _kill(pids: Sequence[int]) -> None:
+    for pid in pids:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            pass
+
+
+def _run_dask(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
+              init: Mapping[str, Any], record: Record, scheduler: str | None,
+              dask_local: int | None) -> None:
+    """Runs on Dask, streamed back as they complete.
+
+    A Dask task costs milliseconds of scheduling (more than a fast run), so consecutive runs
+    are grouped into chunks of about :data:`DASK_CHUNK_SECONDS` of solver time (estimated from
+    the median run so far; one run per chunk until the first results arrive), with about two
+    chunks in flight per worker thread.  An interrupt cancels the chunks in flight.
+    """
+    distributed = _import_dask()
+    client, cluster = _dask_client(distributed, scheduler, dask_local)
+    queue = deque(todo)
+    flying: dict[str, tuple[Any, list[int]]] = {}
+    done_times: list[float] = []
+    counter = [0]
+
+    cache = {"t": -math.inf, "n": 1}
+
+    def threads() -> int:
+        """Worker threads in the cluster (asked of the scheduler at most every 5 s)."""
+        if time.monotonic() - cache["t"] > 5.0:
+            cache["n"] = max(1, sum(int(n) for n in client.nthreads().values()))
+            cache["t"] = time.monotonic()
+        return int(cache["n"])
+
+    def submit(pipe: Any, n_threads: int) -> None:
+        size = 1
+        if done_times:
+            med = float(np.median(done_times[-200:]))
+            size = int(min(DASK_CHUNK_MAX, max(1, DASK_CHUNK_SECONDS // max(med, 1e-4))))
+        # near the end, leave something for every worker
+        size = max(1, min(size, len(queue) // (2 * n_threads) or 1))
+        idx = [queue.popleft() for _ in range(min(size, len(queue)))]
+        counter[0] += 1
+        f = client.submit(_dask_chunk, [tasks[i] for i in idx], init, hard, pure=False,
+                          key=f"optplan-bench-{init['token']}-{counter[0]}")
+        flying[f.key] = (f, idx)
+        pipe.add(f)
+
+    pids: list[int] = []
+    interrupted = abandoned = False
+    try:
+        if cluster is not None:
+            pids = list(client.run(os.getpid).values())
         client.run(_worker_setup, init)  # workers joining later set up on their first task
-        index = {}
-        for i in todo:
-            f = client.submit(_dask_task, tasks[i], init, hard, pure=False,
-                              key=f"optplan-bench-{init['token']}-{i}")
-            futures.append(f)
-            index[f.key] = i
-        for f in distributed.as_completed(futures):
-            i = index[f.key]
+        pipe = distributed.as_completed()
+        n_threads = threads()
+        while queue and len(flying) < 2 * n_threads:
+            submit(pipe, n_threads)
+        for f in pipe:
+            _, idx = flying.pop(f.key)
             try:
-                row, trace, wid = f.result()
+                results = f.result()
             except Exception as e:  # noqa: BLE001 - e.g. a worker lost three times
-                p, s, k = tasks[i][:3]
-                row, trace, wid = _error_row(p, s, k, f"{type(e).__name__}: {e}"), [], ""
+                results = [(_error_row(*tasks[i][:3], f"{type(e).__name__}: {e}"), [], "")
+                           for i in idx]
             f.release()
-            record(i, row, trace, wid)
+            for i, (row, trace, wid) in zip(idx, results):
+                if math.isfinite(row["wall_time"]):
+                    done_times.append(row["wall_time"])
+                abandoned = abandoned or row["status"] == "time_limit"
+                record(i, row, trace, wid)
+            n_threads = threads()
+            while queue and len(flying) < 2 * n_threads:
+                submit(pipe, n_threads)
+    except BaseException:
+        interrupted = True
+        raise
     finally:
         # every finished run is stored by now: a slow or failing shutdown must not lose the
         # sweep (e.g. a TimeoutError closing a busy cluster on a loaded machine)
-        steps = [lambda: client.cancel(futures) if futures else None,
+        steps = [lambda: client.cancel([f for f, _ in flying.values()]) if flying else None,
                  lambda: client.close(timeout=5)]
         if cluster is not None:
+            if interrupted or abandoned:  # our own workers stop now, not after their runs
+                steps.append(lambda: _kill(pids))
             steps.append(lambda: cluster.close(timeout=5))
         for step in steps:
             try:
                 step()
-            except Exception:  # noqa: BLE001, S110 - best effort
+            except Exception:  # noqa: BLE001 - best effort
                 pass
 
 

@@ -292,7 +292,7 @@ def test_cli_bench_db_and_time_limit(tmp_path, capsys):
 # -- Dask -----------------------------------------------------------------------------------
 
 
-def test_dask_local_cluster_gives_the_same_rows(tmp_path, inline_rows, sleepy):
+def test_dask_gives_the_same_rows(tmp_path, inline_rows, sleepy):
     pytest.importorskip("distributed")
     db = tmp_path / "dask.sqlite"
     rows = bench.run_grid(PROBLEMS, SOLVERS, seeds=3, overrides=OVERRIDES, db=db,
@@ -304,10 +304,18 @@ def test_dask_local_cluster_gives_the_same_rows(tmp_path, inline_rows, sleepy):
           inline_rows)
     assert all(r["worker"].startswith("tcp://") for r in stored)  # Dask worker addresses
     assert benchdb.read_experiments(db)[0]["spec"]["engine"] == "dask-local 2"
-    # a plugin backend registered in this process works on the workers; over its limit the
-    # run's thread is abandoned and recorded
-    rows = bench.run_grid(["open-field"], ["sleepy"], seeds=4, dask_local=2, time_limit=0.2,
-                          time_grace=0.3, overrides={"sleepy": {"sleep": 3.0}})
+
+    # an existing cluster (--scheduler): a backend registered in this process works on its
+    # workers; over its limit the run's thread is abandoned and the run recorded
+    import logging
+
+    import distributed
+
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None, silence_logs=logging.ERROR) as cl:
+        rows = bench.run_grid(["open-field"], ["sleepy"], seeds=4, time_limit=0.2,
+                              time_grace=0.3, overrides={"sleepy": {"sleep": 2.0}},
+                              scheduler=cl.scheduler_address)
     _check_limited(rows, sleepy, "abandoned")
 
 
