@@ -296,8 +296,13 @@ def _dyn_horizon(problem: Problem, t_end: float | None) -> float:
 
 
 def _problem_of(result: Result, problem: Problem | None) -> Problem:
+    """The problem to draw: ``problem`` if given, else the scenario embedded in the result (the
+    map that was solved), else the catalogue scene of that name (results of older versions)."""
     if problem is not None:
         return problem
+    embedded = result.scenario_problem()
+    if embedded is not None:
+        return embedded
     from optplan.catalog import load_problem
 
     return load_problem(result.problem)

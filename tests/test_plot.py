@@ -445,3 +445,17 @@ def test_cli_plot_svg_and_dpi(tmp_path):
                      "--max-frames", "3"]) == 0
     with PIL.open(tmp_path / "r.gif") as im:
         assert im.size == (round(7.2 * 40), round(5.5 * 40))
+
+
+def test_plot_draws_the_embedded_map_not_the_catalogue_one(tmp_path) -> None:
+    """An edited copy named like a catalogue scene: the saved result redraws its own map."""
+    from optplan.plot import _problem_of
+
+    prob = op.parse_problem({
+        "name": "paper-env1", "bounds": [0.0, 0.0, 100.0, 100.0],
+        "robots": [{"id": "r1", "start": [5.0, 5.0], "goal": [95.0, 95.0], "radius": 1.0}],
+        "obstacles": [{"type": "circle", "center": [50.0, 50.0], "radius": 10.0}]})
+    res = op.solve(prob, "visgraph")
+    res.save(tmp_path / "r.json")
+    drawn = _problem_of(op.Result.load(tmp_path / "r.json"), None)
+    assert drawn.bounds == (0.0, 0.0, 100.0, 100.0) and len(drawn.obstacles) == 1
