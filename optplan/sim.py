@@ -161,7 +161,32 @@ class ObstacleField:
 
 @dataclass
 class SimState:
-    """What a policy sees at step ``k`` (time ``t``)."""
+    """What a policy sees at step ``k`` (time ``t``).
+
+    Attributes
+    ----------
+    k : int
+        Step index (0 before the first move).
+    t : float
+        Simulated time (s).
+    ids : list of str
+        Robot ids, in the order of the rows of ``positions``.
+    positions : array ``(R, 2)``
+        Current positions.
+    velocities : array ``(R, 2)``
+        Velocities applied at the previous step (after the speed clamp; zero at ``k = 0``).
+    field : ObstacleField
+        The obstacles the robots sense.
+    dt : float
+        The simulation time step (s), the same for every step of a run.
+    leader_velocity : array ``(2,)`` or None
+        The leader's command for the *current* step, set by a driver that computes it before
+        calling a :class:`~optplan.interfaces.FollowerController` (the hybrid planner, the
+        formation backends); ``None`` (reset by the simulator before every step) when no one
+        has set it, and follower controllers then use ``velocities[leader_index]``.
+    contacts : list of str
+        Contacts seen so far (one line each; with ``stop_on_collision`` at most one).
+    """
 
     k: int
     t: float
@@ -169,7 +194,14 @@ class SimState:
     positions: np.ndarray  # (R, 2)
     velocities: np.ndarray  # (R, 2) commanded at the previous step
     field: ObstacleField
-    memory: dict[str, Any] = field(default_factory=dict)
+    dt: float = field(kw_only=True)
+    leader_velocity: np.ndarray | None = field(default=None, kw_only=True)
+    contacts: list[str] = field(default_factory=list, kw_only=True)
+
+    def leader_command(self, leader_index: int) -> np.ndarray:
+        """``leader_velocity`` when a driver set it, else the leader's previous velocity."""
+        v = self.leader_velocity
+        return np.asarray(self.velocities[leader_index] if v is None else v, dtype=float)
 
 
 @dataclass
@@ -182,7 +214,7 @@ class SimOutcome:
     reason: str  # 'done', 'collision', 'budget', 'gave_up', 'callback'
     collision: str = ""
     steps: int = 0
-    memory: dict[str, Any] = field(default_factory=dict)
+    contacts: list[str] = field(default_factory=list)
 
     def paths(self) -> dict[str, np.ndarray]:
         return {rid: self.positions[:, i, :].copy() for i, rid in enumerate(self.ids)}
@@ -202,7 +234,6 @@ def simulate(
     stop_on_collision: bool = True,
     callback: Callable[[Progress], Any] | None = None,
     progress_cost: Callable[[SimState], float] | None = None,
-    memory: dict[str, Any] | None = None,
 ) -> SimOutcome:
     """Run ``policy`` from the robots' starts until ``done``, a collision, or the budget.
 
@@ -238,13 +269,13 @@ def simulate(
     vmax = np.array([r.max_speed for r in robots])
     pos = np.array([r.start for r in robots], dtype=float) if start is None else np.array(
         start, dtype=float)
-    state = SimState(0, t0, list(ids), pos.copy(), np.zeros_like(pos), fld, memory or {})
+    state = SimState(0, t0, list(ids), pos.copy(), np.zeros_like(pos), fld, dt=float(dt))
     times = [t0]
     traj = [pos.copy()]
     reason, coll = "budget", ""
     tol = problem.frame.eps
     for k in range(max_steps):
-        state.k, state.t = k, t0 + k * dt
+        state.k, state.t, state.leader_velocity = k, t0 + k * dt, None
         if done(state):
             reason = "done"
             break
@@ -278,7 +309,7 @@ def simulate(
             else:
                 ri, rj = np.argwhere(pair_hit)[0]
                 coll = f"{ids[ri]} touched {ids[rj]} at t={t_new:.2f}"
-            state.memory.setdefault("contacts", []).append(coll)
+            state.contacts.append(coll)
             if stop_on_collision:
                 reason = "collision"
                 break
@@ -292,4 +323,4 @@ def simulate(
         if done(state):
             reason = "done"
     return SimOutcome(np.array(times), np.array(traj), list(ids), reason, coll,
-                      len(times) - 1, state.memory)
+                      len(times) - 1, list(state.contacts))

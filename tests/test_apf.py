@@ -17,6 +17,7 @@ from optplan.backends.apf import (
     repulsive_potential,
 )
 from optplan.generators import swap_scene
+from optplan.interfaces import LocalController, LocalPlanner
 from optplan.sim import ObstacleField, simulate
 
 C = np.array([50.0, 40.0])  # circle obstacle centre
@@ -190,8 +191,11 @@ def test_controller_protocol_with_simulate():
         v = ctrl.velocity(state, 0)
         return None if v is None else v[None]
 
+    assert isinstance(op.get_solver("apf-paper"), LocalPlanner)
+    assert isinstance(op.get_solver("sa-apf-paper"), LocalPlanner)
+    assert isinstance(ctrl, LocalController)
     out = simulate(prob, policy, ids=["r1"], dt=0.2, max_steps=200,
-                   done=lambda s: np.hypot(*(s.positions[0] - sub)) <= 2.0, memory={"dt": 0.2})
+                   done=lambda s: np.hypot(*(s.positions[0] - sub)) <= 2.0)
     assert out.reason == "done"
     assert isinstance(ctrl.stats, dict) and "local_minima_detected" in ctrl.stats
 

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import math
 
+import cvxpy as cp
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import optplan as op
-from optplan.backends.formation_qp import FormationQP, QPCore
+from optplan.backends.formation_qp import FormationQP, QPData, QPLayout, QPModel, QPSolver
 from optplan.backends.leader_follower import (
     LPhiFollowers,
     adapted_angle,
@@ -22,6 +23,7 @@ from optplan.backends.leader_follower import (
     slot_positions,
 )
 from optplan.generators import formation_scene, jitter_phases
+from optplan.interfaces import FollowerController, FormationBackend
 from optplan.metrics import formation_errors
 from optplan.problem import parse_problem
 from optplan.sim import ObstacleField, SimState
@@ -98,32 +100,77 @@ def test_pilot_force_hand_computed():
 # ---------------------------------------------------------------- QP model -------------
 
 
-def _core(interface: str) -> QPCore:
-    return QPCore(3, np.array([[0, 1], [0, 2], [1, 2]]), 2, 0, np.array([[1, 0], [2, 0]]),
-                  np.array([10.0, 1.0, 1.0]), np.array([4.0, 4.0, 4.0]), 0.5, 4.0, 1e4,
-                  interface, {"presolve_enable": False, "chordal_decomposition_enable": False,
-                              "verbose": False})
+def _layout(K: int = 2) -> QPLayout:
+    return QPLayout(3, np.array([[0, 1], [0, 2], [1, 2]]), K, 0, np.array([[1, 0], [2, 0]]),
+                    np.array([10.0, 1.0, 1.0]), np.array([4.0, 4.0, 4.0]))
 
 
-def _data(rng):
+_SETTINGS = {"presolve_enable": False, "chordal_decomposition_enable": False,
+             "verbose": False}
+
+
+def _data(rng, K: int = 2) -> QPData:
     n = 3
-    return dict(unom=rng.normal(size=(n, 2)), r=rng.normal(size=(2, 2)),
-                G=rng.normal(size=(3, 2)), bp=rng.uniform(0.5, 2, 3),
-                N=rng.normal(size=(6, 2)), bo=rng.uniform(-0.5, 1, 6),
-                Ne=np.zeros((0, 2)), be=np.zeros(0), lo=-np.full((n, 2), 3.0),
-                hi=np.full((n, 2), 3.0))
+    return QPData(unom=rng.normal(size=(n, 2)), r=rng.normal(size=(2, 2)),
+                  G=rng.normal(size=(3, 2)), bp=rng.uniform(0.5, 2, 3),
+                  N=rng.normal(size=(n * K, 2)), bo=rng.uniform(0.2, 1, n * K),
+                  Ne=np.zeros((0, 2)), be=np.zeros(0), lo=-np.full((n, 2), 3.0),
+                  hi=np.full((n, 2), 3.0))
 
 
-def test_qp_is_dpp_and_direct_twin_matches_cvxpy():
-    a, b = _core("cvxpy"), _core("direct")
-    assert a.problem.is_dcp(dpp=True)
+def _reference_solution(L: QPLayout, d: QPData, tau: float, w_f: float) -> np.ndarray:
+    """The QP written out as in the module doc (sum of squares, a fresh cvxpy problem)."""
+    U = cp.Variable((L.n, 2))
+    obj = sum(L.weights[i] * cp.sum_squares(U[i] - d.unom[i]) for i in range(L.n))
+    obj += w_f * sum(cp.sum_squares(d.r[k] + tau * (U[f] - (U[l] if l >= 0 else 0)))
+                     for k, (f, l) in enumerate(L.edges))
+    cons = [U >= d.lo, U <= d.hi] + [cp.norm(U[i]) <= L.vmax[i] for i in range(L.n)]
+    cons += [d.G[k] @ (U[i] - U[j]) <= d.bp[k] for k, (i, j) in enumerate(L.pairs)]
+    cons += [d.N[k] @ U[k // L.K] <= d.bo[k] for k in range(L.nK)]
+    cp.Problem(cp.Minimize(obj), cons).solve(solver=cp.CLARABEL)
+    return U.value
+
+
+def test_qp_is_dpp_and_matches_the_written_out_model():
+    """One implementation: the expanded DPP model (u'Qu + q'u, one Parameter vector) gives
+    the solution of the QP as written in the docs, and re-solves with new data in place."""
+    m = QPModel(_layout(), 0.5, 4.0, 1e4, _SETTINGS)
+    assert m.problem.is_dpp() and m.problem.parameters() == [m.theta]
     rng = np.random.default_rng(3)
-    for _ in range(4):  # re-solved with new data: the cached solver is updated
+    for _ in range(4):
         d = _data(rng)
-        ua, sa, _ = a.solve(**d)
-        ub, sb, _ = b.solve(**d)
-        assert sa in ("optimal", "optimal_inaccurate") and sb in ("Solved", "AlmostSolved")
-        np.testing.assert_allclose(ua, ub, atol=2e-5)
+        sol = m.solve(d)
+        assert sol.status in ("optimal", "optimal_inaccurate") and not sol.fallback
+        np.testing.assert_allclose(sol.U, _reference_solution(m.layout, d, 0.5, 4.0), atol=2e-5)
+    data = m.problem.get_problem_data(cp.CLARABEL)[0]
+    assert data["dims"].zero == 0  # no auxiliary equality rows: Q goes to Clarabel as is
+
+
+def test_infeasible_obstacle_rows_use_the_reported_slack_fallback():
+    L = _layout()
+    d = _data(np.random.default_rng(4))
+    d.N[:] = 0.0
+    d.N[0] = [1.0, 0.0]  # robot 0: u_x <= -10 cannot hold with u_x >= lo = -3
+    d.bo[0] = -10.0
+    solver = QPSolver(L, 0.5, 4.0, 1e4, _SETTINGS)
+    sol = solver.solve(d)
+    assert sol.U is not None and sol.fallback
+    assert sol.slack == pytest.approx(7.0, abs=1e-4)  # the exact penalty: the least slack
+    assert sol.U[0, 0] == pytest.approx(-3.0, abs=1e-4)
+    d.bo[0] = 10.0  # feasible again: the hard model, no slack
+    sol = solver.solve(d)
+    assert not sol.fallback and sol.slack == 0.0
+
+
+def test_qp_history_row_and_statistics_are_no_metrics():
+    res = op.solve("formation-open-field", "formation-qp", rng=0, max_steps=30, **FAST)
+    for col in ("qp_status", "qp_ok", "qp_time", "qp_solve_time", "qp_slack", "qp_pairs",
+                "qp_fallback"):
+        assert len(res.history[col]) == len(res.history)
+    for k in ("qp_failures", "qp_solves", "slack_steps", "max_slack", "rebuilds", "qp_median_ms"):
+        assert k in res.extras and k not in res.metrics
+    assert res.extras["qp_solves"] == len(res.history)
+    assert np.all(res.history["qp_solve_time"] <= res.history["qp_time"])
 
 
 # ---------------------------------------------------------------- behaviour ------------
@@ -164,7 +211,7 @@ def test_formation_qp_paper_scenes_safe_and_reach(scene):
     m = res.metrics
     assert res.success, res.message
     assert m["reached"] and m["collisions"] == 0
-    assert m["qp_failures"] == 0
+    assert res.extras["qp_failures"] == 0
     ok = res.history["qp_ok"].astype(bool)
     P = np.stack([res.paths[k] for k in res.paths], axis=1)
     d = np.hypot(*(P[:, :, None, :] - P[:, None, :, :]).transpose(3, 0, 1, 2))
@@ -179,7 +226,8 @@ def test_formation_qp_paper_scenes_safe_and_reach(scene):
 def test_solver_failure_is_a_safe_stop():
     res = op.solve("formation-open-field", "formation-qp", rng=0, max_iter=1, max_steps=6,
                    **FAST)
-    assert res.metrics["qp_failures"] == 6
+    assert res.extras["qp_failures"] == 6
+    assert "6 QP failure(s) -> safe stop" in res.message
     for p in res.paths.values():
         np.testing.assert_allclose(p, np.repeat(p[:1], len(p), axis=0))  # nobody moved
     assert not res.success
@@ -201,18 +249,44 @@ def test_followers_controller_interface():
         fc = op.get_solver(name).followers_controller(prob, np.random.default_rng(0))
         ids = ["leader", "f1", "f2"]
         pos = np.array([prob.robot(i).start for i in ids], float)
-        state = SimState(0, 0.0, ids, pos, np.zeros_like(pos), ObstacleField(prob),
-                         {"dt": 0.5, "leader_velocity": np.array([2.0, 1.0])})
+        state = SimState(0, 0.0, ids, pos, np.zeros_like(pos), ObstacleField(prob), dt=0.5,
+                         leader_velocity=np.array([2.0, 1.0]))
         u = fc.velocities(state, 0, [1, 2], 0.5)
         assert u.shape == (2, 2) and np.all(np.isfinite(u))
         assert isinstance(fc.stats, dict)
+        assert isinstance(fc, FollowerController)
+        assert isinstance(op.get_solver(name), FormationBackend)
+
+
+def test_pilot_and_path_solver_are_resolved_when_built():
+    assert op.get_solver("leader-follower-paper").stages["pilot"] is None  # "builtin"
+    assert op.get_solver("formation-qp").pilot == "builtin"
+    with pytest.raises(ValueError, match=r"option 'pilot' of backend 'leader-follower' must be a "
+                       r"local planner .*'visgraph'"):
+        op.get_solver("leader-follower", pilot="visgraph")
+    with pytest.raises(ValueError, match=r"option 'pilot' .* no solver named 'sa-apff'; "
+                       r"did you mean 'sa-apf'"):
+        op.get_solver("leader-follower-paper", pilot="sa-apff")
+    with pytest.raises(ValueError, match=r"option 'path_solver' of backend 'formation-qp' .* "
+                       r"no solver named 'visgrap'; did you mean 'visgraph'"):
+        op.get_solver("formation-qp", path_solver="visgrap")
+    # a local planner as the pilot gets the pilot's gains (those it has as options)
+    lf = op.get_solver("leader-follower", pilot="sa-apf", rho_0=80.0)
+    p = lf.stages["pilot"]
+    assert p.name == "sa-apf" and (p.k, p.eta, p.rho_0, p.n) == (15.0, 3.7, 80.0, 3.0)
+    # "apf-paper" is no longer a magic value: it names the basic APF preset
+    b = op.get_solver("leader-follower", pilot="apf-paper").stages["pilot"]
+    assert b.name == "apf" and b.rho_0 == 100.0 and b.eta_match_n == 3.0
+    res = op.solve("formation-open-field", "leader-follower-paper", rng=0, pilot="sa-apf",
+                   max_steps=60, **FAST)
+    assert res.extras["pilot"] == "sa-apf" and "pilot sa-apf" in res.message
 
 
 def test_options_validated():
     with pytest.raises(ValueError, match="gamma"):
         FormationQP(gamma=3.0, dt=0.5)
-    with pytest.raises(ValueError, match="qp_interface"):
-        FormationQP(qp_interface="osqp")
+    with pytest.raises(ValueError, match="unknown option 'qp_interface'"):
+        op.get_solver("formation-qp", qp_interface="direct")  # one implementation only
     with pytest.raises(ValueError, match="k_f"):
         op.get_solver("leader-follower", k_f=5.0, dt=0.5)
 
@@ -349,8 +423,8 @@ def test_safety_filter_keeps_gaps_after_one_step():
         fc = LPhiFollowers(prob, lf)
         a = rng.uniform(-np.pi, np.pi)
         ul = rng.uniform(0, 7.5) * np.array([math.cos(a), math.sin(a)])
-        state = SimState(0, 0.0, ["leader", "f1", "f2"], pos, np.zeros_like(pos), fld,
-                         {"dt": dt, "leader_velocity": ul})
+        state = SimState(0, 0.0, ["leader", "f1", "f2"], pos, np.zeros_like(pos), fld, dt=dt,
+                         leader_velocity=ul)
         u = fc.velocities(state, 0, [1, 2], float(rng.uniform(-np.pi, np.pi)))
         assert np.all(np.hypot(*u.T) <= 10.0 + 1e-9)
         if fc.stats["infeasible"]:

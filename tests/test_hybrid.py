@@ -17,6 +17,7 @@ import pytest
 
 import optplan as op
 from optplan.backends.hybrid import Hybrid, inflection_points, subgoals, turning_angles
+from optplan.interfaces import FormationBackend, LocalPlanner
 from optplan.solver import Backend
 
 # --------------------------------------------------------------------------------------
@@ -41,7 +42,7 @@ class _Tracker:
     def velocity(self, state, index):
         if self.give_up_intermediate and not np.allclose(self.goal, self.final_goal):
             return None
-        dt = state.memory["dt"]
+        dt = state.dt
         d = self.goal - state.positions[index]
         n = math.hypot(*d)
         if n == 0:
@@ -68,7 +69,7 @@ class _SlotTracker:
 
     def velocities(self, state, leader_index, follower_indices, leader_heading):
         self.stats["calls"] += 1
-        dt = state.memory["dt"]
+        dt = state.dt
         slots = state.positions[leader_index] + self.problem.formation.slot_offsets(
             leader_heading)
         return (slots - state.positions[follower_indices]) / dt
@@ -171,6 +172,33 @@ def test_options_validated():
         Hybrid(global_solver="")
     with pytest.raises(ValueError, match="unknown option"):
         op.get_solver("hybrid", angle=3)
+
+
+def test_stage_options_are_resolved_when_the_solver_is_built():
+    """A wrong-kind or misspelled stage is a ValueError naming the option, the kind expected
+    and close matches, raised by get_solver (not an AttributeError in the middle of a run)."""
+    with pytest.raises(ValueError, match=r"option 'local_solver' of backend 'hybrid' must be a "
+                       r"local planner .*'visgraph' \(backend 'visgraph'\) has no "
+                       r"controller\(\); did you mean '.*apf"):
+        op.get_solver("hybrid-paper", local_solver="visgraph")
+    with pytest.raises(ValueError, match=r"option 'local_solver' .* no solver named "
+                       r"'sa-apf-papr'; did you mean 'sa-apf-paper'"):
+        Hybrid(local_solver="sa-apf-papr")
+    with pytest.raises(ValueError, match=r"option 'formation' .* formation backend .*"
+                       r"followers_controller\(\)"):
+        Hybrid(formation="visgraph")
+    with pytest.raises(ValueError, match=r"option 'global_solver' .* no solver named 'ipsoo'; "
+                       r"did you mean 'ipso'"):
+        op.get_solver("hybrid", global_solver="ipsoo")
+    with pytest.raises(ValueError) as e:
+        op.get_solver("hybrid", global_solver="visgrap")
+    msg = str(e.value)
+    assert msg.count("'visgraph'") == 1  # suggestions are de-duplicated
+    s = op.get_solver("hybrid-paper")
+    assert isinstance(s.stages["local_solver"], LocalPlanner)
+    assert isinstance(s.stages["formation"], FormationBackend)
+    assert s.stages["global_solver"].preset == "ipso"
+    assert Hybrid(formation="").stages["formation"] is None
 
 
 def test_presets_compose_the_paper_stages():

@@ -143,3 +143,29 @@ def test_contact_tolerance_is_the_frame_eps():
     assert run(0.02) == "budget"  # distance exactly r
     assert run(0.02 + 0.5 * eps) == "budget"
     assert run(0.02 + 2 * eps) == "collision"
+
+
+def test_state_fields_dt_leader_velocity_and_contacts():
+    """Typed SimState fields instead of a memory dict: ``dt`` from the simulator,
+    ``leader_velocity`` reset before every step, contacts recorded in order."""
+    prob = op.parse_problem({
+        "name": "two", "bounds": [0, 0, 50, 20],
+        "robots": [{"id": "a", "start": [5, 10], "goal": [45, 10], "radius": 1.0,
+                    "max_speed": 2.0},
+                   {"id": "b", "start": [12, 10], "goal": [45, 12], "radius": 1.0,
+                    "max_speed": 2.0}],
+    })
+    seen = []
+
+    def policy(state):
+        seen.append((state.dt, state.leader_velocity))
+        state.leader_velocity = np.array([1.0, 0.0])  # a driver's note for this step only
+        assert state.leader_command(0).tolist() == [1.0, 0.0]
+        return np.array([[2.0, 0.0], [0.0, 0.0]])
+
+    out = simulate(prob, policy, ids=["a", "b"], dt=0.5, max_steps=10, done=lambda s: False,
+                   stop_on_collision=False)
+    assert all(dt == 0.5 and lv is None for dt, lv in seen)
+    assert out.contacts and out.contacts[0].startswith("a touched b")
+    assert all(isinstance(c, str) for c in out.contacts)
+    assert not hasattr(out, "memory")

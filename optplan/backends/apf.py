@@ -67,6 +67,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan.interfaces import LocalPlanner
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status
 from optplan.sim import ObstacleField, SimState, simulate
@@ -231,7 +232,7 @@ def oscillation_index(path: np.ndarray) -> float:
 
 
 # --------------------------------------------------------------------------------------
-# the controller (LocalController protocol, see notes/interfaces.md)
+# the controller (optplan.interfaces.LocalController)
 # --------------------------------------------------------------------------------------
 
 
@@ -246,9 +247,10 @@ class _Trace:
 class APFController:
     """Potential-field controller for one robot: APF step + local-minimum detection.
 
-    Implements the ``LocalController`` protocol: ``stats``, ``reset(goal)``,
-    ``velocity(state, index)``.  The basic planner never escapes; it gives up (returns
-    ``None``) when it stays trapped ``patience`` steps after a detection.
+    Implements :class:`optplan.interfaces.LocalController`: ``stats``, ``reset(goal)``,
+    ``velocity(state, index)`` (the step length uses the simulator's ``state.dt``).  The basic
+    planner never escapes; it gives up (returns ``None``) when it stays trapped ``patience``
+    steps after a detection.
     """
 
     escapes_enabled: ClassVar[bool] = False
@@ -289,7 +291,7 @@ class APFController:
         return float(self.b.l) if self.b.l is not None else float(self.robot.max_speed * dt)
 
     def velocity(self, state: SimState, index: int) -> np.ndarray | None:
-        dt = float(state.memory.get("dt", self.b.dt))
+        dt = float(state.dt)
         x = np.asarray(state.positions[index], dtype=float)
         l_step = self.step_length(dt)
         self.stats["steps"] += 1
@@ -516,8 +518,7 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
 
     try:
         out = simulate(problem, policy, ids=ids, dt=dt, max_steps=backend.max_steps, done=done,
-                       field_=fld, callback=callback, progress_cost=cost,
-                       memory={"dt": dt})
+                       field_=fld, callback=callback, progress_cost=cost)
     except (FloatingPointError, ValueError) as e:  # numerical failure -> failed, never raise
         starts = {r.id: np.vstack([r.start, r.start]) for r in robots}
         return backend.finish(problem, starts, claim=Status.failed, times=np.array([0.0, dt]),
@@ -525,21 +526,9 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
                               wall_time=time.perf_counter() - t_start)
     paths = out.paths()
     reached = at_goal(out.positions[-1])
-    if out.reason == "collision":
-        claim, msg = Status.failed, f"collision: {out.collision}"
-    elif out.reason == "done" and np.all(reached):
-        claim, msg = Status.solved, "goal reached"
-    elif out.reason == "callback":
-        claim, msg = Status.approximate, "stopped by the callback"
-    elif out.reason == "budget":
-        claim, msg = Status.approximate, f"step budget ({backend.max_steps}) exhausted"
-    else:
-        why = "; ".join(f"{ids[i]}: {c.stats['gave_up']}" for i, c in enumerate(ctrls)
-                        if c.stats["gave_up"])
-        claim, msg = Status.approximate, f"gave up: {why}"
+    claim, msg = _local_outcome(out, bool(np.all(reached)), ids, ctrls, backend.max_steps)
     lead = problem.leader.id if problem.leader.id in paths else ids[0]
     li = ids.index(lead)
-    c0 = ctrls[li]
     t_goal = float("nan")
     if reached[li]:
         dg = np.hypot(*(out.positions[:, li, :] - goals[li]).T)
@@ -553,20 +542,40 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
         "sim_steps": int(out.steps),
         "stop_reason": out.reason,
     }
-    hist = History()
-    tr = c0.trace
-    for k in range(len(tr.force)):
-        hist.append(iteration=k, best_cost=tr.potential[k], n_eval=k + 1,
-                    time=k * dt, force=tr.force[k], potential=tr.potential[k],
-                    temperature=tr.temperature[k], sa=tr.mode[k] != "apf")
     extras = {"controllers": {ids[i]: c.stats for i, c in enumerate(ctrls)},
               "minima": {ids[i]: [m.tolist() for m in c.minima] for i, c in enumerate(ctrls)},
               "collision": out.collision}
     return backend.finish(problem, paths, claim=claim, times=out.times,
                           cost=float(np.sum(np.hypot(*np.diff(paths[lead], axis=0).T))),
                           message=msg, n_iter=int(out.steps), n_eval=int(out.steps),
-                          history=hist, extras=extras, metrics_extra=extra,
-                          wall_time=time.perf_counter() - t_start)
+                          history=_trace_history(ctrls[li].trace, dt), extras=extras,
+                          metrics_extra=extra, wall_time=time.perf_counter() - t_start)
+
+
+def _local_outcome(out: Any, reached: bool, ids: list[str], ctrls: list[APFController],
+                   max_steps: int) -> tuple[Status, str]:
+    """The claimed status and the message of a finished local-planner simulation."""
+    if out.reason == "collision":
+        return Status.failed, f"collision: {out.collision}"
+    if out.reason == "done" and reached:
+        return Status.solved, "goal reached"
+    if out.reason == "callback":
+        return Status.approximate, "stopped by the callback"
+    if out.reason == "budget":
+        return Status.approximate, f"step budget ({max_steps}) exhausted"
+    why = "; ".join(f"{ids[i]}: {c.stats['gave_up']}" for i, c in enumerate(ctrls)
+                    if c.stats["gave_up"])
+    return Status.approximate, f"gave up: {why}"
+
+
+def _trace_history(tr: _Trace, dt: float) -> History:
+    """The controller's per-step trace as the result's history."""
+    hist = History()
+    for k in range(len(tr.force)):
+        hist.append(iteration=k, best_cost=tr.potential[k], n_eval=k + 1,
+                    time=k * dt, force=tr.force[k], potential=tr.potential[k],
+                    temperature=tr.temperature[k], sa=tr.mode[k] != "apf")
+    return hist
 
 
 # --------------------------------------------------------------------------------------
@@ -629,7 +638,7 @@ class PotentialFieldBackend(Backend):
 
 
 @dataclass(frozen=True, kw_only=True)
-class APF(PotentialFieldBackend):
+class APF(PotentialFieldBackend, LocalPlanner):
     """Basic artificial potential field local planner (paper §II.E, eqs 3-13).
 
     Parameters
@@ -697,6 +706,7 @@ class APF(PotentialFieldBackend):
 
     def controller(self, problem: Problem, robot_id: str, rng: np.random.Generator
                    ) -> APFController:
-        """A ``LocalController`` for ``robot_id`` (see ``notes/interfaces.md``)."""
+        """A :class:`~optplan.interfaces.LocalController` for ``robot_id``
+        (:class:`~optplan.interfaces.LocalPlanner`)."""
         robot = problem.robot(robot_id)
         return APFController(self, problem, robot, rng, self.field_params(problem, robot))

@@ -1,4 +1,4 @@
-r"""Exact formation keeping: one convex QP per control step with CBF safety rows (domain-notes §3).
+r"""Exact formation keeping: one convex QP per control step with CBF safety rows.
 
 Model (single integrators :math:`x_i^+ = x_i + \tau u_i`, :math:`\tau` = ``dt``)
 -------------------------------------------------------------------------------
@@ -8,9 +8,8 @@ with known velocities :math:`u_j`.
 
 .. math::
 
-   \min_{u,\,s\ge0}\ \sum_i w_i\|u_i - u_i^{nom}\|^2
+   \min_{u}\ \sum_i w_i\|u_i - u_i^{nom}\|^2
      + w_f\sum_{f}\|x_f + \tau u_f - (x_L + \tau u_L) - o_f(\theta_L)\|^2
-     + w_s\sum_k s_k
 
 subject to, for every pair of robots closer than ``neighbor_radius`` (with
 :math:`d = x_i - x_j`, :math:`h = \|d\|^2 - D_s^2`, :math:`D_s` the formation's
@@ -22,13 +21,20 @@ for every robot and each of its ``max_obstacles`` nearest sensed obstacles (near
 :math:`c`, distance :math:`\delta`, unit normal :math:`n = (x_i - c)/\delta`, obstacle velocity
 :math:`v_o`, :math:`h_o = \delta - r_i - m`)
 
-.. math:: -n^T u_i \le \gamma h_o - n^T v_o + s_k,
+.. math:: -n^T u_i \le \gamma h_o - n^T v_o,
 
 position bounds :math:`x_i + \tau u_i \in [\ell + r_i, \mathrm{hi} - r_i]` (relaxed to
 "do not move further out" when already outside), and :math:`\|u_i\| \le v_{max,i}`.  The
 formation offsets :math:`o_f` are the L-phi slots (:mod:`optplan.backends.leader_follower`), with
 the eq 52 angle adaptation when ``adapt_phi``.  :math:`u^{nom}` is the pilot's command for the
 leader (weight ``w_leader``) and the leader's command (feed-forward) for each follower (weight 1).
+
+Obstacle rows are hard.  When they have no common point with the other rows (a robot already
+inside its margin, or a moving obstacle closing faster than the rows allow) the step is solved
+again with a slack :math:`s_k \ge 0` on every obstacle row and the exact penalty
+:math:`w_s\sum_k s_k` in the objective (the *slack fallback*, counted in
+``stats["slack_steps"]``, its largest slack in ``stats["max_slack"]``, per step in the history
+column ``qp_slack``).
 
 Discrete-time exactness (derived).  With :math:`\gamma\tau \le 1` the pair rows are *sufficient*
 for :math:`h^+ \ge (1-\gamma\tau)h`: :math:`h^+ = h + 2\tau d^T\Delta u + \tau^2\|\Delta u\|^2`
@@ -38,28 +44,37 @@ the QP's solution is applied, for any step length.  For a convex obstacle the ha
 :math:`\ge r_i + m` (up to the reported slack).  ``neighbor_radius`` is raised to at least
 :math:`D_s + 2\tau v_{max}` so no unconstrained pair can close the gap in one step.
 
-Implementation.  The problem is built once in cvxpy with Parameters (DPP:
-``problem.is_dcp(dpp=True)``), fixed shapes and padded rows (inactive rows: zero coefficients,
-right-hand side ``BIG``), and re-solved with Clarabel with ``presolve_enable = False`` and
-``chordal_decomposition_enable = False`` so cvxpy *updates* the cached solver instead of
-rebuilding it (``qp_interface = "cvxpy"``).  ``qp_interface = "direct"`` assembles the same
-matrices with a fixed sparsity pattern and calls ``clarabel.DefaultSolver.update`` itself, which
-removes cvxpy's per-solve overhead (twin-tested against the cvxpy path).  Pair rows use a pattern
-of the pairs within ``1.5 * neighbor_radius``; when a new pair comes within ``neighbor_radius``
-the QP is rebuilt (counted in ``stats["rebuilds"]``).  A solver status other than optimal /
-almost optimal, or an exception, falls back to a safe stop (all controlled robots hold still),
-counted in ``stats["qp_failures"]``; nothing is raised.
+Implementation (one implementation: a cvxpy DPP model solved by Clarabel)
+------------------------------------------------------------------------
+The objective is expanded once: :math:`u^TQu + q^Tu` with the constant
+:math:`Q = W + w_f\tau^2E^TE` (:math:`E` the formation-error Jacobian) and the linear term
+:math:`q = -2Wu^{nom} + 2w_f\tau E^Tr` the only objective Parameter, so cvxpy passes :math:`Q`
+to Clarabel as its quadratic term (no auxiliary variables); the speed limits are second-order
+cones on :math:`(v_{max,i}, u_i)` directly.  Every row family has a fixed shape (a
+:class:`QPLayout`): pair rows on a pattern of the pairs within ``1.5 * neighbor_radius``,
+``max_obstacles`` rows per robot, one row per robot and external robot; rows that do not apply
+this step are padded (zero coefficients, right-hand side ``BIG``).  The model is DPP
+(``problem.is_dpp()`` is checked when it is built) and compiled once per layout; each step only
+sets Parameter values and runs cvxpy's documented re-solve pipeline
+(``get_problem_data`` -> ``SolvingChain.solve_via_data(warm_start=True)`` ->
+``unpack_results``), in which cvxpy updates the cached Clarabel solver in place (possible
+because ``presolve_enable`` and ``chordal_decomposition_enable`` are off).  A new pair inside
+``neighbor_radius`` outside the pattern, or a change of the controlled robots, rebuilds the
+model (``stats["rebuilds"]``).  A solver status other than optimal / optimal inaccurate after
+the fallback, or a solver error, gives a safe stop (all controlled robots hold still), counted
+in ``stats["qp_failures"]``; nothing is raised.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
+import warnings
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-import scipy.sparse as sp
 
 from optplan.backends.leader_follower import (
     PilotedFormation,
@@ -67,263 +82,334 @@ from optplan.backends.leader_follower import (
     run_formation,
     slot_positions,
 )
+from optplan.interfaces import FormationBackend
 from optplan.problem import Problem
+from optplan.result import Result
 from optplan.sim import SimState
-from optplan.solver import check_choice, check_int, check_range, make_rng
+from optplan.solver import check_int, check_range, make_rng
 
-__all__ = ["FormationQP", "QPCore", "QPFormationController"]
+__all__ = ["FormationQP", "QPData", "QPLayout", "QPModel", "QPSolver", "QPSolution",
+           "QPStepRecord", "QPFormationController", "qp_summary"]
 
+#: Right-hand side of an inactive (all-zero) row.
 BIG = 1e5
-_OK_CVXPY = ("optimal", "optimal_inaccurate")
-_OK_CLARABEL = ("Solved", "AlmostSolved")
+_OK = ("optimal", "optimal_inaccurate")
 
 
-class QPCore:
-    """The QP of one step with fixed shapes (built once, re-solved with new data).
+# --------------------------------------------------------------------------------------
+# the QP: fixed layout, per-step data, the cvxpy model
+# --------------------------------------------------------------------------------------
 
-    Parameters
+
+@dataclass(frozen=True, eq=False)
+class QPLayout:
+    """The fixed shapes of one QP model (a change rebuilds the model).
+
+    Attributes
     ----------
     n : int
         Controlled robots.
-    pairs : (P, 2) int array
-        Pattern of controlled pairs (rows padded/deactivated per step).
+    pairs : array ``(P, 2)`` of int
+        Pattern of controlled pairs (rows padded / deactivated per step).
     K : int
-        Obstacle slots per robot.
+        Obstacle rows per robot.
     n_ext : int
         Rows per controlled robot against external (known-velocity) robots.
-    edges : (F, 2) int array
-        Formation edges ``(follower, leader)``; leader ``-1`` when it is external.
+    edges : array ``(F, 2)`` of int
+        Formation edges ``(follower, leader)`` in controlled-robot indices; leader ``-1`` when
+        it is external.
+    weights : array ``(n,)``
+        Weights :math:`w_i` of the nominal-velocity terms.
+    vmax : array ``(n,)``
+        Speed limits.
     """
 
-    def __init__(self, n: int, pairs: np.ndarray, K: int, n_ext: int, edges: np.ndarray,
-                 weights: np.ndarray, vmax: np.ndarray, tau: float, w_f: float, w_s: float,
-                 interface: str, settings: dict[str, Any]):
-        self.n, self.K, self.n_ext, self.tau = n, K, n_ext, tau
-        self.pairs = np.asarray(pairs, int).reshape(-1, 2)
-        self.edges = np.asarray(edges, int).reshape(-1, 2)
-        self.w, self.vmax, self.w_f, self.w_s = weights, vmax, w_f, w_s
-        self.interface, self.settings = interface, settings
-        self.P = len(self.pairs)
-        self.F = len(self.edges)
-        self.nK = n * K
-        self.nE = n * n_ext
-        # E: formation error Jacobian (2F x 2n)
-        E = np.zeros((2 * self.F, 2 * n))
+    n: int
+    pairs: np.ndarray
+    K: int
+    n_ext: int
+    edges: np.ndarray
+    weights: np.ndarray
+    vmax: np.ndarray
+
+    @property
+    def P(self) -> int:
+        return len(self.pairs)
+
+    @property
+    def F(self) -> int:
+        return len(self.edges)
+
+    @property
+    def nK(self) -> int:
+        return self.n * self.K
+
+    @property
+    def nE(self) -> int:
+        return self.n * self.n_ext
+
+    def jacobian(self) -> np.ndarray:
+        """The formation-error Jacobian ``E`` ``(2F, 2n)``: ``E u = u_f - u_leader`` per edge."""
+        E = np.zeros((2 * self.F, 2 * self.n))
         for k, (f, l) in enumerate(self.edges):
             E[2 * k: 2 * k + 2, 2 * f: 2 * f + 2] = np.eye(2)
             if l >= 0:
                 E[2 * k: 2 * k + 2, 2 * l: 2 * l + 2] = -np.eye(2)
-        self.E = E
-        self._build_cvxpy()
-        if interface == "direct":
-            self._build_direct()
+        return E
 
-    # -- cvxpy model (always built: it is the specification and the DPP check) -------------
-    def _build_cvxpy(self) -> None:
+
+@dataclass
+class QPData:
+    """The numbers of one step, in the shapes of a :class:`QPLayout`.
+
+    Rows: ``G u_i - G u_j <= bp`` (pairs), ``N u_i <= bo`` (obstacles, ``K`` per robot, robot
+    ``k // K``), ``Ne u_i <= be`` (external robots, ``n_ext`` per robot), ``lo <= u <= hi``.
+    An inactive row has zero coefficients and right-hand side :data:`BIG`.  Objective data:
+    ``unom`` (nominal velocities) and ``r`` (formation error before the step, per edge).
+    """
+
+    unom: np.ndarray
+    r: np.ndarray
+    G: np.ndarray
+    bp: np.ndarray
+    N: np.ndarray
+    bo: np.ndarray
+    Ne: np.ndarray
+    be: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @classmethod
+    def inactive(cls, layout: QPLayout) -> QPData:
+        """Every row inactive, zero objective data, bounds at the speed limits."""
+        n, v = layout.n, layout.vmax[:, None]
+        return cls(unom=np.zeros((n, 2)), r=np.zeros((layout.F, 2)),
+                   G=np.zeros((layout.P, 2)), bp=np.full(layout.P, BIG),
+                   N=np.zeros((layout.nK, 2)), bo=np.full(layout.nK, BIG),
+                   Ne=np.zeros((layout.nE, 2)), be=np.full(layout.nE, BIG),
+                   lo=-np.repeat(v, 2, axis=1), hi=np.repeat(v, 2, axis=1))
+
+    @property
+    def active_pairs(self) -> int:
+        return int(np.sum(self.bp < BIG))
+
+    def theta(self, q: np.ndarray) -> np.ndarray:
+        """The model's Parameter vector: ``q`` (the linear objective term), the bounds and the
+        rows, each block flattened row-major (:data:`_THETA`)."""
+        return np.concatenate([q, self.lo.ravel(), self.hi.ravel(), self.G.ravel(), self.bp,
+                               self.N.ravel(), self.bo, self.Ne.ravel(), self.be])
+
+
+@dataclass
+class QPSolution:
+    """What one solve returned: ``U`` ``(n, 2)`` or ``None``, the status, the largest slack
+    (0 unless the slack fallback was used), and whether it was."""
+
+    U: np.ndarray | None
+    status: str
+    slack: float = 0.0
+    fallback: bool = False
+
+
+class QPModel:
+    """The cvxpy DPP model of one layout, solved by Clarabel.
+
+    All per-step numbers enter through one Parameter vector :math:`\theta` (the linear
+    objective term, the bounds and every row family, in the order of :meth:`QPData.theta`),
+    so a step sets one Parameter value.
+
+    Parameters
+    ----------
+    layout : QPLayout
+    tau : float
+        Time step.
+    w_f, w_s : float
+        Formation and slack weights.
+    settings : dict
+        Clarabel settings (``presolve_enable`` and ``chordal_decomposition_enable`` must be
+        off for cvxpy to update the cached solver).
+    soft : bool
+        Obstacle rows with a slack (the fallback model) instead of hard.
+    """
+
+    def __init__(self, layout: QPLayout, tau: float, w_f: float, w_s: float,
+                 settings: dict[str, Any], soft: bool = False):
         import cvxpy as cp
 
-        n, P, nK, nE, F = self.n, self.P, self.nK, self.nE, self.F
-        self.U = cp.Variable((n, 2))
-        self.S = cp.Variable(nK) if nK else None
-        self.p_unom = cp.Parameter((n, 2))
-        self.p_r = cp.Parameter((max(F, 1), 2))
-        self.p_G = cp.Parameter((max(P, 1), 2))
-        self.p_bp = cp.Parameter(max(P, 1))
-        self.p_N = cp.Parameter((max(nK, 1), 2))
-        self.p_bo = cp.Parameter(max(nK, 1))
-        self.p_Ne = cp.Parameter((max(nE, 1), 2))
-        self.p_be = cp.Parameter(max(nE, 1))
-        self.p_lo = cp.Parameter((n, 2))
-        self.p_hi = cp.Parameter((n, 2))
-        sw = np.sqrt(self.w)[:, None] * np.ones((1, 2))
-        obj = cp.sum_squares(cp.multiply(sw, self.U - self.p_unom))
-        cons = [self.U >= self.p_lo, self.U <= self.p_hi,
-                cp.norm(self.U, 2, axis=1) <= self.vmax]
-        if F:
-            fi, li = self.edges[:, 0], self.edges[:, 1]
-            err = self.p_r + self.tau * self.U[fi, :]
-            if np.any(li >= 0):
-                M = np.zeros((F, n))
-                M[np.arange(F)[li >= 0], li[li >= 0]] = 1.0
-                err = err - self.tau * (M @ self.U)
-            obj = obj + self.w_f * cp.sum_squares(err)
-        if P:
-            I, J = self.pairs[:, 0], self.pairs[:, 1]
-            cons.append(cp.sum(cp.multiply(self.p_G, self.U[I, :] - self.U[J, :]), axis=1)
-                        <= self.p_bp)
-        if nK:
-            rep = np.repeat(np.arange(n), self.K)
-            cons += [cp.sum(cp.multiply(self.p_N, self.U[rep, :]), axis=1)
-                     <= self.p_bo + self.S, self.S >= 0]
-            obj = obj + self.w_s * cp.sum(self.S)
-        if nE:
-            rep = np.repeat(np.arange(n), self.n_ext)
-            cons.append(cp.sum(cp.multiply(self.p_Ne, self.U[rep, :]), axis=1) <= self.p_be)
-        self.problem = cp.Problem(cp.Minimize(obj), cons)
-        assert self.problem.is_dcp(dpp=True), "formation QP must be DPP"
-        # zero-size padding parameters still need values
-        for p in (self.p_r, self.p_G, self.p_N, self.p_Ne):
-            p.value = np.zeros(p.shape)
-        for p in (self.p_bp, self.p_bo, self.p_be):
-            p.value = np.full(p.shape, BIG)
-
-    # -- direct Clarabel model (same matrices, own fixed sparsity pattern) ----------------
-    def _build_direct(self) -> None:
-        import clarabel
-
-        n, P, nK, nE = self.n, self.P, self.nK, self.nE
-        nx = 2 * n + nK
-        W = np.repeat(self.w, 2)
-        Puu = 2 * (np.diag(W) + self.w_f * self.tau**2 * self.E.T @ self.E)
-        Pm = np.zeros((nx, nx))
-        Pm[: 2 * n, : 2 * n] = Puu
-        self._Pm = sp.csc_matrix(np.triu(Pm))
-        rows, cols, tag = [], [], []  # tag: index into the per-step value vector
-        r = 0
-        # pair rows: value slots 0..4P-1 as (G0, G1, -G0, -G1)
-        for p, (i, j) in enumerate(self.pairs):
-            rows += [r, r, r, r]
-            cols += [2 * i, 2 * i + 1, 2 * j, 2 * j + 1]
-            tag += [4 * p, 4 * p + 1, 4 * p + 2, 4 * p + 3]
-            r += 1
-        base = 4 * P
-        for k in range(nK):  # obstacle rows: N0, N1 at robot k // K, then -1 on the slack
-            i = k // self.K
-            rows += [r, r, r]
-            cols += [2 * i, 2 * i + 1, 2 * n + k]
-            tag += [base + 2 * k, base + 2 * k + 1, -1]
-            r += 1
-        base2 = base + 2 * nK
-        for k in range(nE):
-            i = k // self.n_ext
-            rows += [r, r]
-            cols += [2 * i, 2 * i + 1]
-            tag += [base2 + 2 * k, base2 + 2 * k + 1]
-            r += 1
-        self._n_var_vals = base2 + 2 * nE
-        const_vals = []
-        for k in range(nK):  # -s <= 0
-            rows.append(r)
-            cols.append(2 * n + k)
-            tag.append(-2)
-            r += 1
-        for sgn in (1.0, -1.0):  # u <= hi ; -u <= -lo
-            for c in range(2 * n):
-                rows.append(r)
-                cols.append(c)
-                tag.append(-3 if sgn > 0 else -2)
-                r += 1
-        self._m_lin = r
-        for i in range(n):  # SOC rows: [vmax; u_i]: s = b - A x with A = [0; -I]
-            rows += [r + 1, r + 2]
-            cols += [2 * i, 2 * i + 1]
-            tag += [-2, -2]
-            r += 3
-        self._m = r
-        tag = np.array(tag)
-        const_vals = np.where(tag == -1, -1.0, np.where(tag == -2, -1.0, 1.0))
-        nnz = len(rows)
-        order_mat = sp.csc_matrix((np.arange(1, nnz + 1, dtype=float), (rows, cols)),
-                                  shape=(self._m, nx))
-        self._perm = order_mat.data.astype(int) - 1  # CSC slot -> COO entry
-        self._tag = tag
-        self._vals = const_vals.astype(float)
-        self._A = order_mat.copy()
-        self._A.data = self._vals[self._perm]
-        self._b = np.zeros(self._m)
-        self._q = np.zeros(nx)
-        self._q[2 * n:] = self.w_s
-        cones = [clarabel.NonnegativeConeT(self._m_lin)] + [clarabel.SecondOrderConeT(3)] * n
-        st = clarabel.DefaultSettings()
-        for k, v in self.settings.items():
-            setattr(st, k, v)
-        self._cones, self._st = cones, st
-        self._solver = None
-
-    # -- one solve ------------------------------------------------------------------------
-    def solve(self, unom, r, G, bp, N, bo, Ne, be, lo, hi) -> tuple[np.ndarray | None, str,
-                                                                    float]:
-        """Solve with new data; returns ``(U or None, status, max_slack)``."""
-        if self.interface == "direct":
-            return self._solve_direct(unom, r, G, bp, N, bo, Ne, be, lo, hi)
-        import cvxpy as cp
-
-        self.p_unom.value = unom
-        if self.F:
-            self.p_r.value = r
-        if self.P:
-            self.p_G.value, self.p_bp.value = G, bp
-        if self.nK:
-            self.p_N.value, self.p_bo.value = N, bo
-        if self.nE:
-            self.p_Ne.value, self.p_be.value = Ne, be
-        self.p_lo.value, self.p_hi.value = lo, hi
-        try:
-            self.problem.solve(solver=cp.CLARABEL, warm_start=True, **self.settings)
-        except Exception as e:  # noqa: BLE001 - solver failure -> safe stop
-            return None, f"error: {type(e).__name__}", float("nan")
-        st = str(self.problem.status)
-        if st not in _OK_CVXPY or self.U.value is None:
-            return None, st, float("nan")
-        slack = float(self.S.value.max()) if self.nK else 0.0
-        return np.asarray(self.U.value), st, max(slack, 0.0)
-
-    def _solve_direct(self, unom, r, G, bp, N, bo, Ne, be, lo, hi):
-        import clarabel
-
-        n = self.n
-        W = np.repeat(self.w, 2)
-        q = self._q
-        q[: 2 * n] = -2 * W * unom.ravel()
-        if self.F:
-            q[: 2 * n] += 2 * self.w_f * self.tau * (self.E.T @ r.ravel())
-        v = self._vals
-        tag = self._tag
-        dyn = np.zeros(self._n_var_vals)
-        if self.P:
-            dyn[: 4 * self.P] = np.hstack([G, -G]).ravel()
-        if self.nK:
-            dyn[4 * self.P: 4 * self.P + 2 * self.nK] = N.ravel()
-        if self.nE:
-            dyn[4 * self.P + 2 * self.nK:] = Ne.ravel()
-        m = tag >= 0
-        v[m] = dyn[tag[m]]
-        self._A.data = v[self._perm]
-        b = self._b
-        k = 0
-        b[k: k + self.P] = bp
-        k += self.P
-        b[k: k + self.nK] = bo
-        k += self.nK
-        b[k: k + self.nE] = be
-        k += self.nE
-        b[k: k + self.nK] = 0.0
-        k += self.nK
-        b[k: k + 2 * n] = hi.ravel()
-        k += 2 * n
-        b[k: k + 2 * n] = -lo.ravel()
-        k += 2 * n
-        b[k::3] = self.vmax
-        try:
-            if self._solver is None:
-                self._solver = clarabel.DefaultSolver(self._Pm, q, self._A, b, self._cones,
-                                                      self._st)
+        self.layout, self.tau, self.w_f, self.settings, self.soft = layout, tau, w_f, settings, \
+            soft
+        L = layout
+        n = L.n
+        self._E = L.jacobian()
+        self._W2 = np.repeat(L.weights, 2)
+        Q = np.diag(self._W2) + w_f * tau**2 * (self._E.T @ self._E)
+        self.theta = cp.Parameter(theta_size(L))
+        part = _theta_parts(L, self.theta)
+        self.u = cp.Variable(2 * n)  # (u_0x, u_0y, u_1x, ...): quad_form on the variable itself
+        self.U = cp.reshape(self.u, (n, 2), order="C")
+        obj = cp.quad_form(self.u, cp.psd_wrap(Q)) + part["q"] @ self.u
+        cons = [self.U >= part["lo"], self.U <= part["hi"], cp.SOC(L.vmax, self.U, axis=1)]
+        self.S = None
+        if L.P:
+            I, J = L.pairs[:, 0], L.pairs[:, 1]
+            cons.append(cp.sum(cp.multiply(part["G"], self.U[I, :] - self.U[J, :]), axis=1)
+                        <= part["bp"])
+        if L.nK:
+            rep = np.repeat(np.arange(n), L.K)
+            lhs = cp.sum(cp.multiply(part["N"], self.U[rep, :]), axis=1)
+            if soft:
+                self.S = cp.Variable(L.nK, nonneg=True)
+                cons.append(lhs <= part["bo"] + self.S)
+                obj = obj + w_s * cp.sum(self.S)
             else:
-                self._solver.update(q=q, A=self._A.data, b=b)
-            sol = self._solver.solve()
-        except Exception as e:  # noqa: BLE001
-            self._solver = None
-            return None, f"error: {type(e).__name__}", float("nan")
-        st = str(sol.status)
-        if st not in _OK_CLARABEL:
-            return None, st, float("nan")
-        x = np.asarray(sol.x)
-        slack = float(x[2 * n:].max()) if self.nK else 0.0
-        return x[: 2 * n].reshape(n, 2), st, max(slack, 0.0)
+                cons.append(lhs <= part["bo"])
+        if L.nE:
+            rep = np.repeat(np.arange(n), L.n_ext)
+            cons.append(cp.sum(cp.multiply(part["Ne"], self.U[rep, :]), axis=1) <= part["be"])
+        self.problem = cp.Problem(cp.Minimize(obj), cons)
+        if not self.problem.is_dpp():
+            raise RuntimeError("the formation QP must be DPP (a modelling error in optplan)")
+        self._solver = cp.CLARABEL
+
+    def linear_term(self, data: QPData) -> np.ndarray:
+        """:math:`q = -2Wu^{nom} + 2w_f\tau E^Tr` (the objective's only per-step data)."""
+        q = -2.0 * self._W2 * data.unom.ravel()
+        if self.layout.F:
+            q += 2.0 * self.w_f * self.tau * (self._E.T @ data.r.ravel())
+        return q
+
+    def solve(self, data: QPData) -> QPSolution:
+        """Set the Parameter from ``data`` and re-solve (never raises on solver trouble)."""
+        from cvxpy.error import SolverError
+
+        self.theta.value = data.theta(self.linear_term(data))
+        p = self.problem
+        try:
+            pdata, chain, inverse = p.get_problem_data(self._solver, solver_opts=self.settings)
+            raw = chain.solve_via_data(p, pdata, warm_start=True, verbose=False,
+                                       solver_opts=self.settings)
+            with warnings.catch_warnings():  # "may be inaccurate": the status says it
+                warnings.simplefilter("ignore", UserWarning)
+                p.unpack_results(raw, chain, inverse)
+        except (SolverError, ValueError, ArithmeticError) as e:
+            return QPSolution(None, f"error: {type(e).__name__}", math.nan, self.soft)
+        st = str(p.status)
+        if st not in _OK or self.u.value is None:
+            return QPSolution(None, st, math.nan, self.soft)
+        slack = max(float(self.S.value.max()), 0.0) if self.S is not None else 0.0
+        return QPSolution(np.asarray(self.u.value).reshape(-1, 2), st, slack, self.soft)
+
+
+#: The blocks of the Parameter vector, in order: name -> (size function, shape function).
+_THETA = (("q", lambda L: (2 * L.n,)), ("lo", lambda L: (L.n, 2)), ("hi", lambda L: (L.n, 2)),
+          ("G", lambda L: (L.P, 2)), ("bp", lambda L: (L.P,)), ("N", lambda L: (L.nK, 2)),
+          ("bo", lambda L: (L.nK,)), ("Ne", lambda L: (L.nE, 2)), ("be", lambda L: (L.nE,)))
+
+
+def theta_size(layout: QPLayout) -> int:
+    """Length of the Parameter vector of a layout."""
+    return int(sum(np.prod(shape(layout)) for _, shape in _THETA))
+
+
+def _theta_parts(layout: QPLayout, theta: Any) -> dict[str, Any]:
+    """The blocks of the Parameter vector as cvxpy expressions of their shapes (row-major)."""
+    import cvxpy as cp
+
+    out, k = {}, 0
+    for name, shape in _THETA:
+        sh = shape(layout)
+        m = int(np.prod(sh))
+        block = theta[k: k + m]
+        out[name] = cp.reshape(block, sh, order="C") if len(sh) == 2 else block
+        k += m
+    return out
+
+
+class QPSolver:
+    """The hard model of a layout, and its slack fallback (built on first use)."""
+
+    def __init__(self, layout: QPLayout, tau: float, w_f: float, w_s: float,
+                 settings: dict[str, Any]):
+        self.layout = layout
+        self._args = (tau, w_f, w_s, settings)
+        self.hard = QPModel(layout, *self._args)
+        self.soft: QPModel | None = None
+
+    def solve(self, data: QPData) -> QPSolution:
+        sol = self.hard.solve(data)
+        if sol.U is None and self.layout.nK and np.any(data.bo < BIG):
+            if self.soft is None:
+                self.soft = QPModel(self.layout, *self._args, soft=True)
+            sol = self.soft.solve(data)
+        return sol
+
+
+# --------------------------------------------------------------------------------------
+# the controller: one builder per row family into one QPData
+# --------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Step:
+    """Who is controlled this step and what is known about the others."""
+
+    ctrl: list[int]  # state indices of the controlled robots
+    lead: int  # state index of the leader
+    ext: list[int]  # state indices of robots with known velocities
+    u_ext: dict[int, np.ndarray]  # their velocities
+    u_lead: np.ndarray  # the leader's command (feed-forward of the followers)
+    heading: float  # the formation frame
+    u_lead_nom: np.ndarray | None  # the pilot's command when the leader is controlled
+
+
+@dataclass
+class _Geometry:
+    """Positions and sizes of the controlled robots at this step."""
+
+    dt: float
+    X: np.ndarray  # every robot
+    xc: np.ndarray  # controlled robots
+    radii: np.ndarray
+    vmax: np.ndarray
+    R_nb: float  # neighbour radius used this step
+    Ds: float
+    li: int | None  # controlled index of the leader, None when external
+    edges: np.ndarray  # (F, 2)
+    near: np.ndarray | None = None  # sensed nearest obstacle points (n, n_obs, 2)
+    dist: np.ndarray | None = None  # and distances (n, n_obs)
+
+
+@dataclass
+class QPStepRecord:
+    """The QP's own history columns for the step just taken."""
+
+    status: str
+    ok: bool
+    time: float
+    solve_time: float
+    slack: float
+    pairs: int
+    fallback: bool
+
+    def columns(self) -> dict[str, Any]:
+        return {"qp_status": self.status, "qp_ok": self.ok, "qp_time": self.time,
+                "qp_solve_time": self.solve_time, "qp_slack": self.slack,
+                "qp_pairs": self.pairs, "qp_fallback": self.fallback}
 
 
 class QPFormationController:
-    """Per-step data assembly around :class:`QPCore` (a FollowerController, interfaces.md)."""
+    """Per-step data assembly around :class:`QPSolver`
+    (a :class:`~optplan.interfaces.FollowerController`).
+
+    Attributes
+    ----------
+    stats : dict
+        ``qp_solves``, ``qp_failures`` (safe stops), ``slack_steps`` (steps solved by the slack
+        fallback), ``max_slack``, ``rebuilds``, ``solve_times`` (s, whole step),
+        ``statuses`` (count per solver status).
+    last : QPStepRecord or None
+        The record of the last step (the QP's history columns).
+    """
 
     def __init__(self, problem: Problem, opts: FormationQP):
         if problem.formation is None:
@@ -331,161 +417,192 @@ class QPFormationController:
         self.problem, self.o = problem, opts
         self.form = problem.formation
         self.spec = {f.id: f for f in self.form.followers}
-        self.core: QPCore | None = None
+        self.solver: QPSolver | None = None
         self._key: tuple | None = None
+        self._pattern: set[tuple[int, int]] = set()
+        self.last: QPStepRecord | None = None
         self.stats: dict[str, Any] = {"qp_failures": 0, "qp_solves": 0, "rebuilds": 0,
-                                      "max_slack": 0.0, "solve_times": [], "statuses": {}}
+                                      "slack_steps": 0, "max_slack": 0.0, "solve_times": [],
+                                      "statuses": {}}
+        self._settings = {"presolve_enable": False, "chordal_decomposition_enable": False,
+                          "verbose": False, "max_iter": opts.max_iter,
+                          "tol_gap_abs": opts.tol, "tol_gap_rel": opts.tol,
+                          "tol_feas": opts.tol}
 
-    # FollowerController interface: the leader is external (driven by someone else)
+    # -- FollowerController: the leader is external (driven by someone else) ----------------
     def velocities(self, state: SimState, leader_index: int, follower_indices: list[int],
                    leader_heading: float) -> np.ndarray:
-        ul = np.asarray(state.memory.get("leader_velocity", state.velocities[leader_index]),
-                        float)
-        U = self.step(state, list(follower_indices), leader_index, [leader_index], {
-            leader_index: ul}, ul, leader_heading, None)
+        ul = state.leader_command(leader_index)
+        return self.step(state, _Step(list(follower_indices), leader_index, [leader_index],
+                                      {leader_index: ul}, ul, leader_heading, None))
+
+    def joint(self, state: SimState, u_lead_nom: np.ndarray, heading: float) -> np.ndarray:
+        """Every robot in the QP, the leader's nominal command from its pilot."""
+        ctrl = list(range(len(state.ids)))
+        return self.step(state, _Step(ctrl, 0, [], {}, u_lead_nom, heading, u_lead_nom))
+
+    # -- one step -------------------------------------------------------------------------
+    def step(self, state: SimState, s: _Step) -> np.ndarray:
+        """Velocities of the controlled robots ``s.ctrl`` (state indices)."""
+        t0 = time.perf_counter()
+        geo = self._geometry(state, s)
+        solver = self._solver_for(state, s, geo)
+        data = QPData.inactive(solver.layout)
+        self._pair_rows(data, geo, solver.layout)
+        self._external_rows(data, geo, s)
+        self._sense(state, geo)
+        self._obstacle_rows(data, state, geo)
+        self._bounds(data, geo, s)
+        self._objective(data, state, geo, s)
+        t1 = time.perf_counter()
+        sol = solver.solve(data)
+        t_solve = time.perf_counter() - t1
+        U = self._command(sol, geo)
+        self._record(sol, data, time.perf_counter() - t0, t_solve)
         return U
 
-    def step(self, state: SimState, ctrl: list[int], lead: int, ext: list[int],
-             u_ext: dict[int, np.ndarray], u_lead: np.ndarray, heading: float,
-             u_lead_nom: np.ndarray | None) -> np.ndarray:
-        """Velocities of the controlled robots ``ctrl`` (state indices)."""
-        t0 = time.perf_counter()
-        o, prob = self.o, self.problem
-        dt = o.dt
-        X = state.positions
-        ids = state.ids
-        n = len(ctrl)
-        rob = [prob.robot(ids[i]) for i in ctrl]
-        radii = np.array([r.radius for r in rob])
+    def _geometry(self, state: SimState, s: _Step) -> _Geometry:
+        rob = [self.problem.robot(state.ids[i]) for i in s.ctrl]
         vmax = np.array([r.max_speed for r in rob])
         Ds = self.form.safety_distance
-        R_nb = max(o.neighbor_radius, Ds + 2 * dt * float(vmax.max()) * 1.05)
-        xc = X[ctrl]
-        # --- pair pattern and rebuild check ---
+        R_nb = max(self.o.neighbor_radius, Ds + 2 * state.dt * float(vmax.max()) * 1.05)
+        li = s.ctrl.index(s.lead) if s.lead in s.ctrl else None
+        edges = [(k, -1 if li is None else li) for k, i in enumerate(s.ctrl)
+                 if state.ids[i] in self.spec]
+        X = state.positions
+        return _Geometry(state.dt, X, X[s.ctrl], np.array([r.radius for r in rob]), vmax, R_nb,
+                         Ds, li, np.array(edges, int).reshape(-1, 2))
+
+    def _solver_for(self, state: SimState, s: _Step, geo: _Geometry) -> QPSolver:
+        """The cached solver, rebuilt when the robots or the pair pattern no longer fit."""
+        n = len(s.ctrl)
         iu, ju = np.triu_indices(n, 1)
-        dd = np.hypot(*(xc[iu] - xc[ju]).T) if n > 1 else np.zeros(0)
-        active = dd <= R_nb
-        pair_set = {(int(a), int(b)) for a, b in zip(iu[active], ju[active])}
-        edges = []
-        for k, i in enumerate(ctrl):
-            if ids[i] in self.spec:
-                edges.append((k, ctrl.index(lead) if lead in ctrl else -1))
-        key = (tuple(ctrl), tuple(ext))
-        if self.core is None or key != self._key or not pair_set <= self._pattern:
-            patt = dd <= 1.5 * R_nb
-            self._pattern = {(int(a), int(b)) for a, b in zip(iu[patt], ju[patt])}
-            pairs = np.array(sorted(self._pattern), int).reshape(-1, 2)
-            w = np.ones(n)
-            if lead in ctrl:
-                w[ctrl.index(lead)] = o.w_leader
-            settings = {"presolve_enable": False, "chordal_decomposition_enable": False,
-                        "verbose": False, "max_iter": o.max_iter, "tol_gap_abs": o.tol,
-                        "tol_gap_rel": o.tol, "tol_feas": o.tol}
-            self.core = QPCore(n, pairs, o.max_obstacles, len(ext), np.array(edges, int),
-                               w, vmax, dt, o.w_f, o.w_s, o.qp_interface, settings)
-            self._key = key
-            self._pair_index = {tuple(p): k for k, p in enumerate(pairs)}
-            self.stats["rebuilds"] += 1
-        core = self.core
-        g = o.gamma
-        # --- pair rows ---
-        G = np.zeros((core.P, 2))
-        bp = np.full(core.P, BIG)
-        if core.P:
-            pr = core.pairs
-            d = xc[pr[:, 0]] - xc[pr[:, 1]]
+        dd = np.hypot(*(geo.xc[iu] - geo.xc[ju]).T) if n > 1 else np.zeros(0)
+        active = {(int(a), int(b)) for a, b in zip(iu[dd <= geo.R_nb], ju[dd <= geo.R_nb])}
+        key = (tuple(s.ctrl), tuple(s.ext))
+        if self.solver is not None and key == self._key and active <= self._pattern:
+            return self.solver
+        patt = dd <= 1.5 * geo.R_nb
+        self._pattern = {(int(a), int(b)) for a, b in zip(iu[patt], ju[patt])}
+        w = np.ones(n)
+        if geo.li is not None:
+            w[geo.li] = self.o.w_leader
+        layout = QPLayout(n, np.array(sorted(self._pattern), int).reshape(-1, 2),
+                          self.o.max_obstacles, len(s.ext), geo.edges, w, geo.vmax)
+        self.solver = QPSolver(layout, state.dt, self.o.w_f, self.o.w_s, self._settings)
+        self._key = key
+        self.stats["rebuilds"] += 1
+        return self.solver
+
+    def _pair_rows(self, data: QPData, geo: _Geometry, layout: QPLayout) -> None:
+        """CBF rows of the controlled pairs in the pattern that are within the radius."""
+        if not layout.P:
+            return
+        pr = layout.pairs
+        d = geo.xc[pr[:, 0]] - geo.xc[pr[:, 1]]
+        dist = np.hypot(d[:, 0], d[:, 1])
+        on = dist <= geo.R_nb
+        data.G[on] = -d[on]
+        data.bp[on] = 0.5 * self.o.gamma * (dist[on] ** 2 - geo.Ds**2)
+
+    def _external_rows(self, data: QPData, geo: _Geometry, s: _Step) -> None:
+        """CBF rows against robots with known velocities (moved to the right-hand side)."""
+        n, g = len(s.ctrl), self.o.gamma
+        for e, j in enumerate(s.ext):
+            d = geo.xc - geo.X[j][None, :]
             dist = np.hypot(d[:, 0], d[:, 1])
-            on = dist <= R_nb
-            G[on] = -d[on]
-            bp[on] = 0.5 * g * (dist[on] ** 2 - Ds**2)
-        # --- external robots (known velocity) ---
-        nE = core.nE
-        Ne = np.zeros((nE, 2))
-        be = np.full(nE, BIG)
-        for e, j in enumerate(ext):
-            d = xc - X[j][None, :]
-            dist = np.hypot(d[:, 0], d[:, 1])
-            on = dist <= R_nb
-            rows = np.arange(n) * len(ext) + e
-            Ne[rows[on]] = -d[on]
-            be[rows[on]] = 0.5 * g * (dist[on] ** 2 - Ds**2) - d[on] @ u_ext[j]
-        # --- obstacle rows ---
-        K = o.max_obstacles
-        N = np.zeros((n * K, 2))
-        bo = np.full(n * K, BIG)
-        fld = state.field
-        sense = o.sensing_range or prob.sensing_range or 100.0
-        near = dist = None
-        if fld.n and (K or o.adapt_phi):  # one sensing query serves the rows and eq 52
-            # eq 52 needs the clearance (distance - radius) up to rho_0_f
-            near, dist = fld.nearest(xc, state.t,
-                                     max_range=max(sense, o.rho_0_f + float(radii.max())))
-        if K and fld.n:
-            vel = (fld.offsets(state.t + dt) - fld.offsets(state.t)) / dt  # (n_obs, 2)
-            order = np.argsort(dist, axis=1)[:, :K]
-            for kk in range(min(K, fld.n)):
-                ob = order[:, kk]
-                dk = dist[np.arange(n), ob]
-                ok = dk <= sense
-                c = near[np.arange(n), ob]
-                v = xc - c
-                nv = np.hypot(v[:, 0], v[:, 1])
-                ok &= nv > 1e-9
-                nrm = v / np.where(ok, nv, 1.0)[:, None]
-                h = dk - radii - o.margin
-                rows = np.arange(n) * K + kk
-                N[rows[ok]] = -nrm[ok]
-                bo[rows[ok]] = g * h[ok] - np.sum(nrm[ok] * vel[ob[ok]], axis=1)
-        # --- bounds ---
-        x0, y0, x1, y1 = prob.bounds
-        lo = np.minimum((np.array([x0, y0])[None, :] + radii[:, None] - xc) / dt, 0.0)
-        hi = np.maximum((np.array([x1, y1])[None, :] - radii[:, None] - xc) / dt, 0.0)
-        lo = np.maximum(lo, -vmax[:, None])
-        hi = np.minimum(hi, vmax[:, None])
-        if lead in ctrl and u_lead_nom is not None and not np.any(u_lead_nom):
-            li = ctrl.index(lead)  # the pilot holds the leader (at its goal): keep it still
-            lo[li] = hi[li] = 0.0
-        # --- objective data ---
-        unom = np.repeat(u_lead[None, :], n, axis=0)
-        if lead in ctrl and u_lead_nom is not None:
-            unom[ctrl.index(lead)] = u_lead_nom
-        fol = [ids[ctrl[f]] for f, _ in edges]
-        Lv = np.array([self.spec[i].L for i in fol])
-        Phi = np.array([self.spec[i].phi for i in fol])
-        fidx = np.array([f for f, _ in edges], int)
-        if o.adapt_phi and len(fol):
-            rho = (np.min(dist[fidx], axis=1) - radii[fidx]) if dist is not None else np.inf
-            Phi = adapted_angle(Phi, rho, o.rho_0_f, o.c_phi)
-        xl = X[lead]
-        r = np.zeros((len(fol), 2))
-        if len(fol):
-            slots = slot_positions(xl, heading, Lv, Phi)
-            r = xc[fidx] - slots
-            if lead not in ctrl:
-                r = r - dt * u_lead[None, :]
-        U, status, slack = core.solve(unom, r, G, bp, N, bo, Ne, be, lo, hi)
-        ok = U is not None
-        if not ok:
-            self.stats["qp_failures"] += 1
-            U = np.zeros((n, 2))  # safe stop
-        else:
-            # tiny solver overshoot of the speed limit: scale down (keeps rows, see doc)
-            sp_ = np.hypot(U[:, 0], U[:, 1])
-            U = U * np.minimum(1.0, vmax / np.maximum(sp_, 1e-12))[:, None]
-            U[sp_ < 1e-6 * vmax] = 0.0  # solver noise: a still robot stays still
-        self.stats["qp_solves"] += 1
-        self.stats["max_slack"] = max(self.stats["max_slack"], slack if ok else 0.0)
-        self.stats["statuses"][status] = self.stats["statuses"].get(status, 0) + 1
-        el = time.perf_counter() - t0
-        self.stats["solve_times"].append(el)
-        state.memory["qp_row"] = {"qp_status": status, "qp_ok": ok, "qp_time": el,
-                                  "qp_slack": slack if ok else np.nan,
-                                  "qp_pairs": int(np.sum(bp < BIG))}
+            on = dist <= geo.R_nb
+            rows = np.arange(n) * len(s.ext) + e
+            data.Ne[rows[on]] = -d[on]
+            data.be[rows[on]] = 0.5 * g * (dist[on] ** 2 - geo.Ds**2) - d[on] @ s.u_ext[j]
+
+    def _sense(self, state: SimState, geo: _Geometry) -> None:
+        """One sensing query for the obstacle rows and eq 52 (clearance up to rho_0_f)."""
+        o, fld = self.o, state.field
+        if fld.n and (o.max_obstacles or o.adapt_phi):
+            rng = max(self._sensing_range(), o.rho_0_f + float(geo.radii.max()))
+            geo.near, geo.dist = fld.nearest(geo.xc, state.t, max_range=rng)
+
+    def _sensing_range(self) -> float:
+        return self.o.sensing_range or self.problem.sensing_range or 100.0
+
+    def _obstacle_rows(self, data: QPData, state: SimState, geo: _Geometry) -> None:
+        """CBF rows of each robot's ``max_obstacles`` nearest sensed obstacles."""
+        K, fld = self.o.max_obstacles, state.field
+        if not K or geo.dist is None:
+            return
+        n, g, dt = len(geo.xc), self.o.gamma, state.dt
+        vel = (fld.offsets(state.t + dt) - fld.offsets(state.t)) / dt  # (n_obs, 2)
+        order = np.argsort(geo.dist, axis=1)[:, :K]
+        sense = self._sensing_range()
+        ar = np.arange(n)
+        for kk in range(min(K, fld.n)):
+            ob = order[:, kk]
+            dk = geo.dist[ar, ob]
+            v = geo.xc - geo.near[ar, ob]
+            nv = np.hypot(v[:, 0], v[:, 1])
+            ok = (dk <= sense) & (nv > 1e-9)
+            nrm = v / np.where(ok, nv, 1.0)[:, None]
+            h = dk - geo.radii - self.o.margin
+            rows = ar * K + kk
+            data.N[rows[ok]] = -nrm[ok]
+            data.bo[rows[ok]] = g * h[ok] - np.sum(nrm[ok] * vel[ob[ok]], axis=1)
+
+    def _bounds(self, data: QPData, geo: _Geometry, s: _Step) -> None:
+        """Stay in the arena (or do not move further out), within the speed limit."""
+        x0, y0, x1, y1 = self.problem.bounds
+        dt, r, v = geo.dt, geo.radii[:, None], geo.vmax[:, None]
+        lo = np.minimum((np.array([x0, y0])[None, :] + r - geo.xc) / dt, 0.0)
+        hi = np.maximum((np.array([x1, y1])[None, :] - r - geo.xc) / dt, 0.0)
+        data.lo, data.hi = np.maximum(lo, -v), np.minimum(hi, v)
+        if geo.li is not None and s.u_lead_nom is not None and not np.any(s.u_lead_nom):
+            data.lo[geo.li] = data.hi[geo.li] = 0.0  # the pilot holds the leader (at its goal)
+
+    def _objective(self, data: QPData, state: SimState, geo: _Geometry, s: _Step) -> None:
+        """Nominal velocities and the formation error before the step (eq 52 slots)."""
+        data.unom[:] = s.u_lead[None, :]
+        if geo.li is not None and s.u_lead_nom is not None:
+            data.unom[geo.li] = s.u_lead_nom
+        if not len(geo.edges):
+            return
+        fidx = geo.edges[:, 0]
+        spec = [self.spec[state.ids[s.ctrl[f]]] for f in fidx]
+        Lv = np.array([f.L for f in spec])
+        Phi = np.array([f.phi for f in spec])
+        if self.o.adapt_phi:
+            rho = (np.min(geo.dist[fidx], axis=1) - geo.radii[fidx] if geo.dist is not None
+                   else np.inf)
+            Phi = adapted_angle(Phi, rho, self.o.rho_0_f, self.o.c_phi)
+        data.r = geo.xc[fidx] - slot_positions(geo.X[s.lead], s.heading, Lv, Phi)
+        if geo.li is None:
+            data.r = data.r - state.dt * s.u_lead[None, :]
+
+    def _command(self, sol: QPSolution, geo: _Geometry) -> np.ndarray:
+        if sol.U is None:
+            return np.zeros((len(geo.xc), 2))  # safe stop
+        U = sol.U
+        # tiny solver overshoot of the speed limit: scale down (keeps the rows, module doc)
+        sp = np.hypot(U[:, 0], U[:, 1])
+        U = U * np.minimum(1.0, geo.vmax / np.maximum(sp, 1e-12))[:, None]
+        U[sp < 1e-6 * geo.vmax] = 0.0  # solver noise: a still robot stays still
         return U
+
+    def _record(self, sol: QPSolution, data: QPData, el: float, t_solve: float) -> None:
+        ok = sol.U is not None
+        st = self.stats
+        st["qp_solves"] += 1
+        st["qp_failures"] += int(not ok)
+        st["slack_steps"] += int(ok and sol.fallback)
+        if ok:
+            st["max_slack"] = max(st["max_slack"], sol.slack)
+        st["statuses"][sol.status] = st["statuses"].get(sol.status, 0) + 1
+        st["solve_times"].append(el)
+        self.last = QPStepRecord(sol.status, ok, el, t_solve, sol.slack if ok else math.nan,
+                                 data.active_pairs, sol.fallback)
 
 
 @dataclass(frozen=True, kw_only=True)
-class FormationQP(PilotedFormation):
+class FormationQP(PilotedFormation, FormationBackend):
     """Formation keeping by one cvxpy/Clarabel QP per step with CBF safety rows.
 
     Parameters
@@ -495,7 +612,7 @@ class FormationQP(PilotedFormation):
     w_leader : float
         Weight of the leader's deviation from its pilot command (with ``leader_in_qp``).
     w_s : float
-        Linear weight of the obstacle-row slack (exact penalty; reported in ``max_slack``).
+        Linear weight of the obstacle-row slack in the slack fallback (exact penalty).
     gamma : float
         CBF gain (1/s), linear class-K function; must satisfy ``gamma * dt <= 1``.
     margin : float
@@ -509,9 +626,6 @@ class FormationQP(PilotedFormation):
     leader_in_qp : bool
         The leader's velocity is a QP variable too (its pilot command is the nominal); so the
         leader waits for blocked followers and is itself filtered.
-    qp_interface : str
-        ``"cvxpy"`` (cvxpy Parameters, cached Clarabel solver updated) or ``"direct"``
-        (same matrices assembled here, ``clarabel.DefaultSolver.update``).
     max_iter : int
         Clarabel iteration cap per solve.
     tol : float
@@ -525,7 +639,7 @@ class FormationQP(PilotedFormation):
     name: ClassVar[str] = "formation-qp"
     contract_problem: ClassVar[str] = "formation-open-field"
     contract_overrides: ClassVar[dict] = {"path_solver": "visgraph", "max_steps": 150,
-                                          "dt": 1.0, "gamma": 1.0, "qp_interface": "direct"}
+                                          "dt": 1.0, "gamma": 1.0}
     w_f: float = 4.0
     w_leader: float = 10.0
     w_s: float = 1e4
@@ -535,7 +649,6 @@ class FormationQP(PilotedFormation):
     max_obstacles: int = 3
     sensing_range: float = 0.0
     leader_in_qp: bool = True
-    qp_interface: str = "cvxpy"
     max_iter: int = 50
     tol: float = 1e-7
 
@@ -548,7 +661,6 @@ class FormationQP(PilotedFormation):
         check_int(self, "max_obstacles", 0, 64)
         check_int(self, "max_iter", 1, 10_000)
         check_range(self, "tol", 1e-12, 1e-2)
-        check_choice(self, "qp_interface", ("cvxpy", "direct"))
         if self.gamma * self.dt > 1 + 1e-12:
             raise ValueError(f"options 'gamma' * 'dt' of backend {self.name!r} must be <= 1 "
                              f"(discrete-time CBF), got {self.gamma} * {self.dt}")
@@ -558,30 +670,29 @@ class FormationQP(PilotedFormation):
 
     def followers_controller(self, problem: Problem,
                              rng: np.random.Generator) -> QPFormationController:
-        """The QP as a FollowerController (the leader is driven by the caller)."""
+        """The QP as a :class:`~optplan.interfaces.FollowerController` (the leader is driven
+        by the caller; :class:`~optplan.interfaces.FormationBackend`)."""
         return QPFormationController(problem, self)
 
-    def solve(self, problem, /, *, rng=None, init=None, callback=None):
+    def solve(self, problem, /, *, rng=None, init=None, callback=None) -> Result:
         rng = make_rng(rng)[0]
         ctl = self.followers_controller(problem, rng)
-        joint = None
-        if self.leader_in_qp:
-            n_all = 1 + len(problem.formation.followers) if problem.formation else 1
-
-            def joint(state: SimState, ul: np.ndarray, heading: float) -> np.ndarray:
-                ctrl = list(range(n_all))
-                return ctl.step(state, ctrl, 0, [], {}, ul, heading, ul)
-
         res = run_formation(self, problem, ctl, rng=rng, init=init, callback=callback,
-                            joint=joint)
-        st = ctl.stats
-        times = np.asarray(st["solve_times"])
-        extra = {"qp_failures": st["qp_failures"], "qp_solves": st["qp_solves"],
-                 "max_slack": st["max_slack"], "rebuilds": st["rebuilds"],
-                 "qp_median_ms": float(np.median(times) * 1e3) if len(times) else math.nan}
-        res.metrics.update(extra)
-        msg = res.message + (f"; {st['qp_failures']} QP failure(s) -> safe stop"
-                             if st["qp_failures"] else "")
-        import dataclasses
+                            joint=ctl.joint if self.leader_in_qp else None,
+                            step_columns=lambda: ctl.last.columns() if ctl.last else {},
+                            extras=lambda: qp_summary(ctl.stats))
+        n_fail = ctl.stats["qp_failures"]
+        if not n_fail:
+            return res
+        return dataclasses.replace(res, message=res.message
+                                   + f"; {n_fail} QP failure(s) -> safe stop")
 
-        return dataclasses.replace(res, message=msg)
+
+def qp_summary(stats: dict[str, Any]) -> dict[str, Any]:
+    """The QP's statistics for ``Result.extras`` (backend statistics, not metrics)."""
+    times = np.asarray(stats["solve_times"])
+    return {"qp_failures": stats["qp_failures"], "qp_solves": stats["qp_solves"],
+            "slack_steps": stats["slack_steps"], "max_slack": stats["max_slack"],
+            "rebuilds": stats["rebuilds"],
+            "qp_median_ms": float(np.median(times) * 1e3) if len(times) else math.nan}
+

@@ -66,10 +66,19 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan.interfaces import (
+    FORMATION_BACKEND,
+    LOCAL_PLANNER,
+    PATH_SOLVER,
+    FollowerController,
+    LocalController,
+    resolve_stage,
+    stage_name,
+)
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Result, Status, notify
-from optplan.sim import SimState, simulate
-from optplan.solver import Backend, check_int, check_range, get_solver, make_rng
+from optplan.sim import SimOutcome, SimState, simulate
+from optplan.solver import Backend, check_int, check_range, make_rng
 
 __all__ = ["Hybrid", "inflection_points", "subgoals", "turning_angles"]
 
@@ -194,7 +203,7 @@ class _Driver:
     index: int
     robot: Robot
     goals: np.ndarray  # (k, 2), last = final goal
-    controller: Any
+    controller: LocalController
     reach_tol: float
     goal_tol: float
     j: int = 0
@@ -217,25 +226,209 @@ class _Driver:
         self.controller.reset(self.goals[self.j].copy())
 
 
-def _wrap_callback(callback: Callable[[Progress], Any] | None, offset: list[int],
-                   stopped: list[bool]) -> Callable[[Progress], Any] | None:
-    """Forward progress with a running iteration offset and remember a stop request."""
-    if callback is None:
-        return None
+class _SubgoalTracker:
+    """Step 6: moves every driving robot on to its next sub-goal.
 
-    def cb(p: Progress) -> None:
-        q = Progress(p.iteration + offset[0], p.best_cost, p.n_eval, p.elapsed, p.info,
+    An intermediate sub-goal is left when it is reached (within ``reach_tol``), sensed inside
+    a temporary obstacle (``skip_blocked``) or not approached for ``stall_steps`` steps; the
+    final goal is reached within the goal tolerance.  :meth:`update` is idempotent within a
+    step.
+    """
+
+    def __init__(self, drivers: list[_Driver], *, skip_blocked: bool, stall_steps: int,
+                 sensing: float | None):
+        self.drivers = drivers
+        self.skip_blocked, self.stall_steps, self.sensing = skip_blocked, stall_steps, sensing
+        self._temp_mask: dict[int, np.ndarray] = {}
+
+    @property
+    def all_done(self) -> bool:
+        return all(d.done for d in self.drivers)
+
+    def update(self, state: SimState) -> None:
+        for d in self.drivers:
+            while not d.done and self._step(d, state):
+                pass
+
+    def _step(self, d: _Driver, state: SimState) -> bool:
+        """One decision for driver ``d``; True when it moved on to another sub-goal."""
+        dist = math.hypot(*(d.goals[d.j] - state.positions[d.index]))
+        if d.final:
+            if dist <= d.goal_tol:
+                d.done, d.t_goal = True, float(state.t)
+                d.reached_at.append((d.j, float(state.t), "reached"))
+            return False
+        how = ""
+        if dist <= d.reach_tol:
+            how = "reached"
+        elif self.blocked(d, state):
+            how = "blocked"
+        elif dist < d.best - 0.1 * d.robot.radius:
+            d.best, d.k_best = dist, state.k
+        elif self.stall_steps and state.k - d.k_best > self.stall_steps:
+            how = "stalled"
+        if how:
+            d.advance(state.k, state.t, how)
+        return bool(how)
+
+    def blocked(self, d: _Driver, state: SimState) -> bool:
+        """The current sub-goal lies inside a sensed temporary obstacle."""
+        fld = state.field
+        if not self.skip_blocked or fld.n_static == 0:
+            return False
+        temp = self._temp_mask.get(id(fld))
+        if temp is None:
+            temp = np.array([not o.known for o in fld.static] + [False] * (fld.n - fld.n_static))
+            self._temp_mask[id(fld)] = temp
+        if not temp.any():
+            return False
+        g = d.goals[d.j]
+        if self.sensing is not None and math.hypot(*(g - state.positions[d.index])) > \
+                self.sensing:
+            return False
+        _, dist = fld.nearest(g, state.t, max_range=d.robot.radius)
+        return bool(np.any(dist[0][temp] < d.robot.radius))
+
+
+class _StageCallback:
+    """Forwards the stages' progress with a running iteration offset; remembers a stop."""
+
+    def __init__(self, callback: Callable[[Progress], Any] | None):
+        self.callback = callback
+        self.offset = 0
+        self.stopped = False
+
+    def __call__(self, p: Progress) -> None:
+        q = Progress(p.iteration + self.offset, p.best_cost, p.n_eval, p.elapsed, p.info,
                      p.sim_time)
-        if notify(callback, q):
-            stopped[0] = True
+        if notify(self.callback, q):
+            self.stopped = True
             raise StopIteration
 
-    return cb
+    @property
+    def forward(self) -> Callable[[Progress], Any] | None:
+        """What to pass to a stage: this object, or None without a callback."""
+        return self if self.callback is not None else None
+
+
+# --------------------------------------------------------------------------------------
+# the policy (step 5): the drivers' local controllers and the followers' controller
+# --------------------------------------------------------------------------------------
+
+
+@dataclass
+class _Team:
+    """Who drives itself (with a goal) and who follows, in simulation order."""
+
+    drivers: list[Robot]
+    follower_ids: list[str]
+    ids: list[str]
+    use_formation: bool
+
+
+class _HybridPolicy:
+    """The simulator's policy, ``done`` test and progress cost of one hybrid run."""
+
+    def __init__(self, opts: Hybrid, problem: Problem, team: _Team, drivers: list[_Driver],
+                 tracker: _SubgoalTracker, fctrl: FollowerController | None):
+        self.o, self.problem, self.team, self.drivers = opts, problem, team, drivers
+        self.tracker, self.fctrl = tracker, fctrl
+        lid = problem.leader.id
+        self.lead = next((d for d in drivers if d.robot.id == lid), drivers[0])
+        self.f_idx = [team.ids.index(f) for f in team.follower_ids] if fctrl else []
+        form = problem.formation
+        self.L = np.array([f.L for f in form.followers]) if fctrl else np.zeros(0)
+        self.k_arrived: int | None = None
+        self.gave_up: list[str] = []
+
+    def __call__(self, state: SimState) -> np.ndarray | None:
+        u = np.zeros((len(self.team.ids), 2))
+        for d in self.drivers:
+            if d.done:
+                continue
+            v = self._drive(d, state)
+            if v is None:
+                return None
+            u[d.index] = v
+        if self.fctrl is not None and not self._followers(u, state):
+            return None
+        return u
+
+    def _drive(self, d: _Driver, state: SimState) -> np.ndarray | None:
+        """Driver ``d``'s command (capped, heading updated), or None when it gave up."""
+        v = d.controller.velocity(state, d.index)
+        while v is None and not d.final:
+            d.advance(state.k, state.t, "gave_up")
+            v = d.controller.velocity(state, d.index)
+        if v is None:
+            d.gave_up = True
+            self.gave_up.append(f"{d.robot.id}: local planner gave up at t={state.t:.2f}")
+            return None
+        v = np.asarray(v, dtype=float).reshape(2)
+        if not np.all(np.isfinite(v)):
+            d.gave_up = True
+            self.gave_up.append(f"{d.robot.id}: local planner returned {v} at t={state.t:.2f}")
+            return None
+        sp = math.hypot(*v)
+        cap = self.o.v_factor * d.robot.max_speed
+        if self.fctrl is not None and sp > cap:
+            v = v * (cap / sp)
+        if sp * state.dt > 1e-9:
+            want = float(math.atan2(v[1], v[0]))
+            if self.o.heading_rate > 0:
+                dth = (want - d.heading + math.pi) % (2 * math.pi) - math.pi
+                lim = self.o.heading_rate * state.dt
+                want = d.heading + max(-lim, min(lim, dth))
+            d.heading = want
+        return v
+
+    def _followers(self, u: np.ndarray, state: SimState) -> bool:
+        """The followers' commands into ``u``; False on non-finite output."""
+        li = self.lead.index
+        state.leader_velocity = u[li].copy()
+        uf = self.fctrl.velocities(state, li, self.f_idx, self.lead.heading)
+        uf = np.asarray(uf, dtype=float).reshape(len(self.f_idx), 2)
+        if not np.all(np.isfinite(uf)):
+            self.gave_up.append(f"formation controller returned non-finite velocities at "
+                                f"t={state.t:.2f}")
+            return False
+        u[self.f_idx] = uf
+        return True
+
+    def followers_settled(self, positions: np.ndarray) -> bool:
+        if self.fctrl is None:
+            return True
+        slots = positions[self.lead.index] + self.problem.formation.slot_offsets(
+            self.lead.heading)
+        err = np.hypot(*(positions[self.f_idx] - slots).T)
+        return bool(np.all(err <= self.o.settle_tol * self.L))
+
+    def done(self, state: SimState) -> bool:
+        self.tracker.update(state)
+        if not self.tracker.all_done:
+            return False
+        if self.k_arrived is None:
+            self.k_arrived = state.k
+        return (self.followers_settled(state.positions)
+                or state.k - self.k_arrived >= self.o.settle_steps)
+
+    def progress_cost(self, state: SimState) -> float:
+        return float(math.hypot(*(state.positions[self.lead.index] - self.lead.robot.goal)))
 
 
 # --------------------------------------------------------------------------------------
 # the backend
 # --------------------------------------------------------------------------------------
+
+
+@dataclass
+class _GlobalStage:
+    """Step 3's outcome: a path per driving robot."""
+
+    paths: dict[str, np.ndarray]
+    result: Result | None = None
+    wall_time: float = 0.0
+    messages: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -244,18 +437,20 @@ class Hybrid(Backend):
 
     Parameters
     ----------
-    global_solver : str
+    global_solver : str or Backend
         Preset (or backend) planning each driving robot's path on ``problem.known_view()``
-        (step 3).  Paper: IPSO; default ``"ipso"``, the documented variant, because the
-        literal ``"ipso-paper"`` (eq 24) never returns a collision-free path (see the PSO
-        page).  A backend object is accepted too.
-    local_solver : str
-        Preset (or backend) whose ``controller(problem, robot_id, rng)`` drives the leader
-        between sub-goals (step 5).  Paper: SA-APF, ``"sa-apf-paper"``.
-    formation : str
-        Preset (or backend) whose ``followers_controller(problem, rng)`` drives the followers
-        (step 2/5): ``"leader-follower-paper"`` (paper), ``"formation-qp"``, or ``""`` to run
-        the leader(s) alone.  Ignored for problems without a ``[formation]``.
+        (step 3): any solver (:data:`optplan.interfaces.PATH_SOLVER`).  Paper: IPSO; default
+        ``"ipso"``, the documented variant, because the literal ``"ipso-paper"`` (eq 24) never
+        returns a collision-free path (see the PSO page).
+    local_solver : str or Backend
+        A :class:`~optplan.interfaces.LocalPlanner` whose ``controller(problem, robot_id,
+        rng)`` drives the leader between sub-goals (step 5).  Paper: SA-APF,
+        ``"sa-apf-paper"``.
+    formation : str or Backend
+        A :class:`~optplan.interfaces.FormationBackend` whose ``followers_controller(problem,
+        rng)`` drives the followers (step 2/5): ``"leader-follower-paper"`` (paper),
+        ``"formation-qp"``, or ``""`` to run the leader(s) alone.  Ignored for problems without
+        a ``[formation]``.
     angle_tol : float
         Inflection-point tolerance :math:`\theta_{tol}` (degrees, ``[0, 180)``): a vertex of the
         global path is a sub-goal when the path turns there by more than this (step 4; see
@@ -292,6 +487,13 @@ class Hybrid(Backend):
         A follower has settled when within ``settle_tol * L`` of its slot (``(0, 1]``).
     stop_on_collision : bool
         Stop the simulation at the first contact (the result is then ``approximate``).
+
+    Notes
+    -----
+    The three stage options are resolved when the backend is built (:attr:`stages`): a name
+    that is no solver, or names a solver of the wrong kind (e.g. ``local_solver =
+    "visgraph"``), raises ``ValueError`` naming the option, the kind expected and close
+    matches.
     """
 
     name: ClassVar[str] = "hybrid"
@@ -313,15 +515,9 @@ class Hybrid(Backend):
     v_factor: float = 0.75
     heading_rate: float = 0.0
     stop_on_collision: bool = True
+    _stages: dict[str, Any] = field(init=False, repr=False, compare=False, default=None)
 
     def __post_init__(self) -> None:
-        for k in ("global_solver", "local_solver", "formation"):
-            v = getattr(self, k)
-            if not isinstance(v, (str, Backend)):
-                raise ValueError(f"option {k!r} of backend 'hybrid' must be a preset or backend "
-                                 f"name (str), got {v!r}")
-            if k != "formation" and v == "":
-                raise ValueError(f"option {k!r} of backend 'hybrid' must name a solver")
         check_range(self, "angle_tol", 0.0, 180.0, hi_open=True)
         check_range(self, "subgoal_spacing", 0.0)
         check_range(self, "dt", 0.0, 10.0, lo_open=True)
@@ -336,13 +532,28 @@ class Hybrid(Backend):
             if not isinstance(getattr(self, k), bool):
                 raise ValueError(f"option {k!r} of backend 'hybrid' must be true or false, "
                                  f"got {getattr(self, k)!r}")
+        stages = {
+            "global_solver": resolve_stage(self.name, "global_solver", self.global_solver,
+                                           PATH_SOLVER),
+            "local_solver": resolve_stage(self.name, "local_solver", self.local_solver,
+                                          LOCAL_PLANNER),
+            "formation": (None if isinstance(self.formation, str) and self.formation == ""
+                          else resolve_stage(self.name, "formation", self.formation,
+                                             FORMATION_BACKEND)),
+        }
+        object.__setattr__(self, "_stages", stages)
+
+    @property
+    def stages(self) -> dict[str, Any]:
+        """The resolved stages: ``global_solver`` (Backend), ``local_solver``
+        (:class:`~optplan.interfaces.LocalPlanner`) and ``formation``
+        (:class:`~optplan.interfaces.FormationBackend`, or None for ``formation = ""``)."""
+        return self._stages
 
     def options(self) -> dict[str, Any]:
         out = super().options()
         for k in ("global_solver", "local_solver", "formation"):
-            v = out[k]
-            if isinstance(v, Backend):
-                out[k] = v.preset or v.name
+            out[k] = stage_name(out[k])
         return out
 
     # ---------------------------------------------------------------------------------
@@ -352,213 +563,92 @@ class Hybrid(Backend):
         t_start = time.perf_counter()
         rng = make_rng(rng)[0]
         rng_global, rng_local, rng_form = rng.spawn(3)
-        offset, stopped = [0], [False]
-        cb = _wrap_callback(callback, offset, stopped)
+        cb = _StageCallback(callback)
+        team = self._team(problem)
+        glob = self._global_stage(problem, team, init, rng_global, cb, t_start)
+        if isinstance(glob, Result):
+            return glob
+        drivers = self._drivers(problem, team, glob.paths, rng_local)
+        fctrl = (self.stages["formation"].followers_controller(problem, rng_form)
+                 if team.use_formation else None)
+        tracker = _SubgoalTracker(drivers, skip_blocked=self.skip_blocked,
+                                  stall_steps=self.stall_steps, sensing=problem.sensing_range)
+        policy = _HybridPolicy(self, problem, team, drivers, tracker, fctrl)
+        try:
+            out = simulate(problem, policy, ids=team.ids, dt=self.dt, max_steps=self.max_steps,
+                           done=policy.done, stop_on_collision=self.stop_on_collision,
+                           callback=cb.forward, progress_cost=policy.progress_cost)
+        except (np.linalg.LinAlgError, FloatingPointError, ArithmeticError) as e:
+            return self._early(problem, team.ids, glob.result,
+                               f"numerical failure in the simulation: {e}", t_start,
+                               Status.failed)
+        return self._assemble(problem, glob, policy, out, t_start)
 
-        # which robots drive themselves, which follow
+    # -- which robots drive themselves, which follow -----------------------------------
+    def _team(self, problem: Problem) -> _Team:
         form = problem.formation
-        use_formation = bool(form is not None and self.formation != "")
+        use = bool(form is not None and self.stages["formation"] is not None)
         follower_ids = [f.id for f in form.followers] if form is not None else []
-        drivers_r = [r for r in problem.robots if r.id not in follower_ids and r.goal is not None]
-        if form is not None and not use_formation:
-            drivers_r = [problem.leader]
-        ids = [r.id for r in drivers_r] + (follower_ids if use_formation else [])
+        drivers = [r for r in problem.robots if r.id not in follower_ids and r.goal is not None]
+        if form is not None and not use:
+            drivers = [problem.leader]
+        ids = [r.id for r in drivers] + (follower_ids if use else [])
+        return _Team(drivers, follower_ids if use else [], ids, use)
 
-        # ---- step 3: global paths on the known map --------------------------------
-        known = problem.known_view()
-        gpaths: dict[str, np.ndarray] = {}
-        gres: Result | None = None
-        n_eval = 0
-        messages: list[str] = []
-        need = [r for r in drivers_r if not (init and r.id in init)]
+    # -- step 3: global paths on the known map -----------------------------------------
+    def _global_stage(self, problem: Problem, team: _Team, init: dict[str, np.ndarray] | None,
+                      rng: np.random.Generator, cb: _StageCallback,
+                      t_start: float) -> _GlobalStage | Result:
+        out = _GlobalStage({})
+        need = [r for r in team.drivers if not (init and r.id in init)]
         if need:
-            gsolver = get_solver(self.global_solver)
             t0 = time.perf_counter()
-            gres = gsolver.solve(known, rng=rng_global, callback=cb)
-            g_time = time.perf_counter() - t0
-            n_eval += gres.n_eval
-            offset[0] += max(gres.n_iter, len(gres.history))
-            if stopped[0]:
-                return self._early(problem, ids, gres, "stopped by callback during the global "
-                                   "stage", t_start)
-            if gres.status in (Status.infeasible,):
-                return self._early(problem, ids, gres, "global planner: no path exists on the "
-                                   f"known map ({gres.message})", t_start, Status.infeasible)
+            gres = self.stages["global_solver"].solve(problem.known_view(), rng=rng,
+                                                      callback=cb.forward)
+            out.result, out.wall_time = gres, time.perf_counter() - t0
+            cb.offset += max(gres.n_iter, len(gres.history))
+            if cb.stopped:
+                return self._early(problem, team.ids, gres, "stopped by callback during the "
+                                   "global stage", t_start)
+            if gres.status is Status.infeasible:
+                return self._early(problem, team.ids, gres, "global planner: no path exists on "
+                                   f"the known map ({gres.message})", t_start, Status.infeasible)
             for r in need:
                 p = gres.paths.get(r.id)
                 if p is None or len(p) < 2 or gres.status is Status.failed:
-                    messages.append(f"global stage gave no path for {r.id} "
-                                    f"({gres.status.value}); heading straight for the goal")
+                    out.messages.append(f"global stage gave no path for {r.id} "
+                                        f"({gres.status.value}); heading straight for the goal")
                     p = np.vstack([r.start, r.goal])
-                gpaths[r.id] = np.asarray(p, dtype=float)
+                out.paths[r.id] = np.asarray(p, dtype=float)
             if gres.status not in (Status.optimal, Status.solved):
-                messages.append(f"global path {gres.status.value} on the known map")
-        else:
-            g_time = 0.0
-        for r in drivers_r:
+                out.messages.append(f"global path {gres.status.value} on the known map")
+        for r in team.drivers:
             if init and r.id in init:
-                gpaths[r.id] = np.vstack([r.start, np.asarray(init[r.id], dtype=float)[1:]])
+                out.paths[r.id] = np.vstack([r.start, np.asarray(init[r.id], dtype=float)[1:]])
+        return out
 
-        # ---- step 4: inflection points -> sub-goals ------------------------------
-        drivers: list[_Driver] = []
-        lsolver = get_solver(self.local_solver)
-        rngs_local = rng_local.spawn(len(drivers_r))
-        for i, r in enumerate(drivers_r):
+    # -- step 4: inflection points -> sub-goals, one local controller per driver -------
+    def _drivers(self, problem: Problem, team: _Team, gpaths: dict[str, np.ndarray],
+                 rng: np.random.Generator) -> list[_Driver]:
+        planner = self.stages["local_solver"]
+        rngs = rng.spawn(len(team.drivers))
+        drivers = []
+        for i, r in enumerate(team.drivers):
             goals = subgoals(gpaths[r.id], r.goal, self.angle_tol, self.subgoal_spacing)
-            ctrl = lsolver.controller(problem, r.id, rngs_local[i])
+            ctrl = planner.controller(problem, r.id, rngs[i])
             ctrl.reset(goals[0].copy())
             reach = self.reach_tol or max(2.0 * r.radius, 2.0 * r.max_speed * self.dt)
             g = r.goal - r.start
-            drivers.append(_Driver(ids.index(r.id), r, goals, ctrl, reach, problem.goal_tol(r),
-                                   heading=float(math.atan2(g[1], g[0]))))
-        lead = next(d for d in drivers if d.robot.id == problem.leader.id) if form else None
+            drivers.append(_Driver(team.ids.index(r.id), r, goals, ctrl, reach,
+                                   problem.goal_tol(r), heading=float(math.atan2(g[1], g[0]))))
+        return drivers
 
-        fctrl = None
-        f_idx: list[int] = []
-        L = np.zeros(0)
-        if use_formation:
-            fctrl = get_solver(self.formation).followers_controller(problem, rng_form)
-            f_idx = [ids.index(f) for f in follower_ids]
-            L = np.array([f.L for f in form.followers])
-
-        # ---- steps 5-6: one simulation -------------------------------------------
-        dt = self.dt
-        sensing = problem.sensing_range
-        settle = {"k_arrived": None}
-        gave_up: list[str] = []
-
-        temp_mask: dict[int, np.ndarray] = {}
-
-        def blocked(d: _Driver, state: SimState) -> bool:
-            fld = state.field
-            if not self.skip_blocked or fld.n_static == 0:
-                return False
-            if id(fld) not in temp_mask:
-                temp_mask[id(fld)] = np.array([not o.known for o in fld.static]
-                                              + [False] * (fld.n - fld.n_static))
-            temp = temp_mask[id(fld)]
-            if not temp.any():
-                return False
-            g = d.goals[d.j]
-            p = state.positions[d.index]
-            if sensing is not None and math.hypot(*(g - p)) > sensing:
-                return False
-            _, dist = fld.nearest(g, state.t, max_range=d.robot.radius)
-            return bool(np.any(dist[0][temp] < d.robot.radius))
-
-        def update(state: SimState) -> None:
-            """Advance sub-goals (step 6) and mark arrivals; idempotent within a step."""
-            for d in drivers:
-                if d.done:
-                    continue
-                while True:
-                    p = state.positions[d.index]
-                    dist = math.hypot(*(d.goals[d.j] - p))
-                    if d.final:
-                        if dist <= d.goal_tol:
-                            d.done, d.t_goal = True, float(state.t)
-                            d.reached_at.append((d.j, float(state.t), "reached"))
-                        break
-                    if dist <= d.reach_tol:
-                        d.advance(state.k, state.t, "reached")
-                        continue
-                    if blocked(d, state):
-                        d.advance(state.k, state.t, "blocked")
-                        continue
-                    if dist < d.best - 0.1 * d.robot.radius:
-                        d.best, d.k_best = dist, state.k
-                    elif self.stall_steps and state.k - d.k_best > self.stall_steps:
-                        d.advance(state.k, state.t, "stalled")
-                        continue
-                    break
-
-        def followers_settled(state: SimState) -> bool:
-            if fctrl is None:
-                return True
-            slots = state.positions[lead.index] + form.slot_offsets(lead.heading)
-            err = np.hypot(*(state.positions[f_idx] - slots).T)
-            return bool(np.all(err <= self.settle_tol * L))
-
-        def done(state: SimState) -> bool:
-            update(state)
-            if not all(d.done for d in drivers):
-                return False
-            if settle["k_arrived"] is None:
-                settle["k_arrived"] = state.k
-            return followers_settled(state) or state.k - settle["k_arrived"] >= self.settle_steps
-
-        def policy(state: SimState) -> np.ndarray | None:
-            u = np.zeros((len(ids), 2))
-            for d in drivers:
-                if d.done:
-                    continue
-                v = d.controller.velocity(state, d.index)
-                while v is None and not d.final:
-                    d.advance(state.k, state.t, "gave_up")
-                    v = d.controller.velocity(state, d.index)
-                if v is None:
-                    d.gave_up = True
-                    gave_up.append(f"{d.robot.id}: local planner gave up at t={state.t:.2f}")
-                    return None
-                v = np.asarray(v, dtype=float).reshape(2)
-                if not np.all(np.isfinite(v)):
-                    gave_up.append(f"{d.robot.id}: local planner returned {v} at "
-                                   f"t={state.t:.2f}")
-                    d.gave_up = True
-                    return None
-                sp = math.hypot(*v)
-                if fctrl is not None and sp > self.v_factor * d.robot.max_speed:
-                    v = v * (self.v_factor * d.robot.max_speed / sp)
-                u[d.index] = v
-                if sp * dt > 1e-9:
-                    want = float(math.atan2(v[1], v[0]))
-                    if self.heading_rate > 0:
-                        dth = (want - d.heading + math.pi) % (2 * math.pi) - math.pi
-                        lim = self.heading_rate * dt
-                        want = d.heading + max(-lim, min(lim, dth))
-                    d.heading = want
-            if fctrl is not None:
-                state.memory["leader_velocity"] = u[lead.index].copy()
-                uf = fctrl.velocities(state, lead.index, f_idx, lead.heading)
-                uf = np.asarray(uf, dtype=float).reshape(len(f_idx), 2)
-                if not np.all(np.isfinite(uf)):
-                    gave_up.append(f"formation controller returned non-finite velocities at "
-                                   f"t={state.t:.2f}")
-                    return None
-                u[f_idx] = uf
-            return u
-
-        g_lead = (lead or drivers[0]).robot.goal
-
-        def progress_cost(state: SimState) -> float:
-            return float(math.hypot(*(state.positions[(lead or drivers[0]).index] - g_lead)))
-
-        try:
-            out = simulate(problem, policy, ids=ids, dt=dt, max_steps=self.max_steps, done=done,
-                           stop_on_collision=self.stop_on_collision, callback=cb,
-                           progress_cost=progress_cost, memory={"dt": dt})
-        except (np.linalg.LinAlgError, FloatingPointError, ArithmeticError) as e:
-            return self._early(problem, ids, gres, f"numerical failure in the simulation: {e}",
-                               t_start, Status.failed)
-
-        # ---- assemble the result ---------------------------------------------------
+    # -- the result ----------------------------------------------------------------------
+    def _assemble(self, problem: Problem, glob: _GlobalStage, policy: _HybridPolicy,
+                  out: SimOutcome, t_start: float) -> Result:
         paths = out.paths()
-        reached_all = all(d.done for d in drivers)
-        if out.reason == "done" and reached_all:
-            claim, msg = Status.solved, "every sub-goal sequence completed"
-        else:
-            claim = Status.approximate
-            why = {"collision": f"collision: {out.collision}",
-                   "budget": f"step budget ({self.max_steps}) exhausted",
-                   "gave_up": "; ".join(gave_up) or "local planner gave up",
-                   "callback": "stopped by callback"}.get(out.reason, out.reason)
-            msg = why
-        if settle["k_arrived"] is not None and fctrl is not None and out.reason == "done":
-            if not followers_settled(_final_state(out, ids)):
-                messages.append("followers did not settle within settle_steps")
-        msg = "; ".join([msg, *messages])
-
-        ld = lead or drivers[0]
+        claim, msg = self._outcome(glob, policy, out)
+        ld = policy.lead
         lp = paths[ld.robot.id]
         dist_goal = np.hypot(*(lp - ld.robot.goal).T)
         hist = History({
@@ -568,38 +658,58 @@ class Hybrid(Backend):
             "n_eval": list(range(len(out.times))),
             "time": out.times.tolist(),
         })
-        local_stats = {d.robot.id: dict(getattr(d.controller, "stats", {}) or {})
-                       for d in drivers}
-        gpath = gpaths[ld.robot.id]
-        extras: dict[str, Any] = {
-            "global_path": gpath,
-            "inflection_points": inflection_points(gpaths[ld.robot.id], self.angle_tol),
-            "subgoals": ld.goals,
-            "global_paths": gpaths,
-            "subgoal_sequences": {d.robot.id: d.goals for d in drivers},
-            "global_solver": _stage_name(self.global_solver),
-            "local_solver": _stage_name(self.local_solver),
-            "formation_solver": _stage_name(self.formation) if fctrl is not None else "",
-            "global_status": gres.status.value if gres is not None else "init",
-            "global_length": float(np.sum(np.hypot(*np.diff(gpath, axis=0).T))),
-            "global_metrics": _small_metrics(gres.metrics) if gres is not None else {},
-            "global_wall_time": g_time,
-            "subgoal_events": {d.robot.id: [{"subgoal": j, "t": t, "how": h}
-                                            for j, t, h in d.reached_at] for d in drivers},
-            "subgoal_times": [t for _, t, _ in ld.reached_at],
-            "time_to_goal": ld.t_goal,
-            "local_stats": local_stats,
-            "formation_stats": dict(getattr(fctrl, "stats", {}) or {}) if fctrl else {},
-            "sim_reason": out.reason,
-            "contacts": list(out.memory.get("contacts", [])),
-            "dt": dt,
-        }
+        n_eval = glob.result.n_eval if glob.result is not None else 0
         return self.finish(
             problem, paths, claim=claim, times=out.times,
             cost=float(np.sum(np.hypot(*np.diff(lp, axis=0).T))), message=msg,
-            n_iter=out.steps, n_eval=n_eval + out.steps, history=hist, extras=extras,
-            wall_time=time.perf_counter() - t_start,
+            n_iter=out.steps, n_eval=n_eval + out.steps, history=hist,
+            extras=self._extras(glob, policy, out), wall_time=time.perf_counter() - t_start,
         )
+
+    def _outcome(self, glob: _GlobalStage, policy: _HybridPolicy,
+                 out: SimOutcome) -> tuple[Status, str]:
+        if out.reason == "done" and policy.tracker.all_done:
+            claim, msg = Status.solved, "every sub-goal sequence completed"
+        else:
+            claim = Status.approximate
+            msg = {"collision": f"collision: {out.collision}",
+                   "budget": f"step budget ({self.max_steps}) exhausted",
+                   "gave_up": "; ".join(policy.gave_up) or "local planner gave up",
+                   "callback": "stopped by callback"}.get(out.reason, out.reason)
+        notes = list(glob.messages)
+        if (policy.k_arrived is not None and policy.fctrl is not None and out.reason == "done"
+                and not policy.followers_settled(out.positions[-1])):
+            notes.append("followers did not settle within settle_steps")
+        return claim, "; ".join([msg, *notes])
+
+    def _extras(self, glob: _GlobalStage, policy: _HybridPolicy,
+                out: SimOutcome) -> dict[str, Any]:
+        ld, gres, fctrl = policy.lead, glob.result, policy.fctrl
+        gpath = glob.paths[ld.robot.id]
+        return {
+            "global_path": gpath,
+            "inflection_points": inflection_points(gpath, self.angle_tol),
+            "subgoals": ld.goals,
+            "global_paths": glob.paths,
+            "subgoal_sequences": {d.robot.id: d.goals for d in policy.drivers},
+            "global_solver": stage_name(self.global_solver),
+            "local_solver": stage_name(self.local_solver),
+            "formation_solver": stage_name(self.formation) if fctrl is not None else "",
+            "global_status": gres.status.value if gres is not None else "init",
+            "global_length": float(np.sum(np.hypot(*np.diff(gpath, axis=0).T))),
+            "global_metrics": _small_metrics(gres.metrics) if gres is not None else {},
+            "global_wall_time": glob.wall_time,
+            "subgoal_events": {d.robot.id: [{"subgoal": j, "t": t, "how": h}
+                                            for j, t, h in d.reached_at]
+                               for d in policy.drivers},
+            "subgoal_times": [t for _, t, _ in ld.reached_at],
+            "time_to_goal": ld.t_goal,
+            "local_stats": {d.robot.id: dict(d.controller.stats) for d in policy.drivers},
+            "formation_stats": dict(fctrl.stats) if fctrl is not None else {},
+            "sim_reason": out.reason,
+            "contacts": list(out.contacts),
+            "dt": self.dt,
+        }
 
     def _early(self, problem: Problem, ids: list[str], gres: Result | None, msg: str,
                t_start: float, status: Status = Status.approximate) -> Result:
@@ -616,17 +726,6 @@ class Hybrid(Backend):
                            wall_time=time.perf_counter() - t_start)
 
 
-def _stage_name(v: Any) -> str:
-    if isinstance(v, Backend):
-        return v.preset or v.name
-    return str(v)
-
-
 def _small_metrics(m: dict) -> dict:
     keep = ("feasible", "length", "collisions", "static_collisions", "min_clearance", "reached")
     return {k: m[k] for k in keep if k in m}
-
-
-def _final_state(out, ids: list[str]) -> SimState:
-    return SimState(out.steps, float(out.times[-1]), ids, out.positions[-1],
-                    np.zeros_like(out.positions[-1]), None)  # type: ignore[arg-type]

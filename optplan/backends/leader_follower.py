@@ -22,8 +22,9 @@ point :math:`X_g`; for every sensed obstacle within :math:`\rho_0` the improved 
 :math:`F_{rep2} = \tfrac n2\eta(1/\rho - 1/\rho_0)^2\rho_g^{n-1}` toward the reference point
 (eq 45); :math:`\rho` is the clearance (distance to the obstacle minus the robot radius, clamped at
 ``rho_min``), :math:`\rho_g = \|X - X_g\|`.  The pilot moves along :math:`F/\|F\|` at its cruise
-speed.  If the SA-APF backend (paper §IV.B) is installed and ``pilot = "sa-apf"`` its controller
-drives the leader instead (same reference points).
+speed (``pilot = "builtin"``, the default).  ``pilot`` may instead name any
+:class:`~optplan.interfaces.LocalPlanner` (e.g. ``"sa-apf"``, paper §IV.B): its controller then
+drives the leader toward the same reference points.
 
 Followers, eqs 46-52
 --------------------
@@ -91,14 +92,21 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 import numpy as np
 
 from optplan.backends.apf import attractive_force, repulsive_force
+from optplan.interfaces import (
+    LOCAL_PLANNER,
+    PATH_SOLVER,
+    FormationBackend,
+    LocalController,
+    resolve_stage,
+)
 from optplan.problem import Problem
-from optplan.result import History, Progress, Status
+from optplan.result import History, Progress, Result, Status
 from optplan.sim import ObstacleField, SimState, simulate
 from optplan.solver import Backend, check_int, check_range, get_solver, make_rng
 
@@ -263,7 +271,7 @@ def project_halfplanes(u0: np.ndarray, A: np.ndarray, b: np.ndarray,
 
 
 class PilotAPF:
-    """The pilot's improved APF (eqs 39-45) as a LocalController (interfaces.md).
+    """The pilot's improved APF (eqs 39-45) as a :class:`~optplan.interfaces.LocalController`.
 
     Moves along ``F / |F|`` at ``speed``; never overshoots the goal.
     """
@@ -290,13 +298,14 @@ class PilotAPF:
         self.stats["steps"] += 1
         if nf < 1e-12:
             return np.zeros(2)
-        dt = float(state.memory.get("dt", 1.0))
+        dt = float(state.dt)
         dist_g = float(np.hypot(*(self.goal - x)))
         return F / nf * min(self.speed, dist_g / dt)
 
 
 class ReferenceTracker:
-    """Drives the leader along a reference polyline with a LocalController.
+    """Drives the leader along a reference polyline with a
+    :class:`~optplan.interfaces.LocalController`.
 
     The reference is resampled every ``spacing``; the current target is the first sample more
     than ``lookahead`` ahead of the leader's progress index (monotone).  The controller is
@@ -323,7 +332,7 @@ class ReferenceTracker:
 
     def velocity(self, state: SimState, index: int) -> np.ndarray:
         x = state.positions[index]
-        dt = float(state.memory.get("dt", 1.0))
+        dt = float(state.dt)
         dgoal = float(np.hypot(*(self.goal - x)))
         if dgoal <= 0.5 * self.goal_tol:
             return np.zeros(2)
@@ -357,7 +366,8 @@ class ReferenceTracker:
 
 
 class LPhiFollowers:
-    """The paper's follower law (eqs 46-52) for a set of followers (FollowerController)."""
+    """The paper's follower law (eqs 46-52) for a set of followers
+    (a :class:`~optplan.interfaces.FollowerController`)."""
 
     def __init__(self, problem: Problem, opts: LeaderFollower):
         if problem.formation is None:
@@ -381,14 +391,13 @@ class LPhiFollowers:
         o = self.o
         P = state.positions
         xl = P[leader_index]
-        dt = float(state.memory.get("dt", o.dt))
+        dt = float(state.dt)
         ids = [state.ids[i] for i in follower_indices]
         L = np.array([self.spec[i].L for i in ids])
         Phi = np.array([self.spec[i].phi for i in ids])
         radii = np.array([self.problem.robot(i).radius for i in ids])
         xf = P[follower_indices]
-        vl = np.asarray(state.memory.get("leader_velocity", state.velocities[leader_index]),
-                        float)
+        vl = state.leader_command(leader_index)
         # obstacle sensing for every follower at once
         rng_s = max(o.rho_0_f, o.rho_f)
         near, dist = state.field.nearest(xf, state.t, max_range=rng_s + radii.max())
@@ -469,7 +478,7 @@ class LPhiFollowers:
         """
         o = self.o
         fld = state.field
-        dt = float(state.memory.get("dt", o.dt))
+        dt = float(state.dt)
         if len(self._trail) == 0 or np.hypot(*(xl - self._trail[-1])) >= 1.0:
             self._trail = np.vstack([self._trail, xl[None, :]])
         slots = slot_positions(xl, theta, L, phi_d)
@@ -613,132 +622,169 @@ class LPhiFollowers:
 # --------------------------------------------------------------------------------------
 
 
-def reference_path(problem: Problem, path_solver: str, rng: np.random.Generator,
+def reference_path(problem: Problem, path_solver: Backend, rng: np.random.Generator,
                    init: dict[str, np.ndarray] | None) -> tuple[np.ndarray, str]:
-    """The leader's reference: ``init[leader]``, else planned on ``problem.known_view()``."""
+    """The leader's reference: ``init[leader]``, else planned on ``problem.known_view()``.
+
+    A path solver that returns no usable path (status ``infeasible`` / ``failed``, or fewer
+    than two points) gives the straight start-goal line, said in the message.
+    """
     lead = problem.leader
     if init and lead.id in init:
         return np.asarray(init[lead.id], float), "reference from init"
-    try:
-        res = get_solver(path_solver).solve(problem.known_view(), rng=rng)
-        path = res.paths.get(lead.id)
-        if path is not None and len(path) >= 2 and res.status.value in ("optimal", "solved",
-                                                                         "approximate"):
-            return np.asarray(path, float), f"reference by {path_solver} ({res.status.value})"
-        msg = f"{path_solver} returned {res.status.value}"
-    except Exception as e:  # noqa: BLE001 - an unavailable planner must not abort the run
-        msg = f"{path_solver} unavailable ({e})"
-    return np.vstack([lead.start, lead.goal]), msg + "; straight-line reference used"
+    name = path_solver.preset or path_solver.name
+    res = path_solver.solve(problem.known_view(), rng=rng)
+    path = res.paths.get(lead.id)
+    if path is not None and len(path) >= 2 and res.status.value in ("optimal", "solved",
+                                                                     "approximate"):
+        return np.asarray(path, float), f"reference by {name} ({res.status.value})"
+    return (np.vstack([lead.start, lead.goal]),
+            f"{name} returned {res.status.value}; straight-line reference used")
 
 
-def make_pilot(problem: Problem, opts: Any, rng: np.random.Generator, speed: float):
-    """The leader's LocalController: own eqs 39-45 pilot, or the SA-APF backend's controller."""
+#: ``pilot`` value selecting the built-in eqs 39-45 pilot (:class:`PilotAPF`).
+BUILTIN_PILOT = "builtin"
+
+#: The pilot's gains passed on to a local planner used as the pilot (those it has).
+PILOT_GAINS = ("k", "eta", "rho_0", "n")
+
+
+def make_pilot(problem: Problem, opts: PilotedFormation, rng: np.random.Generator,
+               speed: float) -> tuple[LocalController, str]:
+    """The leader's controller and its name: the built-in pilot or the ``pilot`` stage's."""
     lead = problem.leader
-    if opts.pilot != "apf-paper":
-        try:
-            try:  # the pilot's paper values (eqs 39-45) on the named local planner
-                loc = get_solver(opts.pilot, k=opts.k, eta=opts.eta, rho_0=opts.rho_0, n=opts.n)
-            except ValueError:
-                loc = get_solver(opts.pilot)
-            return loc.controller(problem, lead.id, rng), opts.pilot
-        except Exception as e:  # noqa: BLE001 - fall back to the built-in pilot
-            note = f"pilot {opts.pilot!r} unavailable ({type(e).__name__}); built-in used"
-            return PilotAPF(problem, lead.id, k=opts.k, eta=opts.eta, rho_0=opts.rho_0,
-                            n=opts.n, speed=speed), note
-    return PilotAPF(problem, lead.id, k=opts.k, eta=opts.eta, rho_0=opts.rho_0, n=opts.n,
-                    speed=speed), "apf-paper"
+    planner = opts.stages["pilot"]
+    if planner is None:
+        return PilotAPF(problem, lead.id, k=opts.k, eta=opts.eta, rho_0=opts.rho_0, n=opts.n,
+                        speed=speed), BUILTIN_PILOT
+    return planner.controller(problem, lead.id, rng), opts.pilot
 
 
-def run_formation(backend: Backend, problem: Problem, fctrl: Any, *, rng: np.random.Generator,
-                  init: dict[str, np.ndarray] | None,
+class _FormationRun:
+    """One leader-follower simulation: the pilot on the reference, the followers by ``fctrl``.
+
+    The policy, ``done`` test and history of :func:`run_formation`; the formation frame's
+    heading is the leader's command direction low-passed with time constant ``tau_h``.
+    """
+
+    def __init__(self, o: PilotedFormation, problem: Problem, tracker: ReferenceTracker,
+                 fctrl: Any, ref: np.ndarray, joint: Callable[..., np.ndarray] | None,
+                 step_columns: Callable[[], dict[str, Any]] | None):
+        self.o, self.problem, self.tracker, self.fctrl = o, problem, tracker, fctrl
+        self.joint, self.step_columns = joint, step_columns
+        form = problem.formation
+        self.lead = problem.leader
+        self.ids = [self.lead.id] + [f.id for f in form.followers]
+        self.fidx = list(range(1, len(self.ids)))
+        self.L = np.array([f.L for f in form.followers])
+        self.phi = np.array([f.phi for f in form.followers])
+        self.vmax_f = np.array([problem.robot(i).max_speed for i in self.ids[1:]])
+        self.tol = problem.goal_tol(self.lead)
+        g0 = self.lead.goal - self.lead.start
+        h0 = (float(np.arctan2(ref[1, 1] - ref[0, 1], ref[1, 0] - ref[0, 0])) if len(ref) > 1
+              else float(np.arctan2(g0[1], g0[0])))
+        self.heading = h0  # the formation frame's heading
+        self.raw_heading = h0  # the last heading of a non-zero leader command
+        self.hist = History()
+        self.t_start = time.perf_counter()
+
+    def slot_err(self, state: SimState) -> np.ndarray:
+        P = state.positions
+        slots = slot_positions(P[0], self.heading, self.L, self.phi)
+        return np.hypot(*(P[1:] - slots).T)
+
+    def _turn(self, ul: np.ndarray) -> None:
+        if np.hypot(*ul) > 1e-9:
+            self.raw_heading = float(np.arctan2(ul[1], ul[0]))
+        o = self.o
+        a = min(1.0, o.dt / o.tau_h) if o.tau_h > 0 else 1.0
+        self.heading = float(wrap(self.heading + a * wrap(self.raw_heading - self.heading)))
+
+    def policy(self, state: SimState) -> np.ndarray:
+        t0 = time.perf_counter()
+        ul = self.tracker.velocity(state, 0)
+        self._turn(ul)
+        state.leader_velocity = ul
+        if self.joint is not None:
+            U = self.joint(state, ul, self.heading)
+        else:
+            U = np.zeros((len(self.ids), 2))
+            U[0] = ul
+            U[1:] = self.fctrl.velocities(state, 0, self.fidx, self.heading)
+        err = self.slot_err(state)
+        row = dict(iteration=state.k,
+                   best_cost=float(np.hypot(*(self.lead.goal - state.positions[0]))),
+                   n_eval=state.k + 1, time=time.perf_counter() - self.t_start,
+                   formation_error=float(err.max()), step_time=time.perf_counter() - t0)
+        if self.step_columns is not None:
+            row.update(self.step_columns())
+        self.hist.append(**row)
+        return U
+
+    def done(self, state: SimState) -> bool:
+        P = state.positions
+        if np.hypot(*(P[0] - self.lead.goal)) > self.tol or state.k == 0:
+            return False
+        sp = np.hypot(*state.velocities[1:].T) / self.vmax_f
+        if np.all(sp < 1e-3):  # settled where the law holds them (e.g. eq 52 near a wall)
+            return True
+        return bool(np.all(self.slot_err(state) <= self.o.settle_tol * self.L)
+                    and np.all(sp < 1e-2))
+
+
+def run_formation(backend: PilotedFormation, problem: Problem, fctrl: Any, *,
+                  rng: np.random.Generator, init: dict[str, np.ndarray] | None,
                   callback: Callable[[Progress], Any] | None,
-                  joint: Callable[..., np.ndarray] | None = None):
+                  joint: Callable[..., np.ndarray] | None = None,
+                  step_columns: Callable[[], dict[str, Any]] | None = None,
+                  extras: Callable[[], dict[str, Any]] | None = None) -> Result:
     """One simulation: leader tracks the reference, followers by ``fctrl``.
 
-    ``joint(state, u_lead, heading) -> (R, 2)`` replaces the follower call when the backend
-    also filters the leader (formation-qp with the leader in the QP).
+    Parameters
+    ----------
+    backend : PilotedFormation
+        The options (pilot, reference, run settings).
+    fctrl : FollowerController
+        The followers' controller.
+    joint : callable, optional
+        ``joint(state, u_lead, heading) -> (R, 2)`` replaces the follower call when the
+        backend also filters the leader (formation-qp with the leader in the QP).
+    step_columns : callable, optional
+        ``step_columns() -> dict`` of extra history columns for the step just taken (e.g. the
+        QP's status and solve time).
+    extras : callable, optional
+        ``extras() -> dict`` of backend statistics added to ``Result.extras`` at the end.
     """
-    o = backend  # options live on the backend
     t_start = time.perf_counter()
     if problem.formation is None:
         raise ValueError(f"{backend.name}: problem {problem.name!r} has no [formation]")
-    form = problem.formation
     lead = problem.leader
-    ids = [lead.id] + [f.id for f in form.followers]
-    fidx = list(range(1, len(ids)))
-    ref, ref_msg = reference_path(problem, o.path_solver, rng, init)
-    speed = o.v_factor * lead.max_speed
-    pilot, pilot_name = make_pilot(problem, o, rng, speed)
-    tracker = ReferenceTracker(ref, pilot, spacing=o.ref_spacing, lookahead=o.lookahead,
-                               speed=speed, goal_tol=problem.goal_tol(lead),
-                               clearance=2 * lead.radius + o.lookahead / 2)
-    fld = ObstacleField(problem)
-    hist = History()
-    g0 = lead.goal - lead.start
-    h0 = (float(np.arctan2(ref[1, 1] - ref[0, 1], ref[1, 0] - ref[0, 0])) if len(ref) > 1
-          else float(np.arctan2(g0[1], g0[0])))
-    heading = [h0, h0]  # [formation-frame heading, last raw heading]
-    L = np.array([f.L for f in form.followers])
-    tol = problem.goal_tol(lead)
-
-    def slot_err(state: SimState) -> np.ndarray:
-        P = state.positions
-        slots = slot_positions(P[0], heading[0], L, [f.phi for f in form.followers])
-        return np.hypot(*(P[1:] - slots).T)
-
-    def policy(state: SimState):
-        t0 = time.perf_counter()
-        ul = tracker.velocity(state, 0)
-        if np.hypot(*ul) > 1e-9:
-            heading[1] = float(np.arctan2(ul[1], ul[0]))
-        # formation frame: the leader's heading low-passed with time constant tau_h (it keeps
-        # converging to the last heading after the leader stops)
-        a = min(1.0, o.dt / o.tau_h) if o.tau_h > 0 else 1.0
-        heading[0] = float(wrap(heading[0] + a * wrap(heading[1] - heading[0])))
-        state.memory["leader_velocity"] = ul
-        if joint is not None:
-            U = joint(state, ul, heading[0])
-        else:
-            U = np.zeros((len(ids), 2))
-            U[0] = ul
-            U[1:] = fctrl.velocities(state, 0, fidx, heading[0])
-        err = slot_err(state)
-        row = dict(iteration=state.k, best_cost=float(np.hypot(*(lead.goal - state.positions[0]))),
-                   n_eval=state.k + 1, time=time.perf_counter() - t_start,
-                   formation_error=float(err.max()), step_time=time.perf_counter() - t0)
-        row.update(state.memory.pop("qp_row", {}))
-        hist.append(**row)
-        return U
-
-    def done(state: SimState) -> bool:
-        P = state.positions
-        if np.hypot(*(P[0] - lead.goal)) > tol:
-            return False
-        if state.k == 0:
-            return False
-        vmax = np.array([problem.robot(i).max_speed for i in ids[1:]])
-        sp = np.hypot(*state.velocities[1:].T) / vmax
-        if np.all(sp < 1e-3):  # settled where the law holds them (e.g. eq 52 near a wall)
-            return True
-        return bool(np.all(slot_err(state) <= o.settle_tol * L) and np.all(sp < 1e-2))
-
-    out = simulate(problem, policy, ids=ids, dt=o.dt, max_steps=o.max_steps, done=done,
-                   field_=fld, callback=callback, memory={"dt": o.dt})
-    paths = out.paths()
+    ref, ref_msg = reference_path(problem, backend.stages["path_solver"], rng, init)
+    speed = backend.v_factor * lead.max_speed
+    pilot, pilot_name = make_pilot(problem, backend, rng, speed)
+    tracker = ReferenceTracker(ref, pilot, spacing=backend.ref_spacing,
+                               lookahead=backend.lookahead, speed=speed,
+                               goal_tol=problem.goal_tol(lead),
+                               clearance=2 * lead.radius + backend.lookahead / 2)
+    run = _FormationRun(backend, problem, tracker, fctrl, ref, joint, step_columns)
+    out = simulate(problem, run.policy, ids=run.ids, dt=backend.dt,
+                   max_steps=backend.max_steps, done=run.done, field_=ObstacleField(problem),
+                   callback=callback)
     claim = {"done": Status.solved, "budget": Status.approximate,
              "callback": Status.approximate}.get(out.reason, Status.failed)
     msg = f"{out.reason}" + (f" ({out.collision})" if out.collision else "")
     msg += f"; {ref_msg}; pilot {pilot_name}"
-    extras = {"reference": ref, "stop_reason": out.reason, "pilot": pilot_name,
-              "pilot_stats": dict(getattr(pilot, "stats", {})),
-              "follower_stats": dict(getattr(fctrl, "stats", {})),
-              "contacts": out.memory.get("contacts", [])}
-    res = backend.finish(problem, paths, claim=claim, times=out.times,
-                         cost=float(out.times[-1]), message=msg, n_iter=out.steps,
-                         n_eval=out.steps, history=hist, extras=extras,
-                         metrics_extra={"time_to_goal": float(out.times[-1])},
-                         wall_time=time.perf_counter() - t_start)
-    return res
+    ex = {"reference": ref, "stop_reason": out.reason, "pilot": pilot_name,
+          "pilot_stats": dict(getattr(pilot, "stats", {})),
+          "follower_stats": dict(getattr(fctrl, "stats", {})),
+          "contacts": list(out.contacts)}
+    if extras is not None:
+        ex.update(extras())
+    return backend.finish(problem, out.paths(), claim=claim, times=out.times,
+                          cost=float(out.times[-1]), message=msg, n_iter=out.steps,
+                          n_eval=out.steps, history=run.hist, extras=ex,
+                          metrics_extra={"time_to_goal": float(out.times[-1])},
+                          wall_time=time.perf_counter() - t_start)
 
 
 # --------------------------------------------------------------------------------------
@@ -767,13 +813,17 @@ class PilotedFormation(Backend):
         :math:`\\rho_0 = 100`.
     c_phi : float
         The factor 20 inside the logarithms of eq 52 (1/map unit); rho is clamped at 1/c_phi.
-    pilot : str
-        ``"apf-paper"`` (built-in eqs 39-45) or a local solver name whose backend exposes
-        ``controller()`` (e.g. ``"sa-apf"``); falls back to the built-in one if unavailable.
-    path_solver : str
+    pilot : str or Backend
+        ``"builtin"`` (default, the paper): the built-in eqs 39-45 pilot (:class:`PilotAPF`
+        with ``k``, ``eta``, ``rho_0``, ``n``).  Otherwise a preset or backend name (or object)
+        of a :class:`~optplan.interfaces.LocalPlanner` (e.g. ``"sa-apf"``), whose controller
+        drives the leader with this backend's ``k``, ``eta``, ``rho_0`` and ``n`` (those the
+        local planner has as options).  Resolved when the backend is built: a misspelled name
+        or a backend without ``controller()`` is a ``ValueError``.
+    path_solver : str or Backend
         Solver planning the leader's reference on ``problem.known_view()`` when ``init`` has
         none (default ``"ipso"``, the documented IPSO variant; the literal ``"ipso-paper"``
-        is never collision-free, see the PSO page).
+        is never collision-free, see the PSO page).  Resolved when the backend is built.
     v_factor : float
         Leader cruise speed as a fraction of its ``max_speed`` (headroom for followers).
     ref_spacing, lookahead : float
@@ -797,8 +847,8 @@ class PilotedFormation(Backend):
     adapt_phi: bool = True
     rho_0_f: float = 100.0
     c_phi: float = 20.0
-    pilot: str = "apf-paper"
-    path_solver: str = "ipso"
+    pilot: Any = BUILTIN_PILOT
+    path_solver: Any = "ipso"
     v_factor: float = 0.75
     ref_spacing: float = 5.0
     lookahead: float = 15.0
@@ -806,6 +856,7 @@ class PilotedFormation(Backend):
     dt: float = 0.5
     max_steps: int = 4000
     settle_tol: float = 0.005
+    _stages: dict[str, Any] = field(init=False, repr=False, compare=False, default=None)
 
     def _check_pilot_options(self) -> None:
         for f in ("k", "rho_0", "rho_0_f", "c_phi", "ref_spacing", "dt", "settle_tol"):
@@ -816,13 +867,37 @@ class PilotedFormation(Backend):
         check_int(self, "max_steps", 1, 10_000_000)
         if not isinstance(self.adapt_phi, bool):
             raise ValueError(f"option 'adapt_phi' of backend {self.name!r} must be true or false")
-        for s in ("pilot", "path_solver"):
-            if not isinstance(getattr(self, s), str) or not getattr(self, s):
-                raise ValueError(f"option {s!r} of backend {self.name!r} must be a solver name")
+        object.__setattr__(self, "_stages", {"pilot": self._resolve_pilot(), "path_solver":
+                                            resolve_stage(self.name, "path_solver",
+                                                          self.path_solver, PATH_SOLVER)})
+
+    def _resolve_pilot(self) -> Any:
+        if self.pilot == BUILTIN_PILOT:
+            return None
+        planner = resolve_stage(self.name, "pilot", self.pilot, LOCAL_PLANNER)
+        gains = {g: getattr(self, g) for g in PILOT_GAINS if g in planner.options()}
+        try:
+            return get_solver(planner, **gains)
+        except ValueError as e:
+            raise ValueError(f"option 'pilot' of backend {self.name!r}: the pilot's gains "
+                             f"{sorted(gains)} do not suit {self.pilot!r}: {e}") from None
+
+    @property
+    def stages(self) -> dict[str, Any]:
+        """The resolved stages: ``{"pilot": LocalPlanner or None (the built-in pilot),
+        "path_solver": Backend}``, set when the backend is built."""
+        return self._stages
+
+    def options(self) -> dict[str, Any]:
+        out = super().options()
+        for k in ("pilot", "path_solver"):
+            if isinstance(out[k], Backend):
+                out[k] = out[k].preset or out[k].name
+        return out
 
 
 @dataclass(frozen=True, kw_only=True)
-class LeaderFollower(PilotedFormation):
+class LeaderFollower(PilotedFormation, FormationBackend):
     """Paper leader-follower formation: pilot APF (eqs 39-45) + L-phi followers (eqs 46-52).
 
     Parameters
@@ -916,7 +991,8 @@ class LeaderFollower(PilotedFormation):
                 raise ValueError(f"option {b!r} of backend {self.name!r} must be true or false")
 
     def followers_controller(self, problem: Problem, rng: np.random.Generator) -> LPhiFollowers:
-        """The L-phi follower law as a FollowerController (interfaces.md)."""
+        """The L-phi follower law as a :class:`~optplan.interfaces.FollowerController`
+        (:class:`~optplan.interfaces.FormationBackend`)."""
         return LPhiFollowers(problem, self)
 
     def solve(self, problem, /, *, rng=None, init=None, callback=None):

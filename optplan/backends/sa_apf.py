@@ -54,6 +54,7 @@ from optplan.backends.apf import (
     PotentialFieldBackend,
     evaluate_field,
 )
+from optplan.interfaces import LocalPlanner
 from optplan.problem import Problem, Robot
 from optplan.sim import ObstacleField, SimState
 from optplan.solver import check_int, check_range
@@ -230,7 +231,7 @@ class SAAPFController(APFController):
 
 
 @dataclass(frozen=True, kw_only=True)
-class SAAPF(PotentialFieldBackend):
+class SAAPF(PotentialFieldBackend, LocalPlanner):
     """Improved APF with simulated-annealing escape (paper §IV.A-B, eqs 14-16, 34-38).
 
     Parameters
@@ -298,6 +299,7 @@ patience, sense_robots
 
     def controller(self, problem: Problem, robot_id: str, rng: np.random.Generator
                    ) -> SAAPFController:
-        """A ``LocalController`` for ``robot_id`` (see ``notes/interfaces.md``)."""
+        """A :class:`~optplan.interfaces.LocalController` for ``robot_id``
+        (:class:`~optplan.interfaces.LocalPlanner`)."""
         robot = problem.robot(robot_id)
         return SAAPFController(self, problem, robot, rng, self.field_params(problem, robot))
