@@ -20,6 +20,7 @@ import re
 import sys
 import time
 import tomllib
+import warnings
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -150,6 +151,9 @@ def cmd_show(args: argparse.Namespace, out: TextIO) -> int:
     from optplan.catalog import load_problem
     from optplan.solver import solve
 
+    if args.out:
+        _check_out(args.out, FIG_SUFFIXES)
+        _check_dpi(args.dpi)
     prob = load_problem(args.problem)
     print(prob.summary(), file=out)
     for r in prob.robots:
@@ -350,24 +354,138 @@ def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _load_result(path: str, problem: str | None) -> tuple[Any, Any]:
+    """The result file and the problem to draw it on, both checked: one error naming the file
+    and the key for anything the drawing code could not use (or would draw wrongly)."""
     from optplan.catalog import load_problem
+    from optplan.problem import ProblemError, parse_problem
     from optplan.result import Result
 
     p = Path(path)
-    if not p.is_file():
+    if not p.exists():
         raise CLIError(f"{path}: no such result file")
     try:
         res = Result.load(p)
     except (json.JSONDecodeError, KeyError, TypeError) as e:
         raise CLIError(f"{path}: not an optplan result JSON ({type(e).__name__}: {e})") from None
-    prob = load_problem(problem or res.problem)
+    if problem:
+        prob = load_problem(problem)
+    elif isinstance(res.scenario, dict):
+        prob = parse_problem(res.scenario, f"{path}: scenario")
+    else:
+        try:
+            prob = load_problem(res.problem)
+        except ProblemError as e:
+            raise CLIError(f"{path}: problem: {e}; pass --problem NAME_OR_TOML") from None
+    _check_result_for(res, prob, path)
     return res, prob
 
 
+def _finite_points(v: Any, key: str, path: str, prob: Any) -> Any:
+    import numpy as np
+
+    try:
+        a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        raise CLIError(f"{path}: {key}: expected a list of [x, y] numbers") from None
+    if a.ndim != 2 or a.shape[1:] != (2,) or not np.all(np.isfinite(a)):
+        raise CLIError(f"{path}: {key}: expected finite [x, y] points, got shape {a.shape}")
+    if len(a):
+        try:
+            prob.frame.check_extent(float(np.max(np.abs(prob.frame.local(a)))), key)
+        except ValueError as e:
+            raise CLIError(f"{path}: {key}: {e}") from None
+    return a
+
+
+def _check_result_for(res: Any, prob: Any, path: str) -> None:
+    """What ``plot_result`` / ``animate`` read: robot ids of ``prob``, resolvable coordinates,
+    finite non-decreasing times, and the metrics and extras they draw with the right types."""
+    import numbers
+
+    import numpy as np
+
+    for rid, pts in res.paths.items():
+        if rid not in prob.robot_ids:
+            raise CLIError(f"{path}: paths.{rid}: problem {prob.name!r} has no robot {rid!r} "
+                           f"(robots: {', '.join(prob.robot_ids)}); pass --problem")
+        _finite_points(pts, f"paths.{rid}", path, prob)
+    if res.times is not None:
+        t = np.asarray(res.times, dtype=float)
+        if not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
+            raise CLIError(f"{path}: times: expected finite, non-decreasing time stamps")
+    m = res.metrics
+
+    def bad(key: str, want: str) -> CLIError:
+        v = m[key]
+        return CLIError(f"{path}: metrics.{key}: expected {want}, got {type(v).__name__} "
+                        f"{str(v)[:40]!r}")
+
+    def is_num(v: Any) -> bool:
+        return isinstance(v, numbers.Real) and not isinstance(v, bool)
+
+    for key in ("length", "ratio_to_optimum", "optimum", "min_clearance"):
+        if m.get(key) is not None and not is_num(m[key]):
+            raise bad(key, "a number")
+    for key in ("collisions", "dynamic_contacts", "separation_violations", "static_collisions"):
+        if m.get(key) is not None and not (isinstance(m[key], numbers.Integral)
+                                           and not isinstance(m[key], bool) and m[key] >= 0):
+            raise bad(key, "a non-negative integer")
+    for key in ("in_bounds", "reached", "feasible"):
+        if m.get(key) is not None and not isinstance(m[key], bool):
+            raise bad(key, "true or false")
+    if m.get("leader") is not None and not isinstance(m["leader"], str):
+        raise bad("leader", "a robot id string")
+    if m.get("per_robot") is not None and not (
+            isinstance(m["per_robot"], dict)
+            and all(isinstance(v, dict) for v in m["per_robot"].values())):
+        raise bad("per_robot", "an object robot id -> object")
+    contacts = m.get("contacts")
+    if contacts is not None and not isinstance(contacts, list):
+        raise bad("contacts", "a list")
+    named = [("first_contact", m.get("first_contact"))] + [
+        (f"contacts[{k}]", c) for k, c in enumerate(contacts or [])]
+    for key, c in named:
+        if c is None:
+            continue
+        if not isinstance(c, dict) or not is_num(c.get("time")) or not isinstance(
+                c.get("other", ""), str) or not isinstance(c.get("kind", ""), str):
+            raise CLIError(f"{path}: metrics.{key}: expected an object with a numeric time, "
+                           "'kind' and 'other'")
+        if c.get("position") is not None:
+            _finite_points([c["position"]], f"metrics.{key}.position", path, prob)
+    for key in ("global_path", "inflection_points"):
+        if res.extras.get(key) is not None:
+            _finite_points(res.extras[key], f"extras.{key}", path, prob)
+
+
+#: Largest --dpi of ``show``, ``plot`` and ``animate`` (a 6-inch figure at 1200 dpi is 7200 px).
+MAX_DPI = 1200
+#: Figure formats of ``show --out`` and ``plot --out``.
+FIG_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+def _check_out(out: str, suffixes: tuple[str, ...], flag: str = "--out") -> None:
+    p = Path(out)
+    if p.suffix.lower() not in suffixes:
+        raise CLIError(f"{flag} {out}: unsupported format {p.suffix or '(none)'!r}; use "
+                       + ", ".join(suffixes))
+    if p.is_dir():
+        raise CLIError(f"{flag} {out}: is a directory")
+
+
+def _check_dpi(dpi: float) -> None:
+    if not (isinstance(dpi, (int, float)) and math.isfinite(dpi) and 1 <= dpi <= MAX_DPI):
+        raise CLIError(f"--dpi must be in [1, {MAX_DPI}], got {dpi}")
+
+
 def cmd_plot(args: argparse.Namespace, out: TextIO) -> int:
+    _check_out(args.out, FIG_SUFFIXES)
+    _check_dpi(args.dpi)
+    if args.snapshot_every is not None and args.snapshot_every < 0:
+        raise CLIError(f"--snapshot-every must be >= 0, got {args.snapshot_every}")
+    res, prob = _load_result(args.result, args.problem)
     from optplan.plot import plot_result
 
-    res, prob = _load_result(args.result, args.problem)
     plot_result(res, problem=prob, out=args.out, snapshot_every=args.snapshot_every,
                 dpi=args.dpi)
     print(f"wrote {args.out}", file=out)
@@ -375,11 +493,16 @@ def cmd_plot(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def cmd_animate(args: argparse.Namespace, out: TextIO) -> int:
+    _check_out(args.out, (".gif",))
+    _check_dpi(args.dpi)
+    if not (math.isfinite(args.fps) and 0 < args.fps <= 100):
+        raise CLIError(f"--fps must be > 0 and at most 100 (GIF frames last >= 10 ms), got "
+                       f"{args.fps}")
+    if not 1 <= args.max_frames <= 10_000:
+        raise CLIError(f"--max-frames must be in [1, 10000], got {args.max_frames}")
+    res, prob = _load_result(args.result, args.problem)
     from optplan.plot import animate
 
-    if args.fps <= 0:
-        raise CLIError(f"--fps must be > 0, got {args.fps}")
-    res, prob = _load_result(args.result, args.problem)
     animate(res, args.out, problem=prob, fps=args.fps, max_frames=args.max_frames,
             dpi=args.dpi)
     print(f"wrote {args.out}", file=out)
@@ -632,30 +755,52 @@ def _dispatch(argv: list[str], out: TextIO) -> int:
     return args.func(args, out)
 
 
+def _one_line(msg: Any) -> str:
+    return " ".join(str(msg).split())
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``optplan`` console script; returns the exit status."""
+    """Entry point of the ``optplan`` console script; returns the exit status.
+
+    Bad input ends with one line ``optplan: error: ...`` on stderr and exit status 2; an
+    unexpected exception (a bug) with one line ``optplan: internal error: ...`` and exit status
+    1.  Warnings raised while a command runs are held back: none is printed before an error
+    line; after a successful command each distinct one is printed once as ``optplan: warning:``.
+    ``--traceback`` (before the command) shows Python's tracebacks and warnings instead.
+    """
     argv = list(sys.argv[1:] if argv is None else argv)
     show_tb = bool(argv) and argv[0] == "--traceback"
     from optplan.problem import ProblemError
 
-    try:
+    if show_tb:
         return _dispatch(argv, sys.stdout)
-    except BrokenPipeError:
-        # the reader went away (e.g. `optplan list | head`): stop quietly, as Unix tools do
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        return 0
-    except (CLIError, ProblemError, ValueError, FileNotFoundError, KeyError, ImportError,
-            OSError) as e:
-        if show_tb:
-            raise
-        msg = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
-        msg = " ".join(str(msg).split())  # one line
-        print(f"{PROG}: error: {msg}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"\n{PROG}: interrupted", file=sys.stderr)
-        return 130
+    with warnings.catch_warnings(record=True) as caught:
+        try:
+            rc = _dispatch(argv, sys.stdout)
+        except BrokenPipeError:
+            # the reader went away (e.g. `optplan list | head`): stop quietly, as Unix tools do
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())
+            return 0
+        except (CLIError, ProblemError, ValueError, FileNotFoundError, KeyError, ImportError,
+                OSError) as e:
+            msg = e.args[0] if isinstance(e, KeyError) and e.args else str(e)
+            print(f"{PROG}: error: {_one_line(msg)}", file=sys.stderr)
+            return 2
+        except KeyboardInterrupt:
+            print(f"\n{PROG}: interrupted", file=sys.stderr)
+            return 130
+        except Exception as e:  # a bug, not bad input: one line, and how to see more
+            print(f"{PROG}: internal error: {type(e).__name__}: {_one_line(e)[:500]} (a bug; "
+                  f"rerun with '{PROG} --traceback ...' and report it)", file=sys.stderr)
+            return 1
+    seen = set()
+    for w in caught:
+        line = f"{PROG}: warning: {w.category.__name__}: {_one_line(w.message)}"
+        if line not in seen:
+            seen.add(line)
+            print(line, file=sys.stderr)
+    return rc
 
 
 if __name__ == "__main__":  # pragma: no cover
