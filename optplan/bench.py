@@ -18,7 +18,8 @@ Design choices
   CasADi), each running one run at a time, so that one run can be stopped by ending its
   process; ``scheduler="tcp://host:8786"`` runs on an existing Dask cluster and
   ``dask_local=N`` on a :class:`distributed.LocalCluster` of ``N`` single-threaded worker
-  processes (``dask[distributed]`` is an optional dependency).  Whatever the engine, rows come
+  processes (``dask[distributed]`` is an optional dependency; runs travel in chunks of about
+  :data:`DASK_CHUNK_SECONDS` of work, see :func:`_run_dask`).  Whatever the engine, rows come
   back in grid order (problem, solver, seed) and the same seeds give the same rows.  Workers
   register the calling process's extra backends (:func:`optplan.register`) and resolve every
   solver and problem before their first run.

@@ -84,7 +84,7 @@ def _plot_outcome(rows: Sequence[Mapping[str, Any]], solvers: Sequence[str]) -> 
     ax.set_xticks([0, 25, 50, 75, 100])
     ax.set_xlabel("runs (%); success = optimal or solved")
     ax.set_title("Outcome per solver")
-    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.28), ncols=4,
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.2), ncols=4,
               frameon=False)
     return fig
 
@@ -109,7 +109,8 @@ def _box(ax: Any, data: list[np.ndarray], solvers: Sequence[str], colours: Seque
             patch.set_alpha(0.6)
     for i, d in enumerate(data):
         if not len(d):
-            ax.text(0.02, y[i], "no run", va="center", transform=ax.get_yaxis_transform(),
+            ax.text(0.02, y[i], "no run to show", va="center",
+                    transform=ax.get_yaxis_transform(),
                     fontsize=8, color="#666666")
     ax.set_yticks(y, [f"{s} (n={len(d)})" for s, d in zip(solvers, data)])
     ax.set_ylim(-0.6, len(solvers) - 0.4)
@@ -157,6 +158,20 @@ def _step_on_grid(t: np.ndarray, c: np.ndarray, grid: np.ndarray) -> np.ndarray:
     return np.where(np.isinf(out), np.nan, out)
 
 
+def _cost_is_length(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, Mapping],
+                    solver: str) -> bool:
+    """True when the solver's final best cost is its path length (so cost / optimum is a
+    length ratio): judged on its successful runs, else on every run with a length."""
+    rs = [r for r in rows if r["solver"] == solver and r.get("id") in progress
+          and progress[r["id"]]["best_cost"] and math.isfinite(r["length"]) and r["length"] > 0]
+    good = [r for r in rs if r["success"]] or rs
+    if not good:
+        return False
+    rel = [abs(progress[r["id"]]["best_cost"][-1] / r["length"] - 1.0) for r in good]
+    rel = [x for x in rel if math.isfinite(x)]
+    return bool(rel) and float(np.median(rel)) < 1e-3
+
+
 def _plot_convergence(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, Mapping],
                       solvers: Sequence[str], colours: Sequence[str]) -> Any:
     fig = _fig(len(solvers), wide=True)
@@ -164,8 +179,11 @@ def _plot_convergence(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, 
     ax = fig.add_subplot(1, 1, 1)
     opts = _finite([r["optimum"] for r in rows])
     norm = float(np.median(opts)) if len(opts) else 1.0
-    drew = False
+    drew, skipped = False, []
     for s, colour in zip(solvers, colours):
+        if not _cost_is_length(rows, progress, s):
+            skipped.append(s)
+            continue
         traces = [progress[r["id"]] for r in rows
                   if r["solver"] == s and r.get("id") in progress]
         traces = [(np.asarray(p["time"], float), np.asarray(p["best_cost"], float) / norm)
@@ -202,9 +220,13 @@ def _plot_convergence(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, 
     else:
         ax.text(0.5, 0.5, "no progress recorded", ha="center", va="center",
                 transform=ax.transAxes)
+    if skipped:
+        ax.text(0.01, 0.01, "not drawn (their best cost is not the path length): "
+                + ", ".join(skipped), transform=ax.transAxes, fontsize=7, color="#555555",
+                va="bottom")
     ax.set_xlabel("wall time since the run started (s, log scale)")
     ax.set_ylabel("best cost / optimum" if len(opts) else "best cost")
-    ax.set_title("Convergence (best cost so far: median and IQR band over runs)")
+    ax.set_title("Convergence (best cost so far: median and IQR band over runs)", fontsize=11)
     return fig
 
 
@@ -338,7 +360,8 @@ known static map) and clearance are medians and inter-quartile ranges over the
 <b>successful</b> runs only; time over every run that did not raise (a run stopped at its time
 limit counts with its time). Every run solved a fresh copy of its problem (no cache from an
 earlier run). Convergence curves show the best cost so far (each backend's own objective, as
-passed to its callback, divided by the optimum), against wall time since the run started.</p>
+passed to its callback, divided by the optimum), against wall time since the run started;
+solvers whose best cost is not their path length (e.g. a potential field) are not drawn.</p>
 <h2>Experiments</h2>
 {_experiments_table(exps)}
 {chr(10).join(sections)}
