@@ -63,6 +63,16 @@ CLOSE_REL = 1e-12
 #: resolvable.
 MAX_REL_SPEED = 1e6
 
+#: Smallest robot ``max_speed`` as a multiple of the bounds diagonal per second: crossing the
+#: map may take at most a million seconds (11.6 days).
+MIN_REL_SPEED = 1e-6
+
+#: Smallest period of a looping or bouncing dynamic obstacle as a fraction of the time the
+#: slowest robot needs to cross the map (bounds diagonal / its ``max_speed``): the validator
+#: follows every period in continuous time, at most about ``1 / MIN_REL_PERIOD`` of them per
+#: map crossing.
+MIN_REL_PERIOD = 1e-5
+
 #: Largest magnitude of a dynamic-obstacle time stamp (seconds; about 31,700 years, so Unix
 #: epoch times fit).
 MAX_TIME = 1e12
@@ -858,6 +868,11 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
         vmax = ctx.number(r.get("max_speed", 1.0), f"{pre}max_speed", positive=True,
                           hi=MAX_REL_SPEED * diag,
                           hi_what=f"{MAX_REL_SPEED:g} x {diag_s} per second")
+        if vmax < MIN_REL_SPEED * diag:
+            raise ctx.err(f"{pre}max_speed", f"must be >= {MIN_REL_SPEED * diag:.6g} "
+                          f"({MIN_REL_SPEED:g} x {diag_s} per second: crossing the map may "
+                          f"take at most {1 / MIN_REL_SPEED:g} s), got {vmax:.6g}"
+                          + (" (the default)" if "max_speed" not in r else ""))
         robots.append(Robot(rid, start, goal, radius, vmax))
 
     formation = None
@@ -871,6 +886,18 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
             why = (f"robot {robots[i].id!r} is not a formation follower" if formation else
                    "only formation followers may omit it")
             raise ctx.err(f"robots[{i}].goal", f"missing required key ({why})")
+
+    # periodic dynamic obstacles: not faster than the validator can follow (MIN_REL_PERIOD)
+    slow = min(robots, key=lambda r: r.max_speed)
+    t_cross = diag / slow.max_speed
+    for i, d in enumerate(dyn):
+        if d.velocity is not None or d.after == "hold" or len(d.times) < 2:
+            continue
+        period = float(d.times[-1] - d.times[0]) * (2.0 if d.after == "bounce" else 1.0)
+        if period < MIN_REL_PERIOD * t_cross:
+            raise ctx.err(f"dynamic_obstacles[{i}].times", f"the {d.after} period {period:.6g} s "
+                          f"is shorter than {MIN_REL_PERIOD:g} x the {t_cross:.6g} s robot "
+                          f"{slow.id!r} needs to cross the map (bounds diagonal / its max_speed)")
 
     sensing = None
     if "sensing" in data:
