@@ -28,8 +28,9 @@ Plugins: an installed distribution declares backends in the entry-point group
 ``optplan.backends`` (``my-planner = "my_pkg.planner:MyPlanner"``) and presets in
 ``optplan.presets`` (``my_pkg = "my_pkg.presets"``: a package whose directory holds preset
 ``*.toml`` files).  They are discovered lazily, the first time the registry is used, in every
-process (so they also work in the CLI and in ``optplan bench`` worker processes; a backend added
-with :func:`register` in a script exists only in that process).
+process (so they also work in the CLI and in ``optplan bench`` worker processes).  A backend
+added with :func:`register` exists in the calling process, and :mod:`optplan.bench` passes it on
+to its workers; another process (the CLI) does not know it.
 """
 
 from __future__ import annotations
