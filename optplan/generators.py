@@ -7,6 +7,9 @@ the followers' L-phi slots derived from the shape (convention of :class:`optplan
 time, the variants used by ``optplan bench --tag formation``.  :func:`random_obstacles` scatters
 seeded random obstacles of every kind the kernels handle (benchmarks and kernel tests).
 :func:`swap_scene` is two independently planned robots swapping ends of an empty field.
+:func:`corridor_scene` draws seeded maps of a family that is hard for global planners to get
+into the right corridor (homotopy class): walls with narrow doors, warehouse shelf rows and U
+traps (``optplan.backends.ipso``'s tail benchmark).
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ from shapely.geometry import Polygon
 from optplan.problem import Follower, Formation, Obstacle, Problem, Robot, parse_problem
 
 __all__ = ["formation_offsets", "formation_scene", "jitter_phases", "random_obstacles",
-           "swap_scene"]
+           "swap_scene", "corridor_scene", "CORRIDOR_KINDS"]
 
 SHAPES = ("line", "wedge", "grid")
 
@@ -170,3 +173,179 @@ def swap_scene(dy: float = 0.0) -> Problem:
                     "max_speed": 5.0},
                    {"id": "b", "start": [180.0, 50.0 + dy], "goal": [20.0, 50.0 + dy],
                     "radius": 3.0, "max_speed": 5.0}]})
+
+
+#: Kinds of :func:`corridor_scene`.
+CORRIDOR_KINDS = ("doors", "shelves", "u-traps")
+
+
+def _rect(x0: float, y0: float, x1: float, y1: float, name: str) -> dict:
+    return {"type": "rectangle", "min": [float(x0), float(y0)], "max": [float(x1), float(y1)],
+            "name": name}
+
+
+def _doors(rng: np.random.Generator, side: float, r: float) -> tuple[list, list, list]:
+    """2-4 walls across the map, thin or thick, each with 1-3 doors 3-6 robot diameters wide,
+    a few discs between the walls; start on the left, goal on the right."""
+    n_walls = int(rng.integers(2, 5))
+    xs = np.linspace(0.2, 0.8, n_walls) * side + rng.uniform(-0.04, 0.04, n_walls) * side
+    obs: list = []
+    for w, x in enumerate(xs):
+        t = rng.uniform(0.015, 0.08) * side  # thin walls, or thick ones: long corridors
+        n_doors = int(rng.integers(1, 4))
+        widths = rng.uniform(3.0, 6.0, n_doors) * 2 * r
+        # door centres: sorted, apart by more than the widths, inside [0.08, 0.92] side
+        for _ in range(100):
+            c = np.sort(rng.uniform(0.08, 0.92, n_doors) * side)
+            if n_doors == 1 or np.all(np.diff(c) > 0.1 * side):
+                break
+        y = 0.0
+        for k in range(n_doors):
+            lo, hi = c[k] - widths[k] / 2, c[k] + widths[k] / 2
+            if lo > y:
+                obs.append(_rect(x - t / 2, y, x + t / 2, lo, f"wall{w}-{k}"))
+            y = hi
+        obs.append(_rect(x - t / 2, y, x + t / 2, side, f"wall{w}-{n_doors}"))
+    gaps = np.concatenate([[0.0], xs, [side]])
+    for q in range(int(rng.integers(2, 7))):
+        g = int(rng.integers(1, n_walls))  # between two walls
+        lo, hi = gaps[g] + 0.06 * side, gaps[g + 1] - 0.06 * side
+        if hi <= lo:
+            continue
+        obs.append({"type": "circle", "center": [float(rng.uniform(lo, hi)),
+                                                 float(rng.uniform(0.15, 0.85) * side)],
+                    "radius": float(rng.uniform(0.02, 0.05) * side), "name": f"disc{q}"})
+    start = [0.05 * side, float(rng.uniform(0.1, 0.9) * side)]
+    goal = [0.95 * side, float(rng.uniform(0.1, 0.9) * side)]
+    return obs, start, goal
+
+
+def _shelves(rng: np.random.Generator, side: float, r: float) -> tuple[list, list, list]:
+    """Blocks of long parallel shelf rows (2-4 blocks across, 4-8 rows each) with aisles of
+    3-6 robot diameters and cross aisles between the blocks, some shelves missing or split by
+    a gap, the layout turned by 90 degrees at random; start and goal in opposite corners."""
+    cols = int(rng.integers(2, 5))
+    rows = int(rng.integers(4, 9))
+    x0, x1 = 0.1 * side, 0.9 * side
+    y0, y1 = 0.1 * side, 0.9 * side
+    cross = rng.uniform(3.0, 6.0, cols - 1) * 2 * r
+    width = (x1 - x0 - cross.sum()) / cols
+    pitch = (y1 - y0) / rows
+    turn = rng.random() < 0.5
+    boxes = []
+    x = x0
+    for c in range(cols):
+        for q in range(rows):
+            if rng.random() < 0.1:  # a missing shelf
+                continue
+            aisle = max(3.0 * 2 * r, rng.uniform(0.35, 0.6) * pitch)
+            sy0 = y0 + q * pitch + aisle / 2
+            sy1 = y0 + (q + 1) * pitch - aisle / 2
+            if sy1 - sy0 < r:
+                continue
+            a = x + rng.uniform(0.0, 0.05) * width
+            b = x + width - rng.uniform(0.0, 0.05) * width
+            if rng.random() < 0.2:  # split in two by a gap of 2.5-4 robot diameters
+                g = rng.uniform(a + 0.3 * (b - a), b - 0.3 * (b - a))
+                half = rng.uniform(2.5, 4.0) * r
+                boxes += [(a, sy0, g - half, sy1), (g + half, sy0, b, sy1)]
+            else:
+                boxes.append((a, sy0, b, sy1))
+        x += width + (cross[c] if c < cols - 1 else 0.0)
+    obs = [_rect(*((bx[1], bx[0], bx[3], bx[2]) if turn else bx), f"shelf{k}")
+           for k, bx in enumerate(boxes)]
+    corners = [(0.04, 0.04), (0.96, 0.96)] if rng.random() < 0.5 else [(0.04, 0.96),
+                                                                       (0.96, 0.04)]
+    if rng.random() < 0.5:
+        corners = corners[::-1]
+    jit = rng.uniform(-0.02, 0.02, (2, 2))
+    start = [float((corners[0][0] + jit[0, 0]) * side), float((corners[0][1] + jit[0, 1]) * side)]
+    goal = [float((corners[1][0] + jit[1, 0]) * side), float((corners[1][1] + jit[1, 1]) * side)]
+    return obs, start, goal
+
+
+def _u_shape(c: np.ndarray, size: float, thick: float, heading: float) -> list:
+    """A U of outer size ``size`` and wall thickness ``thick`` whose opening faces
+    ``heading`` (radians), centred at ``c``."""
+    h, t = size / 2, thick
+    v = np.array([[-h, -h], [h, -h], [h, h], [h - t, h], [h - t, -h + t], [-h + t, -h + t],
+                  [-h + t, h], [-h, h]])  # opening toward +y
+    a = heading - math.pi / 2
+    rot = np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])
+    return (v @ rot.T + c).tolist()
+
+
+def _u_traps(rng: np.random.Generator, side: float, r: float) -> tuple[list, list, list]:
+    """2-4 U traps along the start-goal line, opening toward the start (the straight approach
+    runs into them), and 3-8 discs and boxes of clutter; start and goal near opposite
+    corners."""
+    th = rng.uniform(0.0, 2 * math.pi)
+    d = np.array([math.cos(th), math.sin(th)])
+    mid = np.full(2, side / 2)
+    start = mid - 0.44 * side * d / np.abs(d).max()
+    goal = mid + 0.44 * side * d / np.abs(d).max()
+    obs: list = []
+    n_u = int(rng.integers(2, 5))
+    for k, f in enumerate(np.linspace(0.25, 0.75, n_u)):
+        c = start + f * (goal - start) + rng.uniform(-0.04, 0.04, 2) * side
+        size = rng.uniform(0.12, 0.2) * side
+        heading = th + math.pi + rng.uniform(-0.4, 0.4)  # opening toward the start
+        obs.append({"type": "polygon", "vertices": _u_shape(c, size, rng.uniform(0.15, 0.25)
+                                                            * size, heading), "name": f"u{k}"})
+    for q in range(int(rng.integers(3, 9))):
+        c = rng.uniform(0.1, 0.9, 2) * side
+        if min(np.hypot(*(c - start)), np.hypot(*(c - goal))) < 0.12 * side:
+            continue
+        s = rng.uniform(0.02, 0.05) * side
+        if q % 2:
+            obs.append({"type": "circle", "center": c.tolist(), "radius": float(s),
+                        "name": f"disc{q}"})
+        else:
+            obs.append(_rect(c[0] - s, c[1] - s / 2, c[0] + s, c[1] + s / 2, f"box{q}"))
+    return obs, start.tolist(), goal.tolist()
+
+
+def corridor_scene(kind: str, seed: int = 0, *, side: float = 500.0,
+                   radius: float = 4.0) -> Problem:
+    """A seeded map of the corridor family (one robot, every obstacle known).
+
+    ``kind``:
+
+    * ``"doors"``: 2-4 walls across a ``side`` square, 1.5-8 % of ``side`` thick, each with
+      1-3 doors 3-6 robot diameters wide (narrow corridors through the thick ones), and a few
+      discs between the walls; the robot crosses from the left edge to the right edge.
+    * ``"shelves"``: 2-4 blocks of 4-8 long parallel shelf rows with aisles of 3-6 robot
+      diameters and cross aisles between the blocks, ~10 % of the shelves missing and ~20 %
+      split by a gap, rows horizontal or vertical; the robot crosses between opposite corners
+      (many corridors of nearly equal length).
+    * ``"u-traps"``: 2-4 U-shaped obstacles along the start-goal line with their opening toward
+      the start, plus discs and boxes; start and goal near opposite sides.
+
+    Every draw whose start and goal are not connected for the robot's disc (checked with the
+    certified shortest path, :func:`optplan.geometry.tangent_graph.problem_shortest_path`) or
+    lie within an obstacle is redrawn from the next sub-seed, so the map is reproducible from
+    ``(kind, seed)`` alone.  Name: ``corridor-{kind}-{seed}``.
+    """
+    from optplan.geometry.tangent_graph import problem_shortest_path
+
+    makers = {"doors": _doors, "shelves": _shelves, "u-traps": _u_traps}
+    if kind not in makers:
+        raise ValueError(f"kind must be one of {CORRIDOR_KINDS}, got {kind!r}")
+    for sub in range(100):
+        rng = np.random.default_rng([seed, sub, CORRIDOR_KINDS.index(kind)])
+        obs, start, goal = makers[kind](rng, side, radius)
+        data = {
+            "name": f"corridor-{kind}-{seed}",
+            "description": f"generated corridor map ({kind}, seed {seed})",
+            "source": "optplan.generators.corridor_scene (synthetic)",
+            "tags": ["generated", "corridors", kind],
+            "bounds": [0.0, 0.0, side, side],
+            "robots": [{"id": "r1", "start": [float(v) for v in start],
+                        "goal": [float(v) for v in goal], "radius": radius,
+                        "max_speed": 5.0}],
+            "obstacles": obs,
+        }
+        prob = parse_problem(data, f"<generated {data['name']}>")
+        if math.isfinite(problem_shortest_path(prob, prob.robots[0]).length):
+            return prob
+    raise RuntimeError(f"corridor_scene({kind!r}, {seed}): no connected map in 100 draws")

@@ -114,6 +114,8 @@ ENDGAME_MODES = ("islands", "classes")
 
 _jit = numba.njit(cache=True, nogil=True)
 _NO_DRAW = np.zeros(0)
+#: Cut fractions of the end-game's quick ranking pass (1/2 to 1/64).
+QUICK_FRACTIONS = 0.5 ** np.arange(1, 7)
 
 
 # --------------------------------------------------------------------------------------
@@ -364,6 +366,14 @@ def island_bests(pbest_f, n_islands):
     return out
 
 
+def _free_paths(paths: np.ndarray, test) -> np.ndarray:
+    """Collision-free flags of the polylines ``(P, M, 2)`` for the obstacle set ``test``
+    (None: every path is free)."""
+    if test is None:
+        return np.ones(len(paths), bool)
+    return test.crossings(paths, penetration=False).count == 0
+
+
 # --------------------------------------------------------------------------------------
 # the backend
 # --------------------------------------------------------------------------------------
@@ -467,6 +477,7 @@ penetration_weight, roadmap_samples, corridors
     restart_every: int = 0
     tighten_rounds: int = 0
     endgame: str = "islands"
+    endgame_margin: float = 0.01
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -487,6 +498,7 @@ penetration_weight, roadmap_samples, corridors
         check_int(self, "restart_every", 0, 1_000_000)
         check_int(self, "tighten_rounds", 0, 100_000)
         check_choice(self, "endgame", ENDGAME_MODES)
+        check_range(self, "endgame_margin", 0.0, 10.0)
 
     @property
     def n_islands(self) -> int:
@@ -644,8 +656,11 @@ penetration_weight, roadmap_samples, corridors
         padded = np.array([np.vstack([p, np.repeat(p[-1:], M - len(p), axis=0)])
                            for p in paths])
         st.n_eval += len(paths)
-        feas = (np.ones(len(paths), bool) if space.obstacles is None else
-                space.obstacles.crossings(padded, penetration=False).count == 0)
+        # collision-free with the margin of space.clear: a path that is free only within the
+        # geometric tolerance (a swarm best pressed onto an obstacle) can collide once cut
+        feas = _free_paths(padded, space.clear if space.clear is not None else space.obstacles)
+        if not feas.any():
+            feas = _free_paths(padded, space.obstacles)
         lens = [path_lengths(p) for p in paths]
         cand = sorted((lens[i], i) for i in range(len(paths)) if feas[i])
         if self.endgame == "classes":
@@ -661,19 +676,34 @@ penetration_weight, roadmap_samples, corridors
 
     def _finish(self, space: SwarmSpace, state: SwarmState, run: IPSORun,
                 rng: np.random.Generator):
-        """Beyond the paper: :func:`~optplan.backends.swarm.tighten` the end-game candidates;
-        the shortest result is the answer."""
+        """Beyond the paper: :func:`~optplan.backends.swarm.tighten` the end-game candidates
+        (a few rounds for all of them, then the full ``tighten_rounds`` for those within
+        ``endgame_margin`` of the best); the shortest result is the answer."""
         if not self.tighten_rounds:
             return
         st = state
         cand = self._endgame_candidates(space, st, run)
         if not cand:
             return
+        if len(cand) > 1:  # rank the candidates after a quick coarse tightening
+            out, n = tighten(cand, space, rounds=min(self.tighten_rounds, 4),
+                             fractions=QUICK_FRACTIONS)
+            st.n_eval += n
+            lens = np.array([path_lengths(p) for p in out])
+            cand = [out[i] for i in np.argsort(lens, kind="stable")
+                    if lens[i] <= lens.min() * (1.0 + self.endgame_margin)]
         out, n = tighten(cand, space, rounds=self.tighten_rounds)
         st.n_eval += n
-        lens = [path_lengths(p) for p in out]
+        lens = np.array([path_lengths(p) for p in out])
+        # a safety net: only paths the fitness finds collision-free
+        M = max(len(p) for p in out)
+        ok = _free_paths(np.array([np.vstack([p, np.repeat(p[-1:], M - len(p), axis=0)])
+                                   for p in out]), space.obstacles)
+        if not ok.any():
+            return
+        lens = np.where(ok, lens, np.inf)
         j = int(np.argmin(lens))
-        best_len = lens[j]
+        best_len = float(lens[j])
         if best_len < st.feas_len:
             st.final_path = out[j]
             st.stats["tightened_from"] = st.feas_len

@@ -82,7 +82,6 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numba
 import numpy as np
 
-from optplan.geometry import path_lengths
 from optplan.geometry.homotopy import obstacle_points
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
@@ -121,6 +120,10 @@ __all__ = [
 BOUNDS_MODES = ("reflect", "clip", "random")
 INIT_MODES = ("sorted", "uniform", "line", "roadmap")
 
+#: Clearance kept by roadmap edges and tightened paths, as a fraction of the map diagonal
+#: (1000 x the geometric tolerance ``eps``; see :class:`SwarmSpace`).
+CLEAR_MARGIN = 1e-6
+
 #: Compiled helpers (numba; cached on disk after the first run, see docs/solvers/pso.md).
 _jit = numba.njit(cache=True, nogil=True)
 
@@ -145,6 +148,9 @@ class SwarmSpace:
     """The search space of one robot: endpoints, box bounds per dimension, the fitness map.
 
     ``obstacles`` is the fitness kernel (None: no obstacles, every path is collision-free).
+    ``clear`` is the same test for a disc :data:`CLEAR_MARGIN` x the map diagonal larger: the
+    roadmap and the tightening use it, so that the paths they make keep that margin from the
+    obstacles instead of touching them within the validator's tolerance (default: ``obstacles``).
     """
 
     start: np.ndarray
@@ -155,6 +161,7 @@ class SwarmSpace:
     obstacles: ObstacleSet | None
     penalty_weight: float
     penetration_weight: float = 0.0
+    clear: ObstacleSet | None = None
 
     @property
     def dim(self) -> int:
@@ -203,9 +210,11 @@ def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
     lo = np.tile([x0, y0], n_waypoints).astype(float)
     hi = np.tile([x1, y1], n_waypoints).astype(float)
     obs = problem.obstacle_set(robot.radius, known_only=True)
+    clear = problem.obstacle_set(robot.radius + CLEAR_MARGIN * math.hypot(x1 - x0, y1 - y0),
+                                 known_only=True)
     pw = default_penalty(problem.bounds, n_waypoints) if penalty_weight is None else penalty_weight
     return SwarmSpace(np.asarray(robot.start, float), np.asarray(robot.goal, float),
-                      n_waypoints, lo, hi, obs, float(pw), float(penetration_weight))
+                      n_waypoints, lo, hi, obs, float(pw), float(penetration_weight), clear)
 
 
 def decode(X: np.ndarray, space: SwarmSpace) -> np.ndarray:
@@ -459,12 +468,14 @@ def as_particle(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
 
 
 def segment_free(a: np.ndarray, b: np.ndarray, space: SwarmSpace) -> np.ndarray:
-    """Collision-free flags of segments ``a[i] -> b[i]`` (one crossing-test call)."""
+    """Collision-free flags of segments ``a[i] -> b[i]`` with the margin of ``space.clear``
+    (one crossing-test call)."""
     if len(a) == 0:
         return np.zeros(0, dtype=bool)
-    if space.obstacles is None:  # no obstacles: every segment is free
+    test = space.clear if space.clear is not None else space.obstacles
+    if test is None:  # no obstacles: every segment is free
         return np.ones(len(a), dtype=bool)
-    return space.obstacles.segment_free(a, b)
+    return test.segment_free(a, b)
 
 
 def shortcut(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
@@ -474,30 +485,141 @@ def shortcut(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
 
 def _shortcut_many(paths: list[np.ndarray], space: SwarmSpace) -> list[np.ndarray]:
     """:func:`shortcut` of several paths with one visibility test for all vertex pairs."""
-    a, b, spans = [], [], []
-    for p in paths:
-        i, j = np.triu_indices(len(p), 1)
-        a.append(p[i])
-        b.append(p[j])
-        spans.append((i, j))
     if not paths:
         return []
-    free_all = segment_free(np.concatenate(a), np.concatenate(b), space)
-    out, pos = [], 0
-    for p, (i, j) in zip(paths, spans):
-        m = len(p)
-        if m <= 2:
-            out.append(p)
+    pts, off = _flat(paths)
+    pts, off = _pull(pts, off, space, 0)[:2]
+    return [pts[off[i]:off[i + 1]] for i in range(len(paths))]
+
+
+def _flat(paths: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Paths as one point array and the start offsets ``(n_paths + 1,)``."""
+    off = np.zeros(len(paths) + 1, np.int64)
+    off[1:] = np.cumsum([len(p) for p in paths])
+    return np.ascontiguousarray(np.concatenate([np.asarray(p, float) for p in paths])), off
+
+
+@_jit
+def _pairs(off, window):
+    """Global index pairs ``(i, j)``, ``i < j`` in the same path and at most ``window`` apart
+    (0: every pair)."""
+    n = 0
+    for p in range(off.shape[0] - 1):
+        m = off[p + 1] - off[p]
+        for i in range(m):
+            n += min(m - 1 - i, window) if window > 0 else m - 1 - i
+    I = np.empty(n, np.int64)
+    J = np.empty(n, np.int64)
+    q = 0
+    for p in range(off.shape[0] - 1):
+        o, m = off[p], off[p + 1] - off[p]
+        for i in range(m):
+            top = m if window <= 0 else min(m, i + window + 1)
+            for j in range(i + 1, top):
+                I[q] = o + i
+                J[q] = o + j
+                q += 1
+    return I, J
+
+
+@_jit
+def _greedy_keep(off, I, J, free):
+    """Greedy string pulling from the visibility of the pairs ``(I, J)`` (sorted by ``I``
+    then ``J``, as :func:`_pairs` makes them): from each kept vertex the farthest visible
+    later vertex (the next vertex when none is).  Returns the keep mask."""
+    N = off[-1]
+    far = np.arange(N) + 1  # farthest visible later vertex per vertex
+    for q in range(I.shape[0]):
+        if free[q] and J[q] > far[I[q]]:
+            far[I[q]] = J[q]
+    keep = np.zeros(N, np.bool_)
+    for p in range(off.shape[0] - 1):
+        v = off[p]
+        last = off[p + 1] - 1
+        keep[v] = True
+        while v < last:
+            v = min(far[v], last)
+            keep[v] = True
+    return keep
+
+
+def _pull(pts: np.ndarray, off: np.ndarray, space: SwarmSpace, window: int,
+          ids: np.ndarray | None = None):
+    """String pulling of flat paths (pairs at most ``window`` apart, 0: all): the kept
+    points, offsets, ids and the number of segments tested."""
+    I, J = _pairs(off, window)
+    keep = _greedy_keep(off, I, J, segment_free(pts[I], pts[J], space))
+    cnt = np.add.reduceat(keep, off[:-1]) if len(pts) else np.zeros(0, np.int64)
+    new_off = np.zeros_like(off)
+    new_off[1:] = np.cumsum(cnt)
+    return pts[keep], new_off, (ids[keep] if ids is not None else None), len(I)
+
+
+@_jit
+def _dirty_rows(off, ids, settled_prev, settled_next, active):
+    """Interior vertices of the active paths not known to admit no cut with their current
+    neighbours (global indices)."""
+    out = np.empty(off[-1], np.int64)
+    n = 0
+    for p in range(off.shape[0] - 1):
+        if not active[p]:
             continue
-        free = np.zeros((m, m), dtype=bool)
-        free[i, j] = free_all[pos:pos + len(i)]
-        pos += len(i)
-        keep = [0]
-        while keep[-1] != m - 1:
-            cur = keep[-1]
-            vis = np.flatnonzero(free[cur, cur + 1:]) + cur + 1
-            keep.append(int(vis.max()) if vis.size else cur + 1)
-        out.append(p[keep])
+        for v in range(off[p] + 1, off[p + 1] - 1):
+            x = ids[v]
+            if settled_prev[x] != ids[v - 1] or settled_next[x] != ids[v + 1]:
+                out[n] = v
+                n += 1
+    return out[:n]
+
+
+@_jit
+def _apply_cuts(pts, off, ids, rows, cut, P, Q, next_id, settled_prev, settled_next):
+    """Replace every cut vertex ``rows[r]`` by its two cut points ``P[r], Q[r]`` (new ids from
+    ``next_id``); a tested vertex without a cut is recorded as settled with its neighbours.
+    Returns the new points, offsets, ids and the next free id."""
+    n_cut = 0
+    for r in range(rows.shape[0]):
+        if cut[r]:
+            n_cut += 1
+        else:
+            v = rows[r]
+            settled_prev[ids[v]] = ids[v - 1]
+            settled_next[ids[v]] = ids[v + 1]
+    N = pts.shape[0]
+    new_pts = np.empty((N + n_cut, 2))
+    new_ids = np.empty(N + n_cut, np.int64)
+    new_off = np.zeros_like(off)
+    which = np.full(N, -1, np.int64)
+    for r in range(rows.shape[0]):
+        if cut[r]:
+            which[rows[r]] = r
+    q = 0
+    for p in range(off.shape[0] - 1):
+        new_off[p] = q
+        for v in range(off[p], off[p + 1]):
+            r = which[v]
+            if r < 0:
+                new_pts[q] = pts[v]
+                new_ids[q] = ids[v]
+                q += 1
+            else:
+                new_pts[q] = P[r]
+                new_pts[q + 1] = Q[r]
+                new_ids[q] = next_id
+                new_ids[q + 1] = next_id + 1
+                next_id += 2
+                q += 2
+    new_off[-1] = q
+    return new_pts, new_off, new_ids, next_id
+
+
+@_jit
+def _lengths(pts, off):
+    """Length of each flat path."""
+    out = np.zeros(off.shape[0] - 1)
+    for p in range(off.shape[0] - 1):
+        for v in range(off[p], off[p + 1] - 1):
+            out[p] += math.hypot(pts[v + 1, 0] - pts[v, 0], pts[v + 1, 1] - pts[v, 1])
     return out
 
 
@@ -506,78 +628,72 @@ CUT_FRACTIONS = 0.5 ** np.arange(1, 11)
 
 
 def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
-            rel_tol: float = 1e-7, min_gain: float = 1e-5) -> tuple[list[np.ndarray], int]:
+            rel_tol: float = 1e-7, min_gain: float = 1e-5,
+            fractions: np.ndarray = CUT_FRACTIONS) -> tuple[list[np.ndarray], int]:
     """Deterministic corner cutting and string pulling of collision-free polylines (beyond
-    the paper), all paths together (one visibility test per round for all of them).
+    the paper), all paths together (two visibility tests per round for all of them).
 
-    Each round, for every interior vertex ``v`` with neighbours ``a``, ``b``, the cuts
-    ``p = v + s (a - v)``, ``q = v + t (b - v)`` for ``s, t`` in :data:`CUT_FRACTIONS` are
-    tested (one batch of segments ``p -> q``); each vertex takes its collision-free cut with the
-    largest length gain.  Fractions are at most 1/2, so the cuts of neighbouring vertices do
-    not overlap and ``a -> p``, ``q -> b`` are sub-segments of collision-free segments.  Then a
-    greedy :func:`shortcut` drops the vertices that are no longer needed.  A path stays
+    First a greedy :func:`shortcut` of each path.  Then each round, for every interior vertex
+    ``v`` with neighbours ``a``, ``b`` (skipping vertices that admitted no cut with the same
+    neighbours in an earlier round), the cuts ``p = v + s (a - v)``, ``q = v + t (b - v)`` for
+    ``s, t`` in ``fractions`` (default :data:`CUT_FRACTIONS`, 1/2 to 1/1024) are tested (one
+    batch of segments ``p -> q``); each vertex takes its collision-free cut with the largest
+    length gain.  Fractions are at most 1/2, so the cuts of neighbouring vertices do not
+    overlap and ``a -> p``, ``q -> b`` are sub-segments of collision-free segments.  Then a
+    greedy string pulling over vertices at most 6 apart drops the vertices that are no longer
+    needed.  Visibility is tested with the margin of ``space.clear``.  A path stays
     collision-free for the fitness (hence for the validator), never gets longer, and contracts
-    onto the obstacle corners it wraps (the locally shortest path of its homotopy class).
-    A cut must gain more than ``min_gain`` x the path length (this bounds the number of
-    vertices spent on approximating the rounded corners of the disc robot's free space).
-    A path stops after ``rounds`` rounds or when a round gains less than ``rel_tol`` of its
-    length.  Returns ``(paths, number of segments tested)``.
+    onto the obstacle corners it wraps (the locally shortest path of its homotopy class).  A
+    cut must gain more than ``min_gain`` x the path length (this bounds the number of vertices
+    spent on approximating the rounded corners of the disc robot's free space).  A path stops
+    after ``rounds`` rounds, when a round gains less than ``rel_tol`` of its length or when no
+    vertex admits a cut.  Returns ``(paths, number of segments tested)``.
     """
-    cur = _shortcut_many([np.asarray(p, dtype=float) for p in paths], space)
-    n_eval = sum(len(p) * (len(p) - 1) // 2 for p in paths)
-    lengths = [path_lengths(p) for p in cur]
-    active = [i for i, p in enumerate(cur) if len(p) > 2]
-    f = CUT_FRACTIONS
+    if not paths:
+        return [], 0
+    pts, off = _flat(paths)
+    pts, off, _, n_eval = _pull(pts, off, space, 0)
+    ids = np.arange(len(pts), dtype=np.int64)
+    next_id = len(pts)
+    cap = max(4 * len(pts), 64)
+    s_prev = np.full(cap, -1, np.int64)
+    s_next = np.full(cap, -1, np.int64)
+    length = _lengths(pts, off)
+    active = np.diff(off) > 2
+    f = np.asarray(fractions, dtype=float)
     F = len(f)
     for _ in range(rounds):
-        if not active:
+        rows = _dirty_rows(off, ids, s_prev, s_next, active)
+        if not len(rows):
             break
-        cuts, A, B = [], [], []
-        for i in active:
-            p = cur[i]
-            v, a, b = p[1:-1], p[:-2], p[2:]
-            P = v[:, None, :] + f[None, :, None] * (a - v)[:, None, :]  # (V, F, 2)
-            Q = v[:, None, :] + f[None, :, None] * (b - v)[:, None, :]
-            Pp = np.broadcast_to(P[:, :, None, :], (len(v), F, F, 2))
-            Qq = np.broadcast_to(Q[:, None, :, :], (len(v), F, F, 2))
-            cuts.append((v, P, Q, Pp, Qq))
-            A.append(Pp.reshape(-1, 2))
-            B.append(Qq.reshape(-1, 2))
-        ok_all = segment_free(np.concatenate(A), np.concatenate(B), space)
-        n_eval += len(ok_all)
-        pos, cand, owners = 0, [], []
-        for i, (v, P, Q, Pp, Qq) in zip(active, cuts):
-            ok = ok_all[pos:pos + Pp.size // 2].reshape(len(v), F, F)
-            pos += Pp.size // 2
-            gain = (np.hypot(*(Pp - v[:, None, None, :]).transpose(3, 0, 1, 2))
-                    + np.hypot(*(Qq - v[:, None, None, :]).transpose(3, 0, 1, 2))
-                    - np.hypot(*(Qq - Pp).transpose(3, 0, 1, 2)))
-            gain = np.where(ok, gain, -1.0).reshape(len(v), -1)
-            j = np.argmax(gain, axis=1)
-            cut = gain[np.arange(len(v)), j] > min_gain * lengths[i]
-            if not cut.any():
-                continue
-            p = cur[i]
-            pts = [p[:1]]
-            for r in range(len(v)):
-                pts.append(np.stack([P[r, j[r] // F], Q[r, j[r] % F]]) if cut[r]
-                           else v[r:r + 1])
-            pts.append(p[-1:])
-            cand.append(np.concatenate(pts))
-            owners.append(i)
-        pulled = _shortcut_many(cand, space)
-        n_eval += sum(len(p) * (len(p) - 1) // 2 for p in cand)
-        still = []
-        for i, q in zip(owners, pulled):
-            new = path_lengths(q)
-            if new >= lengths[i]:
-                continue
-            done = new > lengths[i] * (1.0 - rel_tol)
-            cur[i], lengths[i] = q, new
-            if not done and len(q) > 2:
-                still.append(i)
-        active = still
-    return cur, n_eval
+        v, a, b = pts[rows], pts[rows - 1], pts[rows + 1]
+        P = v[:, None, :] + f[None, :, None] * (a - v)[:, None, :]  # (R, F, 2)
+        Q = v[:, None, :] + f[None, :, None] * (b - v)[:, None, :]
+        Pp = np.broadcast_to(P[:, :, None, :], (len(v), F, F, 2))
+        Qq = np.broadcast_to(Q[:, None, :, :], (len(v), F, F, 2))
+        ok = segment_free(Pp.reshape(-1, 2), Qq.reshape(-1, 2), space).reshape(len(v), F * F)
+        n_eval += ok.size
+        dp = np.hypot(*(P - v[:, None, :]).transpose(2, 0, 1))  # (R, F)
+        dq = np.hypot(*(Q - v[:, None, :]).transpose(2, 0, 1))
+        gain = (dp[:, :, None] + dq[:, None, :]
+                - np.hypot(*(Qq - Pp).transpose(3, 0, 1, 2))).reshape(len(v), F * F)
+        gain = np.where(ok, gain, -1.0)
+        j = np.argmax(gain, axis=1)
+        owner = np.searchsorted(off, rows, side="right") - 1
+        cut = gain[np.arange(len(v)), j] > min_gain * length[owner]
+        if next_id + 2 * int(cut.sum()) > cap:  # room for the new ids
+            cap = 2 * (next_id + 2 * int(cut.sum()))
+            s_prev = np.concatenate([s_prev, np.full(cap - len(s_prev), -1, np.int64)])
+            s_next = np.concatenate([s_next, np.full(cap - len(s_next), -1, np.int64)])
+        r = np.arange(len(v))
+        pts, off, ids, next_id = _apply_cuts(pts, off, ids, rows, cut, P[r, j // F],
+                                             Q[r, j % F], next_id, s_prev, s_next)
+        pts, off, ids, n = _pull(pts, off, space, 6, ids)
+        n_eval += n
+        new = _lengths(pts, off)
+        active &= (new < length * (1.0 - rel_tol)) & (np.diff(off) > 2)
+        length = new
+    return [pts[off[i]:off[i + 1]] for i in range(len(paths))], int(n_eval)
 
 
 # --------------------------------------------------------------------------------------
@@ -639,9 +755,11 @@ def signature_hashes(paths: np.ndarray, space: SwarmSpace) -> np.ndarray:
 
 
 @_jit
-def _k_classes(indptr, nbr, weight, ehash, src, dst, k_goal, k_node):
+def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node):
     """Label-setting search for the ``k_goal`` shortest ``src -> dst`` walks of distinct
-    homotopy signatures (each node settles at most ``k_node`` signatures, shortest first).
+    homotopy signatures (each node settles at most ``k_node`` signatures, shortest first),
+    A*-ordered by ``g + heur[node]`` (``heur``: a consistent lower bound of the distance to
+    ``dst``, so each node still settles its labels shortest first).
 
     Returns the goal labels (shortest first), each label's node and parent label.
     """
@@ -658,10 +776,13 @@ def _k_classes(indptr, nbr, weight, ehash, src, dst, k_goal, k_node):
     shash = np.empty((n, k_node), np.int64)
     goals = np.empty(k_goal, np.int64)
     n_goal = 0
-    heap = [(0.0, 0)]
+    lab_g = np.empty(cap)
+    lab_g[0] = 0.0
+    heap = [(heur[src], 0)]
     while len(heap) > 0 and n_goal < k_goal:
-        d, lab = heapq.heappop(heap)
+        _, lab = heapq.heappop(heap)
         v = lab_node[lab]
+        d = lab_g[lab]
         h = lab_hash[lab]
         if settled[v] >= k_node:
             continue
@@ -685,40 +806,80 @@ def _k_classes(indptr, nbr, weight, ehash, src, dst, k_goal, k_node):
             lab_node[n_lab] = u
             lab_hash[n_lab] = h + ehash[e]
             lab_par[n_lab] = lab
-            heapq.heappush(heap, (d + weight[e], n_lab))
+            lab_g[n_lab] = d + weight[e]
+            heapq.heappush(heap, (d + weight[e] + heur[u], n_lab))
             n_lab += 1
     return goals[:n_goal], lab_node[:n_lab], lab_par[:n_lab]
 
 
 def _free_points(space: SwarmSpace, pts: np.ndarray) -> np.ndarray:
-    """The points where the robot's disc is collision-free (one kernel call)."""
-    if space.obstacles is None or len(pts) == 0:
+    """The points where the robot's disc is collision-free, with the margin of
+    ``space.clear`` (one kernel call)."""
+    if len(pts) == 0:
         return pts
-    return pts[space.obstacles.crossings(np.stack([pts, pts], axis=1),
-                                         penetration=False).count == 0]
+    return pts[segment_free(pts, pts, space)]
 
 
-def roadmap_nodes(space: SwarmSpace, n_samples: int, rng: np.random.Generator) -> np.ndarray:
-    """Start, goal and collision-free samples: ``n_samples`` uniform draws plus as many
-    Gaussian obstacle-boundary draws (a uniform point and a partner at distance
-    ``~N(0, (diag / 40)^2)`` per axis; the free one of a free/blocked pair is kept), which put
-    nodes beside obstacles and in narrow passages where shortest paths run."""
+def boundary_samples(space: SwarmSpace, n: int, rng: np.random.Generator) -> np.ndarray:
+    """``n`` random points beside the obstacles (world coordinates), moved out from the
+    obstacle by the robot radius plus an exponential margin (mean ``0.5 r + diag / 200``):
+    half of them from a point drawn uniformly by length over the kernel's boundary edges and
+    circle perimeters (along the outward normal), half around a random corner of a convex
+    piece (in a random direction between the normals of its two edges).  Obstacle-based
+    sampling (a PRM technique): it puts roadmap nodes in narrow passages and around the
+    corners that shortest paths wrap."""
+    os_ = space.obstacles
+    if os_ is None or os_.n_items == 0 or n <= 0:
+        return np.zeros((0, 2))
+    K = os_.n_pieces
+    p, e, nrm = os_.table[0], os_.table[1], os_.table[2]  # (4, K) complex, local frame
+    w_edge = np.where(os_.boundary, np.abs(e), 0.0).T.reshape(-1)  # (K * 4,)
+    cen = os_.item_center[K:]
+    rad = os_.circle_radius
+    w = np.concatenate([w_edge, 2 * np.pi * rad])
+    if w.sum() <= 0:
+        return np.zeros((0, 2))
+    off = os_.radius + rng.exponential(0.5 * os_.radius + space.diag / 200.0, n)
+    n_corner = n // 2 if K else 0
+    z = np.empty(n, complex)
+    # along edges and circles
+    m = n - n_corner
+    pick = rng.choice(len(w), size=m, p=w / w.sum())
+    u = rng.random(m)
+    edge = pick < len(w_edge)
+    k, j = pick[edge] // 4, pick[edge] % 4
+    ze = np.empty(m, complex)
+    ze[edge] = p[j, k] + u[edge] * e[j, k] + off[:m][edge] * nrm[j, k]
+    c = pick[~edge] - len(w_edge)
+    ze[~edge] = cen[c] + (rad[c] + off[:m][~edge]) * np.exp(2j * np.pi * u[~edge])
+    z[:m] = ze
+    # around piece corners: vertex j of piece k lies between edges j - 1 and j
+    if n_corner:
+        # corners without replacement (every corner once before any twice)
+        order = np.concatenate([rng.permutation(4 * K) for _ in range(-(-n_corner // (4 * K)))])
+        k, j = order[:n_corner] // 4, order[:n_corner] % 4
+        a0 = np.angle(nrm[(j - 1) % 4, k])
+        sweep = np.mod(np.angle(nrm[j, k]) - a0, 2 * np.pi)
+        sweep = np.where(sweep > np.pi, 0.0, sweep)  # a reflex join: along the first normal
+        z[m:] = p[j, k] + off[m:] * np.exp(1j * (a0 + rng.random(n_corner) * sweep))
+    return np.stack([z.real, z.imag], axis=1) + os_.frame.origin
+
+
+def roadmap_nodes(space: SwarmSpace, n_samples: int, rng: np.random.Generator,
+                  boundary: int | None = None) -> np.ndarray:
+    """Start, goal and the collision-free ones among ``n_samples`` uniform draws in the bounds
+    and ``boundary`` (default ``n_samples``) :func:`boundary_samples` (one kernel call)."""
     lo, hi = space.lo[:2], space.hi[:2]
-    U = lo + (hi - lo) * rng.random((n_samples, 2))
-    G = np.clip(U + (space.diag / 40.0) * rng.standard_normal((n_samples, 2)), lo, hi)
-    if space.obstacles is None:
-        return np.vstack([space.start, space.goal, U])
-    both = np.vstack([U, G])
-    blocked = space.obstacles.crossings(np.stack([both, both], axis=1),
-                                        penetration=False).count > 0
-    bu, bg = blocked[:n_samples], blocked[n_samples:]
-    edge = np.where(bu & ~bg, True, False)
-    pick = np.vstack([U[~bu], G[edge]])  # free uniform draws, free partners of blocked ones
-    return np.vstack([space.start, space.goal, pick])
+    pts = np.vstack([lo + (hi - lo) * rng.random((n_samples, 2)),
+                     boundary_samples(space, n_samples if boundary is None else boundary,
+                                      rng)])
+    pts = pts[np.all((pts >= lo) & (pts <= hi), axis=1)]
+    return np.vstack([space.start, space.goal, _free_points(space, pts)])
 
 
 def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
-                      n_samples: int = 150, k_neighbours: int = 12) -> list[np.ndarray]:
+                      n_samples: int = 150, k_neighbours: int = 12,
+                      boundary: int | None = None) -> list[np.ndarray]:
     """Collision-free start-goal paths in up to ``n_paths`` distinct homotopy classes, the
     shortest first, from one sparse random roadmap (beyond the paper; no exact planner).
 
@@ -731,21 +892,20 @@ def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
     """
     from scipy.spatial import cKDTree
 
-    nodes = roadmap_nodes(space, n_samples, rng)
+    nodes = roadmap_nodes(space, n_samples, rng, boundary)
     n = len(nodes)
-    k = min(k_neighbours, n - 1)
-    if k < 1 or n_paths < 1:
+    if n_paths < 1:
         return []
-    _, nb = cKDTree(nodes).query(nodes, k=min(2 * k, n - 1) + 1)
-    nb = nb[:, 1:]
-    i = np.repeat(np.arange(n), k)
-    j = nb[:, :k].reshape(-1)
-    ends = np.repeat([0, 1], nb.shape[1])
-    i = np.concatenate([i, ends])
-    j = np.concatenate([j, nb[:2].reshape(-1)])
-    lo_, hi_ = np.minimum(i, j), np.maximum(i, j)
-    key = np.unique(lo_ * n + hi_)
-    i, j = key // n, key % n
+    if k_neighbours <= 0 or k_neighbours >= n - 1:  # every pair
+        i, j = np.triu_indices(n, 1)
+    else:
+        k = k_neighbours
+        _, nb = cKDTree(nodes).query(nodes, k=min(2 * k, n - 1) + 1)
+        nb = nb[:, 1:]
+        i = np.concatenate([np.repeat(np.arange(n), k), np.repeat([0, 1], nb.shape[1])])
+        j = np.concatenate([nb[:, :k].reshape(-1), nb[:2].reshape(-1)])
+        key = np.unique(np.minimum(i, j) * n + np.maximum(i, j))
+        i, j = key // n, key % n
     ok = segment_free(nodes[i], nodes[j], space)
     i, j = i[ok], j[ok]
     if len(i) == 0:
@@ -757,9 +917,10 @@ def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
     dst = np.concatenate([j, i])
     order = np.argsort(src, kind="stable")
     indptr = np.searchsorted(src[order], np.arange(n + 1))
+    heur = np.hypot(*(nodes - space.goal).T)
     goals, lab_node, lab_par = _k_classes(
         indptr.astype(np.int64), dst[order].astype(np.int64), np.concatenate([w, w])[order],
-        np.concatenate([eh, -eh])[order], 0, 1, int(n_paths), int(n_paths))
+        np.concatenate([eh, -eh])[order], heur, 0, 1, int(n_paths), int(n_paths))
     walks = []
     for g in goals:
         seq = []
@@ -768,7 +929,7 @@ def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
             seq.append(int(lab_node[lab]))
             lab = int(lab_par[lab])
         walks.append(nodes[seq[::-1]])
-    return _shortcut_many(walks, space)
+    return _shortcut_many(walks, space) if walks else []
 
 
 def converged_iteration(best: np.ndarray, rel: float = 1e-3) -> int:
@@ -908,8 +1069,10 @@ class SwarmBackend(Backend):
     init_mode: str = "sorted"
     penalty_weight: float | None = None
     penetration_weight: float = 0.0
-    roadmap_samples: int = 60
-    corridors: int = 5
+    roadmap_samples: int = 40
+    roadmap_boundary: int = 160
+    roadmap_neighbours: int = 25
+    corridors: int = 10
 
     def __post_init__(self) -> None:
         check_int(self, "n_particles", 2, 100_000)
@@ -923,7 +1086,9 @@ class SwarmBackend(Backend):
         if self.penalty_weight is not None:
             check_range(self, "penalty_weight", 0.0, math.inf)
         check_range(self, "penetration_weight", 0.0, math.inf)
-        check_int(self, "roadmap_samples", 2, 100_000)
+        check_int(self, "roadmap_samples", 0, 100_000)
+        check_int(self, "roadmap_boundary", 0, 100_000)
+        check_int(self, "roadmap_neighbours", 0, 100_000)
         check_int(self, "corridors", 1, 1000)
 
     # -- hooks for subclasses ------------------------------------------------------
@@ -965,7 +1130,9 @@ class SwarmBackend(Backend):
         X = initial_swarm(space, self.n_particles, self.init_mode, rng)
         seeds: list[np.ndarray] = []
         if self.init_mode == "roadmap":
-            seeds = roadmap_corridors(space, self.corridors, rng, n_samples=self.roadmap_samples)
+            seeds = roadmap_corridors(space, self.corridors, rng, n_samples=self.roadmap_samples,
+                                      k_neighbours=self.roadmap_neighbours,
+                                      boundary=self.roadmap_boundary)
             blocks = self._seed_blocks(len(seeds))
             for i, pth in enumerate(seeds[:blocks]):  # one per block of particles
                 X[i * self.n_particles // blocks] = as_particle(pth, space)
@@ -1046,12 +1213,15 @@ class SwarmBackend(Backend):
             n_eval += st.n_eval
             n_iter += iters
             stopped_any |= stopped
-            # the answer: the best collision-free particle ever seen, else gbest
-            x = st.feas_x if st.feas_x is not None else st.gbest
-            ok = st.feas_x is not None
+            # the answer: a final path (end-game), else the best collision-free particle ever
+            # seen, else gbest
+            ok = st.final_path is not None or st.feas_x is not None
             all_ok &= ok
-            final = st.final_path if ok else None
-            paths[robot.id] = final if final is not None else decode(x[None], space)[0]
+            if st.final_path is not None:
+                paths[robot.id] = st.final_path
+            else:
+                x = st.feas_x if st.feas_x is not None else st.gbest
+                paths[robot.id] = decode(x[None], space)[0]
             # over the swarm iterations (a final tightening row is not an iteration)
             best = np.array([r["best_cost"] for r in rows[:iters + 1]])
             cost += st.feas_len if ok else st.gbest_f
