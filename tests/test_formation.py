@@ -133,17 +133,40 @@ def _reference_solution(L: QPLayout, d: QPData, tau: float, w_f: float) -> np.nd
 
 def test_qp_is_dpp_and_matches_the_written_out_model():
     """One implementation: the expanded DPP model (u'Qu + q'u, one Parameter vector) gives
-    the solution of the QP as written in the docs, and re-solves with new data in place."""
+    the solution of the QP as written in the docs, through cvxpy's re-solve pipeline and
+    through the compiled map (cvxpy out of the loop) alike."""
     m = QPModel(_layout(), 0.5, 4.0, 1e4, _SETTINGS)
     assert m.problem.is_dpp() and m.problem.parameters() == [m.theta]
+    assert m.compiled is not None  # the affine map was read off cvxpy and verified
     rng = np.random.default_rng(3)
     for _ in range(4):
         d = _data(rng)
+        ref = _reference_solution(m.layout, d, 0.5, 4.0)
         sol = m.solve(d)
-        assert sol.status in ("optimal", "optimal_inaccurate") and not sol.fallback
-        np.testing.assert_allclose(sol.U, _reference_solution(m.layout, d, 0.5, 4.0), atol=2e-5)
+        assert sol.status in ("Solved", "AlmostSolved") and not sol.fallback
+        np.testing.assert_allclose(sol.U, ref, atol=2e-5)
+        via_cvxpy, _ = m.solve_cvxpy(d.theta(m.linear_term(d)))
+        np.testing.assert_allclose(via_cvxpy.U, ref, atol=2e-5)
+    slow = QPModel(_layout(), 0.5, 4.0, 1e4, _SETTINGS, fast=False)  # cvxpy in the loop
+    assert slow.compiled is None
+    np.testing.assert_allclose(slow.solve(d).U, sol.U, atol=2e-5)
     data = m.problem.get_problem_data(cp.CLARABEL)[0]
     assert data["dims"].zero == 0  # no auxiliary equality rows: Q goes to Clarabel as is
+    assert data["c"].size == 2 * m.layout.n  # and no auxiliary variables
+
+
+def test_rows_implied_by_the_speed_cones_are_dropped():
+    m = QPModel(_layout(), 0.5, 4.0, 1e4, _SETTINGS)
+    c = m.compiled
+    d = QPData.inactive(m.layout)  # every row padded, bounds at the speed limits
+    vals = c.c0 + c.c1 * np.append(d.theta(m.linear_term(d)), 0.0)[c.j]
+    keep = c.rows_needed(vals[c.nx: c.nx + c.nnz], vals[c.nx + c.nnz:])
+    assert keep.sum() == 3 * len(m.layout.vmax)  # only the speed cones (3 rows each) remain
+    d.G[0], d.bp[0] = [1.0, 0.0], 7.9  # |G| (4 + 4) > 7.9: the pair row can bind, kept
+    d.N[0], d.bo[0] = [0.0, 1.0], 4.0  # |N| 4 <= 4: implied, dropped
+    vals = c.c0 + c.c1 * np.append(d.theta(m.linear_term(d)), 0.0)[c.j]
+    keep2 = c.rows_needed(vals[c.nx: c.nx + c.nnz], vals[c.nx + c.nnz:])
+    assert keep2.sum() == keep.sum() + 1
 
 
 def test_infeasible_obstacle_rows_use_the_reported_slack_fallback():
@@ -167,8 +190,10 @@ def test_qp_history_row_and_statistics_are_no_metrics():
     for col in ("qp_status", "qp_ok", "qp_time", "qp_solve_time", "qp_slack", "qp_pairs",
                 "qp_fallback"):
         assert len(res.history[col]) == len(res.history)
-    for k in ("qp_failures", "qp_solves", "slack_steps", "max_slack", "rebuilds", "qp_median_ms"):
+    for k in ("qp_failures", "qp_solves", "slack_steps", "max_slack", "rebuilds", "qp_compiled",
+              "qp_median_ms"):
         assert k in res.extras and k not in res.metrics
+    assert res.extras["qp_compiled"]
     assert res.extras["qp_solves"] == len(res.history)
     assert np.all(res.history["qp_solve_time"] <= res.history["qp_time"])
 

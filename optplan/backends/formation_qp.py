@@ -48,21 +48,32 @@ Implementation (one implementation: a cvxpy DPP model solved by Clarabel)
 ------------------------------------------------------------------------
 The objective is expanded once: :math:`u^TQu + q^Tu` with the constant
 :math:`Q = W + w_f\tau^2E^TE` (:math:`E` the formation-error Jacobian) and the linear term
-:math:`q = -2Wu^{nom} + 2w_f\tau E^Tr` the only objective Parameter, so cvxpy passes :math:`Q`
-to Clarabel as its quadratic term (no auxiliary variables); the speed limits are second-order
-cones on :math:`(v_{max,i}, u_i)` directly.  Every row family has a fixed shape (a
-:class:`QPLayout`): pair rows on a pattern of the pairs within ``1.5 * neighbor_radius``,
-``max_obstacles`` rows per robot, one row per robot and external robot; rows that do not apply
-this step are padded (zero coefficients, right-hand side ``BIG``).  The model is DPP
-(``problem.is_dpp()`` is checked when it is built) and compiled once per layout; each step only
-sets Parameter values and runs cvxpy's documented re-solve pipeline
-(``get_problem_data`` -> ``SolvingChain.solve_via_data(warm_start=True)`` ->
-``unpack_results``), in which cvxpy updates the cached Clarabel solver in place (possible
-because ``presolve_enable`` and ``chordal_decomposition_enable`` are off).  A new pair inside
-``neighbor_radius`` outside the pattern, or a change of the controlled robots, rebuilds the
-model (``stats["rebuilds"]``).  A solver status other than optimal / optimal inaccurate after
-the fallback, or a solver error, gives a safe stop (all controlled robots hold still), counted
-in ``stats["qp_failures"]``; nothing is raised.
+:math:`q = -2Wu^{nom} + 2w_f\tau E^Tr`, so cvxpy passes :math:`Q` to Clarabel as its quadratic
+term (no auxiliary variables or equality rows); the speed limits are second-order cones on
+:math:`(v_{max,i}, u_i)` directly.  Every row family has a fixed shape (a :class:`QPLayout`):
+pair rows on a pattern of the pairs within ``1.5 * neighbor_radius``, ``max_obstacles`` rows per
+robot, one row per robot and external robot; rows that do not apply this step are padded (zero
+coefficients, right-hand side ``BIG``).  All per-step numbers are one Parameter vector
+(:meth:`QPData.theta`).  The model is DPP (``problem.is_dpp()`` is checked) and compiled once per
+layout.
+
+Per step, cvxpy is out of the loop (:class:`CompiledQP`): a DPP problem's compiled solver data
+is affine in its Parameters, and that map is read off cvxpy's compilation
+(``Problem.get_problem_data``, documented as enough to call the solver directly) when the model
+is built, verified against a further compilation and against cvxpy's own re-solve.  A step
+evaluates the map, drops the inequality rows the speed cones already imply
+(:math:`\sum_i\|a_i\|v_{max,i} \le b`: the padded rows, far pairs, walls out of reach; the
+feasible set and the solution are unchanged) and gives the rest to Clarabel, updated in place with
+``DefaultSolver.update`` (``presolve_enable`` and ``chordal_decomposition_enable`` off) while the
+kept rows stay the same.  If the map cannot be read off or verified, every step goes through
+cvxpy's documented re-solve pipeline instead (``get_problem_data`` on the cached compilation ->
+``SolvingChain.solve_via_data(warm_start=True)`` -> ``unpack_results``;
+:meth:`QPModel.solve_cvxpy`), the same model and the same solution, only slower.
+
+A new pair inside ``neighbor_radius`` outside the pattern, or a change of the controlled robots,
+rebuilds the model (``stats["rebuilds"]``).  A Clarabel status other than ``Solved`` /
+``AlmostSolved`` after the fallback, or a solver error, gives a safe stop (all controlled robots
+hold still), counted in ``stats["qp_failures"]``; nothing is raised.
 """
 
 from __future__ import annotations
@@ -75,6 +86,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+import scipy.sparse as sp
 
 from optplan.backends.leader_follower import (
     PilotedFormation,
@@ -93,7 +105,8 @@ __all__ = ["FormationQP", "QPData", "QPLayout", "QPModel", "QPSolver", "QPSoluti
 
 #: Right-hand side of an inactive (all-zero) row.
 BIG = 1e5
-_OK = ("optimal", "optimal_inaccurate")
+#: Clarabel statuses accepted as a solution.
+_OK = ("Solved", "AlmostSolved")
 
 
 # --------------------------------------------------------------------------------------
@@ -233,7 +246,7 @@ class QPModel:
     """
 
     def __init__(self, layout: QPLayout, tau: float, w_f: float, w_s: float,
-                 settings: dict[str, Any], soft: bool = False):
+                 settings: dict[str, Any], soft: bool = False, fast: bool = True):
         import cvxpy as cp
 
         self.layout, self.tau, self.w_f, self.settings, self.soft = layout, tau, w_f, settings, \
@@ -270,6 +283,8 @@ class QPModel:
         if not self.problem.is_dpp():
             raise RuntimeError("the formation QP must be DPP (a modelling error in optplan)")
         self._solver = cp.CLARABEL
+        #: The per-step map (None: every step goes through cvxpy's pipeline).
+        self.compiled: CompiledQP | None = CompiledQP.learn(self) if fast else None
 
     def linear_term(self, data: QPData) -> np.ndarray:
         """:math:`q = -2Wu^{nom} + 2w_f\tau E^Tr` (the objective's only per-step data)."""
@@ -279,10 +294,24 @@ class QPModel:
         return q
 
     def solve(self, data: QPData) -> QPSolution:
-        """Set the Parameter from ``data`` and re-solve (never raises on solver trouble)."""
+        """Set the Parameter from ``data`` and re-solve (never raises on solver trouble).
+
+        Through the :class:`CompiledQP` map when it could be read off cvxpy's compiled data
+        (:attr:`compiled`), else through cvxpy's re-solve pipeline (:meth:`solve_cvxpy`).
+        """
+        theta = data.theta(self.linear_term(data))
+        if self.compiled is not None:
+            return self.compiled.solve(theta, self.soft)
+        return self.solve_cvxpy(theta)[0]
+
+    def solve_cvxpy(self, theta: np.ndarray) -> tuple[QPSolution, np.ndarray | None]:
+        """cvxpy's documented re-solve pipeline: ``get_problem_data`` (the cached DPP
+        compilation applies the Parameter), ``SolvingChain.solve_via_data`` (cvxpy updates its
+        cached Clarabel solver) and ``unpack_results``.  Returns the solution and Clarabel's
+        raw ``x``.  Statuses are Clarabel's."""
         from cvxpy.error import SolverError
 
-        self.theta.value = data.theta(self.linear_term(data))
+        self.theta.value = theta
         p = self.problem
         try:
             pdata, chain, inverse = p.get_problem_data(self._solver, solver_opts=self.settings)
@@ -292,12 +321,203 @@ class QPModel:
                 warnings.simplefilter("ignore", UserWarning)
                 p.unpack_results(raw, chain, inverse)
         except (SolverError, ValueError, ArithmeticError) as e:
-            return QPSolution(None, f"error: {type(e).__name__}", math.nan, self.soft)
-        st = str(p.status)
+            return QPSolution(None, f"error: {type(e).__name__}", math.nan, self.soft), None
+        st = str(raw.status)
         if st not in _OK or self.u.value is None:
-            return QPSolution(None, st, math.nan, self.soft)
+            return QPSolution(None, st, math.nan, self.soft), None
         slack = max(float(self.S.value.max()), 0.0) if self.S is not None else 0.0
-        return QPSolution(np.asarray(self.u.value).reshape(-1, 2), st, slack, self.soft)
+        U = np.asarray(self.u.value).reshape(-1, 2)
+        return QPSolution(U, st, slack, self.soft), np.asarray(raw.x, float)
+
+    def compiled_data(self, theta: np.ndarray) -> dict[str, Any]:
+        """cvxpy's compiled Clarabel data (``P``, ``c``, ``A``, ``b``, ``dims``) at ``theta``."""
+        self.theta.value = theta
+        return self.problem.get_problem_data(self._solver, solver_opts=self.settings)[0]
+
+    def feasible_theta(self, rng: np.random.Generator) -> np.ndarray:
+        """A Parameter vector of random data at which ``u = 0`` is feasible (for checks)."""
+        L = self.layout
+        d = QPData.inactive(L)
+        d.unom = rng.normal(size=d.unom.shape) * L.vmax[:, None]
+        d.r = rng.normal(size=d.r.shape)
+        d.G, d.bp = rng.normal(size=d.G.shape), rng.uniform(0.1, 1.0, L.P)
+        d.N, d.bo = rng.normal(size=d.N.shape), rng.uniform(0.1, 1.0, L.nK)
+        d.Ne, d.be = rng.normal(size=d.Ne.shape), rng.uniform(0.1, 1.0, L.nE)
+        return d.theta(self.linear_term(d))
+
+
+class CompiledQP:
+    """The per-step solve with cvxpy out of the loop: cvxpy's compiled data as an affine map.
+
+    A DPP problem's compiled solver data is an affine function of its Parameters (that is what
+    cvxpy caches).  :meth:`learn` reads that map off :meth:`QPModel.compiled_data` at
+    :math:`\\theta = 0` and three random Parameter vectors, assuming that every entry of the
+    data (``c``, ``A``, ``b``) depends on at most one Parameter entry (true for this model), and
+    accepts it only when it predicts the fourth compilation exactly and its Clarabel solve
+    agrees with cvxpy's own pipeline (:meth:`QPModel.solve_cvxpy`); otherwise the model keeps
+    the pipeline.
+
+    Each step evaluates the map (``c0 + c1 * theta[j]``), drops the inequality rows that the
+    speed cones already imply (:math:`a^Tu \\le b` with
+    :math:`\\sum_i \\|a_i\\|\\,v_{max,i} \\le b`: every padded row, far pairs, walls out of
+    reach; the feasible set is unchanged, so is the solution) and hands the rest to Clarabel:
+    ``DefaultSolver.update`` when the kept rows are those of the last step, else a new
+    ``DefaultSolver`` (counted in :attr:`builds`).
+    """
+
+    def __init__(self, P: Any, cones: dict[str, Any], pattern: tuple[np.ndarray, np.ndarray],
+                 affine: tuple[np.ndarray, np.ndarray, np.ndarray], sizes: tuple[int, int, int],
+                 u_off: int, vmax: np.ndarray, settings: dict[str, Any]):
+        self.P, self.cones, self.settings = P, cones, settings
+        self.rows, self.cols = pattern
+        self.c0, self.c1, self.j = affine
+        self.nx, self.nnz, self.m = sizes
+        self.n, self.u_off = len(vmax), u_off
+        self.builds = 0
+        n, rows, cols = self.n, self.rows, self.cols
+        is_u = (cols >= u_off) & (cols < u_off + 2 * n)
+        self._droppable = np.zeros(self.m, bool)
+        self._droppable[cones["zero"]: cones["zero"] + cones["nonneg"]] = True
+        self._droppable &= np.bincount(rows[~is_u], minlength=self.m) == 0
+        grp, self._gid = np.unique(rows * n + np.where(is_u, (cols - u_off) // 2, 0),
+                                   return_inverse=True)
+        self._g_row, self._g_vmax = grp // n, np.asarray(vmax, float)[grp % n]
+        self._other = np.r_[0:u_off, u_off + 2 * n: self.nx].astype(np.int64)
+        self._keep: np.ndarray | None = None
+        self._solver: Any = None
+
+    # -- reading the map off cvxpy ----------------------------------------------------------
+    @classmethod
+    def learn(cls, model: QPModel) -> CompiledQP | None:
+        """The map of ``model``'s compilation, or None when it cannot be read off and verified."""
+        rng = np.random.default_rng(20240601)
+        m = theta_size(model.layout)
+        probes = [np.zeros(m)] + [rng.uniform(1.0, 2.0, m) * rng.choice([-1.0, 1.0], m)
+                                  for _ in range(3)]
+        data = [model.compiled_data(t) for t in probes]
+        dims = data[1]["dims"]
+        if dims.exp or dims.psd or getattr(dims, "p3d", None) or getattr(dims, "pnd", None):
+            return None
+        A1 = sp.csc_matrix(data[1]["A"])
+        A1.sort_indices()
+        pattern = (A1.indices.astype(np.int64),
+                   np.repeat(np.arange(A1.shape[1]), np.diff(A1.indptr)))
+        v = [_flat(d, pattern) for d in data]
+        P = sp.triu(sp.csc_matrix(data[1]["P"])).tocsc()
+        if any(x is None for x in v) or any(
+                abs(sp.triu(sp.csc_matrix(d["P"])) - P).sum() > 0 for d in data):
+            return None  # an entry off the pattern, or a quadratic term that varies
+        affine = _affine_fit(probes, v)
+        if affine is None:
+            return None
+        sizes = (len(data[1]["c"]), len(pattern[0]), A1.shape[0])
+        cones = {"zero": dims.zero, "nonneg": dims.nonneg, "soc": list(dims.soc)}
+        theta = model.feasible_theta(rng)
+        ref, x = model.solve_cvxpy(theta)
+        u_off = _offset(x, ref.U)
+        if u_off is None:
+            return None
+        out = cls(P, cones, pattern, affine, sizes, u_off, model.layout.vmax, model.settings)
+        got = out.solve(theta, model.soft)
+        scale = 1e-5 * (1.0 + float(np.abs(ref.U).max()))
+        if got.U is None or not np.allclose(got.U, ref.U, atol=scale):
+            return None
+        return out
+
+    # -- one step ----------------------------------------------------------------------------
+    def rows_needed(self, Av: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """False for the inequality rows the speed cones imply."""
+        g = np.bincount(self._gid, weights=Av * Av, minlength=len(self._g_row))
+        bound = np.bincount(self._g_row, weights=np.sqrt(g) * self._g_vmax, minlength=self.m)
+        return ~(self._droppable & (bound <= b + 1e-12 * (1.0 + np.abs(b))))
+
+    def solve(self, theta: np.ndarray, soft: bool = False) -> QPSolution:
+        vals = self.c0 + self.c1 * np.append(theta, 0.0)[self.j]
+        q, Av, b = vals[: self.nx], vals[self.nx: self.nx + self.nnz], vals[self.nx + self.nnz:]
+        keep = self.rows_needed(Av, b)
+        ent = keep[self.rows]
+        try:
+            if self._solver is not None and np.array_equal(keep, self._keep):
+                self._solver.update(q=q, A=Av[ent], b=b[keep])
+            else:
+                self._build(q, Av, b, keep, ent)
+            sol = self._solver.solve()
+        except (ValueError, RuntimeError, ArithmeticError) as e:  # solver trouble: safe stop
+            self._solver = None
+            return QPSolution(None, f"error: {type(e).__name__}", math.nan, soft)
+        st = str(sol.status)
+        if st not in _OK:
+            return QPSolution(None, st, math.nan, soft)
+        x = np.asarray(sol.x, float)
+        U = x[self.u_off: self.u_off + 2 * self.n].reshape(-1, 2)
+        slack = max(float(x[self._other].max()), 0.0) if soft and len(self._other) else 0.0
+        return QPSolution(U, st, slack, soft)
+
+    def _build(self, q: np.ndarray, Av: np.ndarray, b: np.ndarray, keep: np.ndarray,
+               ent: np.ndarray) -> None:
+        import clarabel
+
+        rows = (np.cumsum(keep) - 1)[self.rows[ent]]
+        indptr = np.r_[0, np.cumsum(np.bincount(self.cols[ent], minlength=self.nx))]
+        A = sp.csc_matrix((Av[ent], rows, indptr), shape=(int(keep.sum()), self.nx))
+        z, l = self.cones["zero"], int(keep[self.cones["zero"]: self.cones["zero"]
+                                            + self.cones["nonneg"]].sum())
+        cones = ([clarabel.ZeroConeT(z)] if z else []) + (
+            [clarabel.NonnegativeConeT(l)] if l else []) + [
+            clarabel.SecondOrderConeT(k) for k in self.cones["soc"]]
+        st = clarabel.DefaultSettings()
+        for k, v in self.settings.items():
+            setattr(st, k, v)
+        self._solver = clarabel.DefaultSolver(self.P, q, A, b[keep], cones, st)
+        self._keep = keep
+        self.builds += 1
+
+
+def _flat(d: dict[str, Any], pattern: tuple[np.ndarray, np.ndarray]) -> np.ndarray | None:
+    """``c``, the values of ``A`` on the pattern and ``b`` as one vector (None when ``A`` has
+    an entry off the pattern)."""
+    A = sp.csr_matrix(d["A"])
+    at = np.asarray(A[pattern[0], pattern[1]]).ravel()
+    if not np.isclose(abs(A).sum(), np.abs(at).sum(), rtol=1e-12, atol=0.0):
+        return None
+    return np.concatenate([np.asarray(d["c"], float).ravel(), at,
+                           np.asarray(d["b"], float).ravel()])
+
+
+def _affine_fit(probes: list[np.ndarray], v: list[np.ndarray]
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """``(c0, c1, j)`` with ``v = c0 + c1 * theta[j]`` (``j = len(theta)``: constant) from the
+    probes ``theta = 0, t1, t2`` (identifying ``j`` by the ratio ``t1[j] / t2[j]``), checked on
+    ``t3``; None when the data is not of that form."""
+    m = len(probes[0])
+    v0, v1, v2, v3 = v
+    scale = 1e-10 * (1.0 + max(float(np.abs(x).max()) for x in v))
+    d1, d2 = v1 - v0, v2 - v0
+    varies = (np.abs(d1) > scale) | (np.abs(d2) > scale)
+    ratio = probes[1] / probes[2]
+    order = np.argsort(ratio)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = d1[varies] / d2[varies]
+    pos = np.clip(np.searchsorted(ratio[order], r), 1, max(m - 1, 1))
+    cand = np.stack([order[pos - 1], order[np.minimum(pos, m - 1)]])
+    best = cand[np.argmin(np.abs(ratio[cand] - r), axis=0), np.arange(len(r))]
+    j = np.full(len(v0), m, np.int64)
+    j[varies] = best
+    c1 = np.zeros(len(v0))
+    c1[varies] = d1[varies] / probes[1][best]
+    if not np.allclose(v0 + c1 * np.append(probes[3], 0.0)[j], v3, rtol=1e-9, atol=scale):
+        return None
+    return v0, c1, j
+
+
+def _offset(x: np.ndarray | None, U: np.ndarray | None) -> int | None:
+    """Where the robots' velocities sit in Clarabel's ``x``."""
+    if x is None or U is None:
+        return None
+    u = U.ravel()
+    tol = 1e-9 * (1.0 + float(np.abs(u).max()))
+    hits = [o for o in range(len(x) - len(u) + 1) if np.allclose(x[o: o + len(u)], u, atol=tol)]
+    return hits[0] if len(hits) == 1 else None
 
 
 #: The blocks of the Parameter vector, in order: name -> (size function, shape function).
@@ -406,7 +626,8 @@ class QPFormationController:
     stats : dict
         ``qp_solves``, ``qp_failures`` (safe stops), ``slack_steps`` (steps solved by the slack
         fallback), ``max_slack``, ``rebuilds``, ``solve_times`` (s, whole step),
-        ``statuses`` (count per solver status).
+        ``statuses`` (count per Clarabel status), ``compiled`` (the current model is solved
+        through :class:`CompiledQP`, else through cvxpy's pipeline).
     last : QPStepRecord or None
         The record of the last step (the QP's history columns).
     """
@@ -419,11 +640,14 @@ class QPFormationController:
         self.spec = {f.id: f for f in self.form.followers}
         self.solver: QPSolver | None = None
         self._key: tuple | None = None
-        self._pattern: set[tuple[int, int]] = set()
+        self._in_pattern = np.zeros(0, bool)  # per pair of np.triu_indices(n, 1)
+        self._robots = {r.id: r for r in problem.robots}
+        self._team_key: tuple | None = None
+        self._team: tuple = ()
         self.last: QPStepRecord | None = None
         self.stats: dict[str, Any] = {"qp_failures": 0, "qp_solves": 0, "rebuilds": 0,
                                       "slack_steps": 0, "max_slack": 0.0, "solve_times": [],
-                                      "statuses": {}}
+                                      "statuses": {}, "compiled": False}
         self._settings = {"presolve_enable": False, "chordal_decomposition_enable": False,
                           "verbose": False, "max_iter": opts.max_iter,
                           "tol_gap_abs": opts.tol, "tol_gap_rel": opts.tol,
@@ -462,36 +686,41 @@ class QPFormationController:
         return U
 
     def _geometry(self, state: SimState, s: _Step) -> _Geometry:
-        rob = [self.problem.robot(state.ids[i]) for i in s.ctrl]
-        vmax = np.array([r.max_speed for r in rob])
+        key = (tuple(s.ctrl), s.lead, tuple(state.ids))
+        if key != self._team_key:  # the robots' sizes and the formation edges, once
+            rob = [self._robots[state.ids[i]] for i in s.ctrl]
+            li = s.ctrl.index(s.lead) if s.lead in s.ctrl else None
+            edges = [(k, -1 if li is None else li) for k, i in enumerate(s.ctrl)
+                     if state.ids[i] in self.spec]
+            self._team = (np.array([r.radius for r in rob]), np.array([r.max_speed for r in rob]),
+                          li, np.array(edges, int).reshape(-1, 2), np.triu_indices(len(s.ctrl), 1))
+            self._team_key = key
+        radii, vmax, li, edges, _ = self._team
         Ds = self.form.safety_distance
         R_nb = max(self.o.neighbor_radius, Ds + 2 * state.dt * float(vmax.max()) * 1.05)
-        li = s.ctrl.index(s.lead) if s.lead in s.ctrl else None
-        edges = [(k, -1 if li is None else li) for k, i in enumerate(s.ctrl)
-                 if state.ids[i] in self.spec]
         X = state.positions
-        return _Geometry(state.dt, X, X[s.ctrl], np.array([r.radius for r in rob]), vmax, R_nb,
-                         Ds, li, np.array(edges, int).reshape(-1, 2))
+        return _Geometry(state.dt, X, X[s.ctrl], radii, vmax, R_nb, Ds, li, edges)
 
     def _solver_for(self, state: SimState, s: _Step, geo: _Geometry) -> QPSolver:
         """The cached solver, rebuilt when the robots or the pair pattern no longer fit."""
         n = len(s.ctrl)
-        iu, ju = np.triu_indices(n, 1)
+        iu, ju = self._team[4]
         dd = np.hypot(*(geo.xc[iu] - geo.xc[ju]).T) if n > 1 else np.zeros(0)
-        active = {(int(a), int(b)) for a, b in zip(iu[dd <= geo.R_nb], ju[dd <= geo.R_nb])}
         key = (tuple(s.ctrl), tuple(s.ext))
-        if self.solver is not None and key == self._key and active <= self._pattern:
+        if (self.solver is not None and key == self._key
+                and np.all(self._in_pattern[dd <= geo.R_nb])):
             return self.solver
-        patt = dd <= 1.5 * geo.R_nb
-        self._pattern = {(int(a), int(b)) for a, b in zip(iu[patt], ju[patt])}
+        self._in_pattern = dd <= 1.5 * geo.R_nb
         w = np.ones(n)
         if geo.li is not None:
             w[geo.li] = self.o.w_leader
-        layout = QPLayout(n, np.array(sorted(self._pattern), int).reshape(-1, 2),
-                          self.o.max_obstacles, len(s.ext), geo.edges, w, geo.vmax)
+        pairs = np.stack([iu[self._in_pattern], ju[self._in_pattern]], axis=1)
+        layout = QPLayout(n, pairs.reshape(-1, 2), self.o.max_obstacles, len(s.ext), geo.edges,
+                          w, geo.vmax)
         self.solver = QPSolver(layout, state.dt, self.o.w_f, self.o.w_s, self._settings)
         self._key = key
         self.stats["rebuilds"] += 1
+        self.stats["compiled"] = self.solver.hard.compiled is not None
         return self.solver
 
     def _pair_rows(self, data: QPData, geo: _Geometry, layout: QPLayout) -> None:
@@ -693,6 +922,6 @@ def qp_summary(stats: dict[str, Any]) -> dict[str, Any]:
     times = np.asarray(stats["solve_times"])
     return {"qp_failures": stats["qp_failures"], "qp_solves": stats["qp_solves"],
             "slack_steps": stats["slack_steps"], "max_slack": stats["max_slack"],
-            "rebuilds": stats["rebuilds"],
+            "rebuilds": stats["rebuilds"], "qp_compiled": stats["compiled"],
             "qp_median_ms": float(np.median(times) * 1e3) if len(times) else math.nan}
 
