@@ -1,0 +1,1892 @@
+"""Fuzz optplan's input validation (issue 14): bad input never crashes, never hangs, never lies.
+
+Four families of malformed input, each case run in a worker process with a time limit
+(:data:`HANG_S`: a case still running then is killed and counted as a hang) and a memory limit
+(:data:`MEMORY_LIMIT`):
+
+* **scenario**: mutations of the catalogue's TOML scenes (``problems/*.toml``): deleted keys,
+  wrong types (``type = ["polygon"]``, a table as ``type``, ``leader = ["r1"]``, 3000 nested
+  arrays, ...), non-finite and huge numbers (``nan``, ``inf``, ``1e300``, ``-1e300``, ...),
+  empty / degenerate / self-intersecting / duplicate-vertex polygons, starts and goals inside
+  obstacles or outside the bounds, unknown keys, TOML syntax errors, non-UTF-8 bytes, empty
+  files, directories, huge vertex counts, bad dynamic-obstacle time series, formations naming
+  missing robots, the leader as a follower or no followers.  Each file is loaded with
+  :func:`optplan.load_problem`; a rejected file is also given to ``optplan show`` (one line on
+  stderr, exit 2); an accepted one is solved with ``visgraph`` and the solver's ``success`` is
+  compared with an independent shapely check of the path (:func:`independent_check`).
+* **option**: bad values for every option of every preset (:func:`optplan.list_solvers`): wrong
+  types, ``nan``, ``inf``, ``-inf``, ``1e300``, ``-1e300``, ``0``, negative numbers, huge
+  integers, wrong strings; as ``solve`` overrides and (for a share of them) inside a preset
+  file.  Accepted values are solved on a small scene with a time limit.
+* **init**: bad initial guesses for every preset (NaN, inf, huge, empty, wrong shapes, unknown
+  robot ids, strings, ...).
+* **result**: corrupted result JSON files (truncated, wrong types, shapes and lengths, ...),
+  loaded with :meth:`optplan.Result.load` and drawn with ``optplan plot``.
+
+Every case is classified:
+
+==========================  ===========================================================
+``clear error``             an optplan error (``ProblemError`` / ``ValueError`` /
+                            ``ResultFileError``) whose message names the file (when there is
+                            one) and the key or option
+``accepted and solved``     accepted (and solved / loaded) without trouble
+``crash``                   any other exception (or a dead worker)
+``hang``                    still running after :data:`HANG_S` seconds
+``unclear message``         an optplan error naming neither the file nor the key, a raw
+                            ``UnicodeDecodeError`` / ``JSONDecodeError`` / numpy message, or
+                            a CLI error that is not one line with exit status 2
+``silently accepted``       a value outside its documented range accepted
+``success disagrees``       the solver's ``success`` contradicts the independent path check
+==========================  ===========================================================
+
+Run ``python benchmarks/fuzz_inputs.py`` for the full run (>= 3,000 scenarios, >= 2,500 option
+values, >= 200 inits, >= 50 result files; ``--workers N``, ``--seed S``, ``--quick``) and the
+counts table; ``tests/test_fuzz.py`` runs a bounded, seeded slice.  Known findings in files
+other engineers own (backends, ``solve``'s option and ``init`` checks) are listed in
+:data:`KNOWN_FINDINGS`: cases they explain are reported in their own column.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import dataclasses
+import functools
+import io
+import json
+import math
+import os
+import pickle
+import random
+import re
+import select
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+import tomllib
+from collections import Counter
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+PROBLEMS = ROOT / "problems"
+
+#: A case still running after this many seconds is a hang (its worker is killed).
+HANG_S = 10.0
+#: ``time_limit`` given to every solve of an accepted input (seconds).
+SOLVE_TIME_LIMIT = 2.0
+#: Extra time a case gets when it is the first of its preset (or family) in a worker process:
+#: one-time costs of a fresh process (numba compilation, cvxpy, IPOPT, matplotlib) are not
+#: the input's.  A worker killed after a hang is replaced by a fresh (cold) one.
+COLD_S = 60.0
+#: Address-space limit of a worker process (bytes).
+MEMORY_LIMIT = 6 * 2**30
+#: Longest acceptable error message (characters): longer ones dump the input.
+MAX_MESSAGE = 1200
+
+CATEGORIES = ("clear error", "accepted and solved", "crash", "hang", "unclear message",
+              "silently accepted", "success disagrees")
+BAD = ("crash", "hang", "unclear message", "silently accepted", "success disagrees")
+
+
+@dataclass
+class Case:
+    """One fuzz input.
+
+    ``keys``: an error must name one of them (a scenario key such as ``obstacles[2].vertices``,
+    which a more specific key such as ``obstacles[2].vertices[1][0]`` also satisfies, an option
+    name, ``init`` or a pseudo key such as ``invalid TOML``).  ``must_reject``: the input is
+    outside the documented ranges, so accepting it is a silent acceptance.
+    """
+
+    family: str
+    id: str
+    what: str
+    data: dict[str, Any]
+    keys: tuple[str, ...] = ()
+    must_reject: bool = False
+
+
+@dataclass
+class Outcome:
+    case: Case
+    category: str
+    detail: str = ""
+    seconds: float = 0.0
+    known: str | None = None
+    compared: bool = False
+
+
+# ======================================================================================
+# a small TOML writer (the scenes are mutated as dicts and written back)
+# ======================================================================================
+
+
+def _toml_key(k: str) -> str:
+    return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k, ensure_ascii=False)
+
+
+def _toml_value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if math.isnan(v):
+            return "nan"
+        if math.isinf(v):
+            return "inf" if v > 0 else "-inf"
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + "}"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {type(v).__name__} as TOML")
+
+
+def toml_dumps(d: dict[str, Any]) -> str:
+    """TOML text of ``d``: scalars and arrays first, then ``[table]`` and ``[[array]]`` sections
+    (their entries inline)."""
+    head, tables = [], []
+    for k, v in d.items():
+        if isinstance(v, dict):
+            tables.append(f"\n[{_toml_key(k)}]")
+            tables += [f"{_toml_key(a)} = {_toml_value(b)}" for a, b in v.items()]
+        elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
+            for x in v:
+                tables.append(f"\n[[{_toml_key(k)}]]")
+                tables += [f"{_toml_key(a)} = {_toml_value(b)}" for a, b in x.items()]
+        else:
+            head.append(f"{_toml_key(k)} = {_toml_value(v)}")
+    return "\n".join(head + tables) + "\n"
+
+
+def nested(depth: int) -> list:
+    """``depth`` nested arrays (built without recursion)."""
+    v: list = []
+    for _ in range(depth - 1):
+        v = [v]
+    return v
+
+
+def _nested_text(depth: int, inner: str = "") -> str:
+    return "[" * depth + inner + "]" * depth
+
+
+# ======================================================================================
+# scenario mutations
+# ======================================================================================
+
+
+def catalogue() -> dict[str, dict[str, Any]]:
+    return {p.stem: tomllib.loads(p.read_text(encoding="utf-8"))
+            for p in sorted(PROBLEMS.glob("*.toml"))}
+
+
+#: Numbers a number may be replaced with: (value, must it be rejected wherever a number is?)
+BAD_NUMBERS: list[tuple[Any, bool]] = [
+    (math.nan, True), (math.inf, True), (-math.inf, True), (1e300, True), (-1e300, True),
+    (10**400, True), (-(10**400), True), (1e151, True), (-1e151, True),
+]
+ODD_NUMBERS: list[Any] = [0, 0.0, -0.0, -1, -1.5, 1e-300, -1e-300, 1e-12, 1e150, -1e150,
+                          1e100, 1e16, 2**63, 2**53 + 1, 1e6, 7, 0.5]
+WRONG_TYPES: list[Any] = ["1.0", "", True, False, [], [1.0], [[1.0, 2.0]], {}, {"a": 1},
+                          "polygon", [True, False]]
+
+_SAFE_REPR = re.compile(r"\s+")
+
+
+def _leaves(d: Any, prefix: str = "") -> Iterable[tuple[str, list, Any]]:
+    """(key path, path in the dict, value) of every node below ``d``."""
+    if isinstance(d, dict):
+        for k, v in d.items():
+            kp = f"{prefix}.{k}" if prefix else k
+            yield kp, [k], v
+            for sub, path, x in _leaves(v, kp):
+                yield sub, [k, *path], x
+    elif isinstance(d, list):
+        for i, v in enumerate(d):
+            kp = f"{prefix}[{i}]"
+            yield kp, [i], v
+            for sub, path, x in _leaves(v, kp):
+                yield sub, [i, *path], x
+
+
+def _get(d: Any, path: list) -> Any:
+    for p in path:
+        d = d[p]
+    return d
+
+
+def _set(d: Any, path: list, v: Any) -> None:
+    _get(d, path[:-1])[path[-1]] = v
+
+
+def _del(d: Any, path: list) -> None:
+    del _get(d, path[:-1])[path[-1]]
+
+
+def _owner_keys(kp: str) -> tuple[str, ...]:
+    """Keys an error about the node ``kp`` may name: the node itself or its enclosing entry
+    (``obstacles[2]``), plus what a geometry change can make invalid: the robots' starts and
+    goals (now inside an obstacle or outside the bounds)."""
+    m = re.match(r"^((?:obstacles|dynamic_obstacles|robots)\[\d+\]|formation\.followers\[\d+\]"
+                 r"|formation|sensing|bounds)", kp)
+    keys = [kp] + ([m.group(1)] if m else [])
+    return tuple(dict.fromkeys(keys))
+
+
+def _robot_points(scene: dict) -> tuple[str, ...]:
+    out = []
+    for i in range(len(scene.get("robots", []))):
+        out += [f"robots[{i}].start", f"robots[{i}].goal"]
+    return tuple(out)
+
+
+def _followers(scene: dict) -> list[str]:
+    f = scene.get("formation")
+    if not isinstance(f, dict):
+        return []
+    return [x.get("id") for x in f.get("followers", []) if isinstance(x, dict)]
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+#: key paths (regex) whose value may be any finite number (no range to violate)
+_FREE_NUMBERS = re.compile(r"^(dynamic_obstacles\[\d+\]\.(waypoints|velocity)\[\d+\]\[\d\]"
+                           r"|dynamic_obstacles\[\d+\]\.times\[\d+\])$")
+
+
+def outside_range(kp: str, w: Any, d: dict) -> bool:
+    """Is the number ``w`` at key ``kp`` outside the documented range (problems/README.md)?
+    ``d`` is the scene (its bounds give the diagonal ``L``)."""
+    try:
+        x0, y0, x1, y1 = (float(v) for v in d["bounds"])
+        L = math.hypot(x1 - x0, y1 - y0)
+    except (KeyError, TypeError, ValueError):
+        return False
+    if not math.isfinite(float(w)):
+        return True
+    if kp.startswith("bounds"):
+        return not (x0 < x1 and y0 < y1 and 1e-100 <= L <= 1e100)
+    last = kp.split(".")[-1]
+    if kp.startswith("robots") and last == "radius":
+        return not 0 <= w <= L
+    if last == "max_speed":
+        return not 1e-6 * L <= w <= 1e6 * L
+    if last in ("goal_tolerance", "safety_distance", "L"):
+        return not 0 < w <= L
+    if kp == "sensing.range":
+        return not 0 < w <= 1e6 * L
+    if last == "radius":  # static and dynamic circles
+        return not 0 < w <= 1e150
+    if last == "phi":
+        return abs(w) > math.pi
+    if re.search(r"\.times\[\d+\]$", kp):
+        return abs(w) > 1e9
+    if re.search(r"\.velocity\[\d\]$", kp):
+        return abs(w) > 1e6 * L
+    return abs(w) > 1e150
+
+
+class ScenarioFuzzer:
+    """Mutations of the catalogue scenes; :meth:`cases` draws ``n`` of them."""
+
+    def __init__(self, seed: int = 0, scenes: dict[str, dict] | None = None):
+        self.rng = random.Random(seed)
+        self.scenes = scenes if scenes is not None else catalogue()
+        self.n = 0
+        self.mutators: list[tuple[str, Callable[[str, dict], Case | None], float]] = [
+            ("delete key", self.m_delete, 3.0),
+            ("wrong type", self.m_wrong_type, 3.0),
+            ("bad number", self.m_bad_number, 3.0),
+            ("odd number", self.m_odd_number, 2.0),
+            ("unknown key", self.m_unknown_key, 1.0),
+            ("polygon", self.m_polygon, 3.0),
+            ("rectangle", self.m_rectangle, 1.0),
+            ("circle", self.m_circle, 1.0),
+            ("start/goal", self.m_start_goal, 2.0),
+            ("bounds", self.m_bounds, 1.0),
+            ("robots", self.m_robots, 1.0),
+            ("dynamic", self.m_dynamic, 2.0),
+            ("formation", self.m_formation, 2.0),
+            ("sensing/tolerance", self.m_scalars, 1.0),
+            ("scale", self.m_scale, 1.0),
+            ("text", self.m_text, 2.0),
+            ("huge", self.m_huge, 0.3),
+        ]
+
+    # -- helpers ---------------------------------------------------------------------
+    def _case(self, scene: str, what: str, text: str | bytes | None, keys: Iterable[str],
+              must_reject: bool, kind: str = "file", note: str = "") -> Case:
+        self.n += 1
+        data = {"scene": scene, "kind": kind, "note": note,
+                "bytes": text.encode("utf-8") if isinstance(text, str) else text}
+        return Case("scenario", f"scenario/{self.n:05d}/{scene}", what, data,
+                    tuple(dict.fromkeys(keys)), must_reject)
+
+    def _dict_case(self, scene: str, what: str, d: dict, keys: Iterable[str],
+                   must_reject: bool, note: str = "") -> Case:
+        return self._case(scene, what, toml_dumps(d), keys, must_reject, note=note)
+
+    def _pick(self, d: dict, pred: Callable[[str, Any], bool]) -> tuple[str, list, Any] | None:
+        cands = [x for x in _leaves(d) if pred(x[0], x[2])]
+        return self.rng.choice(cands) if cands else None
+
+    def _obstacles(self, d: dict, kind: str | None = None) -> list[int]:
+        return [i for i, o in enumerate(d.get("obstacles", []))
+                if kind is None or o.get("type") == kind]
+
+    # -- mutators --------------------------------------------------------------------
+    def m_delete(self, scene: str, d: dict) -> Case | None:
+        pick = self._pick(d, lambda kp, v: not kp.endswith("]") or self.rng.random() < 0.2)
+        if pick is None:
+            return None
+        kp, path, _ = pick
+        _del(d, path)
+        # deleting a required key, a list element (changes lengths) ...: either outcome is
+        # allowed, an error must name the key or its entry (or what it breaks)
+        keys = list(_owner_keys(kp))
+        top = kp.split(".")[0].split("[")[0]
+        keys += [top]
+        if kp.startswith("formation"):
+            keys += [f"robots[{i}].goal" for i in range(len(d.get("robots", [])))]
+            keys += ["formation"]
+        if kp.startswith(("obstacles", "bounds", "robots")):
+            keys += _robot_points(d)
+        if kp.startswith("robots"):
+            keys += ["formation.leader", "formation.followers", "formation.safety_distance"]
+        if kp.startswith("bounds") or kp.startswith("obstacles"):
+            keys += [f"obstacles[{i}]" for i in range(len(d.get("obstacles", [])))]
+        required = re.search(r"(^name$|^bounds$|^robots$|\.(id|start|radius|type|vertices|"
+                             r"waypoints|leader|L|phi|range)$|\.center$)", kp)
+        return self._dict_case(scene, "delete key", d, keys, bool(required), note=kp)
+
+    def m_wrong_type(self, scene: str, d: dict) -> Case | None:
+        pick = self._pick(d, lambda kp, v: True)
+        if pick is None:
+            return None
+        kp, path, v = pick
+        choices = [w for w in WRONG_TYPES if type(w) is not type(v) or w != v]
+        last = kp.rsplit(".", 1)[-1]
+        if last in ("type", "leader", "id", "after"):
+            choices += [[v], {"x": v}, 3, [[v]]]
+        if isinstance(v, list) and v and _is_number(v[0]):
+            choices += [[v[0]], v + [v[0]], [str(x) for x in v]]
+        if kp in ("tags", "name", "description", "source") or last == "name":
+            choices += [3, 1.5, ["x"], {"a": "b"}]
+        w = self.rng.choice(choices)
+        if _is_number(v) and _is_number(w):
+            return None  # an int where a float is expected is fine
+        _set(d, path, w)
+        keys = list(_owner_keys(kp)) + list(_robot_points(d))
+        keys += ["formation", "formation.followers", "formation.leader"]
+        if kp.startswith(("bounds", "obstacles")):
+            keys += [f"obstacles[{i}]" for i in range(len(d.get("obstacles", [])))]
+        # which replacements are still valid scenes?
+        same = type(w) is type(v) and isinstance(v, (str, bool))
+        must = not same or last in ("type", "after", "leader") or kp.startswith(
+            "formation.followers") and last == "id"
+        if w == [] and (kp in ("tags", "obstacles", "dynamic_obstacles")
+                        or kp.endswith(".holes")):
+            must = False
+        if kp.endswith(".waypoints") and isinstance(w, list) and all(
+                isinstance(p, list) and len(p) == 2 and all(map(_is_number, p)) for p in w):
+            must = False  # a single waypoint may be a parked obstacle
+        if kp.startswith("robots") and last == "id" and isinstance(w, str) and w:
+            must = False  # another id (a formation naming the old one is an error anyway)
+        return self._dict_case(scene, "wrong type", d, keys, must, note=f"{kp} = {w!r}")
+
+    def m_bad_number(self, scene: str, d: dict) -> Case | None:
+        pick = self._pick(d, lambda kp, v: _is_number(v))
+        if pick is None:
+            return None
+        kp, path, v = pick
+        w, must = self.rng.choice(BAD_NUMBERS)
+        _set(d, path, w)
+        keys = list(_owner_keys(kp)) + list(_robot_points(d))
+        if kp.startswith("formation"):
+            keys += ["formation.safety_distance"]
+        if kp.startswith("bounds"):
+            keys += [f"obstacles[{i}]" for i in range(len(d.get("obstacles", [])))]
+        return self._dict_case(scene, "bad number", d, keys, must, note=f"{kp} = {w!r}")
+
+    def m_odd_number(self, scene: str, d: dict) -> Case | None:
+        pick = self._pick(d, lambda kp, v: _is_number(v))
+        if pick is None:
+            return None
+        kp, path, v = pick
+        w = self.rng.choice(ODD_NUMBERS + [v * (1 + 1e-15), v + 1e-12, -v, v * 1e6])
+        _set(d, path, w)
+        keys = list(_owner_keys(kp)) + list(_robot_points(d))
+        keys += [f"obstacles[{i}]" for i in range(len(d.get("obstacles", [])))]
+        keys += [f"dynamic_obstacles[{i}]" for i in range(len(d.get("dynamic_obstacles", [])))]
+        keys += ["bounds", "formation.safety_distance", "formation.followers"]
+        must = outside_range(kp, w, d)
+        return self._dict_case(scene, "odd number", d, keys, must, note=f"{kp} = {w!r}")
+
+    def m_unknown_key(self, scene: str, d: dict) -> Case | None:
+        tables = [("", d)] + [(kp, v) for kp, _, v in _leaves(d) if isinstance(v, dict)]
+        kp, t = self.rng.choice(tables)
+        if t and self.rng.random() < 0.5:
+            k = self.rng.choice(list(t))
+            new = k[:-1] if len(k) > 1 else k + "x"
+            if new in t:
+                return None
+            t[new] = t.pop(k)
+            key = f"{kp}.{new}" if kp else new
+        else:
+            new = self.rng.choice(["foo", "Name", "typ", "vertex", "speed", "holes", "times",
+                                   "x y", "ünïcode"])
+            if new in t:
+                return None
+            t[new] = 1.0
+            key = f"{kp}.{new}" if kp else new
+        keys = [key, _toml_key(new)] + list(_owner_keys(kp or new))
+        if "holes" in key or "times" in key:
+            keys += [key.rsplit(".", 1)[0]]
+        return self._dict_case(scene, "unknown key", d, [k for k in keys if k], True, note=key)
+
+    def m_polygon(self, scene: str, d: dict) -> Case | None:
+        idx = self._obstacles(d, "polygon")
+        if not idx:
+            d.setdefault("obstacles", []).append(
+                {"type": "polygon", "vertices": [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]})
+            idx = [len(d["obstacles"]) - 1]
+        i = self.rng.choice(idx)
+        o = d["obstacles"][i]
+        v = o["vertices"]
+        pre = f"obstacles[{i}]"
+        r = self.rng.randrange(15)
+        must = True
+        if r == 0:
+            o["vertices"] = []
+        elif r == 1:
+            o["vertices"] = v[:1]
+        elif r == 2:
+            o["vertices"] = v[:2]
+        elif r == 3:
+            o["vertices"] = [v[0]] * len(v)
+        elif r == 4:  # collinear
+            a, b = v[0], v[1]
+            o["vertices"] = [a, b, [2 * b[0] - a[0], 2 * b[1] - a[1]]]
+        elif r == 5 and len(v) >= 4:  # bow-tie
+            v[0], v[1] = v[1], v[0]
+            must = False  # a swap may keep it simple for non-convex rings
+        elif r == 6:  # consecutive duplicate vertex: counts once
+            k = self.rng.randrange(len(v))
+            v.insert(k, list(v[k]))
+            must = False
+        elif r == 7:  # closing vertex
+            v.append(list(v[0]))
+            must = False
+        elif r == 8:  # reversed orientation
+            v.reverse()
+            must = False
+        elif r == 9:  # a vertex with 3 coordinates / 1 coordinate
+            k = self.rng.randrange(len(v))
+            v[k] = v[k] + [0.0] if self.rng.random() < 0.5 else v[k][:1]
+        elif r == 10:  # non-consecutive duplicate (ring touches itself)
+            if len(v) < 4:
+                return None
+            v.insert(2, list(v[0]))
+            must = False
+        elif r == 11:  # holes
+            h = self.rng.choice([
+                [v[:3]], [[[x + 1e6, y] for x, y in v]], [v], "hole", [[1, 2]], [[]],
+                [[[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]]]])
+            o["holes"] = h
+        elif r == 12:  # tiny perturbation of a vertex
+            k = self.rng.randrange(len(v))
+            v[k] = [v[k][0] * (1 + 1e-14), v[k][1]]
+            must = False
+        elif r == 13:  # vertices as a table
+            o["vertices"] = {"x": [p[0] for p in v], "y": [p[1] for p in v]}
+        else:  # a near-duplicate vertex (a very short edge)
+            k = self.rng.randrange(len(v))
+            e = self.rng.choice([1e-13, 1e-10, 1e-6]) * (1.0 + abs(v[k][0]))
+            v.insert(k + 1, [v[k][0] + e, v[k][1]])
+            must = False
+        keys = [pre, *_robot_points(d)]
+        return self._dict_case(scene, "polygon", d, keys, must, note=f"{pre} variant {r}")
+
+    def m_rectangle(self, scene: str, d: dict) -> Case | None:
+        idx = self._obstacles(d, "rectangle")
+        if not idx:
+            return None
+        i = self.rng.choice(idx)
+        o = d["obstacles"][i]
+        pre = f"obstacles[{i}]"
+        r = self.rng.randrange(6)
+        must = True
+        if "min" in o:
+            lo, hi = o["min"], o["max"]
+            if r == 0:
+                o["min"], o["max"] = hi, lo
+            elif r == 1:
+                o["max"] = list(lo)
+            elif r == 2:
+                o["center"], o["size"] = [0.0, 0.0], [1.0, 1.0]
+            elif r == 3:
+                o["max"] = [hi[0], lo[1]]
+            elif r == 4:
+                o["min"] = [lo[0], lo[1], 0.0]
+            else:
+                o["max"] = [hi[0] + 1e-13 * abs(hi[0]), hi[1]]
+                must = False
+        else:
+            if r <= 2:
+                o["size"] = [-1.0, 1.0] if r == 0 else [0.0, 0.0] if r == 1 else [1e300, 1.0]
+            else:
+                o["min"] = [0.0, 0.0]
+        return self._dict_case(scene, "rectangle", d, [pre, *_robot_points(d)], must,
+                               note=f"{pre} variant {r}")
+
+    def m_circle(self, scene: str, d: dict) -> Case | None:
+        idx = self._obstacles(d, "circle")
+        if not idx:
+            return None
+        i = self.rng.choice(idx)
+        o = d["obstacles"][i]
+        pre = f"obstacles[{i}]"
+        x0, y0, x1, y1 = d["bounds"]
+        L = math.hypot(x1 - x0, y1 - y0)
+        choices: list[tuple[dict, bool]] = [
+            ({"radius": 0.0}, True), ({"radius": -1.0}, True), ({"radius": 1e300}, True),
+            ({"center": [-1e300, 0.0]}, True), ({"center": [1e300, 1e300]}, True),
+            ({"radius": L * 1e3}, False), ({"center": [x0 - 1e9 * L, y0]}, False),
+            ({"center": [x0 - 1e5 * L, y0], "radius": 1e5 * L}, False),
+            ({"radius": 1e-300}, False), ({"center": [x0, y0]}, False),
+            ({"center": [(x0 + x1) / 2, (y0 + y1) / 2]}, False),
+        ]
+        upd, must = self.rng.choice(choices)
+        o.update(upd)
+        return self._dict_case(scene, "circle", d, [pre, *_robot_points(d)], must,
+                               note=f"{pre} {upd}")
+
+    def _inside_point(self, d: dict) -> list[float] | None:
+        idx = self._obstacles(d)
+        if not idx:
+            return None
+        o = d["obstacles"][self.rng.choice(idx)]
+        if o["type"] == "circle":
+            return list(o["center"])
+        if o["type"] == "rectangle":
+            if "min" in o:
+                return [(o["min"][0] + o["max"][0]) / 2, (o["min"][1] + o["max"][1]) / 2]
+            return list(o["center"])
+        if "holes" in o:
+            return None
+        vs = o["vertices"]
+        return list(vs[self.rng.randrange(len(vs))])  # a vertex: on the boundary
+
+    def m_start_goal(self, scene: str, d: dict) -> Case | None:
+        robots = d.get("robots", [])
+        i = self.rng.randrange(len(robots))
+        r = robots[i]
+        keys_all = ["start", "goal"] if "goal" in r else ["start"]
+        key = self.rng.choice(keys_all)
+        x0, y0, x1, y1 = d["bounds"]
+        L = math.hypot(x1 - x0, y1 - y0)
+        choices: list[tuple[Any, bool]] = [
+            ([x1 + 1.0, y0], True), ([x0 - 1e-6 * L, (y0 + y1) / 2], True),
+            ([x1, y1 + 1e-3 * L], True), ([x0, y0], False), ([x1, y1], False),
+            ([(x0 + x1) / 2, (y0 + y1) / 2], False),
+            ([x1 + 1e-12 * L, y1], False), (list(r.get("goal", r["start"])), False),
+        ]
+        p = self._inside_point(d)
+        if p is not None:
+            choices += [(p, False)] * 3
+        v, must = self.rng.choice(choices)
+        r[key] = v
+        pre = f"robots[{i}].{key}"
+        return self._dict_case(scene, "start/goal", d, [pre, f"robots[{i}]"], must,
+                               note=f"{pre} = {v}")
+
+    def m_bounds(self, scene: str, d: dict) -> Case | None:
+        x0, y0, x1, y1 = d["bounds"]
+        choices: list[tuple[Any, bool]] = [
+            ([x1, y0, x0, y1], True), ([x0, y0, x0, y1], True), ([x0, y0, x1], True),
+            ([x0, y0, x1, y1, 0.0], True), ([x0, y0, x0 + 1e-101, y0 + 1e-101], True),
+            ([-1e101, -1e101, 1e101, 1e101], True), ([x0, y0, x1 * 2, y1 * 2], False),
+            ([x0 + 1e15, y0, x1 + 1e15, y1], True), ("0 0 1 1", True), ({"min": 0}, True),
+            ([x0, y0, (x0 + x1) / 2, (y0 + y1) / 2], False),
+        ]
+        v, must = self.rng.choice(choices)
+        d["bounds"] = v
+        keys = ["bounds", *_robot_points(d)]
+        keys += [f"obstacles[{i}]" for i in range(len(d.get("obstacles", [])))]
+        return self._dict_case(scene, "bounds", d, keys, must, note=f"bounds = {v}")
+
+    def m_robots(self, scene: str, d: dict) -> Case | None:
+        robots = d.get("robots", [])
+        r = self.rng.randrange(8)
+        keys = ["robots", "formation.leader", "formation.followers"]
+        must = True
+        if r == 0:
+            d["robots"] = []
+        elif r == 1:
+            d["robots"] = [3]
+        elif r == 2:
+            robots.append(copy.deepcopy(robots[0]))
+            keys.append(f"robots[{len(robots) - 1}].id")
+        elif r == 3:
+            robots[0]["id"] = ""
+            keys.append("robots[0].id")
+        elif r == 4:
+            robots[0]["id"] = 7
+            keys.append("robots[0].id")
+        elif r == 5:
+            d["robots"] = {"r1": robots[0]}
+        elif r == 6:  # many robots (each a copy with a new id)
+            base = robots[0]
+            if "goal" not in base:
+                return None
+            for k in range(40):
+                robots.append({**copy.deepcopy(base), "id": f"extra{k}"})
+            must = False
+        else:  # robot radius larger than the map
+            x0, y0, x1, y1 = d["bounds"]
+            robots[0]["radius"] = 10 * math.hypot(x1 - x0, y1 - y0)
+            keys += ["robots[0].radius", "robots[0].start", "robots[0].goal"]
+        keys += _robot_points(d) if isinstance(d["robots"], list) else []
+        return self._dict_case(scene, "robots", d, keys, must, note=f"variant {r}")
+
+    def m_dynamic(self, scene: str, d: dict) -> Case | None:
+        dyn = d.get("dynamic_obstacles")
+        if not dyn:
+            x0, y0, x1, y1 = d["bounds"]
+            d["dynamic_obstacles"] = dyn = [{
+                "type": "circle", "radius": 1.0, "waypoints": [[x0, y0], [x1, y1]],
+                "times": [0.0, 10.0]}]
+        i = self.rng.randrange(len(dyn))
+        o = dyn[i]
+        pre = f"dynamic_obstacles[{i}]"
+        n = len(o.get("waypoints", []))
+        choices: list[tuple[dict, bool]] = [
+            ({"times": list(reversed(o.get("times", [0.0])))}, n > 1),
+            ({"times": [0.0] * max(n, 2)}, True),
+            ({"times": [0.0]}, n != 1),
+            ({"times": "0"}, True),
+            ({"times": [0.0, math.nan][:max(n, 1)] + [1.0] * (n - 2)}, n >= 2),
+            ({"times": [i * 1e300 for i in range(n)]}, n >= 2),
+            ({"times": [i * 1e-300 for i in range(n)]}, n >= 2),
+            ({"times": [-1e300 + i for i in range(n)]}, True),
+            ({"times": [k * 1e-7 for k in range(n)], "after": "bounce"}, n >= 2),
+            ({"waypoints": []}, True),
+            ({"waypoints": [[0.0, 0.0]] * n}, False),
+            ({"velocity": [1.0, 0.0]}, n != 1),
+            ({"velocity": [1e300, 0.0], "waypoints": o.get("waypoints", [[0, 0]])[:1],
+              "times": [0.0]}, True),
+            ({"velocity": [1e200, 0.0], "waypoints": o.get("waypoints", [[0, 0]])[:1],
+              "times": [0.0]}, True),
+            ({"velocity": [1.0, 0.0], "waypoints": o.get("waypoints", [[0, 0]])[:1],
+              "times": []}, True),
+            ({"after": "forever"}, True), ({"after": ["hold"]}, True),
+            ({"after": {"a": 1}}, True), ({"type": "rectangle"}, True),
+            ({"type": ["circle"]}, True), ({"type": {"t": "circle"}}, True),
+            ({"type": "polygon", "vertices": [[0, 0], [1, 1], [2, 2]]}, True),
+            ({"radius": 0.0}, o.get("type") == "circle"),
+            ({"waypoints": [[1e140, 0.0]] * n}, False),
+        ]
+        upd, must = self.rng.choice(choices)
+        o.update(upd)
+        return self._dict_case(scene, "dynamic", d, [pre], must, note=f"{pre} {upd}")
+
+    def m_formation(self, scene: str, d: dict) -> Case | None:
+        f = d.get("formation")
+        robots = d.get("robots", [])
+        ids = [r["id"] for r in robots]
+        if not isinstance(f, dict):
+            return None
+        fl = f.get("followers", [])
+        leader = f.get("leader")
+        nf = len(fl)
+        choices: list[tuple[Callable[[], None], tuple[str, ...], bool]] = [
+            (lambda: f.__setitem__("followers", []), ("formation.followers",), True),
+            (lambda: f.pop("followers"), ("formation.followers",), True),
+            (lambda: f.__setitem__("followers", 3), ("formation.followers",), True),
+            (lambda: f.__setitem__("followers", {"id": "x"}), ("formation.followers",), True),
+            (lambda: fl.__setitem__(0, 3), ("formation.followers[0]",), True),
+            (lambda: fl[0].__setitem__("id", "nobody"), ("formation.followers[0].id",), True),
+            (lambda: fl[0].__setitem__("id", leader), ("formation.followers[0].id",), True),
+            (lambda: fl[0].__setitem__("id", 5), ("formation.followers[0].id",), True),
+            (lambda: fl[0].__setitem__("id", [fl[0]["id"]]), ("formation.followers[0].id",),
+             True),
+            (lambda: fl[0].pop("id"), ("formation.followers[0].id",), True),
+            (lambda: fl.append(copy.deepcopy(fl[0])), (f"formation.followers[{nf}].id",), True),
+            (lambda: f.__setitem__("leader", [leader]), ("formation.leader",), True),
+            (lambda: f.__setitem__("leader", {"id": leader}), ("formation.leader",), True),
+            (lambda: f.__setitem__("leader", 1), ("formation.leader",), True),
+            (lambda: f.__setitem__("leader", "nobody"), ("formation.leader",), True),
+            (lambda: f.__setitem__("leader", fl[0]["id"]),
+             ("formation.leader", "formation.followers[0].id",
+              *(f"robots[{k}].goal" for k in range(len(ids)))), True),
+            (lambda: f.pop("leader"), ("formation.leader",), True),
+            (lambda: f.__setitem__("safety_distance", 1e300), ("formation.safety_distance",),
+             True),
+            (lambda: f.__setitem__("safety_distance", 0.0), ("formation.safety_distance",),
+             True),
+            (lambda: fl[0].__setitem__("L", 1e300), ("formation.followers[0].L",), True),
+            (lambda: fl[0].__setitem__("L", 0), ("formation.followers[0].L",), True),
+            (lambda: fl[0].__setitem__("phi", 4.0), ("formation.followers[0].phi",), True),
+            (lambda: fl[0].__setitem__("phi", "pi"), ("formation.followers[0].phi",), True),
+            (lambda: d.pop("formation"),
+             tuple(f"robots[{k}].goal" for k in range(len(ids))), True),
+            (lambda: d.__setitem__("formation", [f]), ("formation",), True),
+            (lambda: robots.pop(ids.index(fl[0]["id"])) if fl[0]["id"] in ids else None,
+             ("formation.followers[0].id", "formation.leader"), True),
+        ]
+        fn, keys, must = self.rng.choice(choices)
+        try:
+            fn()
+        except (IndexError, KeyError, TypeError, AttributeError):
+            return None
+        return self._dict_case(scene, "formation", d, keys, must)
+
+    def m_scalars(self, scene: str, d: dict) -> Case | None:
+        x0, y0, x1, y1 = d["bounds"]
+        L = math.hypot(x1 - x0, y1 - y0)
+        choices: list[tuple[str, Any, bool]] = [
+            ("goal_tolerance", 0.0, True), ("goal_tolerance", -1.0, True),
+            ("goal_tolerance", 1e300, True), ("goal_tolerance", "1", True),
+            ("goal_tolerance", 1e-300, False), ("goal_tolerance", L / 2, False),
+            ("sensing", {"range": 0.0}, True), ("sensing", {"range": 1e300}, True),
+            ("sensing", {"range": math.inf}, True), ("sensing", {"range": 1e-300}, False),
+            ("sensing", {"range": 10 * L}, False), ("sensing", 5.0, True),
+            ("sensing", {}, True), ("sensing", {"range": 1.0, "angle": 2.0}, True),
+            ("tags", "paper", True), ("tags", [1, 2], True), ("tags", [], False),
+            ("name", 42, True), ("name", ["a"], True), ("description", {"a": 1}, True),
+            ("source", 1.5, True), ("name", "", False), ("name", "x" * 10000, False),
+        ]
+        k, v, must = self.rng.choice(choices)
+        d[k] = v
+        return self._dict_case(scene, "scalars", d, [k], must, note=f"{k} = {v!r}"[:80])
+
+    def m_scale(self, scene: str, d: dict) -> Case | None:
+        """Scale or translate every coordinate and length of the scene."""
+        kind = self.rng.choice(["scale", "shift"])
+        x0, y0, x1, y1 = d["bounds"]
+        L = math.hypot(x1 - x0, y1 - y0)
+        if kind == "scale":
+            s = self.rng.choice([1e-90, 1e-50, 1e-6, 1e6, 1e50, 1e90, 1e-110, 1e110])
+            must = not 1e-100 <= L * s <= 1e100
+
+            def f(v: float) -> float:
+                return v * s
+            note = f"scale {s:g}"
+        else:
+            s = self.rng.choice([1e3, 1e6, 1e7, 1e9, 1e12, -1e7]) * L
+            must = abs(s) > 1e6 * L * 1.01
+
+            def f(v: float) -> float:
+                return v + s
+            note = f"shift {s:g}"
+        coords = re.compile(r"(^bounds\[\d\]$|\.(start|goal|center|min|max)\[\d\]$|"
+                            r"^obstacles\[\d+\]\.(vertices|holes)(\[\d+\])+$|"
+                            r"waypoints\[\d+\]\[\d\]$)")
+        lengths = re.compile(r"(\.radius$|\.size\[\d\]$|\.L$|safety_distance$|^goal_tolerance$"
+                             r"|^sensing\.range$|\.max_speed$|velocity\[\d\]$|"
+                             r"^dynamic_obstacles\[\d+\]\.vertices\[\d+\]\[\d\]$)")
+        for kp, path, v in list(_leaves(d)):
+            if not _is_number(v):
+                continue
+            if kind == "scale" and (coords.search(kp) or lengths.search(kp)):
+                _set(d, path, float(f(v)))
+            elif kind == "shift" and coords.search(kp) and not kp.startswith(
+                    "dynamic_obstacles") or kind == "shift" and re.search(r"waypoints", kp):
+                _set(d, path, float(f(v)))
+        keys = ["bounds", *_robot_points(d)]
+        keys += [f"obstacles[{i}]" for i in range(len(d.get("obstacles", [])))]
+        keys += [f"dynamic_obstacles[{i}]" for i in range(len(d.get("dynamic_obstacles", [])))]
+        keys += [f"robots[{i}]" for i in range(len(d.get("robots", [])))]
+        keys += ["formation", "sensing.range", "goal_tolerance"]
+        return self._dict_case(scene, "scale", d, keys, must, note=note)
+
+    def m_text(self, scene: str, d: dict) -> Case | None:
+        """Text and file-level corruption."""
+        text = (PROBLEMS / f"{scene}.toml").read_text(encoding="utf-8")
+        r = self.rng.randrange(16)
+        syntax = ("invalid TOML",)
+        if r == 0:
+            cut = self.rng.randrange(1, max(2, len(text) - 1))
+            return self._case(scene, "truncated", text[:cut], syntax + ("name", "bounds",
+                              "robots", "nested too deeply") + _owner_all(d), False,
+                              note=f"cut at {cut}")
+        if r == 1:
+            return self._case(scene, "empty file", "", ("name",), True)
+        if r == 2:
+            return self._case(scene, "whitespace", "\n\n  # nothing\n", ("name",), True)
+        if r == 3:
+            raw = text.encode("utf-8")
+            k = self.rng.randrange(len(raw))
+            return self._case(scene, "non-UTF-8", raw[:k] + b"\xff\xfe" + raw[k:],
+                              ("not UTF-8",), True)
+        if r == 4:
+            raw = text.encode("utf-8").replace(b'"', b'"\xe9', 1)  # a Latin-1 e-acute
+            return self._case(scene, "latin-1", raw, ("not UTF-8",), True)
+        if r == 5:
+            return self._case(scene, "directory", None, ("not a file", "is a directory",
+                              "cannot read file"), True, kind="dir")
+        if r == 6:
+            return self._case(scene, "missing file", None, ("no such scenario file",),
+                              True, kind="missing")
+        if r == 7:
+            return self._case(scene, "nested arrays", text + "\nzz = " + _nested_text(3000)
+                              + "\n", syntax + ("nested too deeply", "zz"), True)
+        if r == 8:
+            return self._case(scene, "nested vertices", text.replace(
+                "vertices = [", "vertices = " + "[" * 3000 + "[", 1).replace(
+                "]]\n", "]]" + "]" * 3000 + "\n", 1), syntax + ("nested too deeply",)
+                + _owner_all(d), True)
+        if r == 9:
+            lines = text.splitlines()
+            k = self.rng.randrange(len(lines))
+            lines.insert(k, self.rng.choice(["[[robots", "x = ", "= 3", "bounds = [1, 2",
+                                             "'''", "[formation]\n[formation]", "a.b = 1\na = 2",
+                                             "name = \"dup\""]))
+            return self._case(scene, "syntax", "\n".join(lines), syntax + _owner_all(d)
+                              + ("name", "a", "x"), True)
+        if r == 10:
+            return self._case(scene, "NUL bytes", text.replace("\n", "\n\x00", 1),
+                              syntax, True)
+        if r == 11:
+            return self._case(scene, "BOM", "\ufeff" + text, syntax, False)
+        if r == 12:
+            return self._case(scene, "binary", bytes(self.rng.randrange(256)
+                                                     for _ in range(200)),
+                              syntax + ("not UTF-8",), True)
+        if r == 13:  # parse_problem on a dict holding 3000 nested lists (built in the worker)
+            key = self.rng.choice(["x", "bounds", "robots[0].start", "obstacles[0].vertices"])
+            return self._case(scene, "deep arrays (parse_problem)", None,
+                              (key, key.split(".")[0].split("[")[0], "nested too deeply"),
+                              True, kind="dict", note=key)
+        if r == 14:
+            return self._case(scene, "deep inline tables", text + "\nzz = " + "{a = " * 600
+                              + "1" + "}" * 600 + "\n", syntax + ("zz", "nested too deeply"),
+                              True)
+        if self.rng.random() < 0.1:  # a file beyond the size limit (a long comment)
+            return self._case(scene, "huge file", text + "#" + "x" * (9 * 2**20) + "\n",
+                              ("larger than",), True)
+        return self._case(scene, "CRLF", text.replace("\n", "\r\n"), (), False)
+
+    def m_huge(self, scene: str, d: dict) -> Case | None:
+        """Huge vertex counts: a polygon (or a hole) with many vertices."""
+        x0, y0, x1, y1 = d["bounds"]
+        cx, cy = x0 + 0.9 * (x1 - x0), y0 + 0.1 * (y1 - y0)
+        R = 0.02 * min(x1 - x0, y1 - y0)
+        n = self.rng.choice([1000, 5000, 20000, 110000])
+        verts = [[cx + R * math.cos(2 * math.pi * k / n), cy + R * math.sin(2 * math.pi * k / n)]
+                 for k in range(n)]
+        d.setdefault("obstacles", []).append({"type": "polygon", "name": f"huge{n}",
+                                              "vertices": verts})
+        i = len(d["obstacles"]) - 1
+        return self._dict_case(scene, "huge vertex count", d,
+                               [f"obstacles[{i}]", *_robot_points(d)], n > 100_000,
+                               note=f"{n} vertices")
+
+    # -- the draw --------------------------------------------------------------------
+    def cases(self, n: int, scenes: Iterable[str] | None = None) -> list[Case]:
+        names = list(scenes or self.scenes)
+        weights = [w for _, _, w in self.mutators]
+        out: list[Case] = []
+        tries = 0
+        while len(out) < n and tries < 50 * n:
+            tries += 1
+            scene = names[len(out) % len(names)] if self.rng.random() < 0.5 else \
+                self.rng.choice(names)
+            what, fn, _ = self.rng.choices(self.mutators, weights)[0]
+            d = copy.deepcopy(self.scenes[scene])
+            try:
+                c = fn(scene, d)
+            except (IndexError, KeyError, TypeError, ValueError):
+                continue
+            if c is None:
+                continue
+            if c.data["kind"] == "dict":
+                c.data["dict"] = self.scenes[scene]
+            out.append(c)
+        return out
+
+
+def _owner_all(d: dict) -> tuple[str, ...]:
+    keys = [f"obstacles[{i}]" for i in range(len(d.get("obstacles", [])))]
+    keys += [f"robots[{i}]" for i in range(len(d.get("robots", [])))]
+    keys += [f"dynamic_obstacles[{i}]" for i in range(len(d.get("dynamic_obstacles", [])))]
+    return tuple(keys) + ("formation", "sensing", "bounds", "goal_tolerance", "tags",
+                          "description", "source")
+
+
+# ======================================================================================
+# options, inits, result files
+# ======================================================================================
+
+#: The scene a preset's accepted options and inits are solved on.
+FORMATION_BACKENDS = ("leader-follower", "formation-qp")
+
+
+def option_scene(backend: str) -> str:
+    return "formation-open-field" if backend in FORMATION_BACKENDS or backend == "hybrid" \
+        else "trap-u"
+
+
+@functools.lru_cache(maxsize=1)
+def preset_table() -> dict[str, tuple[str, dict[str, Any]]]:
+    """preset -> (backend, effective options) of every preset."""
+    import optplan as op
+    from optplan.solver import get_solver
+
+    out = {}
+    for name in op.list_solvers():
+        try:
+            b = get_solver(name)
+        except (ValueError, ImportError) as e:  # a preset broken in this checkout
+            print(f"fuzz: skipping preset {name}: {e}", file=sys.stderr)
+            continue
+        out[name] = (b.name, b.options())
+    return out
+
+
+def _values_for(default: Any) -> list[tuple[Any, bool]]:
+    """Bad values for an option with this default: (value, must it be rejected?)."""
+    common: list[tuple[Any, bool]] = [([1], True), ({"a": 1}, True), (None, False)]
+    if isinstance(default, bool):
+        return common + [(1, True), (0, True), ("true", True), (0.5, True), (math.nan, True),
+                         ("yes", True)]
+    if isinstance(default, str):
+        return common + [(3, True), ("no-such-thing", True), ("", False), (True, True),
+                         ([default], True), (default.upper() + "x", True), (math.nan, True)]
+    nums: list[tuple[Any, bool]] = [
+        (math.nan, True), (math.inf, True), (-math.inf, True), (1e300, False),
+        (-1e300, False), (0, False), (-1, False), (-0.5, False), (10**30, False),
+        (2**63, False), (1e-300, False), ("3", True), (True, True), ("nan", True)]
+    if isinstance(default, int) or default is None:
+        nums += [(0.5, False), (-(10**30), False), (10**6, False)]
+    if isinstance(default, float):
+        nums += [(default * 1e6 if default else 1e6, False), (-default, False)]
+    return common + nums
+
+
+class OptionFuzzer:
+    def __init__(self, seed: int = 0):
+        self.rng = random.Random(seed)
+
+    def cases(self, presets: dict[str, tuple[str, dict]] | None = None) -> list[Case]:
+        presets = presets or preset_table()
+        out = []
+        n = 0
+        for name, (backend, opts) in presets.items():
+            for opt, default in opts.items():
+                for value, must in _values_for(default):
+                    n += 1
+                    via = "file" if self.rng.random() < 0.15 and _toml_ok(value) else "override"
+                    out.append(Case("option", f"option/{n:05d}/{name}/{opt}",
+                                    f"{opt} = {_short(value)}",
+                                    {"preset": name, "backend": backend, "option": opt,
+                                     "value": value, "via": via,
+                                     "scene": option_scene(backend)},
+                                    (opt,), must))
+        return out
+
+
+def _toml_ok(v: Any) -> bool:
+    try:
+        tomllib.loads("v = " + _toml_value(v))
+    except (TypeError, tomllib.TOMLDecodeError):
+        return False
+    return v is not None
+
+
+def _short(v: Any, n: int = 40) -> str:
+    s = repr(v)
+    return s if len(s) <= n else s[: n - 3] + "..."
+
+
+def init_cases(presets: dict[str, tuple[str, dict]] | None = None, seed: int = 0) -> list[Case]:
+    """Bad (and odd but valid) initial guesses for every preset."""
+    import numpy as np
+
+    presets = presets or preset_table()
+    rng = random.Random(seed)
+    out = []
+    n = 0
+    for name, (backend, _) in presets.items():
+        scene = option_scene(backend)
+        sd = catalogue()[scene]
+        lead = sd.get("formation", {}).get("leader") or sd["robots"][0]["id"]
+        r0 = next(r for r in sd["robots"] if r["id"] == lead)
+        s, g = np.array(r0["start"], float), np.array(r0["goal"], float)
+        line = np.linspace(s, g, 6)
+        variants: list[tuple[str, Any, bool]] = [
+            ("nan", np.where(np.arange(12).reshape(6, 2) == 5, np.nan, line), True),
+            ("inf", np.where(np.arange(12).reshape(6, 2) == 4, np.inf, line), True),
+            ("-inf", np.where(np.arange(12).reshape(6, 2) == 7, -np.inf, line), True),
+            ("1e300", line * 1e300, True), ("-1e300", line * -1e300, True),
+            ("1e200 waypoint", np.vstack([line[:3], [[1e200, 0.0]], line[3:]]), True),
+            ("empty", np.zeros((0, 2)), True), ("flat", line.ravel(), True),
+            ("(4, 3)", np.ones((4, 3)), True), ("(6, 2, 1)", line[..., None], True),
+            ("scalar", 3.0, True), ("string", "straight", True),
+            ("list of strings", [["a", "b"]], True), ("ragged", [[1.0, 2.0], [3.0]], True),
+            ("unknown robot", {"nobody": line}, True),
+            ("dict of strings", {lead: "line"}, True),
+            ("too many points", np.zeros((100_001, 2)), True),
+            ("bool array", np.ones((4, 2), dtype=bool), False),
+            ("single point", line[:1], False), ("outside bounds", line + 1e4, False),
+            ("through obstacles", line, False), ("reversed", line[::-1], False),
+            ("huge but finite", line * 1e9, True), ("integer list", line.astype(int).tolist(),
+                                                    False),
+            ("object array", np.array([[1.0, None]], dtype=object), True),
+            ("complex", line.astype(complex) * 1j, True),
+        ]
+        rng.shuffle(variants)
+        for what, value, must in variants:
+            n += 1
+            out.append(Case("init", f"init/{n:04d}/{name}/{what}", what,
+                            {"preset": name, "backend": backend, "scene": scene,
+                             "value": value}, ("init",), must))
+    return out
+
+
+@functools.lru_cache(maxsize=1)
+def _base_results() -> dict[str, dict]:
+    """Result dicts of a few real solves (geometric, time-stamped formation, APF)."""
+    import optplan as op
+
+    out = {}
+    for scene, solver in (("open-field", "visgraph"), ("trap-u", "apf-paper"),
+                          ("formation-open-field", "leader-follower-paper")):
+        try:
+            res = op.solve(scene, solver, rng=0, time_limit=5.0)
+        except (ValueError, ImportError) as e:  # a backend broken in this checkout
+            print(f"fuzz: no base result {scene}/{solver}: {e}", file=sys.stderr)
+            continue
+        out[f"{scene}/{solver}"] = res.to_dict()
+    return out
+
+
+def _result_variants(base: dict, rid: str, path: list
+                 ) -> list[tuple[str, Callable[[dict], Any], tuple[str, ...], bool]]:
+    """(what, mutation of a copy of ``base``, keys an error may name, must it be rejected?)"""
+    return [
+        ("empty object", lambda d: d.clear(), ("status",), True),
+        ("paths 3 columns", lambda d: d["paths"].__setitem__(
+            rid, [p + [0.0] for p in path]), (f"paths.{rid}",), True),
+        ("paths flat", lambda d: d["paths"].__setitem__(
+            rid, [x for p in path for x in p]), (f"paths.{rid}",), True),
+        ("paths empty", lambda d: d["paths"].__setitem__(rid, []), (f"paths.{rid}",),
+         True),
+        ("paths no robots", lambda d: d.__setitem__("paths", {}), ("paths",), True),
+        ("paths list", lambda d: d.__setitem__("paths", [path]), ("paths",), True),
+        ("paths nan", lambda d: d["paths"].__setitem__(
+            rid, [[math.nan, 0.0]] + path[1:]), (f"paths.{rid}",), True),
+        ("paths strings", lambda d: d["paths"].__setitem__(rid, [["a", "b"]]),
+         (f"paths.{rid}",), True),
+        ("paths 1e300", lambda d: d["paths"].__setitem__(
+            rid, [[1e300, 1e300]] + path[1:]), (f"paths.{rid}",), True),
+        ("paths unknown robot", lambda d: d["paths"].__setitem__("nobody", path),
+         ("paths.nobody", "paths"), True),
+        ("paths ragged", lambda d: d["paths"].__setitem__(rid, [[1.0, 2.0], [3.0]]),
+         (f"paths.{rid}",), True),
+        ("metrics list", lambda d: d.__setitem__("metrics", [1, 2]), ("metrics",), True),
+        ("metrics length string", lambda d: d["metrics"].__setitem__("length", "long"),
+         ("metrics.length", "metrics"), True),
+        ("metrics per_robot list", lambda d: d["metrics"].__setitem__("per_robot", [1]),
+         ("metrics.per_robot", "metrics"), True),
+        ("metrics collisions list", lambda d: d["metrics"].__setitem__("collisions", [1]),
+         ("metrics.collisions", "metrics"), True),
+        ("times wrong length", lambda d: d.__setitem__(
+            "times", [float(k) for k in range(len(path) + 1)]), ("times",), True),
+        ("scenario list", lambda d: d.__setitem__("scenario", [1]), ("scenario",), True),
+        ("scenario bad radius", lambda d: d["scenario"]["robots"][0].__setitem__(
+            "radius", -1.0), ("scenario",), True),
+        ("scenario no robots", lambda d: d["scenario"].pop("robots"), ("scenario",), True),
+        ("scenario other robot ids", lambda d: d["scenario"]["robots"][0].__setitem__(
+            "id", "zz"), ("scenario", f"paths.{rid}"), True),
+        ("scenario dropped", lambda d: d.pop("scenario"), (), False),
+        ("times 2-D", lambda d: d.__setitem__("times", [[0.0]] * len(path)), ("times",),
+         True),
+        ("times strings", lambda d: d.__setitem__("times", ["t"] * len(path)),
+         ("times",), True),
+        ("times nan", lambda d: d.__setitem__("times", [math.nan] * len(path)),
+         ("times",), True),
+        ("times decreasing", lambda d: d.__setitem__(
+            "times", [float(-k) for k in range(len(path))]), ("times",), True),
+        ("status unknown", lambda d: d.__setitem__("status", "great"), ("status",), True),
+        ("status int", lambda d: d.__setitem__("status", 1), ("status",), True),
+        ("status missing", lambda d: d.pop("status"), ("status",), True),
+        ("schema 99", lambda d: d.__setitem__("schema", 99), ("schema",), True),
+        ("schema string", lambda d: d.__setitem__("schema", "1"), ("schema",), True),
+        ("solver int", lambda d: d.__setitem__("solver", 3), ("solver",), True),
+        ("problem unknown", lambda d: d.__setitem__("problem", "no-such-problem"),
+         ("problem",), "scenario" not in base),
+        ("problem unknown, no scenario", lambda d: (d.pop("scenario", None), d.__setitem__(
+            "problem", "no-such-problem")), ("problem",), True),
+        ("problem int", lambda d: d.__setitem__("problem", 3), ("problem",), True),
+        ("n_iter negative", lambda d: d.__setitem__("n_iter", -1), ("n_iter",), True),
+        ("n_eval float", lambda d: d.__setitem__("n_eval", 1.5), ("n_eval",), True),
+        ("wall_time string", lambda d: d.__setitem__("wall_time", "1s"), ("wall_time",),
+         True),
+        ("wall_time nan", lambda d: d.__setitem__("wall_time", math.nan), ("wall_time",),
+         True),
+        ("seed string", lambda d: d.__setitem__("seed", "0"), ("seed",), True),
+        ("history ragged", lambda d: d.__setitem__("history", {"a": [1], "b": [1, 2]}),
+         ("history",), True),
+        ("history not list", lambda d: d.__setitem__("history", {"a": 3}), ("history",),
+         True),
+        ("extras list", lambda d: d.__setitem__("extras", [1]), ("extras",), True),
+        ("extras global_path odd", lambda d: d.__setitem__(
+            "extras", {"global_path": [1.0, 2.0, 3.0]}),
+         ("extras.global_path", "extras"), True),
+        ("options list", lambda d: d.__setitem__("options", [1]), ("options",), True),
+        ("message dict", lambda d: d.__setitem__("message", {}), ("message",), True),
+        ("cost string", lambda d: d.__setitem__("cost", "cheap"), ("cost",), True),
+        ("deep nesting", lambda d: d.__setitem__("extras", {"x": nested(100)}), (), False),
+    ]
+
+
+def result_cases(seed: int = 0, n_random: int = 40) -> list[Case]:
+    """Corrupted result files (and intact ones: they must load and plot)."""
+    rng = random.Random(seed)
+    bases = copy.deepcopy(_base_results())
+    out: list[Case] = []
+    n = 0
+
+    def add(what: str, content: bytes | None, keys: Iterable[str], must: bool,
+            kind: str = "file") -> None:
+        nonlocal n
+        n += 1
+        out.append(Case("result", f"result/{n:04d}/{what}", what,
+                        {"bytes": content, "kind": kind}, tuple(keys), must))
+
+    def js(d: Any) -> bytes:
+        return json.dumps(d, allow_nan=True).encode("utf-8")
+
+    for bname, base in bases.items():
+        text = json.dumps(base, indent=1).encode("utf-8")
+        add(f"intact {bname}", text, (), False)
+        for frac in (0.0, 0.1, 0.5, 0.9, 0.999):
+            add(f"truncated {frac:g} {bname}", text[: int(len(text) * frac)],
+                ("invalid JSON", "<root>"), True)
+        rid = next(iter(base["paths"]))
+        variants = _result_variants(base, rid, base["paths"][rid])
+        for what, fn, keys, must in variants:
+            d = copy.deepcopy(base)
+            try:
+                fn(d)
+            except (KeyError, TypeError, IndexError):  # e.g. no embedded scenario
+                continue
+            add(f"{what} {bname}", js(d), keys, must)
+        for _ in range(n_random // len(bases)):  # random byte damage
+            k = rng.randrange(len(text))
+            add(f"byte flip {bname}", text[:k] + bytes([rng.randrange(256)]) + text[k + 1:],
+                ("invalid JSON", "not UTF-8", "<root>", "paths", "status", "times", "metrics",
+                 "schema", "solver", "backend", "problem", "n_iter", "n_eval", "wall_time",
+                 "seed", "history", "extras", "options", "message", "cost", "stop_reason"),
+                False)
+    add("empty file", b"", ("invalid JSON",), True)
+    add("not UTF-8", b"\xff\xfe{}", ("not UTF-8",), True)
+    add("JSON list", b"[]", ("<root>",), True)
+    add("JSON null", b"null", ("<root>",), True)
+    add("JSON number", b"3", ("<root>",), True)
+    add("deep brackets", b"[" * 100000 + b"]" * 100000, ("nested too deeply", "<root>"), True)
+    add("directory", None, ("cannot read file", "is a directory", "no such result file"),
+        True, kind="dir")
+    add("missing", None, ("no such result file", "cannot read file"), True, kind="missing")
+    return out
+
+
+# ======================================================================================
+# the independent path check
+# ======================================================================================
+
+
+def independent_check(prob, paths: dict[str, Any]) -> tuple[bool, str]:
+    """Is every path feasible and does it reach its goal?  Checked with shapely directly on
+    the scenario's obstacles (polygons as written, circles as exact centre and radius), in
+    coordinates relative to the centre of the bounds; not with optplan's geometry core.
+
+    A path is feasible when it starts at its start, stays in the bounds and keeps a distance
+    ``>= radius - eps`` from every static obstacle (known or temporary), ``eps = 1e-9 x`` the
+    bounds diagonal; a point robot may touch but not enter (by more than ``eps``) a polygon.
+    """
+    import numpy as np
+    import shapely
+    from shapely.affinity import translate
+    from shapely.geometry import LineString, Point
+
+    x0, y0, x1, y1 = prob.bounds
+    diag = math.hypot(x1 - x0, y1 - y0)
+    eps = 1e-9 * diag
+    c = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+    robots = {r.id: r for r in prob.robots}
+    for rid, path in paths.items():
+        if rid not in robots:
+            return False, f"path of unknown robot {rid!r}"
+        r = robots[rid]
+        p = np.asarray(path, dtype=float).reshape(-1, 2) - c
+        if len(p) == 0 or not np.all(np.isfinite(p)):
+            return False, f"{rid}: empty or non-finite path"
+        if math.hypot(*(p[0] - (r.start - c))) > eps:
+            return False, f"{rid}: does not start at the start"
+        if r.goal is not None:
+            tol = prob.goal_tolerance if prob.goal_tolerance is not None else (
+                r.radius if r.radius > 0 else 1e-6 * diag)
+            if math.hypot(*(p[-1] - (r.goal - c))) > tol + eps:
+                return False, f"{rid}: goal not reached"
+        hx, hy = (x1 - x0) / 2 + eps, (y1 - y0) / 2 + eps
+        if np.any(np.abs(p[:, 0]) > hx) or np.any(np.abs(p[:, 1]) > hy):
+            return False, f"{rid}: out of bounds"
+        geom = LineString(p) if len(p) > 1 else Point(p[0])
+        for o in prob.obstacles:
+            if o.is_circle:
+                d = shapely.distance(geom, Point(*(o.center - c))) - float(o.radius)
+                if d < r.radius - eps:
+                    return False, f"{rid}: hits circle {o.name!r} (distance {d:.6g})"
+            else:
+                poly = translate(o.geometry, -c[0], -c[1])
+                if r.radius > eps:
+                    d = shapely.distance(geom, poly)
+                    if d < r.radius - eps:
+                        return False, f"{rid}: hits {o.name!r} (distance {d:.6g})"
+                else:
+                    inner = poly.buffer(-eps)
+                    if not inner.is_empty and shapely.intersects(geom, inner):
+                        return False, f"{rid}: enters {o.name!r}"
+    return True, "feasible and reaching"
+
+
+# ======================================================================================
+# running a case (inside a worker process)
+# ======================================================================================
+
+
+def _message_ok(msg: str, keys: tuple[str, ...], file: str | None) -> tuple[bool, str]:
+    """Does ``msg`` name ``file`` (when given) and one of ``keys``?"""
+    if len(msg) > MAX_MESSAGE:
+        return False, f"message of {len(msg)} characters"
+    if "\n" in msg.strip():
+        return False, "multi-line message"
+    if file is not None and file not in msg:
+        return False, "does not name the file"
+    if not keys:
+        return True, ""
+    for k in keys:
+        pat = r"(?:^|(?<=[\s'\"(\[]))" + re.escape(k) + r"(?=$|[\s:.\[',\")\]])"
+        if re.search(pat, msg):
+            return True, ""
+    return False, f"names none of {list(keys)[:6]}"
+
+
+def _classify_error(e: BaseException, case: Case, file: str | None) -> tuple[str, str]:
+    from optplan.problem import ProblemError
+    from optplan.result import ResultFileError
+
+    msg = str(e)
+    raw = isinstance(e, (UnicodeError, json.JSONDecodeError))
+    if isinstance(e, ValueError) and not raw:
+        ok, why = _message_ok(msg, case.keys, file)
+        name = type(e).__name__
+        if ok:
+            return "clear error", f"{name}: {msg}"
+        if isinstance(e, (ProblemError, ResultFileError)) or name.endswith("Error"):
+            return "unclear message", f"{why}: {name}: {msg[:300]}"
+    if raw:
+        return "unclear message", f"raw {type(e).__name__}: {msg[:300]}"
+    return "crash", f"{type(e).__name__}: {msg[:300]}"
+
+
+def _cli(argv: list[str]) -> tuple[int, str]:
+    """Run ``optplan ARGV`` in this process; (exit status, stderr).  Every warning is shown
+    (``always``), so a warning the CLI lets through appears on stderr."""
+    import contextlib
+    import warnings
+
+    from optplan import cli
+
+    err, out = io.StringIO(), io.StringIO()
+    with warnings.catch_warnings():
+        warnings.simplefilter("always")
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(out):
+            try:
+                rc = cli.main(argv)
+            except SystemExit as e:  # pragma: no cover - main returns
+                rc = e.code if isinstance(e.code, int) else 1
+    return rc, err.getvalue()
+
+
+def _cli_ok(argv: list[str], case: Case, file: str | None) -> tuple[bool, str]:
+    """A bad input through the CLI: exit 2 and exactly one line, naming file and key."""
+    try:
+        rc, err = _cli(argv)
+    except BaseException as e:  # noqa: BLE001 - anything escaping main is a crash
+        return False, f"CLI raised {type(e).__name__}: {str(e)[:200]}"
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    if rc != 2 or len(lines) != 1 or not lines[0].startswith("optplan: error: "):
+        return False, f"CLI exit {rc}, stderr {err[:300]!r}"
+    ok, why = _message_ok(lines[0], case.keys, file)
+    return ok, "" if ok else f"CLI: {why}: {lines[0][:300]}"
+
+
+def _prepare(case: Case, tmp: Path, suffix: str) -> Path:
+    path = tmp / f"{re.sub(r'[^A-Za-z0-9_-]', '-', case.id)}{suffix}"
+    kind = case.data.get("kind", "file")
+    if kind == "dir":
+        path.mkdir()
+    elif kind == "file":
+        path.write_bytes(case.data["bytes"] or b"")
+    return path
+
+
+def run_scenario(case: Case, tmp: Path) -> Outcome:
+    import optplan as op
+
+    if case.data["kind"] == "dict":
+        d = copy.deepcopy(case.data["dict"])
+        where = case.data["note"]
+        deep = nested(3000)
+        if where == "x":
+            d["x"] = deep
+        elif where == "bounds":
+            d["bounds"] = [deep, 0.0, 1.0, 1.0]
+        elif where == "robots[0].start":
+            d["robots"][0]["start"] = [deep, 0.0]
+        else:
+            d["obstacles"] = [{"type": "polygon", "vertices": [deep, [0, 0], [1, 0]]}]
+        try:
+            prob = op.parse_problem(d, "fuzz.toml")
+        except Exception as e:  # noqa: BLE001
+            cat, det = _classify_error(e, case, "fuzz.toml")
+            return Outcome(case, cat, det)
+        return _solved_scenario(case, prob)
+    path = _prepare(case, tmp, ".toml")
+    try:
+        prob = op.load_problem(path)
+    except Exception as e:  # noqa: BLE001
+        cat, det = _classify_error(e, case, str(path))
+        if cat == "clear error":
+            ok, why = _cli_ok(["show", str(path)], case, str(path))
+            if not ok:
+                return Outcome(case, "unclear message", why)
+        return Outcome(case, cat, det)
+    return _solved_scenario(case, prob)
+
+
+def _solved_scenario(case: Case, prob) -> Outcome:
+    import optplan as op
+
+    if case.must_reject:
+        return Outcome(case, "silently accepted", "accepted: " + case.data.get("note", ""))
+    try:
+        res = op.solve(prob, "visgraph", rng=0, time_limit=SOLVE_TIME_LIMIT)
+    except Exception as e:  # noqa: BLE001
+        cat, det = _classify_error(e, case, None)
+        cat = "crash" if cat == "crash" else "unclear message"
+        return Outcome(case, cat, "solve: " + det)
+    return _compare(case, prob, res)
+
+
+def _compare(case: Case, prob, res) -> Outcome:
+    """The solver's success against :func:`independent_check`.  Full comparison without
+    dynamic obstacles and with one path; otherwise only soundness (success => feasible)."""
+    ok, why = independent_check(prob, res.paths)
+    full = not prob.dynamic_obstacles and len(res.paths) == 1
+    if res.success and not ok:
+        return Outcome(case, "success disagrees", f"success but {why}", compared=True)
+    if full and ok and not res.success:
+        return Outcome(case, "success disagrees",
+                       f"not success ({res.status}: {res.message[:150]}) but {why}",
+                       compared=True)
+    return Outcome(case, "accepted and solved", f"{res.status}: {why}", compared=True)
+
+
+def run_option(case: Case, tmp: Path) -> Outcome:
+    import optplan as op
+
+    d = case.data
+    opt, value = d["option"], d["value"]
+    file = None
+    kwargs: dict[str, Any] = {}
+    solver: Any = d["preset"]
+    if d["via"] == "file":
+        from optplan.solver import all_preset_files
+
+        src = tomllib.loads(all_preset_files()[d["preset"]].read_text(encoding="utf-8"))
+        src.setdefault("options", {})[opt] = value
+        path = tmp / f"{d['preset']}-fuzz.toml"
+        path.write_text(toml_dumps(src), encoding="utf-8")
+        solver, file = str(path), str(path)
+    else:
+        kwargs[opt] = value
+    try:
+        res = op.solve(d["scene"], solver, rng=0, time_limit=SOLVE_TIME_LIMIT, **kwargs)
+    except Exception as e:  # noqa: BLE001
+        cat, det = _classify_error(e, case, file)
+        return Outcome(case, cat, det)
+    if case.must_reject:
+        return Outcome(case, "silently accepted", f"accepted ({res.status})")
+    return _compare(case, op.load_problem(d["scene"]), res) if not op.load_problem(
+        d["scene"]).formation else Outcome(case, "accepted and solved", str(res.status))
+
+
+def run_init(case: Case, tmp: Path) -> Outcome:
+    import optplan as op
+
+    d = case.data
+    try:
+        res = op.solve(d["scene"], d["preset"], rng=0, time_limit=SOLVE_TIME_LIMIT,
+                       init=d["value"])
+    except Exception as e:  # noqa: BLE001
+        cat, det = _classify_error(e, case, None)
+        return Outcome(case, cat, det)
+    if case.must_reject:
+        return Outcome(case, "silently accepted", f"accepted ({res.status})")
+    prob = op.load_problem(d["scene"])
+    if prob.formation:
+        return Outcome(case, "accepted and solved", str(res.status))
+    return _compare(case, prob, res)
+
+
+def run_result(case: Case, tmp: Path) -> Outcome:
+    from optplan.cli import _result_lines
+    from optplan.result import Result
+
+    path = _prepare(case, tmp, ".json")
+    try:
+        res = Result.load(path)
+    except Exception as e:  # noqa: BLE001
+        cat, det = _classify_error(e, case, str(path))
+        if cat == "clear error":
+            ok, why = _cli_ok(["plot", str(path), "--out", str(tmp / "x.png")], case,
+                              str(path))
+            if not ok:
+                return Outcome(case, "unclear message", why)
+        return Outcome(case, cat, det)
+    try:
+        res.summary()
+        _result_lines(res)
+    except Exception as e:  # noqa: BLE001
+        return Outcome(case, "crash", f"summary: {type(e).__name__}: {e}")
+    png = tmp / "plot.png"
+    try:
+        rc, err = _cli(["plot", str(path), "--out", str(png)])
+    except BaseException as e:  # noqa: BLE001
+        return Outcome(case, "crash", f"CLI plot raised {type(e).__name__}: {e}")
+    lines = [ln for ln in err.splitlines() if ln.strip()]
+    if rc == 0 and not lines:
+        if case.must_reject:
+            return Outcome(case, "silently accepted", "loaded and plotted")
+        return Outcome(case, "accepted and solved", "loaded and plotted")
+    if rc == 2 and len(lines) == 1 and lines[0].startswith("optplan: error: "):
+        ok, why = _message_ok(lines[0], case.keys, str(path))
+        if ok:
+            return Outcome(case, "clear error", "CLI plot: " + lines[0])
+        return Outcome(case, "unclear message", f"CLI plot: {why}: {lines[0][:300]}")
+    return Outcome(case, "crash" if rc not in (0, 2) else "unclear message",
+                   f"CLI plot exit {rc}: {err[-400:]!r}")
+
+
+def run_selftest(case: Case, tmp: Path) -> Outcome:
+    """Harness self-test cases: sleep (a hang), raise (a crash or an error message)."""
+    d = case.data
+    if "sleep" in d:
+        time.sleep(d["sleep"])
+    if "raise" in d:
+        exc = {"TypeError": TypeError, "ValueError": ValueError}[d["raise"]]
+        try:
+            raise exc(d.get("message", "boom"))
+        except Exception as e:  # noqa: BLE001
+            return Outcome(case, *_classify_error(e, case, None))
+    return Outcome(case, "accepted and solved", "ok")
+
+
+RUNNERS = {"scenario": run_scenario, "option": run_option, "init": run_init,
+           "result": run_result, "selftest": run_selftest}
+
+
+def run_case(case: Case, tmp: Path) -> Outcome:
+    import warnings
+
+    t0 = time.perf_counter()
+    sub = tmp / f"c{abs(hash(case.id)) % 10**8}"
+    sub.mkdir(parents=True, exist_ok=True)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            out = RUNNERS[case.family](case, sub)
+    except RecursionError as e:
+        out = Outcome(case, "crash", f"RecursionError in the harness: {e}")
+    finally:
+        shutil.rmtree(sub, ignore_errors=True)
+    out.seconds = time.perf_counter() - t0
+    return out
+
+
+# ======================================================================================
+# worker processes (a case that overruns HANG_S is killed)
+# ======================================================================================
+
+
+def _send(stream, obj: Any) -> None:
+    b = pickle.dumps(obj, protocol=pickle.HIGHEST_PROTOCOL)
+    data = memoryview(struct.pack("<Q", len(b)) + b)
+    while data:
+        n = stream.write(data)
+        data = data[n if n is not None else len(data):]
+    stream.flush()
+
+
+def _read_exactly(stream, n: int) -> bytes:
+    buf = b""
+    while len(buf) < n:
+        chunk = stream.read(n - len(buf))
+        if not chunk:
+            raise EOFError
+        buf += chunk
+    return buf
+
+
+def _recv(stream) -> Any:
+    """One message; the parent reads an unbuffered pipe (no read-ahead hides a message from
+    ``select``)."""
+    (n,) = struct.unpack("<Q", _read_exactly(stream, 8))
+    return pickle.loads(_read_exactly(stream, n))
+
+
+def _case_to_dict(c: Case) -> dict:
+    return dataclasses.asdict(c)
+
+
+def _cold_key(case: Case) -> str:
+    """What a case's first use in a process compiles (numba, cvxpy, IPOPT, matplotlib)."""
+    return case.data.get("preset") or {"scenario": "visgraph", "result": "plot"}.get(
+        case.family, case.family)
+
+
+def worker_main() -> None:
+    """Serve cases on stdin/stdout (length-prefixed pickles); prints go to /dev/null."""
+    try:
+        import resource
+
+        resource.setrlimit(resource.RLIMIT_AS, (MEMORY_LIMIT, MEMORY_LIMIT))
+    except (ImportError, ValueError, OSError):
+        pass
+    sys.setrecursionlimit(max(sys.getrecursionlimit(), 1000))
+    proto_in = os.fdopen(os.dup(0), "rb")
+    proto_out = os.fdopen(os.dup(1), "wb")
+    devnull = os.open(os.devnull, os.O_RDWR)
+    os.dup2(devnull, 0)
+    os.dup2(devnull, 1)
+    sys.stdout = open(os.devnull, "w")  # noqa: SIM115
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    tmp = Path(tempfile.mkdtemp(prefix="optplan-fuzz-"))
+    import optplan  # noqa: F401  (import once, before the first case)
+
+    _send(proto_out, {"ready": True})
+    warmed: set[str] = set()
+    try:
+        while True:
+            try:
+                msg = _recv(proto_in)
+            except EOFError:
+                break
+            case = Case(**msg)
+            key = _cold_key(case)
+            _send(proto_out, {"started": True,
+                              "cold": key not in warmed and case.family != "selftest"})
+            warmed.add(key)
+            try:
+                out = run_case(case, tmp)
+                reply = {"category": out.category, "detail": out.detail,
+                         "seconds": out.seconds, "compared": out.compared}
+            except MemoryError:
+                reply = {"category": "crash", "detail": "MemoryError", "seconds": 0.0,
+                         "compared": False}
+            _send(proto_out, reply)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+class _Worker:
+    def __init__(self, log: Path):
+        self.log = open(log, "ab")  # noqa: SIM115
+        env = {**os.environ, "PYTHONHASHSEED": "0", "MPLBACKEND": "Agg",
+               "PYTHONWARNINGS": "ignore"}
+        self.proc = subprocess.Popen([sys.executable, str(Path(__file__).resolve()),
+                                      "--worker"], stdin=subprocess.PIPE, bufsize=0,
+                                     stdout=subprocess.PIPE, stderr=self.log, env=env,
+                                     cwd=str(ROOT))
+        self.case: Case | None = None
+        self.t0 = 0.0
+        self.ready = False
+        self.running = False  # the case's clock runs
+        self.budget = HANG_S
+
+    def start_case(self, case: Case) -> None:
+        self.case, self.t0, self.running = case, time.monotonic(), False
+        _send(self.proc.stdin, _case_to_dict(case))
+
+    def kill(self) -> None:
+        try:
+            self.proc.kill()
+            self.proc.wait(timeout=10)
+        except (OSError, subprocess.TimeoutExpired):
+            pass
+        self.log.close()
+
+
+def run_cases(cases: list[Case], workers: int = 2, hang_s: float = HANG_S,
+              progress: Callable[[int, int, Outcome], None] | None = None,
+              log_dir: Path | None = None, startup_s: float = 120.0) -> list[Outcome]:
+    """Run every case in ``workers`` worker processes; a case running longer than
+    ``hang_s`` is a hang (its worker is killed and replaced)."""
+    log_dir = Path(log_dir or tempfile.mkdtemp(prefix="optplan-fuzz-logs-"))
+    log_dir.mkdir(parents=True, exist_ok=True)
+    todo = list(reversed(cases))
+    results: dict[str, Outcome] = {}
+    pool = [_Worker(log_dir / f"worker{i}.log") for i in range(max(1, workers))]
+    born = {id(w): time.monotonic() for w in pool}
+    n_done = 0
+    try:
+        while len(results) < len(cases):
+            for w in pool:
+                if w.ready and w.case is None and todo:
+                    w.start_case(todo.pop())
+            fds = {w.proc.stdout.fileno(): w for w in pool}
+            ready, _, _ = select.select(list(fds), [], [], 0.2)
+            for fd in ready:
+                w = fds[fd]
+                try:
+                    msg = _recv(w.proc.stdout)
+                except EOFError:
+                    msg = None
+                if msg is None:  # the worker died
+                    if w.case is not None:
+                        code = w.proc.poll()
+                        out = Outcome(w.case, "crash", f"worker died (exit {code})",
+                                      time.monotonic() - w.t0)
+                        results[w.case.id] = out
+                        n_done += 1
+                        if progress:
+                            progress(n_done, len(cases), out)
+                    elif not todo:
+                        pass
+                    _replace(pool, w, log_dir, born)
+                    continue
+                if "ready" in msg:
+                    w.ready = True
+                    continue
+                if "started" in msg:
+                    w.running = True
+                    w.budget = hang_s + (COLD_S if msg.get("cold") else 0.0)
+                    continue
+                out = Outcome(w.case, msg["category"], msg["detail"], msg["seconds"],
+                              compared=msg["compared"])
+                results[w.case.id] = out
+                w.case = None
+                n_done += 1
+                if progress:
+                    progress(n_done, len(cases), out)
+            now = time.monotonic()
+            for w in list(pool):
+                over = w.budget if w.running else startup_s
+                if w.case is not None and now - w.t0 > over:
+                    cold = " (including a cold start)" if over > hang_s else ""
+                    out = Outcome(w.case, "hang", f"still running after {over:g} s{cold}",
+                                  now - w.t0)
+                    results[w.case.id] = out
+                    n_done += 1
+                    if progress:
+                        progress(n_done, len(cases), out)
+                    w.case = None
+                    _replace(pool, w, log_dir, born)
+                elif not w.ready and now - born[id(w)] > startup_s:
+                    raise RuntimeError(f"a fuzz worker did not start in {startup_s:g} s "
+                                       f"(log: {log_dir})")
+    finally:
+        for w in pool:
+            w.kill()
+    return [results[c.id] for c in cases]
+
+
+def _replace(pool: list[_Worker], w: _Worker, log_dir: Path, born: dict) -> None:
+    i = pool.index(w)
+    w.kill()
+    nw = _Worker(log_dir / f"worker{i}.log")
+    pool[i] = nw
+    born[id(nw)] = time.monotonic()
+
+
+# ======================================================================================
+# known findings in files other engineers own (backends, solve's checks)
+# ======================================================================================
+
+#: finding id -> (where, what happens, predicate on a bad outcome).  A bad outcome a finding
+#: explains is reported in the "known findings" column (and ``tests/test_fuzz.py`` xfails it).
+KNOWN_FINDINGS: dict[str, tuple[str, str, Callable[[Outcome], bool]]] = {
+    "visgraph-start-is-goal": (
+        "optplan/geometry/tangent_graph.py (visgraph, nlp-ipopt's initial path)",
+        "a robot whose start equals its goal on a map without obstacles near it is reported "
+        "infeasible ('the goal is not reachable from the start')",
+        lambda o: o.case.family in ("scenario", "option", "init")
+        and o.category == "success disagrees" and "goal is not reachable" in o.detail),
+    "visgraph-many-vertices": (
+        "optplan/backends/visgraph.py, optplan/geometry/tangent_graph.py",
+        "time_limit is not honoured while the tangent graph is built: office-floor plus one "
+        "20,000-vertex polygon takes 115 s with time_limit = 2 (paper-warehouse: 4.8 s)",
+        lambda o: o.case.family == "scenario" and o.case.what == "huge vertex count"
+        and o.category == "hang"),
+    "nlp-approximate-but-feasible": (
+        "optplan/backends/nlp.py",
+        "when IPOPT fails (margin=1e300 or 1e30, tol=1e-300, mu_init=1e-300, all accepted) the "
+        "result is 'approximate' although the returned path is feasible and reaches the goal "
+        "(Status says approximate means infeasible or not reaching)",
+        lambda o: o.case.data.get("preset") == "nlp-ipopt"
+        and o.category == "success disagrees"),
+    "tiny-spacing": (
+        "optplan/backends/visgraph.py (arc_step), formation backends (ref_spacing), hybrid "
+        "(subgoal_spacing)",
+        "a positive but tiny spacing (1e-300) is accepted and then numpy raises 'Maximum "
+        "allowed size exceeded' naming no option",
+        lambda o: o.case.family == "option" and o.case.data.get("option") in (
+            "arc_step", "ref_spacing", "subgoal_spacing") and "Maximum allowed size" in o.detail),
+    "int-option-recompiles": (
+        "optplan/backends/ipso.py (swarm kernels)",
+        "an integer value for a float option (c1 = 0) makes numba compile a new "
+        "specialisation: ~7 s with time_limit = 2 (c1 = 0.0 takes 0.1 s)",
+        lambda o: o.case.family == "option" and o.category == "hang"
+        and isinstance(o.case.data.get("value"), int)
+        and o.case.data.get("backend") in ("ipso", "pso", "mpso")),
+    "init-complex": (
+        "optplan/solver.py check_init",
+        "a complex init array is accepted (numpy drops the imaginary part with a "
+        "ComplexWarning)",
+        lambda o: o.case.family == "init" and o.case.what == "complex"
+        and o.category == "silently accepted"),
+    "result-metric-types": (
+        "optplan/result.py (Result.load, Result.summary)",
+        "a string metrics.length makes Result.summary raise ValueError ('Unknown format code'); "
+        "a string cost and a NaN wall_time load silently",
+        lambda o: o.case.family == "result" and o.case.what.split(" ")[0] in (
+            "metrics", "cost", "wall_time") and o.category in ("crash", "silently accepted")
+        and ("summary" in o.detail or o.case.what.startswith(("cost", "wall_time")))),
+}
+
+
+def known_finding(outcome: Outcome) -> str | None:
+    for fid, (_, _, pred) in KNOWN_FINDINGS.items():
+        try:
+            if pred(outcome):
+                return fid
+        except (KeyError, TypeError, AttributeError):
+            continue
+    return None
+
+
+# ======================================================================================
+# the run
+# ======================================================================================
+
+
+def build_cases(seed: int = 0, n_scenarios: int = 3000, options: bool = True,
+                inits: bool = True, results: bool = True,
+                scenes: Iterable[str] | None = None) -> list[Case]:
+    cases = ScenarioFuzzer(seed).cases(n_scenarios, scenes)
+    presets = preset_table() if (options or inits) else {}
+    if options:
+        cases += OptionFuzzer(seed).cases(presets)
+    if inits:
+        cases += init_cases(presets, seed)
+    if results:
+        cases += result_cases(seed)
+    return cases
+
+
+def annotate(outcomes: list[Outcome]) -> list[Outcome]:
+    for o in outcomes:
+        if o.category in BAD:
+            o.known = known_finding(o)
+    return outcomes
+
+
+def counts_table(outcomes: list[Outcome]) -> str:
+    fams = ["scenario", "option", "init", "result"]
+    head = ["family", "cases", *CATEGORIES, "known findings", "compared"]
+    rows = []
+    for fam in [*fams, "all"]:
+        sel = [o for o in outcomes if fam == "all" or o.case.family == fam]
+        c = Counter(o.category for o in sel)
+        rows.append([fam, str(len(sel)), *(str(c[k]) for k in CATEGORIES),
+                     str(sum(1 for o in sel if o.known)), str(sum(o.compared for o in sel))])
+    widths = [max(len(r[i]) for r in [head, *rows]) for i in range(len(head))]
+    line = "| " + " | ".join(h.ljust(w) for h, w in zip(head, widths)) + " |"
+    sep = "|" + "|".join("-" * (w + 2) for w in widths) + "|"
+    body = ["| " + " | ".join(v.rjust(w) if i else v.ljust(w)
+                              for i, (v, w) in enumerate(zip(r, widths))) + " |"
+            for r in rows]
+    return "\n".join([line, sep, *body])
+
+
+def failures(outcomes: list[Outcome], include_known: bool = False) -> list[Outcome]:
+    return [o for o in outcomes if o.category in BAD and (include_known or not o.known)]
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--scenarios", type=int, default=3000)
+    ap.add_argument("--workers", type=int, default=max(1, min(4, os.cpu_count() or 1)))
+    ap.add_argument("--family", action="append",
+                    choices=["scenario", "option", "init", "result"])
+    ap.add_argument("--quick", action="store_true", help="300 scenarios, every family")
+    ap.add_argument("--show", type=int, default=40, help="failures to list (default 40)")
+    ap.add_argument("--json", help="write every outcome to this JSON file")
+    ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args(argv)
+    if args.worker:
+        worker_main()
+        return 0
+    fam = set(args.family or ["scenario", "option", "init", "result"])
+    n_sc = 300 if args.quick else args.scenarios
+    t0 = time.perf_counter()
+    cases = build_cases(args.seed, n_sc if "scenario" in fam else 0, "option" in fam,
+                        "init" in fam, "result" in fam)
+    print(f"{len(cases)} cases ({time.perf_counter() - t0:.1f} s to generate); "
+          f"{args.workers} workers, hang limit {HANG_S:g} s", file=sys.stderr)
+    last = [0.0]
+
+    def prog(done: int, total: int, out: Outcome) -> None:
+        now = time.perf_counter()
+        if out.category in BAD or now - last[0] > 10 or done == total:
+            last[0] = now
+            mark = "" if out.category not in BAD else f"  {out.category}: {out.case.id}"
+            print(f"[{done}/{total}] {now - t0:.0f} s{mark}", file=sys.stderr)
+
+    outcomes = annotate(run_cases(cases, args.workers, progress=prog))
+    print(counts_table(outcomes))
+    print(f"\nwall time {time.perf_counter() - t0:.0f} s")
+    bad = failures(outcomes, include_known=True)
+    if bad:
+        print(f"\n{len(bad)} bad outcomes (first {args.show}):")
+        for o in bad[: args.show]:
+            tag = f" [known: {o.known}]" if o.known else ""
+            print(f"- {o.category}{tag}: {o.case.id} ({o.case.what}; "
+                  f"{o.case.data.get('note', '')}): {o.detail[:400]}")
+    if args.json:
+        Path(args.json).write_text(json.dumps([
+            {"id": o.case.id, "family": o.case.family, "what": o.case.what,
+             "note": o.case.data.get("note", ""), "category": o.category, "detail": o.detail,
+             "seconds": round(o.seconds, 3), "known": o.known} for o in outcomes], indent=1))
+    return 0 if not failures(outcomes) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
