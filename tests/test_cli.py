@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import importlib.machinery
+import json
+import os
 import subprocess
 import sys
 import types
+import warnings
 
 import pytest
 
@@ -233,3 +236,207 @@ def test_import_optplan_stays_light():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          timeout=120)
     assert out.returncode == 0 and out.stdout.strip() == "False"
+
+
+# -- issue 14: bad input is one line and exit 2, never a traceback or a warning --------------
+
+_SCENE = """name = "s"
+bounds = [0.0, 0.0, 100.0, 100.0]
+
+[[robots]]
+id = "leader"
+start = [10.0, 10.0]
+goal = [90.0, 90.0]
+radius = 1.0
+
+[[robots]]
+id = "f1"
+start = [5.0, 10.0]
+radius = 1.0
+"""
+_FORMATION = '[formation]\nleader = "leader"\nfollowers = [{ id = "f1", L = 5.0, phi = 0.5 }]\n'
+_POLY = '[[obstacles]]\ntype = "polygon"\nvertices = [[40.0, 40.0], [60.0, 40.0], [50.0, 60.0]]\n'
+
+#: bad scenario files -> text the one error line must contain (besides the file name)
+BAD_SCENES: dict[str, tuple[str, str]] = {
+    "type-list": (_SCENE + _FORMATION + _POLY.replace('"polygon"', '["polygon"]'),
+                  "obstacles[0].type: expected a string"),
+    "type-table": (_SCENE + _FORMATION + _POLY.replace('"polygon"', '{ kind = "polygon" }'),
+                   "obstacles[0].type: expected a string"),
+    "leader-list": (_SCENE + _FORMATION.replace('leader = "leader"', 'leader = ["leader"]'),
+                    "formation.leader: expected a robot id string"),
+    "leader-table": (_SCENE + _FORMATION.replace('leader = "leader"', 'leader = { id = 1 }'),
+                     "formation.leader: expected a robot id string"),
+    "followers-empty": (_SCENE + '[formation]\nleader = "leader"\nfollowers = []\n',
+                        "formation.followers: expected at least one follower"),
+    "followers-missing": (_SCENE + '[formation]\nleader = "leader"\n',
+                          "formation.followers: missing required key"),
+    "follower-unknown": (_SCENE + _FORMATION.replace('id = "f1"', 'id = "f9"'),
+                         "formation.followers[0].id: names no robot: 'f9'"),
+    "leader-as-follower": (_SCENE + _FORMATION.replace('id = "f1"', 'id = "leader"'),
+                           "formation.followers[0].id: the leader 'leader' cannot"),
+    "no-formation": (_SCENE, "robots[1].goal: missing required key"),
+    "nested-3000": (_SCENE + _FORMATION + "zz = " + "[" * 3000 + "]" * 3000 + "\n",
+                    "invalid TOML: arrays or inline tables nested too deeply"),
+    "circle-minus-1e300": (_SCENE + _FORMATION + '[[obstacles]]\ntype = "circle"\n'
+                           'center = [-1e300, 0.0]\nradius = 1.0\n',
+                           "obstacles[0].center[0]: magnitude 1e+300 is beyond"),
+    "speed-1e300": (_SCENE.replace("radius = 1.0\n", "radius = 1.0\nmax_speed = 1e300\n", 1)
+                    + _FORMATION, "robots[0].max_speed: must be <="),
+    "empty": ("", "name: missing required key"),
+    "syntax": ("name = \n", "invalid TOML"),
+}
+
+
+def _bad_files(tmp_path):
+    files = {}
+    for name, (text, needle) in BAD_SCENES.items():
+        f = tmp_path / f"{name}.toml"
+        f.write_text(text, encoding="utf-8")
+        files[name] = (["show", str(f)], str(f), needle)
+    latin = tmp_path / "latin1.toml"
+    latin.write_bytes(('name = "caf\xe9"\n').encode("latin-1"))
+    files["non-utf8"] = (["show", str(latin)], str(latin), "not UTF-8 text")
+    d = tmp_path / "dir.toml"
+    d.mkdir()
+    files["directory"] = (["show", str(d)], str(d), "is a directory")
+    # result files
+    good = tmp_path / "good.json"
+    assert cli.main(["solve", "open-field", "visgraph", "--json", str(good)]) == 0
+    base = json.loads(good.read_text())
+    text = good.read_text()
+
+    def res(name, content, needle):
+        f = tmp_path / f"{name}.json"
+        f.write_text(content if isinstance(content, str) else json.dumps(content))
+        files[f"result-{name}"] = (["plot", str(f), "--out", str(tmp_path / "x.png")], str(f),
+                                   needle)
+
+    res("truncated", text[: len(text) // 2], "invalid JSON")
+    res("empty-object", {}, "status: missing required key")
+    res("three-columns", {**base, "paths": {"r1": [[0, 0, 0], [1, 1, 1]]}}, "paths.r1")
+    res("flat", {**base, "paths": {"r1": [0.0, 1.0, 2.0, 3.0]}}, "paths.r1")
+    res("metrics-list", {**base, "metrics": [1, 2]}, "metrics: expected an object")
+    res("times-length", {**base, "times": [0.0] * 7}, "times: expected one time stamp")
+    res("unknown-robot", {**base, "paths": {**base["paths"], "zz": [[1.0, 1.0]]}},
+        "paths.zz: problem 'open-field' has no robot 'zz'")
+    res("huge-point", {**base, "paths": {"r1": [[10.0, 10.0], [1e300, 1e300]]}}, "paths.r1")
+    res("length-string", {**base, "metrics": {**base["metrics"], "length": "long"}},
+        "metrics.length: expected a number")
+    res("times-decreasing", {**base, "times": [1.0, 0.0]}, "times: expected finite, non-decr")
+    res("no-problem", {k: v for k, v in base.items() if k != "scenario"} | {
+        "problem": "no-such-problem"}, "problem: unknown problem 'no-such-problem'")
+    res("bad-scenario", {**base, "scenario": {**base["scenario"], "bounds": [0, 0, 1]}},
+        "scenario: bounds: expected [xmin, ymin, xmax, ymax]")
+    return files
+
+
+_DRIVER = r"""
+import contextlib, io, json, os, sys, tempfile, warnings
+from optplan import cli
+out = []
+for argv in json.loads(sys.stdin.read()):
+    warnings.resetwarnings()
+    warnings.simplefilter("always")  # nothing deduplicated: every warning would show
+    sys.stderr.flush()
+    with tempfile.TemporaryFile("w+") as err:
+        saved = os.dup(2)
+        os.dup2(err.fileno(), 2)
+        try:
+            with contextlib.redirect_stdout(io.StringIO()):
+                rc = cli.main(argv)
+        finally:
+            sys.stderr.flush()
+            os.dup2(saved, 2)
+            os.close(saved)
+        err.seek(0)
+        out.append([rc, err.read()])
+print(json.dumps(out))
+"""
+
+
+def test_bad_files_give_one_line_and_exit_2_in_a_real_process(tmp_path):
+    """Every bad file of the sample: exit status 2 and exactly one stderr line naming the file
+    and the key (file-descriptor level capture: a warning or traceback would show)."""
+    files = _bad_files(tmp_path)
+    argvs = [v[0] for v in files.values()]
+    proc = subprocess.run([sys.executable, "-c", _DRIVER], input=json.dumps(argvs),
+                          capture_output=True, text=True, timeout=300, cwd=tmp_path,
+                          env={**os.environ, "PYTHONWARNINGS": "always"})
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    got = json.loads(proc.stdout.strip().splitlines()[-1])
+    for (name, (_, path, needle)), (rc, err) in zip(files.items(), got):
+        lines = [ln for ln in err.splitlines() if ln.strip()]
+        assert rc == 2 and len(lines) == 1, (name, rc, err)
+        assert lines[0].startswith("optplan: error: ") and path in lines[0], (name, err)
+        assert needle in lines[0], (name, lines[0])
+
+
+def test_console_script_bad_file_end_to_end(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(BAD_SCENES["followers-empty"][0], encoding="utf-8")
+    p = subprocess.run([sys.executable, "-W", "always", "-m", "optplan", "show", str(bad)],
+                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert p.returncode == 2 and p.stdout == ""
+    assert p.stderr.count("\n") == 1 and "formation.followers: expected at least" in p.stderr
+    p = subprocess.run([sys.executable, "-m", "optplan", "--traceback", "show", str(bad)],
+                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert p.returncode == 1 and "Traceback" in p.stderr and "ProblemError" in p.stderr
+
+
+def test_warnings_never_precede_the_error_line(capsys, monkeypatch):
+    def warn_then(fail):
+        def fake(argv, out):
+            warnings.warn("invalid value encountered in divide", RuntimeWarning, stacklevel=1)
+            warnings.warn("invalid value encountered in divide", RuntimeWarning, stacklevel=1)
+            if fail:
+                raise ValueError("x.toml: robots[0].radius: must be >= 0, got -1")
+            print("done", file=out)
+            return 0
+        return fake
+
+    monkeypatch.setattr(cli, "_dispatch", warn_then(True))
+    rc, out, err = run(capsys, "show", "x.toml")
+    assert rc == 2 and _one_line_error(err) == (
+        "optplan: error: x.toml: robots[0].radius: must be >= 0, got -1")
+    # after a success each distinct warning is reported once, after the output
+    monkeypatch.setattr(cli, "_dispatch", warn_then(False))
+    rc, out, err = run(capsys, "show", "x.toml")
+    assert rc == 0 and out == "done\n"
+    assert err == ("optplan: warning: RuntimeWarning: invalid value encountered in divide\n")
+
+
+def test_internal_error_is_one_line_exit_1(capsys, monkeypatch):
+    def boom(argv, out):
+        raise TypeError("unhashable type: 'list'")
+
+    monkeypatch.setattr(cli, "_dispatch", boom)
+    rc, _, err = run(capsys, "show", "x.toml")
+    lines = err.strip().splitlines()
+    assert rc == 1 and len(lines) == 1 and "Traceback" not in err
+    assert lines[0].startswith("optplan: internal error: TypeError: unhashable type")
+    assert "--traceback" in lines[0]
+    with pytest.raises(TypeError):
+        cli.main(["--traceback", "show", "x.toml"])
+
+
+@pytest.mark.parametrize(("argv", "needle"), [
+    (["plot", "R", "--out", "x.txt"], "--out x.txt: unsupported format '.txt'"),
+    (["plot", "R", "--out", "x.png", "--dpi", "0"], "--dpi must be in [1, 1200]"),
+    (["plot", "R", "--out", "x.png", "--dpi", "1e9"], "--dpi must be in [1, 1200]"),
+    (["plot", "R", "--out", "x.png", "--snapshot-every", "-1"], "--snapshot-every must be >= 0"),
+    (["animate", "R", "--out", "x.png"], "unsupported format '.png'"),
+    (["animate", "R", "--out", "x.gif", "--fps", "inf"], "--fps must be > 0"),
+    (["animate", "R", "--out", "x.gif", "--fps", "nan"], "--fps must be > 0"),
+    (["animate", "R", "--out", "x.gif", "--max-frames", "0"], "--max-frames must be in"),
+    (["show", "open-field", "--out", "m.png", "--dpi", "100000"], "--dpi must be in"),
+    (["show", "open-field", "--out", "m.bmp"], "unsupported format '.bmp'"),
+])
+def test_plot_animate_show_option_ranges(capsys, tmp_path, argv, needle):
+    js = tmp_path / "r.json"
+    assert cli.main(["solve", "open-field", "visgraph", "--json", str(js)]) == 0
+    capsys.readouterr()
+    argv = [str(js) if a == "R" else str(tmp_path / a) if a.startswith(("x.", "m.")) else a
+            for a in argv]
+    rc, _, err = run(capsys, *argv)
+    assert rc == 2 and needle in _one_line_error(err).replace(str(tmp_path) + "/", "")
