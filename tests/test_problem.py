@@ -662,3 +662,201 @@ def test_strings_must_be_strings(patch, key):
     data.update(patch)
     msg = _reject(data)
     assert f"scene.toml: {key}: expected a string" in msg, msg
+
+
+# -- issue 14: wrong types, misattributed errors, files, documented ranges -----------------------
+
+
+def _team(**formation):
+    """A leader and two followers; ``formation`` updates the [formation] table."""
+    robots = [{"id": "lead", "start": [10.0, 10.0], "goal": [90.0, 90.0], "radius": 1.0},
+              {"id": "f1", "start": [5.0, 10.0], "radius": 1.0},
+              {"id": "f2", "start": [10.0, 5.0], "radius": 1.0}]
+    form = {"leader": "lead", "followers": [{"id": "f1", "L": 5.0, "phi": 0.5},
+                                            {"id": "f2", "L": 5.0, "phi": -0.5}]}
+    form.update(formation)
+    return {"name": "t", "bounds": [0.0, 0.0, 100.0, 100.0], "robots": robots,
+            "formation": form}
+
+
+@pytest.mark.parametrize("value", [["polygon"], {"kind": "polygon"}, 3, True])
+def test_obstacle_type_of_wrong_type(value):
+    msg = _reject(_scene([{"type": value, "vertices": _SQ}]))
+    assert "scene.toml: obstacles[0].type: expected a string" in msg
+
+
+@pytest.mark.parametrize("value", [["circle"], {"t": 1}, 2.0])
+def test_dynamic_type_and_after_of_wrong_type(value):
+    dyn = {"type": value, "radius": 1.0, "waypoints": [[50.0, 50.0]], "times": [0.0]}
+    assert "scene.toml: dynamic_obstacles[0].type: " in _reject(
+        _scene([], dynamic_obstacles=[dyn]))
+    dyn = {"type": "circle", "radius": 1.0, "waypoints": [[50.0, 50.0]], "times": [0.0],
+           "after": value}
+    assert "scene.toml: dynamic_obstacles[0].after: expected 'hold'" in _reject(
+        _scene([], dynamic_obstacles=[dyn]))
+
+
+@pytest.mark.parametrize("value", [["lead"], {"id": "lead"}, 1])
+def test_leader_of_wrong_type(value):
+    assert "scene.toml: formation.leader: expected a robot id string" in _reject(
+        _team(leader=value))
+
+
+@pytest.mark.parametrize(("formation", "key", "text"), [
+    ({"followers": []}, "formation.followers", "got an empty list"),
+    ({"followers": 3}, "formation.followers", "expected at least one follower"),
+    ({"followers": [3]}, "formation.followers[0]", "expected a table"),
+    ({"followers": [{"id": "nobody", "L": 5.0, "phi": 0.5}]}, "formation.followers[0].id",
+     "names no robot: 'nobody'"),
+    ({"followers": [{"id": "lead", "L": 5.0, "phi": 0.5}]}, "formation.followers[0].id",
+     "the leader 'lead' cannot also be a follower"),
+    ({"followers": [{"id": 5, "L": 5.0, "phi": 0.5}]}, "formation.followers[0].id",
+     "expected a robot id string"),
+    ({"followers": [{"L": 5.0, "phi": 0.5}]}, "formation.followers[0].id", "missing"),
+])
+def test_formation_errors_are_not_reported_as_missing_goals(formation, key, text):
+    msg = _reject(_team(**formation))
+    assert f"scene.toml: {key}: " in msg and text in msg, msg
+    assert ".goal" not in msg
+
+
+def test_missing_followers_key_and_a_non_follower_without_goal():
+    d = _team()
+    del d["formation"]["followers"]
+    assert "scene.toml: formation.followers: missing required key" in _reject(d)
+    d = _team(followers=[{"id": "f1", "L": 5.0, "phi": 0.5}])  # f2 is no follower
+    msg = _reject(d)
+    assert "scene.toml: robots[2].goal: missing required key (robot 'f2' is not a formation " \
+           "follower)" in msg
+    d = _team()
+    del d["formation"]
+    assert "scene.toml: robots[1].goal: missing required key (only formation followers" \
+           in _reject(d)
+
+
+def test_non_utf8_file_names_the_file(tmp_path):
+    f = tmp_path / "latin1.toml"
+    f.write_bytes('name = "caf\xe9"\n'.encode("latin-1"))
+    for load in (op.read_problem, op.load_problem):
+        with pytest.raises(op.ProblemError) as ei:
+            load(f)
+        assert str(f) in str(ei.value) and "not UTF-8 text" in str(ei.value)
+
+
+def test_deeply_nested_toml_names_the_file(tmp_path):
+    f = tmp_path / "deep.toml"
+    f.write_text("x = " + "[" * 3000 + "]" * 3000 + "\n", encoding="utf-8")
+    msg = _err(f)
+    assert msg.startswith(f"{f}: invalid TOML:") and "nested too deeply" in msg
+
+
+def test_deeply_nested_values_through_the_api():
+    deep: list = []
+    for _ in range(3000):
+        deep = [deep]
+    msg = _reject(_scene([], robot={"start": [deep, 5.0]}))
+    assert msg.startswith("scene.toml: robots[0].start[0]: expected a number") and len(msg) < 200
+    msg = _reject(_scene([{"type": "polygon", "vertices": [deep, [0, 0], [1, 0]]}]))
+    assert "obstacles[0].vertices[0]: expected a point" in msg and len(msg) < 200
+
+
+def test_directories_and_missing_files(tmp_path):
+    d = tmp_path / "scene.toml"
+    d.mkdir()
+    for load in (op.read_problem, op.load_problem):
+        with pytest.raises(op.ProblemError, match="is a directory"):
+            load(d)
+    with pytest.raises(op.ProblemError, match="no such scenario file"):
+        op.load_problem(tmp_path / "none.toml")
+
+
+def test_messages_stay_short_for_huge_values():
+    big = [[float(k), 0.0] for k in range(20000)]
+    msg = _reject(_scene([], robot={"start": big}))
+    assert "robots[0].start: expected a point [x, y]" in msg and len(msg) < 200
+    msg = _reject(_scene([], robot={"radius": 10**400}))
+    assert "robots[0].radius: must be finite, got an integer of 401 digits" in msg
+
+
+def test_tag_elements_named():
+    assert "scene.toml: tags[1]: expected a string, got 3" in _reject(_scene([], tags=["a", 3]))
+
+
+def test_dynamic_keys_per_type_and_rectangle_size():
+    dyn = {"type": "circle", "radius": 1.0, "vertices": _SQ, "waypoints": [[50.0, 50.0]],
+           "times": [0.0]}
+    assert "dynamic_obstacles[0].vertices: unknown key" in _reject(
+        _scene([], dynamic_obstacles=[dyn]))
+    msg = _reject(_scene([{"type": "rectangle", "center": [50.0, 50.0], "size": [-1.0, 2.0]}]))
+    assert "scene.toml: obstacles[0].size: rectangle needs a size > 0" in msg
+
+
+_DIAG = math.hypot(100.0, 100.0)
+
+
+@pytest.mark.parametrize(("patch", "key", "text"), [
+    ({"robot": {"radius": 1e300}}, "robots[0].radius", "must be <= 141.421 (the bounds diagonal"),
+    ({"robot": {"radius": 2 * _DIAG}}, "robots[0].radius", "must be <= 141.421"),
+    ({"robot": {"max_speed": 1e300}}, "robots[0].max_speed", "must be <= 1.41421e+08"),
+    ({"robot": {"max_speed": 1e-300}}, "robots[0].max_speed", "must be >= 0.000141421"),
+    ({"bounds": (0.0, 0.0, 1e7, 1e7)}, "robots[0].max_speed", "got 1 (the default)"),
+    ({"goal_tolerance": 1e300}, "goal_tolerance", "must be <= 141.421"),
+    ({"sensing": {"range": 1e300}}, "sensing.range", "must be <= 1.41421e+08"),
+    ({"sensing": {"range": math.inf}}, "sensing.range", "must be finite"),
+    ({"bounds": (0.0, 0.0, 100.0, 1e-5)}, "bounds", "the longer side may be at most 1e+06"),
+])
+def test_documented_ranges(patch, key, text):
+    patch = dict(patch)
+    robot = patch.pop("robot", None)
+    bounds = patch.pop("bounds", (0.0, 0.0, 100.0, 100.0))
+    if robot is None and bounds[2] > 1e6:
+        robot = {"start": [5.0, 5.0], "goal": [9e6, 9e6]}
+    msg = _reject(_scene([], robot, bounds, **patch))
+    assert f"scene.toml: {key}: " in msg and text in msg, msg
+
+
+@pytest.mark.parametrize(("formation", "key"), [
+    ({"safety_distance": 1e300}, "formation.safety_distance"),
+    ({"followers": [{"id": "f1", "L": 1e300, "phi": 0.5}, {"id": "f2", "L": 5.0, "phi": 0.1}]},
+     "formation.followers[0].L"),
+])
+def test_formation_lengths_at_most_the_diagonal(formation, key):
+    msg = _reject(_team(**formation))
+    assert f"scene.toml: {key}: must be <= 141.421" in msg
+
+
+def _dyn_scene(**kw):
+    d = {"type": "circle", "radius": 2.0, "waypoints": [[50.0, 20.0], [50.0, 80.0]],
+         "times": [0.0, 10.0]}
+    d.update(kw)
+    return _scene([], dynamic_obstacles=[d])
+
+
+@pytest.mark.parametrize(("kw", "key", "text"), [
+    ({"times": [0.0, 1e300]}, "dynamic_obstacles[0].times[1]", "beyond 1e+12 s"),
+    ({"times": [-1e300, 0.0]}, "dynamic_obstacles[0].times[0]", "beyond 1e+12 s"),
+    ({"times": [0.0, 1e-300]}, "dynamic_obstacles[0].times", "imply a speed of"),
+    ({"velocity": [1e12, 0.0], "waypoints": [[50.0, 20.0]], "times": [0.0]},
+     "dynamic_obstacles[0].velocity", "speed 1e+12 is above 1.41421e+08"),
+    ({"radius": 1e100}, "dynamic_obstacles[0].radius", "double precision cannot resolve"),
+    ({"waypoints": [[50.0, 20.0], [1e140, 0.0]]}, "dynamic_obstacles[0].waypoints[1]",
+     "double precision cannot resolve"),
+    ({"times": [0.0, 1e-6], "after": "bounce"}, "dynamic_obstacles[0].times",
+     "the bounce period 2e-06 s is shorter"),
+    ({"waypoints": [[50.0, 20.0], [50.0, 20.0 + 1e-9]], "times": [0.0, 1e-6], "after": "loop"},
+     "dynamic_obstacles[0].times", "the loop period 1e-06 s is shorter than 1e-05 x"),
+])
+def test_dynamic_obstacle_ranges(kw, key, text):
+    msg = _reject(_dyn_scene(**kw))
+    assert f"scene.toml: {key}: " in msg and text in msg, msg
+
+
+def test_point_and_file_size_limits(tmp_path):
+    n = 100_001
+    ring = [[50.0 + 10 * math.cos(2 * math.pi * k / n), 50.0 + 10 * math.sin(2 * math.pi * k / n)]
+            for k in range(n)]
+    msg = _reject(_scene([{"type": "polygon", "vertices": ring}]))
+    assert "obstacles[0].vertices: too many points" in msg
+    f = tmp_path / "big.toml"
+    f.write_text("# " + "x" * (9 * 2**20) + "\n", encoding="utf-8")
+    assert "is larger than the 8 MB a scenario may have" in _err(f)
