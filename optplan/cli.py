@@ -509,6 +509,45 @@ def cmd_animate(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+#: Largest ``optplan validate --seeds``.
+MAX_SEEDS = 100_000
+
+
+def cmd_validate(argv: list[str]) -> None:
+    """Check the arguments of ``optplan validate`` before the experiment runs: the problem
+    loads, ``--seeds`` in [1, MAX_SEEDS], ``--first-seed >= 0``, ``--solver`` / ``--nlp`` name
+    solvers (each error names the flag).  Malformed command lines are left to the experiment's
+    own parser (its usage message)."""
+    from optplan.catalog import load_problem
+    from optplan.solver import get_solver
+
+    ap = argparse.ArgumentParser(add_help=False)
+    ap.add_argument("problem", nargs="?")
+    ap.add_argument("--seeds", type=int)
+    ap.add_argument("--first-seed", type=int)
+    ap.add_argument("--solver")
+    ap.add_argument("--nlp")
+    ap.add_argument("-h", "--help", action="store_true")
+    try:
+        args, _ = ap.parse_known_args(argv)
+    except SystemExit:  # the experiment's parser reports it
+        return
+    if args.help:
+        return
+    if args.seeds is not None and not 1 <= args.seeds <= MAX_SEEDS:
+        raise CLIError(f"--seeds must be in [1, {MAX_SEEDS}], got {args.seeds}")
+    if args.first_seed is not None and args.first_seed < 0:
+        raise CLIError(f"--first-seed must be >= 0, got {args.first_seed}")
+    if args.problem:
+        load_problem(args.problem)
+    for flag, name in (("--solver", args.solver), ("--nlp", args.nlp)):
+        if name:
+            try:
+                get_solver(name)
+            except ValueError as e:
+                raise CLIError(f"{flag} {name}: {e}") from None
+
+
 def _xy(text: str, flag: str) -> tuple[float, ...]:
     try:
         vals = tuple(float(t) for t in text.replace(",", " ").split())
@@ -737,6 +776,7 @@ def _dispatch(argv: list[str], out: TextIO) -> int:
         if mod is None:
             raise CLIError("'validate' is not available in this build "
                            "(module optplan.experiments.validate is missing)")
+        cmd_validate(rest)
         return _run_experiment(mod, rest)
     if cmd == "bench":
         tag, others = _tag_of(rest)

@@ -440,3 +440,17 @@ def test_plot_animate_show_option_ranges(capsys, tmp_path, argv, needle):
             for a in argv]
     rc, _, err = run(capsys, *argv)
     assert rc == 2 and needle in _one_line_error(err).replace(str(tmp_path) + "/", "")
+
+
+@pytest.mark.parametrize(("argv", "needle"), [
+    (["validate", "open-field", "--seeds", "0"], "--seeds must be in [1, 100000], got 0"),
+    (["validate", "open-field", "--seeds", "-3"], "--seeds must be in"),
+    (["validate", "open-field", "--first-seed", "-1"], "--first-seed must be >= 0"),
+    (["validate", "open-field", "--solver", "ipso-papr"], "--solver ipso-papr: unknown solver"),
+    (["validate", "open-field", "--nlp", "nlp-ipop"], "--nlp nlp-ipop: unknown solver"),
+    (["validate", "no/such.toml"], "no/such.toml: no such scenario file"),
+])
+def test_validate_checks_its_arguments_first(capsys, monkeypatch, argv, needle):
+    calls = _fake_experiment(monkeypatch, "validate")
+    rc, _, err = run(capsys, *argv)
+    assert rc == 2 and needle in _one_line_error(err) and calls == []
