@@ -26,7 +26,7 @@ clearance is clamped, :math:`\rho \ge \rho_{min}`, so forces stay finite.
 
 Motion (eqs 12-13): heading :math:`\gamma = \operatorname{atan2}(F_y, F_x)` of the total force
 and a step of length :math:`l`, i.e. the *direction* :math:`F/\lVert F\rVert` with a bounded
-step (domain-notes §4.2: with map-scale distances the force magnitudes span many decades, the
+step (with map-scale distances the force magnitudes span many decades, the
 direction does not).  The last step is shortened to land on the goal.
 
 Units of :math:`\eta` (a choice, documented in ``docs/solvers/apf.md``).  In eq 34
@@ -39,7 +39,7 @@ therefore uses :math:`\eta_{eff} = \eta \cdot D^{m}` with :math:`D` the start-go
 both planners then have the same repulsion at the start, and they differ only near the goal,
 which is exactly the paper's comparison.  ``eta_match_n = 0`` gives the literal eq 6.
 
-Local-minimum detection (§IV.B.2 and domain-notes §4.3), evaluated every step:
+Local-minimum detection (§IV.B.2), evaluated every step:
 
 * eq 38 on the reachable region :math:`R(p)`: :math:`U_{att}(p) \ne 0`, :math:`U_{rep}(p) \ne 0`
   and :math:`U(p) \le \min U(p^*)` over ``n_probe`` points on each of the circles of radius
@@ -218,7 +218,7 @@ def evaluate_field(points: np.ndarray, goal: np.ndarray, fld: ObstacleField, t: 
 
 
 def oscillation_index(path: np.ndarray) -> float:
-    """Sum of absolute heading changes (rad) per unit length of a trajectory (domain-notes §4.4)."""
+    """Sum of absolute heading changes (rad) per unit length of a trajectory."""
     p = np.asarray(path, dtype=float)
     d = np.diff(p, axis=0)
     s = np.hypot(d[:, 0], d[:, 1])

@@ -5,19 +5,22 @@ The paper's six steps (§V, Fig. 15) and how this backend realises them:
 1. *Map.*  The scenario is the map; the global planner sees only ``problem.known_view()``
    (known static obstacles), the local planner senses everything (known, temporary and moving
    obstacles) through the simulator's :class:`~optplan.sim.ObstacleField`.
-2. *Formation control.*  Followers are driven by ``get_solver(formation).followers_controller``
-   (leader-follower L-phi with active avoidance, or the formation QP); ``formation = ""`` runs
-   the leader alone.
-3. *Global path.*  ``get_solver(global_solver).solve(problem.known_view())`` (IPSO in the
+2. *Formation control.*  Followers are driven by the ``formation`` stage's
+   ``followers_controller`` (a :class:`~optplan.interfaces.FormationBackend`: leader-follower
+   L-phi with active avoidance, or the formation QP); ``formation = ""`` runs the leader alone.
+3. *Global path.*  The ``global_solver`` stage's ``solve(problem.known_view())`` (IPSO in the
    paper, any path solver here).  An ``init`` path for a robot replaces this stage.
 4. *Inflection points.*  :func:`inflection_points` scans the global path and keeps the vertices
    where it turns by more than ``angle_tol`` degrees; they become the sub-goals, followed by the
    final goal (:func:`subgoals`).
-5. *Local planning.*  The leader is driven toward the current sub-goal by
-   ``get_solver(local_solver).controller(problem, leader, rng)`` (SA-APF in the paper): the
-   controller's ``velocity(state, index)`` is evaluated at every simulator step; the followers
-   keep the formation around the leader at the same time, in one
-   :func:`optplan.sim.simulate` run.
+5. *Local planning.*  The leader is driven toward the current sub-goal by the
+   ``local_solver`` stage's ``controller(problem, leader, rng)`` (a
+   :class:`~optplan.interfaces.LocalPlanner`; SA-APF in the paper): the controller's
+   ``velocity(state, index)`` is evaluated at every simulator step; the followers keep the
+   formation around the leader at the same time, in one :func:`optplan.sim.simulate` run (the
+   leader's command reaches their controller as ``state.leader_velocity``).
+
+The stages are resolved when the backend is built (:attr:`Hybrid.stages`).
 6. *Replanning.*  When the leader comes within ``reach_tol`` of an intermediate sub-goal the
    controller is ``reset`` to the next one; the run ends when the final goal is reached (and the
    followers have settled in their slots), on a collision, when the local planner gives up at

@@ -56,7 +56,7 @@ the discrete step stable for any :math:`\Phi_d`.  Near obstacles the desired ang
 .. math:: \varphi_d = \Phi_d\,\frac{\ln(c\rho)}{\ln(c\rho_0)}\ (\rho < \rho_0),
           \quad \rho \ge 1/c,\ c = 20,
 
-(clamped so the log never flips the formation side, domain-notes §3.3).  The paper says the
+(clamped so the log never flips the formation side).  The paper says the
 followers also avoid each other and obstacles (§IV.C.3) without giving the law; optplan adds an
 APF repulsion of the eq 6 form between robots (``eta_r``, influence ``d_0``) and from obstacles
 (``eta_f``, influence ``rho_f``).  The simulator clamps every speed to ``max_speed``.
