@@ -58,7 +58,7 @@ def per_step(n_far: int, steps: int = 300) -> float:
     fld = ObstacleField(prob)
     r = prob.robots[0]
     xs = np.linspace(r.start, r.goal - [10, 0], steps)
-    st = SimState(0, 0.0, ["r1"], xs[:1].copy(), np.zeros((1, 2)), fld, {"dt": solver.dt})
+    st = SimState(0, 0.0, ["r1"], xs[:1].copy(), np.zeros((1, 2)), fld, dt=solver.dt)
     t0 = time.perf_counter()
     for k in range(steps):
         st.k, st.t, st.positions = k, 0.2 * k, xs[k:k + 1]
