@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import enum
 import json
+import math
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, is_dataclass
 from pathlib import Path
@@ -243,6 +244,14 @@ class Result:
         return cls.from_dict(data, str(p))
 
 
+_NONFINITE = ("nan", "inf", "-inf")
+#: Metrics that are numbers in every result (validated on load).
+_NUMERIC_METRICS = ("length", "optimum", "ratio_to_optimum", "min_clearance",
+                    "min_clearance_dynamic", "collisions", "static_collisions",
+                    "dynamic_contacts", "separation_violations", "penetration", "min_separation",
+                    "formation_rmse", "reference_time")
+
+
 def _check_result_dict(d: Any, where: str) -> dict[str, Any]:
     """Validate the layout of a result dict (schema version, keys, types, shapes, lengths)."""
 
@@ -297,9 +306,18 @@ def _check_result_dict(d: Any, where: str) -> dict[str, Any]:
         if key in d and (isinstance(d[key], bool) or not isinstance(d[key], int)
                          or d[key] < 0):
             raise err(key, f"expected a non-negative integer, got {d[key]!r}")
-    if "wall_time" in d and (isinstance(d["wall_time"], bool)
-                             or not isinstance(d["wall_time"], (int, float))):
-        raise err("wall_time", f"expected a number of seconds, got {d['wall_time']!r}")
+    wt = d.get("wall_time", 0.0)
+    if isinstance(wt, bool) or not isinstance(wt, (int, float)) or not (0 <= wt < math.inf):
+        raise err("wall_time", f"expected a finite number of seconds >= 0, got {wt!r}")
+
+    def number_like(v: Any) -> bool:  # a JSON number, or the strings NaN / inf are stored as
+        return (not isinstance(v, bool) and isinstance(v, (int, float))) or v in _NONFINITE
+
+    if "cost" in d and d["cost"] is not None and not number_like(d["cost"]):
+        raise err("cost", f"expected a number, got {d['cost']!r}")
+    for k, v in (d.get("metrics") or {}).items() if isinstance(d.get("metrics"), dict) else ():
+        if k in _NUMERIC_METRICS and not number_like(v):
+            raise err(f"metrics.{k}", f"expected a number, got {v!r}")
     if "seed" in d and d["seed"] is not None and (isinstance(d["seed"], bool)
                                                   or not isinstance(d["seed"], int)):
         raise err("seed", f"expected an integer or null, got {d['seed']!r}")

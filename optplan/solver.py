@@ -447,10 +447,14 @@ def check_init(problem: Problem, init: Any) -> dict[str, np.ndarray]:
             raise ValueError(f"{key}: problem {problem.name!r} has no robot {k!r} "
                              f"(robots: {', '.join(ids)})")
         try:
-            a = np.asarray(v, dtype=float)
+            raw = np.asarray(v)
+            if raw.dtype.kind not in "iuf":  # complex, bool, strings, objects
+                raise TypeError
+            a = raw.astype(float)
         except (TypeError, ValueError):
-            raise ValueError(f"{key}: expected an (n, 2) array of numbers, got "
-                             f"{type(v).__name__}") from None
+            what = getattr(getattr(v, "dtype", None), "name", None) or type(v).__name__
+            raise ValueError(f"{key}: expected an (n, 2) array of real numbers, got "
+                             f"{what}") from None
         if a.ndim != 2 or a.shape[1] != 2 or not 1 <= len(a) <= MAX_INIT_POINTS:
             raise ValueError(f"{key}: expected shape (n, 2) with 1 <= n <= {MAX_INIT_POINTS}, "
                              f"got {a.shape}")
