@@ -1765,19 +1765,6 @@ KNOWN_FINDINGS: dict[str, tuple[str, str, Callable[[Outcome], bool]]] = {
         lambda o: o.case.family == "option" and o.category == "hang"
         and isinstance(o.case.data.get("value"), int)
         and o.case.data.get("backend") in ("ipso", "pso", "mpso")),
-    "init-complex": (
-        "optplan/solver.py check_init",
-        "a complex init array is accepted (numpy drops the imaginary part with a "
-        "ComplexWarning)",
-        lambda o: o.case.family == "init" and o.case.what == "complex"
-        and o.category == "silently accepted"),
-    "result-metric-types": (
-        "optplan/result.py (Result.load, Result.summary)",
-        "a string metrics.length makes Result.summary raise ValueError ('Unknown format code'); "
-        "a string cost and a NaN wall_time load silently",
-        lambda o: o.case.family == "result" and o.case.what.split(" ")[0] in (
-            "metrics", "cost", "wall_time") and o.category in ("crash", "silently accepted")
-        and ("summary" in o.detail or o.case.what.startswith(("cost", "wall_time")))),
 }
 
 
