@@ -276,3 +276,30 @@ def test_courtyard_with_a_door_and_obstacles_inside(seed: int, r: float) -> None
     hi = plain_visibility_length(grown(r / math.cos(3 * math.pi / 128)), (50.0, 50.0),
                                  (2.0, 2.0))
     assert lo - 1e-9 <= res.length <= hi + 1e-9
+
+
+def test_start_equal_to_goal_is_the_empty_path() -> None:
+    prob = parse_problem({
+        "name": "same", "bounds": [0.0, 0.0, 100.0, 100.0],
+        "robots": [{"id": "r", "start": [2.0, 2.0], "goal": [2.0, 2.0], "radius": 0.5}],
+        "obstacles": [{"type": "circle", "center": [50.0, 50.0], "radius": 10.0}]})
+    res = op.solve(prob, "visgraph")
+    assert res.status is op.Status.optimal and res.metrics["optimum"] == 0.0
+    assert op.solve(prob, "nlp-ipopt").success
+
+
+def test_a_long_search_honours_the_time_limit() -> None:
+    """Thousands of convex vertices: the search polls the callback, so a time limit stops it
+    (the obstacle set is built first and is not interruptible)."""
+    ang = np.linspace(0, 2 * np.pi, 6000, endpoint=False)
+    rad = 30 + 5 * np.sin(37 * ang) + 3 * np.cos(91 * ang)
+    star = orient(Polygon(np.c_[50 + rad * np.cos(ang), 50 + rad * np.sin(ang)]), 1.0)
+    base = parse_problem({
+        "name": "star", "bounds": [0.0, 0.0, 100.0, 100.0],
+        "robots": [{"id": "r", "start": [2.0, 2.0], "goal": [98.0, 98.0], "radius": 0.5}]})
+    prob = dataclasses.replace(base, obstacles=(polygon(star, "star"),), _cache={})
+    res = op.solve(prob, "visgraph", time_limit=0.05)
+    assert res.stop_reason == "time_limit" and res.status is op.Status.approximate
+    assert "stopped during the search" in res.message
+    full = op.solve(prob, "visgraph")  # a stopped search is not cached
+    assert full.status is op.Status.optimal

@@ -911,7 +911,7 @@ class WaypointNLP(Backend):
         length = path_lengths(path)
         if ref.polyline is None or not ref.info.get("certified"):
             return Status.solved, "locally optimal (KKT); no certified optimum to compare with"
-        gap = length / ref.length - 1.0
+        gap = length / ref.length - 1.0 if ref.length > 0 else (0.0 if length == 0 else math.inf)
         same = same_homotopy(path, ref.polyline, view.obstacle_set(robot.radius, known_only))
         if same and gap <= OPTIMAL_REL_TOL:
             return Status.optimal, ""

@@ -51,7 +51,7 @@ class VisGraph(Backend):
         Also avoid temporary (``known = false``) obstacles.  Default ``False``: plan on the map
         a global planner knows (paper §V), like the PSO planners.
     arc_step : float
-        Largest angle (rad, in (0, pi/2]) spanned by one chord of the circumscribed polyline
+        Largest angle (rad, in [1e-4, pi/2]) spanned by one chord of the circumscribed polyline
         that replaces each arc of the exact path.  Smaller: a returned polyline closer to the
         exact length.  Default ``pi / 36`` (5 degrees; the polyline is at most ~0.03 % longer
         than the arcs it replaces).
@@ -68,9 +68,9 @@ class VisGraph(Backend):
                              f"false, got {self.see_temporary!r}")
         a = self.arc_step
         if isinstance(a, bool) or not isinstance(a, (int, float)) or not (
-                0 < a <= math.pi / 2):
+                1e-4 <= a <= math.pi / 2):
             raise ValueError(f"option 'arc_step' of backend 'visgraph' must be a number in "
-                             f"(0, pi/2] rad, got {a!r}")
+                             f"[1e-4, pi/2] rad, got {a!r}")
 
     def solve(self, problem, /, *, rng=None, init=None, callback=None):
         t0 = time.perf_counter()
@@ -83,7 +83,19 @@ class VisGraph(Backend):
                 paths[r.id] = np.vstack([r.start, r.start])
                 status = Status.approximate
                 continue
-            res = problem_shortest_path(problem, r, known_only, float(self.arc_step))
+            def poll(k=k, r=r) -> bool:  # the callback during a long search (time limits)
+                return notify(callback, Progress(iteration=k, best_cost=math.inf, n_eval=k,
+                                                 elapsed=time.perf_counter() - t0,
+                                                 info={"robot": r.id, "phase": "search"}))
+
+            res = problem_shortest_path(problem, r, known_only, float(self.arc_step),
+                                        stop=poll if callback is not None else None)
+            if res.info.get("stopped"):
+                stopped = True
+                status = Status.approximate
+                msgs.append(f"{r.id}: stopped during the search")
+                paths[r.id] = np.vstack([r.start, r.start])
+                continue
             # one phase per planned robot: the callback sees it (and may stop the run)
             stopped = notify(callback, Progress(iteration=k + 1, best_cost=res.length,
                                                 n_eval=k + 1,

@@ -70,6 +70,33 @@ def _convex_list(r: list[tuple[float, float]]) -> bool:
     return True
 
 
+def _merge_convex(rings: dict[int, list[tuple[float, float]]]) -> list[np.ndarray]:
+    """Hertel-Mehlhorn: one pass over the internal edges of a triangulation, removing an edge
+    when the union of its two pieces stays convex (near-linear in the number of triangles)."""
+    owner: dict[tuple, int] = {}
+    for k, r in rings.items():
+        for u, w in zip(r, r[1:] + r[:1]):
+            owner[(u, w)] = k
+    diagonals = [(u, w) for (u, w) in owner if (w, u) in owner and u < w]
+    for u, w in diagonals:
+        a, b = owner.get((u, w)), owner.get((w, u))
+        if a is None or b is None or a == b:
+            continue
+        r, rq = rings[a], rings[b]
+        ia, ib = r.index(w), rq.index(u)
+        merged = (r[ia:] + r[:ia]) + (rq[ib:] + rq[:ib])[1:-1]
+        if not _convex_list(merged):
+            continue
+        for ring_ in (r, rq):
+            for x, y in zip(ring_, ring_[1:] + ring_[:1]):
+                owner.pop((x, y), None)
+        del rings[b]
+        rings[a] = merged
+        for x, y in zip(merged, merged[1:] + merged[:1]):
+            owner[(x, y)] = a
+    return [clean_ring(np.asarray(r)) for r in rings.values()]
+
+
 def convex_decompose(geom) -> list[np.ndarray]:
     """Convex pieces (CCW vertex arrays ``(m, 2)``, collinear vertices removed) tiling ``geom``
     (a shapely Polygon or MultiPolygon, holes allowed); see the module docstring."""
@@ -88,37 +115,24 @@ def convex_decompose(geom) -> list[np.ndarray]:
             if t.area > 0:
                 rings[k] = [tuple(map(float, q)) for q in
                             np.asarray(orient(t, 1.0).exterior.coords)[:-1]]
-        owner: dict[tuple, int] = {}
-        for k, r in rings.items():
-            for u, w in zip(r, r[1:] + r[:1]):
-                owner[(u, w)] = k
-        changed = True
-        while changed:
-            changed = False
-            for k in sorted(rings, key=lambda q: -len(rings[q])):
-                if k not in rings:
-                    continue
-                r = rings[k]
-                for u, w in zip(r, r[1:] + r[:1]):
-                    q = owner.get((w, u))
-                    if q is None or q == k:
-                        continue
-                    rq = rings[q]
-                    ia, ib = r.index(w), rq.index(u)
-                    merged = (r[ia:] + r[:ia]) + (rq[ib:] + rq[:ib])[1:-1]
-                    if not _convex_list(merged):
-                        continue
-                    for ring_ in (r, rq):
-                        for x, y in zip(ring_, ring_[1:] + ring_[:1]):
-                            owner.pop((x, y), None)
-                    del rings[q]
-                    rings[k] = merged
-                    for x, y in zip(merged, merged[1:] + merged[:1]):
-                        owner[(x, y)] = k
-                    changed = True
-                    break
-        out.extend(clean_ring(np.asarray(r)) for r in rings.values())
+        out.extend(_merge_convex(rings))
     return [v for v in out if len(v) >= 3]
+
+
+def _on_boundary(points: np.ndarray, boundary, tol: float) -> np.ndarray:
+    """Per point: within ``tol`` of ``boundary`` (an STRtree of its edges: a polygon with
+    thousands of vertices is answered in milliseconds)."""
+    c = shapely.get_coordinates(boundary)
+    rings = shapely.get_parts(boundary)
+    segs = []
+    for ring in rings:
+        xy = shapely.get_coordinates(ring)
+        segs.append(np.stack([xy[:-1], xy[1:]], axis=1))
+    tree = shapely.STRtree(shapely.linestrings(np.concatenate(segs)) if len(c) else [])
+    hit = tree.query(shapely.points(points), predicate="dwithin", distance=tol)
+    on = np.zeros(len(points), bool)
+    on[hit[0]] = True
+    return on
 
 
 def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -148,12 +162,13 @@ def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray
             tol = 1e-9 * max(x1 - x0, y1 - y0)
             bnd = poly.boundary
             parts, flag_all = convex_decompose(poly), False
-        for v in parts:
-            if flag_all:
-                flags = np.ones(len(v), bool)  # the polygon itself: every edge is boundary
-            else:
-                mid = 0.5 * (v + np.concatenate((v[1:], v[:1])))
-                flags = np.asarray(shapely.distance(shapely.points(mid), bnd) <= tol, bool)
+        if flag_all:  # the polygon itself: every edge is boundary
+            all_flags = [np.ones(len(parts[0]), bool)]
+        else:  # one vectorised distance query for the edge midpoints of every part
+            mids = np.concatenate([0.5 * (v + np.concatenate((v[1:], v[:1]))) for v in parts])
+            on = _on_boundary(mids, bnd, tol)
+            all_flags = np.split(on, np.cumsum([len(v) for v in parts])[:-1])
+        for v, flags in zip(parts, all_flags):
             i = 1
             while i < len(v) - 1:  # fan: (v0, v_i, ..., v_j)
                 j = min(i + max_edges - 2, len(v) - 1)

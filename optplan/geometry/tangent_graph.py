@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import heapq
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -284,7 +285,7 @@ class _Stream:
 
 def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = False,
                   circles: Circles | None = None, arc_step: float = math.pi / 36,
-                  ) -> TangentPath:
+                  stop: Callable[[], bool] | None = None) -> TangentPath:
     """Arc-exact shortest path of a disc of radius ``oset.radius`` from ``start`` to ``goal``.
 
     Parameters
@@ -299,6 +300,9 @@ def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = 
         Precomputed :func:`circles_of` (reused across queries).
     arc_step : float
         Largest angle (rad) spanned by one chord of the circumscribed arc polylines.
+    stop : callable, optional
+        Polled every 64 expansions; when it returns True the search ends without a path
+        (``info["reason"]`` says so, ``info["stopped"]`` is True).
 
     Returns
     -------
@@ -319,6 +323,9 @@ def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = 
             info["reason"] = (f"{key} {np.asarray(p).tolist()} lies within {r:g} of an "
                               f"obstacle (distance {c:.6g})")
             return TangentPath(math.inf, None, [], info)
+    if abs(zg - zs) <= eps:  # start = goal: the empty path
+        poly = np.vstack([np.asarray(start, float), np.asarray(goal, float)])
+        return TangentPath(0.0, poly, [], info)
     arcs = _ArcChecker(oset, C)
     x0, y0, x1, y1 = fr.local_bounds
     n = C.n
@@ -448,6 +455,10 @@ def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = 
     expand(0)
     goal_node = None
     while heap:
+        if stop is not None and info["n_expanded"] % 64 == 0 and info["n_expanded"] and stop():
+            info["reason"] = "stopped before the search finished"
+            info["stopped"] = True
+            return TangentPath(math.inf, None, [], info)
         f0, sid = heapq.heappop(heap)
         st = streams[sid]
         k = st.pos
@@ -520,7 +531,8 @@ def arc_polyline(c: complex, rho: float, theta0: float, sweep: float,
 
 
 def problem_shortest_path(problem, robot, known_only: bool = True,
-                          arc_step: float = math.pi / 36) -> TangentPath:
+                          arc_step: float = math.pi / 36,
+                          stop: Callable[[], bool] | None = None) -> TangentPath:
     """:func:`shortest_path` of ``robot`` on ``problem``'s static map, cached per problem.
 
     ``known_only``: plan on the known obstacles only (the map a global planner sees).  The
@@ -530,11 +542,15 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
     key = ("tangent_path", robot.id, bool(known_only), float(arc_step))
     if key not in problem._cache:
         oset = problem.obstacle_set(robot.radius, known_only=known_only)
-        res = shortest_path(oset, robot.start, robot.goal, arc_step=arc_step)
+        res = shortest_path(oset, robot.start, robot.goal, arc_step=arc_step, stop=stop)
+        if res.info.get("stopped"):
+            return res  # not cached: a later call without a stop must finish the search
         if res.polyline is not None and not np.all(problem.frame.in_bounds(res.polyline)):
             free_len = res.length
             res = shortest_path(oset, robot.start, robot.goal, restrict_to_bounds=True,
-                                arc_step=arc_step)
+                                arc_step=arc_step, stop=stop)
+            if res.info.get("stopped"):
+                return res
             res.info["bounds_active"] = True
             res.info["unbounded_length"] = free_len
             if res.polyline is None:
