@@ -42,16 +42,19 @@ from optplan.geometry.tangent_graph import problem_shortest_path
 
 PAPER_MAPS = ("paper-env1", "paper-env2", "paper-hybrid", "paper-warehouse")
 
-#: ``ipso`` with one addition beyond the paper switched off (name, option overrides).
+#: ``ipso`` with one addition beyond the paper switched off or changed (name, overrides).
 ABLATIONS = (
     ("ipso", {}),
+    ("the paper's 200 iterations", {"k_max": 200}),
+    ("no swarm iterations", {"k_max": 0}),
     ("no roadmap seeds", {"init_mode": "sorted"}),
     ("one roadmap corridor", {"corridors": 1}),
+    ("no boundary / corner samples", {"roadmap_boundary": 0}),
+    ("no medial-axis samples", {"roadmap_medial": 0}),
     ("end-game on islands only", {"endgame": "islands"}),
     ("no end-game", {"tighten_rounds": 0}),
     ("one island", {"islands": 1}),
-    ("no swarm iterations", {"k_max": 0}),
-    ("corridor-aware restarts", {"restart_every": 50}),
+    ("corridor-aware restarts", {"restart_every": 10}),
 )
 
 

@@ -358,3 +358,107 @@ def test_removed_swarm_options_are_unknown(option):
         op.get_solver("ipso-paper", **{option: 1})
     res = op.solve("open-field", "ipso-paper", rng=0, k_max=3)
     assert "engine" not in res.extras["per_robot"]["r1"]
+
+
+# ---------------------------------------------------------------------------------------
+# homotopy signatures, the sparse roadmap and its corridors (beyond the paper)
+# ---------------------------------------------------------------------------------------
+
+
+def _wall() -> op.Problem:
+    return _problem(obstacles=[{"type": "rectangle", "min": [45.0, 20.0], "max": [55.0, 70.0]}])
+
+
+def test_signature_hashes_tell_the_sides_of_an_obstacle_apart():
+    prob = _wall()
+    space = sw.make_space(prob, prob.robots[0], 2)
+    above = np.array([[10.0, 50.0], [40.0, 80.0], [60.0, 80.0], [90.0, 50.0]])
+    above2 = np.array([[10.0, 50.0], [30.0, 90.0], [70.0, 75.0], [90.0, 50.0]])
+    below = np.array([[10.0, 50.0], [40.0, 10.0], [60.0, 10.0], [90.0, 50.0]])
+    h = sw.signature_hashes(np.stack([above, above2, below]), space)
+    assert h[0] == h[1] != h[2]
+    # a loop around the wall is a third class; the list variant pads unequal lengths
+    loop = np.array([[10.0, 50.0], [40.0, 80.0], [60.0, 80.0], [60.0, 10.0], [40.0, 10.0],
+                     [40.0, 80.0], [60.0, 80.0], [90.0, 50.0]])
+    hl = sw.signature_hashes_list([above, below, loop], space)
+    assert hl[0] == h[0] and hl[1] == h[2] and len(set(hl.tolist())) == 3
+
+
+def test_k_classes_label_search_on_a_hand_graph():
+    # start 0 -> goal 1 around a point obstacle at the origin: over (node 2) or under (3)
+    nodes = np.array([[-2.0, 0.0], [2.0, 0.0], [0.0, 1.0], [0.0, -3.0]])
+    edges = [(0, 2), (2, 1), (0, 3), (3, 1)]
+    keys = np.array([7], np.int64)
+    i = np.array([a for a, _ in edges])
+    j = np.array([b for _, b in edges])
+    eh = sw._segment_hashes(nodes[i], nodes[j], np.zeros((1, 2)), keys)
+    src, dst = np.concatenate([i, j]), np.concatenate([j, i])
+    order = np.argsort(src, kind="stable")
+    indptr = np.searchsorted(src[order], np.arange(5)).astype(np.int64)
+    w = np.hypot(*(nodes[src] - nodes[dst]).T)[order]
+    h = np.concatenate([eh, -eh])[order]
+    heur = np.hypot(*(nodes - nodes[1]).T)
+    goals, lab_node, lab_par = sw._k_classes(indptr, dst[order], w, h, heur, 0, 1, 3, 3)
+    walks = []
+    for g in goals:
+        seq, lab = [], int(g)
+        while lab >= 0:
+            seq.append(int(lab_node[lab]))
+            lab = int(lab_par[lab])
+        walks.append(seq[::-1])
+    assert walks[:2] == [[0, 2, 1], [0, 3, 1]]  # shortest first, both classes
+    # the slack bound drops the longer class
+    goals, *_ = sw._k_classes(indptr, dst[order], w, h, heur, 0, 1, 3, 3, 1.1)
+    assert len(goals) == 1
+
+
+def test_roadmap_corridors_are_distinct_collision_free_classes():
+    prob = _wall()
+    space = sw.make_space(prob, prob.robots[0], 4)
+    cor = sw.roadmap_corridors(space, 6, np.random.default_rng(0), n_samples=20,
+                               boundary=60, medial=20, slack=1.5)
+    assert len(cor) >= 2
+    h = sw.signature_hashes_list(cor, space)
+    assert len(set(h.tolist())) == len(cor)
+    for p in cor:
+        np.testing.assert_allclose(p[[0, -1]], [space.start, space.goal])
+        segs = np.stack([p[:-1], p[1:]], axis=1)
+        assert space.clear.crossings(segs, penetration=False).count.sum() == 0
+    # the wall is passed on both sides (over it, under it)
+    over = [bool(np.any(p[:, 1] > 70.0)) for p in cor]
+    under = [bool(np.any(p[:, 1] < 20.0)) for p in cor]
+    assert any(o and not u for o, u in zip(over, under))
+    assert any(u and not o for o, u in zip(over, under))
+    # the default slack (1.1) keeps only classes at most 10 % longer than the shortest walk
+    assert len(sw.roadmap_corridors(space, 6, np.random.default_rng(0), n_samples=20,
+                                    boundary=60, medial=20)) < len(cor)
+
+
+def test_roadmap_samples_lie_beside_the_obstacles_and_in_narrow_gaps():
+    # two boxes 3.5 robot diameters apart: a narrow passage around x = 50
+    prob = _problem(obstacles=[{"type": "rectangle", "min": [20.0, 40.0], "max": [46.5, 60.0]},
+                               {"type": "rectangle", "min": [53.5, 40.0], "max": [80.0, 60.0]}])
+    space = sw.make_space(prob, prob.robots[0], 4)
+    rng = np.random.default_rng(1)
+    b = sw.boundary_samples(space, 400, rng)
+    d = space.obstacles.point_distances(b)
+    # beside, not far from, the obstacles (a few land in the other box: filtered later)
+    assert np.mean(d >= 1.0 - 1e-9) > 0.8 and np.median(d) < 5.0
+    m = sw.medial_samples(space, 200, rng)
+    assert len(m) and np.all(space.clear.segment_free(m, m))
+    gap = (np.abs(m[:, 0] - 50.0) < 0.5) & (m[:, 1] > 40.0) & (m[:, 1] < 60.0)
+    assert gap.sum() >= 3  # on the passage's centre line
+    nodes, corner = sw.roadmap_nodes(space, 20, rng, 40, 20)
+    assert corner[:2].all() and len(nodes) == len(corner)
+    np.testing.assert_array_equal(nodes[:2], [space.start, space.goal])
+
+
+def test_tighten_keeps_the_clearance_margin():
+    prob = _wall()
+    space = sw.make_space(prob, prob.robots[0], 2)
+    detour = np.array([[10.0, 50.0], [10.0, 95.0], [90.0, 95.0], [90.0, 50.0]])
+    (p,), _ = sw.tighten([detour], space, rounds=40)
+    margin = sw.CLEAR_MARGIN * space.diag
+    c = space.obstacles.clearance(np.stack([p[:-1], p[1:]], axis=1))
+    assert c.min() >= margin * (1 - 1e-6)
+    assert c.min() < 1e-3 * space.diag  # pressed onto the wall's corners

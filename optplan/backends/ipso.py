@@ -114,8 +114,12 @@ ENDGAME_MODES = ("islands", "classes")
 
 _jit = numba.njit(cache=True, nogil=True)
 _NO_DRAW = np.zeros(0)
-#: Cut fractions of the end-game's quick ranking pass (1/2 to 1/64).
-QUICK_FRACTIONS = 0.5 ** np.arange(1, 7)
+#: The end-game's quick ranking pass: rounds and cut fractions (1/2 to 1/16) of
+#: :func:`~optplan.backends.swarm.tighten`; at most ENDGAME_KEEP candidates (those within
+#: ``endgame_margin`` of the best) are then tightened in full.
+QUICK_ROUNDS = 2
+QUICK_FRACTIONS = 0.5 ** np.arange(1, 5)
+ENDGAME_KEEP = 4
 
 
 # --------------------------------------------------------------------------------------
@@ -477,7 +481,7 @@ penetration_weight, roadmap_samples, corridors
     restart_every: int = 0
     tighten_rounds: int = 0
     endgame: str = "islands"
-    endgame_margin: float = 0.01
+    endgame_margin: float = 0.005
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -686,12 +690,12 @@ penetration_weight, roadmap_samples, corridors
         if not cand:
             return
         if len(cand) > 1:  # rank the candidates after a quick coarse tightening
-            out, n = tighten(cand, space, rounds=min(self.tighten_rounds, 4),
+            out, n = tighten(cand, space, rounds=min(self.tighten_rounds, QUICK_ROUNDS),
                              fractions=QUICK_FRACTIONS)
             st.n_eval += n
             lens = np.array([path_lengths(p) for p in out])
             cand = [out[i] for i in np.argsort(lens, kind="stable")
-                    if lens[i] <= lens.min() * (1.0 + self.endgame_margin)]
+                    if lens[i] <= lens.min() * (1.0 + self.endgame_margin)][:ENDGAME_KEEP]
         out, n = tighten(cand, space, rounds=self.tighten_rounds)
         st.n_eval += n
         lens = np.array([path_lengths(p) for p in out])

@@ -71,7 +71,6 @@ Convergence bookkeeping
 
 from __future__ import annotations
 
-import heapq
 import math
 import time
 from collections.abc import Callable
@@ -113,6 +112,9 @@ __all__ = [
     "shortcut",
     "tighten",
     "signature_hashes",
+    "signature_hashes_list",
+    "Roadmap",
+    "build_roadmap",
     "roadmap_corridors",
     "converged_iteration",
 ]
@@ -755,11 +757,51 @@ def signature_hashes(paths: np.ndarray, space: SwarmSpace) -> np.ndarray:
 
 
 @_jit
-def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node):
+def _heap_push(hk, hv, size, key, val):
+    """Push ``(key, val)`` onto the binary min-heap ``hk, hv`` of ``size`` items."""
+    i = size
+    hk[i] = key
+    hv[i] = val
+    while i > 0:
+        up = (i - 1) >> 1
+        if hk[up] <= hk[i]:
+            break
+        hk[up], hk[i] = hk[i], hk[up]
+        hv[up], hv[i] = hv[i], hv[up]
+        i = up
+    return size + 1
+
+
+@_jit
+def _heap_pop(hk, hv, size):
+    """Pop the smallest ``(key, val)``; returns it and the new size."""
+    key, val = hk[0], hv[0]
+    size -= 1
+    hk[0], hv[0] = hk[size], hv[size]
+    i = 0
+    while True:
+        c = 2 * i + 1
+        if c >= size:
+            break
+        if c + 1 < size and hk[c + 1] < hk[c]:
+            c += 1
+        if hk[i] <= hk[c]:
+            break
+        hk[c], hk[i] = hk[i], hk[c]
+        hv[c], hv[i] = hv[i], hv[c]
+        i = c
+    return key, val, size
+
+
+@_jit
+def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node, slack=np.inf):
     """Label-setting search for the ``k_goal`` shortest ``src -> dst`` walks of distinct
     homotopy signatures (each node settles at most ``k_node`` signatures, shortest first),
     A*-ordered by ``g + heur[node]`` (``heur``: a consistent lower bound of the distance to
-    ``dst``, so each node still settles its labels shortest first).
+    ``dst``, e.g. the exact roadmap distance, so each node still settles its labels shortest
+    first; ``inf`` marks nodes that do not reach ``dst``).  The search stops at the
+    first label longer than ``slack`` x the first walk found (the walks it could still find
+    are at least that long).
 
     Returns the goal labels (shortest first), each label's node and parent label.
     """
@@ -768,19 +810,24 @@ def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node):
     lab_node = np.empty(cap, np.int64)
     lab_hash = np.empty(cap, np.int64)
     lab_par = np.empty(cap, np.int64)
+    lab_g = np.empty(cap)
+    hk = np.empty(cap)
+    hv = np.empty(cap, np.int64)
     lab_node[0] = src
     lab_hash[0] = 0
     lab_par[0] = -1
+    lab_g[0] = 0.0
     n_lab = 1
     settled = np.zeros(n, np.int64)
     shash = np.empty((n, k_node), np.int64)
     goals = np.empty(k_goal, np.int64)
     n_goal = 0
-    lab_g = np.empty(cap)
-    lab_g[0] = 0.0
-    heap = [(heur[src], 0)]
-    while len(heap) > 0 and n_goal < k_goal:
-        _, lab = heapq.heappop(heap)
+    size = _heap_push(hk, hv, 0, heur[src], 0)
+    bound = np.inf
+    while size > 0 and n_goal < k_goal:
+        f, lab, size = _heap_pop(hk, hv, size)
+        if f > bound:
+            break
         v = lab_node[lab]
         d = lab_g[lab]
         h = lab_hash[lab]
@@ -797,27 +844,32 @@ def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node):
         settled[v] += 1
         if v == dst:
             goals[n_goal] = lab
+            if n_goal == 0:
+                bound = slack * d
             n_goal += 1
             continue
         for e in range(indptr[v], indptr[v + 1]):
             u = nbr[e]
             if settled[u] >= k_node:
                 continue
+            g = d + weight[e]
+            if not g + heur[u] <= bound:  # beyond the bound, or u does not reach dst
+                continue
+            hu = h + ehash[e]
+            known = False
+            for q in range(settled[u]):  # that class of u is settled already (shorter)
+                if shash[u, q] == hu:
+                    known = True
+                    break
+            if known:
+                continue
             lab_node[n_lab] = u
-            lab_hash[n_lab] = h + ehash[e]
+            lab_hash[n_lab] = hu
             lab_par[n_lab] = lab
-            lab_g[n_lab] = d + weight[e]
-            heapq.heappush(heap, (d + weight[e] + heur[u], n_lab))
+            lab_g[n_lab] = g
+            size = _heap_push(hk, hv, size, g + heur[u], n_lab)
             n_lab += 1
     return goals[:n_goal], lab_node[:n_lab], lab_par[:n_lab]
-
-
-def _free_points(space: SwarmSpace, pts: np.ndarray) -> np.ndarray:
-    """The points where the robot's disc is collision-free, with the margin of
-    ``space.clear`` (one kernel call)."""
-    if len(pts) == 0:
-        return pts
-    return pts[segment_free(pts, pts, space)]
 
 
 def boundary_samples(space: SwarmSpace, n: int, rng: np.random.Generator) -> np.ndarray:
@@ -865,71 +917,213 @@ def boundary_samples(space: SwarmSpace, n: int, rng: np.random.Generator) -> np.
     return np.stack([z.real, z.imag], axis=1) + os_.frame.origin
 
 
-def roadmap_nodes(space: SwarmSpace, n_samples: int, rng: np.random.Generator,
-                  boundary: int | None = None) -> np.ndarray:
-    """Start, goal and the collision-free ones among ``n_samples`` uniform draws in the bounds
-    and ``boundary`` (default ``n_samples``) :func:`boundary_samples` (one kernel call)."""
+def medial_samples(space: SwarmSpace, n: int, rng: np.random.Generator) -> np.ndarray:
+    """Samples retracted toward the medial axis (a PRM technique for narrow passages): for
+    each of ``n`` uniform points, the midpoint of its nearest boundary points on its two
+    nearest obstacles (searched within ``diag / 4``), kept when free.  In a passage between two
+    obstacles the midpoint lies on its centre line, however narrow it is."""
+    os_ = space.obstacles
+    if os_ is None or os_.n_obstacles < 2 or n <= 0:
+        return np.zeros((0, 2))
     lo, hi = space.lo[:2], space.hi[:2]
+    x = lo + (hi - lo) * rng.random((n, 2))
+    near, dist = os_.nearest(x, max_range=space.diag / 4.0)
+    two = np.argsort(dist, axis=1)[:, :2]
+    r = np.arange(n)
+    ok = np.isfinite(dist[r, two[:, 1]])
+    m = 0.5 * (near[r, two[:, 0]] + near[r, two[:, 1]])[ok]
+    m = m[np.all((m >= lo) & (m <= hi), axis=1)]
+    return m[segment_free(m, m, space)]
+
+
+def roadmap_nodes(space: SwarmSpace, n_samples: int, rng: np.random.Generator,
+                  boundary: int | None = None, medial: int | None = None
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Start, goal and the collision-free ones among ``n_samples`` uniform draws in the bounds
+    and ``boundary`` (default ``n_samples``) :func:`boundary_samples`, plus the
+    :func:`medial_samples` of ``medial`` (default ``n_samples``) points.  Returns the nodes and a
+    mask of the *corner* nodes (the corner samples, start and goal)."""
+    lo, hi = space.lo[:2], space.hi[:2]
+    nb = n_samples if boundary is None else boundary
     pts = np.vstack([lo + (hi - lo) * rng.random((n_samples, 2)),
-                     boundary_samples(space, n_samples if boundary is None else boundary,
-                                      rng)])
-    pts = pts[np.all((pts >= lo) & (pts <= hi), axis=1)]
-    return np.vstack([space.start, space.goal, _free_points(space, pts)])
+                     boundary_samples(space, nb, rng)])
+    corner = np.zeros(len(pts), bool)
+    corner[n_samples + nb - (nb // 2 if space.obstacles is not None
+                              and space.obstacles.n_pieces else 0):] = True
+    keep = np.all((pts >= lo) & (pts <= hi), axis=1)
+    pts, corner = pts[keep], corner[keep]
+    free = segment_free(pts, pts, space)
+    mids = medial_samples(space, n_samples if medial is None else medial, rng)
+    return (np.vstack([space.start, space.goal, pts[free], mids]),
+            np.concatenate([[True, True], corner[free], np.ones(len(mids), bool)]))
 
 
-def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
-                      n_samples: int = 150, k_neighbours: int = 12,
-                      boundary: int | None = None) -> list[np.ndarray]:
-    """Collision-free start-goal paths in up to ``n_paths`` distinct homotopy classes, the
-    shortest first, from one sparse random roadmap (beyond the paper; no exact planner).
+@dataclass(frozen=True, eq=False)
+class Roadmap:
+    """A sparse roadmap in CSR form (both directions of every edge): ``nodes`` (0 = start,
+    1 = goal), per directed edge its target, length, signature hash and midpoint."""
 
-    Nodes: :func:`roadmap_nodes`.  Edges: each node to its ``k_neighbours`` nearest nodes
-    (start and goal to twice as many), kept when the fitness kernel finds the segment
-    collision-free (one call for all).  Search: the ``n_paths`` shortest roadmap walks of
-    distinct homotopy signatures (:func:`signature_hashes`, label setting with at most
-    ``n_paths`` signatures per node), each string-pulled with :func:`shortcut` (which can only
-    shorten it).  A roadmap that does not connect start and goal gives no path.
-    """
+    nodes: np.ndarray
+    indptr: np.ndarray
+    target: np.ndarray
+    weight: np.ndarray
+    ehash: np.ndarray
+    mid: np.ndarray
+
+    def to_goal(self) -> np.ndarray:
+        """Roadmap distance of every node to the goal (``inf``: not connected), the exact
+        A* heuristic of the class search."""
+        from scipy.sparse import csr_matrix
+        from scipy.sparse.csgraph import dijkstra
+
+        n = len(self.nodes)
+        m = csr_matrix((self.weight, self.target, self.indptr), shape=(n, n))
+        return dijkstra(m, directed=True, indices=1)
+
+    def walk(self, lab: int, lab_node: np.ndarray, lab_par: np.ndarray) -> np.ndarray:
+        """The points of the walk ending in label ``lab``."""
+        seq = []
+        while lab >= 0:
+            seq.append(int(lab_node[lab]))
+            lab = int(lab_par[lab])
+        return self.nodes[seq[::-1]]
+
+
+def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 40,
+                  k_neighbours: int = 25, boundary: int | None = None,
+                  medial: int | None = None) -> Roadmap | None:
+    """The sparse random roadmap (beyond the paper; no exact planner).  Nodes:
+    :func:`roadmap_nodes`.  Edges: each node to its ``k_neighbours`` nearest nodes (start and
+    goal to twice as many) and to its nearest node in each of :data:`YAO_SECTORS` angular
+    sectors, and every pair of corner nodes (taut paths run between corners; 0 neighbours:
+    every pair of nodes), kept when collision-free with the margin of ``space.clear`` (one
+    kernel call for all).  None when no edge is free."""
     from scipy.spatial import cKDTree
 
-    nodes = roadmap_nodes(space, n_samples, rng, boundary)
+    nodes, corner = roadmap_nodes(space, n_samples, rng, boundary, medial)
     n = len(nodes)
-    if n_paths < 1:
-        return []
     if k_neighbours <= 0 or k_neighbours >= n - 1:  # every pair
         i, j = np.triu_indices(n, 1)
     else:
         k = k_neighbours
-        _, nb = cKDTree(nodes).query(nodes, k=min(2 * k, n - 1) + 1)
-        nb = nb[:, 1:]
-        i = np.concatenate([np.repeat(np.arange(n), k), np.repeat([0, 1], nb.shape[1])])
-        j = np.concatenate([nb[:, :k].reshape(-1), nb[:2].reshape(-1)])
-        key = np.unique(np.minimum(i, j) * n + np.maximum(i, j))
-        i, j = key // n, key % n
+        tree = cKDTree(nodes)
+        nb = tree.query(nodes, k=k + 1)[1][:, 1:]
+        nb2 = tree.query(nodes[:2], k=min(2 * k, n - 1) + 1)[1][:, 1:]
+        yi, yj = _yao_pairs(nodes, YAO_SECTORS)
+        c = np.flatnonzero(corner)
+        ci, cj = np.triu_indices(len(c), 1)
+        ci, cj = c[ci], c[cj]
+        close = np.hypot(*(nodes[ci] - nodes[cj]).T) <= CORNER_REACH * space.diag
+        i = np.concatenate([np.repeat(np.arange(n), k), np.repeat([0, 1], nb2.shape[1]), yi,
+                            ci[close]])
+        j = np.concatenate([nb.reshape(-1), nb2.reshape(-1), yj, cj[close]])
+        M = np.zeros((n, n), bool)
+        M[np.minimum(i, j), np.maximum(i, j)] = True
+        M[np.arange(n), np.arange(n)] = False
+        i, j = np.nonzero(M)
     ok = segment_free(nodes[i], nodes[j], space)
     i, j = i[ok], j[ok]
     if len(i) == 0:
-        return []
+        return None
     w = np.hypot(*(nodes[i] - nodes[j]).T)
     eh = _segment_hashes(nodes[i], nodes[j], space.signature_points, space.signature_keys)
-    # both directions, CSR by source node
-    src = np.concatenate([i, j])
-    dst = np.concatenate([j, i])
+    src, dst = np.concatenate([i, j]), np.concatenate([j, i])
     order = np.argsort(src, kind="stable")
-    indptr = np.searchsorted(src[order], np.arange(n + 1))
-    heur = np.hypot(*(nodes - space.goal).T)
-    goals, lab_node, lab_par = _k_classes(
-        indptr.astype(np.int64), dst[order].astype(np.int64), np.concatenate([w, w])[order],
-        np.concatenate([eh, -eh])[order], heur, 0, 1, int(n_paths), int(n_paths))
-    walks = []
-    for g in goals:
-        seq = []
-        lab = int(g)
-        while lab >= 0:
-            seq.append(int(lab_node[lab]))
-            lab = int(lab_par[lab])
-        walks.append(nodes[seq[::-1]])
-    return _shortcut_many(walks, space) if walks else []
+    return Roadmap(nodes, np.searchsorted(src[order], np.arange(n + 1)).astype(np.int64),
+                   dst[order].astype(np.int64), np.concatenate([w, w])[order],
+                   np.concatenate([eh, -eh])[order],
+                   np.ascontiguousarray(0.5 * (nodes[src] + nodes[dst])[order]))
+
+
+#: Corner nodes farther apart than this fraction of the map diagonal are not paired directly.
+CORNER_REACH = 0.3
+
+#: Angular sectors of the Yao edges of :func:`build_roadmap` (a divisor of 8: octants).
+YAO_SECTORS = 8
+
+
+@_jit
+def _octant(dx, dy):
+    """The octant 0-7 of the direction ``(dx, dy)`` (counter-clockwise from +x)."""
+    if dy >= 0:
+        if dx > 0:
+            return 0 if dy < dx else 1
+        return 2 if dy > -dx else 3
+    if dx < 0:
+        return 4 if -dy < -dx else 5
+    return 6 if -dy > dx else 7
+
+
+@_jit
+def _yao_pairs(nodes, sectors):
+    """Each node to its nearest node in each of ``sectors`` equal angular sectors (a Yao
+    graph: connected, and it bridges a dense cluster and a sparse region, which the k nearest
+    neighbours of the cluster's nodes do not)."""
+    n = nodes.shape[0]
+    I = np.empty(n * sectors, np.int64)
+    J = np.empty(n * sectors, np.int64)
+    best = np.empty(sectors)
+    arg = np.empty(sectors, np.int64)
+    q = 0
+    for i in range(n):
+        best[:] = np.inf
+        arg[:] = -1
+        for j in range(n):
+            if j == i:
+                continue
+            dx = nodes[j, 0] - nodes[i, 0]
+            dy = nodes[j, 1] - nodes[i, 1]
+            d = dx * dx + dy * dy
+            s = _octant(dx, dy) * sectors // 8
+            if d < best[s]:
+                best[s] = d
+                arg[s] = j
+        for s in range(sectors):
+            if arg[s] >= 0:
+                I[q] = i
+                J[q] = arg[s]
+                q += 1
+    return I[:q], J[:q]
+
+
+def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
+                      n_samples: int = 40, k_neighbours: int = 25,
+                      boundary: int | None = None, medial: int | None = None,
+                      slack: float = 1.1, node_classes: int = 20) -> list[np.ndarray]:
+    """Collision-free start-goal paths of distinct homotopy classes from one sparse random
+    roadmap (:func:`build_roadmap`; beyond the paper, no exact planner).
+
+    * the ``n_paths`` shortest roadmap walks of distinct homotopy signatures
+      (:func:`signature_hashes`; label setting, A*-ordered, at most ``node_classes``
+      signatures per node), shortest first, none longer than ``slack`` x the shortest;
+
+    Each walk is string-pulled (greedy, over nodes at most 8 apart; it can only shorten the
+    walk).  A roadmap that does not connect start and goal gives no path.
+    """
+    g = build_roadmap(space, rng, n_samples, k_neighbours, boundary, medial)
+    if g is None or n_paths < 1:
+        return []
+    heur = g.to_goal()
+    if not np.isfinite(heur[0]):  # start and goal are not connected
+        return []
+    goals, lab_node, lab_par = _k_classes(g.indptr, g.target, g.weight, g.ehash, heur, 0, 1,
+                                          int(n_paths), int(min(n_paths, node_classes)),
+                                          float(slack))
+    walks = [g.walk(int(lab), lab_node, lab_par) for lab in goals]
+    if not walks:
+        return []
+    pts, off = _flat(walks)
+    pts, off = _pull(pts, off, space, 8)[:2]
+    return [pts[off[i]:off[i + 1]] for i in range(len(walks))]
+
+
+def signature_hashes_list(paths: list[np.ndarray], space: SwarmSpace) -> np.ndarray:
+    """:func:`signature_hashes` of polylines of different lengths."""
+    if not paths:
+        return np.zeros(0, np.int64)
+    M = max(len(p) for p in paths)
+    return signature_hashes(np.array([np.vstack([p, np.repeat(p[-1:], M - len(p), axis=0)])
+                                      for p in paths]), space)
 
 
 def converged_iteration(best: np.ndarray, rel: float = 1e-3) -> int:
@@ -1070,9 +1264,10 @@ class SwarmBackend(Backend):
     penalty_weight: float | None = None
     penetration_weight: float = 0.0
     roadmap_samples: int = 40
-    roadmap_boundary: int = 160
+    roadmap_boundary: int = 360
+    roadmap_medial: int = 40
     roadmap_neighbours: int = 25
-    corridors: int = 10
+    corridors: int = 30
 
     def __post_init__(self) -> None:
         check_int(self, "n_particles", 2, 100_000)
@@ -1090,6 +1285,7 @@ class SwarmBackend(Backend):
         check_int(self, "roadmap_boundary", 0, 100_000)
         check_int(self, "roadmap_neighbours", 0, 100_000)
         check_int(self, "corridors", 1, 1000)
+        check_int(self, "roadmap_medial", 0, 100_000)
 
     # -- hooks for subclasses ------------------------------------------------------
     def _start(self, space: SwarmSpace, state: SwarmState, seeds: list[np.ndarray],
@@ -1132,7 +1328,8 @@ class SwarmBackend(Backend):
         if self.init_mode == "roadmap":
             seeds = roadmap_corridors(space, self.corridors, rng, n_samples=self.roadmap_samples,
                                       k_neighbours=self.roadmap_neighbours,
-                                      boundary=self.roadmap_boundary)
+                                      boundary=self.roadmap_boundary,
+                                      medial=self.roadmap_medial)
             blocks = self._seed_blocks(len(seeds))
             for i, pth in enumerate(seeds[:blocks]):  # one per block of particles
                 X[i * self.n_particles // blocks] = as_particle(pth, space)
