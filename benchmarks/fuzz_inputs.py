@@ -1732,32 +1732,6 @@ def _replace(pool: list[_Worker], w: _Worker, log_dir: Path, born: dict) -> None
 #: finding id -> (where, what happens, predicate on a bad outcome).  A bad outcome a finding
 #: explains is reported in the "known findings" column (and ``tests/test_fuzz.py`` xfails it).
 KNOWN_FINDINGS: dict[str, tuple[str, str, Callable[[Outcome], bool]]] = {
-    "visgraph-start-is-goal": (
-        "optplan/geometry/tangent_graph.py (visgraph, nlp-ipopt's initial path)",
-        "a robot whose start equals its goal on a map without obstacles near it is reported "
-        "infeasible ('the goal is not reachable from the start')",
-        lambda o: o.case.family in ("scenario", "option", "init")
-        and o.category == "success disagrees" and "goal is not reachable" in o.detail),
-    "visgraph-many-vertices": (
-        "optplan/backends/visgraph.py, optplan/geometry/tangent_graph.py",
-        "time_limit is not honoured while the tangent graph is built: office-floor plus one "
-        "20,000-vertex polygon takes 115 s with time_limit = 2 (paper-warehouse: 4.8 s)",
-        lambda o: o.case.family == "scenario" and o.case.what == "huge vertex count"
-        and o.category == "hang"),
-    "nlp-approximate-but-feasible": (
-        "optplan/backends/nlp.py",
-        "when IPOPT fails (margin=1e300 or 1e30, tol=1e-300, mu_init=1e-300, all accepted) the "
-        "result is 'approximate' although the returned path is feasible and reaches the goal "
-        "(Status says approximate means infeasible or not reaching)",
-        lambda o: o.case.data.get("preset") == "nlp-ipopt"
-        and o.category == "success disagrees"),
-    "tiny-spacing": (
-        "optplan/backends/visgraph.py (arc_step), formation backends (ref_spacing), hybrid "
-        "(subgoal_spacing)",
-        "a positive but tiny spacing (1e-300) is accepted and then numpy raises 'Maximum "
-        "allowed size exceeded' naming no option",
-        lambda o: o.case.family == "option" and o.case.data.get("option") in (
-            "arc_step", "ref_spacing", "subgoal_spacing") and "Maximum allowed size" in o.detail),
     "int-option-recompiles": (
         "optplan/backends/ipso.py (swarm kernels)",
         "an integer value for a float option (c1 = 0) makes numba compile a new "

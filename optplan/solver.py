@@ -384,6 +384,12 @@ class Backend:
                 message = (message + "; " if message else "") + "validator: " + ", ".join(why)
             elif status is Status.optimal and not self.certifies:
                 status = Status.solved
+        elif status is Status.approximate and metrics["feasible"] and metrics["reached"]:
+            # the backend gave up (e.g. IPOPT failed) but what it returned is feasible and
+            # reaches the goal: that is what "solved" means
+            status = Status.solved
+            message = (message + "; " if message else "") + (
+                "validator: the returned paths are feasible and reach the goal")
         return Result(
             status=status, paths=paths, metrics=metrics, solver=self.preset or self.name,
             backend=self.name, options=self.options(), seed=None, problem=problem.name,

@@ -188,7 +188,8 @@ def subgoals(path: np.ndarray, goal: np.ndarray, angle_tol: float = 10.0,
     prev = np.vstack([start[None], seq[:-1]])
     out = []
     for a, b in zip(prev, seq):
-        n = max(1, int(math.ceil(math.hypot(*(b - a)) / spacing)))
+        # at most 100,000 pieces per leg: a tiny spacing cannot exhaust memory
+        n = max(1, min(100_000, int(math.ceil(math.hypot(*(b - a)) / spacing))))
         f = np.arange(1, n + 1)[:, None] / n
         out.append(a + f * (b - a))
     return np.vstack(out)

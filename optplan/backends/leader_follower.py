@@ -319,7 +319,8 @@ class ReferenceTracker:
         ref = np.asarray(ref, float)
         seg = np.hypot(*np.diff(ref, axis=0).T) if len(ref) > 1 else np.zeros(0)
         s = np.r_[0.0, np.cumsum(seg)]
-        n = max(2, int(math.ceil(s[-1] / spacing)) + 1) if s[-1] > 0 else 1
+        # at most 100,000 samples: a tiny spacing cannot exhaust memory
+        n = max(2, min(100_000, int(math.ceil(s[-1] / spacing)) + 1)) if s[-1] > 0 else 1
         ss = np.linspace(0, s[-1], n)
         self.points = np.stack([np.interp(ss, s, ref[:, 0]), np.interp(ss, s, ref[:, 1])], 1)
         self.goal = ref[-1].copy()
