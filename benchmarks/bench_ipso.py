@@ -1,15 +1,25 @@
-"""Speed of the swarm planners: one ``ipso-paper`` run (50 particles x 200 iterations).
+"""Speed of the swarm planners: ``ipso-paper`` (50 particles x 200 iterations) and ``ipso``.
 
-1. Wall time per run on ``paper-env1`` (target <= 40 ms median on the 2-core dev machine) of
-   the one implementation (numpy: the vectorised fitness kernel ``ObstacleSet.crossings`` and
-   the numpy IPSO step); the documented ``ipso`` variant for comparison.
-2. Where the time of one ``ipso-paper`` run goes: the fitness kernel vs the rest of the loop.
-3. Scaling of one run's time with the number of obstacles (10 / 100 / 1000 random squares and
-   discs in a 500 x 500 map, obstacle size ~ 1/sqrt(N) so that the covered fraction is
-   constant): it must grow sub-linearly.
+1. Wall time (and process CPU time) per run on ``paper-env1`` of the one implementation: the
+   compiled fitness kernel ``ObstacleSet.crossings`` and the IPSO step compiled with numba
+   (``optplan.backends.ipso``); targets (issue 12): ``ipso-paper`` <= 40 ms median, ``ipso``
+   <= 45 ms median.
+2. Where the time of one ``ipso-paper`` run goes: the compiled kernel loop, the Python wrapper
+   of ``ObstacleSet.crossings`` around it (local frame, segment arrays, result object), the
+   compiled IPSO step (``ga_pairs``, ``advance``, ``absorb``) and the rest (random draws,
+   bookkeeping, history, validator).
+3. Where the time of one ``ipso`` run goes: the roadmap and its corridor search, the swarm
+   iterations, the end-game.
+4. Scaling of one ``ipso-paper`` run's time with the number of obstacles (10 / 100 / 1000
+   random squares and discs in a 500 x 500 map, obstacle size ~ 1/sqrt(N) so that the
+   covered fraction is constant): it must grow sub-linearly.
+
+The first run of a fresh install compiles the numba functions (a few seconds, cached on disk
+in ``__pycache__``); every timing here is taken after a warm-up run.
 
 Run: ``.venv/bin/python benchmarks/bench_ipso.py [--runs 15]``.  Prints markdown tables with
-medians; the machine is shared, so take the numbers as indicative.
+medians; the machine is shared, so take the numbers as indicative (the CPU time is less
+affected by other jobs than the wall time).
 """
 
 from __future__ import annotations
@@ -22,52 +32,66 @@ import time
 import numpy as np
 
 import optplan as op
+from optplan.backends import ipso as ip
+from optplan.backends import swarm as sw
 from optplan.backends.swarm import make_space
-from optplan.geometry import ObstacleSet
+from optplan.geometry import kernel
 
-#: Target of the median ipso-paper run on paper-env1 (seconds).
-TARGET = 0.040
+#: Targets of the median runs on paper-env1 (seconds).
+TARGETS = {"ipso-paper": 0.040, "ipso": 0.045}
 
 
-def _time_runs(prob, solver, runs: int, **over) -> tuple[float, float]:
-    ts, ok = [], 0
-    op.solve(prob, solver, rng=0, **over)  # warm caches (inflation, obstacle set)
+def _time_runs(prob, solver, runs: int, **over) -> tuple[float, float, float]:
+    """Median wall time, median CPU time per run, success rate."""
+    op.solve(prob, solver, rng=0, **over)  # warm caches (obstacle set) and compiled code
+    wall, cpu, ok = [], [], 0
     for s in range(runs):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         r = op.solve(prob, solver, rng=s, **over)
-        ts.append(time.perf_counter() - t)
+        wall.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
         ok += r.success
-    return float(np.median(ts)), ok / runs
+    return float(np.median(wall)), float(np.median(cpu)), ok / runs
 
 
-def _kernel_share(prob, solver: str, runs: int, **over) -> tuple[float, float, int]:
-    """Median run time, median time inside the fitness kernel's ``crossings`` (one run), and
-    its number of calls (calls on other obstacle sets, e.g. the validator's, not counted)."""
-    view = prob.known_view()  # what the swarm planners score on
-    fitness = make_space(view, view.robots[0], 1).obstacles
-    real = ObstacleSet.crossings
-    acc = [0.0, 0]
+class _Timers:
+    """Wall time spent in module functions, installed by replacing them (then restored)."""
 
-    def timed(self, *a, **k):
-        t = time.perf_counter()
-        out = real(self, *a, **k)
-        if self is fitness:
-            acc[0] += time.perf_counter() - t
-            acc[1] += 1
-        return out
+    def __init__(self, spec: dict[str, tuple[object, str]]) -> None:
+        self.spec = spec
+        self.acc = dict.fromkeys(spec, 0.0)
+        self.real = {k: getattr(m, n) for k, (m, n) in spec.items()}
 
-    ObstacleSet.crossings = timed
-    try:
-        tot, ker = [], []
-        for s in range(runs):
-            acc[0], acc[1] = 0.0, 0
+    def __enter__(self):
+        for key, (mod, name) in self.spec.items():
+            setattr(mod, name, self._wrap(key, self.real[key]))
+        return self
+
+    def _wrap(self, key, fn):
+        def timed(*a, **k):
             t = time.perf_counter()
-            op.solve(prob, solver, rng=s, **over)
+            out = fn(*a, **k)
+            self.acc[key] += time.perf_counter() - t
+            return out
+        return timed
+
+    def __exit__(self, *exc) -> None:
+        for key, (mod, name) in self.spec.items():
+            setattr(mod, name, self.real[key])
+
+
+def _split(prob, solver: str, runs: int, spec: dict) -> tuple[float, dict]:
+    """Median run time and the median time per run in each timed function."""
+    op.solve(prob, solver, rng=0)
+    tot, parts = [], {k: [] for k in spec}
+    for s in range(runs):
+        with _Timers(spec) as tm:
+            t = time.perf_counter()
+            op.solve(prob, solver, rng=s)
             tot.append(time.perf_counter() - t)
-            ker.append(acc[0])
-    finally:
-        ObstacleSet.crossings = real
-    return float(np.median(tot)), float(np.median(ker)), acc[1]
+        for k in spec:
+            parts[k].append(tm.acc[k])
+    return float(np.median(tot)), {k: float(np.median(v)) for k, v in parts.items()}
 
 
 def random_map(n: int, seed: int = 0) -> op.Problem:
@@ -95,34 +119,64 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--runs", type=int, default=15)
     args = ap.parse_args(argv)
     print(f"machine: {os.cpu_count()} cores (shared), {platform.processor() or platform.machine()}"
-          f", Python {platform.python_version()}, numpy {np.__version__}")
+          f", Python {platform.python_version()}, numpy {np.__version__}, load average "
+          f"{os.getloadavg()[0]:.1f}")
     print()
     prob = op.load_problem("paper-env1")
-    print("### One run on paper-env1 (numpy implementation)")
+    print("### One run on paper-env1 (compiled kernel and IPSO step)")
     print()
-    print("| solver | fitness kernel | runs (seeds) | median wall time per run (ms) | success |")
-    print("|---|---|---|---|---|")
+    print("| solver | runs (seeds) | median wall time per run (ms) | median CPU time (ms) "
+          "| target (ms) | success |")
+    print("|---|---|---|---|---|---|")
     median = {}
-    for solver, runs in (("ipso-paper", args.runs), ("ipso", max(3, args.runs // 3))):
-        median[solver], ok = _time_runs(prob, solver, runs)
-        print(f"| {solver} | `ObstacleSet.crossings` (exact disc) | {runs} "
-              f"| {median[solver] * 1e3:.1f} | {ok:.0%} |")
-    t = median["ipso-paper"]
+    for solver in ("ipso-paper", "ipso"):
+        median[solver], cpu, ok = _time_runs(prob, solver, args.runs)
+        print(f"| {solver} | {args.runs} | {median[solver] * 1e3:.1f} | {cpu * 1e3:.1f} "
+              f"| {TARGETS[solver] * 1e3:.0f} | {ok:.0%} |")
     print()
-    print(f"ipso-paper: median {t * 1e3:.1f} ms per run; the <= {TARGET * 1e3:.0f} ms target is "
-          f"{'met' if t <= TARGET else 'NOT met'}.")
+    for solver, t in median.items():
+        print(f"{solver}: median {t * 1e3:.1f} ms per run; the <= {TARGETS[solver] * 1e3:.0f} "
+              f"ms target is {'met' if t <= TARGETS[solver] else 'NOT met'}.")
     print()
+
     print("### Where the time of one ipso-paper run on paper-env1 goes")
     print()
+    spec = {"kernel": (kernel, "crossings"),
+            "crossings": (type(make_space(prob, prob.robots[0], 1).obstacles), "crossings"),
+            "step": (ip, "advance"), "pairs": (ip, "ga_pairs"), "absorb": (ip, "absorb")}
+    tot, part = _split(prob, "ipso-paper", args.runs, spec)
+    step = part["step"] + part["pairs"] + part["absorb"]
+    rows = [
+        ("compiled kernel loop (`kernel.crossings`: fitness and validator)", part["kernel"]),
+        ("`ObstacleSet.crossings` wrapper around it (local frame, segment arrays, result)",
+         part["crossings"] - part["kernel"]),
+        ("compiled IPSO step (`ga_pairs`, `advance`, `absorb`)", step),
+        ("the rest (random draws, bookkeeping, history, validator)",
+         tot - part["crossings"] - step),
+    ]
     print("| part | median ms per run | per iteration (us) |")
     print("|---|---|---|")
-    tot, ker, calls = _kernel_share(prob, "ipso-paper", args.runs)
-    print(f"| fitness kernel (`ObstacleSet.crossings`, {calls} calls) | "
-          f"{ker * 1e3:.1f} | {ker / 200 * 1e6:.0f} |")
-    print(f"| everything else (IPSO step, GA, bookkeeping, validator) | "
-          f"{(tot - ker) * 1e3:.1f} | {(tot - ker) / 200 * 1e6:.0f} |")
+    for label, t in rows:
+        print(f"| {label} | {t * 1e3:.1f} | {t / 200 * 1e6:.0f} |")
     print(f"| total | {tot * 1e3:.1f} | {tot / 200 * 1e6:.0f} |")
     print()
+
+    print("### Where the time of one ipso run on paper-env1 goes")
+    print()
+    spec2 = {"roadmap": (sw, "roadmap_corridors"), "iterate": (ip.IPSO, "_iterate"),
+             "endgame": (ip, "tighten")}
+    tot2, part2 = _split(prob, "ipso", args.runs, spec2)
+    k_max = op.get_solver("ipso").k_max
+    print("| part | median ms per run |")
+    print("|---|---|")
+    print(f"| roadmap and corridor search (`roadmap_corridors`) | {part2['roadmap'] * 1e3:.1f} |")
+    print(f"| {k_max} swarm iterations (`IPSO._iterate`) | {part2['iterate'] * 1e3:.1f} |")
+    print(f"| end-game tightening (`tighten`) | {part2['endgame'] * 1e3:.1f} |")
+    print(f"| the rest (initial swarm, validator, ...) | "
+          f"{(tot2 - sum(part2.values())) * 1e3:.1f} |")
+    print(f"| total | {tot2 * 1e3:.1f} |")
+    print()
+
     print("### Scaling with the number of obstacles (ipso-paper, one run)")
     print()
     print("| obstacles (placed) | kernel items (convex pieces + circles) | grid "
@@ -132,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
     for n in (10, 100, 1000):
         p = random_map(n)
         obs = make_space(p, p.robots[0], 1).obstacles
-        t, _ = _time_runs(p, "ipso-paper", max(3, args.runs // 3))
+        t, _, _ = _time_runs(p, "ipso-paper", max(3, args.runs // 3))
         base = base or t
         grid = "-" if obs.grid is None else f"{obs.grid['nx']} x {obs.grid['ny']}"
         print(f"| {n} ({len(p.obstacles)}) | {obs.n_items} | {grid} | "

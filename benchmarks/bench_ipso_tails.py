@@ -54,7 +54,6 @@ ABLATIONS = (
     ("end-game on islands only", {"endgame": "islands"}),
     ("no end-game", {"tighten_rounds": 0}),
     ("one island", {"islands": 1}),
-    ("corridor-aware restarts", {"restart_every": 10}),
 )
 
 

@@ -1,8 +1,12 @@
-"""Speed of the exact disc-robot kernel ``ObstacleSet.crossings`` (the one, numpy, implementation).
+"""Speed of the exact disc-robot kernel ``ObstacleSet.crossings`` (the one implementation:
+compiled with numba in ``optplan.geometry.kernel``).
 
 1. Per-call time on ``paper-env1``: the fitness batches of one ``ipso-paper`` run (50-70
    paths x 7 segments, replayed) and one random 70-path x 7-segment batch, count only (what
-   ``ipso-paper`` asks for) and with penetration.
+   ``ipso-paper`` asks for) and with penetration; and the call overhead: the same batches
+   through the public ``ObstacleSet.crossings`` and straight into the compiled loop
+   ``kernel.crossings`` with the local segment arrays prepared once, and a one-segment call
+   (the dispatch floor of a 28-argument compiled function).
 2. Per-call time on random maps of 10 / 100 / 1000 obstacles (rectangles, circles, triangles,
    hexagons, concave U shapes; size ~ 1/sqrt(N) in a 500 x 500 map so the covered fraction is
    constant): it must grow sub-linearly with N (grid pre-filter from 48 items on).
@@ -25,7 +29,7 @@ import numpy as np
 import optplan as op
 from optplan.backends.swarm import make_space
 from optplan.generators import random_obstacles as _random_obstacles
-from optplan.geometry import Frame, ObstacleSet, obstacle_set
+from optplan.geometry import Frame, ObstacleSet, kernel, obstacle_set
 from optplan.problem import Obstacle
 
 
@@ -72,6 +76,38 @@ def ipso_batches(prob: op.Problem, seed: int = 0) -> list[np.ndarray]:
     finally:
         ObstacleSet.crossings = real
     return rec
+
+
+def overhead(obs: ObstacleSet, batches: list[np.ndarray], repeats: int = 7
+             ) -> tuple[float, float, float]:
+    """Median seconds per call: through ``ObstacleSet.crossings``, straight into the compiled
+    loop with prepared local segments, and a one-segment compiled call."""
+    prep = [obs._segments(b) for b in batches]
+    K, Pt, E, N, C, CE, _, IC, IR, CR, OWN = obs.arrays
+    grid = obs._grid_args()
+    hits = np.empty((0, 2), np.int64)
+
+    def direct(items):
+        for A, D, _, S in items:
+            kernel.crossings(A, D, S, K, Pt, E, N, C, CE, IC, IR, CR, OWN, obs.n_obstacles,
+                             obs.radius, obs.eps, False, *grid, hits)
+
+    def wrapped(items):
+        for b in items:
+            obs.crossings(b, penetration=False)
+
+    one = [(p[0][:1].copy(), p[1][:1].copy(), 1, 1) for p in prep]
+    out = []
+    for fn, items in ((wrapped, batches), (direct, prep), (direct, one)):
+        fn(items[:3])
+        ts = []
+        for _ in range(repeats):
+            t = time.perf_counter()
+            for _ in range(5):
+                fn(items)
+            ts.append((time.perf_counter() - t) / (5 * len(items)))
+        out.append(float(np.median(ts)))
+    return out[0], out[1], out[2]
 
 
 def random_batch(rng: np.random.Generator, start, goal, n_paths: int = 70,
@@ -152,6 +188,19 @@ def main(argv: list[str] | None = None) -> int:
         for pen in (False, True):
             t = per_call(obs, batches, pen)
             print(f"| {label} | {'yes' if pen else 'no'} | {t * 1e6:.0f} |")
+    print()
+    w, d, one = overhead(obs, rec)
+    print(f"### Call overhead on paper-env1 (the {len(rec)} batches of one ipso-paper run, "
+          "count only)")
+    print()
+    print("| call | us/call |")
+    print("|---|---|")
+    print(f"| `ObstacleSet.crossings` (world paths in, result object out) | {w * 1e6:.1f} |")
+    print(f"| `kernel.crossings` with the local segment arrays prepared once | {d * 1e6:.1f} |")
+    print(f"| `kernel.crossings` on one segment (dispatch floor) | {one * 1e6:.1f} |")
+    print()
+    print(f"The wrapper adds {(w - d) * 1e6:.1f} us per call ({(w - d) / w:.0%} of a fitness "
+          f"call; {(w - d) * len(rec) * 1e3:.1f} ms per ipso-paper run).")
     print()
     print("### Per call on random maps (70 paths x 7 segments, count only)")
     print()

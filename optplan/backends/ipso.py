@@ -58,8 +58,8 @@ per crossed pair), the mutation noise ``(children, D)``, then ``eps, eta, R`` as
 ``(3, P, D)`` draw (and, with ``bounds_mode = "random"``, the re-draws of the bounds handling).
 
 Beyond the paper (options, all off in ``ipso-paper``): islands, roadmap seeding with
-several homotopy classes (``init_mode = "roadmap"``, ``corridors``), corridor-aware restarts
-(``restart_every``) and the end-game (``tighten_rounds``, ``endgame``); see :class:`IPSO`.
+several homotopy classes (``init_mode = "roadmap"``, ``corridors``) and the end-game
+(``tighten_rounds``, ``endgame``); see :class:`IPSO`.
 """
 
 from __future__ import annotations
@@ -77,12 +77,9 @@ from optplan.backends.swarm import (
     SwarmBackend,
     SwarmSpace,
     SwarmState,
-    as_particle,
     bound_rows,
     decode,
     evaluate_paths,
-    evaluate_swarm,
-    initial_swarm,
     redraw_out,
     signature_hashes,
     tighten,
@@ -403,13 +400,11 @@ class IPSORun:
     v_cur: float = 0.0
     crossovers: int = 0
     mutations_kept: int = 0
-    restarts: int = 0
-    seeds_used: int = 0
 
     def stats(self) -> dict[str, Any]:
         """The public per-robot counters (``extras["per_robot"]``)."""
         return {"w": self.w, "crossovers": self.crossovers,
-                "mutations_kept": self.mutations_kept, "restarts": self.restarts}
+                "mutations_kept": self.mutations_kept}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -443,13 +438,6 @@ class IPSO(SwarmBackend):
         classes alive.  1 = the paper's single global best.  The number used is the largest
         divisor of ``n_particles`` that is at most ``islands`` and leaves at least 2 particles
         per island.
-    restart_every : int
-        Beyond the paper (corridor-aware restarts, needs islands): every ``restart_every``
-        iterations the island bests' homotopy signatures are compared; an island whose best
-        is in the same class as a better island's best, or has no collision-free best, is
-        re-seeded: its first particle with the next roadmap corridor of a class no island
-        holds (a fresh ``sorted`` particle when there is none left), the others ``sorted``,
-        velocities zero.  0 = off.
     tighten_rounds : int
         Beyond the paper (the end-game): after the ``k_max`` iterations,
         :func:`optplan.backends.swarm.tighten` (deterministic corner cutting + string pulling,
@@ -478,7 +466,6 @@ penetration_weight, roadmap_samples, corridors
     crossover_tol: float = 0.05
     mutation_scale: float = 0.05
     islands: int = 1
-    restart_every: int = 0
     tighten_rounds: int = 0
     endgame: str = "islands"
     endgame_margin: float = 0.005
@@ -499,7 +486,6 @@ penetration_weight, roadmap_samples, corridors
         check_range(self, "crossover_tol", 0.0, math.inf)
         check_range(self, "mutation_scale", 0.0, 10.0)
         check_int(self, "islands", 1, 10_000)
-        check_int(self, "restart_every", 0, 1_000_000)
         check_int(self, "tighten_rounds", 0, 100_000)
         check_choice(self, "endgame", ENDGAME_MODES)
         check_range(self, "endgame_margin", 0.0, 10.0)
@@ -518,8 +504,8 @@ penetration_weight, roadmap_samples, corridors
         return A - A % 2
 
     def _seed_blocks(self, n_seeds: int) -> int:
-        """Roadmap corridors placed in the initial swarm: one per island (the rest wait for
-        the restarts and the end-game); with one island all, spread over the swarm."""
+        """Roadmap corridors placed in the initial swarm: the shortest ones, one per island
+        (the end-game compares all of them); with one island all, spread over the swarm."""
         if self.n_islands > 1:
             return min(n_seeds, self.n_islands)
         return super()._seed_blocks(n_seeds)
@@ -537,8 +523,7 @@ penetration_weight, roadmap_samples, corridors
             tol2=tol * tol if math.isfinite(tol) else math.inf,
             position_code=POSITION_MODES.index(self.position_update), seeds=list(seeds),
             leader=np.arange(P) // (P // I) if I > 1 else np.zeros(P, np.int64),
-            island_idx=island_bests(state.pbest_f, I), ones=np.ones(space.dim), w=self.w_max,
-            seeds_used=self._seed_blocks(len(seeds)))
+            island_idx=island_bests(state.pbest_f, I), ones=np.ones(space.dim), w=self.w_max)
         return run
 
     def _inertia(self, run: IPSORun) -> float:
@@ -593,56 +578,12 @@ penetration_weight, roadmap_samples, corridors
         run.v_prev, run.v_cur, run.w = run.v_cur, vnorm, w
         run.crossovers += h
         run.mutations_kept += kept
-        if (self.restart_every and run.n_islands > 1 and it % self.restart_every == 0
-                and it < self.k_max):
-            self._restart(space, st, run, rng)
         return {"w": w, "psi": psi, "children": m, "mean_speed": vnorm}
 
     def _stats(self, run: IPSORun) -> dict[str, Any]:
         return run.stats()
 
-    # -- beyond the paper: corridor-aware restarts and the end-game ---------------------
-    def _restart(self, space: SwarmSpace, st: SwarmState, run: IPSORun,
-                 rng: np.random.Generator) -> None:
-        """Re-seed the islands whose best duplicates a better island's homotopy class or is
-        not collision-free (see the ``restart_every`` option)."""
-        I = run.n_islands
-        idx = run.island_idx
-        best = decode(st.pbest[idx], space)
-        ev = evaluate_paths(best, space)
-        st.n_eval += I
-        sig = signature_hashes(best, space)
-        held, redo = set(), []
-        for i in np.argsort(st.pbest_f[idx], kind="stable"):
-            if ev.count[i] == 0 and sig[i] not in held:
-                held.add(int(sig[i]))
-            else:
-                redo.append(int(i))
-        if not redo:
-            return
-        m_i = self.n_particles // I
-        Xn = initial_swarm(space, len(redo) * m_i, "sorted", rng)
-        q = 0
-        while q < len(redo) and run.seeds_used < len(run.seeds):
-            seed = run.seeds[run.seeds_used]
-            run.seeds_used += 1
-            h = int(signature_hashes(seed, space)[0])
-            if h not in held:  # a corridor of a class no island holds
-                held.add(h)
-                Xn[q * m_i] = as_particle(seed, space)
-                q += 1
-        rows = np.concatenate([np.arange(i * m_i, (i + 1) * m_i) for i in redo])
-        evn = evaluate_swarm(Xn, space)
-        st.n_eval += len(Xn)
-        st.X[rows] = Xn
-        st.V[rows] = 0.0
-        st.F[rows] = evn.cost
-        st.pbest[rows] = Xn
-        st.pbest_f[rows] = evn.cost
-        st.offer(Xn, evn)
-        run.island_idx = island_bests(st.pbest_f, I)
-        run.restarts += len(redo)
-
+    # -- beyond the paper: the end-game -------------------------------------------------
     def _endgame_candidates(self, space: SwarmSpace, st: SwarmState, run: IPSORun
                             ) -> list[np.ndarray]:
         """Collision-free candidate paths of the end-game (see the ``endgame`` option),

@@ -961,14 +961,13 @@ def roadmap_nodes(space: SwarmSpace, n_samples: int, rng: np.random.Generator,
 @dataclass(frozen=True, eq=False)
 class Roadmap:
     """A sparse roadmap in CSR form (both directions of every edge): ``nodes`` (0 = start,
-    1 = goal), per directed edge its target, length, signature hash and midpoint."""
+    1 = goal), per directed edge its target, length and signature hash."""
 
     nodes: np.ndarray
     indptr: np.ndarray
     target: np.ndarray
     weight: np.ndarray
     ehash: np.ndarray
-    mid: np.ndarray
 
     def to_goal(self) -> np.ndarray:
         """Roadmap distance of every node to the goal (``inf``: not connected), the exact
@@ -1010,17 +1009,9 @@ def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 
         nb = tree.query(nodes, k=k + 1)[1][:, 1:]
         nb2 = tree.query(nodes[:2], k=min(2 * k, n - 1) + 1)[1][:, 1:]
         yi, yj = _yao_pairs(nodes, YAO_SECTORS)
-        c = np.flatnonzero(corner)
-        ci, cj = np.triu_indices(len(c), 1)
-        ci, cj = c[ci], c[cj]
-        close = np.hypot(*(nodes[ci] - nodes[cj]).T) <= CORNER_REACH * space.diag
-        i = np.concatenate([np.repeat(np.arange(n), k), np.repeat([0, 1], nb2.shape[1]), yi,
-                            ci[close]])
-        j = np.concatenate([nb.reshape(-1), nb2.reshape(-1), yj, cj[close]])
-        M = np.zeros((n, n), bool)
-        M[np.minimum(i, j), np.maximum(i, j)] = True
-        M[np.arange(n), np.arange(n)] = False
-        i, j = np.nonzero(M)
+        i = np.concatenate([np.repeat(np.arange(n), k), np.repeat([0, 1], nb2.shape[1]), yi])
+        j = np.concatenate([nb.reshape(-1), nb2.reshape(-1), yj])
+        i, j = _edge_set(nodes, i, j, np.flatnonzero(corner), CORNER_REACH * space.diag)
     ok = segment_free(nodes[i], nodes[j], space)
     i, j = i[ok], j[ok]
     if len(i) == 0:
@@ -1031,8 +1022,7 @@ def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 
     order = np.argsort(src, kind="stable")
     return Roadmap(nodes, np.searchsorted(src[order], np.arange(n + 1)).astype(np.int64),
                    dst[order].astype(np.int64), np.concatenate([w, w])[order],
-                   np.concatenate([eh, -eh])[order],
-                   np.ascontiguousarray(0.5 * (nodes[src] + nodes[dst])[order]))
+                   np.concatenate([eh, -eh])[order])
 
 
 #: Corner nodes farther apart than this fraction of the map diagonal are not paired directly.
@@ -1040,6 +1030,41 @@ CORNER_REACH = 0.3
 
 #: Angular sectors of the Yao edges of :func:`build_roadmap` (a divisor of 8: octants).
 YAO_SECTORS = 8
+
+
+@_jit
+def _edge_set(nodes, I, J, corner, reach):
+    """The distinct pairs ``i < j`` among the given pairs and every pair of ``corner`` nodes at
+    most ``reach`` apart."""
+    n = nodes.shape[0]
+    M = np.zeros((n, n), np.bool_)
+    for q in range(I.shape[0]):
+        a, b = min(I[q], J[q]), max(I[q], J[q])
+        if a != b:
+            M[a, b] = True
+    r2 = reach * reach
+    for x in range(corner.shape[0]):
+        a = corner[x]
+        for y in range(x + 1, corner.shape[0]):
+            b = corner[y]
+            dx = nodes[a, 0] - nodes[b, 0]
+            dy = nodes[a, 1] - nodes[b, 1]
+            if dx * dx + dy * dy <= r2:
+                M[min(a, b), max(a, b)] = True
+    cnt = 0
+    for a in range(n):
+        for b in range(a + 1, n):
+            cnt += M[a, b]
+    oi = np.empty(cnt, np.int64)
+    oj = np.empty(cnt, np.int64)
+    q = 0
+    for a in range(n):
+        for b in range(a + 1, n):
+            if M[a, b]:
+                oi[q] = a
+                oj[q] = b
+                q += 1
+    return oi, oj
 
 
 @_jit

@@ -1,6 +1,6 @@
 """Reproduction of the paper's Tables 2 and 3: PSO vs MPSO vs IPSO on two maps.
 
-``optplan bench --tag pso-comparison [--seeds 30] [--out docs/img/pso_convergence.png]``
+``optplan bench --tag pso-comparison [--seeds 30] [--out runs/pso_convergence.png]``
 
 Runs every solver on ``paper-env1`` and ``paper-env2`` with the same seeds ``0..N-1`` and
 prints, per map and method: best / median / worst length of the returned path (collision-free
@@ -10,9 +10,10 @@ the final best of the swarm iterations; ``swarm.converged_iteration``), the cert
 from ``visgraph``, the median ratio to it and the number of runs within 1 % of it.  The
 paper's numbers (shortest length / running time / optimal iterations) are printed next to
 ours.  A solver ``name[key=value,...]`` is a preset with option overrides (the default list
-has two ablations of ``ipso``: without the roadmap seeds and without the final tightening).
-The convergence figure (median feasible-best length per iteration, paper Figs 19 and 23) is
-written with matplotlib's Agg backend.
+has three variants of ``ipso``: with the paper's 200 iterations, without the roadmap seeds
+and without the end-game tightening).  The convergence figure (median feasible-best length
+per iteration, paper Figs 19 and 23) is written with matplotlib's Agg backend, by default
+into ``runs/`` (never into the repository tree).
 """
 
 from __future__ import annotations
@@ -36,8 +37,8 @@ PAPER = {
     "paper-env2": {"pso": (968.91, 9.2, 144), "mpso": (874.03, 7.1, 99),
                    "ipso": (753.03, 4.9, 72)},
 }
-DEFAULT_SOLVERS = ["pso-paper", "mpso-paper", "ipso-paper", "ipso", "ipso[init_mode=sorted]",
-                   "ipso[tighten_rounds=0]"]
+DEFAULT_SOLVERS = ["pso-paper", "mpso-paper", "ipso-paper", "ipso", "ipso[k_max=200]",
+                   "ipso[init_mode=sorted]", "ipso[tighten_rounds=0]"]
 
 
 def parse_solver(spec: str) -> tuple[str, dict]:
@@ -159,8 +160,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=30, help="seeds 0..N-1 (default 30)")
     ap.add_argument("--maps", nargs="+", default=["paper-env1", "paper-env2"])
     ap.add_argument("--solvers", nargs="+", default=DEFAULT_SOLVERS)
-    ap.add_argument("--out", default="docs/img/pso_convergence.png",
-                    help="convergence figure (PNG)")
+    ap.add_argument("--out", default="runs/pso_convergence.png",
+                    help="convergence figure (PNG; default runs/pso_convergence.png)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     res = run(args.maps, args.solvers, args.seeds)
