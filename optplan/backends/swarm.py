@@ -44,9 +44,20 @@ Initialisation (option ``init_mode``)
     straight line plus Gaussian noise of ``0.1 * diag``; ``"roadmap"`` (beyond the paper):
     ``"sorted"``, then particles seeded with the ``corridors`` shortest start-goal paths of
     distinct homotopy classes of one sparse random roadmap (:func:`roadmap_corridors`), one
-    per block of ``n_particles / corridors`` consecutive particles (one per island of
-    ``ipso``).  An ``init`` path (from an earlier stage) seeds particle 0
-    (:func:`resample_polyline`: exact when it has at most ``n`` bends).
+    per block of consecutive particles (one per island of ``ipso``).  An ``init`` path (from
+    an earlier stage) seeds particle 0 (:func:`resample_polyline`: exact when it has at most
+    ``n`` bends).
+
+Sparse roadmap (beyond the paper; a probabilistic roadmap, no exact planner)
+    Nodes (:func:`roadmap_nodes`): uniform samples, obstacle-based samples beside the boundary
+    edges and around the corners of the kernel's convex pieces (:func:`boundary_samples`) and
+    medial-axis retractions, which land in narrow passages (:func:`medial_samples`).  Edges
+    (:func:`build_roadmap`): k nearest neighbours, the nearest node in each octant (a Yao
+    graph, which bridges dense clusters and sparse regions) and every pair of corner / medial
+    nodes within ``CORNER_REACH`` x diag (taut paths run between corners), kept when free with
+    a margin of ``CLEAR_MARGIN`` x diag.  Corridors (:func:`roadmap_corridors`): the k shortest
+    walks of distinct homotopy signatures (label setting, A* with the exact roadmap distance to
+    the goal, at most 1.1 x the shortest walk), string-pulled.
 
 Homotopy classes (beyond the paper)
     A path's class is summarised by an integer *signature*: for every item of the fitness
@@ -919,14 +930,18 @@ def boundary_samples(space: SwarmSpace, n: int, rng: np.random.Generator) -> np.
 
 def medial_samples(space: SwarmSpace, n: int, rng: np.random.Generator) -> np.ndarray:
     """Samples retracted toward the medial axis (a PRM technique for narrow passages): for
-    each of ``n`` uniform points, the midpoint of its nearest boundary points on its two
-    nearest obstacles (searched within ``diag / 4``), kept when free.  In a passage between two
-    obstacles the midpoint lies on its centre line, however narrow it is."""
+    each of ``n`` points (half uniform in the bounds, half :func:`boundary_samples`, which
+    start beside an obstacle and so find the obstacles close to it), the midpoint of its
+    nearest boundary points on its two nearest obstacles (searched within ``diag / 4``), kept
+    when free.  In a passage between two obstacles the midpoint lies on its centre line,
+    however narrow it is."""
     os_ = space.obstacles
     if os_ is None or os_.n_obstacles < 2 or n <= 0:
         return np.zeros((0, 2))
     lo, hi = space.lo[:2], space.hi[:2]
-    x = lo + (hi - lo) * rng.random((n, 2))
+    x = np.vstack([lo + (hi - lo) * rng.random((n - n // 2, 2)),
+                   boundary_samples(space, n // 2, rng)])
+    n = len(x)
     near, dist = os_.nearest(x, max_range=space.diag / 4.0)
     two = np.argsort(dist, axis=1)[:, :2]
     r = np.arange(n)
@@ -1266,12 +1281,18 @@ class SwarmBackend(Backend):
     penetration_weight : float
         Weight of the inside-obstacle length added to the fitness (beyond the paper; 0 in the
         ``-paper`` presets).
-    roadmap_samples : int
-        Uniform samples (and as many obstacle-boundary draws) of the roadmap of
-        ``init_mode = "roadmap"`` (beyond the paper).
+    roadmap_samples, roadmap_boundary, roadmap_medial : int
+        Beyond the paper, the roadmap of ``init_mode = "roadmap"`` (:func:`build_roadmap`):
+        uniform samples, obstacle-based samples (half along the boundary edges, half around
+        the corners, :func:`boundary_samples`) and medial-axis retractions
+        (:func:`medial_samples`).
+    roadmap_neighbours : int
+        Nearest neighbours each roadmap node is connected to (besides its Yao edges and the
+        pairs of corner nodes); 0 connects every pair of nodes.
     corridors : int
-        Homotopy classes seeded by ``init_mode = "roadmap"``: the ``corridors`` shortest
-        roadmap paths of distinct classes (beyond the paper).
+        Homotopy classes taken from the roadmap (beyond the paper): its ``corridors`` shortest
+        walks of distinct classes (:func:`roadmap_corridors`); the shortest seed the particles
+        (one per island of ``ipso``), ``ipso``'s end-game compares all of them.
     """
 
     name: ClassVar[str] = "swarm"
@@ -1290,7 +1311,7 @@ class SwarmBackend(Backend):
     penetration_weight: float = 0.0
     roadmap_samples: int = 40
     roadmap_boundary: int = 360
-    roadmap_medial: int = 40
+    roadmap_medial: int = 200
     roadmap_neighbours: int = 25
     corridors: int = 30
 
