@@ -12,6 +12,7 @@ from optplan.backends import ipso as ip
 from optplan.backends import swarm as sw
 from optplan.backends.mpso import MPSO, mutate_one_coordinate, refine_trials
 from optplan.backends.pso import PSO, pso_step
+from optplan.geometry.polyline import resample_path
 
 # ---------------------------------------------------------------------------------------
 # eqs 17-21: adaptive inertia weight
@@ -264,8 +265,8 @@ def test_tighten_contracts_a_detour_onto_the_optimum():
     # the two sides of the wall: mirror images, tightened alike in one batch, each in its class
     assert float(np.hypot(*np.diff(other, axis=0).T).sum()) == pytest.approx(L, rel=1e-6)
     assert np.all(path[1:-1, 1] > 50) and np.all(other[1:-1, 1] < 50)
-    h = sw.signature_hashes(np.stack([sw.resample_polyline(path, 9),
-                                      sw.resample_polyline(other, 9)]), space)
+    h = sw.signature_hashes(np.stack([resample_path(path, 9),
+                                      resample_path(other, 9)]), space)
     assert h[0] != h[1]
 
 

@@ -19,11 +19,11 @@ from optplan.backends.nlp import (
     obstacle_pieces,
     pair_distances,
     piece_distances,
-    resample_path,
 )
 from optplan.experiments.validate import format_table, summarize, validate
 from optplan.geometry import convex_decompose, path_lengths
 from optplan.geometry.homotopy import obstacle_points, same_homotopy, winding_numbers
+from optplan.geometry.polyline import resample_path
 from optplan.geometry.tangent_graph import problem_shortest_path
 
 

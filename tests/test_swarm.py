@@ -12,6 +12,7 @@ import shapely
 import optplan as op
 from optplan.backends import swarm as sw
 from optplan.geometry import PIECE_EDGES, convex_pieces, obstacle_set
+from optplan.geometry.polyline import resample_path
 
 
 def _problem(obstacles=None, **kw) -> op.Problem:
@@ -277,22 +278,22 @@ def test_initial_swarm(mode):
         assert np.all(np.diff(proj, axis=1) >= 0)
 
 
-def test_resample_polyline_keeps_every_vertex_or_follows_the_arc_length():
+def test_resample_path_keeps_every_vertex_or_follows_the_arc_length():
     path = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]])
-    q = sw.resample_polyline(path, 5)
+    q = resample_path(path, 5)
     assert q.shape == (6, 2)
     np.testing.assert_array_equal(q[[0, -1]], path[[0, -1]])
     assert np.hypot(*np.diff(q, axis=0).T).sum() == pytest.approx(20.0)
     assert any(np.allclose(p, [10.0, 0.0]) for p in q)  # the corner is kept
     # segments split in proportion to their length (largest remainder): 3 + 2 for 12 : 8
-    q = sw.resample_polyline(np.array([[0.0, 0.0], [12.0, 0.0], [12.0, 8.0]]), 5)
+    q = resample_path(np.array([[0.0, 0.0], [12.0, 0.0], [12.0, 8.0]]), 5)
     np.testing.assert_allclose(q, [[0, 0], [4, 0], [8, 0], [12, 0], [12, 4], [12, 8]])
     # consecutive duplicates are dropped
-    d = sw.resample_polyline(np.array([[0.0, 0.0], [0.0, 0.0], [4.0, 0.0]]), 2)
+    d = resample_path(np.array([[0.0, 0.0], [0.0, 0.0], [4.0, 0.0]]), 2)
     np.testing.assert_allclose(d, [[0, 0], [2, 0], [4, 0]])
     # more segments than asked: evenly spaced by arc length
     many = np.column_stack([np.linspace(0, 10, 20), np.zeros(20)])
-    np.testing.assert_allclose(sw.resample_polyline(many, 5)[:, 0], [0, 2, 4, 6, 8, 10])
+    np.testing.assert_allclose(resample_path(many, 5)[:, 0], [0, 2, 4, 6, 8, 10])
 
 
 def test_converged_iteration_definition():

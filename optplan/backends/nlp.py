@@ -118,7 +118,7 @@ from shapely.geometry import Polygon
 
 from optplan.geometry import Frame, ObstacleSet, convex_decompose, obstacle_set
 from optplan.geometry.homotopy import same_homotopy
-from optplan.geometry.polyline import path_lengths
+from optplan.geometry.polyline import path_lengths, resample_path
 from optplan.geometry.tangent_graph import problem_shortest_path
 from optplan.metrics import evaluate
 from optplan.problem import Obstacle, Problem, Robot
@@ -257,40 +257,6 @@ def obstacle_pieces(problem: Problem, robot: Robot, *, known_only: bool = True,
 # --------------------------------------------------------------------------------------
 # paths, pairs, hyperplane warm start (local frame)
 # --------------------------------------------------------------------------------------
-
-
-def resample_path(path: np.ndarray, n_segments: int) -> np.ndarray:
-    """Polyline with exactly ``n_segments`` segments through every vertex of ``path``.
-
-    Consecutive duplicates are dropped; each original segment is split into ``m_s >= 1`` equal
-    parts with ``m_s`` proportional to its length (largest remainder).  If the path has more
-    segments than ``n_segments`` it is resampled uniformly by arc length instead.
-    """
-    p = np.asarray(path, dtype=float).reshape(-1, 2)
-    if len(p) > 1:
-        d = np.hypot(*np.diff(p, axis=0).T)
-        p = np.vstack([p[0], p[1:][d > 0]]) if np.any(d > 0) else p[:1]
-    if len(p) == 1:
-        p = np.vstack([p, p])
-    seg = np.hypot(*np.diff(p, axis=0).T)
-    S = len(seg)
-    if S > n_segments:
-        s = np.r_[0.0, np.cumsum(seg)]
-        t = np.linspace(0.0, s[-1], n_segments + 1)
-        return np.stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])], axis=1)
-    extra = n_segments - S
-    tot = seg.sum()
-    share = extra * seg / tot if tot > 0 else np.full(S, extra / S)
-    m = 1 + np.floor(share).astype(int)
-    rem = n_segments - m.sum()
-    if rem > 0:
-        order = np.argsort(-(share - np.floor(share)), kind="stable")
-        m[order[:rem]] += 1
-    out = [p[0]]
-    for k in range(S):
-        f = np.arange(1, m[k] + 1)[:, None] / m[k]
-        out.extend(p[k] + f * (p[k + 1] - p[k]))
-    return np.asarray(out)
 
 
 def piece_distances(path: np.ndarray, pieces: Pieces) -> np.ndarray:

@@ -45,8 +45,8 @@ Initialisation (option ``init_mode``)
     ``"sorted"``, then particles seeded with the ``corridors`` shortest start-goal paths of
     distinct homotopy classes of one sparse random roadmap (:func:`roadmap_corridors`), one
     per block of consecutive particles (one per island of ``ipso``).  An ``init`` path (from
-    an earlier stage) seeds particle 0 (:func:`resample_polyline`: exact when it has at most
-    ``n`` bends).
+    an earlier stage) seeds particle 0 (:func:`optplan.geometry.polyline.resample_path`: exact
+    when it has at most ``n`` bends).
 
 Sparse roadmap (beyond the paper; a probabilistic roadmap, no exact planner)
     Nodes (:func:`roadmap_nodes`): uniform samples, obstacle-based samples beside the boundary
@@ -93,6 +93,7 @@ import numba
 import numpy as np
 
 from optplan.geometry.homotopy import obstacle_points
+from optplan.geometry.polyline import resample_path
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
 from optplan.solver import Backend, check_choice, check_int, check_range, make_rng
@@ -117,7 +118,6 @@ __all__ = [
     "bounce_velocity",
     "handle_bounds",
     "initial_swarm",
-    "resample_polyline",
     "as_particle",
     "segment_free",
     "shortcut",
@@ -437,46 +437,9 @@ def initial_swarm(space: SwarmSpace, n_particles: int, mode: str,
 # --------------------------------------------------------------------------------------
 
 
-def resample_polyline(path: np.ndarray, n_segments: int) -> np.ndarray:
-    """Polyline with exactly ``n_segments`` segments through every vertex of ``path``.
-
-    Consecutive duplicates are dropped; each remaining segment is split into ``m_s >= 1``
-    equal parts with ``m_s`` proportional to its length (largest remainder).  With more
-    segments than ``n_segments`` the path is resampled uniformly by arc length instead (the
-    arc-length variant: ``n_segments + 1`` points evenly spaced along the path).  Returns
-    ``(n_segments + 1, 2)`` points, first and last the path's ends.  (The same contract as
-    ``optplan.backends.nlp.resample_path``.)
-    """
-    p = np.asarray(path, dtype=float).reshape(-1, 2)
-    if len(p) > 1:
-        d = np.hypot(*np.diff(p, axis=0).T)
-        p = np.vstack([p[0], p[1:][d > 0]]) if np.any(d > 0) else p[:1]
-    if len(p) == 1:
-        p = np.vstack([p, p])
-    seg = np.hypot(*np.diff(p, axis=0).T)
-    S = len(seg)
-    if S > n_segments:
-        s = np.r_[0.0, np.cumsum(seg)]
-        t = np.linspace(0.0, s[-1], n_segments + 1)
-        return np.stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])], axis=1)
-    extra = n_segments - S
-    tot = seg.sum()
-    share = extra * seg / tot if tot > 0 else np.full(S, extra / S)
-    m = 1 + np.floor(share).astype(int)
-    rem = n_segments - m.sum()
-    if rem > 0:
-        order = np.argsort(-(share - np.floor(share)), kind="stable")
-        m[order[:rem]] += 1
-    out = [p[0]]
-    for k in range(S):
-        f = np.arange(1, m[k] + 1)[:, None] / m[k]
-        out.extend(p[k] + f * (p[k + 1] - p[k]))
-    return np.asarray(out)
-
-
 def as_particle(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
     """A path as a particle: its ``n_waypoints`` interior points, clipped into the bounds."""
-    w = resample_polyline(path, space.n_waypoints + 1)[1:-1].reshape(-1)
+    w = resample_path(path, space.n_waypoints + 1)[1:-1].reshape(-1)
     return np.clip(w, space.lo, space.hi)
 
 
