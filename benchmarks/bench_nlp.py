@@ -25,17 +25,14 @@ medians on a shared machine; the printed header says how many cores it has and i
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import os
 import platform
 import statistics
 import time
 
-import numpy as np
-import shapely
-
 import optplan as op
 from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.problem import transform_problem
 
 TARGET_MS = 250.0
 
@@ -81,18 +78,7 @@ def polish_table(problem: str, heuristic: str, seeds: int) -> str:
 
 def shifted(base: op.Problem, off) -> op.Problem:
     """``base`` translated by ``off``."""
-    off = np.asarray(off, float)
-    x0, y0, x1, y1 = base.bounds
-    return dataclasses.replace(
-        base, bounds=(x0 + off[0], y0 + off[1], x1 + off[0], y1 + off[1]),
-        robots=tuple(dataclasses.replace(r, start=r.start + off,
-                                         goal=None if r.goal is None else r.goal + off)
-                     for r in base.robots),
-        obstacles=tuple(dataclasses.replace(
-            o, geometry=None if o.geometry is None
-            else shapely.affinity.translate(o.geometry, *off),
-            center=None if o.center is None else o.center + off) for o in base.obstacles),
-        _cache={})
+    return transform_problem(base, shift=off)
 
 
 def reference_table(problems: list[str], reps: int) -> str:

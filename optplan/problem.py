@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 import shapely
+import shapely.affinity
 from shapely.geometry import Point, Polygon
 
 __all__ = [
@@ -39,6 +40,8 @@ __all__ = [
     "Problem",
     "parse_problem",
     "read_problem",
+    "problem_to_dict",
+    "transform_problem",
 ]
 
 #: Segments per quarter circle of the ``local_geometry`` polygon of a *dynamic* circle (shapely
@@ -1054,3 +1057,51 @@ def problem_to_dict(problem: Problem) -> dict[str, Any]:
     if dyn:
         out["dynamic_obstacles"] = dyn
     return out
+
+
+def transform_problem(problem: Problem, scale: float = 1.0, shift=(0.0, 0.0)) -> Problem:
+    """``problem`` with every length scaled by ``scale`` about the origin, then shifted.
+
+    Positions, sizes, radii, speeds, formation distances, tolerances and sensing range scale
+    (times do not), so every answer of a scale- and translation-invariant method is the same up
+    to the scale (the metamorphic tests use it).  The caches of the copy are empty.
+    """
+    import dataclasses
+
+    s = float(scale)
+    if not (s > 0 and math.isfinite(s)):
+        raise ValueError(f"scale must be a finite number > 0, got {scale!r}")
+    off = np.asarray(shift, dtype=float).reshape(2)
+
+    def pt(p):
+        return None if p is None else np.asarray(p, float) * s + off
+
+    def geom(g):
+        if g is None:
+            return None
+        return shapely.affinity.translate(shapely.affinity.scale(g, s, s, origin=(0, 0)), *off)
+
+    def local(g):  # a moving obstacle's shape, relative to its reference point
+        return None if g is None else shapely.affinity.scale(g, s, s, origin=(0, 0))
+
+    x0, y0, x1, y1 = problem.bounds
+    robots = tuple(dataclasses.replace(r, start=pt(r.start), goal=pt(r.goal),
+                                       radius=r.radius * s, max_speed=r.max_speed * s)
+                   for r in problem.robots)
+    obstacles = tuple(dataclasses.replace(
+        o, geometry=geom(o.geometry), center=pt(o.center),
+        radius=None if o.radius is None else o.radius * s) for o in problem.obstacles)
+    dyn = tuple(dataclasses.replace(
+        d, local_geometry=local(d.local_geometry), waypoints=d.waypoints * s + off,
+        velocity=None if d.velocity is None else d.velocity * s,
+        radius=None if d.radius is None else d.radius * s) for d in problem.dynamic_obstacles)
+    form = problem.formation
+    if form is not None:
+        form = Formation(form.leader, tuple(Follower(f.id, f.L * s, f.phi)
+                                            for f in form.followers), form.safety_distance * s)
+    return dataclasses.replace(
+        problem, bounds=(x0 * s + off[0], y0 * s + off[1], x1 * s + off[0], y1 * s + off[1]),
+        robots=robots, obstacles=obstacles, dynamic_obstacles=dyn, formation=form,
+        goal_tolerance=None if problem.goal_tolerance is None else problem.goal_tolerance * s,
+        sensing_range=None if problem.sensing_range is None else problem.sensing_range * s,
+        _cache={})

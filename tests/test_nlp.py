@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -25,6 +24,7 @@ from optplan.geometry import convex_decompose, path_lengths
 from optplan.geometry.homotopy import obstacle_points, same_homotopy, winding_numbers
 from optplan.geometry.polyline import resample_path
 from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.problem import transform_problem
 
 
 def _scene(obstacles: list[dict], start=(5.0, 50.0), goal=(95.0, 50.0), radius=2.0,
@@ -39,19 +39,8 @@ def _scene(obstacles: list[dict], start=(5.0, 50.0), goal=(95.0, 50.0), radius=2
 
 
 def _shifted(base: op.Problem, off) -> op.Problem:
-    """``base`` translated by ``off`` (bounds, robots, obstacles; circles by their centre)."""
-    off = np.asarray(off, float)
-    x0, y0, x1, y1 = base.bounds
-    return dataclasses.replace(
-        base, bounds=(x0 + off[0], y0 + off[1], x1 + off[0], y1 + off[1]),
-        robots=tuple(dataclasses.replace(r, start=r.start + off,
-                                         goal=None if r.goal is None else r.goal + off)
-                     for r in base.robots),
-        obstacles=tuple(dataclasses.replace(
-            o, geometry=None if o.geometry is None
-            else shapely.affinity.translate(o.geometry, *off),
-            center=None if o.center is None else o.center + off) for o in base.obstacles),
-        _cache={})
+    """``base`` translated by ``off``."""
+    return transform_problem(base, shift=off)
 
 
 BOX = {"type": "rectangle", "name": "box", "min": [40.0, 35.0], "max": [60.0, 60.0]}

@@ -188,3 +188,20 @@ def test_progress_elapsed_is_wall_time_and_sim_time_is_separate() -> None:
     swarm = []
     op.solve("paper-env1", "ipso", rng=0, callback=swarm.append)
     assert swarm[-1].sim_time is None and swarm[-1].elapsed > 0
+
+
+@pytest.mark.parametrize("s, shift", [(0.01, (0.0, 0.0)), (100.0, (3e5, -2e5))])
+def test_continuous_time_validation_is_scale_and_translation_invariant(s, shift) -> None:
+    """Scaling lengths and speeds (not times) keeps every contact and its time."""
+    from optplan.problem import transform_problem
+
+    base = op.load_problem("paper-formation")
+    moved = transform_problem(base, s, shift)
+    a, b = op.solve(base, "visgraph"), op.solve(moved, "visgraph")
+    assert a.status == b.status
+    assert b.metrics["length_exact"] == pytest.approx(a.metrics["length_exact"] * s, rel=1e-9)
+    fa, fb = a.metrics["first_contact"], b.metrics["first_contact"]
+    assert (fa is None) == (fb is None)
+    if fa is not None:
+        assert fb["other"] == fa["other"] and fb["time"] == pytest.approx(fa["time"], rel=1e-6)
+    assert b.metrics["dynamic_contacts"] == a.metrics["dynamic_contacts"]

@@ -18,7 +18,7 @@ from shapely.geometry.polygon import orient
 import optplan as op
 from optplan.geometry import Frame, obstacle_set
 from optplan.geometry.tangent_graph import shortest_path
-from optplan.problem import Obstacle, parse_problem
+from optplan.problem import Obstacle, parse_problem, transform_problem
 
 BOUNDS = (0.0, 0.0, 100.0, 100.0)
 
@@ -154,26 +154,13 @@ def test_radius_to_zero_on_paper_env1() -> None:
 
 
 def transformed(prob, s: float = 1.0, shift=(0.0, 0.0), far: bool = False):
-    """``prob`` with its static geometry scaled by ``s`` about the origin and shifted."""
-    shift = np.asarray(shift, float)
-    robots = tuple(dataclasses.replace(
-        r, start=r.start * s + shift, goal=None if r.goal is None else r.goal * s + shift,
-        radius=r.radius * s) for r in prob.robots)
-    obs = []
-    for o in prob.obstacles:
-        if o.is_circle:
-            obs.append(dataclasses.replace(o, geometry=None, center=o.center * s + shift,
-                                           radius=o.radius * s))
-        else:
-            g = shapely.affinity.scale(o.geometry, s, s, origin=(0, 0))
-            obs.append(dataclasses.replace(o, geometry=shapely.affinity.translate(g, *shift)))
+    """``prob`` scaled by ``s`` about the origin and shifted, without its moving obstacles (the
+    certified optimum does not see them), plus a far-away circle when ``far``."""
+    out = transform_problem(dataclasses.replace(prob, dynamic_obstacles=()), s, shift)
     if far:
-        obs.append(circle(1e11, 1e11, 1.0, "far"))
-    x0, y0, x1, y1 = prob.bounds
-    b = (x0 * s + shift[0], y0 * s + shift[1], x1 * s + shift[0], y1 * s + shift[1])
-    gt = None if prob.goal_tolerance is None else prob.goal_tolerance * s
-    return dataclasses.replace(prob, bounds=b, robots=robots, obstacles=tuple(obs),
-                               dynamic_obstacles=(), goal_tolerance=gt, _cache={})
+        out = dataclasses.replace(out, obstacles=(*out.obstacles, circle(1e11, 1e11, 1.0, "far")),
+                                  _cache={})
+    return out
 
 
 @pytest.mark.parametrize("name", op.list_problems())
