@@ -50,6 +50,20 @@ def plain_visibility_length(polys: list[Polygon], start, goal) -> float:
     return float(dijkstra(g, indices=0)[1])
 
 
+def polygonal_bracket(polys: list[Polygon], r: float, start, goal) -> tuple[float, float]:
+    """Independent bracket of a disc robot's optimum: shapely round buffers of the polygons by
+    r (inscribed, quad_segs 16) and by r / cos(3 pi / 128) (circumscribed: GEOS may round a
+    corner's segment count so one chord spans 1.5 nominal steps), each solved by the plain
+    visibility graph."""
+
+    def grown(d):
+        u = shapely.unary_union([p.buffer(d, quad_segs=16) for p in polys])
+        return [orient(g, 1.0) for g in getattr(u, "geoms", [u])]
+
+    return (plain_visibility_length(grown(r), start, goal),
+            plain_visibility_length(grown(r / math.cos(3 * math.pi / 128)), start, goal))
+
+
 def random_polygons(rng, k: int) -> list[Polygon]:
     out: list[Polygon] = []
     while len(out) < k:
@@ -128,14 +142,7 @@ def test_disc_among_polygons_lies_in_a_fine_polygonal_bracket(seed: int) -> None
     oset = obstacle_set([polygon(p) for p in polys], r, frame)
     res = shortest_path(oset, (2.0, 2.0), (98.0, 98.0))
 
-    def grown(d):
-        u = shapely.unary_union([p.buffer(d, quad_segs=16) for p in polys])
-        return [orient(g, 1.0) for g in getattr(u, "geoms", [u])]
-
-    lo = plain_visibility_length(grown(r), (2.0, 2.0), (98.0, 98.0))
-    # GEOS may round a corner's segment count so one chord spans 1.5 nominal steps
-    hi = plain_visibility_length(grown(r / math.cos(3 * math.pi / 128)), (2.0, 2.0),
-                                 (98.0, 98.0))
+    lo, hi = polygonal_bracket(polys, r, (2.0, 2.0), (98.0, 98.0))
     assert lo - 1e-9 <= res.length <= hi + 1e-9
 
 
@@ -255,13 +262,7 @@ def test_courtyard_with_a_door_and_obstacles_inside(seed: int, r: float) -> None
         assert res.length == pytest.approx(want, rel=1e-9)
         return
 
-    def grown(d):
-        u = shapely.unary_union([p.buffer(d, quad_segs=16) for p in polys])
-        return [orient(g, 1.0) for g in getattr(u, "geoms", [u])]
-
-    lo = plain_visibility_length(grown(r), (50.0, 50.0), (2.0, 2.0))
-    hi = plain_visibility_length(grown(r / math.cos(3 * math.pi / 128)), (50.0, 50.0),
-                                 (2.0, 2.0))
+    lo, hi = polygonal_bracket(polys, r, (50.0, 50.0), (2.0, 2.0))
     assert lo - 1e-9 <= res.length <= hi + 1e-9
 
 
