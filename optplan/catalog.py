@@ -121,7 +121,12 @@ def list_problems(tag: str | None = None) -> list[str]:
 
 
 def read_preset(path: Path) -> dict:
-    """Parse a preset file: ``backend``, ``summary``, ``[options]``.
+    """Parse a preset file: ``backend``, ``summary``, ``[options]``, ``[paper]``, ``[paper_notes]``.
+
+    ``[paper]`` (optional) maps option names to the value the paper prints (a number, or a
+    string such as ``"not given"``); ``[paper_notes]`` maps option names to why the preset
+    differs or how the value was read.  :func:`paper_table` renders both beside the preset's
+    options (the solver pages show it).
 
     Raises
     ------
@@ -143,7 +148,7 @@ def read_preset(path: Path) -> dict:
     except RecursionError:
         raise ValueError(f"{path}: invalid TOML: arrays or inline tables nested too "
                          "deeply") from None
-    allowed = {"backend", "summary", "options"}
+    allowed = {"backend", "summary", "options", "paper", "paper_notes"}
     for k in data:
         if k not in allowed:
             close = difflib.get_close_matches(k, allowed, n=1)
@@ -154,7 +159,47 @@ def read_preset(path: Path) -> dict:
     for k in ("backend", "summary"):
         if k in data and not isinstance(data[k], str):
             raise ValueError(f"{path}: {k}: expected a string, got {type(data[k]).__name__}")
-    opts = data.get("options", {})
-    if not isinstance(opts, dict):
-        raise ValueError(f"{path}: options: expected a table, got {type(opts).__name__}")
-    return {"backend": data["backend"], "summary": data.get("summary", ""), "options": opts}
+    for k in ("options", "paper", "paper_notes"):
+        if not isinstance(data.get(k, {}), dict):
+            raise ValueError(f"{path}: {k}: expected a table, got {type(data[k]).__name__}")
+    for k, v in data.get("paper_notes", {}).items():
+        if not isinstance(v, str):
+            raise ValueError(f"{path}: paper_notes.{k}: expected a string, got "
+                             f"{type(v).__name__}")
+    return {"backend": data["backend"], "summary": data.get("summary", ""),
+            "options": data.get("options", {}), "paper": data.get("paper", {}),
+            "paper_notes": data.get("paper_notes", {})}
+
+
+def paper_table(preset: str) -> str:
+    """Markdown table of a ``-paper`` preset's effective options against the paper's values.
+
+    One row per option named in the preset's ``[paper]`` table: the value the solver uses
+    (the preset's, else the backend default), the paper's, whether they agree and the note
+    from ``[paper_notes]``.  Generated from the preset files, so the docs cannot go stale.
+    """
+    from optplan.solver import all_preset_files, get_solver
+
+    files = all_preset_files()
+    if preset not in files:
+        raise ValueError(f"paper_table: unknown preset {preset!r}")
+    data = read_preset(files[preset])
+    solver = get_solver(preset)
+    if not data["paper"]:
+        raise ValueError(f"{files[preset]}: no [paper] table")
+    rows = ["| option | `" + preset + "` | paper | same | note |", "|---|---|---|---|---|"]
+    for k, pv in data["paper"].items():
+        if not hasattr(solver, k):
+            raise ValueError(f"{files[preset]}: paper.{k}: not an option of backend "
+                             f"{data['backend']!r}")
+        v = getattr(solver, k)
+        if isinstance(pv, str) and not isinstance(v, str):
+            same = "n/a"  # the paper gives no number
+        else:
+            same = "yes" if v == pv or (
+                isinstance(v, (int, float)) and not isinstance(v, bool)
+                and abs(float(v) - float(pv)) <= 1e-12 * max(1.0, abs(float(pv)))) else "**no**"
+        note = data["paper_notes"].get(k, "").replace("|", "\\|")
+        rows.append(f"| `{k}` | `{v!r}` | {pv if isinstance(pv, str) else f'`{pv!r}`'} | "
+                    f"{same} | {note} |")
+    return "\n".join(rows)

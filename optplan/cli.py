@@ -101,6 +101,33 @@ def _run_experiment(module: Any, argv: list[str]) -> int:
 # --------------------------------------------------------------------------------------
 
 
+def cmd_show_solver(args: argparse.Namespace, out: TextIO) -> int:
+    """Print a solver's options: value, default, allowed values and meaning."""
+    import textwrap
+
+    from optplan.options import describe_options
+    from optplan.solver import get_solver
+
+    solver = get_solver(args.solver)
+    cls = type(solver)
+    doc = (cls.__doc__ or "").strip().splitlines()
+    print(f"{args.solver}: backend {cls.name!r} ({cls.__module__}.{cls.__name__})", file=out)
+    if doc:
+        print(f"  {doc[0]}", file=out)
+    print(file=out)
+    rows = describe_options(cls)
+    w = max(len(r["name"]) for r in rows)
+    for r in rows:
+        val = getattr(solver, r["name"])
+        mark = "" if val == r["default"] else f"   (default {r['default']!r})"
+        print(f"  {r['name']:<{w}}  = {val!r}{mark}", file=out)
+        print(f"  {'':<{w}}    {r['allowed']}", file=out)
+        if r["meaning"]:
+            for ln in textwrap.wrap(r["meaning"], 96 - w):
+                print(f"  {'':<{w}}    {ln}", file=out)
+    return 0
+
+
 def cmd_list(args: argparse.Namespace, out: TextIO) -> int:
     from optplan.catalog import load_problem, problem_files, read_preset
     from optplan.solver import BACKENDS, all_preset_files, list_backends
@@ -627,6 +654,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="only problems or only solvers")
     s.add_argument("--tag", help="problems carrying this tag / solvers of this backend")
     s.set_defaults(func=cmd_list)
+
+    s = sub.add_parser("show-solver",
+                       help="a solver's options: value, default, allowed values, meaning")
+    s.add_argument("solver", help="preset name, backend name or .toml preset")
+    s.set_defaults(func=cmd_show_solver)
 
     s = sub.add_parser("show", help="describe a problem and its certified optimum")
     s.add_argument("problem", help="catalogue name or .toml path")

@@ -279,6 +279,7 @@ class Problem:
     formation: Formation | None = None
     sensing_range: float | None = None
     goal_tolerance: float | None = None
+    scale: float | None = None
     description: str = ""
     source: str = ""
     tags: tuple[str, ...] = ()
@@ -406,6 +407,20 @@ class Problem:
             self._cache["frame"] = Frame.from_bounds(self.bounds)
         return self._cache["frame"]
 
+    @property
+    def length_scale(self) -> float:
+        """The problem's length unit for scale-relative options (map units).
+
+        The scenario's ``length_scale`` key when given; otherwise derived from the map extent,
+        ``bounds diagonal / REFERENCE_DIAGONAL`` (1 on a 500 x 500 map, the paper's maps).
+        Options of the time-stepping planners marked "x length_scale" (influence distance, SA
+        step, rollout, tolerances...) are multiples of it, so the same preset behaves the same on
+        a scene drawn in centimetres, metres or kilometres.
+        """
+        if self.scale is not None:
+            return float(self.scale)
+        return float(self.frame.length) / REFERENCE_DIAGONAL
+
     def summary(self) -> str:
         x0, y0, x1, y1 = self.bounds
         n_tmp = sum(not o.known for o in self.obstacles)
@@ -423,6 +438,9 @@ class Problem:
         return "\n".join(lines)
 
 
+#: Bounds diagonal whose derived :attr:`Problem.length_scale` is 1 (the paper's 500 x 500 maps).
+REFERENCE_DIAGONAL = 500.0 * math.sqrt(2.0)
+
 #: Default goal tolerance of a point robot, relative to the bounds diagonal (:meth:`goal_tol`).
 POINT_GOAL_TOL_REL = 1e-6
 
@@ -438,6 +456,7 @@ _TOP_KEYS = {
     "tags": "list",
     "bounds": "list",
     "goal_tolerance": "float",
+    "length_scale": "float",
     "robots": "array of tables",
     "obstacles": "array of tables",
     "dynamic_obstacles": "array of tables",
@@ -914,6 +933,13 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
     if "goal_tolerance" in data:
         gtol = ctx.number(data["goal_tolerance"], "goal_tolerance", positive=True, hi=diag,
                           hi_what=diag_s)
+    lscale = None
+    if "length_scale" in data:
+        lscale = ctx.number(data["length_scale"], "length_scale", positive=True, hi=diag,
+                            hi_what=diag_s)
+        if lscale < 1e-6 * diag:
+            raise ctx.err("length_scale", f"must be >= {1e-6 * diag:.6g} (1e-6 x {diag_s}), "
+                          f"got {lscale:.6g}")
     tags = data.get("tags", [])
     if not isinstance(tags, list):
         raise ctx.err("tags", f"expected a list of strings, got {_show(tags)}")
@@ -924,7 +950,8 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
     prob = Problem(
         name=name, bounds=bounds, robots=tuple(robots), obstacles=obstacles,
         dynamic_obstacles=dyn, formation=formation, sensing_range=sensing,
-        goal_tolerance=gtol, description=description, source=source, tags=tuple(tags),
+        goal_tolerance=gtol, scale=lscale, description=description, source=source,
+        tags=tuple(tags),
         path=where if where != "<problem>" else None,
     )
     prob._cache["frame"] = frame
@@ -1005,6 +1032,8 @@ def problem_to_dict(problem: Problem) -> dict[str, Any]:
     out["bounds"] = [float(v) for v in problem.bounds]
     if problem.goal_tolerance is not None:
         out["goal_tolerance"] = float(problem.goal_tolerance)
+    if problem.scale is not None:
+        out["length_scale"] = float(problem.scale)
     if problem.sensing_range is not None:
         out["sensing"] = {"range": float(problem.sensing_range)}
     if problem.formation is not None:
@@ -1104,4 +1133,5 @@ def transform_problem(problem: Problem, scale: float = 1.0, shift=(0.0, 0.0)) ->
         robots=robots, obstacles=obstacles, dynamic_obstacles=dyn, formation=form,
         goal_tolerance=None if problem.goal_tolerance is None else problem.goal_tolerance * s,
         sensing_range=None if problem.sensing_range is None else problem.sensing_range * s,
+        scale=None if problem.scale is None else problem.scale * s,
         _cache={})

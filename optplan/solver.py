@@ -12,10 +12,10 @@ Writing a backend::
     @dataclass(frozen=True, kw_only=True)
     class MyPlanner(Backend):
         name: ClassVar[str] = "my-planner"
-        n_points: int = 10          # option, documented in the docstring
+        n_points: int = option(10, lo=2, hi=10_000)   # meaning: in the class docstring
 
-        def __post_init__(self):
-            check_int(self, "n_points", 2, 10_000)
+        def check(self):            # optional: rules relating several options
+            ...
 
         def solve(self, problem, /, *, rng=None, init=None, callback=None):
             ...
@@ -50,6 +50,7 @@ import numpy as np
 
 from optplan.catalog import load_problem, preset_files, read_preset
 from optplan.metrics import evaluate
+from optplan.options import check_options, option
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status
 
@@ -65,6 +66,7 @@ __all__ = [
     "check_range",
     "check_int",
     "check_choice",
+    "option",
 ]
 
 #: backend name -> "module:Class" (resolved lazily).
@@ -318,6 +320,14 @@ class Backend:
     name: ClassVar[str] = "backend"
     #: True when a successful solve is certified optimal by an exact method.
     certifies: ClassVar[bool] = False
+
+    def __post_init__(self) -> None:
+        check_options(self)
+        self.check()
+
+    def check(self) -> None:
+        """Rules that relate several options (override; each option's own range is declared
+        with :func:`optplan.options.option` and checked before this runs)."""
 
     def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
               init: dict[str, np.ndarray] | None = None,

@@ -1,9 +1,9 @@
-"""The Solver contract (docs/api.md), checked for every registered solver preset.
+"""The Solver contract (docs/api.md), checked for every registered solver.
 
-Each backend class names a catalogue scene it solves quickly (``contract_problem``, default
-``open-field``) and options that make the run fast (``contract_overrides``, default none).
-Every preset whose backend module exists is collected automatically, so a new backend is
-covered as soon as its preset lands in ``solvers/``.
+Every preset whose backend module exists is collected automatically, and every registered
+backend that no preset uses is checked under its own name (plugins included), so a new backend
+is covered as soon as it is registered.  :data:`CASES` names, per backend, a catalogue scene it
+solves quickly (default ``open-field``) and options that make the run fast (default none).
 """
 
 from __future__ import annotations
@@ -19,15 +19,36 @@ import pytest
 import optplan as op
 from optplan.result import History, Progress, Result, Status, _jsonable
 
-SOLVERS = op.list_solvers()
+#: backend -> (catalogue scene, options that make the contract runs fast)
+CASES: dict[str, tuple[str, dict[str, Any]]] = {
+    "pso": ("open-field", {"n_particles": 10, "k_max": 10}),
+    "mpso": ("open-field", {"n_particles": 10, "k_max": 10}),
+    "ipso": ("open-field", {"n_particles": 10, "k_max": 10, "A": 4}),
+    "nlp": ("open-field", {"n_segments": 8}),
+    "apf": ("trap-saddle", {"max_steps": 400}),
+    "sa-apf": ("trap-saddle", {"max_steps": 600}),
+    "hybrid": ("open-field", {"global_solver": "visgraph"}),
+    "leader-follower": ("formation-open-field", {"path_solver": "visgraph", "max_steps": 150,
+                                                 "dt": 1.0}),
+    "formation-qp": ("formation-open-field", {"path_solver": "visgraph", "max_steps": 150,
+                                              "dt": 1.0, "gamma": 1.0}),
+}
+
+
+def _solvers() -> list[str]:
+    presets = op.list_solvers()
+    used = {type(op.get_solver(n)).name for n in presets}
+    return presets + [b for b in op.list_backends() if b not in used]
+
+
+SOLVERS = _solvers()
 
 
 @cache
 def setup(name: str) -> tuple[op.Problem, dict[str, Any], type]:
     cls = type(op.get_solver(name))
-    prob = op.load_problem(getattr(cls, "contract_problem", "open-field"))
-    overrides = dict(getattr(cls, "contract_overrides", {}))
-    return prob, overrides, cls
+    scene, overrides = CASES.get(cls.name, ("open-field", {}))
+    return op.load_problem(scene), dict(overrides), cls
 
 
 class _Recorder:

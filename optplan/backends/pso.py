@@ -27,7 +27,7 @@ from optplan.backends.swarm import (
     handle_bounds,
     velocity_update,
 )
-from optplan.solver import check_range
+from optplan.solver import option
 
 __all__ = ["PSO", "pso_step"]
 
@@ -65,11 +65,7 @@ penetration_weight
     contract_problem: ClassVar[str] = "open-field"
     contract_overrides: ClassVar[dict] = {"n_particles": 10, "k_max": 10}
 
-    w: float = 0.5
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        check_range(self, "w", 0.0, 2.0)
+    w: float = option(0.5, lo=0.0, hi=2.0)
 
     def _iterate(self, space: SwarmSpace, state: SwarmState, run: Any, k: int,
                  rng: np.random.Generator) -> dict[str, Any]:

@@ -29,7 +29,7 @@ import numpy as np
 from optplan.geometry.tangent_graph import problem_shortest_path
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
-from optplan.solver import Backend
+from optplan.solver import Backend, option
 
 __all__ = ["VisGraph", "shortest_length"]
 
@@ -59,18 +59,8 @@ class VisGraph(Backend):
 
     name: ClassVar[str] = "visgraph"
     certifies: ClassVar[bool] = True
-    see_temporary: bool = False
-    arc_step: float = math.pi / 36
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.see_temporary, bool):
-            raise ValueError(f"option 'see_temporary' of backend 'visgraph' must be true or "
-                             f"false, got {self.see_temporary!r}")
-        a = self.arc_step
-        if isinstance(a, bool) or not isinstance(a, (int, float)) or not (
-                1e-4 <= a <= math.pi / 2):
-            raise ValueError(f"option 'arc_step' of backend 'visgraph' must be a number in "
-                             f"[1e-4, pi/2] rad, got {a!r}")
+    see_temporary: bool = option(False)
+    arc_step: float = option(math.pi / 36, lo=1e-4, hi=math.pi / 2)
 
     def solve(self, problem, /, *, rng=None, init=None, callback=None):
         t0 = time.perf_counter()
