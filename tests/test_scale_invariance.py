@@ -1,0 +1,77 @@
+"""Scale invariance of every preset (metamorphic): the same scene drawn 100 x smaller or larger.
+
+:func:`optplan.problem.transform_problem` scales every length of a scene (positions, sizes, radii,
+speeds, formation distances, tolerances, sensing range and ``length_scale``); every preset must
+then give the same status and lengths that scale within 1 % (stochastic presets: the same seed).
+The fast test runs one representative scene per preset; the ``slow`` test runs every catalogue
+scene with every preset.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+
+import pytest
+
+import optplan as op
+from optplan.problem import transform_problem
+
+SCALES = (0.01, 100.0)
+REL_TOL = 0.01
+
+#: preset -> one scene it is meant for (the fast test)
+REPRESENTATIVE = {
+    "apf-paper": "trap-saddle",
+    "sa-apf-paper": "trap-u",
+    "hybrid-paper": "paper-hybrid",
+    "hybrid-qp": "paper-hybrid",
+    "leader-follower-paper": "paper-formation",
+    "formation-qp": "paper-formation",
+    "ipso-paper": "paper-env1",
+    "ipso": "paper-env2",
+    "mpso-paper": "paper-env1",
+    "pso-paper": "paper-env2",
+    "nlp-ipopt": "paper-env1",
+    "visgraph": "warehouse-grid",
+}
+
+
+@cache
+def outcome(scene: str, solver: str, scale: float) -> tuple[str, float]:
+    """``(status, total path length / scale)``, or ``("error: ...", nan)`` for a refused input."""
+    prob = transform_problem(op.load_problem(scene), scale)
+    try:
+        r = op.solve(prob, solver, rng=0, reference=False)
+    except ValueError as e:  # e.g. a formation backend on a scene without [formation]
+        return f"error: {str(e).split(':')[-1].strip()}", float("nan")
+    total = sum(float(len_) for len_ in r.metrics["lengths"].values())
+    return r.status.value, total / scale
+
+
+def check(scene: str, solver: str) -> None:
+    st1, len1 = outcome(scene, solver, 1.0)
+    for k in SCALES:
+        st, length = outcome(scene, solver, k)
+        assert st == st1, f"{solver} on {scene} x {k:g}: status {st!r}, at scale 1 {st1!r}"
+        if not st.startswith("error"):
+            assert length == pytest.approx(len1, rel=REL_TOL), (
+                f"{solver} on {scene} x {k:g}: length {length:.6g} (rescaled), at scale 1 "
+                f"{len1:.6g}")
+
+
+def test_every_preset_has_a_representative_scene() -> None:
+    from optplan.catalog import preset_files
+
+    assert set(preset_files()) == set(REPRESENTATIVE)
+
+
+@pytest.mark.parametrize("solver", sorted(REPRESENTATIVE))
+def test_scale_invariance_representative(solver: str) -> None:
+    check(REPRESENTATIVE[solver], solver)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("scene", op.list_problems())
+@pytest.mark.parametrize("solver", op.list_solvers())
+def test_scale_invariance_every_scene(scene: str, solver: str) -> None:
+    check(scene, solver)
