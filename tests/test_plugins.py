@@ -4,6 +4,7 @@ bench worker processes (entry-point groups ``optplan.backends`` and ``optplan.pr
 from __future__ import annotations
 
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -11,30 +12,15 @@ from pathlib import Path
 
 import pytest
 
-PLANNER = '''
-from dataclasses import dataclass
-from typing import ClassVar
-
-import numpy as np
-
-from optplan.result import Status
-from optplan.solver import Backend, check_int
+ROOT = Path(__file__).resolve().parents[1]
 
 
-@dataclass(frozen=True, kw_only=True)
-class Toy(Backend):
-    """Straight line with ``n`` points (a plugin example)."""
-
-    name: ClassVar[str] = "toy"
-    n: int = 2
-
-    def __post_init__(self):
-        check_int(self, "n", 2, 1000)
-
-    def solve(self, problem, /, *, rng=None, init=None, callback=None):
-        paths = {r.id: np.linspace(r.start, r.goal, self.n) for r in problem.planned_robots}
-        return self.finish(problem, paths, claim=Status.solved, message="toy straight line")
-'''
+def page_file(name: str) -> str:
+    """The block of docs/adding-a-solver.md marked ``<!-- file: NAME -->`` (the walk-through)."""
+    text = (ROOT / "docs" / "adding-a-solver.md").read_text(encoding="utf-8")
+    m = re.search(r"<!-- file: " + re.escape(name) + r" -->\n```\w*\n(.*?)```", text, re.S)
+    assert m, f"docs/adding-a-solver.md has no block for {name}"
+    return m.group(1)
 
 
 @pytest.fixture(scope="module")
@@ -44,17 +30,15 @@ def plugin_path(tmp_path_factory) -> Path:
     pkg = root / "toyplug"
     (pkg / "presets").mkdir(parents=True)
     (pkg / "__init__.py").write_text("")
-    (pkg / "planner.py").write_text(PLANNER)
+    (pkg / "planner.py").write_text(page_file("toyplug/planner.py"))
     (pkg / "presets" / "__init__.py").write_text("")
-    (pkg / "presets" / "toy-five.toml").write_text(
-        'backend = "toy"\nsummary = "straight line, five points (plugin preset)"\n'
-        "[options]\nn = 5\n")
+    (pkg / "presets" / "line-five.toml").write_text(page_file("toyplug/presets/line-five.toml"))
     info = root / "toyplug-0.1.dist-info"
     info.mkdir()
     (info / "METADATA").write_text("Metadata-Version: 2.1\nName: toyplug\nVersion: 0.1\n")
     (info / "entry_points.txt").write_text(textwrap.dedent("""\
         [optplan.backends]
-        toy = toyplug.planner:Toy
+        line = toyplug.planner:Line
 
         [optplan.presets]
         toyplug = toyplug.presets
@@ -73,14 +57,14 @@ def _run(plugin_path: Path, *args: str) -> subprocess.CompletedProcess:
 def test_plugin_backend_and_preset_in_the_api(plugin_path: Path) -> None:
     code = textwrap.dedent("""
         import optplan as op
-        assert "toy" in op.list_backends(), op.list_backends()
-        assert "toy-five" in op.list_solvers()
-        r = op.solve("open-field", "toy")
+        assert "line" in op.list_backends(), op.list_backends()
+        assert "line-five" in op.list_solvers()
+        r = op.solve("open-field", "line")
         print(r.status, len(r.path))
-        r = op.solve("open-field", "toy-five")
+        r = op.solve("open-field", "line-five")
         print(r.status, len(r.path), r.solver)
         try:
-            op.solve("open-field", "toy", n=1)
+            op.solve("open-field", "line", n=1)
         except ValueError as e:
             print("error:", e)
     """)
@@ -88,18 +72,21 @@ def test_plugin_backend_and_preset_in_the_api(plugin_path: Path) -> None:
     assert out.returncode == 0, out.stderr
     lines = out.stdout.splitlines()
     assert lines[0] == "solved 2"
-    assert lines[1] == "solved 5 toy-five"
-    assert "option 'n' of backend 'toy'" in lines[2]
+    assert lines[1] == "solved 5 line-five"
+    assert "option 'n' of backend 'line'" in lines[2]
 
 
 def test_plugin_in_the_cli_and_in_bench_workers(plugin_path: Path) -> None:
-    out = _run(plugin_path, "-m", "optplan", "solve", "open-field", "toy-five")
+    out = _run(plugin_path, "-m", "optplan", "solve", "open-field", "line-five")
     assert out.returncode == 0, out.stderr
     assert "solved" in out.stdout
     out = _run(plugin_path, "-m", "optplan", "list", "solvers")
-    assert out.returncode == 0 and "toy-five" in out.stdout
+    assert out.returncode == 0 and "line-five" in out.stdout
+    out = _run(plugin_path, "-m", "optplan", "show-solver", "line-five")
+    assert out.returncode == 0, out.stderr
+    assert "an integer in [2, 1000]" in out.stdout and "Number of path points" in out.stdout
     out = _run(plugin_path, "-m", "optplan", "bench", "--problems", "open-field", "--solvers",
-               "toy,toy-five", "--seeds", "2", "--workers", "2")
+               "line,line-five", "--seeds", "2", "--workers", "2")
     assert out.returncode == 0, out.stderr
     assert "error" not in out.stdout.lower(), out.stdout
-    assert out.stdout.count("toy") >= 2
+    assert out.stdout.count("line") >= 2

@@ -1,0 +1,86 @@
+"""The package's dependency rules (docs/architecture.md), checked on every import statement.
+
+Imports inside functions count too (a lazy import is still a dependency).
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1] / "optplan"
+
+#: the model, the geometry and the core: never import a method or a tool
+CORE = ("optplan.problem", "optplan.geometry", "optplan.metrics", "optplan.result",
+        "optplan.options", "optplan.catalog", "optplan.solver", "optplan.interfaces",
+        "optplan.sim")
+METHODS = ("optplan.backends",)
+TOOLS = ("optplan.cli", "optplan.bench", "optplan.benchdb", "optplan.report", "optplan.plot",
+         "optplan.maps", "optplan.generators", "optplan.experiments")
+
+
+def modules(root: Path = ROOT) -> dict[str, set[str]]:
+    """module name -> the optplan modules it imports (``root`` is the package directory)."""
+    out = {}
+    for p in sorted(root.rglob("*.py")):
+        name = ".".join(p.relative_to(root.parent).with_suffix("").parts).removesuffix(
+            ".__init__")
+        deps: set[str] = set()
+        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                deps.add(node.module)
+                deps.update(f"{node.module}.{a.name}" for a in node.names)
+            elif isinstance(node, ast.Import):
+                deps.update(a.name for a in node.names)
+        out[name] = {d for d in deps if d == "optplan" or d.startswith("optplan.")}
+    return out
+
+
+def under(name: str, prefixes: tuple[str, ...]) -> bool:
+    return any(name == p or name.startswith(p + ".") for p in prefixes)
+
+
+MODULES = modules()
+
+
+def test_every_module_has_a_layer() -> None:
+    layered = CORE + METHODS + TOOLS + ("optplan", "optplan.__main__")
+    assert all(under(m, layered) for m in MODULES), sorted(
+        m for m in MODULES if not under(m, layered))
+
+
+@pytest.mark.parametrize("mod", sorted(m for m in MODULES if under(m, CORE)))
+def test_core_never_imports_a_method_or_a_tool(mod: str) -> None:
+    bad = sorted(d for d in MODULES[mod] if under(d, METHODS + TOOLS))
+    assert not bad, f"{mod} imports {bad}"
+
+
+@pytest.mark.parametrize("mod", sorted(m for m in MODULES if under(m, METHODS)))
+def test_methods_never_import_a_tool(mod: str) -> None:
+    bad = sorted(d for d in MODULES[mod] if under(d, TOOLS))
+    assert not bad, f"{mod} imports {bad}"
+
+
+def test_the_checker_sees_lazy_imports(tmp_path: Path) -> None:
+    pkg = tmp_path / "optplan" / "backends"
+    pkg.mkdir(parents=True)
+    (pkg / "bad.py").write_text("def f():\n    from optplan.plot import plot_result\n"
+                                "    import optplan.bench\n")
+    deps = modules(tmp_path / "optplan")["optplan.backends.bad"]
+    assert {"optplan.plot", "optplan.bench"} <= deps
+    assert [d for d in deps if under(d, TOOLS)]
+
+
+def test_every_module_is_on_the_architecture_page() -> None:
+    page = (ROOT.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
+    missing = []
+    for m in MODULES:
+        rel = m.removeprefix("optplan").lstrip(".").replace(".", "/")
+        if not rel or rel == "__main__" or (ROOT / rel).is_dir():
+            continue  # the package and its sub-packages (listed as folders)
+        entry = rel + ".py" if rel.startswith("experiments/") else rel.rsplit("/")[-1] + ".py"
+        if entry not in page:
+            missing.append(entry)
+    assert not missing, f"modules missing from docs/architecture.md: {missing}"
