@@ -121,44 +121,47 @@ def option_spec(f: dataclasses.Field) -> OptionSpec | None:
     return f.metadata.get(_KEY)
 
 
+_TYPES: dict[str, tuple[type, ...]] = {
+    "bool": (bool, np.bool_),
+    "str": (str,),
+    "int": (int, np.integer),
+    "float": (int, float, np.integer, np.floating),
+}
+
+
+def _type_ok(spec: OptionSpec, value: Any) -> bool:
+    """``value`` has the declared kind (a bool is never a number)."""
+    if spec.choices is not None:
+        return not isinstance(value, bool) and value in spec.choices
+    if spec.kind == "any":
+        return True
+    if spec.kind in ("int", "float") and isinstance(value, (bool, np.bool_)):
+        return False
+    return isinstance(value, _TYPES[spec.kind])
+
+
+def _range_ok(spec: OptionSpec, v: float) -> bool:
+    """The number ``v`` lies in the declared range (infinity only with ``inf_ok``)."""
+    if math.isnan(v):
+        return False
+    if math.isinf(v):
+        return spec.inf_ok
+    lo_ok = spec.lo is None or (v > spec.lo if spec.lo_open else v >= spec.lo)
+    hi_ok = spec.hi is None or (v < spec.hi if spec.hi_open else v <= spec.hi)
+    return lo_ok and hi_ok
+
+
 def check_value(spec: OptionSpec, name: str, value: Any, owner: str) -> None:
     """Raise ``ValueError`` naming ``owner`` and ``name`` unless ``value`` is allowed."""
-    allowed = spec.describe()
-    bad = ValueError(f"option {name!r} of backend {owner!r} must be {allowed}, got {value!r}")
     if value is None:
-        if spec.none_ok:
-            return
-        raise bad
-    if spec.choices is not None:
-        if isinstance(value, bool) or value not in spec.choices:
-            raise bad
-        return
-    if spec.kind == "bool":
-        if not isinstance(value, (bool, np.bool_)):
-            raise bad
-        return
-    if spec.kind == "str":
-        if not isinstance(value, str):
-            raise bad
-        return
-    if spec.kind == "any":
-        return
-    if isinstance(value, (bool, np.bool_)):
-        raise bad
-    if spec.kind == "int":
-        if not isinstance(value, (int, np.integer)):
-            raise bad
-    elif not isinstance(value, (int, float, np.integer, np.floating)):
-        raise bad
-    v = float(value)
-    if math.isnan(v) or (math.isinf(v) and not spec.inf_ok):
-        raise bad
-    if math.isinf(v):
-        return
-    if spec.lo is not None and (v <= spec.lo if spec.lo_open else v < spec.lo):
-        raise bad
-    if spec.hi is not None and (v >= spec.hi if spec.hi_open else v > spec.hi):
-        raise bad
+        ok = spec.none_ok
+    else:
+        ok = _type_ok(spec, value)
+        if ok and spec.kind in ("int", "float") and spec.choices is None:
+            ok = _range_ok(spec, float(value))
+    if not ok:
+        raise ValueError(f"option {name!r} of backend {owner!r} must be {spec.describe()}, "
+                         f"got {value!r}")
 
 
 def check_options(obj: Any) -> None:
