@@ -6,6 +6,10 @@ Rules (documented in docs/index.md, "Docs that stay true"):
   fresh temporary directory (so nothing is left in the repository);
 * a block preceded by the line ``<!-- file: NAME -->`` (any language) is written to ``NAME`` in
   that directory before the page runs (e.g. the scenario a later block loads);
+* a ``console`` block preceded by ``<!-- run -->`` runs through the CLI: each line
+  ``$ optplan ARGS`` is passed to :func:`optplan.cli.main` (in the page's temporary directory,
+  after the page's python blocks) and must exit with status 0 and print the lines that follow
+  it, compared like a doctest (``...`` for what varies);
 * a block preceded by ``<!-- no-run -->`` is not run (use it only for fragments that cannot run
   on their own, and say so in the text);
 * a python block followed by a ``text`` block introduced by a line starting with "prints" must
@@ -20,6 +24,7 @@ import doctest
 import io
 import os
 import re
+import shlex
 import sys
 import types
 from pathlib import Path
@@ -33,7 +38,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 PAGES = sorted([ROOT / "README.md", *(ROOT / "docs").rglob("*.md")])
 FENCE = re.compile(r"^(?P<indent>[ ]*)```(?P<lang>[\w-]*)[^\n]*$")
-MARK = re.compile(r"^\s*<!--\s*(?P<what>no-run|file:\s*(?P<name>[\w./-]+))\s*-->\s*$")
+MARK = re.compile(r"^\s*<!--\s*(?P<what>no-run|run|file:\s*(?P<name>[\w./-]+))\s*-->\s*$")
 
 
 def blocks(text: str) -> list[dict]:
@@ -63,7 +68,35 @@ def blocks(text: str) -> list[dict]:
 
 def runnable(page: Path) -> bool:
     return any(b["lang"] in ("python", "py") and b["mark"] != "no-run"
+               or b["lang"] == "console" and b["mark"] == "run"
                for b in blocks(page.read_text(encoding="utf-8")))
+
+
+def console_commands(code: str) -> list[tuple[str, str]]:
+    """``(command line, expected output)`` pairs of a console block (``$ `` prompts)."""
+    out: list[tuple[str, list[str]]] = []
+    for line in code.splitlines():
+        if line.startswith("$ "):
+            out.append((line[2:].strip(), []))
+        elif out:
+            out[-1][1].append(line)
+    return [(cmd, "\n".join(lines).strip() + "\n" if lines else "") for cmd, lines in out]
+
+
+def run_console(block: dict, page: Path, checker, flags) -> None:
+    from optplan.cli import main
+
+    for cmd, want in console_commands(block["code"]):
+        argv = shlex.split(cmd)
+        assert argv[0] == "optplan", f"{page.name}:{block['line']}: not an optplan command: {cmd}"
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf):
+            rc = main(argv[1:])
+        got = buf.getvalue()
+        assert rc == 0, f"{page.name}:{block['line']}: `{cmd}` exited with {rc}"
+        assert not want or checker.check_output(want, got, flags), (
+            f"{page.relative_to(ROOT)}:{block['line']}: `{cmd}` prints\n{got}\n"
+            f"but the page says\n{want}")
 
 
 @pytest.mark.parametrize("page", [p for p in PAGES if runnable(p)],
@@ -84,6 +117,9 @@ def test_doc_blocks_run_and_print_what_the_page_says(page: Path, tmp_path: Path)
     os.chdir(tmp_path)
     try:
         for k, b in enumerate(bl):
+            if b["lang"] == "console" and b["mark"] == "run":
+                run_console(b, page, checker, flags)
+                continue
             if b["lang"] not in ("python", "py") or b["mark"] == "no-run" or b["file"]:
                 continue
             buf = io.StringIO()
