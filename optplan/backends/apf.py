@@ -68,10 +68,11 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan.interfaces import LocalPlanner
+from optplan.options import option
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status
 from optplan.sim import ObstacleField, SimState, simulate
-from optplan.solver import Backend, check_int, check_range, make_rng
+from optplan.solver import Backend, make_rng
 
 __all__ = [
     "APF",
@@ -169,7 +170,13 @@ def repulsive_force(x: np.ndarray, near: np.ndarray, rho: np.ndarray, goal: np.n
 
 @dataclass(frozen=True)
 class FieldParams:
-    """Everything the potential needs: gains, exponent, clamp, robot radius, sensing range."""
+    """Everything the potential needs: gains, exponent, clamp, robot radius, sensing range.
+
+    ``rho_0``, ``rho_min``, ``radius`` and ``sense_range`` are map lengths; ``unit`` is the
+    problem's length unit (:attr:`optplan.problem.Problem.length_scale`): the potential is
+    evaluated on positions and distances divided by it, so ``k`` and ``eta`` are per length
+    unit and the field of a scene drawn ``s`` times larger is the same field.
+    """
 
     k: float
     eta: float
@@ -178,6 +185,7 @@ class FieldParams:
     rho_min: float
     radius: float
     sense_range: float
+    unit: float = 1.0
 
 
 def evaluate_field(points: np.ndarray, goal: np.ndarray, fld: ObstacleField, t: float,
@@ -186,16 +194,20 @@ def evaluate_field(points: np.ndarray, goal: np.ndarray, fld: ObstacleField, t: 
 
     Only (point, obstacle) pairs inside the sensing range are evaluated (the geometry core's
     bounding-circle screen behind :meth:`ObstacleField.nearest` discards the rest), so the cost
-    barely grows with obstacles out of range.  Returns a dict with ``U``, ``U_att``, ``U_rep``
-    ``(P,)``, ``F`` ``(P, 2)`` and ``clearance`` ``(P,)`` (min raw clearance robot disc -
-    obstacle, unclamped; ``inf`` if none is sensed), plus the sensor readings ``near``
-    ``(P, n, 2)`` and ``dist`` ``(P, n)``.
+    barely grows with obstacles out of range.  Positions and distances are divided by
+    ``p.unit`` before eqs 3-6 / 34-37 are applied: ``U`` is dimensionless and ``F`` is
+    :math:`-\\nabla_{\\tilde x} U` with :math:`\\tilde x = x / \\text{unit}` (its direction is
+    that of :math:`-\\nabla_x U`).  Returns a dict with ``U``, ``U_att``, ``U_rep`` ``(P,)``,
+    ``F`` ``(P, 2)`` and ``clearance`` ``(P,)`` (min raw clearance robot disc - obstacle in
+    map units, unclamped; ``inf`` if none is sensed), plus the sensor readings ``near``
+    ``(P, n, 2)`` and ``dist`` ``(P, n)`` (map units).
     """
     pts = np.atleast_2d(np.asarray(points, dtype=float))
     P = len(pts)
     goal = np.asarray(goal, dtype=float)
     near, dist = fld.nearest(pts, t, max_range=p.sense_range)
-    g = goal - pts
+    u = float(p.unit)
+    g = (goal - pts) / u
     rho_g = np.hypot(g[:, 0], g[:, 1])
     u_att = 0.5 * p.k * rho_g * rho_g
     F = p.k * g
@@ -205,25 +217,27 @@ def evaluate_field(points: np.ndarray, goal: np.ndarray, fld: ObstacleField, t: 
     if len(r_idx):
         clear = dist[r_idx, o_idx] - p.radius
         np.minimum.at(cmin, r_idx, clear)
-        rho = np.maximum(clear, p.rho_min)
-        x = pts[r_idx]
+        rho = np.maximum(clear, p.rho_min) / u
+        rho_0 = p.rho_0 / u
+        x = pts[r_idx] / u
         rg = rho_g[r_idx]
-        u = repulsive_potential(rho, rg, p.eta, p.rho_0, p.n)
-        f = repulsive_force(x, near[r_idx, o_idx], rho, goal, p.eta, p.rho_0, p.n)
-        u_rep = np.bincount(r_idx, weights=u, minlength=P)
+        ur = repulsive_potential(rho, rg, p.eta, rho_0, p.n)
+        f = repulsive_force(x, near[r_idx, o_idx] / u, rho, goal / u, p.eta, rho_0, p.n)
+        u_rep = np.bincount(r_idx, weights=ur, minlength=P)
         F = F + np.stack([np.bincount(r_idx, weights=f[:, 0], minlength=P),
                           np.bincount(r_idx, weights=f[:, 1], minlength=P)], axis=1)
     return {"U": u_att + u_rep, "U_att": u_att, "U_rep": u_rep, "F": F, "clearance": cmin,
             "near": near, "dist": dist}
 
 
-def oscillation_index(path: np.ndarray) -> float:
-    """Sum of absolute heading changes (rad) per unit length of a trajectory."""
+def oscillation_index(path: np.ndarray, unit: float = 1.0) -> float:
+    """Sum of absolute heading changes (rad) per ``unit`` of length of a trajectory (the
+    local planners pass the problem's ``length_scale``, so the index is scale-free)."""
     p = np.asarray(path, dtype=float)
     d = np.diff(p, axis=0)
     s = np.hypot(d[:, 0], d[:, 1])
     d = d[s > 1e-9]
-    L = float(s.sum())
+    L = float(s.sum()) / float(unit)
     if len(d) < 2 or L <= 0:
         return 0.0
     th = np.arctan2(d[:, 1], d[:, 0])
@@ -252,8 +266,6 @@ class APFController:
     planner never escapes; it gives up (returns ``None``) when it stays trapped ``patience``
     steps after a detection.
     """
-
-    escapes_enabled: ClassVar[bool] = False
 
     def __init__(self, backend: PotentialFieldBackend, problem: Problem, robot: Robot,
                  rng: np.random.Generator, params: FieldParams):
@@ -288,7 +300,10 @@ class APFController:
         self.gave_up = False
 
     def step_length(self, dt: float) -> float:
-        return float(self.b.l) if self.b.l is not None else float(self.robot.max_speed * dt)
+        """Eq 13's step ``l``: the option times the length unit, else ``max_speed * dt``."""
+        if self.b.l is not None:
+            return float(self.b.l) * self.params.unit
+        return float(self.robot.max_speed * dt)
 
     def velocity(self, state: SimState, index: int) -> np.ndarray | None:
         dt = float(state.dt)
@@ -385,7 +400,8 @@ class APFController:
             return True
         if len(H) >= 4:
             g = self.goal
-            return bool(np.hypot(*(H[-1] - g)) >= np.hypot(*(H[-4] - g)) - 1e-9)
+            eps = 1e-9 * self.params.unit
+            return bool(np.hypot(*(H[-1] - g)) >= np.hypot(*(H[-4] - g)) - eps)
         return False
 
     def _centroid(self, x: np.ndarray) -> np.ndarray:
@@ -423,7 +439,7 @@ class APFController:
                 self._trap_at, self._trap_since = None, None
             elif self.stats["steps"] - self._trap_since >= self.b.patience:
                 dg = float(np.hypot(*(self.goal - x)))
-                kind = ("oscillating near the goal (GNRON)" if dg <= self.b.rho_0 +
+                kind = ("oscillating near the goal (GNRON)" if dg <= self.params.rho_0 +
                         self.robot.radius else "trapped in a local minimum")
                 self.stats["gave_up"] = (f"{kind} at ({x[0]:.2f}, {x[1]:.2f}), "
                                          f"{dg:.2f} from the goal")
@@ -519,7 +535,7 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
     try:
         out = simulate(problem, policy, ids=ids, dt=dt, max_steps=backend.max_steps, done=done,
                        field_=fld, callback=callback, progress_cost=cost)
-    except (FloatingPointError, ValueError) as e:  # numerical failure -> failed, never raise
+    except (FloatingPointError, np.linalg.LinAlgError) as e:  # numerical failure -> failed
         starts = {r.id: np.vstack([r.start, r.start]) for r in robots}
         return backend.finish(problem, starts, claim=Status.failed, times=np.array([0.0, dt]),
                               message=f"numerical failure: {e}",
@@ -533,18 +549,22 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
     if reached[li]:
         dg = np.hypot(*(out.positions[:, li, :] - goals[li]).T)
         t_goal = float(out.times[int(np.argmax(dg <= tols[li]))])
-    extra = {
-        "time_to_goal": t_goal,
+    unit = problem.length_scale
+    extra = {"time_to_goal": t_goal, "oscillation_index": oscillation_index(paths[lead], unit)}
+    detections = {k: int(sum(c.stats["detections"][k] for c in ctrls))
+                  for k in ("eq38", "stall", "oscillation")}
+    extras = {
         "local_minima_detected": int(sum(c.stats["local_minima_detected"] for c in ctrls)),
+        "detections": detections,
         "local_minima_escaped": int(sum(c.stats["escapes"] for c in ctrls)),
         "sa_steps": int(sum(c.stats["sa_steps"] for c in ctrls)),
-        "oscillation_index": oscillation_index(paths[lead]),
         "sim_steps": int(out.steps),
-        "stop_reason": out.reason,
+        "sim_reason": out.reason,
+        "length_scale": unit,
+        "controllers": {ids[i]: c.stats for i, c in enumerate(ctrls)},
+        "minima": {ids[i]: [m.tolist() for m in c.minima] for i, c in enumerate(ctrls)},
+        "collision": out.collision,
     }
-    extras = {"controllers": {ids[i]: c.stats for i, c in enumerate(ctrls)},
-              "minima": {ids[i]: [m.tolist() for m in c.minima] for i, c in enumerate(ctrls)},
-              "collision": out.collision}
     return backend.finish(problem, paths, claim=claim, times=out.times,
                           cost=float(np.sum(np.hypot(*np.diff(paths[lead], axis=0).T))),
                           message=msg, n_iter=int(out.steps), n_eval=int(out.steps),
@@ -585,50 +605,87 @@ def _trace_history(tr: _Trace, dt: float) -> History:
 
 @dataclass(frozen=True, kw_only=True)
 class PotentialFieldBackend(Backend):
-    """Options shared by ``apf`` and ``sa-apf`` (documented on the subclasses)."""
+    """Options shared by ``apf`` and ``sa-apf`` (the time-stepping potential-field planners).
 
-    k: float = 15.0
-    eta: float = 3.7
-    rho_0: float = 20.0
-    l: float | None = None
-    dt: float = 0.2
-    max_steps: int = 3000
-    rho_min: float = 0.05
-    sense_range: float | None = None
-    window: int = 16
-    stall_ratio: float = 0.15
-    n_probe: int = 16
-    detect_eq38: bool = True
-    patience: int = 30
-    evade_factor: float = 0.0
-    sense_robots: bool = True
+    Lengths marked "(x length_scale)" are multiples of the problem's length unit
+    :attr:`optplan.problem.Problem.length_scale` (1 on the paper's maps); the potential is
+    evaluated on positions divided by it (:class:`FieldParams`), so a preset behaves the same
+    on a scene drawn in centimetres, metres or kilometres.
 
-    def _check_common(self) -> None:
-        check_range(self, "k", 0.0, lo_open=True)
-        check_range(self, "eta", 0.0)
-        check_range(self, "rho_0", 0.0, lo_open=True)
-        if self.l is not None:
-            check_range(self, "l", 0.0, lo_open=True)
-        check_range(self, "dt", 0.0, 60.0, lo_open=True)
-        check_int(self, "max_steps", 1, 10_000_000)
-        check_range(self, "rho_min", 0.0, self.rho_0, lo_open=True)
-        if self.sense_range is not None:
-            check_range(self, "sense_range", 0.0, lo_open=True)
-        check_int(self, "window", 4, 10_000)
-        check_range(self, "stall_ratio", 0.0, 1.0, lo_open=True)
-        check_int(self, "n_probe", 3, 360)
-        if not isinstance(self.detect_eq38, bool):
-            raise ValueError(f"option 'detect_eq38' of backend {self.name!r} must be true or "
-                             f"false, got {self.detect_eq38!r}")
-        check_int(self, "patience", 1, 10_000_000)
-        check_range(self, "evade_factor", 0.0, 100.0)
-        if not isinstance(self.sense_robots, bool):
-            raise ValueError(f"option 'sense_robots' of backend {self.name!r} must be true or "
-                             f"false, got {self.sense_robots!r}")
+    Parameters
+    ----------
+    k : float
+        Attraction gain (eq 4), force per length unit of goal distance.  Paper: 15.
+    eta : float
+        Repulsion gain (eq 5 for ``apf``, eq 34 for ``sa-apf``), per length unit.  Paper: 3.7.
+    rho_0 : float
+        Obstacle influence distance (eq 5 / 34), measured as clearance from the robot disc
+        (x length_scale).  Paper: 20.
+    l : float or None
+        Step length per time step (eq 13, x length_scale); ``None`` = the robot's
+        ``max_speed * dt`` (``dt`` of the simulation that runs the controller).
+    dt : float
+        Time step of the planner's own simulation, s.
+    max_steps : int
+        Step budget of the simulation (the run never hangs).
+    rho_min : float
+        Clamp of the clearance in eqs 5-6 / 34-37 so forces stay finite (x length_scale;
+        at most ``rho_0``).
+    sense_range : float or None
+        Sensing range measured from the robot centre (x length_scale); ``None`` = the
+        scenario's ``[sensing]`` range, else ``rho_0 + radius``.
+    window : int
+        Steps in the stall / oscillation window of the local-minimum detection.
+    stall_ratio : float
+        Stall when the net displacement over ``window`` steps is below
+        ``stall_ratio * window * l`` (dimensionless).
+    n_probe : int
+        Probe directions on each circle of the reachable region ``R(p)`` (eq 38).
+    detect_eq38 : bool
+        Use the eq 38 test (the stall and oscillation tests are always on).
+    evade_factor : float
+        Moving-obstacle safety step when a dynamic obstacle is closer than ``evade_factor * l``
+        (:meth:`APFController.evade`); ``0`` disables it (dimensionless).
+    sense_robots : bool
+        Beyond the paper: with several planned robots (no formation), each senses the others
+        as disc obstacles at their current positions (:class:`RobotsAsObstacles`); without
+        it they drive through each other.  No effect with one planned robot.
+    """
+
+    k: float = option(15.0, lo=0.0, lo_open=True)
+    eta: float = option(3.7, lo=0.0)
+    rho_0: float = option(20.0, lo=0.0, lo_open=True, scale=True)
+    l: float | None = option(None, lo=0.0, lo_open=True, scale=True)
+    dt: float = option(0.2, lo=0.0, hi=60.0, lo_open=True)
+    max_steps: int = option(3000, lo=1, hi=10_000_000)
+    rho_min: float = option(0.05, lo=0.0, lo_open=True, scale=True)
+    sense_range: float | None = option(None, lo=0.0, lo_open=True, scale=True)
+    window: int = option(16, lo=4, hi=10_000)
+    stall_ratio: float = option(0.15, lo=0.0, hi=1.0, lo_open=True)
+    n_probe: int = option(16, lo=3, hi=360)
+    detect_eq38: bool = option(True)
+    evade_factor: float = option(0.0, lo=0.0, hi=100.0)
+    sense_robots: bool = option(True)
+
+    def check(self) -> None:
+        if self.rho_min > self.rho_0:
+            raise ValueError(f"option 'rho_min' of backend {self.name!r} must be <= rho_0 "
+                             f"({self.rho_0!r}), got {self.rho_min!r}")
 
     def sensing(self, problem: Problem, robot: Robot) -> float:
-        """Sensing range from the robot centre (option, scenario ``[sensing]``, rho_0 + r)."""
-        return float(self.sense_range or problem.sensing_range or (self.rho_0 + robot.radius))
+        """Sensing range from the robot centre, map units: the option (x length_scale), the
+        scenario's ``[sensing]`` range, else ``rho_0 * length_scale + radius``."""
+        s = problem.length_scale
+        if self.sense_range is not None:
+            return float(self.sense_range * s)
+        if problem.sensing_range is not None:
+            return float(problem.sensing_range)
+        return float(self.rho_0 * s + robot.radius)
+
+    def _params(self, problem: Problem, robot: Robot, eta: float, n: float) -> FieldParams:
+        s = problem.length_scale
+        return FieldParams(self.k, eta, self.rho_0 * s, n, self.rho_min * s, robot.radius,
+                           self.sensing(problem, robot), s)
 
     def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
               init: dict[str, np.ndarray] | None = None,
@@ -643,66 +700,30 @@ class APF(PotentialFieldBackend, LocalPlanner):
 
     Parameters
     ----------
-    k : float
-        Attraction gain (eq 4), force per map unit of goal distance.  Paper: 15.
-    eta : float
-        Repulsion gain (eq 5).  Paper: 3.7.  See ``eta_match_n`` for its units.
-    rho_0 : float
-        Obstacle influence distance (eq 5), map units, measured as clearance from the robot
-        disc.  Paper: 20.
     eta_match_n : float
         Unit matching of ``eta`` with the improved method (module docstring): the basic
-        repulsion uses ``eta * D ** eta_match_n`` with ``D`` the start-goal distance.  ``0`` is
-        the literal eq 6 (on map-scale scenes its repulsion is negligible).  Default 3.
-    l : float or None
-        Step length per time step (eq 13), map units; ``None`` = robot ``max_speed * dt``.
-    dt : float
-        Time step, s.
-    max_steps : int
-        Give-up budget in time steps (the run never hangs).
-    rho_min : float
-        Clamp of the clearance in eqs 5-6 (map units) so forces stay finite.
-    sense_range : float or None
-        Sensing range measured from the robot centre; ``None`` = the scenario's ``[sensing]``
-        range, else ``rho_0 + radius``.
-    window : int
-        Steps in the stall / oscillation window.
-    stall_ratio : float
-        Stall when the net displacement over ``window`` steps < ``stall_ratio * window * l``.
-    n_probe : int
-        Probe directions on each circle of the reachable region ``R(p)`` (eq 38).
-    detect_eq38 : bool
-        Use the eq 38 test (stall and oscillation tests are always on).
+        repulsion uses ``eta * (D / length_scale) ** eta_match_n`` with ``D`` the start-goal
+        distance.  ``0`` is the literal eq 6 (on map-scale scenes its repulsion is
+        negligible).  Default 3.
     patience : int
         Steps the basic planner waits, still trapped, after a detection before giving up.
-    evade_factor : float
-        Moving-obstacle safety step when a dynamic obstacle is closer than ``evade_factor * l``
-        (:meth:`APFController.evade`); ``0`` (default: the basic method as in the paper)
-        disables it.
-    sense_robots : bool
-        Beyond the paper: with several planned robots (no formation), each senses the others
-        as disc obstacles at their current positions (:class:`RobotsAsObstacles`); without
-        it they drive through each other.  No effect with one planned robot.
+    k, eta, rho_0, l, dt, max_steps, rho_min, sense_range, window, stall_ratio, n_probe, \
+detect_eq38, evade_factor, sense_robots
+        Shared options, see :class:`PotentialFieldBackend`.
     """
 
     name: ClassVar[str] = "apf"
-    contract_problem: ClassVar[str] = "trap-saddle"
-    contract_overrides: ClassVar[dict] = {"max_steps": 400}
-    eta_match_n: float = 3.0
-
-    def __post_init__(self) -> None:
-        self._check_common()
-        check_range(self, "eta_match_n", 0.0, 6.0)
+    eta_match_n: float = option(3.0, lo=0.0, hi=6.0)
+    patience: int = option(30, lo=1, hi=10_000_000)
 
     # -- helpers ------------------------------------------------------------------------
     def field_params(self, problem: Problem, robot: Robot) -> FieldParams:
         """The potential's parameters for ``robot`` (basic method: n = 0, matched eta)."""
         eta = self.eta
         if self.eta_match_n and robot.goal is not None:
-            D = max(float(np.hypot(*(robot.goal - robot.start))), 1e-9)
+            D = max(float(np.hypot(*(robot.goal - robot.start))) / problem.length_scale, 1e-9)
             eta = self.eta * D ** self.eta_match_n
-        return FieldParams(self.k, eta, self.rho_0, 0.0, self.rho_min, robot.radius,
-                           self.sensing(problem, robot))
+        return self._params(problem, robot, eta, 0.0)
 
     def controller(self, problem: Problem, robot_id: str, rng: np.random.Generator
                    ) -> APFController:

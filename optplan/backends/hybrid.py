@@ -61,6 +61,7 @@ Choices where the paper is silent (documented in ``docs/solvers/hybrid.md``)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -78,10 +79,11 @@ from optplan.interfaces import (
     resolve_stage,
     stage_name,
 )
+from optplan.options import option
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Result, Status, notify
 from optplan.sim import SimOutcome, SimState, simulate
-from optplan.solver import Backend, check_int, check_range, make_rng
+from optplan.solver import Backend, make_rng
 
 __all__ = ["Hybrid", "inflection_points", "subgoals", "turning_angles"]
 
@@ -377,7 +379,7 @@ class _HybridPolicy:
         cap = self.o.v_factor * d.robot.max_speed
         if self.fctrl is not None and sp > cap:
             v = v * (cap / sp)
-        if sp * state.dt > 1e-9:
+        if sp * state.dt > 1e-9 * self.problem.length_scale:
             want = float(math.atan2(v[1], v[0]))
             if self.o.heading_rate > 0:
                 dth = (want - d.heading + math.pi) % (2 * math.pi) - math.pi
@@ -459,16 +461,20 @@ class Hybrid(Backend):
         Inflection-point tolerance :math:`\theta_{tol}` (degrees, ``[0, 180)``): a vertex of the
         global path is a sub-goal when the path turns there by more than this (step 4; see
         :func:`inflection_points`).
+    leader_rho_0 : float or None
+        Influence distance of the leader's local planner (x length_scale): replaces the
+        ``local_solver``'s ``rho_0``.  ``None`` keeps the local planner's own (``sa-apf-paper``:
+        20, eq 34); the paper's formation pilot (eq 41) uses 100.
     subgoal_spacing : float
         ``0`` (paper): the sub-goals are the inflection points and the goal.  ``> 0`` (an
         option beyond the paper): also split every leg between sub-goals into pieces no longer
-        than this (map units), see :func:`subgoals`.
+        than this (x length_scale), see :func:`subgoals`.
     dt : float
         Simulation time step (s), ``(0, 10]``.
     max_steps : int
         Step budget of the whole run (including follower settling).
     reach_tol : float
-        Distance (map units) at which an intermediate sub-goal counts as reached (step 6);
+        Distance (x length_scale) at which an intermediate sub-goal counts as reached (step 6);
         ``0`` means automatic, ``max(2 r, 2 v_max dt)`` with ``r``, ``v_max`` the robot's radius
         and speed.  The final goal uses the scenario's goal tolerance.
     stall_steps : int
@@ -488,7 +494,8 @@ class Hybrid(Backend):
         ``> 0`` (beyond the paper): the heading passed to the formation controller turns at
         most this fast (rad/s), so the slots swing round smoothly at sharp turns.
     settle_tol : float
-        A follower has settled when within ``settle_tol * L`` of its slot (``(0, 1]``).
+        A follower has settled when within ``settle_tol * L`` of its slot (``(0, 1]``; a
+        fraction of the formation distance ``L``, so it scales with the scene).
     stop_on_collision : bool
         Stop the simulation at the first contact (the result is then ``approximate``).
 
@@ -501,46 +508,43 @@ class Hybrid(Backend):
     """
 
     name: ClassVar[str] = "hybrid"
-    contract_problem: ClassVar[str] = "open-field"
-    contract_overrides: ClassVar[dict] = {"global_solver": "visgraph"}
 
-    global_solver: Any = "ipso"
-    local_solver: Any = "sa-apf-paper"
-    formation: Any = "leader-follower-paper"
-    angle_tol: float = 10.0
-    subgoal_spacing: float = 0.0
-    dt: float = 0.1
-    max_steps: int = 20000
-    reach_tol: float = 0.0
-    stall_steps: int = 300
-    skip_blocked: bool = True
-    settle_steps: int = 400
-    settle_tol: float = 0.1
-    v_factor: float = 0.75
-    heading_rate: float = 0.0
-    stop_on_collision: bool = True
+    global_solver: Any = option("ipso", kind="any")
+    local_solver: Any = option("sa-apf-paper", kind="any")
+    formation: Any = option("leader-follower-paper", kind="any")
+    leader_rho_0: float | None = option(None, lo=0.0, lo_open=True, scale=True)
+    angle_tol: float = option(10.0, lo=0.0, hi=180.0, hi_open=True)
+    subgoal_spacing: float = option(0.0, lo=0.0, scale=True)
+    dt: float = option(0.1, lo=0.0, hi=10.0, lo_open=True)
+    max_steps: int = option(20000, lo=1, hi=10_000_000)
+    reach_tol: float = option(0.0, lo=0.0, scale=True)
+    stall_steps: int = option(300, lo=0, hi=10_000_000)
+    skip_blocked: bool = option(True)
+    settle_steps: int = option(400, lo=0, hi=10_000_000)
+    settle_tol: float = option(0.1, lo=0.0, hi=1.0, lo_open=True)
+    v_factor: float = option(0.75, lo=0.0, hi=1.0, lo_open=True)
+    heading_rate: float = option(0.0, lo=0.0)
+    stop_on_collision: bool = option(True)
     _stages: dict[str, Any] = field(init=False, repr=False, compare=False, default=None)
 
-    def __post_init__(self) -> None:
-        check_range(self, "angle_tol", 0.0, 180.0, hi_open=True)
-        check_range(self, "subgoal_spacing", 0.0)
-        check_range(self, "dt", 0.0, 10.0, lo_open=True)
-        check_int(self, "max_steps", 1, 10_000_000)
-        check_range(self, "reach_tol", 0.0)
-        check_int(self, "stall_steps", 0, 10_000_000)
-        check_int(self, "settle_steps", 0, 10_000_000)
-        check_range(self, "settle_tol", 0.0, 1.0, lo_open=True)
-        check_range(self, "v_factor", 0.0, 1.0, lo_open=True)
-        check_range(self, "heading_rate", 0.0)
-        for k in ("skip_blocked", "stop_on_collision"):
-            if not isinstance(getattr(self, k), bool):
-                raise ValueError(f"option {k!r} of backend 'hybrid' must be true or false, "
-                                 f"got {getattr(self, k)!r}")
+    def check(self) -> None:
+        """Resolve the three stages (names of the wrong kind raise ``ValueError``) and check
+        that ``leader_rho_0`` can be applied to the local planner."""
+        local = resolve_stage(self.name, "local_solver", self.local_solver, LOCAL_PLANNER)
+        if self.leader_rho_0 is not None:
+            if not hasattr(local, "rho_0"):
+                raise ValueError(f"option 'leader_rho_0' of backend 'hybrid': the local planner "
+                                 f"{stage_name(self.local_solver)!r} has no option 'rho_0'")
+            prev = local
+            try:
+                local = dataclasses.replace(prev, rho_0=float(self.leader_rho_0))
+            except ValueError as e:
+                raise ValueError(f"option 'leader_rho_0' of backend 'hybrid': {e}") from None
+            object.__setattr__(local, "_preset", getattr(prev, "_preset", None))
         stages = {
             "global_solver": resolve_stage(self.name, "global_solver", self.global_solver,
                                            PATH_SOLVER),
-            "local_solver": resolve_stage(self.name, "local_solver", self.local_solver,
-                                          LOCAL_PLANNER),
+            "local_solver": local,
             "formation": (None if isinstance(self.formation, str) and self.formation == ""
                           else resolve_stage(self.name, "formation", self.formation,
                                              FORMATION_BACKEND)),
@@ -638,10 +642,12 @@ class Hybrid(Backend):
         rngs = rng.spawn(len(team.drivers))
         drivers = []
         for i, r in enumerate(team.drivers):
-            goals = subgoals(gpaths[r.id], r.goal, self.angle_tol, self.subgoal_spacing)
+            goals = subgoals(gpaths[r.id], r.goal, self.angle_tol,
+                             self.subgoal_spacing * problem.length_scale)
             ctrl = planner.controller(problem, r.id, rngs[i])
             ctrl.reset(goals[0].copy())
-            reach = self.reach_tol or max(2.0 * r.radius, 2.0 * r.max_speed * self.dt)
+            reach = (self.reach_tol * problem.length_scale
+                     or max(2.0 * r.radius, 2.0 * r.max_speed * self.dt))
             g = r.goal - r.start
             drivers.append(_Driver(team.ids.index(r.id), r, goals, ctrl, reach,
                                    problem.goal_tol(r), heading=float(math.atan2(g[1], g[0]))))

@@ -55,20 +55,20 @@ from optplan.backends.apf import (
     evaluate_field,
 )
 from optplan.interfaces import LocalPlanner
+from optplan.options import option
 from optplan.problem import Problem, Robot
 from optplan.sim import ObstacleField, SimState
-from optplan.solver import check_int, check_range
 
-__all__ = ["SAAPF", "SAAPFController", "K_B"]
+__all__ = ["SAAPF", "SAAPFController", "K_B", "K_B_PAPER"]
 
-#: Boltzmann constant used in the Metropolis test (dimensionless; see the module docstring).
+#: Default Boltzmann constant of the Metropolis test (dimensionless; module docstring).
 K_B = 1.0
+#: The paper's value (J/K): makes every uphill acceptance exactly 0 (option ``k_B``).
+K_B_PAPER = 1.380649e-23
 
 
 class SAAPFController(APFController):
     """APF with the improved potential, eq 38 detection and the SA escape (Fig. 12)."""
-
-    escapes_enabled: ClassVar[bool] = True
 
     def __init__(self, backend: SAAPF, problem: Problem, robot: Robot,
                  rng: np.random.Generator, params: FieldParams):
@@ -95,10 +95,12 @@ class SAAPFController(APFController):
         self._sa_reset()
 
     # -- SA pieces ------------------------------------------------------------------------
-    def _start_sa(self, xm: np.ndarray, x: np.ndarray, t: float, fld: ObstacleField) -> None:
+    def _start_sa(self, xm: np.ndarray, x: np.ndarray) -> None:
+        """Step 1: enter SA at the detected minimum ``xm`` (robot at ``x``), ``T = T_0``."""
         self.mode = "sa"
         self.x_lm = xm
-        u_att = 0.5 * self.params.k * float(np.sum((x - self.goal) ** 2))
+        g = (x - self.goal) / self.params.unit  # U_att in length units, as in the field
+        u_att = 0.5 * self.params.k * float(np.sum(g * g))
         self.T0 = self.sb.tau_0 * max(u_att, 1e-12)
         self.T = self.T0
         self.target = None
@@ -110,7 +112,7 @@ class SAAPFController(APFController):
         """Straight segments ``x -> cand`` keep ``margin`` clearance from sensed obstacles."""
         d = cands - x
         L = np.hypot(d[:, 0], d[:, 1])
-        h = max(0.5 * self.robot.radius, 1e-3)
+        h = max(0.5 * self.robot.radius, 1e-3 * self.params.unit)
         S = int(min(max(np.ceil(L.max() / h), 1), 400)) if len(L) else 1
         s = np.linspace(0.0, 1.0, S + 1)[1:]
         pts = x + s[None, :, None] * d[:, None, :]  # (m, S, 2)
@@ -122,7 +124,7 @@ class SAAPFController(APFController):
     def escaped(self, x: np.ndarray, t: float, fld: ObstacleField, l_step: float) -> bool:
         """Escape test: a greedy APF roll-out from ``x`` stays away from every known minimum."""
         r_same = 2 * l_step + self.robot.radius
-        M = max(1, int(math.ceil(self.sb.rollout / l_step)))
+        M = max(1, int(math.ceil(self.sb.rollout * self.params.unit / l_step)))
         p = x.copy()
         mins = np.asarray(self.minima) if self.minima else np.zeros((0, 2))
         tol = self.problem.goal_tol(self.robot)
@@ -145,7 +147,8 @@ class SAAPFController(APFController):
         m = sb.sa_batch
         # eq 14: scale of the perturbation for each of the next m proposals
         Ts = self.T * sb.theta ** np.arange(m)
-        scale = np.minimum(sb.sa_step * self.T0 / Ts, self.params.sense_range)
+        scale = np.minimum(sb.sa_step * self.params.unit * self.T0 / Ts,
+                           self.params.sense_range)
         dX = self.rng.uniform(-1.0, 1.0, size=(m, 2)) * scale[:, None]
         cand = x + dX
         u_rand = self.rng.random(m)
@@ -162,7 +165,7 @@ class SAAPFController(APFController):
             self.T *= sb.theta  # eq 16
             if not ok[j]:
                 continue
-            if dU[j] < 0 or u_rand[j] < math.exp(-dU[j] / (K_B * T)):  # eq 15 / step 3
+            if dU[j] < 0 or u_rand[j] < _boltzmann(dU[j], sb.k_B * T):  # eq 15 / step 3
                 return cand[j]
         return None
 
@@ -175,7 +178,7 @@ class SAAPFController(APFController):
         if self.target is not None:
             d = self.target - x
             dist = float(np.hypot(*d))
-            if dist <= 1e-9:
+            if dist <= 1e-9 * self.params.unit:
                 self.target = None
                 if self.escaped(x, t, fld, l_step):
                     self.stats["escapes"] += 1
@@ -186,7 +189,7 @@ class SAAPFController(APFController):
                     return step
             else:
                 step = d / dist * min(l_step, dist)
-                cl = evaluate_field((x + step)[None], self.goal, fld, t + 0.0, self.params)
+                cl = evaluate_field((x + step)[None], self.goal, fld, t, self.params)
                 if cl["clearance"][0] >= self.margin:
                     return step
                 self.target = None  # something (a moving obstacle) is in the way
@@ -226,8 +229,14 @@ class SAAPFController(APFController):
             return step
         xm = self._centroid(x)
         self._note_minimum(xm, reason, l_step)
-        self._start_sa(xm, x, state.t, state.field)
+        self._start_sa(xm, x)
         return self._sa_step(state, x, l_step, ev)
+
+
+def _boltzmann(dU: float, kT: float) -> float:
+    """Metropolis acceptance ``exp(-dU / kT)`` of an uphill move (0 when it underflows)."""
+    z = dU / kT
+    return 0.0 if z > 745.0 else math.exp(-z)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -236,22 +245,20 @@ class SAAPF(PotentialFieldBackend, LocalPlanner):
 
     Parameters
     ----------
-    k : float
-        Attraction gain (eq 4).  Paper: 15.
-    eta : float
-        Repulsion gain of the improved potential (eq 34).  Paper: 3.7.
-    rho_0 : float
-        Obstacle influence distance (eq 34), map units (clearance from the robot disc).
-        Paper: 20.
     n : float
         Goal-distance exponent of eq 34 (Table 1; ``n > 1`` makes the goal the global
         minimum).  Paper: 3.  ``n = 0`` gives the basic repulsion of eq 5.
     theta : float
         Cooling factor of eq 16, ``T <- theta T`` after every SA proposal.  Paper: [0.95, 0.99].
     tau_0 : float
-        Initial temperature ``T_0 = tau_0 * U_att(X_lm)`` (dimensionless; k_B = 1).
+        Initial temperature ``T_0 = tau_0 * U_att(X_lm)`` (dimensionless, potential measured
+        in length units).
+    k_B : float
+        Boltzmann constant of the Metropolis test (eq 15), in units of potential per unit of
+        ``T``.  Default 1 (dimensionless); the paper's 1.380649e-23 J/K makes every uphill
+        acceptance exactly 0, so SA becomes greedy descent (docs/solvers/apf.md).
     sa_step : float
-        Base perturbation half-width ``s`` of eq 14 (map units); widens as ``T_0 / T``.
+        Base perturbation half-width ``s`` of eq 14 (x length_scale); widens as ``T_0 / T``.
     sa_batch : int
         SA proposals evaluated per time step (thinking time; the robot moves at most ``l``).
     sa_budget : int
@@ -259,43 +266,30 @@ class SAAPF(PotentialFieldBackend, LocalPlanner):
     sa_restarts : int
         Re-heats (``T <- T_0``) allowed per escape when ``T < 1e-3 T_0``.
     rollout : float
-        Length (map units) of the greedy roll-out in the escape test.
+        Length of the greedy roll-out in the escape test (x length_scale).
     evade_factor : float
         Moving-obstacle safety step when a dynamic obstacle is closer than ``evade_factor * l``
-        (``0`` disables; see :meth:`~optplan.backends.apf.APFController.evade`).
-    l, dt, max_steps, rho_min, sense_range, window, stall_ratio, n_probe, detect_eq38, \
-patience, sense_robots
-        As for :class:`~optplan.backends.apf.APF` (``patience`` is unused: SA-APF escapes).
+        (``0`` disables; see :meth:`~optplan.backends.apf.APFController.evade`).  Default 2.
+    k, eta, rho_0, l, dt, max_steps, rho_min, sense_range, window, stall_ratio, n_probe, \
+detect_eq38, sense_robots
+        Shared options, see :class:`~optplan.backends.apf.PotentialFieldBackend`.
     """
 
     name: ClassVar[str] = "sa-apf"
-    contract_problem: ClassVar[str] = "trap-saddle"
-    contract_overrides: ClassVar[dict] = {"max_steps": 600}
-    n: float = 3.0
-    theta: float = 0.95
-    tau_0: float = 5.0
-    sa_step: float = 10.0
-    sa_batch: int = 8
-    sa_budget: int = 4000
-    sa_restarts: int = 10
-    rollout: float = 60.0
-    evade_factor: float = 2.0
-
-    def __post_init__(self) -> None:
-        self._check_common()
-        check_range(self, "n", 0.0, 10.0)
-        check_range(self, "theta", 0.0, 1.0, lo_open=True, hi_open=True)
-        check_range(self, "tau_0", 0.0, lo_open=True)
-        check_range(self, "sa_step", 0.0, lo_open=True)
-        check_int(self, "sa_batch", 1, 1000)
-        check_int(self, "sa_budget", 1, 10_000_000)
-        check_int(self, "sa_restarts", 0, 10_000)
-        check_range(self, "rollout", 0.0)
+    n: float = option(3.0, lo=0.0, hi=10.0)
+    theta: float = option(0.95, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    tau_0: float = option(5.0, lo=0.0, lo_open=True)
+    k_B: float = option(K_B, lo=0.0, lo_open=True)
+    sa_step: float = option(10.0, lo=0.0, lo_open=True, scale=True)
+    sa_batch: int = option(8, lo=1, hi=1000)
+    sa_budget: int = option(4000, lo=1, hi=10_000_000)
+    sa_restarts: int = option(10, lo=0, hi=10_000)
+    rollout: float = option(60.0, lo=0.0, scale=True)
+    evade_factor: float = option(2.0, lo=0.0, hi=100.0)
 
     def field_params(self, problem: Problem, robot: Robot) -> FieldParams:
         """The improved potential's parameters for ``robot`` (eq 34 with exponent ``n``)."""
-        return FieldParams(self.k, self.eta, self.rho_0, float(self.n), self.rho_min,
-                           robot.radius, self.sensing(problem, robot))
+        return self._params(problem, robot, self.eta, float(self.n))
 
     def controller(self, problem: Problem, robot_id: str, rng: np.random.Generator
                    ) -> SAAPFController:

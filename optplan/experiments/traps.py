@@ -88,14 +88,17 @@ def run(traps: tuple[str, ...] = TRAPS, solvers: tuple[str, ...] = SOLVERS, n_va
             for s in solvers:
                 t0 = time.perf_counter()
                 res: Result = solve(prob, s, rng=seed * 100_003 + k)
-                m = res.metrics
+                m, ex = res.metrics, res.extras
+                det = ex.get("detections", {})
                 rows.append({
                     "trap": trap, "variant": k, "solver": s, "status": res.status.value,
                     "success": res.success, "time_to_goal": m.get("time_to_goal", np.nan),
                     "ratio": m.get("ratio_to_optimum", np.nan),
-                    "minima": m.get("local_minima_detected", 0),
-                    "escapes": m.get("local_minima_escaped", 0),
-                    "sa_steps": m.get("sa_steps", 0), "collisions": m.get("collisions", 0),
+                    "minima": ex.get("local_minima_detected", 0),
+                    "eq38": det.get("eq38", 0),
+                    "stall_osc": det.get("stall", 0) + det.get("oscillation", 0),
+                    "escapes": ex.get("local_minima_escaped", 0),
+                    "sa_steps": ex.get("sa_steps", 0), "collisions": m.get("collisions", 0),
                     "wall": time.perf_counter() - t0, "message": res.message,
                 })
                 if progress:
@@ -120,6 +123,8 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
             "median_time_to_goal": _med([r["time_to_goal"] for r in ok]),
             "median_ratio": _med([r["ratio"] for r in ok]),
             "minima": int(sum(r["minima"] for r in rs)),
+            "eq38": int(sum(r["eq38"] for r in rs)),
+            "stall_osc": int(sum(r["stall_osc"] for r in rs)),
             "escapes": int(sum(r["escapes"] for r in rs)),
             "median_sa_steps": _med([r["sa_steps"] for r in rs]),
             "failed_collision": sum(r["status"] == "failed" for r in rs),
@@ -131,13 +136,15 @@ def summarize(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def format_table(summary: list[dict[str, Any]]) -> str:
     """Markdown table of :func:`summarize` output."""
     head = ("| trap | solver | success | median time to goal (s) | median length / optimum | "
-            "minima detected | escapes | median SA steps | collisions | median wall (ms) |")
+            "minima detected (eq 38 / stall or oscillation) | escapes | median SA steps | "
+            "collisions | median wall (ms) |")
     lines = [head, "|" + "---|" * 10]
     for r in summary:
         lines.append(
             f"| {r['trap']} | {r['solver']} | {r['solved']}/{r['runs']} "
             f"({100 * r['success_rate']:.0f} %) | {r['median_time_to_goal']:.1f} | "
-            f"{r['median_ratio']:.3f} | {r['minima']} | {r['escapes']} | "
+            f"{r['median_ratio']:.3f} | {r['minima']} ({r['eq38']} / {r['stall_osc']}) | "
+            f"{r['escapes']} | "
             f"{r['median_sa_steps']:.0f} | {r['failed_collision']} | {r['median_wall_ms']:.0f} |"
         )
     return "\n".join(lines)
