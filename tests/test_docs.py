@@ -7,7 +7,7 @@ Rules (documented in docs/index.md, "Docs that stay true"):
 * a block preceded by the line ``<!-- file: NAME -->`` (any language) is written to ``NAME`` in
   that directory before the page runs (e.g. the scenario a later block loads);
 * a ``console`` block preceded by ``<!-- run -->`` runs through the CLI: each line
-  ``$ optplan ARGS`` is passed to :func:`optplan.cli.main` (in the page's temporary directory,
+  ``$ optplan ARGS`` (or ``.venv/bin/optplan ARGS``) is passed to :func:`optplan.cli.main` (in the page's temporary directory,
   after the page's python blocks) and must exit with status 0 and print the lines that follow
   it, compared like a doctest (``...`` for what varies);
 * a block preceded by ``<!-- no-run -->`` is not run (use it only for fragments that cannot run
@@ -76,8 +76,9 @@ def console_commands(code: str) -> list[tuple[str, str]]:
     """``(command line, expected output)`` pairs of a console block (``$ `` prompts)."""
     out: list[tuple[str, list[str]]] = []
     for line in code.splitlines():
-        if line.startswith("$ "):
-            out.append((line[2:].strip(), []))
+        cmd = line[2:].strip() if line.startswith("$ ") else line.strip()
+        if line.startswith("$ ") or cmd.split(" ")[0].endswith("bin/optplan"):
+            out.append((cmd, []))
         elif out:
             out[-1][1].append(line)
     return [(cmd, "\n".join(lines).strip() + "\n" if lines else "") for cmd, lines in out]
@@ -88,7 +89,8 @@ def run_console(block: dict, page: Path, checker, flags) -> None:
 
     for cmd, want in console_commands(block["code"]):
         argv = shlex.split(cmd)
-        assert argv[0] == "optplan", f"{page.name}:{block['line']}: not an optplan command: {cmd}"
+        assert Path(argv[0]).name == "optplan", (
+            f"{page.name}:{block['line']}: not an optplan command: {cmd}")
         buf = io.StringIO()
         with contextlib.redirect_stdout(buf):
             rc = main(argv[1:])
