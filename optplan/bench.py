@@ -394,76 +394,118 @@ class _Slot:
         self.conn.close()
 
 
+def _dispatch(slots: Sequence[_Slot], queue: deque, tasks: Sequence[Task]) -> None:
+    """Send the next queued run to every idle worker that is ready."""
+    for s in slots:
+        if s.ready and s.task is None and queue:
+            i = queue.popleft()
+            s.conn.send((i, tasks[i]))
+            s.task, s.t0 = i, time.perf_counter()
+
+
+def _wait_timeout(slots: Sequence[_Slot], hard: float | None) -> float:
+    """How long to wait for a message: 0.5 s, or less when a run nears its hard limit."""
+    timeout = 0.5
+    if hard is not None:
+        now = time.perf_counter()
+        for s in slots:
+            if s.task is not None:
+                timeout = min(timeout, max(0.0, s.t0 + hard - now) + 0.01)
+    return timeout
+
+
+def _receive(s: _Slot, ready: Sequence[Any]) -> Any:
+    """The worker's message, or None when its process died."""
+    try:
+        if s.conn in ready or s.conn.poll():
+            return s.conn.recv()
+    except (EOFError, OSError):
+        pass
+    return None
+
+
+def _replace_dead(slots: list[_Slot], k: int, tasks: Sequence[Task], ctx: Any,
+                  init: Mapping[str, Any], record: Record) -> None:
+    """Worker ``k`` died: record its run as an error and start a new worker in its slot."""
+    s = slots[k]
+    s.kill()
+    code = s.proc.exitcode
+    if not s.ready:
+        raise RuntimeError(
+            f"a bench worker process exited during start-up (exit code "
+            f"{code}); workers are started with 'spawn', so a script that "
+            f"runs a sweep needs an  if __name__ == '__main__':  guard")
+    if s.task is not None:
+        p, sv, seed = tasks[s.task][:3]
+        record(s.task, _error_row(p, sv, seed, f"the worker process died "
+                                  f"(exit code {code})"), [], "")
+    slots[k] = _Slot(ctx, init)
+
+
+def _handle_message(s: _Slot, msg: Any, record: Record) -> None:
+    """Act on a message of a live worker: ready, a finished run, or a failed set-up."""
+    if msg[0] == "ready":
+        s.ready = True
+    elif msg[0] == "done":
+        _, i, row, trace, wid = msg
+        s.task = None
+        record(i, row, trace, wid)
+    elif msg[0] == "setup_error":
+        raise RuntimeError(f"a bench worker could not start: {msg[1]}")
+
+
+def _enforce_hard_limit(slots: list[_Slot], tasks: Sequence[Task], hard: float | None,
+                        ctx: Any, init: Mapping[str, Any], record: Record) -> None:
+    """Kill (and replace) every worker whose run is past the hard limit; record the runs."""
+    if hard is None:
+        return
+    now = time.perf_counter()
+    for k, s in enumerate(slots):
+        if s.task is not None and now - s.t0 > hard:
+            i, elapsed = s.task, now - s.t0
+            s.kill()
+            record(i, _limit_row(tasks[i], elapsed, "killed (worker process ended) "
+                                 "by the harness"), [], "")
+            slots[k] = _Slot(ctx, init)
+
+
+def _close_slots(slots: Sequence[_Slot], clean: bool) -> None:
+    """Stop every worker: politely (then killed if need be) after a clean sweep, else at once."""
+    for s in slots:
+        if clean:
+            try:
+                s.conn.send(None)
+            except OSError:
+                pass
+            s.proc.join(2.0)
+        s.kill()
+
+
 def _run_pool(todo: Sequence[int], tasks: Sequence[Task], workers: int, hard: float | None,
               init: Mapping[str, Any], record: Record) -> None:
+    """Runs on a pool of ``spawn`` worker processes, one run at a time per worker; a worker
+    that dies or overruns the hard limit is replaced."""
     ctx = multiprocessing.get_context("spawn")
     queue = deque(todo)
     slots = [_Slot(ctx, init) for _ in range(min(workers, len(todo)))]
     clean = False
     try:
         while queue or any(s.task is not None for s in slots):
-            for s in slots:
-                if s.ready and s.task is None and queue:
-                    i = queue.popleft()
-                    s.conn.send((i, tasks[i]))
-                    s.task, s.t0 = i, time.perf_counter()
-            timeout = 0.5
-            if hard is not None:
-                now = time.perf_counter()
-                for s in slots:
-                    if s.task is not None:
-                        timeout = min(timeout, max(0.0, s.t0 + hard - now) + 0.01)
+            _dispatch(slots, queue, tasks)
             ready = _mp_wait([s.conn for s in slots] + [s.proc.sentinel for s in slots],
-                             timeout)
+                             _wait_timeout(slots, hard))
             for k, s in enumerate(slots):
                 if s.conn not in ready and s.proc.sentinel not in ready:
                     continue
-                msg = None
-                try:
-                    if s.conn in ready or s.conn.poll():
-                        msg = s.conn.recv()
-                except (EOFError, OSError):
-                    msg = None
+                msg = _receive(s, ready)
                 if msg is None:  # the process died
-                    s.kill()
-                    code = s.proc.exitcode
-                    if not s.ready:
-                        raise RuntimeError(
-                            f"a bench worker process exited during start-up (exit code "
-                            f"{code}); workers are started with 'spawn', so a script that "
-                            f"runs a sweep needs an  if __name__ == '__main__':  guard")
-                    if s.task is not None:
-                        p, sv, seed = tasks[s.task][:3]
-                        record(s.task, _error_row(p, sv, seed, f"the worker process died "
-                                                  f"(exit code {code})"), [], "")
-                    slots[k] = _Slot(ctx, init)
-                elif msg[0] == "ready":
-                    s.ready = True
-                elif msg[0] == "done":
-                    _, i, row, trace, wid = msg
-                    s.task = None
-                    record(i, row, trace, wid)
-                elif msg[0] == "setup_error":
-                    raise RuntimeError(f"a bench worker could not start: {msg[1]}")
-            if hard is not None:
-                now = time.perf_counter()
-                for k, s in enumerate(slots):
-                    if s.task is not None and now - s.t0 > hard:
-                        i, elapsed = s.task, now - s.t0
-                        s.kill()
-                        record(i, _limit_row(tasks[i], elapsed, "killed (worker process ended) "
-                                             "by the harness"), [], "")
-                        slots[k] = _Slot(ctx, init)
+                    _replace_dead(slots, k, tasks, ctx, init, record)
+                else:
+                    _handle_message(s, msg, record)
+            _enforce_hard_limit(slots, tasks, hard, ctx, init, record)
         clean = True
     finally:
-        for s in slots:
-            if clean:
-                try:
-                    s.conn.send(None)
-                except OSError:
-                    pass
-                s.proc.join(2.0)
-            s.kill()
+        _close_slots(slots, clean)
 
 
 def _import_dask() -> Any:
@@ -532,6 +574,88 @@ def _kill(pids: Sequence[int]) -> None:
             pass
 
 
+class _DaskFeed:
+    """The queue of a Dask sweep: chunks in flight, the run times so far, chunk sizing."""
+
+    def __init__(self, client: Any, todo: Sequence[int], tasks: Sequence[Task],
+                 init: Mapping[str, Any], hard: float | None):
+        self.client, self.tasks, self.init, self.hard = client, tasks, init, hard
+        self.queue = deque(todo)
+        self.flying: dict[str, tuple[Any, list[int]]] = {}
+        self.done_times: list[float] = []
+        self.counter = 0
+        self.cache = {"t": -math.inf, "n": 1}
+        self.abandoned = False
+
+    def threads(self) -> int:
+        """Worker threads in the cluster (asked of the scheduler at most every 5 s)."""
+        if time.monotonic() - self.cache["t"] > 5.0:
+            self.cache["n"] = max(1, sum(int(n) for n in self.client.nthreads().values()))
+            self.cache["t"] = time.monotonic()
+        return int(self.cache["n"])
+
+    def _chunk_size(self, n_threads: int) -> int:
+        """Runs in the next chunk: about DASK_CHUNK_SECONDS of the median run time."""
+        size = 1
+        if self.done_times:
+            med = float(np.median(self.done_times[-200:]))
+            size = int(min(DASK_CHUNK_MAX, max(1, DASK_CHUNK_SECONDS // max(med, 1e-4))))
+        # near the end, leave something for every worker
+        return max(1, min(size, len(self.queue) // (2 * n_threads) or 1))
+
+    def submit(self, pipe: Any, n_threads: int) -> None:
+        """Send the next chunk of queued runs."""
+        size = self._chunk_size(n_threads)
+        idx = [self.queue.popleft() for _ in range(min(size, len(self.queue)))]
+        self.counter += 1
+        f = self.client.submit(_dask_chunk, [self.tasks[i] for i in idx], self.init, self.hard,
+                               pure=False, key=f"optplan-bench-{self.init['token']}-"
+                                               f"{self.counter}")
+        self.flying[f.key] = (f, idx)
+        pipe.add(f)
+
+    def fill(self, pipe: Any) -> None:
+        """Keep about two chunks in flight per worker thread."""
+        n_threads = self.threads()
+        while self.queue and len(self.flying) < 2 * n_threads:
+            self.submit(pipe, n_threads)
+
+    def collect(self, f: Any, record: Record) -> None:
+        """Record the runs of a finished chunk (error rows when the chunk itself failed)."""
+        _, idx = self.flying.pop(f.key)
+        try:
+            results = f.result()
+        except Exception as e:  # noqa: BLE001 - e.g. a worker lost three times: recorded
+            results = [(_error_row(*self.tasks[i][:3], f"{type(e).__name__}: {e}"), [], "")
+                       for i in idx]
+        f.release()
+        for i, (row, trace, wid) in zip(idx, results):
+            if math.isfinite(row["wall_time"]):
+                self.done_times.append(row["wall_time"])
+            self.abandoned = self.abandoned or row["status"] == "time_limit"
+            record(i, row, trace, wid)
+
+
+def _dask_shutdown(feed: _DaskFeed, cluster: Any, pids: Sequence[int], stop_now: bool) -> None:
+    """Cancel what is in flight, close the client and our own cluster, best effort.
+
+    Every finished run is stored by now: a slow or failing shutdown must not lose the sweep
+    (e.g. a TimeoutError closing a busy cluster on a loaded machine).
+    """
+    client, flying = feed.client, feed.flying
+    steps = [lambda: client.cancel([f for f, _ in flying.values()]) if flying else None,
+             lambda: client.close(timeout=5)]
+    if cluster is not None:
+        if stop_now:  # our own workers stop now, not after their runs
+            steps.append(lambda: _kill(pids))
+        steps.append(lambda: cluster.close(timeout=5))
+    for step in steps:
+        try:
+            step()
+        except Exception:  # noqa: BLE001 - best effort, after every run is recorded
+            pass
+
+
 def _run_dask(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
               init: Mapping[str, Any], record: Record, scheduler: str | None,
               dask_local: int | None) -> None:
@@ -544,77 +668,23 @@ def _run_dask(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
     """
     distributed = _import_dask()
     client, cluster = _dask_client(distributed, scheduler, dask_local)
-    queue = deque(todo)
-    flying: dict[str, tuple[Any, list[int]]] = {}
-    done_times: list[float] = []
-    counter = [0]
-
-    cache = {"t": -math.inf, "n": 1}
-
-    def threads() -> int:
-        """Worker threads in the cluster (asked of the scheduler at most every 5 s)."""
-        if time.monotonic() - cache["t"] > 5.0:
-            cache["n"] = max(1, sum(int(n) for n in client.nthreads().values()))
-            cache["t"] = time.monotonic()
-        return int(cache["n"])
-
-    def submit(pipe: Any, n_threads: int) -> None:
-        size = 1
-        if done_times:
-            med = float(np.median(done_times[-200:]))
-            size = int(min(DASK_CHUNK_MAX, max(1, DASK_CHUNK_SECONDS // max(med, 1e-4))))
-        # near the end, leave something for every worker
-        size = max(1, min(size, len(queue) // (2 * n_threads) or 1))
-        idx = [queue.popleft() for _ in range(min(size, len(queue)))]
-        counter[0] += 1
-        f = client.submit(_dask_chunk, [tasks[i] for i in idx], init, hard, pure=False,
-                          key=f"optplan-bench-{init['token']}-{counter[0]}")
-        flying[f.key] = (f, idx)
-        pipe.add(f)
-
+    feed = _DaskFeed(client, todo, tasks, init, hard)
     pids: list[int] = []
-    interrupted = abandoned = False
+    interrupted = False
     try:
         if cluster is not None:
             pids = list(client.run(os.getpid).values())
         client.run(_worker_setup, init)  # workers joining later set up on their first task
         pipe = distributed.as_completed()
-        n_threads = threads()
-        while queue and len(flying) < 2 * n_threads:
-            submit(pipe, n_threads)
+        feed.fill(pipe)
         for f in pipe:
-            _, idx = flying.pop(f.key)
-            try:
-                results = f.result()
-            except Exception as e:  # noqa: BLE001 - e.g. a worker lost three times
-                results = [(_error_row(*tasks[i][:3], f"{type(e).__name__}: {e}"), [], "")
-                           for i in idx]
-            f.release()
-            for i, (row, trace, wid) in zip(idx, results):
-                if math.isfinite(row["wall_time"]):
-                    done_times.append(row["wall_time"])
-                abandoned = abandoned or row["status"] == "time_limit"
-                record(i, row, trace, wid)
-            n_threads = threads()
-            while queue and len(flying) < 2 * n_threads:
-                submit(pipe, n_threads)
+            feed.collect(f, record)
+            feed.fill(pipe)
     except BaseException:
         interrupted = True
         raise
     finally:
-        # every finished run is stored by now: a slow or failing shutdown must not lose the
-        # sweep (e.g. a TimeoutError closing a busy cluster on a loaded machine)
-        steps = [lambda: client.cancel([f for f, _ in flying.values()]) if flying else None,
-                 lambda: client.close(timeout=5)]
-        if cluster is not None:
-            if interrupted or abandoned:  # our own workers stop now, not after their runs
-                steps.append(lambda: _kill(pids))
-            steps.append(lambda: cluster.close(timeout=5))
-        for step in steps:
-            try:
-                step()
-            except Exception:  # noqa: BLE001 - best effort
-                pass
+        _dask_shutdown(feed, cluster, pids, interrupted or feed.abandoned)
 
 
 def _check_inputs(problems: Sequence[str], solvers: Sequence[str],
@@ -635,6 +705,98 @@ def _check_inputs(problems: Sequence[str], solvers: Sequence[str],
 def _config(options: Mapping[str, Any], time_limit: float | None) -> str:
     """What a resumed sweep must match for one solver: its overrides and the time limit."""
     return _json({"overrides": dict(options), "time_limit": time_limit})
+
+
+def _check_grid_args(workers: Any, time_limit: Any, time_grace: Any, scheduler: str | None,
+                     dask_local: Any) -> bool:
+    """Validate the engine and time-limit arguments of :func:`run_grid`; True to use Dask."""
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
+    if time_limit is not None and (isinstance(time_limit, bool) or not isinstance(
+            time_limit, (int, float)) or not 0 < time_limit < math.inf):
+        raise ValueError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
+    if time_grace is not None and not 0 <= time_grace < math.inf:
+        raise ValueError(f"time_grace must be a number of seconds >= 0, got {time_grace!r}")
+    if dask_local is not None and (isinstance(dask_local, bool) or not isinstance(
+            dask_local, (int, np.integer)) or dask_local < 1):
+        raise ValueError(f"dask_local must be an integer >= 1, got {dask_local!r}")
+    use_dask = scheduler is not None or dask_local is not None
+    if scheduler is not None and dask_local is not None:
+        raise ValueError("give a Dask scheduler address or dask_local, not both")
+    if use_dask and workers != 1:
+        raise ValueError("workers sets the local process pool; on Dask the cluster's workers "
+                         "run the sweep (leave workers = 1)")
+    return use_dask
+
+
+def _hard_limit(time_limit: float | None, time_grace: float | None) -> float | None:
+    """Seconds after which the harness stops a run: ``time_limit`` plus the grace."""
+    if time_limit is None:
+        return None
+    return float(time_limit) + (max(1.0, 0.5 * time_limit) if time_grace is None
+                                else float(time_grace))
+
+
+def _resume(db: str | Path, done: Mapping[tuple, Any], tasks: Sequence[Task],
+            configs: Mapping[str, str], rows: list[dict[str, Any] | None]) -> list[int]:
+    """The task indices still to run given the finished cells ``done`` of the database;
+    fills ``rows`` with the stored rows; raises if a stored cell used other options."""
+    todo, clash = [], []
+    for i, t in enumerate(tasks):
+        hit = done.get(t[:3])
+        if hit is None:
+            todo.append(i)
+            continue
+        if hit[0] != configs[t[1]]:
+            clash.append((t, hit[0]))
+        rows[i] = {c: hit[1].get(c) for c in COLUMNS}
+    if clash:
+        (p, s, k, _, _), old = clash[0]
+        raise ValueError(
+            f"{db}: {len(clash)} stored run(s) were made with other options, e.g. "
+            f"{p} / {s} / seed {k} with {old}; this sweep asks for {configs[s]}. "
+            f"Use another database file (or the same options) to resume")
+    return todo
+
+
+def _engine_name(scheduler: str | None, dask_local: int | None, workers: int) -> str:
+    if scheduler:
+        return f"dask {scheduler}"
+    return f"dask-local {dask_local}" if dask_local else f"workers {workers}"
+
+
+def _open_db(db: str | Path, tasks: Sequence[Task], configs: Mapping[str, str],
+             rows: list[dict[str, Any] | None], spec: dict[str, Any],
+             command_line: str | None) -> tuple[Any, int, list[int]]:
+    """Open the results database, resume from it, begin the experiment: (store, id, todo)."""
+    from optplan.benchdb import ResultsDB, experiment_info
+
+    keys = [t[:3] for t in tasks]
+    if len(set(keys)) != len(keys):
+        raise ValueError("with a results database every (problem, solver, seed) must be "
+                         "unique: the problems, solvers or seeds repeat")
+    store = ResultsDB(db)
+    try:
+        todo = _resume(db, store.finished(), tasks, configs, rows)
+        total = len(tasks)
+        exp_id = store.begin_experiment(experiment_info(command_line, spec),
+                                        planned=total, skipped=total - len(todo))
+    except BaseException:
+        store.close()
+        raise
+    return store, exp_id, todo
+
+
+def _run_engine(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
+                init: Mapping[str, Any], record: Record, workers: int, use_dask: bool,
+                scheduler: str | None, dask_local: int | None) -> None:
+    """Run ``todo`` on the engine chosen: Dask, inline, or the process pool."""
+    if use_dask:
+        _run_dask(todo, tasks, hard, init, record, scheduler, dask_local)
+    elif workers == 1 or len(todo) == 1:
+        _run_inline(todo, tasks, hard, init, record)
+    else:
+        _run_pool(todo, tasks, int(workers), hard, init, record)
 
 
 def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Iterable[int],
@@ -690,22 +852,7 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
     problems = [str(p) for p in problems]
     solvers = [str(s) for s in solvers]
     seed_list = _seed_list(seeds)
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
-    if time_limit is not None and (isinstance(time_limit, bool) or not isinstance(
-            time_limit, (int, float)) or not 0 < time_limit < math.inf):
-        raise ValueError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
-    if time_grace is not None and not 0 <= time_grace < math.inf:
-        raise ValueError(f"time_grace must be a number of seconds >= 0, got {time_grace!r}")
-    if dask_local is not None and (isinstance(dask_local, bool) or not isinstance(
-            dask_local, (int, np.integer)) or dask_local < 1):
-        raise ValueError(f"dask_local must be an integer >= 1, got {dask_local!r}")
-    use_dask = scheduler is not None or dask_local is not None
-    if scheduler is not None and dask_local is not None:
-        raise ValueError("give a Dask scheduler address or dask_local, not both")
-    if use_dask and workers != 1:
-        raise ValueError("workers sets the local process pool; on Dask the cluster's workers "
-                         "run the sweep (leave workers = 1)")
+    use_dask = _check_grid_args(workers, time_limit, time_grace, scheduler, dask_local)
     _check_inputs(problems, solvers, overrides)
     if use_dask:
         _import_dask()
@@ -714,48 +861,16 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
                          for p in problems for s in solvers for k in seed_list]
     total = len(tasks)
     configs = {s: _config(options[s], time_limit) for s in solvers}
-    hard = None
-    if time_limit is not None:
-        hard = float(time_limit) + (max(1.0, 0.5 * time_limit) if time_grace is None
-                                    else float(time_grace))
+    hard = _hard_limit(time_limit, time_grace)
     rows: list[dict[str, Any] | None] = [None] * total
     todo = list(range(total))
     store, exp_id = None, 0
     if db is not None:
-        from optplan.benchdb import ResultsDB, experiment_info
-
-        keys = [t[:3] for t in tasks]
-        if len(set(keys)) != len(keys):
-            raise ValueError("with a results database every (problem, solver, seed) must be "
-                             "unique: the problems, solvers or seeds repeat")
-        store = ResultsDB(db)
-        try:
-            done = store.finished()
-            todo, clash = [], []
-            for i, t in enumerate(tasks):
-                hit = done.get(t[:3])
-                if hit is None:
-                    todo.append(i)
-                    continue
-                if hit[0] != configs[t[1]]:
-                    clash.append((t, hit[0]))
-                rows[i] = {c: hit[1].get(c) for c in COLUMNS}
-            if clash:
-                (p, s, k, _, _), old = clash[0]
-                raise ValueError(
-                    f"{db}: {len(clash)} stored run(s) were made with other options, e.g. "
-                    f"{p} / {s} / seed {k} with {old}; this sweep asks for {configs[s]}. "
-                    f"Use another database file (or the same options) to resume")
-            engine = (f"dask {scheduler}" if scheduler else f"dask-local {dask_local}"
-                      if dask_local else f"workers {workers}")
-            spec = {"problems": problems, "solvers": solvers, "seeds": seed_list,
-                    "overrides": {k: dict(v) for k, v in (overrides or {}).items()},
-                    "time_limit": time_limit, "engine": engine}
-            exp_id = store.begin_experiment(experiment_info(command_line, spec),
-                                            planned=total, skipped=total - len(todo))
-        except BaseException:
-            store.close()
-            raise
+        spec = {"problems": problems, "solvers": solvers, "seeds": seed_list,
+                "overrides": {k: dict(v) for k, v in (overrides or {}).items()},
+                "time_limit": time_limit,
+                "engine": _engine_name(scheduler, dask_local, workers)}
+        store, exp_id, todo = _open_db(db, tasks, configs, rows, spec, command_line)
     n_done = 0
 
     def record(i: int, row: dict[str, Any], trace: Trace, worker: str) -> None:
@@ -771,12 +886,8 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
     try:
         if todo:
             init = _worker_init(problems, solvers, options)
-            if use_dask:
-                _run_dask(todo, tasks, hard, init, record, scheduler, dask_local)
-            elif workers == 1 or len(todo) == 1:
-                _run_inline(todo, tasks, hard, init, record)
-            else:
-                _run_pool(todo, tasks, int(workers), hard, init, record)
+            _run_engine(todo, tasks, hard, init, record, workers, use_dask, scheduler,
+                        dask_local)
         outcome = "complete"
     except KeyboardInterrupt:
         outcome = "interrupted"

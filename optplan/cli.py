@@ -424,11 +424,20 @@ def _finite_points(v: Any, key: str, path: str, prob: Any) -> Any:
     return a
 
 
-def _check_result_for(res: Any, prob: Any, path: str) -> None:
-    """What ``plot_result`` / ``animate`` read: robot ids of ``prob``, resolvable coordinates,
-    finite non-decreasing times, and the metrics and extras they draw with the right types."""
+def _is_num(v: Any) -> bool:
     import numbers
 
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
+
+
+def _bad_metric(m: dict[str, Any], key: str, want: str, path: str) -> CLIError:
+    v = m[key]
+    return CLIError(f"{path}: metrics.{key}: expected {want}, got {type(v).__name__} "
+                    f"{str(v)[:40]!r}")
+
+
+def _check_paths_times(res: Any, prob: Any, path: str) -> None:
+    """Robot ids of ``prob`` with resolvable coordinates; finite non-decreasing times."""
     import numpy as np
 
     for rid, pts in res.paths.items():
@@ -440,46 +449,55 @@ def _check_result_for(res: Any, prob: Any, path: str) -> None:
         t = np.asarray(res.times, dtype=float)
         if not np.all(np.isfinite(t)) or np.any(np.diff(t) < 0):
             raise CLIError(f"{path}: times: expected finite, non-decreasing time stamps")
-    m = res.metrics
 
-    def bad(key: str, want: str) -> CLIError:
-        v = m[key]
-        return CLIError(f"{path}: metrics.{key}: expected {want}, got {type(v).__name__} "
-                        f"{str(v)[:40]!r}")
 
-    def is_num(v: Any) -> bool:
-        return isinstance(v, numbers.Real) and not isinstance(v, bool)
+def _check_metric_types(m: dict[str, Any], path: str) -> None:
+    """The scalar metrics the plots draw: numbers, counts, flags, the leader, per_robot."""
+    import numbers
 
     for key in ("length", "ratio_to_optimum", "optimum", "min_clearance"):
-        if m.get(key) is not None and not is_num(m[key]):
-            raise bad(key, "a number")
+        if m.get(key) is not None and not _is_num(m[key]):
+            raise _bad_metric(m, key, "a number", path)
     for key in ("collisions", "dynamic_contacts", "separation_violations", "static_collisions"):
         if m.get(key) is not None and not (isinstance(m[key], numbers.Integral)
                                            and not isinstance(m[key], bool) and m[key] >= 0):
-            raise bad(key, "a non-negative integer")
+            raise _bad_metric(m, key, "a non-negative integer", path)
     for key in ("in_bounds", "reached", "feasible"):
         if m.get(key) is not None and not isinstance(m[key], bool):
-            raise bad(key, "true or false")
+            raise _bad_metric(m, key, "true or false", path)
     if m.get("leader") is not None and not isinstance(m["leader"], str):
-        raise bad("leader", "a robot id string")
+        raise _bad_metric(m, "leader", "a robot id string", path)
     if m.get("per_robot") is not None and not (
             isinstance(m["per_robot"], dict)
             and all(isinstance(v, dict) for v in m["per_robot"].values())):
-        raise bad("per_robot", "an object robot id -> object")
+        raise _bad_metric(m, "per_robot", "an object robot id -> object", path)
+
+
+def _check_contacts(m: dict[str, Any], prob: Any, path: str) -> None:
+    """``first_contact`` and ``contacts``: objects with a numeric time, kind, other and an
+    optional finite position."""
     contacts = m.get("contacts")
     if contacts is not None and not isinstance(contacts, list):
-        raise bad("contacts", "a list")
+        raise _bad_metric(m, "contacts", "a list", path)
     named = [("first_contact", m.get("first_contact"))] + [
         (f"contacts[{k}]", c) for k, c in enumerate(contacts or [])]
     for key, c in named:
         if c is None:
             continue
-        if not isinstance(c, dict) or not is_num(c.get("time")) or not isinstance(
+        if not isinstance(c, dict) or not _is_num(c.get("time")) or not isinstance(
                 c.get("other", ""), str) or not isinstance(c.get("kind", ""), str):
             raise CLIError(f"{path}: metrics.{key}: expected an object with a numeric time, "
                            "'kind' and 'other'")
         if c.get("position") is not None:
             _finite_points([c["position"]], f"metrics.{key}.position", path, prob)
+
+
+def _check_result_for(res: Any, prob: Any, path: str) -> None:
+    """What ``plot_result`` / ``animate`` read: robot ids of ``prob``, resolvable coordinates,
+    finite non-decreasing times, and the metrics and extras they draw with the right types."""
+    _check_paths_times(res, prob, path)
+    _check_metric_types(res.metrics, path)
+    _check_contacts(res.metrics, prob, path)
     for key in ("global_path", "inflection_points"):
         if res.extras.get(key) is not None:
             _finite_points(res.extras[key], f"extras.{key}", path, prob)

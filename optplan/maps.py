@@ -644,6 +644,90 @@ def _points(v: Any, where: Any, key: str) -> np.ndarray:
     return a
 
 
+def _check_vector_args(where: str, grow: Any, simplify: Any, join: str, radius: Any) -> float:
+    """Validate the polygon-conversion arguments of :func:`import_map`; the radius."""
+    for key, v in (("grow", grow), ("simplify", simplify)):
+        x = _number(v, where, key)
+        if x < 0:
+            raise _err(where, key, f"must be >= 0 (cells), got {v!r}")
+        if x > 4:
+            raise _err(where, key, f"{v!r} cells is coarser than the map; use at most 4")
+    if simplify > 0 and grow == 0:
+        raise _err(where, "simplify", "needs grow > 0 (a simplified polygon without growth "
+                                      "cannot cover every cell); pass simplify=0")
+    if join not in ("round", "mitre"):
+        raise _err(where, "join", f"expected 'round' or 'mitre', got {join!r}")
+    r = _number(radius, where, "radius")
+    if r < 0:
+        raise _err(where, "radius", f"must be >= 0, got {radius!r}")
+    return r
+
+
+def _robot_ends(where: str, start: Any, goal: Any,
+                robot_id: str | Sequence[str] | None) -> tuple[np.ndarray, np.ndarray, list]:
+    """Starts, goals and robot ids of :func:`import_map` (one robot per start/goal pair)."""
+    starts, goals = _points(start, where, "start"), _points(goal, where, "goal")
+    if len(starts) != len(goals):
+        raise _err(where, "goal", f"{len(starts)} start(s) but {len(goals)} goal(s)")
+    if robot_id is None:
+        ids = ["r1"] if len(starts) == 1 else [f"r{k + 1}" for k in range(len(starts))]
+    else:
+        ids = [robot_id] if isinstance(robot_id, str) else list(robot_id)
+    if len(ids) != len(starts):
+        raise _err(where, "robot", f"{len(ids)} robot id(s) for {len(starts)} start(s)")
+    return starts, goals, ids
+
+
+def _check_ends_free(where: str, grid: Grid, mask: np.ndarray, starts: np.ndarray,
+                     goals: np.ndarray) -> None:
+    """Every start and goal lies in a free cell of the map (the radius check is the parser's
+    exact test)."""
+    for k in range(len(starts)):
+        for key, q in (("start", starts[k]), ("goal", goals[k])):
+            cell = grid.cell_of(q)
+            if cell is None:
+                raise _err(where, f"robots[{k}].{key}", f"{q.tolist()} lies outside the map "
+                                                         f"{list(grid.bounds)}")
+            if mask[cell]:
+                state = "unknown" if grid.cells[cell] == UNKNOWN else "occupied"
+                raise _err(where, f"robots[{k}].{key}",
+                           f"{q.tolist()} lies in an {state} cell (row {cell[0]}, column "
+                           f"{cell[1]}) of the map")
+
+
+def _map_obstacles(grid: Grid, polys: list, stem: str, unknown: str) -> list[dict]:
+    """Obstacle tables of the polygons, plus the unknown corners of a rotated map."""
+    obstacles = [_polygon_table(q, f"{stem}-{k}") for k, q in enumerate(polys)]
+    if grid.origin[2] != 0.0 and unknown == "occupied":
+        # the corners of the bounding box outside the rotated image are unknown
+        outside = box(*grid.bounds).difference(grid.outline)
+        obstacles += [_polygon_table(q, f"{stem}-outside-{k}") for k, q in
+                      enumerate(_polys(outside)) if q.area > 1e-12 * grid.outline.area]
+    return obstacles
+
+
+def _optional_keys(data: dict[str, Any], goal_tolerance: float | None,
+                   dynamic_obstacles: Sequence[dict], sensing_range: float | None) -> None:
+    """Add the optional scenario keys that were given."""
+    if goal_tolerance is not None:
+        data["goal_tolerance"] = goal_tolerance
+    if dynamic_obstacles:
+        data["dynamic_obstacles"] = [dict(d) for d in dynamic_obstacles]
+    if sensing_range is not None:
+        data["sensing"] = {"range": sensing_range}
+
+
+def _import_info(grid: Grid, stats: dict, polys: list, holes_filled: int,
+                 obstacles: list[dict]) -> dict[str, Any]:
+    """What ``import_map(info=...)`` receives."""
+    return dict(stats, polygons=len(polys), holes_filled=holes_filled,
+                vertices=sum(len(o["vertices"]) + sum(len(h) for h in o.get("holes", ()))
+                             for o in obstacles),
+                cells={"occupied": int(np.sum(grid.cells == OCCUPIED)),
+                       "unknown": int(np.sum(grid.cells == UNKNOWN)),
+                       "free": int(np.sum(grid.cells == FREE))})
+
+
 def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
                robot_id: str | Sequence[str] | None = None, max_speed: float = 1.0,
                resolution: float | None = None, origin: Sequence[float] | None = None,
@@ -705,42 +789,10 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
                  "free_thresh": free_thresh, "mode": mode}
         extra = {k: v for k, v in extra.items() if v is not None}
         grid = read_grid(p, resolution=resolution, origin=origin, **extra)
-    for key, v in (("grow", grow), ("simplify", simplify)):
-        x = _number(v, where, key)
-        if x < 0:
-            raise _err(where, key, f"must be >= 0 (cells), got {v!r}")
-        if x > 4:
-            raise _err(where, key, f"{v!r} cells is coarser than the map; use at most 4")
-    if simplify > 0 and grow == 0:
-        raise _err(where, "simplify", "needs grow > 0 (a simplified polygon without growth "
-                                      "cannot cover every cell); pass simplify=0")
-    if join not in ("round", "mitre"):
-        raise _err(where, "join", f"expected 'round' or 'mitre', got {join!r}")
-    r = _number(radius, where, "radius")
-    if r < 0:
-        raise _err(where, "radius", f"must be >= 0, got {radius!r}")
-    starts, goals = _points(start, where, "start"), _points(goal, where, "goal")
-    if len(starts) != len(goals):
-        raise _err(where, "goal", f"{len(starts)} start(s) but {len(goals)} goal(s)")
-    if robot_id is None:
-        ids = ["r1"] if len(starts) == 1 else [f"r{k + 1}" for k in range(len(starts))]
-    else:
-        ids = [robot_id] if isinstance(robot_id, str) else list(robot_id)
-    if len(ids) != len(starts):
-        raise _err(where, "robot", f"{len(ids)} robot id(s) for {len(starts)} start(s)")
-    # starts and goals: in a free cell (the radius check is the parser's exact test)
+    r = _check_vector_args(where, grow, simplify, join, radius)
+    starts, goals, ids = _robot_ends(where, start, goal, robot_id)
     mask = grid.obstacle_mask(unknown)
-    for k in range(len(starts)):
-        for key, q in (("start", starts[k]), ("goal", goals[k])):
-            cell = grid.cell_of(q)
-            if cell is None:
-                raise _err(where, f"robots[{k}].{key}", f"{q.tolist()} lies outside the map "
-                                                         f"{list(grid.bounds)}")
-            if mask[cell]:
-                state = "unknown" if grid.cells[cell] == UNKNOWN else "occupied"
-                raise _err(where, f"robots[{k}].{key}",
-                           f"{q.tolist()} lies in an {state} cell (row {cell[0]}, column "
-                           f"{cell[1]}) of the map")
+    _check_ends_free(where, grid, mask, starts, goals)
     stats: dict[str, Any] = {}
     polys = [_world(grid, q) for q in grid_polygons(mask, grow=grow, simplify=simplify,
                                                      join=join, stats=stats)]
@@ -749,12 +801,7 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
         polys, holes_filled = _fill_unreachable(polys, np.vstack([starts, goals]))
     stem = re.sub(r"[^A-Za-z0-9_.-]+", "-", p.stem) or "map"
     name = name or stem
-    obstacles = [_polygon_table(q, f"{stem}-{k}") for k, q in enumerate(polys)]
-    if grid.origin[2] != 0.0 and unknown == "occupied":
-        # the corners of the bounding box outside the rotated image are unknown
-        outside = box(*grid.bounds).difference(grid.outline)
-        obstacles += [_polygon_table(q, f"{stem}-outside-{k}") for k, q in
-                      enumerate(_polys(outside)) if q.area > 1e-12 * grid.outline.area]
+    obstacles = _map_obstacles(grid, polys, stem, unknown)
     res = grid.resolution
     data: dict[str, Any] = {
         "name": name,
@@ -768,20 +815,10 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
                     "radius": r, "max_speed": max_speed} for k in range(len(starts))],
         "obstacles": obstacles,
     }
-    if goal_tolerance is not None:
-        data["goal_tolerance"] = goal_tolerance
-    if dynamic_obstacles:
-        data["dynamic_obstacles"] = [dict(d) for d in dynamic_obstacles]
-    if sensing_range is not None:
-        data["sensing"] = {"range": sensing_range}
+    _optional_keys(data, goal_tolerance, dynamic_obstacles, sensing_range)
     prob = parse_problem(data, where)
     if info is not None:
-        info.update(stats, polygons=len(polys), holes_filled=holes_filled,
-                    vertices=sum(len(o["vertices"]) + sum(len(h) for h in o.get("holes", ()))
-                                 for o in obstacles),
-                    cells={"occupied": int(np.sum(grid.cells == OCCUPIED)),
-                           "unknown": int(np.sum(grid.cells == UNKNOWN)),
-                           "free": int(np.sum(grid.cells == FREE))})
+        info.update(_import_info(grid, stats, polys, holes_filled, obstacles))
     return prob
 
 

@@ -832,12 +832,8 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
         raise ctx.err("<root>", "values nested too deeply") from None
 
 
-def _parse(ctx: _Ctx, data: dict) -> Problem:
-    where = ctx.where
-    ctx.check_keys(data, _TOP_KEYS, "")
-    name = ctx.string(data, "name", "")
-    description = ctx.string(data, "description", "", "")
-    source = ctx.string(data, "source", "", "")
+def _parse_bounds(ctx: _Ctx, data: dict) -> tuple[tuple[float, ...], Any]:
+    """The ``bounds`` key: (xmin, ymin, xmax, ymax) and the map's :class:`Frame`."""
     b = ctx.require(data, "bounds", "")
     if not isinstance(b, list) or len(b) != 4:
         raise ctx.err("bounds", f"expected [xmin, ymin, xmax, ymax], got {_show(b)}")
@@ -854,62 +850,63 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
         frame = Frame.from_bounds(bounds)
     except ValueError as e:
         raise ctx.err("bounds", str(e)) from None
-    diag = frame.length
+    return bounds, frame
+
+
+def _parse_robot(ctx: _Ctx, r: Any, i: int, robots: list[Robot], diag: float) -> Robot:
+    """One ``[[robots]]`` table (``goal`` may be None: checked later, see
+    :func:`_check_goals`)."""
     diag_s = f"the bounds diagonal {diag:.6g}"
+    pre = f"robots[{i}]."
+    if not isinstance(r, dict):
+        raise ctx.err(f"robots[{i}]", f"expected a table, got {_show(r)}")
+    ctx.check_keys(r, _ROBOT_KEYS, pre)
+    rid = ctx.require(r, "id", pre)
+    if not isinstance(rid, str) or not rid:
+        raise ctx.err(f"{pre}id", f"expected a non-empty string, got {_show(rid)}")
+    if rid in {x.id for x in robots}:
+        raise ctx.err(f"{pre}id", f"duplicate robot id {rid!r}")
+    start = ctx.point(ctx.require(r, "start", pre), f"{pre}start")
+    goal = ctx.point(r["goal"], f"{pre}goal") if "goal" in r else None
+    radius = ctx.number(ctx.require(r, "radius", pre), f"{pre}radius", nonneg=True,
+                        hi=diag, hi_what=diag_s)
+    vmax = ctx.number(r.get("max_speed", 1.0), f"{pre}max_speed", positive=True,
+                      hi=MAX_REL_SPEED * diag,
+                      hi_what=f"{MAX_REL_SPEED:g} x {diag_s} per second")
+    if vmax < MIN_REL_SPEED * diag:
+        raise ctx.err(f"{pre}max_speed", f"must be >= {MIN_REL_SPEED * diag:.6g} "
+                      f"({MIN_REL_SPEED:g} x {diag_s} per second: crossing the map may "
+                      f"take at most {1 / MIN_REL_SPEED:g} s), got {vmax:.6g}"
+                      + (" (the default)" if "max_speed" not in r else ""))
+    return Robot(rid, start, goal, radius, vmax)
 
-    for key in ("obstacles", "dynamic_obstacles", "robots"):
-        if key in data and not isinstance(data[key], list):
-            raise ctx.err(key, f"expected an array of tables: write [[{key}]] for each entry")
-    obstacles = tuple(_parse_obstacle(ctx, o, i) for i, o in enumerate(data.get("obstacles", [])))
-    dyn = tuple(_parse_dynamic(ctx, o, i, frame)
-                for i, o in enumerate(data.get("dynamic_obstacles", [])))
 
+def _parse_robots(ctx: _Ctx, data: dict, diag: float) -> list[Robot]:
+    """The ``[[robots]]`` tables (at least one)."""
     raw_robots = ctx.require(data, "robots", "")
     if not isinstance(raw_robots, list) or not raw_robots:
         raise ctx.err("robots", "expected at least one [[robots]] table")
     robots: list[Robot] = []
-    no_goal: list[int] = []
     for i, r in enumerate(raw_robots):
-        pre = f"robots[{i}]."
-        if not isinstance(r, dict):
-            raise ctx.err(f"robots[{i}]", f"expected a table, got {_show(r)}")
-        ctx.check_keys(r, _ROBOT_KEYS, pre)
-        rid = ctx.require(r, "id", pre)
-        if not isinstance(rid, str) or not rid:
-            raise ctx.err(f"{pre}id", f"expected a non-empty string, got {_show(rid)}")
-        if rid in {x.id for x in robots}:
-            raise ctx.err(f"{pre}id", f"duplicate robot id {rid!r}")
-        start = ctx.point(ctx.require(r, "start", pre), f"{pre}start")
-        goal = None
-        if "goal" in r:
-            goal = ctx.point(r["goal"], f"{pre}goal")
-        else:
-            no_goal.append(i)
-        radius = ctx.number(ctx.require(r, "radius", pre), f"{pre}radius", nonneg=True,
-                            hi=diag, hi_what=diag_s)
-        vmax = ctx.number(r.get("max_speed", 1.0), f"{pre}max_speed", positive=True,
-                          hi=MAX_REL_SPEED * diag,
-                          hi_what=f"{MAX_REL_SPEED:g} x {diag_s} per second")
-        if vmax < MIN_REL_SPEED * diag:
-            raise ctx.err(f"{pre}max_speed", f"must be >= {MIN_REL_SPEED * diag:.6g} "
-                          f"({MIN_REL_SPEED:g} x {diag_s} per second: crossing the map may "
-                          f"take at most {1 / MIN_REL_SPEED:g} s), got {vmax:.6g}"
-                          + (" (the default)" if "max_speed" not in r else ""))
-        robots.append(Robot(rid, start, goal, radius, vmax))
+        robots.append(_parse_robot(ctx, r, i, robots, diag))
+    return robots
 
-    formation = None
-    if "formation" in data:
-        formation = _parse_formation(ctx, data["formation"], robots, diag)
-    # every robot but a formation follower needs a goal (checked after the formation, so a
-    # broken formation is reported as such, not as a follower's missing goal)
+
+def _check_goals(ctx: _Ctx, robots: list[Robot], formation: Formation | None) -> None:
+    """Every robot but a formation follower needs a goal (checked after the formation, so a
+    broken formation is reported as such, not as a follower's missing goal)."""
     followers = {f.id for f in formation.followers} if formation else set()
-    for i in no_goal:
-        if robots[i].id not in followers:
-            why = (f"robot {robots[i].id!r} is not a formation follower" if formation else
+    for i, r in enumerate(robots):
+        if r.goal is None and r.id not in followers:
+            why = (f"robot {r.id!r} is not a formation follower" if formation else
                    "only formation followers may omit it")
             raise ctx.err(f"robots[{i}].goal", f"missing required key ({why})")
 
-    # periodic dynamic obstacles: not faster than the validator can follow (MIN_REL_PERIOD)
+
+def _check_periods(ctx: _Ctx, dyn: tuple[DynamicObstacle, ...], robots: list[Robot],
+                   diag: float) -> None:
+    """Periodic dynamic obstacles: not faster than the validator can follow
+    (:data:`MIN_REL_PERIOD`)."""
     slow = min(robots, key=lambda r: r.max_speed)
     t_cross = diag / slow.max_speed
     for i, d in enumerate(dyn):
@@ -921,14 +918,23 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
                           f"is shorter than {MIN_REL_PERIOD:g} x the {t_cross:.6g} s robot "
                           f"{slow.id!r} needs to cross the map (bounds diagonal / its max_speed)")
 
-    sensing = None
-    if "sensing" in data:
-        st = data["sensing"]
-        if not isinstance(st, dict):
-            raise ctx.err("sensing", f"expected a table, got {_show(st)}")
-        ctx.check_keys(st, _SENS_KEYS, "sensing.")
-        sensing = ctx.number(ctx.require(st, "range", "sensing."), "sensing.range", positive=True,
-                             hi=MAX_REL_SPEED * diag, hi_what=f"{MAX_REL_SPEED:g} x {diag_s}")
+
+def _parse_sensing(ctx: _Ctx, data: dict, diag: float) -> float | None:
+    """The ``[sensing]`` table: its range, or None."""
+    if "sensing" not in data:
+        return None
+    st = data["sensing"]
+    if not isinstance(st, dict):
+        raise ctx.err("sensing", f"expected a table, got {_show(st)}")
+    ctx.check_keys(st, _SENS_KEYS, "sensing.")
+    return ctx.number(ctx.require(st, "range", "sensing."), "sensing.range", positive=True,
+                      hi=MAX_REL_SPEED * diag,
+                      hi_what=f"{MAX_REL_SPEED:g} x the bounds diagonal {diag:.6g}")
+
+
+def _parse_lengths(ctx: _Ctx, data: dict, diag: float) -> tuple[float | None, float | None]:
+    """The ``goal_tolerance`` and ``length_scale`` keys (None when absent)."""
+    diag_s = f"the bounds diagonal {diag:.6g}"
     gtol = None
     if "goal_tolerance" in data:
         gtol = ctx.number(data["goal_tolerance"], "goal_tolerance", positive=True, hi=diag,
@@ -940,34 +946,30 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
         if lscale < 1e-6 * diag:
             raise ctx.err("length_scale", f"must be >= {1e-6 * diag:.6g} (1e-6 x {diag_s}), "
                           f"got {lscale:.6g}")
+    return gtol, lscale
+
+
+def _parse_tags(ctx: _Ctx, data: dict) -> tuple[str, ...]:
+    """The ``tags`` key: a list of strings."""
     tags = data.get("tags", [])
     if not isinstance(tags, list):
         raise ctx.err("tags", f"expected a list of strings, got {_show(tags)}")
     for k, t in enumerate(tags):
         if not isinstance(t, str):
             raise ctx.err(f"tags[{k}]", f"expected a string, got {_show(t)}")
+    return tuple(tags)
 
-    prob = Problem(
-        name=name, bounds=bounds, robots=tuple(robots), obstacles=obstacles,
-        dynamic_obstacles=dyn, formation=formation, sensing_range=sensing,
-        goal_tolerance=gtol, scale=lscale, description=description, source=source,
-        tags=tuple(tags),
-        path=where if where != "<problem>" else None,
-    )
-    prob._cache["frame"] = frame
-    # obstacles reaching into the working region must be resolvable in the map's frame
-    margin = max(r.radius for r in robots) + frame.length
-    raw_obst = data.get("obstacles", [])
-    for i, o in enumerate(obstacles):
-        _check_extent(ctx, frame, o, _extent_key(raw_obst[i], i), margin)
-    # starts and goals: inside the bounds and clear of every static obstacle (exact test)
-    for i, r in enumerate(robots):
+
+def _check_ends(ctx: _Ctx, prob: Problem) -> None:
+    """Starts and goals: inside the bounds and clear of every static obstacle (exact test)."""
+    frame = prob.frame
+    for i, r in enumerate(prob.robots):
         for key, p in (("start", r.start), ("goal", r.goal)):
             if p is None:
                 continue
             if not frame.in_bounds(p)[0]:
                 raise ctx.err(f"robots[{i}].{key}",
-                              f"{p.tolist()} lies outside the bounds {list(bounds)}")
+                              f"{p.tolist()} lies outside the bounds {list(prob.bounds)}")
             try:
                 hit = prob.blocking_obstacle(p, r.radius)
             except ValueError as e:  # the core's precision checks (normally caught above)
@@ -976,7 +978,48 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
                 how = (f"inflated by the robot radius {r.radius:g}" if r.radius > 0
                        else "(a point robot, radius 0)")
                 raise ctx.err(f"robots[{i}].{key}", f"{p.tolist()} lies inside obstacle "
-                              f"{obstacles[hit].name!r} (obstacles[{hit}]) {how}")
+                              f"{prob.obstacles[hit].name!r} (obstacles[{hit}]) {how}")
+
+
+def _parse(ctx: _Ctx, data: dict) -> Problem:
+    """Parse a scenario table, one parser per key or table, in the order the errors are
+    reported."""
+    where = ctx.where
+    ctx.check_keys(data, _TOP_KEYS, "")
+    name = ctx.string(data, "name", "")
+    description = ctx.string(data, "description", "", "")
+    source = ctx.string(data, "source", "", "")
+    bounds, frame = _parse_bounds(ctx, data)
+    diag = frame.length
+    for key in ("obstacles", "dynamic_obstacles", "robots"):
+        if key in data and not isinstance(data[key], list):
+            raise ctx.err(key, f"expected an array of tables: write [[{key}]] for each entry")
+    obstacles = tuple(_parse_obstacle(ctx, o, i) for i, o in enumerate(data.get("obstacles", [])))
+    dyn = tuple(_parse_dynamic(ctx, o, i, frame)
+                for i, o in enumerate(data.get("dynamic_obstacles", [])))
+    robots = _parse_robots(ctx, data, diag)
+    formation = None
+    if "formation" in data:
+        formation = _parse_formation(ctx, data["formation"], robots, diag)
+    _check_goals(ctx, robots, formation)
+    _check_periods(ctx, dyn, robots, diag)
+    sensing = _parse_sensing(ctx, data, diag)
+    gtol, lscale = _parse_lengths(ctx, data, diag)
+    tags = _parse_tags(ctx, data)
+    prob = Problem(
+        name=name, bounds=bounds, robots=tuple(robots), obstacles=obstacles,
+        dynamic_obstacles=dyn, formation=formation, sensing_range=sensing,
+        goal_tolerance=gtol, scale=lscale, description=description, source=source,
+        tags=tags,
+        path=where if where != "<problem>" else None,
+    )
+    prob._cache["frame"] = frame
+    # obstacles reaching into the working region must be resolvable in the map's frame
+    margin = max(r.radius for r in robots) + frame.length
+    raw_obst = data.get("obstacles", [])
+    for i, o in enumerate(obstacles):
+        _check_extent(ctx, frame, o, _extent_key(raw_obst[i], i), margin)
+    _check_ends(ctx, prob)
     return prob
 
 
@@ -1019,9 +1062,52 @@ def ring_points(ring) -> list[list[float]]:
     return [[float(x), float(y)] for x, y in list(ring.coords)[:-1]]
 
 
-def problem_to_dict(problem: Problem) -> dict[str, Any]:
-    """The scenario table of ``problem``: what :func:`parse_problem` reads back into an equal
-    problem (every key of the TOML format it uses; numbers as Python floats)."""
+def _robot_to_dict(r: Robot) -> dict[str, Any]:
+    """The ``[[robots]]`` table of ``r``."""
+    t: dict[str, Any] = {"id": r.id, "start": [float(v) for v in r.start]}
+    if r.goal is not None:
+        t["goal"] = [float(v) for v in r.goal]
+    t["radius"] = float(r.radius)
+    t["max_speed"] = float(r.max_speed)
+    return t
+
+
+def _obstacle_to_dict(o: Obstacle) -> dict[str, Any]:
+    """The ``[[obstacles]]`` table of ``o``."""
+    t: dict[str, Any] = {"type": o.kind, "name": o.name}
+    if o.is_circle:
+        t["center"] = [float(v) for v in o.center]
+        t["radius"] = float(o.radius)
+    elif o.kind == "rectangle":
+        x0, y0, x1, y1 = o.geometry.bounds
+        t["min"], t["max"] = [x0, y0], [x1, y1]
+    else:
+        t["vertices"] = ring_points(o.geometry.exterior)
+        if o.geometry.interiors:
+            t["holes"] = [ring_points(h) for h in o.geometry.interiors]
+    if not o.known:
+        t["known"] = False
+    return t
+
+
+def _dynamic_to_dict(d: DynamicObstacle) -> dict[str, Any]:
+    """The ``[[dynamic_obstacles]]`` table of ``d``."""
+    t: dict[str, Any] = {"type": d.kind, "name": d.name}
+    if d.kind == "circle":
+        t["radius"] = float(d.radius)
+    else:
+        t["vertices"] = ring_points(d.local_geometry.exterior)
+    t["waypoints"] = [[float(x), float(y)] for x, y in d.waypoints]
+    t["times"] = [float(x) for x in d.times]
+    if d.velocity is not None:
+        t["velocity"] = [float(v) for v in d.velocity]
+    else:
+        t["after"] = d.after
+    return t
+
+
+def _header_to_dict(problem: Problem) -> dict[str, Any]:
+    """The top-level keys of ``problem``'s scenario table (before ``[formation]``)."""
     out: dict[str, Any] = {"name": problem.name}
     if problem.description:
         out["description"] = problem.description
@@ -1036,53 +1122,24 @@ def problem_to_dict(problem: Problem) -> dict[str, Any]:
         out["length_scale"] = float(problem.scale)
     if problem.sensing_range is not None:
         out["sensing"] = {"range": float(problem.sensing_range)}
+    return out
+
+
+def problem_to_dict(problem: Problem) -> dict[str, Any]:
+    """The scenario table of ``problem``: what :func:`parse_problem` reads back into an equal
+    problem (every key of the TOML format it uses; numbers as Python floats)."""
+    out = _header_to_dict(problem)
     if problem.formation is not None:
         f = problem.formation
         out["formation"] = {
             "leader": f.leader, "safety_distance": float(f.safety_distance),
             "followers": [{"id": x.id, "L": float(x.L), "phi": float(x.phi)}
                           for x in f.followers]}
-    robots = []
-    for r in problem.robots:
-        t: dict[str, Any] = {"id": r.id, "start": [float(v) for v in r.start]}
-        if r.goal is not None:
-            t["goal"] = [float(v) for v in r.goal]
-        t["radius"] = float(r.radius)
-        t["max_speed"] = float(r.max_speed)
-        robots.append(t)
-    out["robots"] = robots
-    obstacles = []
-    for o in problem.obstacles:
-        t = {"type": o.kind, "name": o.name}
-        if o.is_circle:
-            t["center"] = [float(v) for v in o.center]
-            t["radius"] = float(o.radius)
-        elif o.kind == "rectangle":
-            x0, y0, x1, y1 = o.geometry.bounds
-            t["min"], t["max"] = [x0, y0], [x1, y1]
-        else:
-            t["vertices"] = ring_points(o.geometry.exterior)
-            if o.geometry.interiors:
-                t["holes"] = [ring_points(h) for h in o.geometry.interiors]
-        if not o.known:
-            t["known"] = False
-        obstacles.append(t)
+    out["robots"] = [_robot_to_dict(r) for r in problem.robots]
+    obstacles = [_obstacle_to_dict(o) for o in problem.obstacles]
     if obstacles:
         out["obstacles"] = obstacles
-    dyn = []
-    for d in problem.dynamic_obstacles:
-        t = {"type": d.kind, "name": d.name}
-        if d.kind == "circle":
-            t["radius"] = float(d.radius)
-        else:
-            t["vertices"] = ring_points(d.local_geometry.exterior)
-        t["waypoints"] = [[float(x), float(y)] for x, y in d.waypoints]
-        t["times"] = [float(x) for x in d.times]
-        if d.velocity is not None:
-            t["velocity"] = [float(v) for v in d.velocity]
-        else:
-            t["after"] = d.after
-        dyn.append(t)
+    dyn = [_dynamic_to_dict(d) for d in problem.dynamic_obstacles]
     if dyn:
         out["dynamic_obstacles"] = dyn
     return out

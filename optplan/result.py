@@ -252,12 +252,11 @@ _NUMERIC_METRICS = ("length", "optimum", "ratio_to_optimum", "min_clearance",
                     "formation_rmse", "reference_time")
 
 
-def _check_result_dict(d: Any, where: str) -> dict[str, Any]:
-    """Validate the layout of a result dict (schema version, keys, types, shapes, lengths)."""
+_Err = Callable[[str, str], "ResultFileError"]
 
-    def err(key: str, msg: str) -> ResultFileError:
-        return ResultFileError(f"{where}: {key}: {msg}")
 
+def _check_header(d: Any, err: _Err) -> None:
+    """A JSON object of a readable schema, the required keys, a known status, string keys."""
     if not isinstance(d, dict):
         raise err("<root>", f"expected a JSON object, got {type(d).__name__}")
     schema = d.get("schema", SCHEMA_VERSION)
@@ -273,7 +272,10 @@ def _check_result_dict(d: Any, where: str) -> dict[str, Any]:
     for key in ("solver", "backend", "problem", "message", "stop_reason"):
         if key in d and not isinstance(d[key], str):
             raise err(key, f"expected a string, got {type(d[key]).__name__}")
-    paths = d["paths"]
+
+
+def _check_paths(paths: Any, err: _Err) -> set[int]:
+    """A non-empty object robot id -> finite ``(n, 2)`` points; the set of the ``n``."""
     if not isinstance(paths, dict) or not paths:
         raise err("paths", "expected a non-empty object robot id -> list of [x, y]")
     n_pts = set()
@@ -287,15 +289,24 @@ def _check_result_dict(d: Any, where: str) -> dict[str, Any]:
         if not np.all(np.isfinite(a)):
             raise err(f"paths.{rid}", "non-finite coordinates")
         n_pts.add(len(a))
-    times = d.get("times")
-    if times is not None:
-        try:
-            t = np.asarray(times, dtype=float)
-        except (TypeError, ValueError):
-            raise err("times", "expected a list of numbers") from None
-        if t.ndim != 1 or n_pts != {len(t)}:
-            raise err("times", f"expected one time stamp per path point ({sorted(n_pts)}), got "
-                      f"shape {t.shape}")
+    return n_pts
+
+
+def _check_times(times: Any, n_pts: set[int], err: _Err) -> None:
+    """None, or one number per path point."""
+    if times is None:
+        return
+    try:
+        t = np.asarray(times, dtype=float)
+    except (TypeError, ValueError):
+        raise err("times", "expected a list of numbers") from None
+    if t.ndim != 1 or n_pts != {len(t)}:
+        raise err("times", f"expected one time stamp per path point ({sorted(n_pts)}), got "
+                  f"shape {t.shape}")
+
+
+def _check_containers(d: dict, err: _Err) -> None:
+    """Objects where objects belong, counts, and the wall time."""
     if d.get("scenario") is not None and not isinstance(d["scenario"], dict):
         raise err("scenario", f"expected an object (a scenario table), got "
                   f"{type(d['scenario']).__name__}")
@@ -310,17 +321,36 @@ def _check_result_dict(d: Any, where: str) -> dict[str, Any]:
     if isinstance(wt, bool) or not isinstance(wt, (int, float)) or not (0 <= wt < math.inf):
         raise err("wall_time", f"expected a finite number of seconds >= 0, got {wt!r}")
 
-    def number_like(v: Any) -> bool:  # a JSON number, or the strings NaN / inf are stored as
-        return (not isinstance(v, bool) and isinstance(v, (int, float))) or v in _NONFINITE
 
-    if "cost" in d and d["cost"] is not None and not number_like(d["cost"]):
+def _number_like(v: Any) -> bool:
+    """A JSON number, or one of the strings NaN / inf are stored as."""
+    return (not isinstance(v, bool) and isinstance(v, (int, float))) or v in _NONFINITE
+
+
+def _check_numbers(d: dict, err: _Err) -> None:
+    """The cost, the numeric metrics and the seed."""
+    if "cost" in d and d["cost"] is not None and not _number_like(d["cost"]):
         raise err("cost", f"expected a number, got {d['cost']!r}")
-    for k, v in (d.get("metrics") or {}).items() if isinstance(d.get("metrics"), dict) else ():
-        if k in _NUMERIC_METRICS and not number_like(v):
+    metrics = d.get("metrics")
+    for k, v in (metrics.items() if isinstance(metrics, dict) else ()):
+        if k in _NUMERIC_METRICS and not _number_like(v):
             raise err(f"metrics.{k}", f"expected a number, got {v!r}")
     if "seed" in d and d["seed"] is not None and (isinstance(d["seed"], bool)
                                                   or not isinstance(d["seed"], int)):
         raise err("seed", f"expected an integer or null, got {d['seed']!r}")
+
+
+def _check_result_dict(d: Any, where: str) -> dict[str, Any]:
+    """Validate the layout of a result dict (schema version, keys, types, shapes, lengths)."""
+
+    def err(key: str, msg: str) -> ResultFileError:
+        return ResultFileError(f"{where}: {key}: {msg}")
+
+    _check_header(d, err)
+    n_pts = _check_paths(d["paths"], err)
+    _check_times(d.get("times"), n_pts, err)
+    _check_containers(d, err)
+    _check_numbers(d, err)
     hist = d.get("history", {})
     lens = {len(v) for v in hist.values() if isinstance(v, list)}
     if any(not isinstance(v, list) for v in hist.values()) or len(lens) > 1:

@@ -283,6 +283,251 @@ class _Stream:
         self.checked = 0
 
 
+class _Search:
+    """State of one A* search over the tangent graph (see :func:`shortest_path`).
+
+    Nodes are arrival states ``(circle, sense, arrival angle, g, pred, seg)``; the successors
+    of an expanded node form one :class:`_Stream` sorted by ``f``, consumed lazily.
+    """
+
+    def __init__(self, oset: ObstacleSet, C: Circles, zs: complex, zg: complex,
+                 restrict_to_bounds: bool, info: dict):
+        self.oset, self.C, self.zs, self.zg = oset, C, zs, zg
+        self.fr = oset.frame
+        self.eps = self.fr.eps
+        self.restrict = restrict_to_bounds
+        self.info = info
+        self.arcs = _ArcChecker(oset, C)
+        self.box = self.fr.local_bounds
+        self.n = C.n
+        self.cen, self.rho, self.lo, self.width, self.full = (C.center, C.rho, C.lo, C.width,
+                                                              C.full)
+        self.nodes: list[tuple] = []
+        self.closed: set = set()
+        self.expanded: dict = {}  # (circle, sense) -> list of (theta, g)
+        self.heap: list = []
+        self.streams: list[_Stream] = []
+        self.all_j = np.arange(self.n)
+        self.senses = np.array([1, -1])
+
+    def in_box(self, z):
+        """Whether local points ``z`` (complex) lie inside the bounds (up to eps)."""
+        x0, y0, x1, y1 = self.box
+        eps = self.eps
+        return ((z.real >= x0 - eps) & (z.real <= x1 + eps) & (z.imag >= y0 - eps)
+                & (z.imag <= y1 + eps))
+
+    def cone_off(self, k, th):
+        """Offset of angle ``th`` from the cone start of circle(s) ``k``, or nan outside."""
+        full, width = self.full, self.width
+        off = np.mod(th - self.lo[k], TWO_PI)
+        off = np.where(off > TWO_PI - ANGLE_TOL, 0.0, off)  # just below lo: on the boundary
+        ok = full[k] | (off <= width[k] + ANGLE_TOL)
+        return np.where(ok, np.minimum(off, np.where(full[k], off, width[k])), np.nan)
+
+    def _candidates(self, i: int, si: int, ci: complex, ri: float):
+        """Tangents from circle ``i`` (sense ``si``; ``i < 0``: the start point) to every
+        other circle with both senses and to the goal.
+
+        Returns ``jj, sj, dd, delta, nl, pj, th_arr`` (target circle, its sense, centre
+        distance, radius difference, tangent normal, arrival point and angle) for the
+        geometrically possible tangents (``|c_j - c_i| > |delta|``).
+        """
+        n = self.n
+        jj = np.concatenate([np.repeat(self.all_j, 2), [-2]])
+        sj = np.concatenate([np.tile(self.senses, n), [1]])
+        cj = np.concatenate([np.repeat(self.cen, 2), [self.zg]])
+        rj = np.concatenate([np.repeat(self.rho, 2), [0.0]])
+        if i >= 0:
+            keep = jj != i
+            jj, sj, cj, rj = jj[keep], sj[keep], cj[keep], rj[keep]
+        D = cj - ci
+        dd = np.abs(D)
+        delta = sj * rj - (si * ri if i >= 0 else 0.0)
+        ok = dd > np.abs(delta) + self.eps * 1e-3
+        jj, sj, cj, rj, D, dd, delta = (x[ok] for x in (jj, sj, cj, rj, D, dd, delta))
+        beta = np.angle(D) + np.arccos(np.clip(delta / dd, -1.0, 1.0))
+        nl = np.exp(1j * beta)
+        pj = cj - sj * rj * nl
+        th_arr = np.angle(-sj * nl)
+        return jj, sj, dd, delta, nl, pj, th_arr
+
+    def _departures(self, i: int, si: int, th_a: float, ci: complex, ri: float, nl):
+        """Departure points on circle ``i``, their angles, the arc swept from the arrival
+        angle ``th_a`` and whether that arc stays in the cone: ``pi, th_d, sweep, ok``."""
+        m = len(nl)
+        if i < 0:
+            return np.full(m, ci), np.zeros(m), np.zeros(m), np.ones(m, bool)
+        pi = ci - si * ri * nl
+        th_d = np.angle(-si * nl)
+        # departure point in the cone of circle i and the arc from th_a to th_d inside it
+        od = self.cone_off(np.full(len(th_d), i), th_d)
+        if self.full[i]:
+            sweep = np.mod((th_d - th_a) * si, TWO_PI)
+            sweep = np.where(sweep > TWO_PI - ANGLE_TOL, 0.0, sweep)
+        else:
+            oa = float(self.cone_off(np.array([i]), np.array([th_a]))[0])
+            sweep = (od - oa) * si
+            sweep = np.where((sweep < 0) & (sweep > -ANGLE_TOL), 0.0, sweep)
+        ok = np.isfinite(od) & (sweep >= 0)
+        return pi, th_d, sweep, ok
+
+    def expand(self, node_id: int) -> None:
+        """Generate the successors of node ``node_id`` as a new stream."""
+        i, si, th_a, g0 = self.nodes[node_id][:4]
+        self.info["n_expanded"] += 1
+        if i < 0:  # the start: a point
+            ci, ri = self.zs, 0.0
+        else:
+            ci, ri = self.cen[i], self.rho[i]
+        jj, sj, dd, delta, nl, pj, th_arr = self._candidates(i, si, ci, ri)
+        pi, th_d, sweep, ok = self._departures(i, si, th_a, ci, ri, nl)
+        # arrival point in the cone of circle j (the goal has none)
+        isg = jj < 0
+        kj = np.where(isg, 0, jj)
+        if self.n:
+            ok &= isg | np.isfinite(self.cone_off(kj, th_arr))
+        if self.restrict:
+            ok &= self.in_box(pj) & (self.in_box(pi) if i >= 0 else True)
+        seg = np.sqrt(np.maximum(dd * dd - delta * delta, 0.0))
+        g = g0 + ri * sweep + seg
+        f = g + np.abs(pj - self.zg)
+        sel = np.flatnonzero(ok)
+        self.info["n_generated"] += int(sel.size)
+        if sel.size == 0:
+            return
+        st = _Stream(node_id, f[sel], g[sel], jj[sel], sj[sel], pi[sel], pj[sel], th_d[sel],
+                     th_arr[sel], sweep[sel])
+        self.streams.append(st)
+        heapq.heappush(self.heap, (float(st.f[0]), len(self.streams) - 1))
+
+    def check(self, st: _Stream, k: int) -> bool:
+        """Exact checks of candidate ``k`` of ``st`` (and a batch after it)."""
+        if st.ok[k] == 0:
+            b = min(len(st.f), k + max(8, st.checked))
+            idx = np.arange(k, b)
+            idx = idx[st.ok[idx] == 0]
+            self.info["n_checked"] += len(idx)
+            pi_w = self.fr.world(np.stack([st.pi[idx].real, st.pi[idx].imag], axis=1))
+            pj_w = self.fr.world(np.stack([st.pj[idx].real, st.pj[idx].imag], axis=1))
+            free = self.oset.segment_free(pi_w, pj_w)
+            i, si, th_a = self.nodes[st.node][:3]
+            if i >= 0 and self.rho[i] > 0:
+                m = free & (st.sweep[idx] > 0)
+                if m.any():
+                    free[m] = self.arcs.free(i, np.full(int(m.sum()), th_a),
+                                             st.sweep[idx][m], si)
+            st.ok[idx] = np.where(free, 1, -1)
+            st.checked += len(idx)
+        return st.ok[k] == 1
+
+    def dominated(self, j: int, sj: int, th: float, g: float) -> bool:
+        """Whether an expanded arrival on circle ``j`` (sense ``sj``) reaches angle ``th``
+        along a free arc at cost <= ``g``."""
+        lst = self.expanded.get((j, sj))
+        if not lst:
+            return False
+        rho = self.rho
+        th_e = np.array([x[0] for x in lst])
+        g_e = np.array([x[1] for x in lst])
+        if self.full[j]:
+            sw = np.mod((th - th_e) * sj, TWO_PI)
+        else:
+            o_new = self.cone_off(np.array([j]), np.array([th]))[0]
+            o_e = self.cone_off(np.full(len(th_e), j), th_e)
+            sw = (o_new - o_e) * sj
+        cand = (sw >= 0) & (g_e + rho[j] * sw <= g + 1e-12 * max(1.0, g))
+        if not cand.any():
+            return False
+        if rho[j] == 0:
+            return True
+        idx = np.flatnonzero(cand)
+        return bool(self.arcs.free(j, th_e[idx], sw[idx], sj).any())
+
+    def _stopped(self, stop: Callable[[], bool] | None) -> bool:
+        """Poll ``stop`` every 64 expansions."""
+        n_exp = self.info["n_expanded"]
+        return stop is not None and n_exp % 64 == 0 and bool(n_exp) and bool(stop())
+
+    def _pop(self) -> tuple[_Stream, int]:
+        """The cheapest open candidate: (stream, index); its stream's next one goes back."""
+        f0, sid = heapq.heappop(self.heap)
+        st = self.streams[sid]
+        k = st.pos
+        st.pos += 1
+        if st.pos < len(st.f):
+            heapq.heappush(self.heap, (float(st.f[st.pos]), sid))
+        return st, k
+
+    def run(self, stop: Callable[[], bool] | None) -> int | None:
+        """A* from the start; the goal's node index, None when unreachable.  Raises
+        :class:`_Stopped` when ``stop`` asks."""
+        self.nodes.append((-1, 1, 0.0, 0.0, -1, None))
+        self.expand(0)
+        while self.heap:
+            if self._stopped(stop):
+                raise _Stopped
+            st, k = self._pop()
+            j, sj = int(st.j[k]), int(st.sj[k])
+            i, si = self.nodes[st.node][:2]
+            key = (i, si, j, sj) if j >= 0 else (i, si, -2, 0)
+            if key in self.closed or not self.check(st, k):
+                continue
+            self.closed.add(key)
+            g = float(st.g[k])
+            # arrival angle: direction from the centre to the tangent point (for a point
+            # circle the direction it would have for an infinitesimal radius)
+            th = float(st.th_a[k])
+            self.nodes.append((j, sj, th, g, st.node, (st.pi[k], st.pj[k], float(st.th_d[k]),
+                                                       float(st.sweep[k]))))
+            if j < 0:
+                return len(self.nodes) - 1
+            if self.dominated(j, sj, th, g):
+                continue
+            self.expanded.setdefault((j, sj), []).append((th, g))
+            self.expand(len(self.nodes) - 1)
+        return None
+
+    def polyline(self, goal_node: int, arc_step: float):
+        """Local-frame points of the path ending at ``goal_node`` (arcs as circumscribed
+        polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``."""
+        chain = []
+        k = goal_node
+        while k > 0:
+            chain.append(self.nodes[k])
+            k = self.nodes[k][4]
+        chain.reverse()
+        cen, rho = self.cen, self.rho
+        pts = [self.zs]
+        wps = []
+        for idx, nd in enumerate(chain):
+            pi_, pj_, th_d, sweep = nd[5]
+            if idx > 0:
+                prev = chain[idx - 1]
+                i, si, th_a = prev[0], prev[1], prev[2]
+                if rho[i] > 0 and sweep > 0:
+                    pts.extend(arc_polyline(cen[i], rho[i], th_a, sweep * si, arc_step)[1:-1])
+                wps.append((cen[i], float(rho[i]), th_a, sweep, si))
+                pts.append(pi_)
+            pts.append(pj_)
+        return np.array(pts), wps
+
+
+class _Stopped(Exception):
+    """The ``stop`` callback of :func:`shortest_path` ended the search."""
+
+
+def _endpoint_problem(oset: ObstacleSet, start, goal) -> str | None:
+    """Why start or goal cannot be a centre of the disc (too close to an obstacle), or None."""
+    r, eps = oset.radius, oset.frame.eps
+    for key, p in (("start", start), ("goal", goal)):
+        c = float(oset.point_distances(np.asarray(p, float)[None])[0])
+        if c < r - eps:
+            return (f"{key} {np.asarray(p).tolist()} lies within {r:g} of an "
+                    f"obstacle (distance {c:.6g})")
+    return None
+
+
 def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = False,
                   circles: Circles | None = None, arc_step: float = math.pi / 36,
                   stop: Callable[[], bool] | None = None) -> TangentPath:
@@ -309,207 +554,31 @@ def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = 
     TangentPath
     """
     fr = oset.frame
-    eps = fr.eps
-    r = oset.radius
     s_loc = fr.local(np.asarray(start, float))
     g_loc = fr.local(np.asarray(goal, float))
     zs, zg = complex(s_loc[0], s_loc[1]), complex(g_loc[0], g_loc[1])
     C = circles_of(oset) if circles is None else circles
     info = {"n_circles": C.n, "n_expanded": 0, "n_generated": 0, "n_checked": 0,
             "bounds_active": False, "certified": False}
-    for key, p in (("start", start), ("goal", goal)):
-        c = float(oset.point_distances(np.asarray(p, float)[None])[0])
-        if c < r - eps:
-            info["reason"] = (f"{key} {np.asarray(p).tolist()} lies within {r:g} of an "
-                              f"obstacle (distance {c:.6g})")
-            return TangentPath(math.inf, None, [], info)
-    if abs(zg - zs) <= eps:  # start = goal: the empty path
+    why = _endpoint_problem(oset, start, goal)
+    if why is not None:
+        info["reason"] = why
+        return TangentPath(math.inf, None, [], info)
+    if abs(zg - zs) <= fr.eps:  # start = goal: the empty path
         poly = np.vstack([np.asarray(start, float), np.asarray(goal, float)])
         return TangentPath(0.0, poly, [], info)
-    arcs = _ArcChecker(oset, C)
-    x0, y0, x1, y1 = fr.local_bounds
-    n = C.n
-    cen, rho, lo, width, full = C.center, C.rho, C.lo, C.width, C.full
-
-    def in_box(z):
-        return ((z.real >= x0 - eps) & (z.real <= x1 + eps) & (z.imag >= y0 - eps)
-                & (z.imag <= y1 + eps))
-
-    def cone_off(k, th):
-        """Offset of angle ``th`` from the cone start of circle(s) ``k``, or nan outside."""
-        off = np.mod(th - lo[k], TWO_PI)
-        off = np.where(off > TWO_PI - ANGLE_TOL, 0.0, off)  # just below lo: on the boundary
-        ok = full[k] | (off <= width[k] + ANGLE_TOL)
-        return np.where(ok, np.minimum(off, np.where(full[k], off, width[k])), np.nan)
-
-    # nodes: arrival states.  node = (circle, sense, arrival angle, g, pred, seg)
-    nodes: list[tuple] = []
-    closed: set = set()
-    expanded: dict = {}  # (circle, sense) -> list of (theta, g)
-    heap: list = []
-    streams: list[_Stream] = []
-    all_j = np.arange(n)
-    senses = np.array([1, -1])
-
-    def expand(node_id: int) -> None:
-        i, si, th_a, g0 = nodes[node_id][:4]
-        info["n_expanded"] += 1
-        if i < 0:  # the start: a point
-            ci, ri = zs, 0.0
-        else:
-            ci, ri = cen[i], rho[i]
-        # candidates: every circle with both senses, plus the goal
-        jj = np.concatenate([np.repeat(all_j, 2), [-2]])
-        sj = np.concatenate([np.tile(senses, n), [1]])
-        cj = np.concatenate([np.repeat(cen, 2), [zg]])
-        rj = np.concatenate([np.repeat(rho, 2), [0.0]])
-        if i >= 0:
-            keep = jj != i
-            jj, sj, cj, rj = jj[keep], sj[keep], cj[keep], rj[keep]
-        D = cj - ci
-        dd = np.abs(D)
-        delta = sj * rj - (si * ri if i >= 0 else 0.0)
-        ok = dd > np.abs(delta) + eps * 1e-3
-        jj, sj, cj, rj, D, dd, delta = (x[ok] for x in (jj, sj, cj, rj, D, dd, delta))
-        beta = np.angle(D) + np.arccos(np.clip(delta / dd, -1.0, 1.0))
-        nl = np.exp(1j * beta)
-        pj = cj - sj * rj * nl
-        th_arr = np.angle(-sj * nl)
-        if i >= 0:
-            pi = ci - si * ri * nl
-            th_d = np.angle(-si * nl)
-            # departure point in the cone of circle i and the arc from th_a to th_d inside it
-            od = cone_off(np.full(len(th_d), i), th_d)
-            if full[i]:
-                sweep = np.mod((th_d - th_a) * si, TWO_PI)
-                sweep = np.where(sweep > TWO_PI - ANGLE_TOL, 0.0, sweep)
-            else:
-                oa = float(cone_off(np.array([i]), np.array([th_a]))[0])
-                sweep = (od - oa) * si
-                sweep = np.where((sweep < 0) & (sweep > -ANGLE_TOL), 0.0, sweep)
-            ok = np.isfinite(od) & (sweep >= 0)
-        else:
-            pi = np.full(len(jj), ci)
-            th_d = np.zeros(len(jj))
-            sweep = np.zeros(len(jj))
-            ok = np.ones(len(jj), bool)
-        # arrival point in the cone of circle j (the goal has none)
-        isg = jj < 0
-        kj = np.where(isg, 0, jj)
-        if n:
-            ok &= isg | np.isfinite(cone_off(kj, th_arr))
-        if restrict_to_bounds:
-            ok &= in_box(pj) & (in_box(pi) if i >= 0 else True)
-        seg = np.sqrt(np.maximum(dd * dd - delta * delta, 0.0))
-        g = g0 + ri * sweep + seg
-        f = g + np.abs(pj - zg)
-        sel = np.flatnonzero(ok)
-        info["n_generated"] += int(sel.size)
-        if sel.size == 0:
-            return
-        st = _Stream(node_id, f[sel], g[sel], jj[sel], sj[sel], pi[sel], pj[sel], th_d[sel],
-                     th_arr[sel], sweep[sel])
-        streams.append(st)
-        heapq.heappush(heap, (float(st.f[0]), len(streams) - 1))
-
-    def check(st: _Stream, k: int) -> bool:
-        """Exact checks of candidate ``k`` of ``st`` (and a batch after it)."""
-        if st.ok[k] == 0:
-            b = min(len(st.f), k + max(8, st.checked))
-            idx = np.arange(k, b)
-            idx = idx[st.ok[idx] == 0]
-            info["n_checked"] += len(idx)
-            pi_w = fr.world(np.stack([st.pi[idx].real, st.pi[idx].imag], axis=1))
-            pj_w = fr.world(np.stack([st.pj[idx].real, st.pj[idx].imag], axis=1))
-            free = oset.segment_free(pi_w, pj_w)
-            i, si, th_a = nodes[st.node][:3]
-            if i >= 0 and rho[i] > 0:
-                m = free & (st.sweep[idx] > 0)
-                if m.any():
-                    free[m] = arcs.free(i, np.full(int(m.sum()), th_a), st.sweep[idx][m], si)
-            st.ok[idx] = np.where(free, 1, -1)
-            st.checked += len(idx)
-        return st.ok[k] == 1
-
-    def dominated(j: int, sj: int, th: float, g: float) -> bool:
-        lst = expanded.get((j, sj))
-        if not lst:
-            return False
-        th_e = np.array([x[0] for x in lst])
-        g_e = np.array([x[1] for x in lst])
-        if full[j]:
-            sw = np.mod((th - th_e) * sj, TWO_PI)
-        else:
-            o_new = cone_off(np.array([j]), np.array([th]))[0]
-            o_e = cone_off(np.full(len(th_e), j), th_e)
-            sw = (o_new - o_e) * sj
-        cand = (sw >= 0) & (g_e + rho[j] * sw <= g + 1e-12 * max(1.0, g))
-        if not cand.any():
-            return False
-        if rho[j] == 0:
-            return True
-        idx = np.flatnonzero(cand)
-        return bool(arcs.free(j, th_e[idx], sw[idx], sj).any())
-
-    nodes.append((-1, 1, 0.0, 0.0, -1, None))
-    expand(0)
-    goal_node = None
-    while heap:
-        if stop is not None and info["n_expanded"] % 64 == 0 and info["n_expanded"] and stop():
-            info["reason"] = "stopped before the search finished"
-            info["stopped"] = True
-            return TangentPath(math.inf, None, [], info)
-        f0, sid = heapq.heappop(heap)
-        st = streams[sid]
-        k = st.pos
-        st.pos += 1
-        if st.pos < len(st.f):
-            heapq.heappush(heap, (float(st.f[st.pos]), sid))
-        j, sj = int(st.j[k]), int(st.sj[k])
-        i, si = nodes[st.node][:2]
-        key = (i, si, j, sj) if j >= 0 else (i, si, -2, 0)
-        if key in closed:
-            continue
-        if not check(st, k):
-            continue
-        closed.add(key)
-        g = float(st.g[k])
-        # arrival angle: direction from the centre to the tangent point (for a point circle
-        # the direction it would have for an infinitesimal radius)
-        th = float(st.th_a[k])
-        nodes.append((j, sj, th, g, st.node, (st.pi[k], st.pj[k], float(st.th_d[k]),
-                                             float(st.sweep[k]))))
-        if j < 0:
-            goal_node = len(nodes) - 1
-            break
-        if dominated(j, sj, th, g):
-            continue
-        expanded.setdefault((j, sj), []).append((th, g))
-        expand(len(nodes) - 1)
+    search = _Search(oset, C, zs, zg, restrict_to_bounds, info)
+    try:
+        goal_node = search.run(stop)
+    except _Stopped:
+        info["reason"] = "stopped before the search finished"
+        info["stopped"] = True
+        return TangentPath(math.inf, None, [], info)
     if goal_node is None:
         info["reason"] = "the goal is not reachable from the start"
         return TangentPath(math.inf, None, [], info)
-    # reconstruct
-    chain = []
-    k = goal_node
-    while k > 0:
-        chain.append(nodes[k])
-        k = nodes[k][4]
-    chain.reverse()
-    length = float(nodes[goal_node][3])
-    pts = [zs]
-    wps = []
-    for idx, nd in enumerate(chain):
-        pi_, pj_, th_d, sweep = nd[5]
-        if idx > 0:
-            prev = chain[idx - 1]
-            i, si, th_a = prev[0], prev[1], prev[2]
-            if rho[i] > 0 and sweep > 0:
-                pts.extend(arc_polyline(cen[i], rho[i], th_a, sweep * si, arc_step)[1:-1])
-            wps.append((cen[i], float(rho[i]), th_a, sweep, si))
-            pts.append(pi_)
-        pts.append(pj_)
-    z = np.array(pts)
+    length = float(search.nodes[goal_node][3])
+    z, wps = search.polyline(goal_node, arc_step)
     poly = fr.world(np.stack([z.real, z.imag], axis=1))
     keep = np.r_[True, np.any(np.diff(poly, axis=0) != 0, axis=1)]
     poly = poly[keep]
