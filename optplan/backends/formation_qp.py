@@ -98,7 +98,7 @@ from optplan.interfaces import FormationBackend
 from optplan.problem import Problem
 from optplan.result import Result
 from optplan.sim import SimState
-from optplan.solver import check_int, check_range, make_rng
+from optplan.solver import make_rng, option
 
 __all__ = ["FormationQP", "QPData", "QPLayout", "QPModel", "QPSolver", "QPSolution",
            "QPStepRecord", "QPFormationController", "qp_summary"]
@@ -597,6 +597,7 @@ class _Geometry:
     edges: np.ndarray  # (F, 2)
     near: np.ndarray | None = None  # sensed nearest obstacle points (n, n_obs, 2)
     dist: np.ndarray | None = None  # and distances (n, n_obs)
+    xc_map: np.ndarray | None = None  # the controlled robots in map units (sensing)
 
 
 @dataclass
@@ -636,6 +637,8 @@ class QPFormationController:
         if problem.formation is None:
             raise ValueError(f"problem {problem.name!r} has no [formation]")
         self.problem, self.o = problem, opts
+        #: the QP's length unit (problem.length_scale): lengths are divided by it
+        self.ell = float(problem.length_scale)
         self.form = problem.formation
         self.spec = {f.id: f for f in self.form.followers}
         self.solver: QPSolver | None = None
@@ -667,8 +670,15 @@ class QPFormationController:
 
     # -- one step -------------------------------------------------------------------------
     def step(self, state: SimState, s: _Step) -> np.ndarray:
-        """Velocities of the controlled robots ``s.ctrl`` (state indices)."""
+        """Velocities of the controlled robots ``s.ctrl`` (state indices), map units.
+
+        The QP is assembled and solved in units of ``length_scale`` (:attr:`ell`)."""
         t0 = time.perf_counter()
+        e = self.ell
+        s = dataclasses.replace(
+            s, u_ext={j: np.asarray(u, float) / e for j, u in s.u_ext.items()},
+            u_lead=np.asarray(s.u_lead, float) / e,
+            u_lead_nom=None if s.u_lead_nom is None else np.asarray(s.u_lead_nom, float) / e)
         geo = self._geometry(state, s)
         solver = self._solver_for(state, s, geo)
         data = QPData.inactive(solver.layout)
@@ -681,7 +691,7 @@ class QPFormationController:
         t1 = time.perf_counter()
         sol = solver.solve(data)
         t_solve = time.perf_counter() - t1
-        U = self._command(sol, geo)
+        U = self._command(sol, geo) * e
         self._record(sol, data, time.perf_counter() - t0, t_solve)
         return U
 
@@ -692,14 +702,17 @@ class QPFormationController:
             li = s.ctrl.index(s.lead) if s.lead in s.ctrl else None
             edges = [(k, -1 if li is None else li) for k, i in enumerate(s.ctrl)
                      if state.ids[i] in self.spec]
-            self._team = (np.array([r.radius for r in rob]), np.array([r.max_speed for r in rob]),
+            e = self.ell
+            self._team = (np.array([r.radius for r in rob]) / e,
+                          np.array([r.max_speed for r in rob]) / e,
                           li, np.array(edges, int).reshape(-1, 2), np.triu_indices(len(s.ctrl), 1))
             self._team_key = key
         radii, vmax, li, edges, _ = self._team
-        Ds = self.form.safety_distance
+        Ds = self.form.safety_distance / self.ell
         R_nb = max(self.o.neighbor_radius, Ds + 2 * state.dt * float(vmax.max()) * 1.05)
-        X = state.positions
-        return _Geometry(state.dt, X, X[s.ctrl], radii, vmax, R_nb, Ds, li, edges)
+        X = state.positions / self.ell
+        return _Geometry(state.dt, X, X[s.ctrl], radii, vmax, R_nb, Ds, li, edges,
+                         xc_map=state.positions[s.ctrl])
 
     def _solver_for(self, state: SimState, s: _Step, geo: _Geometry) -> QPSolver:
         """The cached solver, rebuilt when the robots or the pair pattern no longer fit."""
@@ -750,10 +763,16 @@ class QPFormationController:
         o, fld = self.o, state.field
         if fld.n and (o.max_obstacles or o.adapt_phi):
             rng = max(self._sensing_range(), o.rho_0_f + float(geo.radii.max()))
-            geo.near, geo.dist = fld.nearest(geo.xc, state.t, max_range=rng)
+            near, dist = fld.nearest(geo.xc_map, state.t, max_range=rng * self.ell)
+            geo.near, geo.dist = near / self.ell, dist / self.ell
 
     def _sensing_range(self) -> float:
-        return self.o.sensing_range or self.problem.sensing_range or 100.0
+        """The rows' sensing range in units of ``length_scale``."""
+        if self.o.sensing_range:
+            return self.o.sensing_range
+        if self.problem.sensing_range:
+            return self.problem.sensing_range / self.ell
+        return 100.0
 
     def _obstacle_rows(self, data: QPData, state: SimState, geo: _Geometry) -> None:
         """CBF rows of each robot's ``max_obstacles`` nearest sensed obstacles."""
@@ -761,7 +780,7 @@ class QPFormationController:
         if not K or geo.dist is None:
             return
         n, g, dt = len(geo.xc), self.o.gamma, state.dt
-        vel = (fld.offsets(state.t + dt) - fld.offsets(state.t)) / dt  # (n_obs, 2)
+        vel = (fld.offsets(state.t + dt) - fld.offsets(state.t)) / (dt * self.ell)
         order = np.argsort(geo.dist, axis=1)[:, :K]
         sense = self._sensing_range()
         ar = np.arange(n)
@@ -779,7 +798,7 @@ class QPFormationController:
 
     def _bounds(self, data: QPData, geo: _Geometry, s: _Step) -> None:
         """Stay in the arena (or do not move further out), within the speed limit."""
-        x0, y0, x1, y1 = self.problem.bounds
+        x0, y0, x1, y1 = np.asarray(self.problem.bounds, float) / self.ell
         dt, r, v = geo.dt, geo.radii[:, None], geo.vmax[:, None]
         lo = np.minimum((np.array([x0, y0])[None, :] + r - geo.xc) / dt, 0.0)
         hi = np.maximum((np.array([x1, y1])[None, :] - r - geo.xc) / dt, 0.0)
@@ -796,7 +815,7 @@ class QPFormationController:
             return
         fidx = geo.edges[:, 0]
         spec = [self.spec[state.ids[s.ctrl[f]]] for f in fidx]
-        Lv = np.array([f.L for f in spec])
+        Lv = np.array([f.L for f in spec]) / self.ell
         Phi = np.array([f.phi for f in spec])
         if self.o.adapt_phi:
             rho = (np.min(geo.dist[fidx], axis=1) - geo.radii[fidx] if geo.dist is not None
@@ -834,6 +853,11 @@ class QPFormationController:
 class FormationQP(PilotedFormation, FormationBackend):
     """Formation keeping by one cvxpy/Clarabel QP per step with CBF safety rows.
 
+    The QP is posed in units of the scene's :attr:`~optplan.problem.Problem.length_scale`
+    (positions, radii, speeds and the obstacle data divided by it, the solution multiplied
+    back), so its numbers, its solver tolerances and its solution do not depend on the unit
+    the scene is drawn in.
+
     Parameters
     ----------
     w_f : float
@@ -845,57 +869,48 @@ class FormationQP(PilotedFormation, FormationBackend):
     gamma : float
         CBF gain (1/s), linear class-K function; must satisfy ``gamma * dt <= 1``.
     margin : float
-        Extra obstacle clearance (map units) kept by the obstacle rows beyond the radius.
+        Extra obstacle clearance kept by the obstacle rows beyond the radius (x length_scale).
     neighbor_radius : float
-        Pairs closer than this get CBF rows (raised to ``D_s + 2 dt v_max`` at least).
+        Pairs closer than this get CBF rows (x length_scale; raised to ``D_s + 2 dt v_max``
+        at least).
     max_obstacles : int
         Obstacle rows per robot (its nearest sensed obstacles).
     sensing_range : float
-        Obstacle sensing range for the rows (0: the scenario's ``[sensing]`` range, else 100).
+        Obstacle sensing range for the rows (x length_scale; 0: the scenario's ``[sensing]``
+        range, else 100 x length_scale).
     leader_in_qp : bool
         The leader's velocity is a QP variable too (its pilot command is the nominal); so the
         leader waits for blocked followers and is itself filtered.
     max_iter : int
         Clarabel iteration cap per solve.
     tol : float
-        Clarabel ``tol_gap_abs``, ``tol_gap_rel`` and ``tol_feas``.
+        Clarabel ``tol_gap_abs``, ``tol_gap_rel`` and ``tol_feas`` (the QP is in units of
+        ``length_scale``, so the tolerance is relative to the scene's size).
     k, eta, rho_0, n, adapt_phi, rho_0_f, c_phi, pilot, path_solver, v_factor, ref_spacing,
     lookahead, tau_h, dt, max_steps, settle_tol
-        The leader's pilot, eq 52 and run settings
-        (:class:`~optplan.backends.leader_follower.PilotedFormation`).
+        See :class:`~optplan.backends.leader_follower.PilotedFormation` (the leader's pilot,
+        eq 52 and the run settings).
     """
 
     name: ClassVar[str] = "formation-qp"
-    contract_problem: ClassVar[str] = "formation-open-field"
-    contract_overrides: ClassVar[dict] = {"path_solver": "visgraph", "max_steps": 150,
-                                          "dt": 1.0, "gamma": 1.0}
-    w_f: float = 4.0
-    w_leader: float = 10.0
-    w_s: float = 1e4
-    gamma: float = 1.0
-    margin: float = 0.5
-    neighbor_radius: float = 30.0
-    max_obstacles: int = 3
-    sensing_range: float = 0.0
-    leader_in_qp: bool = True
-    max_iter: int = 50
-    tol: float = 1e-7
+    w_f: float = option(4.0, lo=0.0, lo_open=True)
+    w_leader: float = option(10.0, lo=0.0, lo_open=True)
+    w_s: float = option(1e4, lo=0.0, lo_open=True)
+    gamma: float = option(1.0, lo=0.0, lo_open=True)
+    margin: float = option(0.5, lo=0.0, scale=True)
+    neighbor_radius: float = option(30.0, lo=0.0, lo_open=True, scale=True)
+    max_obstacles: int = option(3, lo=0, hi=64)
+    sensing_range: float = option(0.0, lo=0.0, scale=True)
+    leader_in_qp: bool = option(True)
+    max_iter: int = option(50, lo=1, hi=10_000)
+    tol: float = option(1e-7, lo=1e-12, hi=1e-2)
 
-    def __post_init__(self) -> None:
-        self._check_pilot_options()
-        for f in ("w_f", "w_leader", "w_s", "gamma", "neighbor_radius"):
-            check_range(self, f, 0, lo_open=True)
-        for f in ("margin", "sensing_range"):
-            check_range(self, f, 0)
-        check_int(self, "max_obstacles", 0, 64)
-        check_int(self, "max_iter", 1, 10_000)
-        check_range(self, "tol", 1e-12, 1e-2)
+    def check(self) -> None:
+        """``gamma * dt <= 1`` (discrete-time CBF), then the shared stage resolution."""
         if self.gamma * self.dt > 1 + 1e-12:
             raise ValueError(f"options 'gamma' * 'dt' of backend {self.name!r} must be <= 1 "
                              f"(discrete-time CBF), got {self.gamma} * {self.dt}")
-        if not isinstance(self.leader_in_qp, bool):
-            raise ValueError(f"option 'leader_in_qp' of backend {self.name!r} must be true or "
-                             "false")
+        super().check()
 
     def followers_controller(self, problem: Problem,
                              rng: np.random.Generator) -> QPFormationController:

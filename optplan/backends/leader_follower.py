@@ -108,7 +108,7 @@ from optplan.interfaces import (
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status
 from optplan.sim import ObstacleField, SimState, simulate
-from optplan.solver import Backend, check_int, check_range, get_solver, make_rng
+from optplan.solver import Backend, get_solver, make_rng, option
 
 __all__ = [
     "PilotedFormation",
@@ -273,14 +273,17 @@ def project_halfplanes(u0: np.ndarray, A: np.ndarray, b: np.ndarray,
 class PilotAPF:
     """The pilot's improved APF (eqs 39-45) as a :class:`~optplan.interfaces.LocalController`.
 
-    Moves along ``F / |F|`` at ``speed``; never overshoots the goal.
+    Moves along ``F / |F|`` at ``speed``; never overshoots the goal.  The force is computed
+    in units of ``scale`` (the problem's :attr:`~optplan.problem.Problem.length_scale`):
+    positions and clearances are divided by it, ``rho_0`` and ``rho_min`` are multiples of it,
+    so the direction of motion does not depend on the unit the scene is drawn in.
     """
 
     def __init__(self, problem: Problem, robot_id: str, *, k: float, eta: float, rho_0: float,
-                 n: float, speed: float, rho_min: float = 0.5):
+                 n: float, speed: float, rho_min: float = 0.5, scale: float = 1.0):
         self.robot = problem.robot(robot_id)
         self.k, self.eta, self.rho_0, self.n = k, eta, rho_0, n
-        self.speed, self.rho_min = speed, rho_min
+        self.speed, self.rho_min, self.scale = speed, rho_min, float(scale)
         self.goal = np.array(self.robot.goal if self.robot.goal is not None
                              else self.robot.start, float)
         self.stats: dict[str, Any] = {"steps": 0}
@@ -290,10 +293,13 @@ class PilotAPF:
 
     def velocity(self, state: SimState, index: int) -> np.ndarray | None:
         x = state.positions[index]
-        near, dist = state.field.nearest(x, state.t, max_range=self.rho_0 + self.robot.radius)
-        clear = np.maximum(dist[0] - self.robot.radius, self.rho_min)
+        s = self.scale
+        near, dist = state.field.nearest(x, state.t,
+                                         max_range=self.rho_0 * s + self.robot.radius)
+        clear = np.maximum((dist[0] - self.robot.radius) / s, self.rho_min)
         clear = np.where(np.isfinite(dist[0]), clear, np.inf)
-        F = pilot_force(x, self.goal, near[0], clear, self.k, self.eta, self.rho_0, self.n)
+        F = pilot_force(x / s, self.goal / s, near[0] / s, clear, self.k, self.eta, self.rho_0,
+                        self.n)
         nf = float(np.hypot(*F))
         self.stats["steps"] += 1
         if nf < 1e-12:
@@ -377,6 +383,8 @@ class LPhiFollowers:
         self.form = problem.formation
         self.spec = {f.id: f for f in self.form.followers}
         self.o = opts
+        #: the problem's length unit: the distance-like options are multiples of it
+        self.ell = float(problem.length_scale)
         self.stats: dict[str, Any] = {"min_phi_ratio": 1.0, "steps": 0, "filtered": 0,
                                       "infeasible": 0, "lost": 0, "recovery_steps": 0}
         self._trail = np.zeros((0, 2))  # the pilot's path so far (option trail)
@@ -399,16 +407,18 @@ class LPhiFollowers:
         radii = np.array([self.problem.robot(i).radius for i in ids])
         xf = P[follower_indices]
         vl = state.leader_command(leader_index)
+        ell = self.ell
+        rho_min = RHO_MIN * ell
         # obstacle sensing for every follower at once
-        rng_s = max(o.rho_0_f, o.rho_f)
+        rng_s = max(o.rho_0_f, o.rho_f) * ell
         near, dist = state.field.nearest(xf, state.t, max_range=rng_s + radii.max())
         clear = dist - radii[:, None]
         rho = np.min(clear, axis=1) if clear.shape[1] else np.full(len(ids), np.inf)
-        phi_d = adapted_angle(Phi, rho, o.rho_0_f, o.c_phi) if o.adapt_phi else Phi
+        phi_d = (adapted_angle(Phi, rho / ell, o.rho_0_f, o.c_phi) if o.adapt_phi else Phi)
         self.stats["min_phi_ratio"] = float(min(self.stats["min_phi_ratio"],
                                                 np.min(np.abs(phi_d / Phi))))
         r, phi = relative_polar(xl, leader_heading, xf)
-        r = np.maximum(r, RHO_MIN)
+        r = np.maximum(r, rho_min)
         phi = np.where(np.abs(phi) < 1e-6, np.copysign(1e-6, Phi), phi)
         dUr, dUphi = lphi_gradient(r, phi, L, phi_d, o.A, o.B)
         rel = xf - xl[None, :]
@@ -418,22 +428,24 @@ class LPhiFollowers:
         kappa = o.k_f * L**2 / (4 * np.maximum(o.A, o.B / Phi**2))
         grad = dUr[:, None] * e_r + (dUphi / r)[:, None] * e_phi
         u = (vl[None, :] if o.feedforward else 0.0) - kappa[:, None] * grad
-        # inter-robot repulsion (every robot in the simulation, eq 6 form)
+        # inter-robot repulsion (every robot in the simulation, eq 6 form), on clearances in
+        # units of length_scale and returned as a velocity in map units (x length_scale)
+        tiny = 1e-9 * ell
         if o.eta_r > 0 and len(P) > 1:
             allr = np.array([self.problem.robot(i).radius for i in state.ids])
             diff = xf[:, None, :] - P[None, :, :]
             dd = np.hypot(diff[..., 0], diff[..., 1])
-            gap = np.maximum(dd - radii[:, None] - allr[None, :], RHO_MIN)
-            act = (gap < o.d_0) & (dd > 1e-9)
-            mag = np.where(act, o.eta_r * (1 / gap - 1 / o.d_0) / gap**2, 0.0)
-            u = u + np.sum(mag[..., None] * diff / np.where(dd > 1e-9, dd, 1)[..., None], 1)
+            gap = np.maximum(dd - radii[:, None] - allr[None, :], rho_min) / ell
+            act = (gap < o.d_0) & (dd > tiny)
+            mag = np.where(act, ell * o.eta_r * (1 / gap - 1 / o.d_0) / gap**2, 0.0)
+            u = u + np.sum(mag[..., None] * diff / np.where(dd > tiny, dd, 1)[..., None], 1)
         if o.eta_f > 0 and clear.shape[1]:
-            g = np.maximum(clear, RHO_MIN)
+            g = np.maximum(clear, rho_min) / ell
             act = np.isfinite(g) & (g < o.rho_f)
             v = xf[:, None, :] - near
             nv = np.hypot(v[..., 0], v[..., 1])
-            nrm = np.where(act[..., None], v / np.where(nv > 1e-12, nv, 1)[..., None], 0.0)
-            mag = np.where(act, o.eta_f * (1 / g - 1 / o.rho_f) / g**2, 0.0)
+            nrm = np.where(act[..., None], v / np.where(nv > tiny, nv, 1)[..., None], 0.0)
+            mag = np.where(act, ell * o.eta_f * (1 / g - 1 / o.rho_f) / g**2, 0.0)
             u = u + np.sum(mag[..., None] * np.nan_to_num(nrm), axis=1)
         if o.recovery:
             u = self.recovery(state, ids, xl, xf, u, vl, L, Phi, phi, radii, leader_heading,
@@ -450,7 +462,7 @@ class LPhiFollowers:
         if len(C) == 0 or fld.n_static == 0:
             return np.ones(len(C), bool)
         seg = np.hypot(*(C - p).T)
-        S = max(2, int(math.ceil(float(seg.max()) / max(0.5 * clear, 1.0))) + 1)
+        S = max(2, int(math.ceil(float(seg.max()) / max(0.5 * clear, self.ell))) + 1)
         s = np.linspace(0.0, 1.0, S)
         pts = p[None, None, :] + s[None, :, None] * (C - p)[:, None, :]  # (N, S, 2)
         _, d = fld.nearest(pts.reshape(-1, 2), t, max_range=clear)
@@ -480,7 +492,7 @@ class LPhiFollowers:
         o = self.o
         fld = state.field
         dt = float(state.dt)
-        if len(self._trail) == 0 or np.hypot(*(xl - self._trail[-1])) >= 1.0:
+        if len(self._trail) == 0 or np.hypot(*(xl - self._trail[-1])) >= self.ell:
             self._trail = np.vstack([self._trail, xl[None, :]])
         slots = slot_positions(xl, theta, L, phi_d)
         err = np.hypot(*(xf - slots).T)
@@ -492,7 +504,7 @@ class LPhiFollowers:
         for i in range(len(xf)):
             if err[i] <= 0.5 * L[i] and not self._lost[i]:
                 continue
-            clear = radii[i] + o.clear_margin
+            clear = radii[i] + o.clear_margin * self.ell
             seen = bool(self._clear_segments(fld, state.t, xf[i], slots[i:i + 1], clear)[0])
             if self._lost[i]:
                 if seen and err[i] <= 0.5 * L[i] and not wrong[i]:
@@ -516,7 +528,8 @@ class LPhiFollowers:
                 j = int(cand[int(np.argmax(vis))]) if vis.any() else int(cand[-1])
                 d = T[j] - xf[i]
                 nd = float(np.hypot(*d))
-                w = d / nd * min(float(vmax[i]), nd / dt) if nd > 1e-9 else np.zeros(2)
+                w = (d / nd * min(float(vmax[i]), nd / dt) if nd > 1e-9 * self.ell
+                     else np.zeros(2))
             sp = float(np.hypot(*w))
             u[i] = w * min(1.0, float(vmax[i]) / sp) if sp > 0 else w
         return u
@@ -558,8 +571,9 @@ class LPhiFollowers:
             Ds = self.form.safety_distance
             diff = xf[:, None, :] - P[None, :, :]  # (F, R, 2)
             dd = np.hypot(diff[..., 0], diff[..., 1])
-            D = np.maximum(Ds, radii[:, None] + allr[None, :]) + o.sep_margin
-            nrm = diff / np.where(dd > 1e-9, dd, 1.0)[..., None]
+            D = np.maximum(Ds, radii[:, None] + allr[None, :]) + o.sep_margin * self.ell
+            tiny = 1e-9 * self.ell
+            nrm = diff / np.where(dd > tiny, dd, 1.0)[..., None]
             ctrl = np.zeros(R, bool)
             ctrl[follower_indices] = True
             vel = np.asarray(state.velocities, float).copy()
@@ -570,7 +584,7 @@ class LPhiFollowers:
             bb = np.where(ctrl[None, :], -0.5 * g * h,
                           np.einsum("frd,rd->fr", nrm, vel) - g * h)
             self_pair = np.asarray(follower_indices)[:, None] == np.arange(R)[None, :]
-            use = ~self_pair & (dd > 1e-9)
+            use = ~self_pair & (dd > tiny)
             rows_a.append(np.where(use[..., None], nrm, 0.0))
             rows_b.append(np.where(use, bb, -np.inf))
         # --- obstacles (nearest boundary points from the sensing above) ---
@@ -579,10 +593,11 @@ class LPhiFollowers:
             vo = (fld.offsets(state.t + dt) - fld.offsets(state.t)) / dt  # (n_obs, 2)
             v = xf[:, None, :] - near
             nv = np.hypot(v[..., 0], v[..., 1])
-            use = np.isfinite(dist) & (nv > 1e-9)
+            use = np.isfinite(dist) & (nv > 1e-9 * self.ell)
             nrm = np.where(use[..., None], v / np.where(use, nv, 1.0)[..., None], 0.0)
             rho = dist - radii[:, None]
-            bb = np.einsum("fkd,kd->fk", nrm, vo) - g * (np.where(use, rho, 0.0) - o.clear_margin)
+            bb = np.einsum("fkd,kd->fk", nrm, vo) - g * (np.where(use, rho, 0.0)
+                                                         - o.clear_margin * self.ell)
             rows_a.append(nrm)
             rows_b.append(np.where(use, bb, -np.inf))
         # --- arena bounds ---
@@ -614,7 +629,8 @@ class LPhiFollowers:
             uf, bad = project_halfplanes(u_nom[active], A[active], b[active], hard)
             out[active] = uf
             self.stats["infeasible"] += int(bad.sum())
-            self.stats["filtered"] += int(np.sum(np.hypot(*(uf - u_nom[active]).T) > 1e-9))
+            self.stats["filtered"] += int(np.sum(np.hypot(*(uf - u_nom[active]).T)
+                                                 > 1e-9 * self.ell))
         return out
 
 
@@ -657,7 +673,7 @@ def make_pilot(problem: Problem, opts: PilotedFormation, rng: np.random.Generato
     planner = opts.stages["pilot"]
     if planner is None:
         return PilotAPF(problem, lead.id, k=opts.k, eta=opts.eta, rho_0=opts.rho_0, n=opts.n,
-                        speed=speed), BUILTIN_PILOT
+                        speed=speed, scale=problem.length_scale), BUILTIN_PILOT
     return planner.controller(problem, lead.id, rng), opts.pilot
 
 
@@ -695,7 +711,7 @@ class _FormationRun:
         return np.hypot(*(P[1:] - slots).T)
 
     def _turn(self, ul: np.ndarray) -> None:
-        if np.hypot(*ul) > 1e-9:
+        if np.hypot(*ul) > 1e-9 * self.problem.length_scale:
             self.raw_heading = float(np.arctan2(ul[1], ul[0]))
         o = self.o
         a = min(1.0, o.dt / o.tau_h) if o.tau_h > 0 else 1.0
@@ -763,10 +779,11 @@ def run_formation(backend: PilotedFormation, problem: Problem, fctrl: Any, *,
     ref, ref_msg = reference_path(problem, backend.stages["path_solver"], rng, init)
     speed = backend.v_factor * lead.max_speed
     pilot, pilot_name = make_pilot(problem, backend, rng, speed)
-    tracker = ReferenceTracker(ref, pilot, spacing=backend.ref_spacing,
-                               lookahead=backend.lookahead, speed=speed,
+    ell = problem.length_scale
+    tracker = ReferenceTracker(ref, pilot, spacing=backend.ref_spacing * ell,
+                               lookahead=backend.lookahead * ell, speed=speed,
                                goal_tol=problem.goal_tol(lead),
-                               clearance=2 * lead.radius + backend.lookahead / 2)
+                               clearance=2 * lead.radius + backend.lookahead * ell / 2)
     run = _FormationRun(backend, problem, tracker, fctrl, ref, joint, step_columns)
     out = simulate(problem, run.policy, ids=run.ids, dt=backend.dt,
                    max_steps=backend.max_steps, done=run.done, field_=ObstacleField(problem),
@@ -795,25 +812,32 @@ def run_formation(backend: PilotedFormation, problem: Problem, fctrl: Any, *,
 
 @dataclass(frozen=True, kw_only=True)
 class PilotedFormation(Backend):
-    """Options shared by the formation backends: the leader's pilot and the run.
+    r"""Options shared by the formation backends: the leader's pilot and the run.
+
+    Every distance-like option is a multiple of the scene's length unit
+    :attr:`optplan.problem.Problem.length_scale` (marked "x length_scale"; 1 on the paper's
+    scenes, so the ``-paper`` presets keep the paper's literal values there): the same preset
+    behaves the same on a scene drawn in centimetres, metres or kilometres.
 
     Parameters
     ----------
     k : float
-        Pilot attraction gain (eqs 39-40); paper 15.
+        Pilot attraction gain (eqs 39-40); paper 15.  The pilot moves along the direction of
+        the total force, computed in units of ``length_scale``.
     eta : float
         Pilot repulsion gain (eqs 41, 44-45); paper 3.7.
     rho_0 : float
-        Pilot obstacle influence distance (map units, eq 41); paper 100.
+        Pilot obstacle influence distance (eq 41; x length_scale); paper 100.
     n : float
         Goal-distance exponent of the improved repulsion (eq 41); paper 3.
     adapt_phi : bool
         Shrink the desired angle near obstacles by eq 52.
     rho_0_f : float
-        Obstacle distance (map units) below which eq 52 acts; paper uses the same
-        :math:`\\rho_0 = 100`.
+        Obstacle clearance below which eq 52 acts (x length_scale); the paper uses the same
+        :math:`\rho_0 = 100`.
     c_phi : float
-        The factor 20 inside the logarithms of eq 52 (1/map unit); rho is clamped at 1/c_phi.
+        The factor 20 inside the logarithms of eq 52, per length unit (used as
+        ``c_phi / length_scale``); rho is clamped at ``length_scale / c_phi``.
     pilot : str or Backend
         ``"builtin"`` (default, the paper): the built-in eqs 39-45 pilot (:class:`PilotAPF`
         with ``k``, ``eta``, ``rho_0``, ``n``).  Otherwise a preset or backend name (or object)
@@ -827,47 +851,44 @@ class PilotedFormation(Backend):
         is never collision-free, see the PSO page).  Resolved when the backend is built.
     v_factor : float
         Leader cruise speed as a fraction of its ``max_speed`` (headroom for followers).
-    ref_spacing, lookahead : float
-        Reference resampling step and target look-ahead (map units).
+    ref_spacing : float
+        Resampling step of the leader's reference (x length_scale).
+    lookahead : float
+        Target look-ahead along the reference (x length_scale); reference points closer than
+        twice the leader's radius plus half of it to a sensed obstacle are skipped.
     tau_h : float
         Time constant (s) of the low-pass filter on the leader heading that orients the
         formation frame (0: raw heading of the leader's command).
     dt : float
         Control period (s).
     max_steps : int
-        Simulation budget.
+        Simulation budget (control steps).
     settle_tol : float
         The run ends when the leader is at its goal and every follower is within
-        ``settle_tol * L`` of its slot and (nearly) still, or every follower has stopped.
+        ``settle_tol * L`` of its slot and (nearly) still, or every follower has stopped
+        (a fraction of each follower's L, so scale-free).
     """
 
-    k: float = 15.0
-    eta: float = 3.7
-    rho_0: float = 100.0
-    n: float = 3.0
-    adapt_phi: bool = True
-    rho_0_f: float = 100.0
-    c_phi: float = 20.0
-    pilot: Any = BUILTIN_PILOT
-    path_solver: Any = "ipso"
-    v_factor: float = 0.75
-    ref_spacing: float = 5.0
-    lookahead: float = 15.0
-    tau_h: float = 5.0
-    dt: float = 0.5
-    max_steps: int = 4000
-    settle_tol: float = 0.005
+    k: float = option(15.0, lo=0.0, lo_open=True)
+    eta: float = option(3.7, lo=0.0)
+    rho_0: float = option(100.0, lo=0.0, lo_open=True, scale=True)
+    n: float = option(3.0, lo=0.0)
+    adapt_phi: bool = option(True)
+    rho_0_f: float = option(100.0, lo=0.0, lo_open=True, scale=True)
+    c_phi: float = option(20.0, lo=0.0, lo_open=True)
+    pilot: Any = option(BUILTIN_PILOT, kind="any")
+    path_solver: Any = option("ipso", kind="any")
+    v_factor: float = option(0.75, lo=0.0, hi=1.0, lo_open=True)
+    ref_spacing: float = option(5.0, lo=0.0, lo_open=True, scale=True)
+    lookahead: float = option(15.0, lo=0.0, scale=True)
+    tau_h: float = option(5.0, lo=0.0)
+    dt: float = option(0.5, lo=0.0, lo_open=True)
+    max_steps: int = option(4000, lo=1, hi=10_000_000)
+    settle_tol: float = option(0.005, lo=0.0, lo_open=True)
     _stages: dict[str, Any] = field(init=False, repr=False, compare=False, default=None)
 
-    def _check_pilot_options(self) -> None:
-        for f in ("k", "rho_0", "rho_0_f", "c_phi", "ref_spacing", "dt", "settle_tol"):
-            check_range(self, f, 0, lo_open=True)
-        for f in ("eta", "n", "lookahead", "tau_h"):
-            check_range(self, f, 0)
-        check_range(self, "v_factor", 0, 1, lo_open=True)
-        check_int(self, "max_steps", 1, 10_000_000)
-        if not isinstance(self.adapt_phi, bool):
-            raise ValueError(f"option 'adapt_phi' of backend {self.name!r} must be true or false")
+    def check(self) -> None:
+        """Resolve the ``pilot`` and ``path_solver`` stages (a ``ValueError`` names the option)."""
         object.__setattr__(self, "_stages", {"pilot": self._resolve_pilot(), "path_solver":
                                             resolve_stage(self.name, "path_solver",
                                                           self.path_solver, PATH_SOLVER)})
@@ -906,14 +927,19 @@ class LeaderFollower(PilotedFormation, FormationBackend):
     A, B : float
         Gains of the distance and angle potentials (eqs 46, 48); paper 0.5 each.
     k_f : float
-        Follower convergence rate (1/s): scale of the gradient step, see module doc.
+        Follower convergence rate (1/s): scale of the gradient step, see module doc;
+        ``k_f * dt <= 1``.
     feedforward : bool
         Add the leader's velocity to every follower command.
-    eta_r, d_0 : float
-        Inter-robot repulsion gain and influence clearance (map units), eq 6 form (paper
-        §IV.C.3 asks for inter-robot avoidance without giving a law).
-    eta_f, rho_f : float
-        Follower obstacle repulsion gain and influence clearance (0 disables it).
+    eta_r : float
+        Inter-robot repulsion gain, eq 6 form on the clearance in units of ``length_scale``
+        (paper §IV.C.3 asks for inter-robot avoidance without giving a law; 0 disables it).
+    d_0 : float
+        Influence clearance of the inter-robot repulsion (x length_scale).
+    eta_f : float
+        Follower obstacle repulsion gain, eq 6 form as ``eta_r`` (0 disables it).
+    rho_f : float
+        Influence clearance of the follower obstacle repulsion (x length_scale).
     safety : bool
         Beyond the paper (its §IV.C.3 asks for inter-robot avoidance without a law): pass every
         follower command through a discrete-time barrier filter, the closest velocity (exact
@@ -925,9 +951,12 @@ class LeaderFollower(PilotedFormation, FormationBackend):
     gamma_s : float
         Barrier rate in ``(0, 1]``: a row lets a gap close by at most ``gamma_s`` times its
         excess per step.
-    sep_margin, clear_margin : float
-        Extra separation above the formation's ``safety_distance`` and extra clearance from
-        obstacles kept by the filter (map units).
+    sep_margin : float
+        Extra separation above the formation's ``safety_distance`` kept by the filter
+        (x length_scale).
+    clear_margin : float
+        Clearance from obstacles kept by the filter and by the recovery's visibility tests
+        (x length_scale).
     max_rows : int
         Most critical filter rows kept per follower (besides the speed polygon).
     speed_sides : int
@@ -938,58 +967,41 @@ class LeaderFollower(PilotedFormation, FormationBackend):
         hidden, follows the pilot's recorded path ("the follower robot will follow the path
         of the pilot robot") until it is back near its slot (see
         :meth:`LPhiFollowers.recovery`).
-    trail_far, trail_reach : float
-        Slot distance (× L) beyond which a follower counts as lost even with its slot in
-        sight, and how far (× L) it looks along the pilot's path for a visible target.
+    trail_far : float
+        Slot distance (x L) beyond which a follower counts as lost even with its slot in
+        sight.
+    trail_reach : float
+        How far (x L) a lost follower looks along the pilot's path for a visible target.
     k, eta, rho_0, n, adapt_phi, rho_0_f, c_phi, pilot, path_solver, v_factor, ref_spacing,
     lookahead, tau_h, dt, max_steps, settle_tol
-        The leader's pilot and run settings (:class:`PilotedFormation`).
+        See :class:`PilotedFormation` (the leader's pilot and run settings).
     """
 
     name: ClassVar[str] = "leader-follower"
-    contract_problem: ClassVar[str] = "formation-open-field"
-    contract_overrides: ClassVar[dict] = {"path_solver": "visgraph", "max_steps": 150,
-                                          "dt": 1.0}
-    A: float = 0.5
-    B: float = 0.5
-    k_f: float = 1.0
-    feedforward: bool = True
-    eta_r: float = 200.0
-    d_0: float = 10.0
-    eta_f: float = 200.0
-    rho_f: float = 10.0
-    safety: bool = False
-    gamma_s: float = 0.5
-    sep_margin: float = 0.5
-    clear_margin: float = 0.5
-    max_rows: int = 12
-    speed_sides: int = 16
-    recovery: bool = False
-    trail_far: float = 2.0
-    trail_reach: float = 3.0
+    A: float = option(0.5, lo=0.0, lo_open=True)
+    B: float = option(0.5, lo=0.0, lo_open=True)
+    k_f: float = option(1.0, lo=0.0, lo_open=True)
+    feedforward: bool = option(True)
+    eta_r: float = option(200.0, lo=0.0)
+    d_0: float = option(10.0, lo=0.0, lo_open=True, scale=True)
+    eta_f: float = option(200.0, lo=0.0)
+    rho_f: float = option(10.0, lo=0.0, lo_open=True, scale=True)
+    safety: bool = option(False)
+    gamma_s: float = option(0.5, lo=0.0, hi=1.0, lo_open=True)
+    sep_margin: float = option(0.5, lo=0.0, scale=True)
+    clear_margin: float = option(0.5, lo=0.0, scale=True)
+    max_rows: int = option(12, lo=1, hi=1000)
+    speed_sides: int = option(16, lo=6, hi=256)
+    recovery: bool = option(False)
+    trail_far: float = option(2.0, lo=0.5)
+    trail_reach: float = option(3.0, lo=0.0, lo_open=True)
 
-    def __post_init__(self) -> None:
-        self._check_pilot_options()
-        check_range(self, "A", 0, lo_open=True)
-        check_range(self, "B", 0, lo_open=True)
-        check_range(self, "k_f", 0, lo_open=True)
-        check_range(self, "eta_r", 0)
-        check_range(self, "d_0", 0, lo_open=True)
-        check_range(self, "eta_f", 0)
-        check_range(self, "rho_f", 0, lo_open=True)
-        check_range(self, "gamma_s", 0, 1, lo_open=True)
-        check_range(self, "sep_margin", 0)
-        check_range(self, "clear_margin", 0)
-        check_int(self, "max_rows", 1, 1000)
-        check_int(self, "speed_sides", 6, 256)
-        check_range(self, "trail_far", 0.5)
-        check_range(self, "trail_reach", 0, lo_open=True)
+    def check(self) -> None:
+        """``k_f * dt <= 1`` (stable follower step), then the shared stage resolution."""
         if self.k_f * self.dt > 1 + 1e-12:
             raise ValueError(f"options 'k_f' * 'dt' of backend {self.name!r} must be <= 1 "
                              f"(stable follower step), got {self.k_f} * {self.dt}")
-        for b in ("feedforward", "safety", "recovery"):
-            if not isinstance(getattr(self, b), bool):
-                raise ValueError(f"option {b!r} of backend {self.name!r} must be true or false")
+        super().check()
 
     def followers_controller(self, problem: Problem, rng: np.random.Generator) -> LPhiFollowers:
         """The L-phi follower law as a :class:`~optplan.interfaces.FollowerController`
