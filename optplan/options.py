@@ -217,8 +217,8 @@ def describe_options(cls: type) -> list[dict[str, Any]]:
     docs = _parameter_docs(cls)
     rows = []
     for f in dataclasses.fields(cls):
-        if not f.init or f.name.startswith("_"):
-            continue
+        if not f.init or f.name.startswith("_") or f.name == "preset":
+            continue  # ``preset`` names the configuration; it is not an option
         spec = option_spec(f)
         default = f.default if f.default is not dataclasses.MISSING else None
         rows.append({"name": f.name, "default": default,

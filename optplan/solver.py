@@ -187,7 +187,8 @@ def _load_class(name: str) -> type[Backend]:
 
 def _check_names(cls: type[Backend], options: dict[str, Any], where: str) -> None:
     """Raise ``ValueError`` naming ``where`` for option names ``cls`` does not have."""
-    fields = {f.name for f in dataclasses.fields(cls) if f.init and not f.name.startswith("_")}
+    fields = {f.name for f in dataclasses.fields(cls)
+              if f.init and not f.name.startswith("_") and f.name != "preset"}
     for k in options:
         if k not in fields:
             close = difflib.get_close_matches(k, list(fields), n=2)
@@ -202,12 +203,9 @@ def _apply_options(cls: type[Backend], options: dict[str, Any], where: str,
                    preset: str | None) -> Backend:
     _check_names(cls, options, where)
     try:
-        obj = cls(**options)
+        return cls(**options, preset=preset)
     except (ValueError, TypeError) as e:
         raise ValueError(f"{where}: {e}") from None
-    if preset is not None:
-        object.__setattr__(obj, "_preset", preset)
-    return obj
 
 
 def get_solver(spec: str | Path | Backend, **overrides: Any) -> Backend:
@@ -218,9 +216,7 @@ def get_solver(spec: str | Path | Backend, **overrides: Any) -> Backend:
     if isinstance(spec, Backend):
         if overrides:
             _apply_options(type(spec), overrides, "override", None)  # validates names
-            new = dataclasses.replace(spec, **overrides)
-            object.__setattr__(new, "_preset", getattr(spec, "_preset", None))
-            return new
+            return dataclasses.replace(spec, **overrides)  # keeps spec.preset
         return spec
     s = str(spec)
     path = Path(s)
@@ -320,6 +316,9 @@ class Backend:
     name: ClassVar[str] = "backend"
     #: True when a successful solve is certified optimal by an exact method.
     certifies: ClassVar[bool] = False
+    #: The preset this backend was configured from (set by :func:`get_solver`; ``None`` for a
+    #: bare backend).  Not an option: ``options()`` and ``show-solver`` leave it out.
+    preset: str | None = dataclasses.field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
         check_options(self)
@@ -334,14 +333,10 @@ class Backend:
               callback: Callable[[Progress], Any] | None = None) -> Result:
         raise NotImplementedError
 
-    @property
-    def preset(self) -> str | None:
-        return getattr(self, "_preset", None)
-
     def options(self) -> dict[str, Any]:
         """The effective options as a plain dict."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)
-                if not f.name.startswith("_")}
+                if not f.name.startswith("_") and f.name != "preset"}
 
     def finish(
         self,

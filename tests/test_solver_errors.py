@@ -13,7 +13,8 @@ def test_unknown_override_is_attributed_to_the_override():
 def test_bad_value_in_preset_file_names_the_file_and_option(tmp_path):
     f = tmp_path / "bad.toml"
     f.write_text('backend = "pso"\n[options]\nc1 = -1.0\n', encoding="utf-8")
-    with pytest.raises(ValueError, match=r"bad\.toml: option 'c1' of backend 'pso' must be in"):
+    with pytest.raises(ValueError, match=r"bad\.toml: option 'c1' of backend 'pso' must be "
+                                         r"a number in \[0, 10\], got -1.0"):
         op.get_solver(str(f))
 
 
