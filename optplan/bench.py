@@ -75,7 +75,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["COLUMNS", "run_grid", "run_one", "row_from_result", "summarise", "to_markdown",
-           "write_csv", "read_csv"]
+           "write_csv", "read_csv", "expand_scen"]
 
 #: Columns of a tidy row, in order.
 COLUMNS = ("problem", "solver", "seed", "status", "success", "length", "ratio", "collisions",
@@ -685,6 +685,38 @@ def _run_dask(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
         raise
     finally:
         _dask_shutdown(feed, cluster, pids, interrupted or feed.abandoned)
+
+
+def expand_scen(problems: Sequence[str], directory: str | Path, *, radius: float = 0.0
+                ) -> list[str]:
+    """Replace every MovingAI ``.scen`` file among ``problems`` by one scenario per line.
+
+    Each ``.scen`` is read with :func:`optplan.maps.read_scen` (its ``.map`` next to it; one
+    robot of ``radius``, a point by default, from the start cell's centre to the goal cell's)
+    and written with :func:`optplan.maps.write_batch` as ``<directory>/<scen stem>/<scen
+    stem>-<line>.toml``; the paths of those files take the ``.scen``'s place, in line order
+    (names and paths travel to worker processes; rewriting the same files on a rerun keeps a
+    results database's cells, so ``db=`` resumes).  Other entries are kept as they are.
+
+    Raises
+    ------
+    optplan.ProblemError
+        A ``.scen`` (or its map) that cannot be read, or a line whose start or goal is
+        blocked.
+    """
+    from optplan.maps import read_scen, write_batch
+
+    out: list[str] = []
+    for entry in problems:
+        s = str(entry)
+        if not s.lower().endswith(".scen"):
+            out.append(s)
+            continue
+        batch = read_scen(s, radius=radius)
+        stem = Path(s).name[: -len(".scen")]
+        stem = stem[: -len(".map")] if stem.lower().endswith(".map") else stem
+        out.extend(str(q) for q in write_batch(batch, Path(directory) / (stem or "scen")))
+    return out
 
 
 def _check_inputs(problems: Sequence[str], solvers: Sequence[str],

@@ -297,6 +297,23 @@ class _Bar:
         self.stream.flush()
 
 
+def _expand_scen(problems: list[str], args: argparse.Namespace) -> list[str]:
+    """MovingAI ``.scen`` entries of ``--problems`` as one scenario TOML per line, written
+    under ``<--out>/problems/`` (:func:`optplan.bench.expand_scen`)."""
+    from optplan.bench import expand_scen
+
+    has_scen = any(p.lower().endswith(".scen") for p in problems)
+    if args.radius is not None and not has_scen:
+        raise CLIError("--radius is the robot radius of .scen problems; --problems has no "
+                       ".scen file")
+    if not has_scen:
+        return problems
+    radius = 0.0 if args.radius is None else args.radius
+    if not (math.isfinite(radius) and radius >= 0):
+        raise CLIError(f"--radius must be a finite number >= 0, got {radius:g}")
+    return expand_scen(problems, Path(args.out) / "problems", radius=radius)
+
+
 def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
     import shlex
 
@@ -312,6 +329,7 @@ def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
         problems = problems + [p for p in tagged if p not in problems]
     if not problems:
         raise CLIError("bench needs --problems a,b (or --tag NAME)")
+    problems = _expand_scen(problems, args)
     solvers = _split_list(args.solvers)
     if not solvers:
         raise CLIError("bench needs --solvers x,y")
@@ -703,7 +721,12 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run problems x solvers x seeds (common seeds across solvers). With "
                     "--tag NAME: if optplan.experiments.NAME exists, the remaining arguments "
                     "go to its main(); otherwise the problems tagged NAME are benchmarked.")
-    s.add_argument("--problems", help="comma-separated problem names")
+    s.add_argument("--problems",
+                   help="comma-separated problem names, .toml paths or MovingAI .scen files "
+                        "(one problem per .scen line)")
+    s.add_argument("--radius", type=float, default=None, metavar="R",
+                   help="robot radius of the problems read from .scen files (map units; "
+                        "default 0: point robots)")
     s.add_argument("--solvers", help="comma-separated solver names")
     s.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
     s.add_argument("--workers", type=int, default=1, help="processes (default 1: inline)")
