@@ -75,6 +75,71 @@ def test_eq23_position_factor():
 # ---------------------------------------------------------------------------------------
 
 
+def _pair_sharing_waypoints_1_and_4():
+    """Two hand-made 6-waypoint particles: waypoints 1 and 4 (0-based) coincide, the rest
+    differ (parent 1 above the x axis, parent 2 below)."""
+    xs = np.arange(1.0, 7.0) * 10
+    p1 = np.c_[xs, np.full(6, 5.0)]
+    p2 = np.c_[xs, np.full(6, -5.0)]
+    p2[1] = p1[1]
+    p2[4] = p1[4] + 0.01  # near-identical
+    return p1.ravel(), p2.ravel()
+
+
+def test_swap_crossover_exchanges_the_fragment_between_shared_waypoints():
+    x1, x2 = _pair_sharing_waypoints_1_and_4()
+    tol2 = 0.1 ** 2
+    assert ip.shared_fragment(x1, x2, tol2) == (2, 4)  # waypoints 2, 3 lie between 1 and 4
+    v1, v2 = np.ones(12), -np.ones(12)
+    frag = np.array([[2, 4]])
+    c1x, c2x, c1v, c2v = ip.swap_fragments(x1[None], x2[None], v1[None], v2[None], frag)
+    inside = np.zeros(12, bool)
+    inside[4:8] = True  # coordinates of waypoints 2 and 3
+    np.testing.assert_array_equal(c1x[0][inside], x2[inside])  # fragment from parent 2
+    np.testing.assert_array_equal(c1x[0][~inside], x1[~inside])  # the rest from parent 1
+    np.testing.assert_array_equal(c2x[0][inside], x1[inside])
+    np.testing.assert_array_equal(c2x[0][~inside], x2[~inside])
+    np.testing.assert_array_equal(c1v[0], np.where(inside, -1.0, 1.0))
+    np.testing.assert_array_equal(c2v[0], np.where(inside, 1.0, -1.0))
+    # the two children hold exactly the parents' waypoints between them (nothing blended)
+    np.testing.assert_array_equal(np.sort(np.r_[c1x[0], c2x[0]]), np.sort(np.r_[x1, x2]))
+
+
+def test_swap_fragment_runs_to_the_goal_after_a_single_shared_waypoint():
+    x1, x2 = _pair_sharing_waypoints_1_and_4()
+    x2 = x2.copy()
+    x2[8:10] += 3.0  # waypoint 4 no longer shared: only waypoint 1 is
+    assert ip.shared_fragment(x1, x2, 0.1 ** 2) == (2, 6)  # the tail after waypoint 1
+    x3 = x1.copy()
+    x3[:10] -= 7.0  # only the last waypoint shared: nothing between it and the goal
+    assert ip.shared_fragment(x1, x3, 0.1 ** 2) == (0, 0)
+    assert ip.shared_fragment(x1, x1 + 1.0, 0.1 ** 2) == (0, 0)  # nothing shared
+
+
+def test_swap_mode_pairs_only_particles_with_a_fragment_and_swaps_it():
+    x1, x2 = _pair_sharing_waypoints_1_and_4()
+    far = x1 + 100.0
+    X = np.vstack([x1, x2, far, far + 50.0])
+    F = np.array([1.0, 2.0, 3.0, 4.0])
+    pairs, isl, frag = ip.ga_pairs(F, X, 1, 4, 0.1 ** 2, True)
+    np.testing.assert_array_equal(pairs, [[0, 1]])  # the far pair shares nothing
+    np.testing.assert_array_equal(frag, [[2, 4]])
+    V = np.zeros_like(X)
+    out = np.zeros((4, 12))
+    ip.ga_children(X, V, pairs, np.zeros(0), np.zeros((2, 12)), np.zeros(12), out, frag, True)
+    c1, c2 = out[2], out[3]  # children after the m = 2 mutant rows (noise 0: mutants = children)
+    np.testing.assert_array_equal(c1[4:8], x2[4:8])
+    np.testing.assert_array_equal(c2[4:8], x1[4:8])
+    np.testing.assert_array_equal(out[0], c1)
+
+
+def test_ipso_paper_uses_the_swap_and_crosses():
+    s = op.get_solver("ipso-paper")
+    assert s.crossover == "swap"
+    res = op.solve("paper-env1", "ipso-paper", rng=0, k_max=20)
+    assert next(iter(res.extras["per_robot"].values()))["crossovers"] > 0
+
+
 def test_eq25_28_children_are_the_stated_convex_combinations():
     x1, x2 = np.array([[0.0, 10.0, 4.0]]), np.array([[10.0, 0.0, 4.0]])
     v1, v2 = np.array([[1.0, 2.0, 3.0]]), np.array([[-1.0, 0.0, 1.0]])
@@ -305,7 +370,7 @@ def test_compiled_step_follows_eqs_22_to_29():
     F = rng.random(P)
     gbest = pbest[0]
     lo, hi = np.zeros(D), np.full(D, 10.0)
-    pairs, isl = ip.ga_pairs(F, X, 1, 4, np.inf)
+    pairs, isl, frag = ip.ga_pairs(F, X, 1, 4, np.inf)
     order = np.argsort(F, kind="stable")[:4]
     np.testing.assert_array_equal(pairs, order.reshape(2, 2))  # rank-order pairs
     h = len(pairs)
@@ -316,7 +381,7 @@ def test_compiled_step_follows_eqs_22_to_29():
     Vn = np.empty_like(V)
     cv, out, anyout = ip.advance(X, V, pbest, gbest[None], np.zeros(P, np.int64), w, c1, c2, U,
                                  vmax, psi, 0, np.zeros(2), np.ones(2), pairs, pc, noise,
-                                 sigma, lo, hi, 1, B, Vn)
+                                 sigma, lo, hi, 1, B, Vn, frag, False)
     # eqs 25-28
     a, b = X[pairs[:, 0]], X[pairs[:, 1]]
     p = pc[:, None]

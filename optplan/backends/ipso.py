@@ -35,14 +35,20 @@ Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration
    to the step, ``x^{k+1} = x^k + psi R v^{k+1}``, which is what the text motivates ("a larger
    search step early, a smaller one later").
 4. **GA** (eqs 25-29), on the swarm as evaluated before the move: the ``A`` best particles
-   are paired in rank order (1st with 2nd, ...).  A pair is crossed only when it shares
-   "locally identical path information", read as: at least one pair of corresponding
-   waypoints closer than ``crossover_tol * diag`` (``inf``: always cross).  Children::
+   are paired in rank order (1st with 2nd, ...).  Corresponding waypoints closer than
+   ``crossover_tol * diag`` are *shared* ("locally identical path information").  The text
+   says the pair then swaps the path fragment between shared points, and that a pair with no
+   identical fragment is not crossed: ``crossover = "swap"`` (``ipso-paper``) exchanges the
+   waypoints between the first two shared waypoints (or the first one and the goal),
+   velocities likewise (:func:`shared_fragment`, :func:`swap_fragments`).  The equations
+   printed after that sentence are arithmetic crossovers of whole vectors,
+   ``crossover = "blend"`` (pairs with at least one shared waypoint)::
 
        child_1(x) = p_c parent_1(x) + (1 - p_c) parent_2(x)       (25)
        child_2(x) = (1 - p_c) parent_1(x) + p_c parent_2(x)       (26)
 
-   and the same for velocities (27-28), ``p_c ~ U(0, 1)`` per pair.  **Mutation** (eq 29):
+   and the same for velocities (27-28), ``p_c ~ U(0, 1)`` per pair (drawn only for
+   ``"blend"``).  **Mutation** (eq 29):
    each child gets a candidate ``child + C_k``; the better of the two (lower cost: the paper's
    "higher fitness" means better) is kept.  ``C_k`` is undefined in the paper; here
    ``C_k ~ N(0, (mutation_scale * range * psi(k))^2)`` per coordinate, so the mutation shrinks
@@ -53,9 +59,10 @@ Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration
 
 Implementation: the per-iteration steps (:func:`ga_pairs`, :func:`ga_children`,
 :func:`move`, :func:`absorb`) are compiled with numba (the only implementation); every random
-number is drawn in Python from the run's generator, in this order per iteration: ``p_c`` (one
-per crossed pair), the mutation noise ``(children, D)``, then ``eps, eta, R`` as one
-``(3, P, D)`` draw (and, with ``bounds_mode = "random"``, the re-draws of the bounds handling).
+number is drawn in Python from the run's generator, in this order per iteration: ``p_c``
+(one per crossed pair, ``"blend"`` only), the mutation noise ``(children, D)``, then
+``eps, eta, R`` as one ``(3, P, D)`` draw (and, with ``bounds_mode = "random"``, the
+re-draws of the bounds handling).
 
 Beyond the paper (options, all off in ``ipso-paper``): islands, roadmap seeding with
 several homotopy classes (``init_mode = "roadmap"``, ``corridors``) and the end-game
@@ -86,7 +93,7 @@ from optplan.backends.swarm import (
     velocity_update,
 )
 from optplan.geometry import path_lengths
-from optplan.solver import check_choice, check_int, check_range
+from optplan.solver import option
 
 __all__ = [
     "IPSO",
@@ -98,6 +105,8 @@ __all__ = [
     "position_factor",
     "crossover",
     "greedy_mutation",
+    "shared_fragment",
+    "swap_fragments",
     "ga_pairs",
     "ga_children",
     "move",
@@ -108,6 +117,7 @@ __all__ = [
 INERTIA_MODES = ("paper", "linear")
 POSITION_MODES = ("paper", "step", "frame")
 ENDGAME_MODES = ("islands", "classes")
+CROSSOVER_MODES = ("blend", "swap")
 
 _jit = numba.njit(cache=True, nogil=True)
 _NO_DRAW = np.zeros(0)
@@ -182,44 +192,100 @@ def greedy_mutation(cost_child: np.ndarray, cost_mutant: np.ndarray) -> np.ndarr
 
 
 @_jit
-def ga_pairs(F, X, n_islands, n_select, tol2):
+def shared_fragment(xa, xb, tol2):
+    """The fragment two particles exchange in the paper's crossover ("intercept the locally
+    identical path information ... swapping each other"): waypoint indices ``[lo, hi)``.
+
+    Waypoint ``j`` is *shared* when the two particles' ``j``-th waypoints are closer than
+    ``sqrt(tol2)``; ``a`` is the first shared waypoint, ``b`` the next shared one after
+    ``a + 1`` (else the goal, index ``n``, which every path shares).  The fragment is the
+    waypoints strictly between them, ``[a + 1, b)``; ``(0, 0)`` (empty: no crossover) when no
+    waypoint is shared or only the last one is.
+    """
+    n = xa.shape[0] // 2
+    a = -1
+    b = n
+    for j in range(n):
+        dx = xa[2 * j] - xb[2 * j]
+        dy = xa[2 * j + 1] - xb[2 * j + 1]
+        if dx * dx + dy * dy <= tol2:
+            if a < 0:
+                a = j
+            elif j > a + 1:
+                b = j
+                break
+    if a < 0 or a + 1 >= b:
+        return 0, 0
+    return a + 1, b
+
+
+@_jit
+def ga_pairs(F, X, n_islands, n_select, tol2, swap=False):
     """Selection of eqs 25-28: per island (blocks of consecutive particles) its ``n_select``
     best particles by cost, in stable rank order, paired 1st-2nd, 3rd-4th, ...; a pair is kept
     when some corresponding waypoints are closer than ``sqrt(tol2)`` ("locally identical path
-    information"; ``tol2 = inf`` keeps every pair).
+    information"; ``tol2 = inf`` keeps every pair).  With ``swap`` (the fragment swap of
+    ``crossover = "swap"``) a pair is kept when its :func:`shared_fragment` is not empty.
 
-    Returns the kept pairs ``(h, 2)`` (particle indices, island by island) and their islands.
+    Returns the kept pairs ``(h, 2)`` (particle indices, island by island), their islands and
+    their fragments ``(h, 2)`` (waypoint index ranges ``[lo, hi)``; ``(0, 0)`` without
+    ``swap``).
     """
     P, D = X.shape
     m_i = P // n_islands
     half = n_select // 2
     pairs = np.empty((n_islands * half, 2), np.int64)
     isl = np.empty(n_islands * half, np.int64)
+    frag = np.zeros((n_islands * half, 2), np.int64)
     h = 0
     for i in range(n_islands):
         order = np.argsort(F[i * m_i:(i + 1) * m_i], kind="mergesort") + i * m_i
         for r in range(half):
             a = order[2 * r]
             b = order[2 * r + 1]
-            close = tol2 == np.inf
-            if not close:
-                for j in range(0, D, 2):
-                    dx = X[a, j] - X[b, j]
-                    dy = X[a, j + 1] - X[b, j + 1]
-                    if dx * dx + dy * dy <= tol2:
-                        close = True
-                        break
+            lo = 0
+            hi = 0
+            if swap:
+                lo, hi = shared_fragment(X[a], X[b], tol2)
+                close = hi > lo
+            else:
+                close = tol2 == np.inf
+                if not close:
+                    for j in range(0, D, 2):
+                        dx = X[a, j] - X[b, j]
+                        dy = X[a, j + 1] - X[b, j + 1]
+                        if dx * dx + dy * dy <= tol2:
+                            close = True
+                            break
             if close:
                 pairs[h, 0] = a
                 pairs[h, 1] = b
                 isl[h] = i
+                frag[h, 0] = lo
+                frag[h, 1] = hi
                 h += 1
-    return pairs[:h], isl[:h]
+    return pairs[:h], isl[:h], frag[:h]
 
 
 @_jit
-def ga_children(X, V, pairs, pc, noise, sigma, out):
-    """Eqs 25-28 and the mutation candidates of eq 29 for the ``h`` crossed pairs.
+def swap_fragments(x1, x2, v1, v2, frag):
+    """The paper's crossover text for a batch of pairs: child 1 is parent 1 with the fragment
+    ``frag[r]`` (waypoints ``[lo, hi)``) of parent 2, child 2 the converse; velocities the
+    same way.  Returns ``(child1_x, child2_x, child1_v, child2_v)``."""
+    c1x, c2x, c1v, c2v = x1.copy(), x2.copy(), v1.copy(), v2.copy()
+    for r in range(x1.shape[0]):
+        for d in range(2 * frag[r, 0], 2 * frag[r, 1]):
+            c1x[r, d] = x2[r, d]
+            c2x[r, d] = x1[r, d]
+            c1v[r, d] = v2[r, d]
+            c2v[r, d] = v1[r, d]
+    return c1x, c2x, c1v, c2v
+
+
+@_jit
+def ga_children(X, V, pairs, pc, noise, sigma, out, frag, swap):
+    """Eqs 25-28 (``swap``: :func:`swap_fragments` of ``frag``; ``pc`` unused) and the
+    mutation candidates of eq 29 for the ``h`` crossed pairs.
 
     Children go to ``out[m:2m]`` (first children of every pair, then second children,
     ``m = 2h``) and the mutants ``child + C_k`` with ``C_k = noise * sigma`` to ``out[:m]``;
@@ -228,7 +294,10 @@ def ga_children(X, V, pairs, pc, noise, sigma, out):
     h = pairs.shape[0]
     m = 2 * h
     a, b = pairs[:, 0], pairs[:, 1]
-    c1x, c2x, c1v, c2v = crossover(X[a], X[b], V[a], V[b], pc)
+    if swap:
+        c1x, c2x, c1v, c2v = swap_fragments(X[a], X[b], V[a], V[b], frag)
+    else:
+        c1x, c2x, c1v, c2v = crossover(X[a], X[b], V[a], V[b], pc)
     out[m:m + h] = c1x
     out[m + h:2 * m] = c2x
     for r in range(m):
@@ -275,7 +344,7 @@ def move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal
 
 @_jit
 def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal,
-            pairs, pc, noise, sigma, lo, hi, bound_code, B, V_new):
+            pairs, pc, noise, sigma, lo, hi, bound_code, B, V_new, frag, swap):
     """The pre-evaluation part of one iteration, into the batch ``B``: GA children and
     mutants (:func:`ga_children`, rows ``P .. P + 2m``), the move (:func:`move`, rows
     ``:P`` and ``V_new``), then bounds handling of swarm and mutants (``bound_code``: see
@@ -284,7 +353,7 @@ def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, g
     (for ``random`` mode, whose re-draws the caller makes)."""
     P = X.shape[0]
     m = 2 * pairs.shape[0]
-    cv = ga_children(X, V, pairs, pc, noise, sigma, B[P:])
+    cv = ga_children(X, V, pairs, pc, noise, sigma, B[P:], frag, swap)
     move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal, B[:P],
          V_new)
     out, anyout = bound_rows(B[:P + m], lo, hi, bound_code)
@@ -423,10 +492,18 @@ class IPSO(SwarmBackend):
         (module docstring).
     A : int
         Number of best particles selected for crossover (even; the paper does not give it).
+    crossover : {"blend", "swap"}
+        The GA crossover of a selected pair.  ``"swap"`` (``ipso-paper``): the paper's text,
+        "intercept the locally identical path information in two particles ... swapping each
+        other": the waypoints between the pair's first two shared waypoints (or between the
+        first shared one and the goal) are exchanged (:func:`shared_fragment`,
+        :func:`swap_fragments`), velocities likewise; a pair without such a fragment is not
+        crossed.  ``"blend"``: eqs 25-28 on the whole particles (``p_c ~ U(0, 1)`` per pair),
+        for the pairs with at least one shared waypoint.
     crossover_tol : float
-        Pairs cross only if some corresponding waypoints are closer than
-        ``crossover_tol * map diagonal`` ("locally identical path information"); ``inf``
-        crosses every pair.
+        Two corresponding waypoints are *shared* ("locally identical path information") when
+        they are closer than ``crossover_tol * map diagonal``; ``inf`` shares every waypoint
+        (``"blend"``: every pair crosses).
     mutation_scale : float
         Standard deviation of the mutation ``C_k`` of eq 29 as a fraction of the map range,
         multiplied by ``psi(k)``.
@@ -444,51 +521,43 @@ class IPSO(SwarmBackend):
         at most this many rounds) is applied to the candidates of ``endgame``; the shortest
         result is returned (one extra history row).  The returned path then has as many
         vertices as the tightening needs (more than ``n_waypoints`` around rounded corners).
+        0: no end-game.
     endgame : {"islands", "classes"}
         Candidates of the end-game: ``"islands"``: the best collision-free particle and every
         island's best; ``"classes"``: those and the roadmap corridors, reduced to the
         shortest candidate of each homotopy class (by signature), so that every class the run
         has seen is compared after tightening.
+    endgame_margin : float
+        Beyond the paper: after a quick coarse tightening of every end-game candidate, those
+        within this fraction of the best (at most ``ENDGAME_KEEP``) are tightened in full.
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
-penetration_weight, roadmap_samples, corridors
+penetration_weight, roadmap_samples, roadmap_boundary, roadmap_medial, roadmap_neighbours, \
+corridors
         Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
     """
 
     name: ClassVar[str] = "ipso"
-    contract_problem: ClassVar[str] = "open-field"
-    contract_overrides: ClassVar[dict] = {"n_particles": 10, "k_max": 10, "A": 4}
+    w_max: float = option(0.9, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    w_min: float = option(0.2, lo=0.0, hi=1.0)
+    inertia: str = option("paper", choices=INERTIA_MODES)
+    position_update: str = option("paper", choices=POSITION_MODES)
+    A: int = option(10, lo=0, hi=100_000)
+    crossover: str = option("blend", choices=CROSSOVER_MODES)
+    crossover_tol: float = option(0.05, lo=0.0, inf_ok=True)
+    mutation_scale: float = option(0.05, lo=0.0, hi=10.0)
+    islands: int = option(1, lo=1, hi=10_000)
+    tighten_rounds: int = option(0, lo=0, hi=100_000)
+    endgame: str = option("islands", choices=ENDGAME_MODES)
+    endgame_margin: float = option(0.005, lo=0.0, hi=10.0)
 
-    w_max: float = 0.9
-    w_min: float = 0.2
-    inertia: str = "paper"
-    position_update: str = "paper"
-    A: int = 10
-    crossover_tol: float = 0.05
-    mutation_scale: float = 0.05
-    islands: int = 1
-    tighten_rounds: int = 0
-    endgame: str = "islands"
-    endgame_margin: float = 0.005
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        check_range(self, "w_max", 0.0, 1.0, lo_open=True, hi_open=True)
-        check_range(self, "w_min", 0.0, 1.0)
+    def check(self) -> None:
+        """``w_min <= w_max``; ``A`` even (the selected particles are paired)."""
         if self.w_min > self.w_max:
             raise ValueError(f"option 'w_min' of backend 'ipso' must be <= w_max "
                              f"({self.w_max}), got {self.w_min!r}")
-        check_choice(self, "inertia", INERTIA_MODES)
-        check_choice(self, "position_update", POSITION_MODES)
-        check_int(self, "A", 0, 100_000)
         if self.A % 2:
             raise ValueError(f"option 'A' of backend 'ipso' must be an even integer, "
                              f"got {self.A!r}")
-        check_range(self, "crossover_tol", 0.0, math.inf)
-        check_range(self, "mutation_scale", 0.0, 10.0)
-        check_int(self, "islands", 1, 10_000)
-        check_int(self, "tighten_rounds", 0, 100_000)
-        check_choice(self, "endgame", ENDGAME_MODES)
-        check_range(self, "endgame_margin", 0.0, 10.0)
 
     @property
     def n_islands(self) -> int:
@@ -545,10 +614,11 @@ penetration_weight, roadmap_samples, corridors
         P, D = st.X.shape
         B = run.buffer.X(it)  # this iteration's batch: swarm, mutants, children
         # GA selection on the swarm as evaluated before the move (eqs 25-26)
-        pairs, isl = ga_pairs(st.F, st.X, run.n_islands, run.n_select, run.tol2)
+        swap = self.crossover == "swap"
+        pairs, isl, frag = ga_pairs(st.F, st.X, run.n_islands, run.n_select, run.tol2, swap)
         h = len(pairs)
         m = 2 * h
-        pc = rng.random(h) if h else _NO_DRAW
+        pc = rng.random(h) if h and not swap else _NO_DRAW
         noise = rng.standard_normal((m, D)) if h else _NO_DRAW.reshape(0, 1)
         U = rng.random((3, P, D))
         guides = st.pbest[run.island_idx] if run.n_islands > 1 else st.gbest[None]
@@ -557,7 +627,7 @@ penetration_weight, roadmap_samples, corridors
         cv, out, anyout = advance(
             st.X, st.V, st.pbest, guides, run.leader, w, self.c1, self.c2, U, run.vmax, psi,
             run.position_code, space.start, space.goal, pairs, pc, noise, run.mut_sigma * psi,
-            space.lo, space.hi, BOUND_CODES[self.bounds_mode], B, V)
+            space.lo, space.hi, BOUND_CODES[self.bounds_mode], B, V, frag, swap)
         if anyout and self.bounds_mode == "random":
             redraw_out(B[:P + m], out, space.lo, space.hi, rng)
         main = P + 2 * m

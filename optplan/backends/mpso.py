@@ -32,7 +32,7 @@ from optplan.backends.swarm import (
     evaluate_swarm,
     handle_bounds,
 )
-from optplan.solver import check_choice, check_int, check_range
+from optplan.solver import option
 
 __all__ = ["MPSO", "mutate_one_coordinate", "refine_trials"]
 
@@ -82,27 +82,17 @@ class MPSO(SwarmBackend):
         Trial points per iteration for ``gbest_local`` (evaluated in the same batch as the
         swarm).
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
-penetration_weight
+penetration_weight, roadmap_samples, roadmap_boundary, roadmap_medial, roadmap_neighbours, \
+corridors
         Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
     """
 
     name: ClassVar[str] = "mpso"
-    contract_problem: ClassVar[str] = "open-field"
-    contract_overrides: ClassVar[dict] = {"n_particles": 10, "k_max": 10}
-
-    w: float = 0.5
-    p_t: float = 0.8
-    delta: float = 0.056
-    refine_mode: str = "gbest_local"
-    n_refine: int = 1
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        check_range(self, "w", 0.0, 2.0)
-        check_range(self, "p_t", 0.0, 1.0)
-        check_range(self, "delta", 0.0, 10.0, lo_open=True)
-        check_choice(self, "refine_mode", REFINE_MODES)
-        check_int(self, "n_refine", 0, 10_000)
+    w: float = option(0.5, lo=0.0, hi=2.0)
+    p_t: float = option(0.8, lo=0.0, hi=1.0)
+    delta: float = option(0.056, lo=0.0, hi=10.0, lo_open=True)
+    refine_mode: str = option("gbest_local", choices=REFINE_MODES)
+    n_refine: int = option(1, lo=0, hi=10_000)
 
     def _iterate(self, space: SwarmSpace, state: SwarmState, run: Any, k: int,
                  rng: np.random.Generator) -> dict[str, Any]:

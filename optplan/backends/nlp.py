@@ -123,7 +123,7 @@ from optplan.geometry.tangent_graph import problem_shortest_path
 from optplan.metrics import evaluate
 from optplan.problem import Obstacle, Problem, Robot
 from optplan.result import History, Progress, Result, Status, notify
-from optplan.solver import Backend, check_choice, check_int, check_range
+from optplan.solver import Backend, option
 
 __all__ = [
     "WaypointNLP",
@@ -486,7 +486,6 @@ def _build(n_seg: int, n_slots: int, n_verts: int, ipopt_opts: tuple,
     goal = ca.SX.sym("goal", 2)
     eps = ca.SX.sym("eps")
     w = ca.SX.sym("w")
-    rho = ca.SX.sym("rho")
     Vp = ca.SX.sym("V", N * K * V * 2)
     rows = [start.T]
     for i in range(N - 1):
@@ -495,7 +494,6 @@ def _build(n_seg: int, n_slots: int, n_verts: int, ipopt_opts: tuple,
     P = ca.vertcat(*rows)
     L, R = _length_terms(P, eps, w, N)
     g = []
-    margin_sum = 0
     for i in range(N):
         p0, p1 = P[i, :].T, P[i + 1, :].T
         for k in range(K):
@@ -507,11 +505,10 @@ def _build(n_seg: int, n_slots: int, n_verts: int, ipopt_opts: tuple,
             g.append(ca.dot(a, p0) - c)
             g.append(ca.dot(a, p1) - c)
             g.append(ca.dot(a, a))
-            margin_sum += 0.5 * (ca.dot(a, p0 + p1)) - c
     gexpr = ca.vertcat(*g) if g else ca.SX(0, 1)
     x = ca.vertcat(W, A, C)
-    p = ca.vertcat(start, goal, eps, w, rho, Vp)
-    nlp = {"x": x, "p": p, "f": L + R - rho * margin_sum, "g": gexpr}
+    p = ca.vertcat(start, goal, eps, w, Vp)
+    nlp = {"x": x, "p": p, "f": L + R, "g": gexpr}
     ip = dict(ipopt_opts)
     opts: dict[str, Any] = {"expand": True, "print_time": False, "error_on_fail": False,
                             "ipopt": ip}
@@ -553,7 +550,7 @@ class NLPOutcome:
 
 
 def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, scale: float,
-                bounds, eps: float, w: float, rho: float, ipopt_opts: tuple,
+                bounds, eps: float, w: float, ipopt_opts: tuple,
                 on_iter: Callable[[float], bool] | None) -> tuple[np.ndarray, dict, float]:
     """One IPOPT solve from ``path0`` with the pairs in ``mask``; returns (path, stats, build).
 
@@ -614,7 +611,7 @@ def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, scale: f
     lbg[:, V] = np.where(active, clear, -np.inf)
     lbg[:, V + 1] = np.where(active, clear, -np.inf)
     ubg[:, V + 2] = np.where(active, 1.0, np.inf)
-    par = np.r_[u[0], u[-1], eps, w, rho, Vt.reshape(N * K, V * 2).ravel()]
+    par = np.r_[u[0], u[-1], eps, w, Vt.reshape(N * K, V * 2).ravel()]
     if built.callback is not None:
         built.callback.target = on_iter
     sol = built.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg.ravel(), ubg=ubg.ravel(), p=par)
@@ -646,7 +643,6 @@ def solve_waypoint_nlp(
     max_rounds: int = 4,
     eps: float = 1e-4,
     spacing_weight: float = 1e-4,
-    hyperplane_weight: float = 0.0,
     resolve_from: str = "last",
     ipopt_options: dict | None = None,
     on_iter: Callable[[float], bool] | None = None,
@@ -703,7 +699,7 @@ def solve_waypoint_nlp(
         t0 = time.perf_counter()
         new, info, bt = _solve_once(start_path, pieces, mask, scale=scale,
                                     bounds=frame.local_bounds, eps=eps, w=spacing_weight,
-                                    rho=hyperplane_weight, ipopt_opts=opts, on_iter=on_iter)
+                                    ipopt_opts=opts, on_iter=on_iter)
         solve_t += time.perf_counter() - t0 - bt
         build += bt
         stats.append(info)
@@ -760,16 +756,17 @@ class WaypointNLP(Backend):
         :math:`N`, number of path segments (waypoints between start and goal: :math:`N-1`).
         An initial guess with more segments raises :math:`N` to keep all its vertices.
     margin : float
-        Extra clearance (map units) on top of the robot radius (the NLP always avoids the
-        true polygons and circles by ``r + margin``, plus a safety of ``SAFETY_REL`` x the
-        map diagonal).
+        Extra clearance on top of the robot radius, in units of the problem's
+        ``length_scale`` (map units on the paper's maps): the NLP avoids the true polygons and
+        circles by ``r + margin * length_scale``, plus a safety of ``SAFETY_REL`` x the map
+        diagonal.
     init_from : {"visgraph", "straight"}
         Initial guess when no ``init`` is given: the arc-exact tangent-graph path (the
         ``visgraph`` polyline) or the straight start-goal line.
     prune_distance : float
         Pair pruning radius as a fraction of the map diagonal: a (segment, piece) pair is
-        constrained when its initial slack ``dist - clearance`` is at most this
-        (``inf`` = every pair).
+        constrained when its initial slack ``dist - clearance`` is at most this; ``inf``
+        constrains every pair (no pruning).
     max_rounds : int
         Maximum number of solves (re-solves happen when a pruned pair turns out violated).
     resolve_from : {"last", "init"}
@@ -804,47 +801,23 @@ class WaypointNLP(Backend):
 
     name: ClassVar[str] = "nlp"
     certifies: ClassVar[bool] = True
-    contract_problem: ClassVar[str] = "open-field"
-    contract_overrides: ClassVar[dict] = {"n_segments": 8}
-
-    n_segments: int = 20
-    margin: float = 0.0
-    init_from: str = "visgraph"
-    prune_distance: float = 0.05
-    max_rounds: int = 4
-    resolve_from: str = "last"
-    eps: float = 1e-4
-    spacing_weight: float = 1e-4
-    see_temporary: bool = False
-    guard: bool = True
-    max_iter: int = 500
-    tol: float = 1e-8
-    acceptable_tol: float = 1e-6
-    mu_strategy: str = "monotone"
-    mu_init: float = 1e-7
-    bound_push: float = 1e-6
-    print_level: int = 0
-
-    def __post_init__(self) -> None:
-        check_int(self, "n_segments", 1, MAX_SEGMENTS)
-        check_range(self, "margin", 0.0)
-        check_choice(self, "init_from", ("visgraph", "straight"))
-        check_range(self, "prune_distance", 0.0, math.inf)
-        check_int(self, "max_rounds", 1, 50)
-        check_choice(self, "resolve_from", ("init", "last"))
-        check_range(self, "eps", 0.0, 1e-2)
-        check_range(self, "spacing_weight", 0.0, 1.0)
-        check_int(self, "max_iter", 1, 100_000)
-        check_range(self, "tol", 0.0, 1.0, lo_open=True)
-        check_range(self, "acceptable_tol", 0.0, 1.0, lo_open=True)
-        check_choice(self, "mu_strategy", ("adaptive", "monotone"))
-        check_range(self, "mu_init", 0.0, 1e3, lo_open=True)
-        check_range(self, "bound_push", 0.0, 0.5, lo_open=True)
-        check_int(self, "print_level", 0, 12)
-        for k in ("see_temporary", "guard"):
-            if not isinstance(getattr(self, k), bool):
-                raise ValueError(f"option {k!r} of backend 'nlp' must be true or false, "
-                                 f"got {getattr(self, k)!r}")
+    n_segments: int = option(20, lo=1, hi=MAX_SEGMENTS)
+    margin: float = option(0.0, lo=0.0, scale=True)
+    init_from: str = option("visgraph", choices=("visgraph", "straight"))
+    prune_distance: float = option(0.05, lo=0.0, inf_ok=True)
+    max_rounds: int = option(4, lo=1, hi=50)
+    resolve_from: str = option("last", choices=("init", "last"))
+    eps: float = option(1e-4, lo=0.0, hi=1e-2)
+    spacing_weight: float = option(1e-4, lo=0.0, hi=1.0)
+    see_temporary: bool = option(False)
+    guard: bool = option(True)
+    max_iter: int = option(500, lo=1, hi=100_000)
+    tol: float = option(1e-8, lo=0.0, hi=1.0, lo_open=True)
+    acceptable_tol: float = option(1e-6, lo=0.0, hi=1.0, lo_open=True)
+    mu_strategy: str = option("monotone", choices=("adaptive", "monotone"))
+    mu_init: float = option(1e-7, lo=0.0, hi=1e3, lo_open=True)
+    bound_push: float = option(1e-6, lo=0.0, hi=0.5, lo_open=True)
+    print_level: int = option(0, lo=0, hi=12)
 
     def ipopt_options(self) -> dict:
         """The IPOPT options passed to ``nlpsol`` (plugin level ``expand``/``print_time`` too)."""
@@ -893,6 +866,7 @@ class WaypointNLP(Backend):
         t0 = time.perf_counter()
         known_only = not self.see_temporary
         view = problem if self.see_temporary else problem.known_view()
+        margin = self.margin * problem.length_scale  # the option is in length_scale units
         paths: dict[str, np.ndarray] = {}
         msgs: list[str] = []
         claims: list[Status] = []
@@ -930,7 +904,7 @@ class WaypointNLP(Backend):
                 claims.append(why_none)
                 msgs.append(f"{robot.id}: {source}")
                 continue
-            pieces = obstacle_pieces(problem, robot, known_only=known_only, margin=self.margin)
+            pieces = obstacle_pieces(problem, robot, known_only=known_only, margin=margin)
             if pieces.n and robot.goal is not None:
                 # start and goal against the validator's clearance r (touching allowed)
                 ends = problem.frame.local(np.vstack([robot.start, robot.start, robot.goal,
@@ -946,15 +920,15 @@ class WaypointNLP(Backend):
             try:
                 out = solve_waypoint_nlp(
                     problem, robot, guess, n_segments=self.n_segments,
-                    known_only=known_only, margin=self.margin,
+                    known_only=known_only, margin=margin,
                     prune_distance=self.prune_distance, max_rounds=self.max_rounds,
                     resolve_from=self.resolve_from,
-                    eps=self.eps * 1.0, spacing_weight=self.spacing_weight,
+                    eps=self.eps, spacing_weight=self.spacing_weight,
                     ipopt_options=self.ipopt_options(),
                     on_iter=on_iter if callback is not None else None)
                 if raised:
                     raise raised[0]
-            except Exception as e:  # noqa: BLE001 - numerical failure -> failed status
+            except RuntimeError as e:  # CasADi / IPOPT numerical failure -> failed status
                 if raised:
                     raise
 

@@ -57,13 +57,12 @@ class PSO(SwarmBackend):
     w : float
         Inertia weight of eq 1 (paper §VI.A: 0.5).
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
-penetration_weight
+penetration_weight, roadmap_samples, roadmap_boundary, roadmap_medial, roadmap_neighbours, \
+corridors
         Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
     """
 
     name: ClassVar[str] = "pso"
-    contract_problem: ClassVar[str] = "open-field"
-    contract_overrides: ClassVar[dict] = {"n_particles": 10, "k_max": 10}
 
     w: float = option(0.5, lo=0.0, hi=2.0)
 

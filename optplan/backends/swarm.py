@@ -96,7 +96,7 @@ from optplan.geometry.homotopy import obstacle_points
 from optplan.geometry.polyline import resample_path
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
-from optplan.solver import Backend, check_choice, check_int, check_range, make_rng
+from optplan.solver import Backend, make_rng, option
 
 if TYPE_CHECKING:
     from optplan.geometry import ObstacleSet
@@ -1233,14 +1233,15 @@ class SwarmBackend(Backend):
         the swarm fast; an optimum with more bends needs a larger value.
     v_max : float
         Velocity clamp per coordinate as a fraction of the map range (0.2 = 20 %); ``inf``
-        disables it.  Not in the paper.
+        disables the clamp.  Not in the paper.
     bounds_mode : {"reflect", "clip", "random"}
         Handling of coordinates that leave the map (see module docstring).
     init_mode : {"sorted", "uniform", "line", "roadmap"}
         Initial swarm (see module docstring).
     penalty_weight : float or None
-        ``delta`` of eq 32 (map units per crossing); ``None`` = ``(n_waypoints + 1) * diag``,
-        the smallest round value making every collision-free path beat every colliding one.
+        ``delta`` of eq 32 per crossing, in units of the problem's ``length_scale`` (map units
+        on the paper's maps, where it is 1); ``None`` = ``(n_waypoints + 1) * diag``, the
+        smallest round value making every collision-free path beat every colliding one.
     penetration_weight : float
         Weight of the inside-obstacle length added to the fitness (beyond the paper; 0 in the
         ``-paper`` presets).
@@ -1259,42 +1260,22 @@ class SwarmBackend(Backend):
     """
 
     name: ClassVar[str] = "swarm"
-    contract_problem: ClassVar[str] = "open-field"
-    contract_overrides: ClassVar[dict] = {"n_particles": 10, "k_max": 10}
 
-    n_particles: int = 50
-    k_max: int = 200
-    c1: float = 1.5
-    c2: float = 1.5
-    n_waypoints: int = 4
-    v_max: float = 0.2
-    bounds_mode: str = "reflect"
-    init_mode: str = "sorted"
-    penalty_weight: float | None = None
-    penetration_weight: float = 0.0
-    roadmap_samples: int = 40
-    roadmap_boundary: int = 360
-    roadmap_medial: int = 200
-    roadmap_neighbours: int = 25
-    corridors: int = 30
-
-    def __post_init__(self) -> None:
-        check_int(self, "n_particles", 2, 100_000)
-        check_int(self, "k_max", 0, 1_000_000)
-        check_range(self, "c1", 0.0, 10.0)
-        check_range(self, "c2", 0.0, 10.0)
-        check_int(self, "n_waypoints", 1, 200)
-        check_range(self, "v_max", 0.0, math.inf, lo_open=True)
-        check_choice(self, "bounds_mode", BOUNDS_MODES)
-        check_choice(self, "init_mode", INIT_MODES)
-        if self.penalty_weight is not None:
-            check_range(self, "penalty_weight", 0.0, math.inf)
-        check_range(self, "penetration_weight", 0.0, math.inf)
-        check_int(self, "roadmap_samples", 0, 100_000)
-        check_int(self, "roadmap_boundary", 0, 100_000)
-        check_int(self, "roadmap_neighbours", 0, 100_000)
-        check_int(self, "corridors", 1, 1000)
-        check_int(self, "roadmap_medial", 0, 100_000)
+    n_particles: int = option(50, lo=2, hi=100_000)
+    k_max: int = option(200, lo=0, hi=1_000_000)
+    c1: float = option(1.5, lo=0.0, hi=10.0)
+    c2: float = option(1.5, lo=0.0, hi=10.0)
+    n_waypoints: int = option(4, lo=1, hi=200)
+    v_max: float = option(0.2, lo=0.0, lo_open=True, inf_ok=True)
+    bounds_mode: str = option("reflect", choices=BOUNDS_MODES)
+    init_mode: str = option("sorted", choices=INIT_MODES)
+    penalty_weight: float | None = option(None, lo=0.0, scale=True)
+    penetration_weight: float = option(0.0, lo=0.0)
+    roadmap_samples: int = option(40, lo=0, hi=100_000)
+    roadmap_boundary: int = option(360, lo=0, hi=100_000)
+    roadmap_medial: int = option(200, lo=0, hi=100_000)
+    roadmap_neighbours: int = option(25, lo=0, hi=100_000)
+    corridors: int = option(30, lo=1, hi=1000)
 
     # -- hooks for subclasses ------------------------------------------------------
     def _start(self, space: SwarmSpace, state: SwarmState, seeds: list[np.ndarray],
@@ -1354,8 +1335,9 @@ class SwarmBackend(Backend):
     # -- the driver --------------------------------------------------------------------
     def _run_robot(self, problem: Problem, robot: Robot, rng: np.random.Generator,
                    init_path: np.ndarray | None, callback, t0: float, it_offset: int):
+        pw = self.penalty_weight
         space = make_space(problem, robot, self.n_waypoints,
-                           penalty_weight=self.penalty_weight,
+                           penalty_weight=None if pw is None else pw * problem.length_scale,
                            penetration_weight=self.penetration_weight)
         X, seeds = self._initial(space, init_path, rng)
         V = np.zeros_like(X)
