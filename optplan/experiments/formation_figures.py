@@ -1,11 +1,16 @@
 """Figures of docs/solvers/formation.md: both formation solvers on paper-formation and
 paper-warehouse (trajectories, formation snapshots, formation error over time).
 
-    .venv/bin/python docs/scripts/make_formation_figures.py
+    python -m optplan.experiments.formation_figures                  # into runs/
+    python -m optplan.experiments.formation_figures --out docs/img   # the docs' figures
+
+Writes ``formation-<scene>.png`` per scene (seed 0, leader reference by ``visgraph``) into
+``--out`` (default ``runs/``).
 """
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import matplotlib
@@ -17,7 +22,7 @@ from matplotlib.patches import Circle  # noqa: E402
 
 import optplan as op  # noqa: E402
 
-OUT = Path(__file__).resolve().parents[1] / "img"
+SCENES = ("paper-formation", "paper-warehouse")
 SOLVERS = (("leader-follower-paper", "leader-follower-paper (eqs 39-52)"),
            ("formation-qp", "formation-qp (CBF QP)"))
 
@@ -57,9 +62,14 @@ def draw(ax, prob: op.Problem, res: op.Result, title: str, n_snap: int = 10) -> 
     ax.legend(fontsize=7, loc="lower right")
 
 
-def main() -> None:
-    OUT.mkdir(parents=True, exist_ok=True)
-    for scene in ("paper-formation", "paper-warehouse"):
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default="runs", help="output folder (default runs/)")
+    ap.add_argument("--scenes", default=",".join(SCENES))
+    args = ap.parse_args(argv)
+    out_dir = Path(args.out)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    for scene in args.scenes.split(","):
         prob = op.load_problem(scene)
         fig, axes = plt.subplots(1, 3, figsize=(15, 5.2),
                                  gridspec_kw={"width_ratios": [1, 1, 0.9]})
@@ -73,7 +83,7 @@ def main() -> None:
         axes[2].set_title("formation error (controller frame)", fontsize=9)
         axes[2].legend(fontsize=7)
         fig.tight_layout()
-        out = OUT / f"formation-{scene}.png"
+        out = out_dir / f"formation-{scene}.png"
         fig.savefig(out, dpi=90)
         plt.close(fig)
         print("wrote", out)

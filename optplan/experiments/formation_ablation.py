@@ -5,7 +5,7 @@ Prints the table quoted in docs/solvers/formation.md: each combination of the ``
 the scene as written, seeds 1-4 jitter the moving obstacles' phases; leader reference by
 ``visgraph``).
 
-    python docs/scripts/formation_ablation.py
+    python -m optplan.experiments.formation_ablation
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import optplan as op
 from optplan.generators import jitter_phases
 
 
-def main() -> None:
+def main(argv: list[str] | None = None) -> None:
     base = op.load_problem("paper-warehouse")
     print("| `safety` | `recovery` | success | min separation (median) | formation RMSE (median) "
           "| first failure (seed 0 message) |")
