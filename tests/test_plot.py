@@ -459,3 +459,95 @@ def test_plot_draws_the_embedded_map_not_the_catalogue_one(tmp_path) -> None:
     res.save(tmp_path / "r.json")
     drawn = _problem_of(op.Result.load(tmp_path / "r.json"), None)
     assert drawn.bounds == (0.0, 0.0, 100.0, 100.0) and len(drawn.obstacles) == 1
+
+
+def _data_bbox(ax, r):
+    """Display bbox of everything drawn in data coordinates (lines, patches, collections and
+    texts), clipped to the axes: the data's bbox."""
+    from matplotlib.transforms import Bbox
+
+    boxes = []
+    for art in [*ax.lines, *ax.patches, *ax.collections, *ax.texts]:
+        if not art.get_visible() or art.get_gid() in ("clock",):
+            continue
+        b = art.get_window_extent(r)
+        if np.all(np.isfinite(b.get_points())) and b.width >= 0 and b.height >= 0:
+            boxes.append(b)
+    return Bbox.intersection(Bbox.union(boxes), ax.get_window_extent(r))
+
+
+def test_legend_bbox_misses_the_data_bbox_and_the_clock(scene, team_result, tmp_path):
+    """Static figures and the animation: the legend's box overlaps neither the box of all the
+    drawn data (paths, obstacles, tracks, labels, red marks) nor the clock."""
+    collide = _hand(scene, {"L": np.array([[10.0, 10.0], [30.0, -12.0], [50.0, 28.0],
+                                           [50.0, 90.0]])})
+    figs = [plot.plot_result(team_result, problem=scene), plot.plot_result(collide,
+                                                                           problem=scene),
+            plot.plot_problem(scene)]
+    for fig in figs:
+        r = _drawn(fig)
+        ax = fig.axes[0]
+        leg = ax.get_legend().get_window_extent(r)
+        assert not _overlap(leg, _data_bbox(ax, r))
+    fig = plot.animate(team_result, tmp_path / "a.gif", problem=scene, max_frames=4, dpi=60)
+    ax = fig.axes[0]
+    clock = next(t for t in ax.texts if t.get_gid() == "clock")
+    r = _drawn(fig)
+    leg = ax.get_legend().get_window_extent(r)
+    assert not _overlap(leg, _data_bbox(ax, r))
+    assert not _overlap(leg, clock.get_window_extent(r))
+    assert not _overlap(clock.get_window_extent(r), _data_bbox(ax, r))
+
+
+def test_colliding_result_has_red_collision_markers_in_plot_and_animation(scene, tmp_path):
+    path = np.array([[10.0, 10.0], [50.0, 28.0], [50.0, 90.0]])  # through the rectangle
+    res = _hand(scene, {"L": path})
+    assert res.metrics["collisions"] > 0
+    fig_static = plot.plot_result(res, problem=scene)
+    fig_anim = plot.animate(res, tmp_path / "c.gif", problem=scene, max_frames=3, dpi=40)
+    for fig in (fig_static, fig_anim):
+        ax = fig.axes[0]
+        marks = [ln for ln in ax.lines if ln.get_gid() == "collision-point"]
+        assert marks and all(ln.get_color() == plot.COLLISION_COLOUR for ln in marks)
+        assert _red_lines(ax)  # the colliding span
+    # a free result gets no red mark at all
+    free = _hand(scene, {"L": np.array([[10.0, 10.0], [10.0, 90.0], [90.0, 90.0]])})
+    ax = plot.plot_result(free, problem=scene).axes[0]
+    assert not [ln for ln in ax.lines if ln.get_color() == plot.COLLISION_COLOUR]
+
+
+def test_cli_plot_draws_the_solved_copy_of_a_catalogue_scene(tmp_path, monkeypatch):
+    """`optplan plot` on the result of an edited copy of paper-env1 (same name, one obstacle
+    removed, another robot start) draws the edited map, even once the copy is deleted."""
+    import tomllib
+
+    from optplan import cli
+    from optplan.catalog import problem_files
+    from optplan.maps import write_toml
+
+    data = tomllib.loads(problem_files()["paper-env1"].read_text(encoding="utf-8"))
+    orig = op.load_problem("paper-env1")
+    data["obstacles"] = data["obstacles"][1:]
+    data["robots"][0]["start"] = [20.0, 30.0]
+    edited = op.parse_problem(data, "edited")
+    assert edited.name == "paper-env1" and len(edited.obstacles) == len(orig.obstacles) - 1
+    toml = write_toml(edited, tmp_path / "env1-edited.toml")
+    js = tmp_path / "r.json"
+    assert cli.main(["solve", str(toml), "visgraph", "--json", str(js)]) == 0
+    toml.unlink()
+    drawn = []
+    real = plot.plot_result
+
+    def spy(res, problem=None, **kw):
+        drawn.append(problem)
+        return real(res, problem=problem, **kw)
+
+    monkeypatch.setattr(plot, "plot_result", spy)
+    assert cli.main(["plot", str(js), "--out", str(tmp_path / "r.svg"), "--dpi", "50"]) == 0
+    (prob,) = drawn
+    assert prob.name == "paper-env1"
+    assert len(prob.obstacles) == len(edited.obstacles)
+    assert [o.name for o in prob.obstacles] == [o.name for o in edited.obstacles]
+    np.testing.assert_allclose(prob.robots[0].start, [20.0, 30.0])
+    svg = (tmp_path / "r.svg").read_text(encoding="utf-8")
+    assert "<svg" in svg[:1000]
