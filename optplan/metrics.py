@@ -212,6 +212,55 @@ def _reached(problem: Problem, P: dict, per: dict, fe_final) -> bool:
     return bool(all(reached)) if reached else False
 
 
+def _checked_inputs(problem: Problem, paths: dict[str, np.ndarray], times: Any
+                    ) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
+    """The paths as ``(n, 2)`` float arrays of known robots and the times as an array, with
+    one stamp per path point."""
+    if not paths:
+        raise ValueError("evaluate() needs at least one path")
+    P = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in paths.items()}
+    for k in P:
+        problem.robot(k)  # raises KeyError on unknown ids
+    if times is not None:
+        times = np.asarray(times, dtype=float)
+        for k, v in P.items():
+            if len(v) != len(times):
+                raise ValueError(f"path {k!r} has {len(v)} points but times has {len(times)}")
+    return P, times
+
+
+def _team_metrics(problem: Problem, P: dict[str, np.ndarray], per: dict[str, dict],
+                  tc: dict[str, Any], times: np.ndarray | None) -> dict[str, Any]:
+    """The team's totals of the per-robot metrics ``per`` and the time checks ``tc`` (adds
+    each robot's ``min_clearance_dynamic`` to ``per``); ``min_separation`` and
+    ``safety_distance`` for teams."""
+    for k, m in per.items():
+        m["min_clearance_dynamic"] = tc["min_clearance_dynamic_per_robot"][k]
+    lead = problem.leader.id if problem.leader.id in P else next(iter(P))
+    out: dict[str, Any] = {
+        "leader": lead,
+        "length": per[lead]["length"],
+        "lengths": {k: m["length"] for k, m in per.items()},
+        "min_clearance": min(m["min_clearance"] for m in per.values()),
+        "min_clearance_dynamic": min(m["min_clearance_dynamic"] for m in per.values()),
+        "static_collisions": sum(m["static_collisions"] for m in per.values()),
+        "dynamic_contacts": tc["dynamic_contacts"],
+        "separation_violations": tc["separation_violations"],
+        "first_contact": tc["first_contact"],
+        "penetration": sum(m["penetration"] for m in per.values()),
+        "crossed": sorted({n for m in per.values() for n in m["crossed"]}),
+        "in_bounds": all(m["in_bounds"] for m in per.values()),
+        "timing": "simulated" if times is not None else "max_speed",
+        "dynamic_checked": True,  # always, in continuous time (kept for older readers)
+        "per_robot": per,
+    }
+    if len(P) > 1:
+        out["min_separation"] = tc["min_separation"]
+        out["safety_distance"] = float(problem.formation.safety_distance if problem.formation
+                                       else 2 * max(problem.robot(k).radius for k in P))
+    return out
+
+
 def evaluate(problem: Problem, paths: dict[str, np.ndarray],
              times: np.ndarray | None = None) -> dict[str, Any]:
     """Grade paths (or synchronised trajectories) against a problem, in continuous time.
@@ -239,43 +288,13 @@ def evaluate(problem: Problem, paths: dict[str, np.ndarray],
         ``min_separation`` and, with a formation, ``formation_rmse``, ``formation_max_error``,
         ``formation_distance_rmse``, ``formation_angle_rmse``.
     """
-    if not paths:
-        raise ValueError("evaluate() needs at least one path")
-    P = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in paths.items()}
-    for k in P:
-        problem.robot(k)  # raises KeyError on unknown ids
-    if times is not None:
-        times = np.asarray(times, dtype=float)
-        for k, v in P.items():
-            if len(v) != len(times):
-                raise ValueError(f"path {k!r} has {len(v)} points but times has {len(times)}")
+    P, times = _checked_inputs(problem, paths, times)
+    # robot part: each path against the static map
     per = {k: _robot_metrics(problem, problem.robot(k), v) for k, v in P.items()}
-    stamps = time_stamps(problem, P, times)
-    tc = time_checks(problem, P, stamps)
-    for k, m in per.items():
-        m["min_clearance_dynamic"] = tc["min_clearance_dynamic_per_robot"][k]
-    lead = problem.leader.id if problem.leader.id in P else next(iter(P))
-    out: dict[str, Any] = {
-        "leader": lead,
-        "length": per[lead]["length"],
-        "lengths": {k: m["length"] for k, m in per.items()},
-        "min_clearance": min(m["min_clearance"] for m in per.values()),
-        "min_clearance_dynamic": min(m["min_clearance_dynamic"] for m in per.values()),
-        "static_collisions": sum(m["static_collisions"] for m in per.values()),
-        "dynamic_contacts": tc["dynamic_contacts"],
-        "separation_violations": tc["separation_violations"],
-        "first_contact": tc["first_contact"],
-        "penetration": sum(m["penetration"] for m in per.values()),
-        "crossed": sorted({n for m in per.values() for n in m["crossed"]}),
-        "in_bounds": all(m["in_bounds"] for m in per.values()),
-        "timing": "simulated" if times is not None else "max_speed",
-        "dynamic_checked": True,  # always, in continuous time (kept for older readers)
-        "per_robot": per,
-    }
-    if len(P) > 1:
-        out["min_separation"] = tc["min_separation"]
-        out["safety_distance"] = float(problem.formation.safety_distance if problem.formation
-                                       else 2 * max(problem.robot(k).radius for k in P))
+    # team part: moving obstacles and the other robots, in continuous time
+    tc = time_checks(problem, P, time_stamps(problem, P, times))
+    out = _team_metrics(problem, P, per, tc, times)
+    # formation part: simulated trajectories of a complete formation only
     form = problem.formation
     fe_final = None
     if form is not None and times is not None and form.leader in P and all(
