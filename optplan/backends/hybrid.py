@@ -70,6 +70,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan.backends.apf import RobotsAsObstacles
 from optplan.interfaces import (
     FORMATION_BACKEND,
     LOCAL_PLANNER,
@@ -346,6 +347,12 @@ class _HybridPolicy:
         self.L = np.array([f.L for f in form.followers]) if fctrl else np.zeros(0)
         self.k_arrived: int | None = None
         self.gave_up: list[str] = []
+        # several drivers (no formation between them): each one's local planner senses the
+        # other drivers as discs where they are now, as run_local_planner does (sense_robots)
+        planner = opts.stages["local_solver"]
+        self.sense_others = len(drivers) > 1 and bool(getattr(planner, "sense_robots", True))
+        self._d_idx = np.array([d.index for d in drivers], dtype=int)
+        self._d_rad = np.array([d.robot.radius for d in drivers], dtype=float)
 
     def __call__(self, state: SimState) -> np.ndarray | None:
         u = np.zeros((len(self.team.ids), 2))
@@ -362,6 +369,10 @@ class _HybridPolicy:
 
     def _drive(self, d: _Driver, state: SimState) -> np.ndarray | None:
         """Driver ``d``'s command (capped, heading updated), or None when it gave up."""
+        if self.sense_others:
+            o = self._d_idx != d.index
+            state = dataclasses.replace(state, field=RobotsAsObstacles(
+                state.field, state.positions[self._d_idx[o]], self._d_rad[o]))
         v = d.controller.velocity(state, d.index)
         while v is None and not d.final:
             d.advance(state.k, state.t, "gave_up")
