@@ -27,6 +27,8 @@ import numpy as np
 __all__ = ["pair", "pairs", "crossings", "clearance", "nearest"]
 
 _jit = numba.njit(cache=True, fastmath=False, nogil=True)
+#: small helpers of a hot loop: inlined into their caller by numba (no call per item)
+_jit_inline = numba.njit(cache=True, fastmath=False, nogil=True, inline="always")
 
 
 @_jit
@@ -324,7 +326,7 @@ def clearance(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist):
     return out
 
 
-@_jit
+@_jit_inline
 def _near_circle(qx, qy, cx, cy, r):
     """Nearest boundary point of the circle (centre ``(cx, cy)``, radius ``r``) to q:
     (distance, 0 inside; x; y; q inside)."""
@@ -343,7 +345,7 @@ def _near_circle(qx, qy, cx, cy, r):
     return d, cx + ux * r, cy + uy * r, ins
 
 
-@_jit
+@_jit_inline
 def _in_piece(qx, qy, k, N, C):
     """Whether q is inside (or on) convex piece ``k``."""
     for j in range(4):
@@ -352,7 +354,7 @@ def _in_piece(qx, qy, k, N, C):
     return True
 
 
-@_jit
+@_jit_inline
 def _near_piece(qx, qy, k, P, E, B):
     """Nearest point to q on the boundary edges of piece ``k``: (distance, x, y); (inf, nan,
     nan) when the piece has no boundary edge.  The first edge wins a tie."""
