@@ -571,6 +571,7 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         message = (f"stopped by the {what} after {wall:.3f} s; " + message).rstrip("; ")
     if reference:
         metrics = with_reference(metrics, prob, res.paths, reference_optimum(prob))
-    return dataclasses.replace(res, seed=seed, wall_time=res.wall_time or wall,
+    return dataclasses.replace(res, solver=backend.preset or backend.name, backend=backend.name,
+                               seed=seed, wall_time=res.wall_time or wall,
                                metrics=metrics, status=status, message=message,
                                stop_reason=stop["reason"], scenario=prob)
