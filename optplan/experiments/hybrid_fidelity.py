@@ -1,0 +1,189 @@
+"""Paper-fidelity checks of the hybrid planner (docs/solvers/hybrid.md, "Fidelity notes").
+
+``python -m optplan.experiments.hybrid_fidelity [--seeds 5] [--ipso-seeds 30] [--skip ...]``
+
+Prints three markdown tables:
+
+1. **Leader influence distance** (option ``leader_rho_0`` of ``hybrid``): ``hybrid-paper``
+   with the leader's SA-APF at the preset's 20 (eq 34, ``sa-apf-paper``) and at the paper's
+   formation-pilot value 100 (eq 41), on ``paper-warehouse``, ``paper-formation`` and
+   ``paper-hybrid`` (``--seeds`` seeds; medians).
+2. **Literal IPSO on the known maps**: ``ipso-paper`` on ``problem.known_view()`` of
+   ``paper-hybrid`` and ``paper-warehouse`` (``--ipso-seeds`` seeds): how many of its paths
+   are collision-free on the map it plans on.
+3. **Eq 52 near an obstacle** (rho < 1/20): one follower of a leader-follower pair next to a
+   wall on its outer or inner side at clearance rho; the desired angle ratio phi_d / Phi the
+   code uses (rho clamped at 1/c), the literal eq 52 value, and the component of the
+   follower's command toward the wall (negative: away from it), with the ``safety`` layer on
+   (the ``leader-follower-paper`` preset) and off.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+import optplan as op
+
+__all__ = ["leader_rho_0_rows", "format_leader_rho_0", "ipso_paper_known_rows",
+           "format_ipso_paper_known", "eq52_scene", "eq52_probe", "eq52_rows", "format_eq52",
+           "main"]
+
+RHO_SCENES = ("paper-warehouse", "paper-formation", "paper-hybrid")
+RHO_VALUES = (None, 100.0)  # None: the local planner's own rho_0 (sa-apf-paper: 20)
+IPSO_SCENES = ("paper-hybrid", "paper-warehouse")
+
+
+def _med(xs: Sequence[float]) -> float:
+    a = np.asarray([x for x in xs if math.isfinite(x)], dtype=float)
+    return float(np.median(a)) if len(a) else math.nan
+
+
+def leader_rho_0_rows(seeds: Sequence[int], scenes: Sequence[str] = RHO_SCENES
+                      ) -> list[dict[str, Any]]:
+    """``hybrid-paper`` with ``leader_rho_0`` = the preset's and 100, per scene and seed."""
+    rows = []
+    for scene in scenes:
+        prob = op.load_problem(scene)
+        for v in RHO_VALUES:
+            for s in seeds:
+                res = op.solve(prob, "hybrid-paper", rng=int(s), leader_rho_0=v)
+                lead = prob.leader.id
+                rows.append({"scene": scene, "leader_rho_0": v, "seed": int(s),
+                             "success": res.success, "status": res.status.value,
+                             "length": float(res.metrics["lengths"][lead]),
+                             "collisions": int(res.metrics["collisions"]),
+                             "time_to_goal": float(res.extras.get("time_to_goal", math.nan)),
+                             "escapes": int(res.extras["local_stats"][lead]["escapes"])})
+    return rows
+
+
+def format_leader_rho_0(rows: list[dict[str, Any]]) -> str:
+    rho_preset = op.get_solver("hybrid-paper").stages["local_solver"].rho_0
+    out = ["| scene | leader rho_0 | success | leader length | collisions | time to goal (s) "
+           "| SA escapes (total) |", "|---|---|---|---|---|---|---|"]
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        for v in RHO_VALUES:
+            rs = [r for r in rows if r["scene"] == scene and r["leader_rho_0"] == v]
+            lab = f"{rho_preset:g} (preset, eq 34)" if v is None else f"{v:g} (paper eq 41)"
+            out.append(f"| {scene} | {lab} | {sum(r['success'] for r in rs)}/{len(rs)} "
+                       f"| {_med([r['length'] for r in rs]):.1f} "
+                       f"| {_med([r['collisions'] for r in rs]):g} "
+                       f"| {_med([r['time_to_goal'] for r in rs]):.1f} "
+                       f"| {sum(r['escapes'] for r in rs)} |")
+    return "\n".join(out)
+
+
+def ipso_paper_known_rows(seeds: Sequence[int], scenes: Sequence[str] = IPSO_SCENES
+                          ) -> list[dict[str, Any]]:
+    """``ipso-paper`` on each scene's known map: feasibility per seed."""
+    rows = []
+    for scene in scenes:
+        known = op.load_problem(scene).known_view()
+        for s in seeds:
+            res = op.solve(known, "ipso-paper", rng=int(s))
+            rows.append({"scene": scene, "seed": int(s), "feasible": bool(
+                res.metrics["feasible"]), "status": res.status.value,
+                "length": float(res.metrics["length"])})
+    return rows
+
+
+def format_ipso_paper_known(rows: list[dict[str, Any]]) -> str:
+    out = ["| known map of | `ipso-paper` collision-free | median length |", "|---|---|---|"]
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        rs = [r for r in rows if r["scene"] == scene]
+        out.append(f"| {scene} | {sum(r['feasible'] for r in rs)}/{len(rs)} "
+                   f"| {_med([r['length'] for r in rs]):.1f} |")
+    return "\n".join(out)
+
+
+def eq52_scene(rho: float, side: str) -> tuple[op.Problem, np.ndarray]:
+    """A leader at (100, 100) heading +x, follower f1 at its slot (L = 20, phi = pi/4) and a
+    wall parallel to the leader's heading at clearance ``rho`` on the follower's ``outer``
+    side (away from the leader's line) or ``inner`` side; returns the problem and the unit
+    vector from the follower toward the wall."""
+    f = np.array([100.0 - 20.0 / math.sqrt(2.0), 100.0 + 20.0 / math.sqrt(2.0)])
+    r = 2.0
+    if side == "outer":
+        y0 = f[1] + r + rho
+        box, n = [[f[0] - 10, y0], [f[0] + 10, y0], [f[0] + 10, y0 + 4], [f[0] - 10, y0 + 4]], 1.0
+    elif side == "inner":
+        y1 = f[1] - r - rho
+        box, n = [[f[0] - 10, y1 - 4], [f[0] + 10, y1 - 4], [f[0] + 10, y1], [f[0] - 10, y1]], -1.0
+    else:
+        raise ValueError(f"side must be 'outer' or 'inner', got {side!r}")
+    prob = op.parse_problem({
+        "name": f"eq52-{side}-{rho:g}", "bounds": [0, 0, 200, 200], "length_scale": 1.0,
+        "robots": [{"id": "leader", "start": [100, 100], "goal": [190, 100], "radius": r,
+                    "max_speed": 5},
+                   {"id": "f1", "start": f.tolist(), "radius": r, "max_speed": 5}],
+        "formation": {"leader": "leader", "safety_distance": 5.0,
+                      "followers": [{"id": "f1", "L": 20.0, "phi": math.pi / 4}]},
+        "obstacles": [{"type": "polygon", "vertices": box}]})
+    return prob, np.array([0.0, n])
+
+
+def eq52_probe(rho: float, side: str, safety: bool) -> dict[str, float]:
+    """One follower command of ``leader-follower-paper`` (``recovery`` off) in
+    :func:`eq52_scene`: the component toward the wall and the eq 52 ratios."""
+    from optplan.backends.leader_follower import adapted_angle
+    from optplan.sim import ObstacleField, SimState
+
+    prob, n = eq52_scene(rho, side)
+    fb = op.get_solver("leader-follower-paper", safety=safety, recovery=False)
+    ctrl = fb.followers_controller(prob, np.random.default_rng(0))
+    P = np.array([prob.robot("leader").start, prob.robot("f1").start])
+    st = SimState(0, 0.0, ["leader", "f1"], P, np.array([[5.0, 0.0], [5.0, 0.0]]),
+                  ObstacleField(prob), dt=0.1)
+    st.leader_velocity = np.array([5.0, 0.0])
+    v = np.asarray(ctrl.velocities(st, 0, [1], 0.0), dtype=float)[0]
+    c = fb.c_phi
+    return {"rho": rho, "side": side, "safety": safety,
+            "ratio_code": float(adapted_angle(1.0, rho, fb.rho_0_f, c)),
+            "ratio_literal": math.log(c * rho) / math.log(c * fb.rho_0_f),
+            "toward": float(v @ n), "speed": float(np.hypot(*v))}
+
+
+def eq52_rows(rhos: Sequence[float] = (0.01, 0.04, 0.1, 1.0, 5.0)) -> list[dict[str, float]]:
+    return [eq52_probe(rho, side, safety) for safety in (True, False)
+            for side in ("outer", "inner") for rho in rhos]
+
+
+def format_eq52(rows: list[dict[str, float]]) -> str:
+    out = ["| safety layer | wall side | clearance rho | phi_d / Phi (code, rho >= 1/c) | "
+           "literal eq 52 | follower command toward the wall |", "|---|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| {'on' if r['safety'] else 'off'} | {r['side']} | {r['rho']:g} "
+                   f"| {r['ratio_code']:.3f} | {r['ratio_literal']:.3f} | {r['toward']:.4g} |")
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m optplan.experiments.hybrid_fidelity",
+                                 description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seeds", type=int, default=5, help="seeds of the leader_rho_0 table (5)")
+    ap.add_argument("--ipso-seeds", type=int, default=30,
+                    help="seeds of the ipso-paper known-map table (30)")
+    ap.add_argument("--skip", default="", help="comma-separated: rho, ipso, eq52")
+    a = ap.parse_args(argv)
+    skip = set(filter(None, a.skip.split(",")))
+    if "rho" not in skip:
+        print(f"Leader influence distance, hybrid-paper ({a.seeds} seeds, medians)\n")
+        print(format_leader_rho_0(leader_rho_0_rows(range(a.seeds))))
+        print()
+    if "ipso" not in skip:
+        print(f"ipso-paper on the known maps ({a.ipso_seeds} seeds)\n")
+        print(format_ipso_paper_known(ipso_paper_known_rows(range(a.ipso_seeds))))
+        print()
+    if "eq52" not in skip:
+        print("Eq 52 near an obstacle (leader-follower-paper, recovery off; one command)\n")
+        print(format_eq52(eq52_rows()))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
