@@ -77,7 +77,8 @@ Structure re-use
 Warm start
     ``init`` (any path, e.g. an IPSO or visgraph result) keeps all its vertices and gains
     collinear points on its longest segments, proportionally to arc length, until it has ``N``
-    segments (``N = max(n_segments, len(init) - 1)``).  Each hyperplane starts at the best of
+    segments (``N = n_segments``, or ``len(init) - 1`` rounded up to a multiple of 8 when
+    larger).  Each hyperplane starts at the best of
     the candidate normals that contain the optimal separating direction of a segment and a
     convex piece (the piece's edge normals, the segment's normals, the directions from the
     piece's vertices to the segment's endpoints), with ``c`` in the middle of the gap.
@@ -143,6 +144,10 @@ __all__ = [
 SAFETY_REL = 1e-6
 #: hard cap on the number of segments (longer initial guesses are resampled by arc length).
 MAX_SEGMENTS = 400
+
+#: An initial guess with more than ``n_segments`` segments gets a multiple of this many (one
+#: compiled NLP per structure: IPSO paths of 37-43 vertices then share two structures).
+SEGMENT_BUCKET = 8
 
 _SUCCESS = {"Solve_Succeeded"}
 #: Largest relative gap to the certified optimum for which a KKT point is claimed ``optimal``.
@@ -667,7 +672,10 @@ def solve_waypoint_nlp(
         p = np.vstack([start, p])
     if goal is not None and np.hypot(*(p[-1] - goal)) > frame.eps:
         p = np.vstack([p, goal])
-    n_eff = min(max(n_segments, len(p) - 1), MAX_SEGMENTS)
+    # a longer initial path keeps every vertex; its segment count is rounded up to a multiple
+    # of SEGMENT_BUCKET so that warm starts of similar length share one compiled structure
+    n_eff = n_segments if len(p) - 1 <= n_segments else _bucket(len(p) - 1, SEGMENT_BUCKET)
+    n_eff = min(n_eff, MAX_SEGMENTS)
     path = resample_path(p, n_eff)
     path[0] = start
     if goal is not None:
@@ -754,7 +762,8 @@ class WaypointNLP(Backend):
     ----------
     n_segments : int
         :math:`N`, number of path segments (waypoints between start and goal: :math:`N-1`).
-        An initial guess with more segments raises :math:`N` to keep all its vertices.
+        An initial guess with more segments raises :math:`N` to keep all its vertices (to
+        the next multiple of ``SEGMENT_BUCKET``, 8, so that similar guesses share one build).
     margin : float
         Extra clearance on top of the robot radius, in units of the problem's
         ``length_scale`` (map units on the paper's maps): the NLP avoids the true polygons and
