@@ -14,7 +14,12 @@ The first step builds and compiles the model and is excluded (reported as "build
 runs and the worst single step.  The machine is shared: the load average is printed before
 each size.
 
+``--refinement both`` also runs every size with Clarabel's iterative refinement switched on
+(the shipped setting is off, :func:`optplan.backends.formation_qp.qp_settings`) and prints the
+solve path of both settings and the largest difference between the two runs' trajectories.
+
     python benchmarks/bench_formation_qp.py [--steps 80] [--sizes 3,30,100] [--repeat 3]
+                                            [--refinement off|on|both]
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ import platform
 import numpy as np
 
 import optplan as op
+import optplan.backends.formation_qp as fq
 from optplan.generators import formation_scene
 
 TARGET_MS = {3: 0.5, 30: 1.5, 100: 4.0}
@@ -38,11 +44,28 @@ def scene(n: int) -> op.Problem:
     return dataclasses.replace(prob, scale=1.0, _cache={})
 
 
-def run(n: int, steps: int) -> dict:
+#: the shipped Clarabel settings (None in versions before they were a function: the
+#: benchmark then measures that version's own settings, see the docs' "before" table)
+_SHIPPED = getattr(fq, "qp_settings", None)
+
+
+def _refined(opts):
+    return {**_SHIPPED(opts), "iterative_refinement_enable": True}
+
+
+def run(n: int, steps: int, refinement: bool = False) -> dict:
     prob = scene(n)
     solver = op.get_solver("formation-qp", path_solver="visgraph", max_steps=steps,
                            neighbor_radius=20.0)
-    res = solver.solve(prob, rng=np.random.default_rng(0))
+    if refinement and _SHIPPED is None:
+        raise SystemExit("--refinement on/both needs optplan.backends.formation_qp.qp_settings")
+    if _SHIPPED is not None:
+        fq.qp_settings = _refined if refinement else _SHIPPED
+    try:
+        res = solver.solve(prob, rng=np.random.default_rng(0))
+    finally:
+        if _SHIPPED is not None:
+            fq.qp_settings = _SHIPPED
     h, ex = res.history, res.extras
     return {"solve": np.asarray(h["qp_solve_time"])[1:] * 1e3,
             "step": np.asarray(h["qp_time"])[1:] * 1e3,
@@ -50,7 +73,8 @@ def run(n: int, steps: int) -> dict:
             "pairs": int(np.nanmax(h["qp_pairs"])), "failures": int(ex["qp_failures"]),
             "slack_steps": int(ex["slack_steps"]), "rebuilds": int(ex["rebuilds"]),
             "min_sep_ok": bool(res.metrics.get("min_separation", np.inf)
-                               >= prob.formation.safety_distance - 1e-6)}
+                               >= prob.formation.safety_distance - 1e-6),
+            "paths": res.paths, "retries": int(ex.get("qp_retries", 0))}
 
 
 def load() -> str:
@@ -62,26 +86,38 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--steps", type=int, default=80)
     ap.add_argument("--sizes", default="3,30,100")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--refinement", choices=("off", "on", "both"), default="off",
+                    help="Clarabel's iterative refinement (shipped: off)")
     a = ap.parse_args(argv)
+    modes = {"off": [False], "on": [True], "both": [False, True]}[a.refinement]
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores (shared); python "
           f"{platform.python_version()}; {a.steps} steps per run, {a.repeat} run(s) per size\n")
-    print("| robots | load average (1, 5, 15 min) | solve path median ms | p90 ms | worst ms "
-          "| target ms | met | whole step median ms | build ms | active pair rows | rebuilds "
-          "| slack steps | QP failures | min sep >= D_s |")
-    print("|---:|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---|")
-    for n in [int(x) for x in a.sizes.split(",")]:
+    print("| robots | refinement | load average (1, 5, 15 min) | solve path median ms | p90 ms "
+          "| worst ms | target ms | met | whole step median ms | build ms | active pair rows "
+          "| rebuilds | slack steps | retries | QP failures | min sep >= D_s |")
+    print("|---:|---|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|")
+    diffs = {}
+    for n, refine in [(int(x), m) for x in a.sizes.split(",") for m in modes]:
         la = load()
-        runs = [run(n, a.steps) for _ in range(a.repeat)]
+        runs = [run(n, a.steps, refine) for _ in range(a.repeat)]
+        diffs.setdefault(n, []).append(runs[0]["paths"])
         solve = np.concatenate([r["solve"] for r in runs])
         step = np.concatenate([r["step"] for r in runs])
         med = float(np.median(solve))
         target = TARGET_MS.get(n, float("nan"))
-        print(f"| {n} | {la} | {med:.2f} | {np.percentile(solve, 90):.2f} | "
+        label = "on" if refine else ("off" if _SHIPPED is not None else "on (Clarabel default)")
+        print(f"| {n} | {label} | {la} | {med:.2f} | "
+              f"{np.percentile(solve, 90):.2f} | "
               f"{solve.max():.2f} | {target:g} | {'yes' if med <= target else 'no'} | "
               f"{np.median(step):.2f} | {np.median([r['build'] for r in runs]):.0f} | "
               f"{max(r['pairs'] for r in runs)} | {max(r['rebuilds'] for r in runs)} | "
-              f"{sum(r['slack_steps'] for r in runs)} | {sum(r['failures'] for r in runs)} | "
-              f"{all(r['min_sep_ok'] for r in runs)} |")
+              f"{sum(r['slack_steps'] for r in runs)} | {sum(r['retries'] for r in runs)} | "
+              f"{sum(r['failures'] for r in runs)} | {all(r['min_sep_ok'] for r in runs)} |")
+    if a.refinement == "both":
+        dev = {n: max(float(np.abs(p[0][k] - p[1][k]).max()) for k in p[0])
+               for n, p in diffs.items()}
+        print("\nlargest distance between the robots' positions with and without refinement "
+              "(same step, map units): " + ", ".join(f"{n} robots {d:.1e}" for n, d in dev.items()))
 
 
 if __name__ == "__main__":

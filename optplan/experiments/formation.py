@@ -6,10 +6,10 @@ seeded variants (every moving obstacle's phase jittered by
 reference is planned by ``--path-solver`` (default ``visgraph``: the certified shortest path, so
 the comparison isolates the formation controllers from global-planner randomness).
 
-Printed (markdown): per scene and solver, the success rate, median formation RMSE and worst
-formation error (map units, against the L-phi slots), min inter-robot separation (and the
-scene's safety distance), min clearance to static and to moving obstacles, total collisions,
-median time to goal, QP failures and median wall time.
+Printed (markdown): per scene and solver, the success rate, median formation RMSE, worst
+formation error and final formation error (map units, against the L-phi slots), min
+inter-robot separation (and the scene's safety distance), min clearance to static and to moving
+obstacles, total collisions, median time to goal, QP failures and median wall time.
 
 Usage::
 
@@ -51,6 +51,7 @@ def run_comparison(scenes: Sequence[str] = SCENES, solvers: Sequence[str] = SOLV
                     "success": bool(res.success), "status": res.status.value,
                     "rmse": m.get("formation_rmse", np.nan),
                     "max_err": m.get("formation_max_error", np.nan),
+                    "final_err": m.get("formation_final_error", np.nan),
                     "min_sep": m.get("min_separation", np.nan),
                     "safety": prob.formation.safety_distance,
                     "clear": m.get("min_clearance", np.nan),
@@ -71,10 +72,10 @@ def _med(v: list[float]) -> float:
 
 def format_table(rows: list[dict[str, Any]]) -> str:
     """Markdown summary: one line per (scene, solver)."""
-    out = ["| scene | solver | success | formation RMSE | worst error | min separation "
-           "(D_s) | min clearance static / moving | collisions | time to goal s | QP failures "
-           "| wall s |",
-           "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    out = ["| scene | solver | success | formation RMSE | worst error | final error (median) "
+           "| min separation (D_s) | min clearance static / moving | collisions | time to goal s "
+           "| QP failures | wall s |",
+           "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     keys = []
     for r in rows:
         if (r["scene"], r["solver"]) not in keys:
@@ -84,7 +85,7 @@ def format_table(rows: list[dict[str, Any]]) -> str:
         n_ok = sum(r["success"] for r in g)
         out.append(
             f"| {scene} | {solver} | {n_ok}/{len(g)} | {_med([r['rmse'] for r in g]):.2f} | "
-            f"{_med([r['max_err'] for r in g]):.1f} | "
+            f"{_med([r['max_err'] for r in g]):.1f} | {_med([r['final_err'] for r in g]):.2g} | "
             f"{min(r['min_sep'] for r in g):.2f} ({g[0]['safety']:g}) | "
             f"{min(r['clear'] for r in g):.2f} / {min(r['clear_dyn'] for r in g):.1f} | "
             f"{sum(r['collisions'] for r in g)} | {_med([r['time'] for r in g]):.1f} | "
