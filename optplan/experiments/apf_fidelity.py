@@ -1,0 +1,153 @@
+"""Paper fidelity and scale checks of the local planners (docs/solvers/apf.md).
+
+``python -m optplan.experiments.apf_fidelity [--seeds 5] [--skip kb,scale,metre]``
+
+Prints three markdown tables:
+
+1. **Boltzmann constant** (option ``k_B`` of ``sa-apf``): ``sa-apf-paper`` with the default
+   dimensionless ``k_B = 1`` and with the paper's 1.380649e-23 on ``paper-apf-env1``,
+   ``paper-apf-env2`` and ``trap-u`` (``--seeds`` seeds): successes, detections split into
+   eq 38 itself and the added stall / oscillation tests, escapes and median SA proposals.
+2. **Scale invariance**: every time-stepping preset on its representative scene drawn
+   x 0.01, x 1 and x 100 (:func:`optplan.problem.transform_problem`, seed 0): status and total
+   path length divided by the scale.
+3. **Metre-scale scenes**: the time-stepping presets on ``warehouse-grid`` and
+   ``office-floor`` (seed 0): ``length_scale``, status and message.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+import optplan as op
+from optplan.backends.sa_apf import K_B, K_B_PAPER
+from optplan.problem import transform_problem
+
+__all__ = ["KB_SCENES", "PRESETS", "REPRESENTATIVE", "METRE_SCENES", "kb_rows", "format_kb",
+           "scale_rows", "format_scale", "metre_rows", "format_metre", "main"]
+
+KB_SCENES = ("paper-apf-env1", "paper-apf-env2", "trap-u")
+PRESETS = ("apf-paper", "sa-apf-paper", "hybrid-paper", "hybrid-qp")
+#: the scene of each time-stepping preset in tests/test_scale_invariance.py
+REPRESENTATIVE = {"apf-paper": "trap-saddle", "sa-apf-paper": "trap-u",
+                  "hybrid-paper": "paper-hybrid", "hybrid-qp": "paper-hybrid"}
+SCALES = (0.01, 1.0, 100.0)
+METRE_SCENES = ("warehouse-grid", "office-floor")
+
+
+def _stats(res: op.Result) -> dict[str, Any]:
+    """Detections / escapes / SA proposals of a local-planner or hybrid result (extras)."""
+    ex = res.extras
+    if "detections" in ex:
+        det, esc, sa = ex["detections"], ex["local_minima_escaped"], ex["sa_steps"]
+    else:  # hybrid: per driver
+        st = list(ex.get("local_stats", {}).values())
+        det = {k: sum(s["detections"][k] for s in st) for k in ("eq38", "stall", "oscillation")}
+        esc, sa = sum(s["escapes"] for s in st), sum(s["sa_steps"] for s in st)
+    return {"eq38": int(det["eq38"]), "stall_osc": int(det["stall"] + det["oscillation"]),
+            "escapes": int(esc), "sa_steps": int(sa)}
+
+
+def kb_rows(seeds: Sequence[int], scenes: Sequence[str] = KB_SCENES) -> list[dict[str, Any]]:
+    rows = []
+    for scene in scenes:
+        prob = op.load_problem(scene)
+        for kb in (K_B, K_B_PAPER):
+            for s in seeds:
+                res = op.solve(prob, "sa-apf-paper", rng=int(s), k_B=kb)
+                rows.append({"scene": scene, "k_B": kb, "seed": int(s), "success": res.success,
+                             "status": res.status.value, "message": res.message,
+                             **_stats(res)})
+    return rows
+
+
+def format_kb(rows: list[dict[str, Any]]) -> str:
+    out = ["| scene | k_B | success | detections: eq 38 / stall or oscillation | escapes | "
+           "median SA proposals |", "|---|---|---|---|---|---|"]
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        for kb in (K_B, K_B_PAPER):
+            rs = [r for r in rows if r["scene"] == scene and r["k_B"] == kb]
+            out.append(f"| {scene} | {kb:g} | {sum(r['success'] for r in rs)}/{len(rs)} "
+                       f"| {sum(r['eq38'] for r in rs)} / {sum(r['stall_osc'] for r in rs)} "
+                       f"| {sum(r['escapes'] for r in rs)} "
+                       f"| {float(np.median([r['sa_steps'] for r in rs])):.0f} |")
+    return "\n".join(out)
+
+
+def scale_rows(presets: Sequence[str] = PRESETS) -> list[dict[str, Any]]:
+    rows = []
+    for p in presets:
+        scene = REPRESENTATIVE[p]
+        for k in SCALES:
+            prob = transform_problem(op.load_problem(scene), k)
+            res = op.solve(prob, p, rng=0)
+            rows.append({"preset": p, "scene": scene, "scale": k, "status": res.status.value,
+                         "length": sum(float(v) for v in res.metrics["lengths"].values()) / k,
+                         "length_scale": prob.length_scale})
+    return rows
+
+
+def format_scale(rows: list[dict[str, Any]]) -> str:
+    out = ["| preset | scene | " + " | ".join(f"x {k:g}: status, length / scale" for k in SCALES)
+           + " | max relative length difference |", "|---|---|" + "---|" * (len(SCALES) + 1)]
+    for p in dict.fromkeys(r["preset"] for r in rows):
+        rs = [r for r in rows if r["preset"] == p]
+        base = next(r["length"] for r in rs if r["scale"] == 1.0)
+        dev = max(abs(r["length"] - base) / base for r in rs) if base > 0 else math.nan
+        cells = " | ".join(f"{r['status']}, {r['length']:.3f}" for r in rs)
+        out.append(f"| {p} | {rs[0]['scene']} | {cells} | {dev:.1e} |")
+    return "\n".join(out)
+
+
+def metre_rows(presets: Sequence[str] = PRESETS, scenes: Sequence[str] = METRE_SCENES,
+               seed: int = 0) -> list[dict[str, Any]]:
+    rows = []
+    for scene in scenes:
+        prob = op.load_problem(scene)
+        for p in presets:
+            res = op.solve(prob, p, rng=seed)
+            rows.append({"scene": scene, "preset": p, "length_scale": prob.length_scale,
+                         "status": res.status.value, "message": res.message,
+                         "collisions": int(res.metrics["collisions"]), **_stats(res)})
+    return rows
+
+
+def format_metre(rows: list[dict[str, Any]]) -> str:
+    out = ["| scene (length_scale) | preset | status | collisions | detections: eq 38 / "
+           "stall or oscillation | escapes | message |", "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        msg = r["message"].replace("|", "/")
+        out.append(f"| {r['scene']} ({r['length_scale']:.4f}) | {r['preset']} | {r['status']} "
+                   f"| {r['collisions']} | {r['eq38']} / {r['stall_osc']} | {r['escapes']} "
+                   f"| {msg} |")
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m optplan.experiments.apf_fidelity",
+                                 description=__doc__.split("\n\n")[0])
+    ap.add_argument("--seeds", type=int, default=5, help="seeds of the k_B table (5)")
+    ap.add_argument("--skip", default="", help="comma-separated: kb, scale, metre")
+    a = ap.parse_args(argv)
+    skip = set(filter(None, a.skip.split(",")))
+    if "kb" not in skip:
+        print(f"Boltzmann constant of eq 15, sa-apf-paper ({a.seeds} seeds)\n")
+        print(format_kb(kb_rows(range(a.seeds))))
+        print()
+    if "scale" not in skip:
+        print("Scale invariance (seed 0; the scene drawn x 0.01, x 1, x 100)\n")
+        print(format_scale(scale_rows()))
+        print()
+    if "metre" not in skip:
+        print("Metre-scale scenes (seed 0)\n")
+        print(format_metre(metre_rows()))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
