@@ -726,6 +726,7 @@ class Hybrid(Backend):
             "subgoal_times": [t for _, t, _ in ld.reached_at],
             "time_to_goal": ld.t_goal,
             "local_stats": {d.robot.id: dict(d.controller.stats) for d in policy.drivers},
+            "leader_field": _field_summary(ld.controller),
             "formation_stats": dict(fctrl.stats) if fctrl is not None else {},
             "sim_reason": out.reason,
             "contacts": list(out.contacts),
@@ -745,6 +746,15 @@ class Hybrid(Backend):
         return self.finish(problem, paths, claim=status, times=np.zeros(1), message=msg,
                            n_eval=gres.n_eval if gres else 0, extras=extras,
                            wall_time=time.perf_counter() - t_start)
+
+
+def _field_summary(ctrl: LocalController) -> dict:
+    """The leader's potential-field lengths (map units) when its controller has them."""
+    p = getattr(ctrl, "params", None)
+    if p is None:
+        return {}
+    return {"rho_0": float(p.rho_0), "sense_range": float(p.sense_range),
+            "length_scale": float(p.unit)}
 
 
 def _small_metrics(m: dict) -> dict:
