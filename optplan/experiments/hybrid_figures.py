@@ -1,9 +1,12 @@
-"""Regenerate the figures of ``docs/solvers/hybrid.md`` into ``docs/img/``.
+"""The figures of ``docs/solvers/hybrid.md``, written into ``runs/`` (or ``--out``).
 
 Everything is drawn by :mod:`optplan.plot` (the functions behind ``optplan plot`` and
 ``optplan animate``) from results computed here with fixed seeds::
 
-    .venv/bin/python docs/scripts/make_hybrid_figures.py [--seed 0] [--out docs/img]
+    python -m optplan.experiments.hybrid_figures [--seed 0] [--out runs]
+    python -m optplan.experiments.hybrid_figures --out docs/img      # regenerate the docs
+
+Legends are placed outside the axes (they covered the warehouse's top-right corner).
 
 Figures:
 
@@ -60,10 +63,10 @@ def formation(seed: int, out: Path) -> dict[str, op.Result]:
         prob = op.load_problem(scene)
         res = op.solve(prob, "hybrid-paper", rng=seed, **OVER)
         runs[scene] = res
-        fig = new_figure(size=(7.5, 7.5))
+        fig = new_figure(size=(9.5, 7.0), layout="constrained")
         ax = fig.subplots()
-        plot_result(res, problem=prob, ax=ax, snapshot_every=max(1, len(res.times) // 10))
-        fig.tight_layout()
+        plot_result(res, problem=prob, ax=ax, snapshot_every=max(1, len(res.times) // 10),
+                    legend="outside")
         fig.savefig(out / f"{stem}.png", dpi=90)
         animate(res, out / f"{stem}.gif", problem=prob, fps=10, max_frames=120)
     return runs
@@ -105,7 +108,8 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "img")
+    ap.add_argument("--out", type=Path, default=Path("runs"),
+                    help="output folder (default runs/; docs/img regenerates the docs)")
     ap.add_argument("--global-solver", default=None,
                     help="override the hybrids' global stage and the IPSO-alone panel")
     a = ap.parse_args(argv)

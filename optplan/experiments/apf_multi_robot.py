@@ -4,7 +4,7 @@
 Prints the table quoted in docs/solvers/apf.md ("Several robots"); ``tests/test_apf.py`` asserts
 the statuses.
 
-    python docs/scripts/apf_multi_robot.py
+    python -m optplan.experiments.apf_multi_robot
 """
 
 from __future__ import annotations
