@@ -74,7 +74,9 @@ def run(n: int, steps: int, refinement: bool = False) -> dict:
             "slack_steps": int(ex["slack_steps"]), "rebuilds": int(ex["rebuilds"]),
             "min_sep_ok": bool(res.metrics.get("min_separation", np.inf)
                                >= prob.formation.safety_distance - 1e-6),
-            "paths": res.paths, "retries": int(ex.get("qp_retries", 0))}
+            "paths": res.paths, "retries": int(ex.get("qp_retries", 0)),
+            "iters": (np.asarray(h["qp_iterations"])[1:] if "qp_iterations" in h
+                      else np.zeros(0))}
 
 
 def load() -> str:
@@ -94,8 +96,9 @@ def main(argv: list[str] | None = None) -> None:
           f"{platform.python_version()}; {a.steps} steps per run, {a.repeat} run(s) per size\n")
     print("| robots | refinement | load average (1, 5, 15 min) | solve path median ms | p90 ms "
           "| worst ms | target ms | met | whole step median ms | build ms | active pair rows "
-          "| rebuilds | slack steps | retries | QP failures | min sep >= D_s |")
-    print("|---:|---|---|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---|")
+          "| Clarabel iterations median / max | rebuilds | slack steps | retries | QP failures "
+          "| min sep >= D_s |")
+    print("|---:|---|---|---:|---:|---:|---:|---|---:|---:|---:|---|---:|---:|---:|---:|---|")
     diffs = {}
     for n, refine in [(int(x), m) for x in a.sizes.split(",") for m in modes]:
         la = load()
@@ -105,12 +108,14 @@ def main(argv: list[str] | None = None) -> None:
         step = np.concatenate([r["step"] for r in runs])
         med = float(np.median(solve))
         target = TARGET_MS.get(n, float("nan"))
+        it = np.concatenate([r["iters"] for r in runs])
+        its = f"{np.median(it):.0f} / {it.max()}" if len(it) else "-"
         label = "on" if refine else ("off" if _SHIPPED is not None else "on (Clarabel default)")
         print(f"| {n} | {label} | {la} | {med:.2f} | "
               f"{np.percentile(solve, 90):.2f} | "
               f"{solve.max():.2f} | {target:g} | {'yes' if med <= target else 'no'} | "
               f"{np.median(step):.2f} | {np.median([r['build'] for r in runs]):.0f} | "
-              f"{max(r['pairs'] for r in runs)} | {max(r['rebuilds'] for r in runs)} | "
+              f"{max(r['pairs'] for r in runs)} | {its} | {max(r['rebuilds'] for r in runs)} | "
               f"{sum(r['slack_steps'] for r in runs)} | {sum(r['retries'] for r in runs)} | "
               f"{sum(r['failures'] for r in runs)} | {all(r['min_sep_ok'] for r in runs)} |")
     if a.refinement == "both":

@@ -216,14 +216,16 @@ class QPData:
 @dataclass
 class QPSolution:
     """What one solve returned: ``U`` ``(n, 2)`` or ``None``, the status, the largest slack
-    (0 unless the slack fallback was used), whether it was, and whether the solve was repeated
-    with iterative refinement (:func:`qp_settings`)."""
+    (0 unless the slack fallback was used), whether it was, whether the solve was repeated
+    with iterative refinement (:func:`qp_settings`) and Clarabel's iteration count (-1: not
+    known, the cvxpy pipeline)."""
 
     U: np.ndarray | None
     status: str
     slack: float = 0.0
     fallback: bool = False
     retried: bool = False
+    iterations: int = -1
 
 
 class QPModel:
@@ -469,7 +471,7 @@ class CompiledQP:
         x = np.asarray(sol.x, float)
         U = x[self.u_off: self.u_off + 2 * self.n].reshape(-1, 2)
         slack = max(float(x[self._other].max()), 0.0) if soft and len(self._other) else 0.0
-        return QPSolution(U, st, slack, soft, retried=retried)
+        return QPSolution(U, st, slack, soft, retried=retried, iterations=int(sol.iterations))
 
     def _build(self, q: np.ndarray, Av: np.ndarray, b: np.ndarray, keep: np.ndarray,
                ent: np.ndarray, extra: dict[str, Any] | None = None) -> None:
@@ -631,11 +633,13 @@ class QPStepRecord:
     slack: float
     pairs: int
     fallback: bool
+    iterations: int = -1
 
     def columns(self) -> dict[str, Any]:
         return {"qp_status": self.status, "qp_ok": self.ok, "qp_time": self.time,
                 "qp_solve_time": self.solve_time, "qp_slack": self.slack,
-                "qp_pairs": self.pairs, "qp_fallback": self.fallback}
+                "qp_pairs": self.pairs, "qp_fallback": self.fallback,
+                "qp_iterations": self.iterations}
 
 
 class QPFormationController:
@@ -865,7 +869,7 @@ class QPFormationController:
         st["statuses"][sol.status] = st["statuses"].get(sol.status, 0) + 1
         st["solve_times"].append(el)
         self.last = QPStepRecord(sol.status, ok, el, t_solve, sol.slack if ok else math.nan,
-                                 data.active_pairs, sol.fallback)
+                                 data.active_pairs, sol.fallback, sol.iterations)
 
 
 @dataclass(frozen=True, kw_only=True)
