@@ -70,6 +70,13 @@ cvxpy's documented re-solve pipeline instead (``get_problem_data`` on the cached
 ``SolvingChain.solve_via_data(warm_start=True)`` -> ``unpack_results``;
 :meth:`QPModel.solve_cvxpy`), the same model and the same solution, only slower.
 
+Units: the QP is posed in units of the scene's ``length_scale`` (positions, radii, speeds, the
+safety distance, the obstacle data and the bounds divided by it, the solution multiplied back);
+``margin``, ``neighbor_radius`` and ``sensing_range`` are multiples of it.  Its numbers,
+Clarabel's tolerances and the solution therefore do not depend on the unit the scene is drawn in.
+Clarabel runs without iterative refinement (:func:`qp_settings`); a solve that ends with a
+numerical status is repeated once with it (``stats["qp_retries"]``).
+
 A new pair inside ``neighbor_radius`` outside the pattern, or a change of the controlled robots,
 rebuilds the model (``stats["rebuilds"]``).  A Clarabel status other than ``Solved`` /
 ``AlmostSolved`` after the fallback, or a solver error, gives a safe stop (all controlled robots

@@ -85,6 +85,15 @@ the wrong side or left behind an obstacle settles in the mirrored slot or jams. 
 the pilot's recorded path (the paper: "the follower robot will follow the path of the pilot
 robot") until it is back within ``L / 2`` of its slot on its own side
 (:meth:`LPhiFollowers.recovery`).
+
+Units
+-----
+Every distance-like option is a multiple of the scene's
+:attr:`~optplan.problem.Problem.length_scale` (1 on the paper's scenes): the pilot's force is
+computed in units of it, eq 52 uses ``rho_0_f * length_scale`` and ``c_phi / length_scale``, the
+followers' repulsions act on clearances in units of it and add velocities times it, and the
+safety filter's margins and the recovery's visibility tests are multiples of it.  The L-phi law
+itself is scale-free (``kappa`` grows with :math:`L^2`, the gradient falls with :math:`1/L`).
 """
 
 from __future__ import annotations
