@@ -10,6 +10,8 @@ the scene as written, seeds 1-4 jitter the moving obstacles' phases; leader refe
 
 from __future__ import annotations
 
+import argparse
+
 import numpy as np
 
 import optplan as op
@@ -17,7 +19,10 @@ from optplan.generators import jitter_phases
 
 
 def main(argv: list[str] | None = None) -> None:
-    base = op.load_problem("paper-warehouse")
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", default="paper-warehouse")
+    a = ap.parse_args(argv)
+    base = op.load_problem(a.scene)
     print("| `safety` | `recovery` | success | min separation (median) | formation RMSE (median) "
           "| first failure (seed 0 message) |")
     print("|---|---|---:|---:|---:|---|")
