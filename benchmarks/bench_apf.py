@@ -34,7 +34,8 @@ def full_run(repeat: int) -> list[float]:
         t0 = time.perf_counter()
         res = op.solve(prob, "sa-apf-paper", rng=k)
         ts.append(time.perf_counter() - t0)
-        assert res.success, res.message
+        if not res.success:
+            raise RuntimeError(f"sa-apf-paper failed on paper-apf-env1 (seed {k}): {res.message}")
     return ts
 
 

@@ -113,8 +113,34 @@ def metre_rows(presets: Sequence[str] = PRESETS, scenes: Sequence[str] = METRE_S
             res = op.solve(prob, p, rng=seed)
             rows.append({"scene": scene, "preset": p, "length_scale": prob.length_scale,
                          "status": res.status.value, "message": res.message,
-                         "collisions": int(res.metrics["collisions"]), **_stats(res)})
+                         "collisions": int(res.metrics["collisions"]), **_stats(res),
+                         "sensing_gap": sensing_gap(prob, res)})
     return rows
+
+
+def sensing_gap(problem: op.Problem, res: op.Result) -> dict[str, Any]:
+    """The largest difference, over the path samples of ``res``, between the distance to a
+    static obstacle that the planners sense (:meth:`optplan.sim.ObstacleField.nearest`) and
+    the exact distance (shapely); ``{}`` when there is none above 1e-6."""
+    import shapely
+
+    from optplan.sim import ObstacleField
+
+    fld = ObstacleField(problem)
+    best: dict[str, Any] = {}
+    for rid, path in res.paths.items():
+        _, dist = fld.nearest(path, 0.0)
+        for j, o in enumerate(problem.obstacles):
+            if o.geometry is None:
+                continue
+            exact = shapely.distance(o.geometry, shapely.points(path))
+            gap = dist[:, j] - exact
+            i = int(np.argmax(np.abs(gap)))
+            if abs(gap[i]) > max(1e-6, best.get("gap", 0.0)):
+                best = {"gap": float(abs(gap[i])), "robot": rid, "obstacle": o.name,
+                        "at": path[i].tolist(), "sensed": float(dist[i, j]),
+                        "exact": float(exact[i])}
+    return best
 
 
 def format_metre(rows: list[dict[str, Any]]) -> str:
@@ -125,6 +151,14 @@ def format_metre(rows: list[dict[str, Any]]) -> str:
         out.append(f"| {r['scene']} ({r['length_scale']:.4f}) | {r['preset']} | {r['status']} "
                    f"| {r['collisions']} | {r['eq38']} / {r['stall_osc']} | {r['escapes']} "
                    f"| {msg} |")
+    gaps = [r for r in rows if r.get("sensing_gap")]
+    if gaps:
+        out += ["", "Sensed vs exact distance to a static obstacle, largest gap along the paths:"]
+        for r in gaps:
+            g = r["sensing_gap"]
+            out.append(f"- {r['scene']} / {r['preset']}: {g['robot']} at ({g['at'][0]:.2f}, "
+                       f"{g['at'][1]:.2f}): {g['obstacle']} sensed at {g['sensed']:.3f}, exact "
+                       f"{g['exact']:.3f}")
     return "\n".join(out)
 
 

@@ -87,7 +87,7 @@ def run(traps: tuple[str, ...] = TRAPS, solvers: tuple[str, ...] = SOLVERS, n_va
         for k, prob in enumerate(variants(trap, n_variants, seed, jitter)):
             for s in solvers:
                 t0 = time.perf_counter()
-                res: Result = solve(prob, s, rng=seed * 100_003 + k)
+                res: Result = solve(prob, s, rng=seed * 100_003 + k, reference=True)
                 m, ex = res.metrics, res.extras
                 det = ex.get("detections", {})
                 rows.append({
