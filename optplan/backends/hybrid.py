@@ -457,8 +457,8 @@ class Hybrid(Backend):
     global_solver : str or Backend
         Preset (or backend) planning each driving robot's path on ``problem.known_view()``
         (step 3): any solver (:data:`optplan.interfaces.PATH_SOLVER`).  Paper: IPSO; default
-        ``"ipso"``, the documented variant, because the literal ``"ipso-paper"`` (eq 24) never
-        returns a collision-free path (see the PSO page).
+        ``"ipso"``, the documented variant, because the literal ``"ipso-paper"`` (eq 24) is
+        not collision-free in every run (counts on the hybrid page).
     local_solver : str or Backend
         A :class:`~optplan.interfaces.LocalPlanner` whose ``controller(problem, robot_id,
         rng)`` drives the leader between sub-goals (step 5).  Paper: SA-APF,
