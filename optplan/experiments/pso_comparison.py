@@ -213,8 +213,7 @@ def main(argv: list[str] | None = None) -> int:
           f"{platform.python_version()}, numpy {np.__version__}; load average "
           f"{load_start:.2f} at the start, {load_end:.2f} at the end")
     print("Lengths in map units (the paper's cm); success = collision-free and at the goal "
-          "(shared validator); best/median/worst over successful runs.")
-    print()
+          "(shared validator).")
     print("Certified optima (visgraph): " + ", ".join(
         f"{m} {res[m]['optimum']:.2f}" for m in args.maps) + "; ratio = length / optimum.")
     print("Length and ratio: median and worst over the collision-free runs; time and iterations "
