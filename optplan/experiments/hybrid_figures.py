@@ -79,6 +79,9 @@ def formation_error(runs: dict[str, op.Result], out: Path) -> None:
         prob = op.load_problem(scene)
         fe = formation_errors(prob, res.paths)["position"]
         t = res.times
+        print(f"{scene}: largest follower slot error " + ", ".join(
+            f"{f.id} {fe[:, k].max():.1f} at t = {t[int(np.argmax(fe[:, k]))]:.1f} s"
+            for k, f in enumerate(prob.formation.followers)))
         ax = axes[0, j]
         for k, f in enumerate(prob.formation.followers):
             ax.plot(t, fe[:, k], label=f"{f.id} (L = {f.L:g})")
