@@ -12,7 +12,6 @@
 from __future__ import annotations
 
 import heapq
-import importlib.util
 import math
 from pathlib import Path
 
@@ -532,11 +531,9 @@ def test_write_toml_round_trips(tmp_path, name):
 
 
 def _make_maps():
-    spec = importlib.util.spec_from_file_location("make_maps",
-                                                  ROOT / "docs" / "scripts" / "make_maps.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    from optplan.experiments import maps_scenes
+
+    return maps_scenes
 
 
 def test_shipped_maps_reproduce_the_catalogue_scenes():
