@@ -34,12 +34,21 @@ Units of :math:`\eta` (a choice, documented in ``docs/solvers/apf.md``).  In eq 
 both be 3.7 in the same length unit.  On the paper's map scale (hundreds of units,
 :math:`\rho_0 = 20`) the literal eq 6 with :math:`\eta = 3.7, k = 15` balances attraction only
 at a clearance of ~0.1 map units: the basic robot drives into obstacles.  The basic planner
-therefore uses :math:`\eta_{eff} = \eta \cdot D^{m}` with :math:`D` the start-goal distance and
-``eta_match_n`` :math:`= m` (3, the improved method's exponent, in the ``apf-paper`` preset):
+therefore uses :math:`\eta_{eff} = \eta \cdot (D/\lambda)^{m}` with :math:`D` the start-goal
+distance and ``eta_match_n`` :math:`= m` (3, the improved method's exponent, in the ``apf-paper``
+preset):
 both planners then have the same repulsion at the start, and they differ only near the goal,
 which is exactly the paper's comparison.  ``eta_match_n = 0`` gives the literal eq 6.
 
-Local-minimum detection (§IV.B.2), evaluated every step:
+Length unit.  Every length above is measured in the problem's length unit
+:math:`\lambda` = :attr:`optplan.problem.Problem.length_scale` (1 on the paper's scenes): the
+field is evaluated on :math:`\tilde x = x/\lambda` and distances divided by :math:`\lambda`
+(:func:`evaluate_field`), the length options (``rho_0``, ``rho_min``, ``l``, ``sense_range``,
+and SA-APF's ``sa_step``, ``rollout``) are multiples of :math:`\lambda`, so a scene drawn
+:math:`s` times larger gives the same trajectory times :math:`s` (docs/solvers/apf.md).
+
+Local-minimum detection (§IV.B.2), evaluated every step (which test fired is counted in the
+result's ``extras["detections"]``):
 
 * eq 38 on the reachable region :math:`R(p)`: :math:`U_{att}(p) \ne 0`, :math:`U_{rep}(p) \ne 0`
   and :math:`U(p) \le \min U(p^*)` over ``n_probe`` points on each of the circles of radius

@@ -18,23 +18,25 @@ Flow (Fig. 12): APF step (eqs 12-13) -> local-minimum test (eq 38, stall, oscill
 Simulated annealing escape (§IV.B.3 steps 1-4):
 
 1. :math:`T \leftarrow T_0`, :math:`X` = the detected minimum :math:`X_{lm}`.
-2. Random perturbation (eq 14): :math:`X' = X + r \odot v \cdot T_0/T`, :math:`r \sim U[-1,1]^2`,
-   :math:`v = (s, s)` with :math:`s` = ``sa_step`` (perturbations widen as the system cools, as
-   eq 14 prescribes; capped at the sensing range).  Candidates outside the bounds, or whose
-   straight segment from :math:`X` passes within ``margin`` of a sensed obstacle, are rejected
-   (a robot cannot teleport through walls).
-3. Metropolis (eq 15, §IV.B.3 step 3): accept when :math:`\Delta U = U(X') - U(X) < 0`, else with
-   probability :math:`\exp(-\Delta U / (k_B T))`.  **k_B = 1 (dimensionless).**  The paper
-   writes :math:`k_B = 1.380649\times10^{-23}` J/K; with potentials of order :math:`10^3` and any
-   sane :math:`T`, :math:`\Delta U/(k_B T) \sim 10^{26}`, so the acceptance probability of every
-   uphill move is exactly 0 in floating point and SA degenerates into greedy descent, which
-   cannot leave a local minimum.  ``T`` is measured in units of potential: :math:`T_0 =
-   \tau_0\,U_{att}(X_{lm})` (``tau_0`` dimensionless), which makes the acceptance scale-free.
+2. Random perturbation (eq 14): :math:`X' = X + r \odot v \cdot T_0/T`,
+   :math:`r \sim U[-1,1]^2`, :math:`v = (s, s)` with :math:`s` = ``sa_step``
+   :math:`\times\lambda` (perturbations widen as the system cools, as eq 14 prescribes; capped
+   at the sensing range).  Candidates outside the bounds, or whose straight segment from
+   :math:`X` passes within ``margin`` of a sensed obstacle, are rejected (a robot cannot
+   teleport through walls).
+3. Metropolis (eq 15, §IV.B.3 step 3): accept when :math:`\Delta U = U(X') - U(X) < 0`, else
+   with probability :math:`\exp(-\Delta U / (k_B T))`.  **k_B = 1 (dimensionless; option
+   ``k_B``).**  The paper writes :math:`k_B = 1.380649\times10^{-23}` J/K; with potentials of
+   order :math:`10^3` and any sane :math:`T`, :math:`\Delta U/(k_B T) \sim 10^{26}`, so the
+   acceptance probability of every uphill move is exactly 0 in floating point and SA
+   degenerates into greedy descent, which cannot leave a local minimum.  ``T`` is measured in
+   units of potential: :math:`T_0 = \tau_0\,U_{att}(X_{lm})` (``tau_0`` dimensionless), which
+   makes the acceptance scale-free.
 4. Cooling (eq 16) :math:`T \leftarrow \theta T` after every proposal.  An accepted candidate
    becomes a waypoint the robot drives to (at most :math:`l` per time step, every step checked
    against sensed obstacles).  On arrival the *escape test* runs: a greedy APF roll-out of
-   ``rollout`` map units from the new position (obstacles as sensed along it, frozen at the
-   current time) must not come back within :math:`2l + r` of any detected minimum; then the
+   ``rollout`` :math:`\times\lambda` from the new position (obstacles as sensed along it, frozen
+   at the current time) must not come back within :math:`2l + r` of any detected minimum; then the
    robot has left the minimum's basin, SA stops and APF resumes.  Otherwise SA continues from
    the new position.  When :math:`T < 10^{-3} T_0` the system is re-heated (up to
    ``sa_restarts`` times); after that, or ``sa_budget`` proposals, the planner gives up.
