@@ -77,8 +77,8 @@ Structure re-use
 Warm start
     ``init`` (any path, e.g. an IPSO or visgraph result) keeps all its vertices and gains
     collinear points on its longest segments, proportionally to arc length, until it has ``N``
-    segments (``N = n_segments``, or ``len(init) - 1`` rounded up to a multiple of 8 when
-    larger).  Each hyperplane starts at the best of
+    segments (``N = max(n_segments, len(init) - 1)``, rounded up to a multiple of 8 when the
+    ``init`` is longer).  Each hyperplane starts at the best of
     the candidate normals that contain the optimal separating direction of a segment and a
     convex piece (the piece's edge normals, the segment's normals, the directions from the
     piece's vertices to the segment's endpoints), with ``c`` in the middle of the gap.
@@ -145,8 +145,8 @@ SAFETY_REL = 1e-6
 #: hard cap on the number of segments (longer initial guesses are resampled by arc length).
 MAX_SEGMENTS = 400
 
-#: An initial guess with more than ``n_segments`` segments gets a multiple of this many (one
-#: compiled NLP per structure: IPSO paths of 37-43 vertices then share two structures).
+#: A caller's ``init`` with more than ``n_segments`` segments gets a multiple of this many
+#: (one compiled NLP per structure: the warm starts of one map then share one or two builds).
 SEGMENT_BUCKET = 8
 
 _SUCCESS = {"Solve_Succeeded"}
@@ -649,6 +649,7 @@ def solve_waypoint_nlp(
     eps: float = 1e-4,
     spacing_weight: float = 1e-4,
     resolve_from: str = "last",
+    segment_bucket: int = 1,
     ipopt_options: dict | None = None,
     on_iter: Callable[[float], bool] | None = None,
 ) -> NLPOutcome:
@@ -660,7 +661,9 @@ def solve_waypoint_nlp(
     check every (segment, piece) distance exactly, add the violated pairs (and those near the
     new segments) and re-solve (at most ``max_rounds`` solves), from the previous round's
     solution (``resolve_from = "last"``) or from the initial guess (``"init"``).
-    ``on_iter(f)`` is called every IPOPT iteration; returning True stops IPOPT.
+    ``on_iter(f)`` is called every IPOPT iteration; returning True stops IPOPT.  An initial
+    path with more than ``n_segments`` segments keeps every vertex, its segment count rounded
+    up to a multiple of ``segment_bucket``.
     """
     pieces = obstacle_pieces(problem, robot, known_only=known_only, margin=margin)
     frame = problem.frame
@@ -673,8 +676,8 @@ def solve_waypoint_nlp(
     if goal is not None and np.hypot(*(p[-1] - goal)) > frame.eps:
         p = np.vstack([p, goal])
     # a longer initial path keeps every vertex; its segment count is rounded up to a multiple
-    # of SEGMENT_BUCKET so that warm starts of similar length share one compiled structure
-    n_eff = n_segments if len(p) - 1 <= n_segments else _bucket(len(p) - 1, SEGMENT_BUCKET)
+    # of segment_bucket (warm starts of similar length then share one compiled structure)
+    n_eff = n_segments if len(p) - 1 <= n_segments else _bucket(len(p) - 1, segment_bucket)
     n_eff = min(n_eff, MAX_SEGMENTS)
     path = resample_path(p, n_eff)
     path[0] = start
@@ -762,8 +765,9 @@ class WaypointNLP(Backend):
     ----------
     n_segments : int
         :math:`N`, number of path segments (waypoints between start and goal: :math:`N-1`).
-        An initial guess with more segments raises :math:`N` to keep all its vertices (to
-        the next multiple of ``SEGMENT_BUCKET``, 8, so that similar guesses share one build).
+        An initial guess with more segments raises :math:`N` to keep all its vertices (for a
+        caller's ``init``, to the next multiple of ``SEGMENT_BUCKET``, 8, so that similar warm
+        starts share one build).
     margin : float
         Extra clearance on top of the robot radius, in units of the problem's
         ``length_scale`` (map units on the paper's maps): the NLP avoids the true polygons and
@@ -932,6 +936,7 @@ class WaypointNLP(Backend):
                     known_only=known_only, margin=margin,
                     prune_distance=self.prune_distance, max_rounds=self.max_rounds,
                     resolve_from=self.resolve_from,
+                    segment_bucket=SEGMENT_BUCKET if source == "init" else 1,
                     eps=self.eps, spacing_weight=self.spacing_weight,
                     ipopt_options=self.ipopt_options(),
                     on_iter=on_iter if callback is not None else None)
