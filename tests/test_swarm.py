@@ -463,3 +463,36 @@ def test_tighten_keeps_the_clearance_margin():
     c = space.obstacles.clearance(np.stack([p[:-1], p[1:]], axis=1))
     assert c.min() >= margin * (1 - 1e-6)
     assert c.min() < 1e-3 * space.diag  # pressed onto the wall's corners
+
+
+def test_roadmap_slack_pruning_skips_tests_but_not_walks(monkeypatch):
+    """The corner pairs outside the start-goal ellipse of slack x the neighbour graph's
+    shortest walk are not tested, and the class search returns the same corridors."""
+    from optplan.generators import corridor_scene
+
+    prob = corridor_scene("shelves", 1)
+    space = sw.make_space(prob, prob.planned_robots[0], 8)
+    tested = []
+    real = sw.segment_free
+
+    def counting(a, b, sp):
+        tested.append(len(a))
+        return real(a, b, sp)
+
+    monkeypatch.setattr(sw, "segment_free", counting)
+    full = sw.build_roadmap(space, np.random.default_rng(3), 40, 25, 360, 200, None)
+    n_full = sum(tested)
+    tested.clear()
+    pruned = sw.build_roadmap(space, np.random.default_rng(3), 40, 25, 360, 200, 1.1)
+    assert sum(tested) < 0.9 * n_full  # long corner pairs far from the line are skipped
+    assert len(pruned.target) < len(full.target)
+    orig = sw.build_roadmap
+    got = {}
+    for slack in (1.1, None):
+        monkeypatch.setattr(sw, "build_roadmap",
+                            lambda *a, s=slack: orig(*a[:6], s))
+        got[slack] = sw.roadmap_corridors(space, 30, np.random.default_rng(3), 40, 25, 360,
+                                          200)
+    assert len(got[1.1]) == len(got[None]) > 1
+    for a, b in zip(got[1.1], got[None]):
+        np.testing.assert_array_equal(a, b)

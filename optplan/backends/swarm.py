@@ -55,9 +55,11 @@ Sparse roadmap (beyond the paper; a probabilistic roadmap, no exact planner)
     (:func:`build_roadmap`): k nearest neighbours, the nearest node in each octant (a Yao
     graph, which bridges dense clusters and sparse regions) and every pair of corner / medial
     nodes within ``CORNER_REACH`` x diag (taut paths run between corners), kept when free with
-    a margin of ``CLEAR_MARGIN`` x diag.  Corridors (:func:`roadmap_corridors`): the k shortest
-    walks of distinct homotopy signatures (label setting, A* with the exact roadmap distance to
-    the goal, at most 1.1 x the shortest walk), string-pulled.
+    a margin of ``CLEAR_MARGIN`` x diag; corner pairs that no walk within the search bound can
+    use (outside the start-goal ellipse of the bound) are skipped untested.  Corridors
+    (:func:`roadmap_corridors`): the k shortest walks of distinct homotopy signatures (label
+    setting, A* with the exact roadmap distance to the goal, at most 1.1 x the shortest walk),
+    string-pulled.
 
 Homotopy classes (beyond the paper)
     A path's class is summarised by an integer *signature*: for every item of the fitness
@@ -968,19 +970,28 @@ class Roadmap:
 
 def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 40,
                   k_neighbours: int = 25, boundary: int | None = None,
-                  medial: int | None = None) -> Roadmap | None:
+                  medial: int | None = None, slack: float | None = None) -> Roadmap | None:
     """The sparse random roadmap (beyond the paper; no exact planner).  Nodes:
     :func:`roadmap_nodes`.  Edges: each node to its ``k_neighbours`` nearest nodes (start and
     goal to twice as many) and to its nearest node in each of :data:`YAO_SECTORS` angular
     sectors, and every pair of corner nodes (taut paths run between corners; 0 neighbours:
-    every pair of nodes), kept when collision-free with the margin of ``space.clear`` (one
-    kernel call for all).  None when no edge is free."""
+    every pair of nodes), kept when collision-free with the margin of ``space.clear``.  None
+    when no edge is free.
+
+    ``slack`` (the search bound of :func:`roadmap_corridors`): the neighbour and Yao edges are
+    tested first; with ``U`` the shortest start-goal walk over them, a corner pair ``(a, b)``
+    with ``|s - a| + |a - b| + |b - g| > slack U`` (either orientation) is not tested and not
+    kept.  No walk through it can be within ``slack`` x the shortest walk ``L <= U`` of the
+    whole roadmap, nor on a shortest path to the goal from a node such a walk reaches, so the
+    class search returns the same walks; it only skips the collision tests of long corner pairs
+    far from the start-goal line."""
     from scipy.spatial import cKDTree
 
     nodes, corner = roadmap_nodes(space, n_samples, rng, boundary, medial)
     n = len(nodes)
     if k_neighbours <= 0 or k_neighbours >= n - 1:  # every pair
         i, j = np.triu_indices(n, 1)
+        ok = segment_free(nodes[i], nodes[j], space)
     else:
         k = k_neighbours
         tree = cKDTree(nodes)
@@ -989,8 +1000,23 @@ def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 
         yi, yj = _yao_pairs(nodes, YAO_SECTORS)
         i = np.concatenate([np.repeat(np.arange(n), k), np.repeat([0, 1], nb2.shape[1]), yi])
         j = np.concatenate([nb.reshape(-1), nb2.reshape(-1), yj])
+        none = np.zeros(0, np.int64)
+        bi, bj = _edge_set(nodes, i, j, none, 0.0)  # neighbour and Yao edges
         i, j = _edge_set(nodes, i, j, np.flatnonzero(corner), CORNER_REACH * space.diag)
-    ok = segment_free(nodes[i], nodes[j], space)
+        base = np.searchsorted(i * n + j, bi * n + bj)  # their rows in (i, j), both sorted
+        ok = np.zeros(len(i), bool)
+        ok[base] = segment_free(nodes[bi], nodes[bj], space)
+        todo = np.ones(len(i), bool)
+        todo[base] = False
+        if slack is not None and math.isfinite(slack):
+            U = _walk_length(nodes, bi[ok[base]], bj[ok[base]])
+            if math.isfinite(U):
+                ds = np.hypot(*(nodes - nodes[0]).T)
+                dg = np.hypot(*(nodes - nodes[1]).T)
+                lab = np.hypot(*(nodes[i] - nodes[j]).T)
+                via = lab + np.minimum(ds[i] + dg[j], ds[j] + dg[i])
+                todo &= via <= slack * U * (1.0 + 1e-9)
+        ok[todo] = segment_free(nodes[i[todo]], nodes[j[todo]], space)
     i, j = i[ok], j[ok]
     if len(i) == 0:
         return None
@@ -1001,6 +1027,20 @@ def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 
     return Roadmap(nodes, np.searchsorted(src[order], np.arange(n + 1)).astype(np.int64),
                    dst[order].astype(np.int64), np.concatenate([w, w])[order],
                    np.concatenate([eh, -eh])[order])
+
+
+def _walk_length(nodes: np.ndarray, i: np.ndarray, j: np.ndarray) -> float:
+    """Shortest walk from node 0 to node 1 over the undirected edges ``(i, j)`` (inf: none)."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    if len(i) == 0:
+        return math.inf
+    n = len(nodes)
+    w = np.hypot(*(nodes[i] - nodes[j]).T)
+    m = csr_matrix((np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))),
+                   shape=(n, n))
+    return float(dijkstra(m, directed=True, indices=0)[1])
 
 
 #: Corner nodes farther apart than this fraction of the map diagonal are not paired directly.
@@ -1103,7 +1143,7 @@ def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
     Each walk is string-pulled (greedy, over nodes at most 8 apart; it can only shorten the
     walk).  A roadmap that does not connect start and goal gives no path.
     """
-    g = build_roadmap(space, rng, n_samples, k_neighbours, boundary, medial)
+    g = build_roadmap(space, rng, n_samples, k_neighbours, boundary, medial, slack)
     if g is None or n_paths < 1:
         return []
     heur = g.to_goal()
