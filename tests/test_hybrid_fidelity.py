@@ -58,3 +58,38 @@ def test_hybrid_distances_scale_with_the_problem():
     assert res.extras["leader_field"]["rho_0"] == pytest.approx(20.0 * s)
     assert res.extras["leader_field"]["length_scale"] == pytest.approx(s)
     np.testing.assert_allclose(res.extras["subgoals"][-1], prob.leader.goal)
+
+
+def test_reach_visible_waits_until_the_next_subgoal_is_in_sight():
+    """Beyond the paper (off in the presets): on paper-env1 (seed 0) switching at the first
+    sub-goal within reach_tol turns the leader into the corner of the triangle and it wanders
+    through SA walks; waiting until the next sub-goal is in sight avoids them."""
+    off = op.solve("paper-env1", "hybrid-paper", rng=0)
+    on = op.solve("paper-env1", "hybrid-paper", rng=0, reach_visible=True)
+    assert off.success and on.success
+    assert on.extras["local_stats"]["r1"]["escapes"] == 0
+    assert off.extras["local_stats"]["r1"]["escapes"] > 0
+    assert on.metrics["length"] < 0.2 * off.metrics["length"]
+    assert op.get_solver("hybrid-paper").reach_visible is False
+
+
+def test_next_visible_checks_the_segment_to_the_next_subgoal():
+    from optplan.backends.hybrid import _Driver, _SubgoalTracker
+    from optplan.sim import ObstacleField, SimState
+
+    prob = op.parse_problem({
+        "name": "corner", "bounds": [0, 0, 100, 100], "length_scale": 1.0,
+        "robots": [{"id": "r", "start": [10, 10], "goal": [90, 90], "radius": 2.0,
+                    "max_speed": 5.0}],
+        "obstacles": [{"type": "polygon", "vertices": [[40, 0], [60, 0], [60, 60], [40, 60]]}]})
+    goals = np.array([[30.0, 70.0], [70.0, 70.0], [90.0, 90.0]])
+    d = _Driver(0, prob.robots[0], goals, controller=None, reach_tol=10.0, goal_tol=1.0)
+    tr = _SubgoalTracker([d], skip_blocked=True, stall_steps=0, sensing=None,
+                         reach_visible=True)
+    fld = ObstacleField(prob)
+
+    def state(x):
+        return SimState(1, 0.1, ["r"], np.array([x], float), np.zeros((1, 2)), fld, dt=0.1)
+
+    assert not tr.next_visible(d, state([30.0, 55.0]))  # the block hides (70, 70)
+    assert tr.next_visible(d, state([30.0, 66.0]))

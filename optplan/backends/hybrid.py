@@ -236,16 +236,18 @@ class _Driver:
 class _SubgoalTracker:
     """Step 6: moves every driving robot on to its next sub-goal.
 
-    An intermediate sub-goal is left when it is reached (within ``reach_tol``), sensed inside
-    a temporary obstacle (``skip_blocked``) or not approached for ``stall_steps`` steps; the
-    final goal is reached within the goal tolerance.  :meth:`update` is idempotent within a
+    An intermediate sub-goal is left when it is reached (within ``reach_tol``; with
+    ``reach_visible`` only once the next sub-goal is in sight, :meth:`next_visible`), sensed
+    inside a temporary obstacle (``skip_blocked``) or not approached for ``stall_steps`` steps;
+    the final goal is reached within the goal tolerance.  :meth:`update` is idempotent within a
     step.
     """
 
     def __init__(self, drivers: list[_Driver], *, skip_blocked: bool, stall_steps: int,
-                 sensing: float | None):
+                 sensing: float | None, reach_visible: bool = False, unit: float = 1.0):
         self.drivers = drivers
         self.skip_blocked, self.stall_steps, self.sensing = skip_blocked, stall_steps, sensing
+        self.reach_visible, self.unit = reach_visible, unit
         self._temp_mask: dict[int, np.ndarray] = {}
 
     @property
@@ -266,7 +268,7 @@ class _SubgoalTracker:
                 d.reached_at.append((d.j, float(state.t), "reached"))
             return False
         how = ""
-        if dist <= d.reach_tol:
+        if dist <= d.reach_tol and (not self.reach_visible or self.next_visible(d, state)):
             how = "reached"
         elif self.blocked(d, state):
             how = "blocked"
@@ -278,15 +280,40 @@ class _SubgoalTracker:
             d.advance(state.k, state.t, how)
         return bool(how)
 
+    def next_visible(self, d: _Driver, state: SimState) -> bool:
+        """The straight segment from the robot to its next sub-goal keeps the robot disc clear
+        of the known static obstacles (samples every half radius, at most 2000)."""
+        if d.j + 1 >= len(d.goals):
+            return True
+        fld = state.field
+        temp = self._temp(fld)
+        known = ~temp[:fld.n_static]
+        if not known.any():
+            return True
+        x = np.asarray(state.positions[d.index], dtype=float)
+        g = d.goals[d.j + 1]
+        r = d.robot.radius
+        h = max(0.5 * r, 1e-3 * self.unit)
+        n = int(min(2000, max(2, math.ceil(math.hypot(*(g - x)) / h) + 1)))
+        pts = x + np.linspace(0.0, 1.0, n)[:, None] * (g - x)
+        _, dist = fld.nearest(pts, state.t, max_range=r + h)
+        return not bool(np.any(dist[:, :fld.n_static][:, known] < r))
+
+    def _temp(self, fld: Any) -> np.ndarray:
+        """Per obstacle of ``fld``: is it a temporary (``known = false``) static obstacle."""
+        temp = self._temp_mask.get(id(fld))
+        if temp is None:
+            temp = np.array([not o.known for o in fld.static] + [False] * (fld.n - fld.n_static),
+                            dtype=bool)
+            self._temp_mask[id(fld)] = temp
+        return temp
+
     def blocked(self, d: _Driver, state: SimState) -> bool:
         """The current sub-goal lies inside a sensed temporary obstacle."""
         fld = state.field
         if not self.skip_blocked or fld.n_static == 0:
             return False
-        temp = self._temp_mask.get(id(fld))
-        if temp is None:
-            temp = np.array([not o.known for o in fld.static] + [False] * (fld.n - fld.n_static))
-            self._temp_mask[id(fld)] = temp
+        temp = self._temp(fld)
         if not temp.any():
             return False
         g = d.goals[d.j]
@@ -488,6 +515,11 @@ class Hybrid(Backend):
         Distance (x length_scale) at which an intermediate sub-goal counts as reached (step 6);
         ``0`` means automatic, ``max(2 r, 2 v_max dt)`` with ``r``, ``v_max`` the robot's radius
         and speed.  The final goal uses the scenario's goal tolerance.
+    reach_visible : bool
+        ``False`` (paper): an intermediate sub-goal is reached within ``reach_tol``.  ``True``
+        (beyond the paper): also require the straight segment to the next sub-goal to be clear
+        of the known static obstacles, so the leader does not turn toward the next sub-goal
+        before it has rounded the corner (the stall rule still skips it).
     stall_steps : int
         Skip an intermediate sub-goal after this many steps without getting closer to it by at
         least a tenth of the robot radius (``0`` disables; choice beyond the paper).
@@ -529,6 +561,7 @@ class Hybrid(Backend):
     dt: float = option(0.1, lo=0.0, hi=10.0, lo_open=True)
     max_steps: int = option(20000, lo=1, hi=10_000_000)
     reach_tol: float = option(0.0, lo=0.0, scale=True)
+    reach_visible: bool = option(False)
     stall_steps: int = option(300, lo=0, hi=10_000_000)
     skip_blocked: bool = option(True)
     settle_steps: int = option(400, lo=0, hi=10_000_000)
@@ -591,7 +624,8 @@ class Hybrid(Backend):
         fctrl = (self.stages["formation"].followers_controller(problem, rng_form)
                  if team.use_formation else None)
         tracker = _SubgoalTracker(drivers, skip_blocked=self.skip_blocked,
-                                  stall_steps=self.stall_steps, sensing=problem.sensing_range)
+                                  stall_steps=self.stall_steps, sensing=problem.sensing_range,
+                                  reach_visible=self.reach_visible, unit=problem.length_scale)
         policy = _HybridPolicy(self, problem, team, drivers, tracker, fctrl)
         try:
             out = simulate(problem, policy, ids=team.ids, dt=self.dt, max_steps=self.max_steps,

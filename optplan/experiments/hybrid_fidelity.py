@@ -2,16 +2,19 @@
 
 ``python -m optplan.experiments.hybrid_fidelity [--seeds 5] [--ipso-seeds 30] [--skip ...]``
 
-Prints three markdown tables:
+Prints four markdown tables:
 
 1. **Leader influence distance** (option ``leader_rho_0`` of ``hybrid``): ``hybrid-paper``
    with the leader's SA-APF at the preset's 20 (eq 34, ``sa-apf-paper``) and at the paper's
    formation-pilot value 100 (eq 41), on ``paper-warehouse``, ``paper-formation`` and
    ``paper-hybrid`` (``--seeds`` seeds; medians).
-2. **Literal IPSO on the known maps**: ``ipso-paper`` on ``problem.known_view()`` of
+2. **Sub-goal switching in sight** (option ``reach_visible`` of ``hybrid``, beyond the paper):
+   ``hybrid-paper`` with it off (the preset) and on, on the paper's scenes and the metre-scale
+   ones (``--seeds`` seeds).
+3. **Literal IPSO on the known maps**: ``ipso-paper`` on ``problem.known_view()`` of
    ``paper-hybrid`` and ``paper-warehouse`` (``--ipso-seeds`` seeds): how many of its paths
    are collision-free on the map it plans on.
-3. **Eq 52 near an obstacle** (rho < 1/20): one follower of a leader-follower pair next to a
+4. **Eq 52 near an obstacle** (rho < 1/20): one follower of a leader-follower pair next to a
    wall on its outer or inner side at clearance rho; the desired angle ratio phi_d / Phi the
    code uses (rho clamped at 1/c), the literal eq 52 value, and the component of the
    follower's command toward the wall (negative: away from it), with the ``safety`` layer on
@@ -29,13 +32,16 @@ import numpy as np
 
 import optplan as op
 
-__all__ = ["leader_rho_0_rows", "format_leader_rho_0", "ipso_paper_known_rows",
+__all__ = ["reach_visible_rows", "format_reach_visible", "leader_rho_0_rows",
+           "format_leader_rho_0", "ipso_paper_known_rows",
            "format_ipso_paper_known", "eq52_scene", "eq52_probe", "eq52_rows", "format_eq52",
            "main"]
 
 RHO_SCENES = ("paper-warehouse", "paper-formation", "paper-hybrid")
 RHO_VALUES = (None, 100.0)  # None: the local planner's own rho_0 (sa-apf-paper: 20)
 IPSO_SCENES = ("paper-hybrid", "paper-warehouse")
+VISIBLE_SCENES = ("paper-env1", "paper-env2", "paper-hybrid", "paper-warehouse",
+                  "paper-formation", "warehouse-grid", "office-floor")
 
 
 def _med(xs: Sequence[float]) -> float:
@@ -74,6 +80,38 @@ def format_leader_rho_0(rows: list[dict[str, Any]]) -> str:
                        f"| {_med([r['length'] for r in rs]):.1f} "
                        f"| {_med([r['collisions'] for r in rs]):g} "
                        f"| {_med([r['time_to_goal'] for r in rs]):.1f} "
+                       f"| {sum(r['escapes'] for r in rs)} |")
+    return "\n".join(out)
+
+
+def reach_visible_rows(seeds: Sequence[int], scenes: Sequence[str] = VISIBLE_SCENES
+                       ) -> list[dict[str, Any]]:
+    """``hybrid-paper`` with ``reach_visible`` off (the preset) and on, per scene and seed."""
+    rows = []
+    for scene in scenes:
+        prob = op.load_problem(scene)
+        for v in (False, True):
+            for s in seeds:
+                res = op.solve(prob, "hybrid-paper", rng=int(s), reach_visible=v)
+                st = res.extras["local_stats"]
+                rows.append({"scene": scene, "reach_visible": v, "seed": int(s),
+                             "success": res.success, "status": res.status.value,
+                             "length": float(sum(res.metrics["lengths"][d] for d in st)),
+                             "collisions": int(res.metrics["collisions"]),
+                             "escapes": int(sum(x["escapes"] for x in st.values()))})
+    return rows
+
+
+def format_reach_visible(rows: list[dict[str, Any]]) -> str:
+    out = ["| scene | reach_visible | success | median length (drivers) | median collisions | "
+           "SA escapes (total) |", "|---|---|---|---|---|---|"]
+    for scene in dict.fromkeys(r["scene"] for r in rows):
+        for v in (False, True):
+            rs = [r for r in rows if r["scene"] == scene and r["reach_visible"] == v]
+            out.append(f"| {scene} | {'on' if v else 'off (preset)'} "
+                       f"| {sum(r['success'] for r in rs)}/{len(rs)} "
+                       f"| {_med([r['length'] for r in rs]):.1f} "
+                       f"| {_med([r['collisions'] for r in rs]):g} "
                        f"| {sum(r['escapes'] for r in rs)} |")
     return "\n".join(out)
 
@@ -168,12 +206,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", type=int, default=5, help="seeds of the leader_rho_0 table (5)")
     ap.add_argument("--ipso-seeds", type=int, default=30,
                     help="seeds of the ipso-paper known-map table (30)")
-    ap.add_argument("--skip", default="", help="comma-separated: rho, ipso, eq52")
+    ap.add_argument("--skip", default="", help="comma-separated: rho, visible, ipso, eq52")
     a = ap.parse_args(argv)
     skip = set(filter(None, a.skip.split(",")))
     if "rho" not in skip:
         print(f"Leader influence distance, hybrid-paper ({a.seeds} seeds, medians)\n")
         print(format_leader_rho_0(leader_rho_0_rows(range(a.seeds))))
+        print()
+    if "visible" not in skip:
+        print(f"Sub-goal switching with the next sub-goal in sight, hybrid-paper ({a.seeds} "
+              "seeds, medians)\n")
+        print(format_reach_visible(reach_visible_rows(range(a.seeds))))
         print()
     if "ipso" not in skip:
         print(f"ipso-paper on the known maps ({a.ipso_seeds} seeds)\n")
