@@ -93,3 +93,23 @@ def test_next_visible_checks_the_segment_to_the_next_subgoal():
 
     assert not tr.next_visible(d, state([30.0, 55.0]))  # the block hides (70, 70)
     assert tr.next_visible(d, state([30.0, 66.0]))
+
+
+def test_leader_rho_0_with_a_planner_without_rho_0():
+    from dataclasses import dataclass
+    from typing import ClassVar
+
+    from optplan.interfaces import LocalPlanner
+    from optplan.solver import Backend
+
+    @dataclass(frozen=True, kw_only=True)
+    class NoRho(Backend, LocalPlanner):
+        name: ClassVar[str] = "no-rho"
+
+        def controller(self, problem, robot_id, rng):
+            raise NotImplementedError
+
+    with pytest.raises(ValueError, match="leader_rho_0 = None"):
+        op.get_solver("hybrid-paper", local_solver=NoRho())
+    hyb = op.get_solver("hybrid-paper", local_solver=NoRho(), leader_rho_0=None)
+    assert isinstance(hyb.stages["local_solver"], NoRho)

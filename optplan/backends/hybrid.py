@@ -578,7 +578,8 @@ class Hybrid(Backend):
         if self.leader_rho_0 is not None:
             if not hasattr(local, "rho_0"):
                 raise ValueError(f"option 'leader_rho_0' of backend 'hybrid': the local planner "
-                                 f"{stage_name(self.local_solver)!r} has no option 'rho_0'")
+                                 f"{stage_name(self.local_solver)!r} has no option 'rho_0' "
+                                 "(set leader_rho_0 = None to use it as it is)")
             prev = local
             try:
                 local = dataclasses.replace(prev, rho_0=float(self.leader_rho_0))
