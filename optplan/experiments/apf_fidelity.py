@@ -2,16 +2,18 @@
 
 ``python -m optplan.experiments.apf_fidelity [--seeds 5] [--skip kb,scale,metre]``
 
-Prints three markdown tables:
+Prints four markdown tables:
 
 1. **Boltzmann constant** (option ``k_B`` of ``sa-apf``): ``sa-apf-paper`` with the default
    dimensionless ``k_B = 1`` and with the paper's 1.380649e-23 on ``paper-apf-env1``,
    ``paper-apf-env2`` and ``trap-u`` (``--seeds`` seeds): successes, detections split into
    eq 38 itself and the added stall / oscillation tests, escapes and median SA proposals.
-2. **Scale invariance**: every time-stepping preset on its representative scene drawn
+2. **SA defaults**: ``sa-apf-paper`` on ``trap-u`` for a few ``(tau_0, sa_step)`` pairs
+   (``--sweep-seeds`` seeds): successes, runs with an escape, median SA proposals.
+3. **Scale invariance**: every time-stepping preset on its representative scene drawn
    x 0.01, x 1 and x 100 (:func:`optplan.problem.transform_problem`, seed 0): status and total
    path length divided by the scale.
-3. **Metre-scale scenes**: the time-stepping presets on ``warehouse-grid`` and
+4. **Metre-scale scenes**: the time-stepping presets on ``warehouse-grid`` and
    ``office-floor`` (seed 0): ``length_scale``, status and message.
 """
 
@@ -28,8 +30,9 @@ import optplan as op
 from optplan.backends.sa_apf import K_B, K_B_PAPER
 from optplan.problem import transform_problem
 
-__all__ = ["KB_SCENES", "PRESETS", "REPRESENTATIVE", "METRE_SCENES", "kb_rows", "format_kb",
-           "scale_rows", "format_scale", "metre_rows", "format_metre", "main"]
+__all__ = ["sweep_rows", "format_sweep", "KB_SCENES", "PRESETS", "REPRESENTATIVE",
+           "METRE_SCENES", "kb_rows", "format_kb", "scale_rows", "format_scale", "metre_rows",
+           "format_metre", "main"]
 
 KB_SCENES = ("paper-apf-env1", "paper-apf-env2", "trap-u")
 PRESETS = ("apf-paper", "sa-apf-paper", "hybrid-paper", "hybrid-qp")
@@ -80,6 +83,32 @@ def format_kb(rows: list[dict[str, Any]]) -> str:
                        f"| {sum(r['eq38'] for r in rs)} / {sum(r['stall_osc'] for r in rs)} "
                        f"| {sum(r['escapes'] for r in rs)} "
                        f"| {float(np.median([r['sa_steps'] for r in rs])):.0f} |")
+    return "\n".join(out)
+
+
+def sweep_rows(seeds: Sequence[int], scene: str = "trap-u",
+               grid: Sequence[tuple[float, float]] = ((1.0, 4.0), (3.0, 4.0), (5.0, 4.0),
+                                                      (5.0, 10.0), (10.0, 10.0))
+               ) -> list[dict[str, Any]]:
+    """``sa-apf-paper`` on ``scene`` for each ``(tau_0, sa_step)`` of ``grid``."""
+    prob = op.load_problem(scene)
+    rows = []
+    for tau_0, step in grid:
+        for s in seeds:
+            res = op.solve(prob, "sa-apf-paper", rng=int(s), tau_0=tau_0, sa_step=step)
+            rows.append({"tau_0": tau_0, "sa_step": step, "seed": int(s),
+                         "success": res.success, **_stats(res)})
+    return rows
+
+
+def format_sweep(rows: list[dict[str, Any]], scene: str = "trap-u") -> str:
+    out = [f"| tau_0 | sa_step | solved on {scene} | runs with an escape | median SA proposals |",
+           "|---|---|---|---|---|"]
+    for tau_0, step in dict.fromkeys((r["tau_0"], r["sa_step"]) for r in rows):
+        rs = [r for r in rows if r["tau_0"] == tau_0 and r["sa_step"] == step]
+        out.append(f"| {tau_0:g} | {step:g} | {sum(r['success'] for r in rs)}/{len(rs)} "
+                   f"| {sum(r['escapes'] > 0 for r in rs)}/{len(rs)} "
+                   f"| {float(np.median([r['sa_steps'] for r in rs])):.0f} |")
     return "\n".join(out)
 
 
@@ -213,12 +242,18 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m optplan.experiments.apf_fidelity",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=5, help="seeds of the k_B table (5)")
-    ap.add_argument("--skip", default="", help="comma-separated: kb, scale, metre")
+    ap.add_argument("--sweep-seeds", type=int, default=8,
+                    help="seeds of the tau_0 / sa_step sweep on trap-u (8)")
+    ap.add_argument("--skip", default="", help="comma-separated: kb, sweep, scale, metre")
     a = ap.parse_args(argv)
     skip = set(filter(None, a.skip.split(",")))
     if "kb" not in skip:
         print(f"Boltzmann constant of eq 15, sa-apf-paper ({a.seeds} seeds)\n")
         print(format_kb(kb_rows(range(a.seeds))))
+        print()
+    if "sweep" not in skip:
+        print(f"tau_0 / sa_step sweep, sa-apf-paper on trap-u ({a.sweep_seeds} seeds)\n")
+        print(format_sweep(sweep_rows(range(a.sweep_seeds))))
         print()
     if "scale" not in skip:
         print("Scale invariance (seed 0; the scene drawn x 0.01, x 1, x 100)\n")
