@@ -605,6 +605,116 @@ def _lengths(pts, off):
 CUT_FRACTIONS = 0.5 ** np.arange(1, 11)
 
 
+#: Rank boundaries of the staged cut tests of :func:`tighten` (by decreasing gain).
+CUT_STAGES = (8, 24)
+
+
+@_jit
+def _cut_table(pts, rows, f, thr):
+    """The corner cuts of :func:`tighten` for the vertices ``rows``: the cut points
+    ``P[r, s] = v + f[s] (a - v)``, ``Q[r, t] = v + f[t] (b - v)``, the length gain of each
+    cut ``(s, t)`` (flat index ``s F + t``), the cuts in order of decreasing gain (ties: the
+    lower index first) and per vertex how many gain more than ``thr[r]``."""
+    R = rows.shape[0]
+    F = f.shape[0]
+    P = np.empty((R, F, 2))
+    Q = np.empty((R, F, 2))
+    gain = np.empty((R, F * F))
+    order = np.empty((R, F * F), np.int64)
+    n_above = np.zeros(R, np.int64)
+    dp = np.empty(F)
+    dq = np.empty(F)
+    for r in range(R):
+        v = rows[r]
+        vx, vy = pts[v, 0], pts[v, 1]
+        ax, ay = pts[v - 1, 0] - vx, pts[v - 1, 1] - vy
+        bx, by = pts[v + 1, 0] - vx, pts[v + 1, 1] - vy
+        for s in range(F):
+            P[r, s, 0] = vx + f[s] * ax
+            P[r, s, 1] = vy + f[s] * ay
+            Q[r, s, 0] = vx + f[s] * bx
+            Q[r, s, 1] = vy + f[s] * by
+            dp[s] = math.hypot(P[r, s, 0] - vx, P[r, s, 1] - vy)
+            dq[s] = math.hypot(Q[r, s, 0] - vx, Q[r, s, 1] - vy)
+        for s in range(F):
+            for t in range(F):
+                g = (dp[s] + dq[t]) - math.hypot(Q[r, t, 0] - P[r, s, 0],
+                                                 Q[r, t, 1] - P[r, s, 1])
+                gain[r, s * F + t] = g
+                if g > thr[r]:
+                    n_above[r] += 1
+        order[r] = np.argsort(-gain[r], kind="mergesort")
+    return P, Q, gain, order, n_above
+
+
+@_jit
+def _stage_segments(P, Q, order, n_above, found, lo, hi):
+    """The cuts of ranks ``lo .. hi - 1`` (among those above the threshold) of the vertices
+    without a free cut yet: their segments ``p -> q``, vertex and rank."""
+    R = order.shape[0]
+    F = P.shape[1]
+    n = 0
+    for r in range(R):
+        if not found[r]:
+            n += max(0, min(hi, n_above[r]) - lo)
+    A = np.empty((n, 2))
+    B = np.empty((n, 2))
+    who = np.empty(n, np.int64)
+    rank = np.empty(n, np.int64)
+    q = 0
+    for r in range(R):
+        if found[r]:
+            continue
+        for k in range(lo, min(hi, n_above[r])):
+            c = order[r, k]
+            A[q, 0] = P[r, c // F, 0]
+            A[q, 1] = P[r, c // F, 1]
+            B[q, 0] = Q[r, c % F, 0]
+            B[q, 1] = Q[r, c % F, 1]
+            who[q] = r
+            rank[q] = k
+            q += 1
+    return A, B, who, rank
+
+
+@_jit
+def _stage_pick(order, who, rank, free, found, choice):
+    """Per vertex the first free cut of the stage (in rank order: the largest gain)."""
+    for q in range(who.shape[0]):
+        r = who[q]
+        if free[q] and not found[r]:
+            found[r] = True
+            choice[r] = order[r, rank[q]]
+
+
+def _best_cuts(pts: np.ndarray, rows: np.ndarray, f: np.ndarray, thr: np.ndarray,
+               space: SwarmSpace):
+    """Per vertex ``rows[r]`` its collision-free corner cut with the largest gain, if that
+    gain is above ``thr[r]``: the cut points ``P, Q`` (``(R, F, 2)``), the chosen flat index
+    ``j`` and the mask ``cut``, and the number of segments tested.
+
+    The same choice as testing all ``F x F`` cuts and taking the argmax of the gains of the
+    free ones (the first on ties), with fewer tests: the cuts that gain at most ``thr[r]``
+    cannot be taken and are not tested, and the others are tested in stages of decreasing
+    gain (ranks below :data:`CUT_STAGES`, then the rest), each vertex only until it has a
+    free cut."""
+    P, Q, gain, order, n_above = _cut_table(pts, rows, f, thr)
+    R = len(rows)
+    found = np.zeros(R, bool)
+    choice = np.zeros(R, np.int64)
+    n_eval = 0
+    lo = 0
+    for hi in (*CUT_STAGES, order.shape[1]):
+        A, B, who, rank = _stage_segments(P, Q, order, n_above, found, lo, hi)
+        if len(A):
+            _stage_pick(order, who, rank, segment_free(A, B, space), found, choice)
+            n_eval += len(A)
+        lo = hi
+        if lo >= order.shape[1]:
+            break
+    return P, Q, choice, found, n_eval
+
+
 def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
             rel_tol: float = 1e-7, min_gain: float = 1e-5,
             fractions: np.ndarray = CUT_FRACTIONS) -> tuple[list[np.ndarray], int]:
@@ -644,26 +754,14 @@ def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
         rows = _dirty_rows(off, ids, s_prev, s_next, active)
         if not len(rows):
             break
-        v, a, b = pts[rows], pts[rows - 1], pts[rows + 1]
-        P = v[:, None, :] + f[None, :, None] * (a - v)[:, None, :]  # (R, F, 2)
-        Q = v[:, None, :] + f[None, :, None] * (b - v)[:, None, :]
-        Pp = np.broadcast_to(P[:, :, None, :], (len(v), F, F, 2))
-        Qq = np.broadcast_to(Q[:, None, :, :], (len(v), F, F, 2))
-        ok = segment_free(Pp.reshape(-1, 2), Qq.reshape(-1, 2), space).reshape(len(v), F * F)
-        n_eval += ok.size
-        dp = np.hypot(*(P - v[:, None, :]).transpose(2, 0, 1))  # (R, F)
-        dq = np.hypot(*(Q - v[:, None, :]).transpose(2, 0, 1))
-        gain = (dp[:, :, None] + dq[:, None, :]
-                - np.hypot(*(Qq - Pp).transpose(3, 0, 1, 2))).reshape(len(v), F * F)
-        gain = np.where(ok, gain, -1.0)
-        j = np.argmax(gain, axis=1)
         owner = np.searchsorted(off, rows, side="right") - 1
-        cut = gain[np.arange(len(v)), j] > min_gain * length[owner]
+        P, Q, j, cut, n = _best_cuts(pts, rows, f, min_gain * length[owner], space)
+        n_eval += n
         if next_id + 2 * int(cut.sum()) > cap:  # room for the new ids
             cap = 2 * (next_id + 2 * int(cut.sum()))
             s_prev = np.concatenate([s_prev, np.full(cap - len(s_prev), -1, np.int64)])
             s_next = np.concatenate([s_next, np.full(cap - len(s_next), -1, np.int64)])
-        r = np.arange(len(v))
+        r = np.arange(len(rows))
         pts, off, ids, next_id = _apply_cuts(pts, off, ids, rows, cut, P[r, j // F],
                                              Q[r, j % F], next_id, s_prev, s_next)
         pts, off, ids, n = _pull(pts, off, space, 6, ids)
@@ -951,13 +1049,8 @@ class Roadmap:
 
     def to_goal(self) -> np.ndarray:
         """Roadmap distance of every node to the goal (``inf``: not connected), the exact
-        A* heuristic of the class search."""
-        from scipy.sparse import csr_matrix
-        from scipy.sparse.csgraph import dijkstra
-
-        n = len(self.nodes)
-        m = csr_matrix((self.weight, self.target, self.indptr), shape=(n, n))
-        return dijkstra(m, directed=True, indices=1)
+        A* heuristic of the class search (the edges go both ways: Dijkstra from the goal)."""
+        return _dijkstra(self.indptr, self.target, self.weight, 1)
 
     def walk(self, lab: int, lab_node: np.ndarray, lab_par: np.ndarray) -> np.ndarray:
         """The points of the walk ending in label ``lab``."""
@@ -984,63 +1077,54 @@ def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 
     kept.  No walk through it can be within ``slack`` x the shortest walk ``L <= U`` of the
     whole roadmap, nor on a shortest path to the goal from a node such a walk reaches, so the
     class search returns the same walks; it only skips the collision tests of long corner pairs
-    far from the start-goal line."""
-    from scipy.spatial import cKDTree
+    far from the start-goal line.
 
+    The candidate edges come from compiled loops (:func:`_base_edges`, :func:`_corner_edges`),
+    and each group is tested in one call of the collision kernel (two calls in all)."""
     nodes, corner = roadmap_nodes(space, n_samples, rng, boundary, medial)
     n = len(nodes)
     if k_neighbours <= 0 or k_neighbours >= n - 1:  # every pair
         i, j = np.triu_indices(n, 1)
         ok = segment_free(nodes[i], nodes[j], space)
     else:
-        k = k_neighbours
-        tree = cKDTree(nodes)
-        nb = tree.query(nodes, k=k + 1)[1][:, 1:]
-        nb2 = tree.query(nodes[:2], k=min(2 * k, n - 1) + 1)[1][:, 1:]
-        yi, yj = _yao_pairs(nodes, YAO_SECTORS)
-        i = np.concatenate([np.repeat(np.arange(n), k), np.repeat([0, 1], nb2.shape[1]), yi])
-        j = np.concatenate([nb.reshape(-1), nb2.reshape(-1), yj])
-        none = np.zeros(0, np.int64)
-        bi, bj = _edge_set(nodes, i, j, none, 0.0)  # neighbour and Yao edges
-        i, j = _edge_set(nodes, i, j, np.flatnonzero(corner), CORNER_REACH * space.diag)
-        base = np.searchsorted(i * n + j, bi * n + bj)  # their rows in (i, j), both sorted
-        ok = np.zeros(len(i), bool)
-        ok[base] = segment_free(nodes[bi], nodes[bj], space)
-        todo = np.ones(len(i), bool)
-        todo[base] = False
-        if slack is not None and math.isfinite(slack):
-            U = _walk_length(nodes, bi[ok[base]], bj[ok[base]])
-            if math.isfinite(U):
-                ds = np.hypot(*(nodes - nodes[0]).T)
-                dg = np.hypot(*(nodes - nodes[1]).T)
-                lab = np.hypot(*(nodes[i] - nodes[j]).T)
-                via = lab + np.minimum(ds[i] + dg[j], ds[j] + dg[i])
-                todo &= via <= slack * U * (1.0 + 1e-9)
-        ok[todo] = segment_free(nodes[i[todo]], nodes[j[todo]], space)
+        i, j, ok = _tested_edges(space, nodes, corner, k_neighbours, slack)
     i, j = i[ok], j[ok]
     if len(i) == 0:
         return None
-    w = np.hypot(*(nodes[i] - nodes[j]).T)
-    eh = _segment_hashes(nodes[i], nodes[j], space.signature_points, space.signature_keys)
-    src, dst = np.concatenate([i, j]), np.concatenate([j, i])
-    order = np.argsort(src, kind="stable")
-    return Roadmap(nodes, np.searchsorted(src[order], np.arange(n + 1)).astype(np.int64),
-                   dst[order].astype(np.int64), np.concatenate([w, w])[order],
-                   np.concatenate([eh, -eh])[order])
+    return Roadmap(nodes, *_roadmap_csr(nodes, i, j, space.signature_points,
+                                        space.signature_keys))
+
+
+def _tested_edges(space: SwarmSpace, nodes: np.ndarray, corner: np.ndarray, k: int,
+                  slack: float | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The candidate edges ``i < j`` of :func:`build_roadmap` (lexicographic order) and their
+    collision-free flags: the neighbour and Yao edges, tested first, then the corner pairs
+    within :data:`CORNER_REACH` x diag and inside the ellipse of ``slack`` x the shortest
+    walk over the free first edges (untested pairs outside it are returned as not free)."""
+    from scipy.spatial import cKDTree
+
+    n = len(nodes)
+    tree = cKDTree(nodes)
+    nb = tree.query(nodes, k=k + 1)[1][:, 1:]
+    nb2 = tree.query(nodes[:2], k=min(2 * k, n - 1) + 1)[1][:, 1:]
+    M, bi, bj = _base_edges(nodes, nb.astype(np.int64), nb2.astype(np.int64), YAO_SECTORS)
+    okb = segment_free(nodes[bi], nodes[bj], space)
+    bound = math.inf
+    if slack is not None and math.isfinite(slack):
+        U = _walk_length(nodes, bi[okb], bj[okb])
+        if math.isfinite(U):
+            bound = slack * U * (1.0 + 1e-9)
+    i, j, ok, todo = _corner_edges(nodes, M, corner, okb, CORNER_REACH * space.diag, bound)
+    ok[todo] = segment_free(nodes[i[todo]], nodes[j[todo]], space)
+    return i, j, ok
 
 
 def _walk_length(nodes: np.ndarray, i: np.ndarray, j: np.ndarray) -> float:
     """Shortest walk from node 0 to node 1 over the undirected edges ``(i, j)`` (inf: none)."""
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import dijkstra
-
     if len(i) == 0:
         return math.inf
-    n = len(nodes)
-    w = np.hypot(*(nodes[i] - nodes[j]).T)
-    m = csr_matrix((np.concatenate([w, w]), (np.concatenate([i, j]), np.concatenate([j, i]))),
-                   shape=(n, n))
-    return float(dijkstra(m, directed=True, indices=0)[1])
+    indptr, target, weight, _ = _csr(len(nodes), i, j, _edge_lengths(nodes, i, j))
+    return float(_dijkstra(indptr, target, weight, 0)[1])
 
 
 #: Corner nodes farther apart than this fraction of the map diagonal are not paired directly.
@@ -1051,82 +1135,199 @@ YAO_SECTORS = 8
 
 
 @_jit
-def _edge_set(nodes, I, J, corner, reach):
-    """The distinct pairs ``i < j`` among the given pairs and every pair of ``corner`` nodes at
-    most ``reach`` apart."""
+def _sector(dx, dy, sectors):
+    """The Yao sector of the direction ``(dx, dy)``: octant 0-7 counter-clockwise from +x (a
+    half-open 45 degree cone each), times ``sectors / 8``.  Written with selects instead of
+    branches (the same octants as nested ``if``s; it runs once per pair of roadmap nodes)."""
+    neg = dy < 0.0  # the lower half is the upper half turned by 180 degrees
+    u = -dx if neg else dx
+    v = -dy if neg else dy
+    o = (np.int64(2) + np.int64(v <= -u)) if u <= 0.0 else np.int64(v >= u)
+    return (o + np.int64(4) * np.int64(neg)) * sectors // 8
+
+
+@_jit
+def _base_edges(nodes, nb, nb2, sectors):
+    """The neighbour and Yao edges of :func:`build_roadmap`: each node to its nearest nodes
+    ``nb`` (a row per node; ``nb2``: more for nodes 0 and 1, start and goal) and to its
+    nearest node in each of ``sectors`` equal angular sectors (a Yao graph: connected, and it
+    bridges a dense cluster and a sparse region, which the k nearest neighbours of the
+    cluster's nodes do not).  Returns the ``(n, n)`` mask of the pairs ``i < j`` and those
+    pairs in lexicographic order."""
     n = nodes.shape[0]
     M = np.zeros((n, n), np.bool_)
-    for q in range(I.shape[0]):
-        a, b = min(I[q], J[q]), max(I[q], J[q])
-        if a != b:
-            M[a, b] = True
-    r2 = reach * reach
-    for x in range(corner.shape[0]):
-        a = corner[x]
-        for y in range(x + 1, corner.shape[0]):
-            b = corner[y]
-            dx = nodes[a, 0] - nodes[b, 0]
-            dy = nodes[a, 1] - nodes[b, 1]
-            if dx * dx + dy * dy <= r2:
-                M[min(a, b), max(a, b)] = True
+    for i in range(n):
+        for q in range(nb.shape[1]):
+            j = nb[i, q]
+            if j != i:
+                M[min(i, j), max(i, j)] = True
+    for i in range(nb2.shape[0]):
+        for q in range(nb2.shape[1]):
+            j = nb2[i, q]
+            if j != i:
+                M[min(i, j), max(i, j)] = True
+    X = nodes[:, 0].copy()
+    Y = nodes[:, 1].copy()
+    d2 = np.empty(n)
+    sec = np.empty(n, np.int64)
+    best = np.empty(sectors)
+    arg = np.empty(sectors, np.int64)
+    for i in range(n):
+        xi = X[i]
+        yi = Y[i]
+        for j in range(n):
+            dx = X[j] - xi
+            dy = Y[j] - yi
+            d2[j] = dx * dx + dy * dy
+            sec[j] = _sector(dx, dy, sectors)
+        best[:] = np.inf
+        arg[:] = -1
+        for j in range(n):
+            if j != i and d2[j] < best[sec[j]]:
+                best[sec[j]] = d2[j]
+                arg[sec[j]] = j
+        for s in range(sectors):
+            if arg[s] >= 0:
+                M[min(i, arg[s]), max(i, arg[s])] = True
     cnt = 0
     for a in range(n):
         for b in range(a + 1, n):
             cnt += M[a, b]
-    oi = np.empty(cnt, np.int64)
-    oj = np.empty(cnt, np.int64)
+    bi = np.empty(cnt, np.int64)
+    bj = np.empty(cnt, np.int64)
     q = 0
     for a in range(n):
         for b in range(a + 1, n):
             if M[a, b]:
-                oi[q] = a
-                oj[q] = b
+                bi[q] = a
+                bj[q] = b
                 q += 1
-    return oi, oj
+    return M, bi, bj
 
 
 @_jit
-def _octant(dx, dy):
-    """The octant 0-7 of the direction ``(dx, dy)`` (counter-clockwise from +x)."""
-    if dy >= 0:
-        if dx > 0:
-            return 0 if dy < dx else 1
-        return 2 if dy > -dx else 3
-    if dx < 0:
-        return 4 if -dy < -dx else 5
-    return 6 if -dy > dx else 7
-
-
-@_jit
-def _yao_pairs(nodes, sectors):
-    """Each node to its nearest node in each of ``sectors`` equal angular sectors (a Yao
-    graph: connected, and it bridges a dense cluster and a sparse region, which the k nearest
-    neighbours of the cluster's nodes do not)."""
+def _corner_edges(nodes, M, corner, okb, reach, bound):
+    """All candidate pairs ``a < b`` in lexicographic order: the pairs of ``M`` (the base edges,
+    collision-free flags ``okb`` in the same order) and the pairs of ``corner`` nodes at most
+    ``reach`` apart whose start-goal detour ``|s - a| + |a - b| + |b - g|`` (the shorter
+    orientation) is at most ``bound``.  Returns the pairs, their flags (the base flags, False
+    for a corner pair) and the mask of the corner pairs (to be tested)."""
     n = nodes.shape[0]
-    I = np.empty(n * sectors, np.int64)
-    J = np.empty(n * sectors, np.int64)
-    best = np.empty(sectors)
-    arg = np.empty(sectors, np.int64)
+    ds = np.empty(n)
+    dg = np.empty(n)
+    for v in range(n):
+        ds[v] = math.hypot(nodes[v, 0] - nodes[0, 0], nodes[v, 1] - nodes[0, 1])
+        dg[v] = math.hypot(nodes[v, 0] - nodes[1, 0], nodes[v, 1] - nodes[1, 1])
+    r2 = reach * reach
+    cap = okb.shape[0]
+    nc = 0
+    for a in range(n):
+        if corner[a]:
+            nc += 1
+    cap += nc * (nc - 1) // 2
+    I = np.empty(cap, np.int64)
+    J = np.empty(cap, np.int64)
+    ok = np.zeros(cap, np.bool_)
+    todo = np.zeros(cap, np.bool_)
     q = 0
-    for i in range(n):
-        best[:] = np.inf
-        arg[:] = -1
-        for j in range(n):
-            if j == i:
-                continue
-            dx = nodes[j, 0] - nodes[i, 0]
-            dy = nodes[j, 1] - nodes[i, 1]
-            d = dx * dx + dy * dy
-            s = _octant(dx, dy) * sectors // 8
-            if d < best[s]:
-                best[s] = d
-                arg[s] = j
-        for s in range(sectors):
-            if arg[s] >= 0:
-                I[q] = i
-                J[q] = arg[s]
+    nb = 0
+    for a in range(n):
+        for b in range(a + 1, n):
+            if M[a, b]:
+                I[q] = a
+                J[q] = b
+                ok[q] = okb[nb]
+                nb += 1
                 q += 1
-    return I[:q], J[:q]
+            elif corner[a] and corner[b]:
+                dx = nodes[a, 0] - nodes[b, 0]
+                dy = nodes[a, 1] - nodes[b, 1]
+                if dx * dx + dy * dy > r2:
+                    continue
+                via = math.hypot(dx, dy) + min(ds[a] + dg[b], ds[b] + dg[a])
+                if via <= bound:
+                    I[q] = a
+                    J[q] = b
+                    todo[q] = True
+                    q += 1
+    return I[:q], J[:q], ok[:q], todo[:q]
+
+
+@_jit
+def _edge_lengths(nodes, i, j):
+    """Length of each edge ``nodes[i[e]] -> nodes[j[e]]``."""
+    out = np.empty(i.shape[0])
+    for e in range(i.shape[0]):
+        out[e] = math.hypot(nodes[i[e], 0] - nodes[j[e], 0], nodes[i[e], 1] - nodes[j[e], 1])
+    return out
+
+
+@_jit
+def _csr(n, i, j, w):
+    """Both directions of the undirected edges ``(i, j)`` (lengths ``w``) in CSR form, the
+    edges of a node in the order of ``concat(i, j)`` (a stable sort by source)."""
+    m = i.shape[0]
+    indptr = np.zeros(n + 1, np.int64)
+    for e in range(m):
+        indptr[i[e] + 1] += 1
+        indptr[j[e] + 1] += 1
+    for v in range(n):
+        indptr[v + 1] += indptr[v]
+    fill = indptr[:-1].copy()
+    target = np.empty(2 * m, np.int64)
+    weight = np.empty(2 * m)
+    pos = np.empty(2 * m, np.int64)  # the slot of each directed edge of concat(i, j)
+    for e in range(m):
+        q = fill[i[e]]
+        fill[i[e]] += 1
+        target[q] = j[e]
+        weight[q] = w[e]
+        pos[e] = q
+    for e in range(m):
+        q = fill[j[e]]
+        fill[j[e]] += 1
+        target[q] = i[e]
+        weight[q] = w[e]
+        pos[m + e] = q
+    return indptr, target, weight, pos
+
+
+def _roadmap_csr(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, Z: np.ndarray,
+                 keys: np.ndarray) -> tuple[np.ndarray, ...]:
+    """CSR arrays of :class:`Roadmap` (indptr, target, length, signature hash) of the free
+    edges ``(i, j)``."""
+    w = _edge_lengths(nodes, i, j)
+    indptr, target, weight, pos = _csr(len(nodes), i, j, w)
+    eh = _segment_hashes(nodes[i], nodes[j], Z, keys)
+    ehash = np.empty(2 * len(i), np.int64)
+    ehash[pos[:len(i)]] = eh
+    ehash[pos[len(i):]] = -eh
+    return indptr, target, weight, ehash
+
+
+@_jit
+def _dijkstra(indptr, target, weight, src):
+    """Shortest distances from ``src`` over a CSR graph (``inf``: not reached)."""
+    n = indptr.shape[0] - 1
+    dist = np.full(n, np.inf)
+    done = np.zeros(n, np.bool_)
+    cap = target.shape[0] + 1
+    hk = np.empty(cap)
+    hv = np.empty(cap, np.int64)
+    dist[src] = 0.0
+    size = _heap_push(hk, hv, 0, 0.0, src)
+    while size > 0:
+        d, v, size = _heap_pop(hk, hv, size)
+        if done[v]:
+            continue
+        done[v] = True
+        for e in range(indptr[v], indptr[v + 1]):
+            u = target[e]
+            nd = d + weight[e]
+            if nd < dist[u]:
+                dist[u] = nd
+                size = _heap_push(hk, hv, size, nd, u)
+    return dist
 
 
 def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
