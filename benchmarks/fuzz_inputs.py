@@ -456,18 +456,9 @@ class ScenarioFuzzer:
             keys += [key.rsplit(".", 1)[0]]
         return self._dict_case(scene, "unknown key", d, [k for k in keys if k], True, note=key)
 
-    def m_polygon(self, scene: str, d: dict) -> Case | None:
-        idx = self._obstacles(d, "polygon")
-        if not idx:
-            d.setdefault("obstacles", []).append(
-                {"type": "polygon", "vertices": [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]})
-            idx = [len(d["obstacles"]) - 1]
-        i = self.rng.choice(idx)
-        o = d["obstacles"][i]
-        v = o["vertices"]
-        pre = f"obstacles[{i}]"
-        r = self.rng.randrange(15)
-        must = True
+    def _degenerate_ring(self, r: int, o: dict, v: list) -> bool:
+        """Variants 0-5: too few, repeated or collinear vertices, a bow-tie (must reject,
+        except a swap that may keep a non-convex ring simple)."""
         if r == 0:
             o["vertices"] = []
         elif r == 1:
@@ -479,43 +470,67 @@ class ScenarioFuzzer:
         elif r == 4:  # collinear
             a, b = v[0], v[1]
             o["vertices"] = [a, b, [2 * b[0] - a[0], 2 * b[1] - a[1]]]
-        elif r == 5 and len(v) >= 4:  # bow-tie
+        elif len(v) >= 4:  # bow-tie
             v[0], v[1] = v[1], v[0]
-            must = False  # a swap may keep it simple for non-convex rings
-        elif r == 6:  # consecutive duplicate vertex: counts once
-            k = self.rng.randrange(len(v))
+            return False  # a swap may keep it simple for non-convex rings
+        else:  # no bow-tie of a triangle: the near-duplicate vertex instead
+            return self._benign_rewrite(14, v)
+        return True
+
+    def _benign_rewrite(self, r: int, v: list) -> bool:
+        """Variants 6, 7, 8, 12, 14: rewrites the parser must accept or reject cleanly."""
+        k = self.rng.randrange(len(v)) if r in (6, 12, 14) else 0
+        if r == 6:  # consecutive duplicate vertex: counts once
             v.insert(k, list(v[k]))
-            must = False
         elif r == 7:  # closing vertex
             v.append(list(v[0]))
-            must = False
         elif r == 8:  # reversed orientation
             v.reverse()
-            must = False
-        elif r == 9:  # a vertex with 3 coordinates / 1 coordinate
+        elif r == 12:  # tiny perturbation of a vertex
+            v[k] = [v[k][0] * (1 + 1e-14), v[k][1]]
+        else:  # a near-duplicate vertex (a very short edge)
+            e = self.rng.choice([1e-13, 1e-10, 1e-6]) * (1.0 + abs(v[k][0]))
+            v.insert(k + 1, [v[k][0] + e, v[k][1]])
+        return False
+
+    def _malformed_ring(self, r: int, o: dict, v: list) -> bool | None:
+        """Variants 9, 10, 11, 13: wrong coordinate counts, self-touching rings, bad holes,
+        vertices as a table (``None``: the variant does not apply)."""
+        if r == 9:  # a vertex with 3 coordinates / 1 coordinate
             k = self.rng.randrange(len(v))
             v[k] = v[k] + [0.0] if self.rng.random() < 0.5 else v[k][:1]
         elif r == 10:  # non-consecutive duplicate (ring touches itself)
             if len(v) < 4:
                 return None
             v.insert(2, list(v[0]))
-            must = False
+            return False
         elif r == 11:  # holes
-            h = self.rng.choice([
+            o["holes"] = self.rng.choice([
                 [v[:3]], [[[x + 1e6, y] for x, y in v]], [v], "hole", [[1, 2]], [[]],
                 [[[0.0, 0.0], [0.0, 0.0], [0.0, 0.0]]]])
-            o["holes"] = h
-        elif r == 12:  # tiny perturbation of a vertex
-            k = self.rng.randrange(len(v))
-            v[k] = [v[k][0] * (1 + 1e-14), v[k][1]]
-            must = False
-        elif r == 13:  # vertices as a table
+        else:  # vertices as a table
             o["vertices"] = {"x": [p[0] for p in v], "y": [p[1] for p in v]}
-        else:  # a near-duplicate vertex (a very short edge)
-            k = self.rng.randrange(len(v))
-            e = self.rng.choice([1e-13, 1e-10, 1e-6]) * (1.0 + abs(v[k][0]))
-            v.insert(k + 1, [v[k][0] + e, v[k][1]])
-            must = False
+        return True
+
+    def m_polygon(self, scene: str, d: dict) -> Case | None:
+        idx = self._obstacles(d, "polygon")
+        if not idx:
+            d.setdefault("obstacles", []).append(
+                {"type": "polygon", "vertices": [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]})
+            idx = [len(d["obstacles"]) - 1]
+        i = self.rng.choice(idx)
+        o = d["obstacles"][i]
+        v = o["vertices"]
+        pre = f"obstacles[{i}]"
+        r = self.rng.randrange(15)
+        if r in (0, 1, 2, 3, 4, 5):
+            must = self._degenerate_ring(r, o, v)
+        elif r in (6, 7, 8, 12, 14):
+            must = self._benign_rewrite(r, v)
+        else:
+            must = self._malformed_ring(r, o, v)
+        if must is None:
+            return None
         keys = [pre, *_robot_points(d)]
         return self._dict_case(scene, "polygon", d, keys, must, note=f"{pre} variant {r}")
 
@@ -816,6 +831,12 @@ class ScenarioFuzzer:
         """Text and file-level corruption."""
         text = (PROBLEMS / f"{scene}.toml").read_text(encoding="utf-8")
         r = self.rng.randrange(16)
+        if r <= 6:
+            return self._file_corruption(scene, d, text, r)
+        return self._content_corruption(scene, d, text, r)
+
+    def _file_corruption(self, scene: str, d: dict, text: str, r: int) -> Case:
+        """Variants 0-6: truncated, empty, undecodable, not a file, missing."""
         syntax = ("invalid TOML",)
         if r == 0:
             cut = self.rng.randrange(1, max(2, len(text) - 1))
@@ -837,9 +858,12 @@ class ScenarioFuzzer:
         if r == 5:
             return self._case(scene, "directory", None, ("not a file", "is a directory",
                               "cannot read file"), True, kind="dir")
-        if r == 6:
-            return self._case(scene, "missing file", None, ("no such scenario file",),
-                              True, kind="missing")
+        return self._case(scene, "missing file", None, ("no such scenario file",),
+                          True, kind="missing")
+
+    def _content_corruption(self, scene: str, d: dict, text: str, r: int) -> Case:
+        """Variants 7-15: nesting, syntax errors, NUL bytes, BOM, binary, size, line ends."""
+        syntax = ("invalid TOML",)
         if r == 7:
             return self._case(scene, "nested arrays", text + "\nzz = " + _nested_text(3000)
                               + "\n", syntax + ("nested too deeply", "zz"), True)
@@ -986,7 +1010,10 @@ class OptionFuzzer:
         n = 0
         for name, (backend, opts) in presets.items():
             for opt, default in opts.items():
+                inf_ok = _declares_inf(name, opt)
                 for value, must in _values_for(default):
+                    if inf_ok and isinstance(value, float) and math.isinf(value) and value > 0:
+                        must = False  # the option documents what infinity means
                     n += 1
                     via = "file" if self.rng.random() < 0.15 and _toml_ok(value) else "override"
                     out.append(Case("option", f"option/{n:05d}/{name}/{opt}",
@@ -996,6 +1023,18 @@ class OptionFuzzer:
                                      "scene": option_scene(backend)},
                                     (opt,), must))
         return out
+
+
+def _declares_inf(preset: str, opt: str) -> bool:
+    """Option ``opt`` of ``preset`` is declared ``inf_ok`` (``optplan.options.option``)."""
+    import dataclasses
+
+    from optplan.options import option_spec
+    from optplan.solver import get_solver
+
+    fields = {f.name: f for f in dataclasses.fields(type(get_solver(preset)))}
+    spec = option_spec(fields[opt]) if opt in fields else None
+    return bool(spec and spec.inf_ok)
 
 
 def _toml_ok(v: Any) -> bool:
@@ -1643,6 +1682,58 @@ class _Worker:
         self.log.close()
 
 
+class _Tally:
+    """The outcomes of a fuzz run so far (and the progress callback)."""
+
+    def __init__(self, total: int, progress: Callable[[int, int, Outcome], None] | None):
+        self.results: dict[str, Outcome] = {}
+        self.total = total
+        self.progress = progress
+
+    def record(self, out: Outcome) -> None:
+        self.results[out.case.id] = out
+        if self.progress:
+            self.progress(len(self.results), self.total, out)
+
+
+def _on_message(w: _Worker, msg: dict | None, tally: _Tally, hang_s: float) -> bool:
+    """Handle one message of worker ``w``; ``True`` when the worker died and must be
+    replaced (a case it was running is a crash)."""
+    if msg is None:
+        if w.case is not None:
+            tally.record(Outcome(w.case, "crash", f"worker died (exit {w.proc.poll()})",
+                                 time.monotonic() - w.t0))
+        return True
+    if "ready" in msg:
+        w.ready = True
+    elif "started" in msg:
+        w.running = True
+        w.budget = hang_s + (COLD_S if msg.get("cold") else 0.0)
+    else:
+        tally.record(Outcome(w.case, msg["category"], msg["detail"], msg["seconds"],
+                             compared=msg["compared"]))
+        w.case = None
+    return False
+
+
+def _check_hangs(pool: list[_Worker], tally: _Tally, hang_s: float, startup_s: float,
+                 log_dir: Path, born: dict) -> None:
+    """A case over its budget is a hang (its worker is replaced); a worker that never
+    started is an error of the fuzz setup."""
+    now = time.monotonic()
+    for w in list(pool):
+        over = w.budget if w.running else startup_s
+        if w.case is not None and now - w.t0 > over:
+            cold = " (including a cold start)" if over > hang_s else ""
+            tally.record(Outcome(w.case, "hang", f"still running after {over:g} s{cold}",
+                                 now - w.t0))
+            w.case = None
+            _replace(pool, w, log_dir, born)
+        elif not w.ready and now - born[id(w)] > startup_s:
+            raise RuntimeError(f"a fuzz worker did not start in {startup_s:g} s "
+                               f"(log: {log_dir})")
+
+
 def run_cases(cases: list[Case], workers: int = 2, hang_s: float = HANG_S,
               progress: Callable[[int, int, Outcome], None] | None = None,
               log_dir: Path | None = None, startup_s: float = 120.0) -> list[Outcome]:
@@ -1651,12 +1742,11 @@ def run_cases(cases: list[Case], workers: int = 2, hang_s: float = HANG_S,
     log_dir = Path(log_dir or tempfile.mkdtemp(prefix="optplan-fuzz-logs-"))
     log_dir.mkdir(parents=True, exist_ok=True)
     todo = list(reversed(cases))
-    results: dict[str, Outcome] = {}
+    tally = _Tally(len(cases), progress)
     pool = [_Worker(log_dir / f"worker{i}.log") for i in range(max(1, workers))]
     born = {id(w): time.monotonic() for w in pool}
-    n_done = 0
     try:
-        while len(results) < len(cases):
+        while len(tally.results) < len(cases):
             for w in pool:
                 if w.ready and w.case is None and todo:
                     w.start_case(todo.pop())
@@ -1668,53 +1758,13 @@ def run_cases(cases: list[Case], workers: int = 2, hang_s: float = HANG_S,
                     msg = _recv(w.proc.stdout)
                 except EOFError:
                     msg = None
-                if msg is None:  # the worker died
-                    if w.case is not None:
-                        code = w.proc.poll()
-                        out = Outcome(w.case, "crash", f"worker died (exit {code})",
-                                      time.monotonic() - w.t0)
-                        results[w.case.id] = out
-                        n_done += 1
-                        if progress:
-                            progress(n_done, len(cases), out)
-                    elif not todo:
-                        pass
+                if _on_message(w, msg, tally, hang_s):
                     _replace(pool, w, log_dir, born)
-                    continue
-                if "ready" in msg:
-                    w.ready = True
-                    continue
-                if "started" in msg:
-                    w.running = True
-                    w.budget = hang_s + (COLD_S if msg.get("cold") else 0.0)
-                    continue
-                out = Outcome(w.case, msg["category"], msg["detail"], msg["seconds"],
-                              compared=msg["compared"])
-                results[w.case.id] = out
-                w.case = None
-                n_done += 1
-                if progress:
-                    progress(n_done, len(cases), out)
-            now = time.monotonic()
-            for w in list(pool):
-                over = w.budget if w.running else startup_s
-                if w.case is not None and now - w.t0 > over:
-                    cold = " (including a cold start)" if over > hang_s else ""
-                    out = Outcome(w.case, "hang", f"still running after {over:g} s{cold}",
-                                  now - w.t0)
-                    results[w.case.id] = out
-                    n_done += 1
-                    if progress:
-                        progress(n_done, len(cases), out)
-                    w.case = None
-                    _replace(pool, w, log_dir, born)
-                elif not w.ready and now - born[id(w)] > startup_s:
-                    raise RuntimeError(f"a fuzz worker did not start in {startup_s:g} s "
-                                       f"(log: {log_dir})")
+            _check_hangs(pool, tally, hang_s, startup_s, log_dir, born)
     finally:
         for w in pool:
             w.kill()
-    return [results[c.id] for c in cases]
+    return [tally.results[c.id] for c in cases]
 
 
 def _replace(pool: list[_Worker], w: _Worker, log_dir: Path, born: dict) -> None:
