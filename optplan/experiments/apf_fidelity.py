@@ -14,7 +14,7 @@ Prints four markdown tables:
    x 0.01, x 1 and x 100 (:func:`optplan.problem.transform_problem`, seed 0): status and total
    path length divided by the scale.
 4. **Metre-scale scenes**: the time-stepping presets on ``warehouse-grid`` and
-   ``office-floor`` (seed 0): ``length_scale``, status and message.
+   ``office-floor`` and ``warehouse-team`` (seed 0): ``length_scale``, status and message.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ REPRESENTATIVE = {"apf-paper": "trap-saddle", "sa-apf-paper": "trap-u",
 CHAOTIC = (("hybrid-paper", "paper-env1"), ("hybrid-paper", "warehouse-grid"),
            ("hybrid-paper", "office-floor"))
 SCALES = (0.01, 1.0, 100.0)
-METRE_SCENES = ("warehouse-grid", "office-floor")
+METRE_SCENES = ("warehouse-grid", "office-floor", "warehouse-team")
 
 
 def _stats(res: op.Result) -> dict[str, Any]:
