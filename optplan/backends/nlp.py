@@ -873,6 +873,39 @@ class WaypointNLP(Backend):
         return Status.solved, (f"locally optimal (KKT): {100 * gap:.3f} % above the certified "
                                f"optimum {ref.length:.6g}, {why}")
 
+    def _outcome(self, view: Problem, robot: Robot, out, guess: np.ndarray, source: str,
+                 known_only: bool, info: dict[str, Any]) -> tuple[np.ndarray, Status, str]:
+        """The path, claim and message of one robot's NLP result ``out``: certified against
+        the optimum when IPOPT succeeded, and (``guard``, an ``init`` guess) the initial guess
+        kept when the NLP path is infeasible or longer.  Notes go into ``info``."""
+        if out.success and out.return_status in _SUCCESS:
+            claim, note = self._certify(view, robot, out.path, known_only)
+            if note:
+                info["certificate"] = note
+        elif out.return_status in _SOLVED:
+            claim = Status.solved
+        else:
+            claim = Status.approximate
+        path = out.path
+        msg = f"{robot.id}: IPOPT {out.return_status} after {out.iterations} iterations"
+        if out.rounds > 1:
+            msg += f" in {out.rounds} rounds"
+        if "certificate" in info:
+            msg += "; " + info["certificate"]
+        if self.guard and source == "init":
+            m_new = evaluate(view, {robot.id: path})
+            m_old = evaluate(view, {robot.id: guess})
+            ok_new = m_new["feasible"] and m_new["reached"]
+            ok_old = m_old["feasible"] and m_old["reached"]
+            l_new, l_old = m_new["length"], m_old["length"]
+            if ok_old and (not ok_new or l_new > l_old * (1 + 1e-12)):
+                path = guess
+                claim = Status.solved
+                why = "infeasible" if not ok_new else f"longer ({l_new:.6f} > {l_old:.6f})"
+                msg += f"; NLP path {why}: kept the initial guess ({source})"
+                info["kept_init"] = True
+        return path, claim, msg
+
     def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
               init: dict[str, np.ndarray] | None = None,
               callback: Callable[[Progress], Any] | None = None) -> Result:
@@ -917,19 +950,12 @@ class WaypointNLP(Backend):
                 claims.append(why_none)
                 msgs.append(f"{robot.id}: {source}")
                 continue
-            pieces = obstacle_pieces(problem, robot, known_only=known_only, margin=margin)
-            if pieces.n and robot.goal is not None:
-                # start and goal against the validator's clearance r (touching allowed)
-                ends = problem.frame.local(np.vstack([robot.start, robot.start, robot.goal,
-                                                      robot.goal]))  # segments 0, 2: points
-                dd = piece_distances(ends, pieces)[[0, 2]] - pieces.need[None, :]
-                if dd.min() < -problem.frame.eps:
-                    which = "start" if dd[0].min() < -problem.frame.eps else "goal"
-                    paths[robot.id] = np.vstack([robot.start, robot.start])
-                    claims.append(Status.infeasible)
-                    msgs.append(f"{robot.id}: {which} lies within the robot radius of an "
-                                "obstacle")
-                    continue
+            which = _blocked_end(problem, robot, known_only, margin)
+            if which:
+                paths[robot.id] = np.vstack([robot.start, robot.start])
+                claims.append(Status.infeasible)
+                msgs.append(f"{robot.id}: {which} lies within the robot radius of an obstacle")
+                continue
             try:
                 out = solve_waypoint_nlp(
                     problem, robot, guess, n_segments=self.n_segments,
@@ -957,32 +983,8 @@ class WaypointNLP(Backend):
                 "init_source": source, "init_length": path_lengths(guess),
                 "nlp_length": out.length, "max_violation": out.violation,
             }
-            if out.success and out.return_status in _SUCCESS:
-                claim, note = self._certify(view, robot, out.path, known_only)
-                if note:
-                    extras["ipopt"][robot.id]["certificate"] = note
-            elif out.return_status in _SOLVED:
-                claim = Status.solved
-            else:
-                claim = Status.approximate
-            path = out.path
-            msg = f"{robot.id}: IPOPT {out.return_status} after {out.iterations} iterations"
-            if out.rounds > 1:
-                msg += f" in {out.rounds} rounds"
-            if "certificate" in extras["ipopt"][robot.id]:
-                msg += "; " + extras["ipopt"][robot.id]["certificate"]
-            if self.guard and source == "init":
-                m_new = evaluate(view, {robot.id: path})
-                m_old = evaluate(view, {robot.id: guess})
-                ok_new = m_new["feasible"] and m_new["reached"]
-                ok_old = m_old["feasible"] and m_old["reached"]
-                l_new, l_old = m_new["length"], m_old["length"]
-                if ok_old and (not ok_new or l_new > l_old * (1 + 1e-12)):
-                    path = guess
-                    claim = Status.solved
-                    why = "infeasible" if not ok_new else f"longer ({l_new:.6f} > {l_old:.6f})"
-                    msg += f"; NLP path {why}: kept the initial guess ({source})"
-                    extras["ipopt"][robot.id]["kept_init"] = True
+            path, claim, msg = self._outcome(view, robot, out, guess, source, known_only,
+                                             extras["ipopt"][robot.id])
             paths[robot.id] = path
             claims.append(claim)
             msgs.append(msg)
@@ -1002,3 +1004,17 @@ class WaypointNLP(Backend):
             n_iter=sum(e["iterations"] for e in extras["ipopt"].values()),
             n_eval=sum(e["iterations"] for e in extras["ipopt"].values()),
             history=hist, extras=extras, wall_time=time.perf_counter() - t0)
+
+
+def _blocked_end(problem: Problem, robot: Robot, known_only: bool, margin: float) -> str:
+    """``"start"`` or ``"goal"`` when it lies within the robot radius of an obstacle (the
+    validator's clearance: touching is allowed), else ``""``."""
+    pieces = obstacle_pieces(problem, robot, known_only=known_only, margin=margin)
+    if not pieces.n or robot.goal is None:
+        return ""
+    ends = problem.frame.local(np.vstack([robot.start, robot.start, robot.goal,
+                                          robot.goal]))  # segments 0, 2: points
+    dd = piece_distances(ends, pieces)[[0, 2]] - pieces.need[None, :]
+    if dd.min() >= -problem.frame.eps:
+        return ""
+    return "start" if dd[0].min() < -problem.frame.eps else "goal"

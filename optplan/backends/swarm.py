@@ -1156,16 +1156,8 @@ def _base_edges(nodes, nb, nb2, sectors):
     pairs in lexicographic order."""
     n = nodes.shape[0]
     M = np.zeros((n, n), np.bool_)
-    for i in range(n):
-        for q in range(nb.shape[1]):
-            j = nb[i, q]
-            if j != i:
-                M[min(i, j), max(i, j)] = True
-    for i in range(nb2.shape[0]):
-        for q in range(nb2.shape[1]):
-            j = nb2[i, q]
-            if j != i:
-                M[min(i, j), max(i, j)] = True
+    _mark_rows(M, nb)
+    _mark_rows(M, nb2)
     X = nodes[:, 0].copy()
     Y = nodes[:, 1].copy()
     d2 = np.empty(n)
@@ -1189,6 +1181,25 @@ def _base_edges(nodes, nb, nb2, sectors):
         for s in range(sectors):
             if arg[s] >= 0:
                 M[min(i, arg[s]), max(i, arg[s])] = True
+    bi, bj = _mask_pairs(M)
+    return M, bi, bj
+
+
+@_jit
+def _mark_rows(M, nb):
+    """Mark the pairs (node ``i``, ``nb[i, q]``) in the upper triangle of ``M`` (not ``i``
+    itself)."""
+    for i in range(nb.shape[0]):
+        for q in range(nb.shape[1]):
+            j = nb[i, q]
+            if j != i:
+                M[min(i, j), max(i, j)] = True
+
+
+@_jit
+def _mask_pairs(M):
+    """The marked pairs ``a < b`` of ``M`` in lexicographic order."""
+    n = M.shape[0]
     cnt = 0
     for a in range(n):
         for b in range(a + 1, n):
@@ -1202,7 +1213,7 @@ def _base_edges(nodes, nb, nb2, sectors):
                 bi[q] = a
                 bj[q] = b
                 q += 1
-    return M, bi, bj
+    return bi, bj
 
 
 @_jit
