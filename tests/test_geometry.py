@@ -200,6 +200,51 @@ def test_convex_pieces_tile_the_polygon_and_flag_the_boundary() -> None:
                                                                        rel=1e-9)
 
 
+def grid_polygons(rng: np.random.Generator) -> list[Polygon]:
+    """Rectilinear polygons from random unions of grid cells, holes included: many collinear
+    vertices, walls ending in line with the decomposition's diagonals (occupancy maps)."""
+    cells = rng.random((10, 10)) < 0.55
+    boxes = [shapely.box(10 * i, 10 * j, 10 * i + 10, 10 * j + 10)
+             for i in range(10) for j in range(10) if cells[i, j]]
+    u = shapely.unary_union(boxes)
+    return [g for g in getattr(u, "geoms", [u]) if g.area > 0]
+
+
+def test_boundary_flags_cover_the_boundary_exactly_on_grid_polygons() -> None:
+    """Every edge of a piece is either boundary or interior: the flagged edges add up to the
+    polygon's boundary length (a part edge running on from a wall into the interior is split
+    where it leaves the wall)."""
+    rng = np.random.default_rng(5)
+    n_holes = 0
+    for _k in range(25):
+        for g in grid_polygons(rng):
+            n_holes += len(g.interiors)
+            pieces = convex_pieces(g, 4)
+            assert sum(Polygon(v).area for v, _ in pieces) == pytest.approx(g.area, rel=1e-9)
+            flagged = sum(np.hypot(*(np.roll(v, -1, axis=0) - v)[fl].T).sum()
+                          for v, fl in pieces)
+            assert flagged == pytest.approx(g.length, rel=1e-9)
+            assert all(Polygon(v).area > 0 and 3 <= len(v) <= 4 for v, _ in pieces)
+    assert n_holes > 0
+
+
+def test_nearest_matches_the_oracle_on_grid_polygons() -> None:
+    """Distances and nearest boundary points, outside and inside, against shapely."""
+    rng = np.random.default_rng(8)
+    frame = Frame.from_bounds(BOUNDS)
+    for _k in range(10):
+        polys = grid_polygons(rng)
+        oset = obstacle_set([polygon(g, f"g{i}") for i, g in enumerate(polys)], 0.0, frame)
+        pts = rng.uniform(0, SIDE, (300, 2))
+        near, dist = oset.nearest(pts)
+        for j, g in enumerate(polys):
+            to_boundary = shapely.distance(shapely.points(pts), g.boundary)
+            want = np.where(shapely.covers(g, shapely.points(pts)), 0.0, to_boundary)
+            assert np.allclose(dist[:, j], want, atol=1e-9 * SIDE)
+            assert np.allclose(np.hypot(*(near[:, j] - pts).T), to_boundary,
+                               atol=1e-9 * SIDE)
+
+
 def _transform(o: Obstacle, s: float, shift: np.ndarray) -> Obstacle:
     if o.is_circle:
         return circle(*(o.center * s + shift), o.radius * s, o.name)

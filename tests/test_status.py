@@ -158,8 +158,15 @@ def test_nlp_is_optimal_only_in_the_certified_homotopy_class() -> None:
     prob = op.load_problem("paper-env1")
     good = op.solve(prob, "nlp-ipopt")  # started from the certified (tangent-graph) path
     assert good.status is op.Status.optimal, good.message
-    # seed 1 of ipso-paper lands in another corridor: a KKT point there is only "solved"
-    wrong = op.solve(prob, "ipso-paper", rng=1)
+    # a collision-free swarm path in another corridor: a KKT point there is only "solved"
+    from optplan.geometry.homotopy import same_homotopy
+
+    oset = prob.obstacle_set(prob.robots[0].radius)
+    best = good.paths["r1"]
+    runs = (op.solve(prob, "pso-paper", rng=s) for s in range(30))
+    wrong = next((w for w in runs if w.metrics["feasible"]
+                  and not same_homotopy(w.paths["r1"], best, oset)), None)
+    assert wrong is not None, "no feasible pso-paper seed in 0..29 outside the optimal corridor"
     res = op.solve(prob, "nlp-ipopt", init=wrong.paths)
     assert res.status is op.Status.solved
     assert "locally optimal (KKT)" in res.message and "homotopy" in res.message

@@ -135,6 +135,81 @@ def _on_boundary(points: np.ndarray, boundary, tol: float) -> np.ndarray:
     return on
 
 
+def _insert_boundary_vertices(parts: list[np.ndarray], poly, tol: float
+                              ) -> tuple[list[np.ndarray], list[bool]]:
+    """Re-insert the polygon's vertices that lie inside an edge of a part.
+
+    :func:`convex_decompose` drops collinear vertices, so an edge of a part may run along the
+    boundary and then on into the interior (a T-junction where a wall ends in line with a
+    diagonal).  Splitting every part edge at the polygon vertices on it makes each sub-edge
+    either part of the boundary or interior, so its boundary flag is exact.  Returns the parts
+    and, per part, whether a vertex was inserted.
+    """
+    verts = np.concatenate([np.asarray(r.coords)[:-1] for r in (poly.exterior, *poly.interiors)])
+    starts = np.concatenate(parts)
+    ends = np.concatenate([np.concatenate((v[1:], v[:1])) for v in parts])
+    segs = shapely.linestrings(np.stack([starts, ends], axis=1))
+    e_idx, v_idx = shapely.STRtree(shapely.points(verts)).query(segs, predicate="dwithin",
+                                                                distance=tol)
+    d = ends[e_idx] - starts[e_idx]
+    t = np.einsum("ij,ij->i", verts[v_idx] - starts[e_idx], d) / np.einsum("ij,ij->i", d, d)
+    inner = (t > 1e-9) & (t < 1 - 1e-9)  # not the edge's own end points
+    extra: dict[int, list[tuple[float, int]]] = {}
+    for e, vi, tt in zip(e_idx[inner], v_idx[inner], t[inner]):
+        extra.setdefault(int(e), []).append((float(tt), int(vi)))
+    out, changed, base = [], [], 0
+    for v in parts:
+        ring = []
+        for j in range(len(v)):
+            ring.append(v[j])
+            ring.extend(verts[vi] for _, vi in sorted(extra.get(base + j, [])))
+        base += len(v)
+        changed.append(len(ring) > len(v))
+        out.append(np.asarray(ring))
+    return out, changed
+
+
+def _fan(v: np.ndarray, flags: np.ndarray, max_edges: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Fan-split a convex ring from its first vertex into pieces of at most ``max_edges``."""
+    out = []
+    i = 1
+    while i < len(v) - 1:  # fan: (v0, v_i, ..., v_j)
+        j = min(i + max_edges - 2, len(v) - 1)
+        piece = np.vstack([v[:1], v[i:j + 1]])
+        fl = np.zeros(len(piece), bool)
+        fl[1:-1] = flags[i:j]  # ring edges v_i -> v_{i+1} ... v_{j-1} -> v_j
+        fl[0] = flags[0] if i == 1 else False  # v0 -> v1 only in the first fan piece
+        fl[-1] = flags[-1] if j == len(v) - 1 else False  # v_last -> v0: last piece
+        out.append((piece, fl))
+        i = j
+    return out
+
+
+def _centre_fan(v: np.ndarray, flags: np.ndarray, max_edges: int
+                ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Split a convex ring with collinear vertices into pieces around its vertex centroid.
+
+    A fan from a ring vertex would give zero-area pieces along a side with several collinear
+    vertices; the centroid lies strictly inside, so every piece ``(c, v_i, v_{i+1}[, v_{i+2}])``
+    has area.  Two neighbouring triangles form one quad when ``max_edges >= 4`` and the quad is
+    convex.
+    """
+    c = v.mean(axis=0)
+    n = len(v)
+    out = []
+    i = 0
+    while i < n:
+        if max_edges >= 4 and i + 2 <= n:
+            quad = np.vstack([c, v[i], v[i + 1], v[(i + 2) % n]])
+            if is_convex(quad):
+                out.append((quad, np.array([False, flags[i], flags[i + 1], False])))
+                i += 2
+                continue
+        out.append((np.vstack([c, v[i], v[(i + 1) % n]]), np.array([False, flags[i], False])))
+        i += 1
+    return out
+
+
 def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray]]:
     """Pieces of :func:`convex_decompose` fan-split to at most ``max_edges`` vertices.
 
@@ -143,7 +218,9 @@ def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray
     list of (vertices, boundary)
         ``vertices``: CCW ``(k, 2)``, ``3 <= k <= max_edges``; ``boundary``: ``(k,)`` bool, True
         where edge ``v[i] -> v[i+1]`` lies on the polygon's boundary (False for the internal
-        diagonals of the decomposition and of the fan).
+        diagonals of the decomposition and of the fan).  Every edge is either on the boundary
+        or interior: a part edge that runs on from the boundary into the interior is split at
+        the polygon vertex where it leaves it.
     """
     if max_edges < 3:
         raise ValueError(f"max_edges must be >= 3, got {max_edges}")
@@ -151,32 +228,19 @@ def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray
     for poly in getattr(geom, "geoms", [geom]):
         if poly.is_empty or poly.area <= 0:
             continue
-        parts = None
         if not poly.interiors:  # fast path: a convex polygon is its own single piece
             ring = np.asarray(poly.exterior.coords)[:-1]
             ring = clean_ring(ring if poly.exterior.is_ccw else ring[::-1])
             if len(ring) >= 3 and is_convex(ring):
-                parts, flag_all = [ring], True
-        if parts is None:
-            x0, y0, x1, y1 = poly.bounds
-            tol = 1e-9 * max(x1 - x0, y1 - y0)
-            bnd = poly.boundary
-            parts, flag_all = convex_decompose(poly), False
-        if flag_all:  # the polygon itself: every edge is boundary
-            all_flags = [np.ones(len(parts[0]), bool)]
-        else:  # one vectorised distance query for the edge midpoints of every part
-            mids = np.concatenate([0.5 * (v + np.concatenate((v[1:], v[:1]))) for v in parts])
-            on = _on_boundary(mids, bnd, tol)
-            all_flags = np.split(on, np.cumsum([len(v) for v in parts])[:-1])
-        for v, flags in zip(parts, all_flags):
-            i = 1
-            while i < len(v) - 1:  # fan: (v0, v_i, ..., v_j)
-                j = min(i + max_edges - 2, len(v) - 1)
-                piece = np.vstack([v[:1], v[i:j + 1]])
-                fl = np.zeros(len(piece), bool)
-                fl[1:-1] = flags[i:j]  # ring edges v_i -> v_{i+1} ... v_{j-1} -> v_j
-                fl[0] = flags[0] if i == 1 else False  # v0 -> v1 only in the first fan piece
-                fl[-1] = flags[-1] if j == len(v) - 1 else False  # v_last -> v0: last piece
-                out.append((piece, fl))
-                i = j
+                out.extend(_fan(ring, np.ones(len(ring), bool), max_edges))
+                continue
+        x0, y0, x1, y1 = poly.bounds
+        tol = 1e-9 * max(x1 - x0, y1 - y0)
+        parts, changed = _insert_boundary_vertices(convex_decompose(poly), poly, tol)
+        # one vectorised distance query for the edge midpoints of every part
+        mids = np.concatenate([0.5 * (v + np.concatenate((v[1:], v[:1]))) for v in parts])
+        on = _on_boundary(mids, poly.boundary, tol)
+        all_flags = np.split(on, np.cumsum([len(v) for v in parts])[:-1])
+        for v, flags, ch in zip(parts, all_flags, changed):
+            out.extend(_centre_fan(v, flags, max_edges) if ch else _fan(v, flags, max_edges))
     return out
