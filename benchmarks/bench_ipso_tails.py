@@ -49,6 +49,7 @@ PAPER_MAPS = ("paper-env1", "paper-env2", "paper-hybrid", "paper-warehouse")
 ABLATIONS = (
     ("ipso", {}),
     ("the paper's 200 iterations", {"k_max": 200}),
+    ("25 iterations", {"k_max": 25}),
     ("no swarm iterations", {"k_max": 0}),
     ("no roadmap seeds", {"init_mode": "sorted"}),
     ("one roadmap corridor", {"corridors": 1}),
