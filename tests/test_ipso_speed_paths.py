@@ -26,9 +26,8 @@ def _octant(dx, dy):
     return 6 if -dy > dx else 7
 
 
-def _reference_edges(space, nodes, corner, k, slack):
-    """The earlier build_roadmap edge selection: cKDTree neighbours, O(n^2) Yao pairs, the
-    corner pairs, the ellipse bound from scipy's Dijkstra; tested with the same kernel."""
+def _reference_base_pairs(nodes, k):
+    """The earlier neighbour and Yao pairs: cKDTree neighbours, O(n^2) octant scan."""
     n = len(nodes)
     tree = cKDTree(nodes)
     nb = tree.query(nodes, k=k + 1)[1][:, 1:]
@@ -56,6 +55,14 @@ def _reference_edges(space, nodes, corner, k, slack):
         for j in arg:
             if j >= 0:
                 pairs.add((min(i, j), max(i, j)))
+    return pairs
+
+
+def _reference_edges(space, nodes, corner, k, slack):
+    """The earlier build_roadmap edge selection: the base pairs, then the corner pairs within
+    the ellipse bound from scipy's Dijkstra; tested with the same kernel."""
+    n = len(nodes)
+    pairs = _reference_base_pairs(nodes, k)
     base = sorted(pairs)
     bi, bj = np.array(base).T
     okb = sw.segment_free(nodes[bi], nodes[bj], space)
