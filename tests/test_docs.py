@@ -7,9 +7,9 @@ Rules (documented in docs/index.md, "Docs that stay true"):
 * a block preceded by the line ``<!-- file: NAME -->`` (any language) is written to ``NAME`` in
   that directory before the page runs (e.g. the scenario a later block loads);
 * a ``console`` block preceded by ``<!-- run -->`` runs through the CLI: each line
-  ``$ optplan ARGS`` (or ``.venv/bin/optplan ARGS``) is passed to :func:`optplan.cli.main` (in the page's temporary directory,
-  after the page's python blocks) and must exit with status 0 and print the lines that follow
-  it, compared like a doctest (``...`` for what varies);
+  ``$ optplan ARGS`` (or ``.venv/bin/optplan ARGS``) is passed to :func:`optplan.cli.main`
+  (in the page's temporary directory, in page order) and must exit with status 0 and print
+  the lines that follow it, compared like a doctest (``...`` for what varies);
 * a block preceded by ``<!-- no-run -->`` is not run (use it only for fragments that cannot run
   on their own, and say so in the text);
 * a python block followed by a ``text`` block introduced by a line starting with "prints" must
