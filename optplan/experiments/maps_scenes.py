@@ -342,10 +342,10 @@ def team_figure(out: Path, prob: op.Problem, runs: dict[str, op.Result]) -> Path
     from optplan import plot
 
     out.mkdir(parents=True, exist_ok=True)
-    fig, axes = plt.subplots(len(runs), 1, figsize=(11, 3.9 * len(runs)))
+    fig, axes = plt.subplots(len(runs), 1, figsize=(12.5, 3.9 * len(runs)), layout="constrained")
     for ax, (s, r) in zip(np.atleast_1d(axes), runs.items()):
         every = max(1, int(round(8.0 / float(np.median(np.diff(r.times))))))
-        plot.plot_result(r, problem=prob, ax=ax, snapshot_every=every, legend="corner")
+        plot.plot_result(r, problem=prob, ax=ax, snapshot_every=every, legend="outside")
         ax.set_xlim(-14.5, 14.0)
         ax.set_ylim(-13.0, -5.0)
         m = r.metrics
@@ -353,7 +353,6 @@ def team_figure(out: Path, prob: op.Problem, runs: dict[str, op.Result]) -> Path
                      f"{m.get('formation_rmse', np.nan):.2f} m, min separation "
                      f"{m.get('min_separation', np.nan):.2f} m, collisions {m['collisions']}",
                      fontsize=9)
-    fig.tight_layout()
     path = out / "maps_warehouse_team.png"
     fig.savefig(path, dpi=100)
     plt.close(fig)
