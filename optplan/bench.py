@@ -196,17 +196,15 @@ _REF_KEY = ("optplan.bench", "reference")
 
 def _fresh(prob: Any) -> Any:
     """A copy of ``prob`` with empty caches (its frame kept: it only depends on the bounds)."""
-    keep = {k: v for k, v in prob._cache.items() if k == "frame"}
+    keep = {k: v for k, v in prob._cache.items() if k == ("frame",)}
     return dataclasses.replace(prob, _cache=keep)
 
 
 def _reference(prob: Any) -> dict[str, Any]:
     """The certified optimum of ``prob``, computed once per process on a cold copy."""
-    if _REF_KEY not in prob._cache:
-        from optplan.solver import reference_optimum
+    from optplan.solver import reference_optimum
 
-        prob._cache[_REF_KEY] = reference_optimum(_fresh(prob))
-    return prob._cache[_REF_KEY]
+    return prob.memo(_REF_KEY, lambda: reference_optimum(_fresh(prob)))
 
 
 def _apply_reference(res: Any, prob: Any, ref: Mapping[str, Any]) -> Any:

@@ -963,7 +963,7 @@ def read_scen(path: str | Path, *, map_path: str | Path | None = None, radius: f
                            f"{template.obstacles[hit].name!r} (obstacles[{hit}]) inflated by "
                            f"the robot radius {template.robots[0].radius:g}")
         shared = {k: v for k, v in template._cache.items()
-                  if k == "frame" or (isinstance(k, tuple) and k[0] == "obstacle_set")}
+                  if k[0] in ("frame", "obstacle_set")}
         robot = dataclasses.replace(template.robots[0], start=s, goal=g)
         out.append(dataclasses.replace(template, robots=(robot,), path=where, _cache=shared,
                                        **keys))

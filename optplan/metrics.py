@@ -117,19 +117,15 @@ def time_stamps(problem: Problem, paths: dict[str, np.ndarray],
 
 
 def _shape_set(problem: Problem, k: int, radius: float):
-    key = ("moving_shape_set", k, float(radius))
-    if key not in problem._cache:
-        d = problem.dynamic_obstacles[k]
-        problem._cache[key] = shape_set(d.kind, d.radius, d.local_geometry, radius,
-                                        problem.extent)
-    return problem._cache[key]
+    d = problem.dynamic_obstacles[k]
+    return problem.memo(("moving_shape_set", k, float(radius)),
+                        lambda: shape_set(d.kind, d.radius, d.local_geometry, radius,
+                                          problem.extent))
 
 
 def _disc_set(problem: Problem, r_other: float, radius: float):
-    key = ("disc_set", float(r_other), float(radius))
-    if key not in problem._cache:
-        problem._cache[key] = shape_set("circle", r_other, None, radius, problem.extent)
-    return problem._cache[key]
+    return problem.memo(("disc_set", float(r_other), float(radius)),
+                        lambda: shape_set("circle", r_other, None, radius, problem.extent))
 
 
 def _merged(tk: np.ndarray, extra: np.ndarray, t_end: float) -> np.ndarray:

@@ -21,6 +21,7 @@ import difflib
 import math
 import reprlib
 import tomllib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -316,28 +317,28 @@ class Problem:
     def static_obstacles(self, known_only: bool = False) -> tuple[Obstacle, ...]:
         return tuple(o for o in self.obstacles if o.known or not known_only)
 
+    def memo(self, key: tuple, build: Callable[[], Any]) -> Any:
+        """The value derived from this problem under ``key``, built by ``build()`` once.
+
+        A problem is immutable, so what is derived from it (obstacle sets, the certified
+        optimum, the known view) is computed once and kept with it.  ``key`` is a tuple whose
+        first item names what is cached (``("obstacle_set", radius, known_only)``); this is the
+        only way modules read or write the cache.
+        """
+        if key not in self._cache:
+            self._cache[key] = build()
+        return self._cache[key]
+
     def known_view(self) -> Problem:
         """A copy without temporary (``known = false``) obstacles and without dynamic ones.
 
         This is the map a global planner is allowed to see (paper §V, step 3).
         """
-        key = ("known_view",)
-        if key not in self._cache:
-            self._cache[key] = Problem(
-                name=self.name,
-                bounds=self.bounds,
-                robots=self.robots,
-                obstacles=self.static_obstacles(known_only=True),
-                dynamic_obstacles=(),
-                formation=self.formation,
-                sensing_range=self.sensing_range,
-                goal_tolerance=self.goal_tolerance,
-                description=self.description,
-                source=self.source,
-                tags=self.tags,
-                path=self.path,
-            )
-        return self._cache[key]
+        import dataclasses
+
+        return self.memo(("known_view",), lambda: dataclasses.replace(
+            self, obstacles=self.static_obstacles(known_only=True), dynamic_obstacles=(),
+            _cache={}))
 
     def goal_tol(self, robot: Robot) -> float:
         """Goal tolerance for ``robot`` (map units).
@@ -392,20 +393,16 @@ class Problem:
 
         # without temporary obstacles the known map is the whole map: one set serves both
         known_only = known_only and any(not o.known for o in self.obstacles)
-        key = ("obstacle_set", float(radius), known_only)
-        if key not in self._cache:
-            self._cache[key] = obstacle_set(self.static_obstacles(known_only), float(radius),
-                                            self.frame)
-        return self._cache[key]
+        return self.memo(("obstacle_set", float(radius), known_only),
+                         lambda: obstacle_set(self.static_obstacles(known_only), float(radius),
+                                              self.frame))
 
     @property
     def frame(self):
         """The local frame and tolerance of this map (:class:`optplan.geometry.Frame`)."""
         from optplan.geometry import Frame
 
-        if "frame" not in self._cache:
-            self._cache["frame"] = Frame.from_bounds(self.bounds)
-        return self._cache["frame"]
+        return self.memo(("frame",), lambda: Frame.from_bounds(self.bounds))
 
     @property
     def length_scale(self) -> float:
@@ -1013,7 +1010,7 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
         tags=tags,
         path=where if where != "<problem>" else None,
     )
-    prob._cache["frame"] = frame
+    prob.memo(("frame",), lambda: frame)  # already built by the checks above
     # obstacles reaching into the working region must be resolvable in the map's frame
     margin = max(r.radius for r in robots) + frame.length
     raw_obst = data.get("obstacles", [])

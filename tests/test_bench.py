@@ -199,7 +199,7 @@ def test_visgraph_times_are_not_cache_hits():
     assert len({r["reference_time"] for r in rows}) == 1 and rows[0]["reference_time"] > 0
     base = op.load_problem("paper-env1")
     fresh = bench._fresh(base)
-    assert fresh._cache is not base._cache and set(fresh._cache) <= {"frame"}
+    assert fresh._cache is not base._cache and set(fresh._cache) <= {("frame",)}
 
 
 def test_cooperative_time_limit_is_recorded():

@@ -860,3 +860,26 @@ def test_point_and_file_size_limits(tmp_path):
     f = tmp_path / "big.toml"
     f.write_text("# " + "x" * (9 * 2**20) + "\n", encoding="utf-8")
     assert "is larger than the 8 MB a scenario may have" in _err(f)
+
+
+def test_known_view_keeps_everything_but_the_hidden_obstacles() -> None:
+    """The global planner's map has the scene's length unit, robots and formation (it once
+    lost ``length_scale``: a 600 x 600 paper scene's known view had 1.2 instead of 1)."""
+    import dataclasses
+
+    p = op.load_problem("paper-warehouse")
+    k = p.known_view()
+    assert k.length_scale == p.length_scale == 1.0
+    assert k.dynamic_obstacles == () and all(o.known for o in k.obstacles)
+    assert len(k.obstacles) == sum(o.known for o in p.obstacles) < len(p.obstacles)
+    same = {f.name for f in dataclasses.fields(p)} - {"obstacles", "dynamic_obstacles", "_cache"}
+    assert all(getattr(k, n) is getattr(p, n) for n in same)
+    assert p.known_view() is k  # memoised
+
+
+def test_memo_builds_once() -> None:
+    p = op.load_problem("open-field")
+    calls = []
+    assert p.memo(("test", 1), lambda: calls.append(1) or 42) == 42
+    assert p.memo(("test", 1), lambda: calls.append(1) or 43) == 42
+    assert calls == [1]

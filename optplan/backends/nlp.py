@@ -223,9 +223,12 @@ def obstacle_pieces(problem: Problem, robot: Robot, *, known_only: bool = True,
     :func:`optplan.geometry.convex_decompose` with clearance ``r``; each circle is one
     vertex with clearance ``R + r``.  Both add ``margin`` and ``SAFETY_REL * L``.
     """
-    key = ("nlp_pieces", float(robot.radius), bool(known_only), float(margin))
-    if key in problem._cache:
-        return problem._cache[key]
+    return problem.memo(("nlp_pieces", float(robot.radius), bool(known_only), float(margin)),
+                        lambda: _build_pieces(problem, robot, known_only, margin))
+
+
+def _build_pieces(problem: Problem, robot: Robot, known_only: bool, margin: float) -> Pieces:
+    """:func:`obstacle_pieces` without the cache."""
     frame = problem.frame
     safety = SAFETY_REL * frame.length
     r = float(robot.radius)
@@ -255,7 +258,6 @@ def obstacle_pieces(problem: Problem, robot: Robot, *, known_only: bool = True,
     local = Frame(frame.local_bounds, np.zeros(2), frame.length)
     out = Pieces(frame, verts, need_a + margin + safety, need_a, np.asarray(rad, float),
                  np.asarray(owner, np.int64), names, obstacle_set(objs, r, local))
-    problem._cache[key] = out
     return out
 
 

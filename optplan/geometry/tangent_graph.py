@@ -599,6 +599,14 @@ def arc_polyline(c: complex, rho: float, theta0: float, sweep: float,
                            [c + rho * np.exp(1j * (theta0 + sweep))]])
 
 
+class _Uncached(Exception):
+    """A search stopped by its ``stop`` callback: its partial result is not cached."""
+
+    def __init__(self, result: TangentPath):
+        super().__init__("stopped")
+        self.result = result
+
+
 def problem_shortest_path(problem, robot, known_only: bool = True,
                           arc_step: float = math.pi / 36,
                           stop: Callable[[], bool] | None = None) -> TangentPath:
@@ -608,18 +616,18 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
     unrestricted search runs first; when its path leaves the bounds, the search is repeated with
     tangent points inside the bounds and ``info["certified"]`` is False.
     """
-    key = ("tangent_path", robot.id, bool(known_only), float(arc_step))
-    if key not in problem._cache:
+
+    def build() -> TangentPath:
         oset = problem.obstacle_set(robot.radius, known_only=known_only)
         res = shortest_path(oset, robot.start, robot.goal, arc_step=arc_step, stop=stop)
         if res.info.get("stopped"):
-            return res  # not cached: a later call without a stop must finish the search
+            raise _Uncached(res)  # a later call without a stop must finish the search
         if res.polyline is not None and not np.all(problem.frame.in_bounds(res.polyline)):
             free_len = res.length
             res = shortest_path(oset, robot.start, robot.goal, restrict_to_bounds=True,
                                 arc_step=arc_step, stop=stop)
             if res.info.get("stopped"):
-                return res
+                raise _Uncached(res)
             res.info["bounds_active"] = True
             res.info["unbounded_length"] = free_len
             if res.polyline is None:
@@ -636,8 +644,13 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
                     break
                 step /= 4
                 res = _rebuild_polyline(res, problem.frame, robot, step)
-        problem._cache[key] = res
-    return problem._cache[key]
+        return res
+
+    try:
+        return problem.memo(("tangent_path", robot.id, bool(known_only), float(arc_step)),
+                            build)
+    except _Uncached as e:
+        return e.result
 
 
 def _rebuild_polyline(res: TangentPath, frame, robot, step: float) -> TangentPath:
