@@ -856,8 +856,9 @@ class PilotedFormation(Backend):
         or a backend without ``controller()`` is a ``ValueError``.
     path_solver : str or Backend
         Solver planning the leader's reference on ``problem.known_view()`` when ``init`` has
-        none (default ``"ipso"``, the documented IPSO variant; the literal ``"ipso-paper"``
-        is never collision-free, see the PSO page).  Resolved when the backend is built.
+        none (default ``"ipso"``, the documented IPSO variant, collision-free in every measured
+        run; the literal ``"ipso-paper"`` fails on some maps, see the PSO page).  Resolved when
+        the backend is built.
     v_factor : float
         Leader cruise speed as a fraction of its ``max_speed`` (headroom for followers).
     ref_spacing : float
