@@ -26,13 +26,17 @@ wall time <= 40 ms, ``ipso`` + NLP <= 1.001 on every seed within 250 ms.  Nothin
 hard-coded: every number is measured by this run.
 
 Run: ``.venv/bin/python benchmarks/bench_ipso_tails.py [--seeds 30] [--corridor-seeds 0 1]
-[--solvers ...] [--ablations ...] [--no-nlp] [--no-paper]``.  The machine is shared, so take
-the times as indicative.
+[--solvers ...] [--ablations ...] [--no-nlp] [--no-paper] [--lengths FILE]``.  The machine is
+shared, so take the times as indicative.  ``--lengths FILE`` writes the NLP-polished statuses
+and lengths to ``FILE`` (when it does not exist) or compares this run's with them (largest
+relative length difference, status changes): run it once with the code before a speed change
+and once after.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import platform
 import time
@@ -75,7 +79,8 @@ def run_solver(prob: op.Problem, optimum: float, solver: str, seeds: int,
     warm = op.solve(prob, solver, rng=0, **over)  # warm: obstacle set, compiled code
     if nlp and warm.success:  # and the NLP's first build on this map (CasADi structures)
         op.solve(prob, "nlp-ipopt", init=warm.paths)
-    ratio, times, cpu, pol, pol_t, ok = [], [], [], [], [], 0
+    ratio, times, cpu, pol, pol_t, pol_only, ok = [], [], [], [], [], [], 0
+    polished: list[tuple[str, float]] = []
     for s in range(seeds):
         t, c = time.perf_counter(), time.process_time()
         r = op.solve(prob, solver, rng=s, **over)
@@ -87,14 +92,37 @@ def run_solver(prob: op.Problem, optimum: float, solver: str, seeds: int,
         if nlp:
             t = time.perf_counter()
             q = op.solve(prob, "nlp-ipopt", init=r.paths)
-            pol_t.append(dt + time.perf_counter() - t)
+            pol_only.append(time.perf_counter() - t)
+            polished.append((q.status.name, float(q.metrics["length"])))
+            pol_t.append(dt + pol_only[-1])
             pol.append(q.metrics["length"] / optimum if q.success else np.inf)
     return {"ratio": np.array(ratio), "time": np.array(times), "cpu": np.array(cpu), "ok": ok,
-            "nlp": np.array(pol), "nlp_time": np.array(pol_t)}
+            "nlp": np.array(pol), "nlp_time": np.array(pol_t), "polish_time": np.array(pol_only),
+            "polished": polished}
 
 
 def _f(x: float, nd: int = 4) -> str:
     return "fail" if not np.isfinite(x) else f"{x:.{nd}f}"
+
+
+def _lengths_file(path: str, polished: dict[str, list]) -> str:
+    """Write ``polished`` ({map: [(status, length) per seed]}) to ``path`` when it does not
+    exist, else compare with it: the largest relative length difference and the status
+    changes (the check that a speed change returns the same paths)."""
+    if not os.path.exists(path):
+        with open(path, "w") as f:
+            json.dump(polished, f)
+        return f"polished statuses and lengths written to {path}"
+    with open(path) as f:
+        ref = json.load(f)
+    rel, changed, n = 0.0, 0, 0
+    for m, rows in polished.items():
+        for (st, ln), (st0, ln0) in zip(rows, ref.get(m, [])):
+            n += 1
+            changed += st != st0
+            rel = max(rel, abs(ln / ln0 - 1.0) if ln0 else abs(ln))
+    return (f"polished paths against {path} ({n} runs): largest relative length difference "
+            f"{rel:.1e}, status changes {changed}")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -107,6 +135,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-nlp", action="store_true", help="skip ipso + NLP polish")
     ap.add_argument("--no-paper", action="store_true", help="skip the paper presets")
     ap.add_argument("--maps", nargs="*", default=None, help="only these map names")
+    ap.add_argument("--lengths", default=None,
+                    help="JSON file of the polished statuses and lengths: written when absent, "
+                         "else compared with this run's")
     args = ap.parse_args(argv)
     t_all = time.perf_counter()
     print(f"machine: {os.cpu_count()} cores (shared), {platform.processor() or platform.machine()}"
@@ -155,9 +186,13 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_nlp:
         alln = np.concatenate([res[n]["nlp"] for n, _ in todo])
         allnt = np.concatenate([res[n]["nlp_time"] for n, _ in todo])
+        allpt = np.concatenate([res[n]["polish_time"] for n, _ in todo])
         print(f"ipso + NLP polish: worst {_f(alln.max())}, above 1.001: {(alln > 1.001).sum()}"
               f"/{len(alln)}; median total time {np.median(allnt) * 1e3:.0f} ms, max "
-              f"{allnt.max() * 1e3:.0f} ms")
+              f"{allnt.max() * 1e3:.0f} ms, above 250 ms: {(allnt > 0.25).sum()}; the polish "
+              f"alone: median {np.median(allpt) * 1e3:.0f} ms, max {allpt.max() * 1e3:.0f} ms")
+        if args.lengths:
+            print(_lengths_file(args.lengths, {n: res[n]["polished"] for n, _ in todo}))
     print()
 
     # 2. ablations

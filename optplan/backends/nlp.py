@@ -69,10 +69,13 @@ Pair pruning
     again (``"init"``).  If the shared validator still objects, all pairs are added.
 
 Structure re-use
-    The NLP is built once per structure ``(N, slots per segment, vertices per slot, IPOPT
-    options)`` with ``casadi.nlpsol`` on SX symbols (``expand = True``); the piece vertices are
-    *parameters*, the clearances and the on/off state of each slot and vertex row are constraint
-    *bounds*.  Different maps, seeds and warm starts therefore re-use one compiled solver.
+    The NLP is built once per structure ``(N, the kept pairs' segments, vertex rows per pair,
+    IPOPT options)`` with ``casadi.nlpsol`` on SX symbols (``expand = True``); the constraint
+    vector is flat, indexed by the kept (segment, piece) pairs, each segment with as many pairs
+    as it has (no empty slots padded to the busiest segment's count: they stayed in IPOPT's
+    KKT system as free rows and made every iteration slower).  The piece vertices are
+    *parameters* and the clearances *bounds*, so seeds and warm starts with the same pairs
+    re-use one compiled solver; any other set of pairs is a new (vectorised) build.
 
 Warm start
     ``init`` (any path, e.g. an IPSO or visgraph result) keeps all its vertices and gains
@@ -465,54 +468,69 @@ class _IterCallback:
 class _Built:
     solver: Any
     n_seg: int
-    n_slots: int
-    n_verts: int
+    n_pairs: int
+    n_rows: int
     nx: int
     ng: int
     callback: Any = None
 
 
-@functools.lru_cache(maxsize=24)
-def _build(n_seg: int, n_slots: int, n_verts: int, ipopt_opts: tuple,
-           with_callback: bool) -> _Built:
-    """Build the waypoint NLP for a structure (segments, slots per segment, vertices per slot).
+def _pair_rows(rows: np.ndarray) -> list[int]:
+    """Order of the constraint rows: pair by pair, its ``rows[k]`` vertex rows, then its two
+    endpoint rows and its norm row (the built expression lists all vertex rows, then all
+    first-endpoint, second-endpoint and norm rows)."""
+    K = len(rows)
+    nvt = int(rows.sum())
+    off = np.r_[0, np.cumsum(rows)[:-1]]
+    out: list[int] = []
+    for k in range(K):
+        out += range(int(off[k]), int(off[k] + rows[k]))
+        out += [nvt + k, nvt + K + k, nvt + 2 * K + k]
+    return out
 
-    Variables ``x = [interior waypoints (N-1)x2 row-major, a (N*K*2), c (N*K)]``; parameters
-    ``[start, goal, eps, w, vertices (N*K*V*2)]``; constraint rows per slot ``(i, k)``: ``V``
-    vertex rows ``a.v - c`` (upper bound 0), two endpoint rows ``a.p - c`` (lower bound =
-    clearance), one ``|a|^2`` row (upper bound 1).  Unused slots / padded vertices get infinite
-    bounds (and fixed ``a = c = 0``), so one build serves every map with this structure.
+
+@functools.lru_cache(maxsize=32)
+def _build(n_seg: int, seg: tuple, rows: tuple, ipopt_opts: tuple,
+           with_callback: bool) -> _Built:
+    """Build the waypoint NLP for a structure: ``n_seg`` segments and the kept pairs, pair
+    ``k`` on segment ``seg[k]`` (non-decreasing) with ``rows[k]`` vertex rows.
+
+    Variables ``x = [interior waypoints (N-1)x2 row-major, a (2 per pair), c (1 per pair)]``;
+    parameters ``[start, goal, eps, w, vertex rows (sum(rows) x 2)]``; constraint rows per
+    pair: ``rows[k]`` vertex rows ``a.v - c`` (upper bound 0; the rows beyond the piece's
+    vertex count repeat its last vertex and get an infinite bound), two endpoint rows
+    ``a.p - c`` (lower bound = clearance), one ``|a|^2`` row (upper bound 1).  No slot of a
+    segment is padded to the busiest segment's count (issue 18: such empty slots stayed in
+    IPOPT's KKT system as free rows, about half of its rows on the corridor maps).  The
+    expression is built with vectorised SX indexing (one operation per row type).
     """
     import casadi as ca
 
-    N, K, V = n_seg, n_slots, n_verts
-    W = ca.SX.sym("W", max(N - 1, 0) * 2)
-    A = ca.SX.sym("A", N * K * 2)
-    C = ca.SX.sym("C", N * K)
+    N, K = n_seg, len(seg)
+    nW = max(N - 1, 0)
+    W = ca.SX.sym("W", nW * 2)
+    A = ca.SX.sym("A", K * 2)
+    C = ca.SX.sym("C", K)
     start = ca.SX.sym("start", 2)
     goal = ca.SX.sym("goal", 2)
     eps = ca.SX.sym("eps")
     w = ca.SX.sym("w")
-    Vp = ca.SX.sym("V", N * K * V * 2)
-    rows = [start.T]
-    for i in range(N - 1):
-        rows.append(W[2 * i: 2 * i + 2].T)
-    rows.append(goal.T)
-    P = ca.vertcat(*rows)
+    nvt = int(sum(rows))
+    Vp = ca.SX.sym("V", nvt * 2)
+    P = ca.vertcat(start.T, ca.reshape(W, 2, nW).T, goal.T)
     L, R = _length_terms(P, eps, w, N)
-    g = []
-    for i in range(N):
-        p0, p1 = P[i, :].T, P[i + 1, :].T
-        for k in range(K):
-            s = i * K + k
-            a = A[2 * s: 2 * s + 2]
-            c = C[s]
-            vv = ca.reshape(Vp[s * V * 2: (s + 1) * V * 2], 2, V).T  # (V, 2)
-            g.append(ca.mtimes(vv, a) - c)
-            g.append(ca.dot(a, p0) - c)
-            g.append(ca.dot(a, p1) - c)
-            g.append(ca.dot(a, a))
-    gexpr = ca.vertcat(*g) if g else ca.SX(0, 1)
+    if K:
+        ax, ay = A[0::2], A[1::2]
+        own = np.repeat(np.arange(K), rows).tolist()
+        s0 = [int(i) for i in seg]
+        s1 = [i + 1 for i in s0]
+        gv = ax[own] * Vp[0::2] + ay[own] * Vp[1::2] - C[own]
+        Px, Py = P[:, 0], P[:, 1]
+        e0 = ax * Px[s0] + ay * Py[s0] - C
+        e1 = ax * Px[s1] + ay * Py[s1] - C
+        gexpr = ca.vertcat(gv, e0, e1, ax * ax + ay * ay)[_pair_rows(np.asarray(rows))]
+    else:
+        gexpr = ca.SX(0, 1)
     x = ca.vertcat(W, A, C)
     p = ca.vertcat(start, goal, eps, w, Vp)
     nlp = {"x": x, "p": p, "f": L + R, "g": gexpr}
@@ -524,7 +542,7 @@ def _build(n_seg: int, n_slots: int, n_verts: int, ipopt_opts: tuple,
         cb = _IterCallback.make(x.numel(), gexpr.numel(), p.numel())
         opts["iteration_callback"] = cb
     solver = ca.nlpsol("waypoint_nlp", "ipopt", nlp, opts)
-    return _Built(solver, N, K, V, int(x.numel()), int(gexpr.numel()), cb)
+    return _Built(solver, N, K, nvt, int(x.numel()), int(gexpr.numel()), cb)
 
 
 def _bucket(n: int, step: int) -> int:
@@ -565,63 +583,48 @@ def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, scale: f
     divided by ``scale`` (the map diagonal).  The returned path is local.
     """
     N = len(path0) - 1
-    seg, piece = np.nonzero(mask)
-    counts = np.bincount(seg, minlength=N)
-    K = _bucket(int(counts.max()) if len(seg) else 0, 2)
-    V = _bucket(max((len(pieces.verts[j]) for j in set(piece.tolist())), default=1), 4)
+    seg, piece = np.nonzero(mask)  # row-major: ordered by segment
+    K = len(seg)
+    nv = np.array([len(pieces.verts[j]) for j in piece], dtype=np.int64)
+    # vertex rows per pair: the piece's vertex count rounded up to a multiple of 4 (the
+    # extra rows are free); without them IPOPT's iterates change (2 of the 390 tails polishes
+    # ended at another KKT point, 1e-5 in length), with them the paths are those of the
+    # padded NLP before issue 18 (to 5e-12 relative)
+    rows = np.maximum(4, -(-nv // 4) * 4) if K else nv
     tb = time.perf_counter()
-    built = _build(N, K, V, ipopt_opts, on_iter is not None)
+    built = _build(N, tuple(seg.tolist()), tuple(rows.tolist()), ipopt_opts, on_iter is not None)
     build_time = time.perf_counter() - tb
     u = path0 / scale
-    # slot assignment: k-th pair of segment i -> slot (i, k)
-    order = np.argsort(seg, kind="stable")
-    seg, piece = seg[order], piece[order]
-    first = np.r_[0, np.cumsum(counts)[:-1]]
-    slot = np.arange(len(seg)) - first[seg]
-    sidx = seg * K + slot
     a0, c0 = init_hyperplanes(path0, pieces, seg, piece, pieces.clear)
-    Vt = np.zeros((N * K, V, 2))
-    vmask = np.zeros((N * K, V), bool)
-    for s, j in zip(sidx, piece):
+    nvt = int(rows.sum())
+    Vt = np.zeros((nvt, 2))
+    vub = np.full(nvt, np.inf)
+    o = 0
+    for k, j in enumerate(piece):
         vj = pieces.verts[j] / scale
-        Vt[s, : len(vj)] = vj
-        Vt[s, len(vj):] = vj[-1]
-        vmask[s, : len(vj)] = True
-    active = np.zeros(N * K, bool)
-    active[sidx] = True
-    clear = np.zeros(N * K)
-    clear[sidx] = pieces.clear[piece] / scale
+        Vt[o: o + len(vj)] = vj
+        Vt[o + len(vj): o + rows[k]] = vj[-1]
+        vub[o: o + len(vj)] = 0.0
+        o += rows[k]
+    clear = pieces.clear[piece] / scale
     # bounds on x
     x0b, y0b, x1b, y1b = bounds
     lo = np.array([x0b, y0b]) / scale
     hi = np.array([x1b, y1b]) / scale
     nW = max(N - 1, 0)
-    lbx = np.r_[np.tile(lo, nW), np.full(N * K * 2, -1.0), np.full(N * K, -np.inf)]
-    ubx = np.r_[np.tile(hi, nW), np.full(N * K * 2, 1.0), np.full(N * K, np.inf)]
-    off = 2 * nW
-    inact = np.flatnonzero(~active)
-    for d in (0, 1):
-        lbx[off + 2 * inact + d] = 0.0
-        ubx[off + 2 * inact + d] = 0.0
-    lbx[off + 2 * N * K + inact] = 0.0
-    ubx[off + 2 * N * K + inact] = 0.0
-    A0 = np.zeros((N * K, 2))
-    C0 = np.zeros(N * K)
-    A0[sidx] = a0
-    C0[sidx] = c0 / scale
-    x0 = np.r_[np.clip(u[1:-1], lo, hi).ravel(), A0.ravel(), C0]
-    # constraint bounds, rows per slot: V vertex rows, 2 endpoint rows, 1 norm row
-    R = V + 3
-    lbg = np.full((N * K, R), -np.inf)
-    ubg = np.full((N * K, R), np.inf)
-    ubg[:, :V] = np.where(vmask, 0.0, np.inf)
-    lbg[:, V] = np.where(active, clear, -np.inf)
-    lbg[:, V + 1] = np.where(active, clear, -np.inf)
-    ubg[:, V + 2] = np.where(active, 1.0, np.inf)
-    par = np.r_[u[0], u[-1], eps, w, Vt.reshape(N * K, V * 2).ravel()]
+    lbx = np.r_[np.tile(lo, nW), np.full(K * 2, -1.0), np.full(K, -np.inf)]
+    ubx = np.r_[np.tile(hi, nW), np.full(K * 2, 1.0), np.full(K, np.inf)]
+    x0 = np.r_[np.clip(u[1:-1], lo, hi).ravel(), a0.ravel(), c0 / scale]
+    # constraint bounds in the built order: vertex rows, first and second endpoint rows,
+    # norm rows, then permuted pair by pair
+    lbg = np.r_[np.full(nvt, -np.inf), clear, clear, np.full(K, -np.inf)]
+    ubg = np.r_[vub, np.full(2 * K, np.inf), np.ones(K)]
+    perm = _pair_rows(rows) if K else []
+    lbg, ubg = lbg[perm], ubg[perm]
+    par = np.r_[u[0], u[-1], eps, w, Vt.ravel()]
     if built.callback is not None:
         built.callback.target = on_iter
-    sol = built.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg.ravel(), ubg=ubg.ravel(), p=par)
+    sol = built.solver(x0=x0, lbx=lbx, ubx=ubx, lbg=lbg, ubg=ubg, p=par)
     if built.callback is not None:
         built.callback.target = None
     st = dict(built.solver.stats())
@@ -634,7 +637,7 @@ def _solve_once(path0: np.ndarray, pieces: Pieces, mask: np.ndarray, *, scale: f
     out = np.vstack([path0[0], Wsol * scale, path0[-1]])
     info = {k: st.get(k) for k in ("return_status", "success", "iter_count")}
     info.update(t_wall=sum(float(v) for k, v in st.items() if k.startswith("t_wall_")),
-                n_pairs=int(len(seg)), slots=K, verts=V, n_seg=N, build_time=build_time)
+                n_pairs=int(K), vertex_rows=nvt, n_seg=N, build_time=build_time)
     return out, info, build_time
 
 
