@@ -501,7 +501,7 @@ def _build(n_seg: int, seg: tuple, rows: tuple, ipopt_opts: tuple,
     vertex count repeat its last vertex and get an infinite bound), two endpoint rows
     ``a.p - c`` (lower bound = clearance), one ``|a|^2`` row (upper bound 1).  No slot of a
     segment is padded to the busiest segment's count (issue 18: such empty slots stayed in
-    IPOPT's KKT system as free rows, about half of its rows on the corridor maps).  The
+    IPOPT's KKT system as free rows and made every iteration slower).  The
     expression is built with vectorised SX indexing (one operation per row type).
     """
     import casadi as ca
