@@ -399,6 +399,8 @@ class ScenarioFuzzer:
         if w == [] and (kp in ("tags", "obstacles", "dynamic_obstacles")
                         or kp.endswith(".holes")):
             must = False
+        if kp == "tags" and isinstance(w, list) and all(isinstance(t, str) for t in w):
+            must = False  # a list of strings is what tags are
         if kp.endswith(".waypoints") and isinstance(w, list) and all(
                 isinstance(p, list) and len(p) == 2 and all(map(_is_number, p)) for p in w):
             must = False  # a single waypoint may be a parked obstacle

@@ -64,7 +64,7 @@ class OptionSpec:
             rb = ")" if self.hi_open or self.hi is None else "]"
             s = f"{'an integer' if self.kind == 'int' else 'a number'} in {lb}{lo}, {hi}{rb}"
             if self.inf_ok:
-                s += " or inf"
+                s += " or +inf"
         else:
             s = {"bool": "true or false", "str": "a string"}.get(self.kind, "any value")
         if self.none_ok:
@@ -145,7 +145,7 @@ def _range_ok(spec: OptionSpec, v: float) -> bool:
     if math.isnan(v):
         return False
     if math.isinf(v):
-        return spec.inf_ok
+        return spec.inf_ok and v > 0  # only +inf, and only where it is documented
     lo_ok = spec.lo is None or (v > spec.lo if spec.lo_open else v >= spec.lo)
     hi_ok = spec.hi is None or (v < spec.hi if spec.hi_open else v <= spec.hi)
     return lo_ok and hi_ok

@@ -82,8 +82,9 @@ def test_int_bool_choice_none_and_inf() -> None:
     check_value(n, "x", None, "b")
     inf = OptionSpec(kind="float", lo=0.0, inf_ok=True)
     check_value(inf, "x", math.inf, "b")
-    with pytest.raises(ValueError):
-        check_value(inf, "x", -1.0, "b")
+    for bad in (-1.0, -math.inf, math.nan):
+        with pytest.raises(ValueError, match=r"a number in \[0, inf\) or \+inf"):
+            check_value(inf, "x", bad, "b")
 
 
 def test_option_infers_the_kind_and_none() -> None:
