@@ -63,9 +63,6 @@ __all__ = [
     "list_backends",
     "solve",
     "make_rng",
-    "check_range",
-    "check_int",
-    "check_choice",
     "option",
 ]
 
@@ -259,49 +256,6 @@ def make_rng(rng: int | np.random.Generator | None) -> tuple[np.random.Generator
     if isinstance(rng, (bool, float)) or not isinstance(rng, (int, np.integer)) or rng < 0:
         raise ValueError(f"rng must be a non-negative int, a numpy Generator or None, got {rng!r}")
     return np.random.default_rng(int(rng)), int(rng)
-
-
-# --------------------------------------------------------------------------------------
-# option checks used by backends' __post_init__
-# --------------------------------------------------------------------------------------
-
-
-def check_range(obj: Any, name: str, lo: float = -math.inf, hi: float = math.inf, *,
-                lo_open: bool = False, hi_open: bool = False) -> None:
-    """Raise ``ValueError`` unless option ``name`` of ``obj`` is a finite number in range.
-
-    Infinity is never accepted (an unbounded option is still finite).
-    """
-    v = getattr(obj, name)
-    bname = getattr(obj, "name", type(obj).__name__)
-    lb = "(" if lo_open else "["
-    rb = ")" if hi_open else "]"
-    rng_s = f"{lb}{lo:g}, {hi:g}{rb}"
-    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
-        raise ValueError(f"option {name!r} of backend {bname!r} must be a number in {rng_s}, "
-                         f"got {v!r}")
-    ok = math.isfinite(float(v))
-    ok = ok and (v > lo if lo_open else v >= lo) and (v < hi if hi_open else v <= hi)
-    if not ok:
-        raise ValueError(f"option {name!r} of backend {bname!r} must be in {rng_s}, got {v!r}")
-
-
-def check_int(obj: Any, name: str, lo: int, hi: int) -> None:
-    """Raise ``ValueError`` unless option ``name`` is an int in ``[lo, hi]``."""
-    v = getattr(obj, name)
-    bname = getattr(obj, "name", type(obj).__name__)
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
-        raise ValueError(f"option {name!r} of backend {bname!r} must be an integer in "
-                         f"[{lo}, {hi}], got {v!r}")
-
-
-def check_choice(obj: Any, name: str, choices: tuple[str, ...]) -> None:
-    """Raise ``ValueError`` unless option ``name`` is one of ``choices``."""
-    v = getattr(obj, name)
-    bname = getattr(obj, "name", type(obj).__name__)
-    if v not in choices:
-        raise ValueError(f"option {name!r} of backend {bname!r} must be one of "
-                         f"{', '.join(repr(c) for c in choices)}, got {v!r}")
 
 
 # --------------------------------------------------------------------------------------
