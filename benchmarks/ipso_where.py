@@ -83,17 +83,17 @@ def ipso_parts(prob: op.Problem, seeds: int) -> None:
     orig_tested = sw._tested_edges
 
     def tested(space, nodes, corner, k, slack):
-        real = sw.segment_free
+        real = sw.pairs_free
 
-        def counting(a, b, s):
-            edges.n["tested"] += len(a)
-            return real(a, b, s)
+        def counting(pts, i, j, s):
+            edges.n["tested"] += len(i)
+            return real(pts, i, j, s)
 
-        sw.segment_free = counting
+        sw.pairs_free = counting
         try:
             return orig_tested(space, nodes, corner, k, slack)
         finally:
-            sw.segment_free = real
+            sw.pairs_free = real
 
     sw._tested_edges = tested
     try:

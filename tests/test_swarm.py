@@ -91,15 +91,20 @@ def test_obstacle_set_is_the_exact_disc_test(grid, radius):
         assert _raw_distance(paths[k, j:j + 2], prob.obstacles[o]) < radius + 1e-7
 
 
-def test_obstacle_set_grid_and_all_pairs_agree_on_many_obstacles():
-    rng = np.random.default_rng(0)
+def _many_obstacles(rng: np.random.Generator) -> op.Problem:
+    """300 small obstacles (circles and rectangles) at random: a map with the grid screen."""
     obstacles = []
     for i, c in enumerate(rng.uniform(0, 100, (300, 2))):
         if i % 2:
             obstacles.append({"type": "circle", "center": c.tolist(), "radius": 1.0})
         else:
             obstacles.append({"type": "rectangle", "center": c.tolist(), "size": [2.0, 1.0]})
-    prob = _problem(obstacles=obstacles)
+    return _problem(obstacles=obstacles)
+
+
+def test_obstacle_set_grid_and_all_pairs_agree_on_many_obstacles():
+    rng = np.random.default_rng(0)
+    prob = _many_obstacles(rng)
     paths = rng.uniform(0, 100, (40, 6, 2))
     a = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=False).crossings(paths, details=True)
     b = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=True).crossings(paths, details=True)
@@ -107,6 +112,62 @@ def test_obstacle_set_grid_and_all_pairs_agree_on_many_obstacles():
     assert obstacle_set(prob.obstacles, 0.5, prob.frame).grid is not None
     np.testing.assert_array_equal(a.seg_count, b.seg_count)
     np.testing.assert_allclose(a.penetration, b.penetration)
+
+
+def _free_space(obs) -> sw.SwarmSpace:
+    """A space whose visibility tests (``space.clear``) use the obstacle set ``obs``."""
+    lo, hi = np.zeros(2), np.full(2, 100.0)
+    return sw.SwarmSpace(lo, hi, 1, lo, hi, obs, 1.0, 0.0, obs)
+
+
+@pytest.mark.parametrize("grid", [False, True])
+@pytest.mark.parametrize("radius", [0.0, 1.5])
+def test_pairs_free_is_the_exact_disc_test(grid, radius):
+    """The compiled any-hit kernel (early exit, last colliding item first, box screen) against
+    shapely distances, and the same flags as the counting kernel on every segment."""
+    prob = _hexagon_problem()
+    obs = obstacle_set(prob.obstacles, radius, prob.frame, grid=grid)
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(-5, 105, (120, 2))
+    pts[:3] = [[10, 50], [50, 50], [30, 40 + radius]]  # outside, inside the hexagon, grazing
+    i, j = np.triu_indices(len(pts), 0)  # every pair by start point, with i == j points
+    free = sw.pairs_free(pts, i, j, _free_space(obs))
+    np.testing.assert_array_equal(free, obs.segment_free(pts[i], pts[j]))
+    np.testing.assert_array_equal(sw.segment_free(pts[i], pts[j], _free_space(obs)), free)
+    sub = rng.choice(len(i), 800, replace=False)
+    checked = 0
+    for q in sub:
+        seg = pts[[i[q], j[q]]]
+        d = np.array([_raw_distance(seg, o) for o in prob.obstacles])
+        if radius > 0 and np.any(np.abs(d - radius) < 1e-7):
+            continue
+        if radius == 0 and (np.any((d > 0) & (d < 1e-7)) or 2 in (i[q], j[q])
+                            or i[q] == j[q]):
+            continue  # a point robot crosses by an inside length: not by touching (point 2)
+            # or by a single point
+        ref = not (np.any(d < radius) if radius > 0 else np.any(d <= 0))
+        assert free[q] == ref, (seg, d)
+        checked += 1
+    assert checked > 700 and 0.2 < free[sub].mean() < 0.8
+    assert sw.pairs_free(pts, i[:0], j[:0], _free_space(obs)).shape == (0,)
+    assert sw.pairs_free(pts, i, j, _free_space(None)).all()
+
+
+def test_pairs_free_with_the_grid_on_many_obstacles():
+    rng = np.random.default_rng(1)
+    prob = _many_obstacles(rng)
+    pts = rng.uniform(0, 100, (150, 2))
+    i, j = np.triu_indices(len(pts), 1)
+    keep = np.hypot(*(pts[i] - pts[j]).T) < 25.0  # short segments: some are free
+    i, j = i[keep], j[keep]
+    for grid in (False, True):
+        obs = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=grid)
+        free = sw.pairs_free(pts, i, j, _free_space(obs))
+        np.testing.assert_array_equal(free, obs.segment_free(pts[i], pts[j]))
+        assert 0.05 < free.mean() < 0.95
+        for q in np.flatnonzero(free)[:40]:  # free: shapely finds every obstacle >= 0.5 away
+            seg = pts[[i[q], j[q]]]
+            assert min(_raw_distance(seg, o) for o in prob.obstacles) >= 0.5 - 1e-7
 
 
 def test_fitness_kernel_decides_like_the_validator_at_rounded_corners():
@@ -473,13 +534,13 @@ def test_roadmap_slack_pruning_skips_tests_but_not_walks(monkeypatch):
     prob = corridor_scene("shelves", 1)
     space = sw.make_space(prob, prob.planned_robots[0], 8)
     tested = []
-    real = sw.segment_free
+    real = sw.pairs_free
 
-    def counting(a, b, sp):
-        tested.append(len(a))
-        return real(a, b, sp)
+    def counting(pts, i, j, sp):
+        tested.append(len(i))
+        return real(pts, i, j, sp)
 
-    monkeypatch.setattr(sw, "segment_free", counting)
+    monkeypatch.setattr(sw, "pairs_free", counting)
     full = sw.build_roadmap(space, np.random.default_rng(3), 40, 25, 360, 200, None)
     n_full = sum(tested)
     tested.clear()

@@ -94,6 +94,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numba
 import numpy as np
 
+from optplan.geometry import kernel
 from optplan.geometry.homotopy import obstacle_points
 from optplan.geometry.polyline import resample_path
 from optplan.problem import Problem, Robot
@@ -122,6 +123,7 @@ __all__ = [
     "initial_swarm",
     "as_particle",
     "segment_free",
+    "pairs_free",
     "shortcut",
     "tighten",
     "signature_hashes",
@@ -447,13 +449,33 @@ def as_particle(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
 
 def segment_free(a: np.ndarray, b: np.ndarray, space: SwarmSpace) -> np.ndarray:
     """Collision-free flags of segments ``a[i] -> b[i]`` with the margin of ``space.clear``
-    (one crossing-test call)."""
-    if len(a) == 0:
+    (:func:`pairs_free` of the stacked end points)."""
+    n = len(a)
+    idx = np.arange(n, dtype=np.int64)
+    return pairs_free(np.concatenate([np.asarray(a, float).reshape(-1, 2),
+                                      np.asarray(b, float).reshape(-1, 2)]), idx, idx + n,
+                      space)
+
+
+def pairs_free(points: np.ndarray, i: np.ndarray, j: np.ndarray,
+               space: SwarmSpace) -> np.ndarray:
+    """Collision-free flags of the segments ``points[i[q]] -> points[j[q]]`` with the margin
+    of ``space.clear`` (no obstacles: all free).
+
+    One call of the compiled :func:`optplan.geometry.kernel.free_pairs`: the decision of
+    :meth:`optplan.geometry.ObstacleSet.segment_free` (``crossings(...).count == 0``) with an
+    early exit per segment; the segments are given by point indices, so a roadmap or a
+    string pulling tests its vertex pairs without gathering their end points."""
+    if len(i) == 0:
         return np.zeros(0, dtype=bool)
     test = space.clear if space.clear is not None else space.obstacles
-    if test is None:  # no obstacles: every segment is free
-        return np.ones(len(a), dtype=bool)
-    return test.segment_free(a, b)
+    if test is None or test.n_items == 0:  # no obstacles: every segment is free
+        return np.ones(len(i), dtype=bool)
+    K, P, E, N, C, CE, _, IC, IR, CR, OWN = test.arrays
+    L = np.ascontiguousarray(test.frame.local(points))
+    return kernel.free_pairs(L, np.asarray(i, np.int64), np.asarray(j, np.int64), K, P, E, N,
+                             C, CE, IC, IR, CR, OWN, test.n_obstacles, test.radius, test.eps,
+                             *test._grid_args())
 
 
 def shortcut(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
@@ -526,7 +548,7 @@ def _pull(pts: np.ndarray, off: np.ndarray, space: SwarmSpace, window: int,
     """String pulling of flat paths (pairs at most ``window`` apart, 0: all): the kept
     points, offsets, ids and the number of segments tested."""
     I, J = _pairs(off, window)
-    keep = _greedy_keep(off, I, J, segment_free(pts[I], pts[J], space))
+    keep = _greedy_keep(off, I, J, pairs_free(pts, I, J, space))
     cnt = np.add.reduceat(keep, off[:-1]) if len(pts) else np.zeros(0, np.int64)
     new_off = np.zeros_like(off)
     new_off[1:] = np.cumsum(cnt)
@@ -1085,7 +1107,7 @@ def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 
     n = len(nodes)
     if k_neighbours <= 0 or k_neighbours >= n - 1:  # every pair
         i, j = np.triu_indices(n, 1)
-        ok = segment_free(nodes[i], nodes[j], space)
+        ok = pairs_free(nodes, i, j, space)
     else:
         i, j, ok = _tested_edges(space, nodes, corner, k_neighbours, slack)
     i, j = i[ok], j[ok]
@@ -1108,14 +1130,14 @@ def _tested_edges(space: SwarmSpace, nodes: np.ndarray, corner: np.ndarray, k: i
     nb = tree.query(nodes, k=k + 1)[1][:, 1:]
     nb2 = tree.query(nodes[:2], k=min(2 * k, n - 1) + 1)[1][:, 1:]
     M, bi, bj = _base_edges(nodes, nb.astype(np.int64), nb2.astype(np.int64), YAO_SECTORS)
-    okb = segment_free(nodes[bi], nodes[bj], space)
+    okb = pairs_free(nodes, bi, bj, space)
     bound = math.inf
     if slack is not None and math.isfinite(slack):
         U = _walk_length(nodes, bi[okb], bj[okb])
         if math.isfinite(U):
             bound = slack * U * (1.0 + 1e-9)
     i, j, ok, todo = _corner_edges(nodes, M, corner, okb, CORNER_REACH * space.diag, bound)
-    ok[todo] = segment_free(nodes[i[todo]], nodes[j[todo]], space)
+    ok[todo] = pairs_free(nodes, i[todo], j[todo], space)
     return i, j, ok
 
 
