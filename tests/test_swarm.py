@@ -153,6 +153,26 @@ def test_pairs_free_is_the_exact_disc_test(grid, radius):
     assert sw.pairs_free(pts, i, j, _free_space(None)).all()
 
 
+def test_near_item_screen_is_the_clamped_projection_test():
+    """The bounding-circle screen divides only inside the segment: the same answers as
+    ``clamp01(p / dd)`` (projections before, at and beyond the ends, point segments)."""
+    from optplan.geometry import kernel
+
+    rng = np.random.default_rng(2)
+    IC = rng.uniform(-10, 10, (60, 2))
+    IC[:4] = [[0.0, 1.0], [3.0, 1.0], [4.0, 0.5], [-1.0, 0.0]]  # p = 0, p = dd, beyond
+    IR = rng.uniform(0, 3, 60)
+    segs = np.vstack([rng.uniform(-10, 10, (200, 4)), [[0, 0, 3, 0], [1, 1, 0, 0]]])
+    for ax, ay, dx, dy in segs:
+        dd = dx * dx + dy * dy
+        for k in range(len(IC)):
+            wx, wy = IC[k, 0] - ax, IC[k, 1] - ay
+            t = min(max((wx * dx + wy * dy) / dd, 0.0), 1.0) if dd > 0 else 0.0
+            fx, fy = wx - t * dx, wy - t * dy
+            ref = fx * fx + fy * fy <= (IR[k] + 0.5) ** 2
+            assert kernel._near_item(ax, ay, dx, dy, k, IC, IR, 0.5) == ref
+
+
 def test_pairs_free_with_the_grid_on_many_obstacles():
     rng = np.random.default_rng(1)
     prob = _many_obstacles(rng)

@@ -162,9 +162,10 @@ def _near_item(ax, ay, dx, dy, k, IC, IR, lim):
     wx = IC[k, 0] - ax
     wy = IC[k, 1] - ay
     dd = dx * dx + dy * dy
-    t = 0.0
-    if dd > 0.0:
-        t = _clamp01((wx * dx + wy * dy) / dd)
+    p = wx * dx + wy * dy
+    t = 0.0  # _clamp01(p / dd), dividing only when the projection falls inside the segment
+    if dd > 0.0 and p > 0.0:
+        t = 1.0 if p >= dd else p / dd
     fx = wx - t * dx
     fy = wy - t * dy
     r = IR[k] + lim
