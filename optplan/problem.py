@@ -285,6 +285,9 @@ class Problem:
     source: str = ""
     tags: tuple[str, ...] = ()
     path: str | None = None
+    world_unit: float = 1.0
+    """World length of one unit of these coordinates: 1, except for the canonical image of a
+    scene (:func:`optplan.canonical.canonical_problem`), whose planners report in world units."""
     _cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     # -- convenience ---------------------------------------------------------------
@@ -1142,12 +1145,15 @@ def problem_to_dict(problem: Problem) -> dict[str, Any]:
     return out
 
 
-def transform_problem(problem: Problem, scale: float = 1.0, shift=(0.0, 0.0)) -> Problem:
+def transform_problem(problem: Problem, scale: float = 1.0, shift=(0.0, 0.0), *,
+                      decimals: int | None = None) -> Problem:
     """``problem`` with every length scaled by ``scale`` about the origin, then shifted.
 
     Positions, sizes, radii, speeds, formation distances, tolerances and sensing range scale
     (times do not), so every answer of a scale- and translation-invariant method is the same up
-    to the scale (the metamorphic tests use it).  The caches of the copy are empty.
+    to the scale (the metamorphic tests use it).  With ``decimals``, every transformed coordinate
+    and length is then rounded to that many decimal places (the canonical frame,
+    :mod:`optplan.canonical`).  The caches of the copy are empty.
     """
     import dataclasses
 
@@ -1155,37 +1161,44 @@ def transform_problem(problem: Problem, scale: float = 1.0, shift=(0.0, 0.0)) ->
     if not (s > 0 and math.isfinite(s)):
         raise ValueError(f"scale must be a finite number > 0, got {scale!r}")
     off = np.asarray(shift, dtype=float).reshape(2)
+    ten = None if decimals is None else 10.0 ** int(decimals)
+
+    def rnd(x):  # x * 10**d rounded, / 10**d: a d-decimal literal maps to itself exactly
+        return x if ten is None else np.rint(np.asarray(x, dtype=float) * ten) / ten
+
+    def length(v):
+        return None if v is None else float(rnd(v * s))
+
+    def vec(v):  # a displacement or velocity: scaled, not shifted
+        return None if v is None else rnd(np.asarray(v, float) * s)
 
     def pt(p):
-        return None if p is None else np.asarray(p, float) * s + off
+        return None if p is None else rnd(np.asarray(p, float) * s + off)
 
-    def geom(g):
+    def geom(g, shifted=True):
         if g is None:
             return None
-        return shapely.affinity.translate(shapely.affinity.scale(g, s, s, origin=(0, 0)), *off)
+        return shapely.transform(g, (lambda c: rnd(c * s + off)) if shifted
+                                 else (lambda c: rnd(c * s)))
 
-    def local(g):  # a moving obstacle's shape, relative to its reference point
-        return None if g is None else shapely.affinity.scale(g, s, s, origin=(0, 0))
-
-    x0, y0, x1, y1 = problem.bounds
     robots = tuple(dataclasses.replace(r, start=pt(r.start), goal=pt(r.goal),
-                                       radius=r.radius * s, max_speed=r.max_speed * s)
+                                       radius=length(r.radius), max_speed=length(r.max_speed))
                    for r in problem.robots)
     obstacles = tuple(dataclasses.replace(
-        o, geometry=geom(o.geometry), center=pt(o.center),
-        radius=None if o.radius is None else o.radius * s) for o in problem.obstacles)
+        o, geometry=geom(o.geometry), center=pt(o.center), radius=length(o.radius))
+        for o in problem.obstacles)
     dyn = tuple(dataclasses.replace(
-        d, local_geometry=local(d.local_geometry), waypoints=d.waypoints * s + off,
-        velocity=None if d.velocity is None else d.velocity * s,
-        radius=None if d.radius is None else d.radius * s) for d in problem.dynamic_obstacles)
+        d, local_geometry=geom(d.local_geometry, shifted=False), waypoints=pt(d.waypoints),
+        velocity=vec(d.velocity), radius=length(d.radius)) for d in problem.dynamic_obstacles)
     form = problem.formation
     if form is not None:
-        form = Formation(form.leader, tuple(Follower(f.id, f.L * s, f.phi)
-                                            for f in form.followers), form.safety_distance * s)
+        form = Formation(form.leader, tuple(Follower(f.id, length(f.L), f.phi)
+                                            for f in form.followers),
+                         length(form.safety_distance))
+    lo, hi = pt(problem.bounds[:2]), pt(problem.bounds[2:])
     return dataclasses.replace(
-        problem, bounds=(x0 * s + off[0], y0 * s + off[1], x1 * s + off[0], y1 * s + off[1]),
+        problem, bounds=(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])),
         robots=robots, obstacles=obstacles, dynamic_obstacles=dyn, formation=form,
-        goal_tolerance=None if problem.goal_tolerance is None else problem.goal_tolerance * s,
-        sensing_range=None if problem.sensing_range is None else problem.sensing_range * s,
-        scale=None if problem.scale is None else problem.scale * s,
+        goal_tolerance=length(problem.goal_tolerance),
+        sensing_range=length(problem.sensing_range), scale=length(problem.scale),
         _cache={})

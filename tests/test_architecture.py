@@ -13,9 +13,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1] / "optplan"
 
 #: the model, the geometry and the core: never import a method or a tool
-CORE = ("optplan.problem", "optplan.geometry", "optplan.metrics", "optplan.result",
-        "optplan.options", "optplan.catalog", "optplan.solver", "optplan.interfaces",
-        "optplan.sim")
+CORE = ("optplan.problem", "optplan.canonical", "optplan.geometry", "optplan.metrics",
+        "optplan.result", "optplan.options", "optplan.catalog", "optplan.solver",
+        "optplan.interfaces", "optplan.sim")
 METHODS = ("optplan.backends",)
 TOOLS = ("optplan.cli", "optplan.bench", "optplan.benchdb", "optplan.report", "optplan.plot",
          "optplan.maps", "optplan.generators", "optplan.experiments")

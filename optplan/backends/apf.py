@@ -76,6 +76,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan.canonical import format_point
 from optplan.interfaces import LocalPlanner
 from optplan.options import option
 from optplan.problem import Problem, Robot
@@ -450,8 +451,8 @@ class APFController:
                 dg = float(np.hypot(*(self.goal - x)))
                 kind = ("oscillating near the goal (GNRON)" if dg <= self.params.rho_0 +
                         self.robot.radius else "trapped in a local minimum")
-                self.stats["gave_up"] = (f"{kind} at ({x[0]:.2f}, {x[1]:.2f}), "
-                                         f"{dg:.2f} from the goal")
+                self.stats["gave_up"] = (f"{kind} at {format_point(self.problem, x)}, "
+                                         f"{dg * self.problem.world_unit:.2f} from the goal")
                 return None
         return step
 

@@ -71,6 +71,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan.backends.apf import RobotsAsObstacles
+from optplan.canonical import canonical_problem, to_canonical, to_world
 from optplan.interfaces import (
     FORMATION_BACKEND,
     LOCAL_PLANNER,
@@ -327,14 +328,15 @@ class _SubgoalTracker:
 class _StageCallback:
     """Forwards the stages' progress with a running iteration offset; remembers a stop."""
 
-    def __init__(self, callback: Callable[[Progress], Any] | None):
+    def __init__(self, callback: Callable[[Progress], Any] | None, unit: float = 1.0):
         self.callback = callback
         self.offset = 0
         self.stopped = False
+        self.unit = unit  # world length of a canonical unit (best_cost is a length)
 
     def __call__(self, p: Progress) -> None:
-        q = Progress(p.iteration + self.offset, p.best_cost, p.n_eval, p.elapsed, p.info,
-                     p.sim_time)
+        q = Progress(p.iteration + self.offset, p.best_cost * self.unit, p.n_eval, p.elapsed,
+                     p.info, p.sim_time)
         if notify(self.callback, q):
             self.stopped = True
             raise StopIteration
@@ -614,13 +616,16 @@ class Hybrid(Backend):
               init: dict[str, np.ndarray] | None = None,
               callback: Callable[[Progress], Any] | None = None) -> Result:
         t_start = time.perf_counter()
+        world, problem = problem, canonical_problem(problem)
         rng = make_rng(rng)[0]
         rng_global, rng_local, rng_form = rng.spawn(3)
-        cb = _StageCallback(callback)
+        cb = _StageCallback(callback, problem.world_unit)
         team = self._team(problem)
+        if init:
+            init = {k: to_canonical(problem, v) for k, v in init.items()}
         glob = self._global_stage(problem, team, init, rng_global, cb, t_start)
-        if isinstance(glob, Result):
-            return glob
+        if isinstance(glob, dict):
+            return self._world_result(world, problem, glob)
         drivers = self._drivers(problem, team, glob.paths, rng_local)
         fctrl = (self.stages["formation"].followers_controller(problem, rng_form)
                  if team.use_formation else None)
@@ -633,10 +638,36 @@ class Hybrid(Backend):
                            done=policy.done, stop_on_collision=self.stop_on_collision,
                            callback=cb.forward, progress_cost=policy.progress_cost)
         except (np.linalg.LinAlgError, FloatingPointError, ArithmeticError) as e:
-            return self._early(problem, team.ids, glob.result,
-                               f"numerical failure in the simulation: {e}", t_start,
-                               Status.failed)
-        return self._assemble(problem, glob, policy, out, t_start)
+            answer = self._early(problem, team.ids, glob.result,
+                                 f"numerical failure in the simulation: {e}", t_start,
+                                 Status.failed)
+        else:
+            answer = self._assemble(glob, policy, out, t_start)
+        return self._world_result(world, problem, answer)
+
+    def _world_result(self, world: Problem, image: Problem, answer: dict[str, Any]) -> Result:
+        """The answer planned on the canonical ``image`` mapped back to ``world`` (x its unit;
+        each path starts at the robot's exact start) and graded there by the validator."""
+        u = image.world_unit
+        paths = {}
+        for rid, p in answer.pop("paths").items():
+            p = np.array(p, dtype=float) * u
+            p[0] = world.robot(rid).start
+            paths[rid] = p
+        hist = answer.pop("history", None)
+        if hist is not None:
+            hist = History({k: (to_world(hist[k].tolist(), u) if k in _LENGTH_COLUMNS
+                                else hist[k].tolist()) for k in hist.keys()})
+        extras = answer.pop("extras")
+        extras = {k: to_world(v, u) if k in _LENGTH_EXTRAS else v for k, v in extras.items()}
+        if "global_metrics" in extras:
+            extras["global_metrics"] = {k: to_world(v, u) if k in ("length", "min_clearance")
+                                        else v for k, v in extras["global_metrics"].items()}
+        if "max_slack" in extras.get("formation_stats", {}):
+            extras["formation_stats"]["max_slack"] *= u
+        extras["canonical_unit"] = u
+        return self.finish(world, paths, cost=answer.pop("cost", float("nan")) * u,
+                           history=hist, extras=extras, **answer)
 
     # -- which robots drive themselves, which follow -----------------------------------
     def _team(self, problem: Problem) -> _Team:
@@ -700,8 +731,8 @@ class Hybrid(Backend):
         return drivers
 
     # -- the result ----------------------------------------------------------------------
-    def _assemble(self, problem: Problem, glob: _GlobalStage, policy: _HybridPolicy,
-                  out: SimOutcome, t_start: float) -> Result:
+    def _assemble(self, glob: _GlobalStage, policy: _HybridPolicy, out: SimOutcome,
+                  t_start: float) -> dict[str, Any]:
         paths = out.paths()
         claim, msg = self._outcome(glob, policy, out)
         ld = policy.lead
@@ -715,8 +746,8 @@ class Hybrid(Backend):
             "time": out.times.tolist(),
         })
         n_eval = glob.result.n_eval if glob.result is not None else 0
-        return self.finish(
-            problem, paths, claim=claim, times=out.times,
+        return dict(
+            paths=paths, claim=claim, times=out.times,
             cost=float(np.sum(np.hypot(*np.diff(lp, axis=0).T))), message=msg,
             n_iter=out.steps, n_eval=n_eval + out.steps, history=hist,
             extras=self._extras(glob, policy, out), wall_time=time.perf_counter() - t_start,
@@ -769,8 +800,8 @@ class Hybrid(Backend):
         }
 
     def _early(self, problem: Problem, ids: list[str], gres: Result | None, msg: str,
-               t_start: float, status: Status = Status.approximate) -> Result:
-        """Result when the run ends before the simulation: robots stay at their starts."""
+               t_start: float, status: Status = Status.approximate) -> dict[str, Any]:
+        """The answer when the run ends before the simulation: robots stay at their starts."""
         paths = {i: problem.robot(i).start[None, :].copy() for i in ids}
         extras: dict[str, Any] = {"global_status": gres.status.value if gres else "none"}
         if gres is not None:
@@ -778,9 +809,16 @@ class Hybrid(Backend):
             if lp is not None:
                 extras["global_path"] = np.asarray(lp)
                 extras["inflection_points"] = inflection_points(lp, self.angle_tol)
-        return self.finish(problem, paths, claim=status, times=np.zeros(1), message=msg,
-                           n_eval=gres.n_eval if gres else 0, extras=extras,
-                           wall_time=time.perf_counter() - t_start)
+        return dict(paths=paths, claim=status, times=np.zeros(1), message=msg,
+                    n_eval=gres.n_eval if gres else 0, extras=extras,
+                    wall_time=time.perf_counter() - t_start)
+
+
+#: History columns that are lengths (mapped back from the canonical frame).
+_LENGTH_COLUMNS = ("best_cost", "dist_to_goal")
+#: Extras whose values are points or lengths (mapped back from the canonical frame).
+_LENGTH_EXTRAS = ("global_path", "inflection_points", "subgoals", "global_paths",
+                  "subgoal_sequences", "global_length", "leader_field")
 
 
 def _field_summary(ctrl: LocalController) -> dict:

@@ -56,6 +56,7 @@ from optplan.backends.apf import (
     PotentialFieldBackend,
     evaluate_field,
 )
+from optplan.canonical import format_point
 from optplan.interfaces import LocalPlanner
 from optplan.options import option
 from optplan.problem import Problem, Robot
@@ -197,13 +198,13 @@ class SAAPFController(APFController):
                 self.target = None  # something (a moving obstacle) is in the way
         if self.escape_steps >= self.sb.sa_budget:
             self.stats["gave_up"] = (f"SA budget ({self.sb.sa_budget} proposals) exhausted near "
-                                     f"({x[0]:.2f}, {x[1]:.2f})")
+                                     f"{format_point(self.problem, x)}")
             return None
         if self.T < 1e-3 * self.T0:
             self.restarts += 1
             if self.restarts > self.sb.sa_restarts:
                 self.stats["gave_up"] = (f"no escape after {self.sb.sa_restarts} re-heats near "
-                                         f"({x[0]:.2f}, {x[1]:.2f})")
+                                         f"{format_point(self.problem, x)}")
                 return None
             self.T = self.T0
         acc = self._propose(x, t, fld)

@@ -39,8 +39,9 @@ PRESETS = ("apf-paper", "sa-apf-paper", "hybrid-paper", "hybrid-qp")
 #: the scene of each time-stepping preset in tests/test_scale_invariance.py
 REPRESENTATIVE = {"apf-paper": "trap-saddle", "sa-apf-paper": "trap-u",
                   "hybrid-paper": "paper-hybrid", "hybrid-qp": "paper-hybrid"}
-#: (preset, scene) pairs of the slow grid that do not scale within 1 % (chaotic runs; the
-#: docs show them beside the representative scenes)
+#: (preset, scene) pairs whose simulated-annealing walks are chaotic: before the hybrid planned
+#: in the canonical frame (optplan.canonical) their lengths parted between the scales; the docs
+#: show them beside the representative scenes
 CHAOTIC = (("hybrid-paper", "paper-env1"), ("hybrid-paper", "warehouse-grid"),
            ("hybrid-paper", "office-floor"))
 SCALES = (0.01, 1.0, 100.0)
