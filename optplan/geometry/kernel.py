@@ -173,14 +173,54 @@ def _near_item(ax, ay, dx, dy, k, IC, IR, lim):
 
 
 @_jit
-def _candidates(ax, ay, dx, dy, n_items, IC, IR, lim, use_grid, gh, gx0, gy0, gnx, gny,
-                gstart, gcount, gitems, stamp, sid, out):
+def _item_boxes(K, P, IC, CR, lim):
+    """Axis-aligned box of every item grown by ``lim``, rows ``x_lo, x_hi, y_lo, y_hi`` of a
+    ``(4, n_items)`` array: a piece's vertices, a circle's centre +- radius."""
+    n_items = IC.shape[0]
+    bb = np.empty((4, n_items))
+    for k in range(n_items):
+        if k < K:
+            bb[0, k] = min(P[k, 0, 0], P[k, 1, 0], P[k, 2, 0], P[k, 3, 0]) - lim
+            bb[1, k] = max(P[k, 0, 0], P[k, 1, 0], P[k, 2, 0], P[k, 3, 0]) + lim
+            bb[2, k] = min(P[k, 0, 1], P[k, 1, 1], P[k, 2, 1], P[k, 3, 1]) - lim
+            bb[3, k] = max(P[k, 0, 1], P[k, 1, 1], P[k, 2, 1], P[k, 3, 1]) + lim
+        else:
+            R = CR[k - K] + lim
+            bb[0, k] = IC[k, 0] - R
+            bb[1, k] = IC[k, 0] + R
+            bb[2, k] = IC[k, 1] - R
+            bb[3, k] = IC[k, 1] + R
+    return bb
+
+
+@_jit_inline
+def _box_mask(ax, ay, dx, dy, BB, mask):
+    """``mask[k]``: the box ``BB[:, k]`` meets the segment's box (one branch-free pass over
+    the items, which the compiler vectorises)."""
+    bx = ax + dx
+    by = ay + dy
+    lx = min(ax, bx)
+    hx = max(ax, bx)
+    ly = min(ay, by)
+    hy = max(ay, by)
+    for k in range(BB.shape[1]):
+        mask[k] = (BB[0, k] <= hx) & (BB[1, k] >= lx) & (BB[2, k] <= hy) & (BB[3, k] >= ly)
+
+
+@_jit
+def _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx0, gy0, gnx,
+                gny, gstart, gcount, gitems, stamp, sid, out):
     """Items whose bounding circle is within ``lim`` of the segment, written to ``out``
-    (de-duplicated with ``stamp``); returns their number."""
+    (de-duplicated with ``stamp``; with a grid every listed item is stamped ``sid``); returns
+    their number.  Without a grid, the items' boxes grown by ``lim`` (``BB``,
+    :func:`_item_boxes`) are first compared with the segment's box in one branch-free pass
+    (into ``mask``): an item outside it is farther than ``lim`` from the segment, so neither
+    a collision nor a penetration is lost."""
     m = 0
     if not use_grid:
+        _box_mask(ax, ay, dx, dy, BB, mask)
         for k in range(n_items):
-            if _near_item(ax, ay, dx, dy, k, IC, IR, lim):
+            if mask[k] and _near_item(ax, ay, dx, dy, k, IC, IR, lim):
                 out[m] = k
                 m += 1
         return m
@@ -245,14 +285,16 @@ def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_p
     o_pen = np.zeros(n_obs)
     touched = np.empty(n_items, np.int64)
     lim = r + 2.0 * eps
+    BB = _item_boxes(K, P, IC, CR, lim)
+    mask = np.empty(n_items, np.bool_)
     n_hits = 0
     for s in range(n_seg):
         ax = A[s, 0]
         ay = A[s, 1]
         dx = D[s, 0]
         dy = D[s, 1]
-        m = _candidates(ax, ay, dx, dy, n_items, IC, IR, lim, use_grid, gh, gx0, gy0, gnx,
-                        gny, gstart, gcount, gitems, stamp, s, cand)
+        m = _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx0,
+                        gy0, gnx, gny, gstart, gcount, gitems, stamp, s, cand)
         nt = 0
         for q in range(m):
             k = cand[q]
@@ -289,27 +331,6 @@ def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_p
 
 
 @_jit
-def _item_boxes(K, P, IC, CR, lim):
-    """Axis-aligned box of every item grown by ``lim``, rows ``(x_lo, x_hi, y_lo, y_hi)``:
-    a piece's vertices, a circle's centre +- radius."""
-    n_items = IC.shape[0]
-    bb = np.empty((n_items, 4))
-    for k in range(n_items):
-        if k < K:
-            bb[k, 0] = min(P[k, 0, 0], P[k, 1, 0], P[k, 2, 0], P[k, 3, 0]) - lim
-            bb[k, 1] = max(P[k, 0, 0], P[k, 1, 0], P[k, 2, 0], P[k, 3, 0]) + lim
-            bb[k, 2] = min(P[k, 0, 1], P[k, 1, 1], P[k, 2, 1], P[k, 3, 1]) - lim
-            bb[k, 3] = max(P[k, 0, 1], P[k, 1, 1], P[k, 2, 1], P[k, 3, 1]) + lim
-        else:
-            R = CR[k - K] + lim
-            bb[k, 0] = IC[k, 0] - R
-            bb[k, 1] = IC[k, 0] + R
-            bb[k, 2] = IC[k, 1] - R
-            bb[k, 3] = IC[k, 1] + R
-    return bb
-
-
-@_jit
 def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_grid, gh, gx0,
                gy0, gnx, gny, gstart, gcount, gitems):
     """Collision-free flags of the segments ``L[I[q]] -> L[J[q]]`` (local points): the
@@ -332,6 +353,7 @@ def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_g
     n_items = IC.shape[0]
     lim = r + 2.0 * eps
     bb = _item_boxes(K, P, IC, CR, lim)
+    mask = np.empty(n_items, np.bool_)  # scratch of _candidates
     stamp = np.full(n_items, -1, np.int64)
     cand = np.arange(n_items)
     o_stamp = np.full(n_obs, -1, np.int64)
@@ -351,8 +373,8 @@ def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_g
         y1 = max(ay, by)
         m = n_items
         if use_grid:
-            m = _candidates(ax, ay, dx, dy, n_items, IC, IR, lim, use_grid, gh, gx0, gy0, gnx,
-                            gny, gstart, gcount, gitems, stamp, q, cand)
+            m = _candidates(ax, ay, dx, dy, n_items, IC, IR, bb, mask, lim, use_grid, gh, gx0,
+                            gy0, gnx, gny, gstart, gcount, gitems, stamp, q, cand)
         nt = 0
         hit = False
         for c in range(-1, m):
@@ -364,7 +386,7 @@ def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_g
                 k = cand[c]
                 if k == last:
                     continue
-            if bb[k, 0] > x1 or bb[k, 1] < x0 or bb[k, 2] > y1 or bb[k, 3] < y0:
+            if bb[0, k] > x1 or bb[1, k] < x0 or bb[2, k] > y1 or bb[3, k] < y0:
                 continue
             if not _near_item(ax, ay, dx, dy, k, IC, IR, lim):
                 continue
