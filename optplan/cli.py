@@ -332,7 +332,11 @@ def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
     problems = _expand_scen(problems, args)
     solvers = _split_list(args.solvers)
     if not solvers:
-        raise CLIError("bench needs --solvers x,y")
+        raise CLIError("bench needs --solvers x,y (or --solvers all)")
+    if solvers == ["all"]:
+        from optplan.solver import list_solvers
+
+        solvers = list_solvers()
     if args.scheduler and args.dask_local is not None:
         raise CLIError("give --scheduler ADDRESS or --dask-local N, not both")
     if (args.scheduler or args.dask_local is not None) and args.workers != 1:
@@ -727,7 +731,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--radius", type=float, default=None, metavar="R",
                    help="robot radius of the problems read from .scen files (map units; "
                         "default 0: point robots)")
-    s.add_argument("--solvers", help="comma-separated solver names")
+    s.add_argument("--solvers", help="comma-separated solver names, or 'all' (every preset)")
     s.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
     s.add_argument("--workers", type=int, default=1, help="processes (default 1: inline)")
     s.add_argument("--out", default="runs/bench", help="output directory (default runs/bench)")

@@ -176,6 +176,23 @@ def test_bench_generic(capsys, tmp_path):
     assert "| open-field | visgraph | 3 |" in md and "seeds 0..2" in md
 
 
+def test_bench_solvers_all_runs_every_preset(capsys, tmp_path, monkeypatch):
+    import optplan.bench
+
+    seen = {}
+
+    def fake_grid(problems, solvers, seeds, **kw):
+        seen["solvers"] = list(solvers)
+        return []
+
+    monkeypatch.setattr(optplan.bench, "run_grid", fake_grid)
+    run(capsys, "bench", "--problems", "open-field", "--solvers", "all", "--seeds", "1",
+        "--quiet", "--out", str(tmp_path / "b"))
+    from optplan import list_solvers
+
+    assert seen["solvers"] == list_solvers()
+
+
 def test_bench_tag_without_experiment_uses_tagged_problems(capsys, tmp_path):
     rc, out, err = run(capsys, "bench", "--tag", "basic", "--solvers", "visgraph", "--seeds",
                        "1", "--quiet", "--out", str(tmp_path / "b"))
