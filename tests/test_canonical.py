@@ -74,7 +74,14 @@ def test_hybrid_reports_in_world_units() -> None:
     """Paths, history, extras and callbacks of a hybrid run on a metre-scale scene are in metres."""
     p = op.load_problem("warehouse-team")
     seen: list[float] = []
-    res = op.solve(p, "hybrid-paper", rng=0, callback=lambda pr: seen.append(pr.best_cost))
+    found: list[float] = []
+
+    def cb(pr: op.Progress) -> None:
+        seen.append(pr.best_cost)
+        if "feasible_best_length" in pr.info:
+            found.append(pr.info["feasible_best_length"])
+
+    res = op.solve(p, "hybrid-paper", rng=0, callback=cb)
     assert res.status in (op.Status.solved, op.Status.optimal)
     lead = p.leader
     path = res.paths[lead.id]
@@ -90,6 +97,8 @@ def test_hybrid_reports_in_world_units() -> None:
     d_goal = np.hypot(*(path - lead.goal).T)
     assert np.allclose(res.history["dist_to_goal"], d_goal, rtol=1e-9, atol=1e-9 * p.frame.length)
     assert seen and seen[-1] == pytest.approx(d_goal[-1], rel=1e-6, abs=1e-6)
+    # the global stage's best collision-free length, in metres like the global path
+    assert np.nanmin(found) == pytest.approx(res.extras["global_length"], rel=1e-3)
     assert res.cost == pytest.approx(res.metrics["lengths"][lead.id], rel=1e-9)
 
 

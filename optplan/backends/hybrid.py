@@ -335,8 +335,9 @@ class _StageCallback:
         self.unit = unit  # world length of a canonical unit (best_cost is a length)
 
     def __call__(self, p: Progress) -> None:
+        info = {k: v * self.unit if k in _LENGTH_INFO else v for k, v in p.info.items()}
         q = Progress(p.iteration + self.offset, p.best_cost * self.unit, p.n_eval, p.elapsed,
-                     p.info, p.sim_time)
+                     info, p.sim_time)
         if notify(self.callback, q):
             self.stopped = True
             raise StopIteration
@@ -814,6 +815,8 @@ class Hybrid(Backend):
                     wall_time=time.perf_counter() - t_start)
 
 
+#: Progress.info entries of the stages that are lengths (mapped back from the canonical frame).
+_LENGTH_INFO = ("feasible_best_length",)
 #: History columns that are lengths (mapped back from the canonical frame).
 _LENGTH_COLUMNS = ("best_cost", "dist_to_goal")
 #: Extras whose values are points or lengths (mapped back from the canonical frame).
