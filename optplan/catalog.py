@@ -203,3 +203,29 @@ def paper_table(preset: str) -> str:
         rows.append(f"| `{k}` | `{v!r}` | {pv if isinstance(pv, str) else f'`{pv!r}`'} | "
                     f"{same} | {note} |")
     return "\n".join(rows)
+
+
+def options_table(presets: list[str]) -> str:
+    """Markdown table of the options of one or more presets: the union of their options, each
+    with its meaning (from the backend's docstring), allowed values and every preset's value
+    (``-`` when the preset's backend has no such option).  Generated, so it cannot go stale.
+    """
+    from optplan.options import describe_options
+    from optplan.solver import get_solver
+
+    solvers = [get_solver(p) for p in presets]
+    rows: dict[str, dict] = {}
+    for solver in solvers:
+        for r in describe_options(type(solver)):
+            rows.setdefault(r["name"], r)
+
+    def cell(text: str) -> str:
+        return " ".join(str(text).split()).replace("|", "\\|").replace("``", "`")
+
+    head = "| option | meaning | allowed | " + " | ".join(f"`{p}`" for p in presets) + " |"
+    out = [head, "|---|---|---|" + "---|" * len(presets)]
+    for name, r in rows.items():
+        vals = [f"`{getattr(s, name)!r}`" if hasattr(s, name) else "-" for s in solvers]
+        out.append(f"| `{name}` | {cell(r['meaning'])} | {cell(r['allowed'])} | "
+                   + " | ".join(vals) + " |")
+    return "\n".join(out)

@@ -107,3 +107,37 @@ def test_show_solver_prints_every_option(name: str, capsys) -> None:
 def test_show_solver_unknown_name(capsys) -> None:
     assert main(["show-solver", "no-such-solver"]) == 2
     assert "unknown solver 'no-such-solver'" in capsys.readouterr().err
+
+
+def test_generated_options_table_lists_every_option_with_each_presets_value() -> None:
+    """docs: ``<!-- options-table: A B -->`` (the APF page) is this table, built from the
+    declared options, so a changed default or range shows up in the docs."""
+    import importlib.util
+    from pathlib import Path
+
+    from optplan.catalog import options_table
+    from optplan.solver import get_solver
+
+    presets = ["apf-paper", "sa-apf-paper"]
+    table = options_table(presets)
+    lines = table.splitlines()
+    assert lines[0] == "| option | meaning | allowed | `apf-paper` | `sa-apf-paper` |"
+    solvers = [get_solver(p) for p in presets]
+    names = {n for s in solvers for n in s.options()}
+    rows = {ln.split("|")[1].strip().strip("`"): ln for ln in lines[2:]}
+    assert set(rows) == names
+    for name, ln in rows.items():
+        cells = [c.strip() for c in ln.split("|")[1:-1]]
+        assert len(cells) == 5, ln
+        for s, c in zip(solvers, cells[3:], strict=True):
+            assert c == (f"`{getattr(s, name)!r}`" if name in s.options() else "-")
+    assert "(x length_scale)" in rows["rho_0"] and "eq 4" in rows["k"]
+    assert rows["n"].endswith("| - | `3.0` |")  # an option of sa-apf only
+    spec = importlib.util.spec_from_file_location(
+        "paper_tables", Path(__file__).parents[1] / "docs" / "hooks" / "paper_tables.py")
+    hook = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hook)
+    page = ("a\n\n<!-- options-table: apf-paper sa-apf-paper -->\n\n"
+            "<!-- paper-table: apf-paper -->\n")
+    out = hook.on_page_markdown(page)
+    assert table in out and "<!--" not in out and "| option | `apf-paper` | paper |" in out
