@@ -1129,14 +1129,15 @@ def _tested_edges(space: SwarmSpace, nodes: np.ndarray, corner: np.ndarray, k: i
     tree = cKDTree(nodes)
     nb = tree.query(nodes, k=k + 1)[1][:, 1:]
     nb2 = tree.query(nodes[:2], k=min(2 * k, n - 1) + 1)[1][:, 1:]
-    M, bi, bj = _base_edges(nodes, nb.astype(np.int64), nb2.astype(np.int64), YAO_SECTORS)
+    bi, bj = _base_edges(nodes, nb.astype(np.int64), nb2.astype(np.int64), YAO_SECTORS)
     okb = pairs_free(nodes, bi, bj, space)
     bound = math.inf
     if slack is not None and math.isfinite(slack):
         U = _walk_length(nodes, bi[okb], bj[okb])
         if math.isfinite(U):
             bound = slack * U * (1.0 + 1e-9)
-    i, j, ok, todo = _corner_edges(nodes, M, corner, okb, CORNER_REACH * space.diag, bound)
+    i, j, ok, todo = _corner_edges(nodes, bi, bj, corner, okb, CORNER_REACH * space.diag,
+                                   bound)
     ok[todo] = pairs_free(nodes, i[todo], j[todo], space)
     return i, j, ok
 
@@ -1174,8 +1175,7 @@ def _base_edges(nodes, nb, nb2, sectors):
     ``nb`` (a row per node; ``nb2``: more for nodes 0 and 1, start and goal) and to its
     nearest node in each of ``sectors`` equal angular sectors (a Yao graph: connected, and it
     bridges a dense cluster and a sparse region, which the k nearest neighbours of the
-    cluster's nodes do not).  Returns the ``(n, n)`` mask of the pairs ``i < j`` and those
-    pairs in lexicographic order."""
+    cluster's nodes do not).  Returns those pairs ``i < j`` in lexicographic order."""
     n = nodes.shape[0]
     M = np.zeros((n, n), np.bool_)
     _mark_rows(M, nb)
@@ -1203,8 +1203,7 @@ def _base_edges(nodes, nb, nb2, sectors):
         for s in range(sectors):
             if arg[s] >= 0:
                 M[min(i, arg[s]), max(i, arg[s])] = True
-    bi, bj = _mask_pairs(M)
-    return M, bi, bj
+    return _mask_pairs(M)
 
 
 @_jit
@@ -1239,12 +1238,13 @@ def _mask_pairs(M):
 
 
 @_jit
-def _corner_edges(nodes, M, corner, okb, reach, bound):
-    """All candidate pairs ``a < b`` in lexicographic order: the pairs of ``M`` (the base edges,
-    collision-free flags ``okb`` in the same order) and the pairs of ``corner`` nodes at most
+def _corner_edges(nodes, bi, bj, corner, okb, reach, bound):
+    """All candidate pairs ``a < b`` in lexicographic order: the base edges ``(bi, bj)``
+    (lexicographic, collision-free flags ``okb``) and the pairs of ``corner`` nodes at most
     ``reach`` apart whose start-goal detour ``|s - a| + |a - b| + |b - g|`` (the shorter
-    orientation) is at most ``bound``.  Returns the pairs, their flags (the base flags, False
-    for a corner pair) and the mask of the corner pairs (to be tested)."""
+    orientation) is at most ``bound``, merged row by row (a pair that is both is a base edge).
+    Returns the pairs, their flags (the base flags, False for a corner pair) and the mask of
+    the corner pairs (to be tested)."""
     n = nodes.shape[0]
     ds = np.empty(n)
     dg = np.empty(n)
@@ -1252,37 +1252,47 @@ def _corner_edges(nodes, M, corner, okb, reach, bound):
         ds[v] = math.hypot(nodes[v, 0] - nodes[0, 0], nodes[v, 1] - nodes[0, 1])
         dg[v] = math.hypot(nodes[v, 0] - nodes[1, 0], nodes[v, 1] - nodes[1, 1])
     r2 = reach * reach
-    cap = okb.shape[0]
-    nc = 0
-    for a in range(n):
-        if corner[a]:
-            nc += 1
-    cap += nc * (nc - 1) // 2
+    cidx = np.flatnonzero(corner)
+    nc = cidx.shape[0]
+    nbase = bi.shape[0]
+    cap = nbase + nc * (nc - 1) // 2
     I = np.empty(cap, np.int64)
     J = np.empty(cap, np.int64)
     ok = np.zeros(cap, np.bool_)
     todo = np.zeros(cap, np.bool_)
     q = 0
-    nb = 0
+    e = 0  # next base edge
+    c0 = 0  # first corner node after a
     for a in range(n):
-        for b in range(a + 1, n):
-            if M[a, b]:
+        while c0 < nc and cidx[c0] <= a:
+            c0 += 1
+        c = c0 if corner[a] else nc
+        while True:
+            b_base = bj[e] if e < nbase and bi[e] == a else n
+            b_corn = cidx[c] if c < nc else n
+            if b_base == n and b_corn == n:
+                break
+            if b_base <= b_corn:
+                I[q] = a
+                J[q] = b_base
+                ok[q] = okb[e]
+                e += 1
+                q += 1
+                if b_corn == b_base:
+                    c += 1
+                continue
+            c += 1
+            b = b_corn
+            dx = nodes[a, 0] - nodes[b, 0]
+            dy = nodes[a, 1] - nodes[b, 1]
+            if dx * dx + dy * dy > r2:
+                continue
+            via = math.hypot(dx, dy) + min(ds[a] + dg[b], ds[b] + dg[a])
+            if via <= bound:
                 I[q] = a
                 J[q] = b
-                ok[q] = okb[nb]
-                nb += 1
+                todo[q] = True
                 q += 1
-            elif corner[a] and corner[b]:
-                dx = nodes[a, 0] - nodes[b, 0]
-                dy = nodes[a, 1] - nodes[b, 1]
-                if dx * dx + dy * dy > r2:
-                    continue
-                via = math.hypot(dx, dy) + min(ds[a] + dg[b], ds[b] + dg[a])
-                if via <= bound:
-                    I[q] = a
-                    J[q] = b
-                    todo[q] = True
-                    q += 1
     return I[:q], J[:q], ok[:q], todo[:q]
 
 
