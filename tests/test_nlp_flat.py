@@ -51,3 +51,13 @@ def test_same_pairs_reuse_the_build_and_the_result() -> None:
     rnd = a.extras["ipopt"]["r"]["rounds"][0]
     assert rnd["vertex_rows"] % 4 == 0 and rnd["vertex_rows"] >= 4 * rnd["n_pairs"]
     assert "slots" not in rnd
+
+
+def test_a_single_kept_pair_builds() -> None:
+    """One (segment, piece) pair: CasADi indexes a 1 x 1 expression with a list as a row, which
+    made the vertex rows 1 x n against n x 1 (trap-gnron failed with a dimension mismatch)."""
+    built = _build(3, (1,), (4,), (("print_level", 0),), False)
+    assert built.ng == 4 + 3  # 4 vertex rows, 2 endpoint rows, 1 norm row
+    res = op.solve("trap-gnron", "nlp-ipopt", rng=0, reference=True)
+    assert res.status is op.Status.optimal, res.message
+    assert res.metrics["ratio_to_optimum"] <= 1.0 + 1e-3

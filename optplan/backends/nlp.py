@@ -524,7 +524,10 @@ def _build(n_seg: int, seg: tuple, rows: tuple, ipopt_opts: tuple,
         own = np.repeat(np.arange(K), rows).tolist()
         s0 = [int(i) for i in seg]
         s1 = [i + 1 for i in s0]
-        gv = ax[own] * Vp[0::2] + ay[own] * Vp[1::2] - C[own]
+        def per_row(e):  # e[own] as a column: with K = 1, e is 1 x 1 and e[list] is a row
+            return ca.reshape(e[own], len(own), 1)
+
+        gv = per_row(ax) * Vp[0::2] + per_row(ay) * Vp[1::2] - per_row(C)
         Px, Py = P[:, 0], P[:, 1]
         e0 = ax * Px[s0] + ay * Py[s0] - C
         e1 = ax * Px[s1] + ay * Py[s1] - C
