@@ -94,7 +94,6 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import numba
 import numpy as np
 
-from optplan.geometry import kernel
 from optplan.geometry.homotopy import obstacle_points
 from optplan.geometry.polyline import resample_path
 from optplan.problem import Problem, Robot
@@ -462,20 +461,15 @@ def pairs_free(points: np.ndarray, i: np.ndarray, j: np.ndarray,
     """Collision-free flags of the segments ``points[i[q]] -> points[j[q]]`` with the margin
     of ``space.clear`` (no obstacles: all free).
 
-    One call of the compiled :func:`optplan.geometry.kernel.free_pairs`: the decision of
+    One call of :meth:`optplan.geometry.ObstacleSet.pairs_free` (the compiled
+    :func:`optplan.geometry.kernel.free_pairs`): the decision of
     :meth:`optplan.geometry.ObstacleSet.segment_free` (``crossings(...).count == 0``) with an
     early exit per segment; the segments are given by point indices, so a roadmap or a
     string pulling tests its vertex pairs without gathering their end points."""
-    if len(i) == 0:
-        return np.zeros(0, dtype=bool)
     test = space.clear if space.clear is not None else space.obstacles
-    if test is None or test.n_items == 0:  # no obstacles: every segment is free
+    if test is None:  # no obstacles: every segment is free
         return np.ones(len(i), dtype=bool)
-    K, P, E, N, C, CE, _, IC, IR, CR, OWN = test.arrays
-    L = np.ascontiguousarray(test.frame.local(points))
-    return kernel.free_pairs(L, np.asarray(i, np.int64), np.asarray(j, np.int64), K, P, E, N,
-                             C, CE, IC, IR, CR, OWN, test.n_obstacles, test.radius, test.eps,
-                             *test._grid_args())
+    return test.pairs_free(points, i, j)
 
 
 def shortcut(path: np.ndarray, space: SwarmSpace) -> np.ndarray:

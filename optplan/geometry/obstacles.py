@@ -31,9 +31,11 @@ Working region and frame
     it are dropped.  Inside the bounds every distance below ``r + L`` is exact.
 
 Candidate pairs and the compiled loops
-    Each item has a bounding circle.  With few items (< 48) every item's bounding circle is
-    tested against the segment; with many, a uniform grid lists items by the cells their
-    bounding square covers and each segment visits the cells it crosses (column by column), so
+    Each item has a bounding box and a bounding circle.  With few items (< 48) every item's
+    box, grown by ``r + 2 eps``, is compared with the segment's box in one branch-free pass,
+    and the bounding circles of the items that pass are tested against the segment; with
+    many, a uniform grid lists items by the cells their bounding square covers and each
+    segment visits the cells it crosses (column by column), so
     the work per segment grows with the obstacles near it.  The screens keep a margin of
     ``2 eps`` beyond the collision threshold.  The loops are compiled with numba
     (:mod:`optplan.geometry.kernel`, the only implementation; shapely is the oracle of the
@@ -318,6 +320,25 @@ class ObstacleSet:
         if len(a) == 0:
             return np.zeros(0, bool)
         return self.crossings(np.stack([a, b], axis=1), penetration=False).count == 0
+
+    def pairs_free(self, points, i, j) -> np.ndarray:
+        """Per index pair ``(i[k], j[k])`` into ``points`` (world, ``(n, 2)``): whether the
+        segment ``points[i[k]] -> points[j[k]]`` is collision-free.
+
+        The decision of :meth:`segment_free`, with an early exit per segment (the item that
+        blocked the previous segment is tried first); the segments are given by point indices,
+        so a roadmap tests its vertex pairs without gathering their end points.
+        """
+        i = np.asarray(i, np.int64)
+        j = np.asarray(j, np.int64)
+        if len(i) == 0:
+            return np.zeros(0, dtype=bool)
+        if self.n_items == 0:
+            return np.ones(len(i), dtype=bool)
+        K, P, E, N, C, CE, _, IC, IR, CR, OWN = self.arrays
+        L = np.ascontiguousarray(self.frame.local(points))
+        return kernel.free_pairs(L, i, j, K, P, E, N, C, CE, IC, IR, CR, OWN, self.n_obstacles,
+                                 self.radius, self.eps, *self._grid_args())
 
     def clearance(self, paths, max_dist: float = math.inf) -> np.ndarray:
         """Per path, the exact minimum distance to any obstacle minus the radius ``r``.
