@@ -12,7 +12,7 @@ from optplan.problem import Problem, ProblemError, parse_problem, read_problem
 from optplan.result import History, Progress, Result, ResultFileError, Status
 from optplan.solver import Backend, get_solver, list_backends, list_solvers, register, solve
 
-__version__ = "0.3.0"
+__version__ = "0.4.0"
 
 __all__ = [
     "Backend",
