@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from optplan.problem import Problem, transform_problem
+from optplan.problem import Problem, round_decimals, transform_problem
 
 __all__ = ["DIGITS", "canonical_problem", "to_canonical", "to_world", "format_point"]
 
@@ -73,7 +73,7 @@ def to_canonical(image: Problem, points: Any) -> np.ndarray:
     divided by its unit and rounded like the image itself."""
     d = image.memo(("decimals",), lambda: None)
     x = np.asarray(points, dtype=float) / image.world_unit
-    return x if d is None else np.rint(x * 10.0 ** d) / 10.0 ** d
+    return x if d is None else round_decimals(x, d)
 
 
 def to_world(x: Any, unit: float) -> Any:

@@ -1145,6 +1145,13 @@ def problem_to_dict(problem: Problem) -> dict[str, Any]:
     return out
 
 
+def round_decimals(x, decimals: int) -> np.ndarray:
+    """``x`` rounded to ``decimals`` decimal places: ``rint(x * 10**d) / 10**d``, so a value
+    written with at most ``d`` decimals maps to itself exactly (the canonical frame)."""
+    ten = 10.0 ** int(decimals)
+    return np.rint(np.asarray(x, dtype=float) * ten) / ten
+
+
 def transform_problem(problem: Problem, scale: float = 1.0, shift=(0.0, 0.0), *,
                       decimals: int | None = None) -> Problem:
     """``problem`` with every length scaled by ``scale`` about the origin, then shifted.
@@ -1161,10 +1168,8 @@ def transform_problem(problem: Problem, scale: float = 1.0, shift=(0.0, 0.0), *,
     if not (s > 0 and math.isfinite(s)):
         raise ValueError(f"scale must be a finite number > 0, got {scale!r}")
     off = np.asarray(shift, dtype=float).reshape(2)
-    ten = None if decimals is None else 10.0 ** int(decimals)
-
-    def rnd(x):  # x * 10**d rounded, / 10**d: a d-decimal literal maps to itself exactly
-        return x if ten is None else np.rint(np.asarray(x, dtype=float) * ten) / ten
+    def rnd(x):
+        return x if decimals is None else round_decimals(x, decimals)
 
     def length(v):
         return None if v is None else float(rnd(v * s))
