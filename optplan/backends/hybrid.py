@@ -660,12 +660,8 @@ class Hybrid(Backend):
             hist = History({k: (to_world(hist[k].tolist(), u) if k in _LENGTH_COLUMNS
                                 else hist[k].tolist()) for k in hist.keys()})
         extras = answer.pop("extras")
-        extras = {k: to_world(v, u) if k in _LENGTH_EXTRAS else v for k, v in extras.items()}
-        if "global_metrics" in extras:
-            extras["global_metrics"] = {k: to_world(v, u) if k in ("length", "min_clearance")
-                                        else v for k, v in extras["global_metrics"].items()}
-        if "max_slack" in extras.get("formation_stats", {}):
-            extras["formation_stats"]["max_slack"] *= u
+        extras = {k: _extra_to_world(v, _LENGTH_EXTRAS[k], u) if k in _LENGTH_EXTRAS else v
+                  for k, v in extras.items()}
         extras["canonical_unit"] = u
         return self.finish(world, paths, cost=answer.pop("cost", float("nan")) * u,
                            history=hist, extras=extras, **answer)
@@ -820,8 +816,18 @@ _LENGTH_INFO = ("feasible_best_length",)
 #: History columns that are lengths (mapped back from the canonical frame).
 _LENGTH_COLUMNS = ("best_cost", "dist_to_goal")
 #: Extras whose values are points or lengths (mapped back from the canonical frame).
-_LENGTH_EXTRAS = ("global_path", "inflection_points", "subgoals", "global_paths",
-                  "subgoal_sequences", "global_length", "leader_field")
+#: ``None``: the whole value; a tuple: those keys of a dict value.
+_LENGTH_EXTRAS: dict[str, tuple[str, ...] | None] = {
+    "global_path": None, "inflection_points": None, "subgoals": None, "global_paths": None,
+    "subgoal_sequences": None, "global_length": None, "leader_field": None,
+    "global_metrics": ("length", "min_clearance"), "formation_stats": ("max_slack",)}
+
+
+def _extra_to_world(value: Any, keys: tuple[str, ...] | None, unit: float) -> Any:
+    """An extras value of the canonical run in world units (``keys``: :data:`_LENGTH_EXTRAS`)."""
+    if keys is None:
+        return to_world(value, unit)
+    return {k: to_world(v, unit) if k in keys else v for k, v in value.items()}
 
 
 def _field_summary(ctrl: LocalController) -> dict:
