@@ -18,8 +18,12 @@ a robot of radius 0.5 from x = 5 to x = 195 at height ``100 + y0``: the NLP's le
 the tangent-arc optimum and its exact clearance (``ObstacleSet.clearance``, in units of the
 validator's tolerance ``eps``), for N = 20 and N = 100 segments.
 
-Run: ``python benchmarks/bench_nlp.py [--seeds 15] [--reps 5]``.  Timings are wall-clock
-medians on a shared machine; the printed header says how many cores it has and its load.
+Table 4 (``optimal`` means one thing, issue 23): ``nlp-ipopt`` from the visgraph path on
+every single-robot catalogue scene: status, the gap to the certified optimum and whether it
+is within ``OPTIMAL_REL_TOL`` (``optplan.result``).  ``--catalogue`` prints only this table.
+
+Run: ``python benchmarks/bench_nlp.py [--seeds 15] [--reps 5] [--catalogue]``.  Timings are
+wall-clock medians on a shared machine; the printed header says how many cores it has and its load.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ import time
 import optplan as op
 from optplan.geometry.tangent_graph import problem_shortest_path
 from optplan.problem import transform_problem
+from optplan.result import OPTIMAL_REL_TOL
 
 TARGET_MS = 250.0
 
@@ -125,12 +130,33 @@ def disc_table(offsets=(0.0, 20.0, 28.0, 29.5), segments=(20, 100)) -> str:
     return "\n".join(lines)
 
 
+def catalogue_table() -> str:
+    lines = [f"| problem | status | L* exact | L NLP | NLP / L* - 1 | <= OPTIMAL_REL_TOL "
+             f"({OPTIMAL_REL_TOL:g}) |", "|---|---|---:|---:|---:|:-:|"]
+    for name in op.list_problems():
+        prob = op.load_problem(name)
+        if len(prob.planned_robots) != 1:
+            continue
+        r = op.solve(prob, "nlp-ipopt", reference=True)
+        opt = r.metrics.get("optimum")
+        if opt is None:
+            continue
+        gap = r.metrics["length"] / opt - 1
+        lines.append(f"| {name} | {r.status.value} | {opt:.6f} | {r.metrics['length']:.6f} "
+                     f"| {gap:.2e} | {'yes' if gap <= OPTIMAL_REL_TOL else 'no'} |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=15)
     ap.add_argument("--reps", type=int, default=5)
     ap.add_argument("--problem", default="paper-env1")
+    ap.add_argument("--catalogue", action="store_true", help="print only table 4")
     args = ap.parse_args(argv)
+    if args.catalogue:
+        print(catalogue_table())
+        return 0
     heuristics = [h for h in ("ipso-paper", "ipso") if h in op.list_solvers()] or ["ipso"]
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"Machine: {platform.machine()}, {os.cpu_count()} cores, load average {load:.1f} "
@@ -143,6 +169,8 @@ def main(argv: list[str] | None = None) -> int:
     print(reference_table(["paper-env1", "paper-env2", "paper-warehouse"], args.reps))
     print("\n### A circle of radius 30, robot radius 0.5 (native disc constraint)\n")
     print(disc_table())
+    print("\n### nlp-ipopt on the catalogue: the gap to the certified optimum\n")
+    print(catalogue_table())
     return 0
 
 

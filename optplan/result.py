@@ -13,10 +13,57 @@ from typing import Any
 import numpy as np
 
 __all__ = ["Status", "Result", "History", "Progress", "notify", "ResultFileError",
-           "SCHEMA_VERSION"]
+           "SCHEMA_VERSION", "OPTIMAL_REL_TOL", "optimum_gap", "confirms_optimum"]
 
 #: Version of the Result JSON layout written by :meth:`Result.save`.
 SCHEMA_VERSION = 1
+
+#: The one tolerance of ``optimal``: a path is confirmed optimal when its length is at most
+#: ``optimum * (1 + OPTIMAL_REL_TOL)``, the optimum being the certified one of
+#: :mod:`optplan.geometry.tangent_graph`.  1e-9 is round-off: the NLP reaches it (gaps
+#: <= 1e-12) wherever its polyline can represent the optimum (docs/api.md, "Status").
+OPTIMAL_REL_TOL = 1e-9
+
+
+def optimum_gap(length: float, optimum: float) -> float:
+    """Relative excess ``length / optimum - 1`` of a path over the certified optimum.
+
+    Parameters
+    ----------
+    length, optimum : float
+        Path length and certified optimum (map units).
+
+    Returns
+    -------
+    float
+        The gap (0 for two zero lengths, ``inf`` for a positive length over a zero optimum).
+    """
+    if optimum > 0:
+        return float(length) / float(optimum) - 1.0
+    return 0.0 if length <= 0 else math.inf
+
+
+def confirms_optimum(length: float, optimum: float | None,
+                     rel_tol: float = OPTIMAL_REL_TOL) -> bool:
+    """True when the certified ``optimum`` confirms ``length`` (``optimal``'s one test).
+
+    Parameters
+    ----------
+    length : float
+        Length of the path whose claim is checked (map units).
+    optimum : float or None
+        The certified optimum of the same robot on the same map (``None``: there is none).
+    rel_tol : float
+        Relative tolerance, default :data:`OPTIMAL_REL_TOL`.
+
+    Returns
+    -------
+    bool
+        ``length <= optimum * (1 + rel_tol)`` for a finite optimum, else False.
+    """
+    if optimum is None or not math.isfinite(optimum) or not math.isfinite(length):
+        return False
+    return float(length) <= float(optimum) * (1.0 + rel_tol)
 
 
 class ResultFileError(ValueError):
@@ -26,7 +73,8 @@ class ResultFileError(ValueError):
 class Status(enum.StrEnum):
     """Outcome of a solve.
 
-    ``optimal``: certified by an exact method *and* accepted by the validator.
+    ``optimal``: certified globally optimal: the certified optimum (the exact tangent graph)
+    confirms the path's length within :data:`OPTIMAL_REL_TOL`, *and* the validator accepts it.
     ``solved``: feasible (validator) but not certified.
     ``approximate``: something was returned, but it is infeasible or does not reach the goal.
     ``infeasible``: proven infeasible.  ``failed``: nothing usable (e.g. a collision in a

@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.result import History, Progress, Result, Status, _jsonable
+from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.result import OPTIMAL_REL_TOL, History, Progress, Result, Status, _jsonable
 
 #: backend -> (catalogue scene, options that make the contract runs fast)
 CASES: dict[str, tuple[str, dict[str, Any]]] = {
@@ -33,6 +34,10 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
     "formation-qp": ("formation-open-field", {"path_solver": "visgraph", "max_steps": 150,
                                               "dt": 1.0, "gamma": 1.0}),
 }
+
+#: A small scene whose optimum bends around obstacles (arcs): the second run of the
+#: ``optimal`` contract for backends that certify (on ``open-field`` the optimum is a segment).
+BENT_SCENE = "trap-u"
 
 
 def _solvers() -> list[str]:
@@ -131,6 +136,31 @@ def test_status_and_success_consistent(name: str) -> None:
     if r.status is Status.optimal:
         assert cls.certifies, "only exact backends may claim 'optimal'"
     assert str(r.status) == r.status.value
+
+
+def _check_optimal_claim(prob: op.Problem, r: Result) -> None:
+    """``optimal`` means one thing (docs/api.md, "Status"): the certified optimum of the map
+    the solver planned on exists and confirms the length within OPTIMAL_REL_TOL, and the
+    validator accepts the paths."""
+    if r.status is not Status.optimal:
+        return
+    known_only = not r.options.get("see_temporary", False)
+    ref = problem_shortest_path(prob, prob.leader, known_only)
+    assert ref.polyline is not None and ref.info.get("certified"), r.message
+    length = r.metrics.get("length_exact", r.metrics["length"])  # visgraph: its exact arcs
+    assert length <= ref.length * (1 + OPTIMAL_REL_TOL), (length / ref.length - 1, r.message)
+    m = op.evaluate(prob, r.paths, r.times)
+    assert m["feasible"] and m["reached"], r.message
+
+
+def test_optimal_is_confirmed_by_the_certified_optimum(name: str) -> None:
+    prob, ov, cls = setup(name)
+    _check_optimal_claim(prob, runs(name)["first"])
+    if cls.certifies:  # an exact backend also on a scene whose optimum has arcs
+        bent = op.load_problem(BENT_SCENE)
+        r = op.solve(bent, name, rng=0, **ov)
+        assert r.status in (Status.optimal, Status.solved), r.message
+        _check_optimal_claim(bent, r)
 
 
 def test_metrics_come_from_the_validator(name: str) -> None:

@@ -25,6 +25,7 @@ from optplan.geometry.homotopy import obstacle_points, same_homotopy, winding_nu
 from optplan.geometry.polyline import resample_path
 from optplan.geometry.tangent_graph import problem_shortest_path
 from optplan.problem import transform_problem
+from optplan.result import OPTIMAL_REL_TOL
 
 
 def _scene(obstacles: list[dict], start=(5.0, 50.0), goal=(95.0, 50.0), radius=2.0,
@@ -183,6 +184,20 @@ def test_spacing_regulariser_formula() -> None:
 # -- the backend -----------------------------------------------------------------------
 
 
+def _graded(res: op.Result, optimum: float) -> float:
+    """The one meaning of ``optimal``: a KKT point is ``optimal`` exactly when the certified
+    optimum confirms its length within OPTIMAL_REL_TOL, else ``solved`` and "locally optimal"
+    with the gap.  Returns the gap."""
+    gap = res.metrics["length"] / optimum - 1
+    assert res.success, res.message
+    if gap <= OPTIMAL_REL_TOL:
+        assert res.status is op.Status.optimal, res.message
+    else:
+        assert res.status is op.Status.solved, res.message
+        assert "locally optimal (KKT)" in res.message and "% above the certified" in res.message
+    return gap
+
+
 @pytest.mark.parametrize("init_from", ["visgraph", "straight"])
 def test_open_field_is_the_straight_line(init_from: str) -> None:
     prob = op.load_problem("open-field")
@@ -197,9 +212,8 @@ def test_box_matches_the_exact_optimum() -> None:
     prob = _scene([BOX])
     vg = op.solve(prob, "visgraph")
     res = op.solve(prob, "nlp-ipopt")
-    assert res.status is op.Status.optimal, res.message
     assert res.metrics["collisions"] == 0
-    gap = res.metrics["length"] / vg.metrics["length_exact"] - 1
+    gap = _graded(res, vg.metrics["length_exact"])
     assert 0.0 <= gap < 1e-3
     assert res.metrics["min_clearance"] >= 0.0
     assert "clearance_mode" not in res.options
@@ -209,7 +223,6 @@ def test_disc_handled_natively_against_the_analytic_optimum() -> None:
     """Around a disc of radius R (clearance r) the optimum is two tangents plus an arc."""
     prob = _scene([DISC], start=(5.0, 48.0), goal=(95.0, 48.0), radius=2.0)
     res = op.solve(prob, "nlp-ipopt", init_from="visgraph", n_segments=40)
-    assert res.status is op.Status.optimal, res.message
     R, d = 12.0, 45.0
     t = math.sqrt(d * d - R * R)
     arc = R * (math.pi - 2 * math.acos(R / d))
@@ -218,6 +231,7 @@ def test_disc_handled_natively_against_the_analytic_optimum() -> None:
                                                                                rel=1e-12)
     L = res.metrics["length"]
     assert exact <= L <= exact * (1 + 5e-4)
+    _graded(res, exact)
     assert res.metrics["min_clearance"] >= 0.0
 
 
@@ -230,7 +244,7 @@ def test_circle_exact_clearance_and_the_tangent_arc_optimum() -> None:
     rob = prob.robots[0]
     assert prob.obstacles[0].is_circle
     res = op.solve(prob, "nlp-ipopt")
-    assert res.status is op.Status.optimal, res.message
+    _graded(res, problem_shortest_path(prob, rob).length)
     path = res.paths["r"]
     eps = prob.frame.eps
     clear = prob.obstacle_set(rob.radius).clearance(path[None])[0]
@@ -251,7 +265,7 @@ def test_translation_to_utm_coordinates_changes_nothing() -> None:
     far = _shifted(base, (5e5, 5e6))
     a = op.solve(base, "nlp-ipopt")
     b = op.solve(far, "nlp-ipopt")
-    assert b.status is a.status is op.Status.optimal, b.message
+    assert b.status is a.status and a.success, b.message
     assert b.n_iter == a.n_iter
     assert b.metrics["collisions"] == 0
     assert b.metrics["length"] == pytest.approx(a.metrics["length"], rel=1e-6)
@@ -350,9 +364,8 @@ def test_visgraph_warm_start_on_paper_maps(name: str) -> None:
     vg = op.solve(prob, "visgraph", see_temporary=True)
     res = op.solve(prob, "nlp-ipopt", see_temporary=True)
     assert vg.status is op.Status.optimal
-    assert res.status is op.Status.optimal, res.message
     assert res.metrics["collisions"] == 0
-    assert 0.0 <= res.metrics["length"] / vg.metrics["length_exact"] - 1 < 1e-3
+    assert 0.0 <= _graded(res, vg.metrics["length_exact"]) < 1e-3
 
 
 # -- validate --------------------------------------------------------------------------
