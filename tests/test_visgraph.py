@@ -10,8 +10,7 @@ import math
 import numpy as np
 import pytest
 import shapely
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import dijkstra
+from oracles import plain_visibility_length, polygonal_bracket
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
@@ -29,39 +28,6 @@ def circle(cx, cy, r, name="c") -> Obstacle:
 
 def polygon(geom, name="p") -> Obstacle:
     return Obstacle("polygon", orient(geom, 1.0), name=name)
-
-
-def plain_visibility_length(polys: list[Polygon], start, goal) -> float:
-    """Independent oracle for a point robot among polygons: every vertex is a node, an edge is
-    kept when its open segment does not meet any polygon's interior (shapely DE-9IM)."""
-    nodes = [tuple(start), tuple(goal)]
-    for p in polys:
-        for ring in (p.exterior, *p.interiors):
-            nodes.extend(tuple(c) for c in np.asarray(ring.coords)[:-1])
-    nodes = np.array(nodes)
-    n = len(nodes)
-    i, j = np.triu_indices(n, 1)
-    segs = shapely.linestrings(np.stack([nodes[i], nodes[j]], axis=1))
-    union = shapely.unary_union(polys)
-    shapely.prepare(union)
-    ok = ~shapely.relate_pattern(segs, union, "T********") & (shapely.length(segs) > 0)
-    i, j, w = i[ok], j[ok], shapely.length(segs)[ok]
-    g = csr_matrix((np.r_[w, w], (np.r_[i, j], np.r_[j, i])), shape=(n, n))
-    return float(dijkstra(g, indices=0)[1])
-
-
-def polygonal_bracket(polys: list[Polygon], r: float, start, goal) -> tuple[float, float]:
-    """Independent bracket of a disc robot's optimum: shapely round buffers of the polygons by
-    r (inscribed, quad_segs 16) and by r / cos(3 pi / 128) (circumscribed: GEOS may round a
-    corner's segment count so one chord spans 1.5 nominal steps), each solved by the plain
-    visibility graph."""
-
-    def grown(d):
-        u = shapely.unary_union([p.buffer(d, quad_segs=16) for p in polys])
-        return [orient(g, 1.0) for g in getattr(u, "geoms", [u])]
-
-    return (plain_visibility_length(grown(r), start, goal),
-            plain_visibility_length(grown(r / math.cos(3 * math.pi / 128)), start, goal))
 
 
 def random_polygons(rng, k: int) -> list[Polygon]:

@@ -258,7 +258,8 @@ def _build_pieces(problem: Problem, robot: Robot, known_only: bool, margin: floa
     # the pieces' own engine: local coordinates (origin 0), the map's length scale and bounds
     local = Frame(frame.local_bounds, np.zeros(2), frame.length)
     out = Pieces(frame, verts, need_a + margin + safety, need_a, np.asarray(rad, float),
-                 np.asarray(owner, np.int64), names, obstacle_set(objs, r, local))
+                 np.asarray(owner, np.int64), names,
+                 obstacle_set(objs, r, local, solids=False))
     return out
 
 

@@ -30,6 +30,12 @@ Working region and frame
     clipped to the working region (the bounds grown by ``r + L``); obstacles entirely outside
     it are dropped.  Inside the bounds every distance below ``r + L`` is exact.
 
+Solids
+    The obstacle region is the union of the obstacles (closed sets).  Polygons that touch or
+    overlap are merged into one solid before the decomposition
+    (:mod:`optplan.geometry.solids`), so a seam between two pieces is an internal diagonal,
+    never an eroded boundary: no robot, not even a point, runs along or through it.
+
 Candidate pairs and the compiled loops
     Each item has a bounding box and a bounding circle.  With few items (< 48) every item's
     box, grown by ``r + 2 eps``, is compared with the segment's box in one branch-free pass,
@@ -55,6 +61,7 @@ from shapely.geometry import Polygon
 from optplan.geometry import kernel
 from optplan.geometry.frame import Frame
 from optplan.geometry.pieces import convex_pieces
+from optplan.geometry.solids import merge_solids
 
 __all__ = ["PIECE_EDGES", "DiscCrossings", "ObstacleSet", "obstacle_set", "clip_obstacles"]
 
@@ -180,7 +187,9 @@ class ObstacleSet:
     names : tuple of str
         Names of *all* obstacles given (indices in results refer to this list).
     shapes : tuple
-        ``(obstacle index, local shape)`` of the obstacles kept (:func:`clip_obstacles`).
+        ``(obstacle index, local shape)`` of the solids kept: the obstacles clipped by
+        :func:`clip_obstacles`, touching polygons merged into one solid under the smallest
+        index of its members (:func:`optplan.geometry.solids.merge_solids`).
     n_pieces : int
         Convex pieces; items ``0 .. n_pieces - 1`` are pieces, the rest circles.
     item_obstacle, item_center, item_reach : arrays
@@ -195,6 +204,10 @@ class ObstacleSet:
         Edge on the obstacle's boundary.
     grid : dict or None
         Uniform grid of items (CSR lists), or None (all-pairs screen).
+    members : dict
+        Solid representative -> the indices of the obstacles merged into it (solids of two or
+        more obstacles only).  Results that name an obstacle index name the representative;
+        :meth:`solid_name` names the members too.
     """
 
     frame: Frame
@@ -209,7 +222,17 @@ class ObstacleSet:
     table: np.ndarray
     boundary: np.ndarray
     grid: dict | None
+    members: dict = field(default_factory=dict)
     _cache: dict = field(default_factory=dict, repr=False)
+
+    def solid_name(self, k: int) -> str:
+        """Name of obstacle ``k`` as results report it: with the obstacles merged into its
+        solid, e.g. ``"wall-a (one solid with 'wall-b', 'wall-c')"``."""
+        name = self.names[k] or f"obstacle {k}"
+        others = [self.names[j] or f"obstacle {j}" for j in self.members.get(k, ()) if j != k]
+        if not others:
+            return name
+        return f"{name} (one solid with {', '.join(repr(o) for o in others)})"
 
     @property
     def n_obstacles(self) -> int:
@@ -390,7 +413,7 @@ class ObstacleSet:
 
 
 def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
-                 grid: bool | None = None) -> ObstacleSet:
+                 grid: bool | None = None, solids: bool = True) -> ObstacleSet:
     """Build the :class:`ObstacleSet` of static ``obstacles`` for a disc of ``radius``.
 
     Parameters
@@ -402,12 +425,19 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
         The map's local frame (:attr:`optplan.problem.Problem.frame`).
     grid : bool or None
         Use the uniform-grid screen; ``None`` decides by the number of items.
+    solids : bool
+        Merge touching polygons into solids (the obstacle region, module docstring).  False
+        keeps every obstacle apart: only for distances to each of a decomposition's pieces
+        (the NLP's convex pieces), never for a collision decision.
     """
     if not (radius >= 0 and math.isfinite(radius)):
         raise ValueError(f"radius must be finite and >= 0, got {radius}")
     obstacles = list(obstacles)
     eps = frame.eps
     shapes = clip_obstacles(obstacles, frame, radius + frame.length)
+    members: dict = {}
+    if solids:
+        shapes, members = merge_solids(shapes, eps)
     pieces, owner, bflags, circles, c_owner = [], [], [], [], []
     for i, g in shapes:
         if isinstance(g, tuple):
@@ -478,4 +508,4 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
               "start": np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)}
     return ObstacleSet(frame, float(radius), tuple(getattr(o, "name", "") for o in obstacles),
                        tuple(shapes), K, item_obstacle, centers[:, 0] + 1j * centers[:, 1],
-                       reach, circ[:, 2], table, boundary, gd)
+                       reach, circ[:, 2], table, boundary, gd, members)

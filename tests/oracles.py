@@ -1,0 +1,64 @@
+"""Independent oracles of the geometry tests: shapely and scipy only, never optplan's geometry.
+
+* :func:`plain_visibility_length`: a point robot's shortest path among polygons (every vertex
+  a node, an edge kept when its open segment does not meet the interior of the union).
+* :func:`polygonal_bracket`: a disc robot's optimum bracketed by inscribed and circumscribed
+  round buffers, each solved by the plain visibility graph.
+* :func:`path_is_free`: a polyline's clearance from the union of the raw obstacles.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import shapely
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import dijkstra
+from shapely.geometry import Polygon
+from shapely.geometry.polygon import orient
+
+
+def plain_visibility_length(polys: list[Polygon], start, goal) -> float:
+    """Shortest path of a point robot among ``polys`` (their union is the obstacle region);
+    ``inf`` when the goal is not reachable."""
+    nodes = [tuple(start), tuple(goal)]
+    for p in polys:
+        for ring in (p.exterior, *p.interiors):
+            nodes.extend(tuple(c) for c in np.asarray(ring.coords)[:-1])
+    nodes = np.array(nodes)
+    n = len(nodes)
+    i, j = np.triu_indices(n, 1)
+    segs = shapely.linestrings(np.stack([nodes[i], nodes[j]], axis=1))
+    union = shapely.unary_union(polys)
+    shapely.prepare(union)
+    ok = ~shapely.relate_pattern(segs, union, "T********") & (shapely.length(segs) > 0)
+    i, j, w = i[ok], j[ok], shapely.length(segs)[ok]
+    g = csr_matrix((np.r_[w, w], (np.r_[i, j], np.r_[j, i])), shape=(n, n))
+    return float(dijkstra(g, indices=0)[1])
+
+
+def polygonal_bracket(polys: list[Polygon], r: float, start, goal) -> tuple[float, float]:
+    """Bracket of a disc robot's optimum: shapely round buffers of the polygons by r
+    (inscribed, quad_segs 16) and by r / cos(3 pi / 128) (circumscribed: GEOS may round a
+    corner's segment count so one chord spans 1.5 nominal steps), each solved by the plain
+    visibility graph."""
+
+    def grown(d):
+        u = shapely.unary_union([p.buffer(d, quad_segs=16) for p in polys])
+        return [orient(g, 1.0) for g in getattr(u, "geoms", [u])]
+
+    return (plain_visibility_length(grown(r), start, goal),
+            plain_visibility_length(grown(r / math.cos(3 * math.pi / 128)), start, goal))
+
+
+def path_is_free(path, polys: list[Polygon], r: float, tol: float) -> bool:
+    """Whether ``path`` keeps a disc of radius ``r`` clear of the union of ``polys`` up to
+    ``tol``: a point robot (``r <= tol``) must not meet the union's interior, a disc must
+    stay at distance ``>= r - tol``."""
+    union = shapely.unary_union(polys)
+    line = shapely.LineString(np.asarray(path, float))
+    if r <= tol:
+        return not bool(shapely.relate_pattern(line, union, "T********")) or \
+            float(shapely.length(shapely.intersection(line, union))) <= tol
+    return float(shapely.distance(line, union)) >= r - tol
