@@ -20,7 +20,14 @@ from typing import Any
 import numpy as np
 
 from optplan.geometry import cumulative_length, path_lengths
-from optplan.geometry.motion import positions_at, relative_contact, shape_set, track_breakpoints
+from optplan.geometry.motion import (
+    mover_track,
+    polyline_segments,
+    positions_at,
+    relative_contact,
+    relative_segments,
+    shape_set,
+)
 from optplan.problem import Problem, Robot
 
 __all__ = ["evaluate", "leader_headings", "formation_errors", "time_stamps", "time_checks"]
@@ -128,32 +135,34 @@ def _disc_set(problem: Problem, r_other: float, radius: float):
                         lambda: shape_set("circle", r_other, None, radius, problem.extent))
 
 
-def _merged(tk: np.ndarray, extra: np.ndarray, t_end: float) -> np.ndarray:
-    return np.unique(np.concatenate([tk, extra, [0.0, t_end]]))
-
-
 def time_checks(problem: Problem, paths: dict[str, np.ndarray],
                 stamps: dict[str, np.ndarray]) -> dict[str, Any]:
     """Exact continuous-time contacts with dynamic obstacles and between robots.
 
-    Every robot follows its polyline linearly between its stamps and holds its last position
-    until the last robot's last stamp (the horizon).  Per (robot, dynamic obstacle) and per robot
-    pair, the relative motion on the merged stamps is tested with the exact engine
-    (:mod:`optplan.geometry.motion`), so nothing can pass between two stamps unseen.
+    The check covers ``[min(0, first stamp), horizon]``, the horizon being the last robot's last
+    stamp.  Every robot follows its polyline linearly between its stamps, waits at its first
+    point before its first stamp and holds its last position until the horizon.  Each moving
+    obstacle follows its exact track (:func:`optplan.geometry.motion.mover_track`: ``hold``,
+    ``loop`` with its jump back to the first waypoint at each period end, ``bounce``, constant
+    velocity).  Per (robot, dynamic obstacle) and per robot pair, the relative motion on the
+    merged stamps and knots is a sequence of segments tested with the exact engine
+    (:mod:`optplan.geometry.motion`), so nothing can pass between two stamps unseen; a jump of
+    an obstacle ends one segment and starts the next (checked on both sides, never swept).
     """
     ids = list(paths)
     t_end = max(float(stamps[k][-1]) for k in ids)
+    t_lo = min(0.0, min(float(stamps[k][0]) for k in ids))
     per_dyn: dict[str, float] = {}
     contacts: list[dict] = []
     n_dyn = 0
+    tracks = [mover_track(d, t_lo, t_end) for d in problem.dynamic_obstacles]
     for k in ids:
         r = problem.robot(k).radius
         best = float("inf")
         for j, d in enumerate(problem.dynamic_obstacles):
-            T = _merged(stamps[k], track_breakpoints(d, t_end), t_end)
-            rel = positions_at(stamps[k], paths[k], T) - d.position(T)
+            rel, T = relative_segments(stamps[k], paths[k], *tracks[j], t_lo, t_end)
             oset = _shape_set(problem, j, r)
-            best = min(best, float(oset.clearance(rel[None])[0]))
+            best = min(best, float(oset.clearance(rel).min()))
             c = relative_contact(rel, T, oset)
             if c is not None:
                 n_dyn += 1
@@ -164,11 +173,12 @@ def time_checks(problem: Problem, paths: dict[str, np.ndarray],
     n_sep = 0
     min_sep = float("inf")
     for a, b in itertools.combinations(ids, 2):
-        T = _merged(stamps[a], stamps[b], t_end)
-        rel = positions_at(stamps[a], paths[a], T) - positions_at(stamps[b], paths[b], T)
-        min_sep = min(min_sep, float(_disc_set(problem, 0.0, 0.0).clearance(rel[None])[0]))
+        T = np.unique(np.concatenate([stamps[a], stamps[b], [t_lo, t_end]]))
+        rel, TT = polyline_segments(positions_at(stamps[a], paths[a], T)
+                                    - positions_at(stamps[b], paths[b], T), T)
+        min_sep = min(min_sep, float(_disc_set(problem, 0.0, 0.0).clearance(rel).min()))
         oset = _disc_set(problem, problem.robot(b).radius, problem.robot(a).radius)
-        c = relative_contact(rel, T, oset)
+        c = relative_contact(rel, TT, oset)
         if c is not None:
             n_sep += 1
             pos = positions_at(stamps[a], paths[a], np.array([c.time]))[0]

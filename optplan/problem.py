@@ -200,24 +200,15 @@ class DynamicObstacle:
     radius: float | None = None
 
     def position(self, t: float | np.ndarray) -> np.ndarray:
-        """Reference position at time(s) ``t``; shape ``(2,)`` or ``(len(t), 2)``."""
-        tt = np.asarray(t, dtype=float)
-        scalar = tt.ndim == 0
-        tt = np.atleast_1d(tt)
-        if self.velocity is not None:
-            out = self.waypoints[0][None, :] + (tt - self.times[0])[:, None] * self.velocity
-        else:
-            t0, t1 = self.times[0], self.times[-1]
-            span = t1 - t0
-            if span > 0 and self.after == "loop":
-                tt = t0 + np.mod(tt - t0, span)
-            elif span > 0 and self.after == "bounce":
-                ph = np.mod(tt - t0, 2 * span)
-                tt = t0 + np.where(ph > span, 2 * span - ph, ph)
-            out = np.stack(
-                [np.interp(tt, self.times, self.waypoints[:, k]) for k in range(2)], axis=1
-            )
-        return out[0] if scalar else out
+        """Reference position at time(s) ``t``; shape ``(2,)`` or ``(len(t), 2)``.
+
+        The motion model of ``problems/README.md``, evaluated on the one track of
+        :func:`optplan.geometry.motion.mover_track` (right-continuous: at a ``loop`` period
+        boundary the obstacle is at its first waypoint).
+        """
+        from optplan.geometry.motion import mover_position
+
+        return mover_position(self, t)
 
     def geometry_at(self, t: float) -> Polygon:
         """The obstacle's shapely geometry at time ``t``."""
@@ -907,13 +898,13 @@ def _check_periods(ctx: _Ctx, dyn: tuple[DynamicObstacle, ...], robots: list[Rob
                    diag: float) -> None:
     """Periodic dynamic obstacles: not faster than the validator can follow
     (:data:`MIN_REL_PERIOD`)."""
+    from optplan.geometry.motion import mover_period
+
     slow = min(robots, key=lambda r: r.max_speed)
     t_cross = diag / slow.max_speed
     for i, d in enumerate(dyn):
-        if d.velocity is not None or d.after == "hold" or len(d.times) < 2:
-            continue
-        period = float(d.times[-1] - d.times[0]) * (2.0 if d.after == "bounce" else 1.0)
-        if period < MIN_REL_PERIOD * t_cross:
+        period = mover_period(d)
+        if period is not None and period < MIN_REL_PERIOD * t_cross:
             raise ctx.err(f"dynamic_obstacles[{i}].times", f"the {d.after} period {period:.6g} s "
                           f"is shorter than {MIN_REL_PERIOD:g} x the {t_cross:.6g} s robot "
                           f"{slow.id!r} needs to cross the map (bounds diagonal / its max_speed)")
