@@ -94,7 +94,7 @@ def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray) -> dict[str
     seg_path = path if len(path) > 1 else np.vstack([path, path])
     cr = oset.crossings(seg_path[None], details=True)
     static_coll = int(cr.count[0])
-    crossed = sorted({oset.names[int(k)] for k in cr.pairs[2]})
+    crossed = sorted({oset.solid_name(int(k)) for k in cr.pairs[2]})
     clear = float(oset.clearance(seg_path[None])[0])
     if -tol <= clear < 0.0:
         clear = 0.0  # contact within the tolerance: touching is allowed

@@ -378,9 +378,12 @@ def _violations(prob: Problem, paths: Mapping[str, np.ndarray], metrics: Mapping
         if seg.size:
             # the contact span of every (segment, obstacle) pair, against that obstacle alone
             u0, u1 = np.zeros(len(seg)), np.ones(len(seg))
+            n_obs = len(prob.obstacles)
             for j in np.unique(obs):
                 sel = np.flatnonzero(obs == j)
-                one = obstacle_set([prob.obstacles[int(j)]], oset.radius, prob.frame)
+                solid = oset.members.get(int(j), (int(j),))  # a solid, maybe with the wall
+                one = obstacle_set([prob.obstacles[m] for m in solid if m < n_obs],
+                                   oset.radius, prob.frame, walls=max(solid) >= n_obs)
                 u0[sel], u1[sel] = _contact_spans(one, sp[seg[sel]], sp[seg[sel] + 1],
                                                   2e-3 * prob.extent)
             order = np.lexsort((u0, seg))

@@ -377,19 +377,20 @@ class Problem:
             return None
         return int(bad[np.argmin(signed[bad])])
 
-    def obstacle_set(self, radius: float, known_only: bool = False):
+    def obstacle_set(self, radius: float, known_only: bool = False, walls: bool = True):
         """The exact collision/clearance engine for a disc of ``radius`` (cached).
 
-        See :class:`optplan.geometry.ObstacleSet`: every solver, the validator and the
-        simulator's sensing use it.
+        See :class:`optplan.geometry.ObstacleSet`: every solver and the validator use it with
+        the bounds as a wall (``walls=True``); the simulator's sensing sees the obstacles
+        only (``walls=False``).
         """
         from optplan.geometry import obstacle_set
 
         # without temporary obstacles the known map is the whole map: one set serves both
         known_only = known_only and any(not o.known for o in self.obstacles)
-        return self.memo(("obstacle_set", float(radius), known_only),
-                         lambda: obstacle_set(self.static_obstacles(known_only), float(radius),
-                                              self.frame))
+        key = ("obstacle_set", float(radius), known_only) + (() if walls else ("no walls",))
+        return self.memo(key, lambda: obstacle_set(self.static_obstacles(known_only),
+                                                   float(radius), self.frame, walls=walls))
 
     @property
     def frame(self):
@@ -952,7 +953,8 @@ def _parse_tags(ctx: _Ctx, data: dict) -> tuple[str, ...]:
 
 
 def _check_ends(ctx: _Ctx, prob: Problem) -> None:
-    """Starts and goals: inside the bounds and clear of every static obstacle (exact test)."""
+    """Starts and goals: inside the bounds with the robot's disc (the bounds are a wall) and
+    clear of every static obstacle (exact test)."""
     frame = prob.frame
     for i, r in enumerate(prob.robots):
         for key, p in (("start", r.start), ("goal", r.goal)):
@@ -961,6 +963,13 @@ def _check_ends(ctx: _Ctx, prob: Problem) -> None:
             if not frame.in_bounds(p)[0]:
                 raise ctx.err(f"robots[{i}].{key}",
                               f"{p.tolist()} lies outside the bounds {list(prob.bounds)}")
+            x0, y0, x1, y1 = prob.bounds
+            edge = min(p[0] - x0, x1 - p[0], p[1] - y0, y1 - p[1])
+            if edge < r.radius - frame.eps:
+                raise ctx.err(f"robots[{i}].{key}",
+                              f"{p.tolist()} is {edge:.6g} from the edge of the bounds "
+                              f"{list(prob.bounds)}, less than the robot radius {r.radius:g} "
+                              "(the bounds are a wall for the robot's disc)")
             try:
                 hit = prob.blocking_obstacle(p, r.radius)
             except ValueError as e:  # the core's precision checks (normally caught above)

@@ -86,7 +86,8 @@ class ObstacleField:
         self.n_static = len(self.static)
         self.n = len(self.names)
         # static: the problem's cached engine, built from exactly this list of obstacles
-        self._static_set = problem.obstacle_set(0.0, known_only) if self.static else None
+        self._static_set = (problem.obstacle_set(0.0, known_only, walls=False) if self.static
+                            else None)
         # dynamic: circles by index and radius; polygons as (index, engine of the local shape)
         circ = [(self.n_static + k, float(d.radius)) for k, d in enumerate(self.dynamic)
                 if d.kind == "circle"]
@@ -100,7 +101,7 @@ class ObstacleField:
             if d.kind != "circle":
                 g = d.local_geometry
                 oset = obstacle_set([Obstacle("polygon", g, True, d.name)], 0.0,
-                                    Frame.from_bounds(g.bounds))
+                                    Frame.from_bounds(g.bounds), walls=False)
                 self._dyn_polys.append((self.n_static + k, oset))
         self._off_t: float | None = None
         self._off = np.zeros((self.n, 2))

@@ -54,11 +54,12 @@ def polygonal_bracket(polys: list[Polygon], r: float, start, goal) -> tuple[floa
 
 def path_is_free(path, polys: list[Polygon], r: float, tol: float) -> bool:
     """Whether ``path`` keeps a disc of radius ``r`` clear of the union of ``polys`` up to
-    ``tol``: a point robot (``r <= tol``) must not meet the union's interior, a disc must
-    stay at distance ``>= r - tol``."""
+    ``tol``: a point robot (``r <= tol``) runs at most ``tol`` inside the union eroded by
+    ``tol`` (it may run along the boundary and pass a pinch point), a disc stays at distance
+    ``>= r - tol``."""
     union = shapely.unary_union(polys)
     line = shapely.LineString(np.asarray(path, float))
     if r <= tol:
-        return not bool(shapely.relate_pattern(line, union, "T********")) or \
-            float(shapely.length(shapely.intersection(line, union))) <= tol
+        core = union.buffer(-tol, join_style="mitre")
+        return float(shapely.length(shapely.intersection(line, core))) <= tol
     return float(shapely.distance(line, union)) >= r - tol

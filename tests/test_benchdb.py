@@ -90,9 +90,14 @@ def test_progress_and_experiment_tables(swept_db):
     con = sqlite3.connect(db)
     tables = {t for (t,) in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
     assert {"runs", "progress", "experiment", "meta"} <= tables
-    (inf_clear,) = con.execute("SELECT min_clearance FROM runs WHERE problem = 'open-field' "
-                               "LIMIT 1").fetchone()
-    assert inf_clear == math.inf
+    (clear,) = con.execute("SELECT min_clearance FROM runs WHERE problem = 'open-field' "
+                           "LIMIT 1").fetchone()
+    assert clear == pytest.approx(9.0)  # no obstacle: the bounds (a wall) are 9 away
+    con.execute("CREATE TEMP TABLE t (x REAL)")
+    con.executemany("INSERT INTO t VALUES (?)", [(benchdb._float_in(v),)
+                                                 for v in (math.inf, math.nan)])
+    assert [benchdb._float_out(x) for (x,) in con.execute("SELECT x FROM t")][0] == math.inf
+    assert con.execute("SELECT x FROM t").fetchall()[1] == (None,)
     con.close()
 
 

@@ -41,7 +41,8 @@ def test_convention_matches_paper_start():
     th = math.atan2(*(lead.goal - lead.start)[::-1])
     slots = slot_positions(lead.start, th, [60, 60], [math.pi / 4, -math.pi / 4])
     np.testing.assert_allclose(slots, [[0, 60], [60, 0]], atol=1e-9)
-    np.testing.assert_allclose(lead.start + prob.formation.slot_offsets(th),
+    # the scene starts the followers one radius inside the map's edge (the bounds are a wall)
+    np.testing.assert_allclose(lead.start + prob.formation.slot_offsets(th) + [[4, 0], [0, 4]],
                                [prob.robot("f1").start, prob.robot("f2").start], atol=1e-9)
     r, phi = relative_polar(lead.start, th, slots)
     np.testing.assert_allclose(r, 60)
@@ -50,10 +51,10 @@ def test_convention_matches_paper_start():
     behind = slot_positions(np.zeros(2), 0.0, [1.0], [0.0])[0]
     np.testing.assert_allclose(behind, [-1, 0], atol=1e-12)
     assert slot_positions(np.zeros(2), 0.0, [1.0], [0.3])[0][1] > 0
-    # the validator agrees: zero formation error at the start
+    # the validator agrees: a formation error of exactly the 4 inward at the start
     paths = {k: np.vstack([prob.robot(k).start, prob.robot(k).start]) for k in prob.robot_ids}
     paths["leader"] = np.vstack([lead.start, lead.start + [1, 1]])
-    assert formation_errors(prob, paths)["position"][0].max() < 1e-9
+    np.testing.assert_allclose(formation_errors(prob, paths)["position"][0], 4.0, atol=1e-9)
 
 
 # ---------------------------------------------------------------- formulas -------------

@@ -266,7 +266,9 @@ def test_translation_to_utm_coordinates_changes_nothing() -> None:
     a = op.solve(base, "nlp-ipopt")
     b = op.solve(far, "nlp-ipopt")
     assert b.status is a.status and a.success, b.message
-    assert b.n_iter == a.n_iter
+    # the answer is the same; IPOPT's iteration count may differ by round-off (the start is
+    # near the bounds wall, whose constraints are nearly active there)
+    assert abs(b.n_iter - a.n_iter) <= 2
     assert b.metrics["collisions"] == 0
     assert b.metrics["length"] == pytest.approx(a.metrics["length"], rel=1e-6)
     np.testing.assert_allclose(b.paths["r1"] - (5e5, 5e6), a.paths["r1"], atol=1e-6)
@@ -311,8 +313,8 @@ def test_infeasible_statuses() -> None:
     assert "not reachable" in res.message
     wall = {"type": "rectangle", "name": "wall", "min": [45.0, -1.0], "max": [55.0, 101.0]}
     prob = _scene([wall])
-    res = op.solve(prob, "nlp-ipopt")  # only a path leaving the bounds: not proven -> failed
-    assert res.status is op.Status.failed
+    res = op.solve(prob, "nlp-ipopt")  # a wall across the map (the bounds are a wall): proven
+    assert res.status is op.Status.infeasible
     res = op.solve(prob, "nlp-ipopt", init_from="straight", max_iter=200)
     assert res.status is op.Status.approximate and not res.metrics["feasible"]
     assert "IPOPT" in res.message
@@ -393,8 +395,10 @@ def test_obstacle_points_lie_inside_the_obstacles() -> None:
     pts = prob.frame.world(obstacle_points(prob.obstacle_set(2.0)))
     assert len(pts) >= 4
     assert prob.obstacle_set(0.0).point_distances(pts).max() == 0.0
+    # inside an obstacle or the bounds wall (outside the bounds)
     inside = [any(o.geometry.contains(shapely.Point(p)) for o in prob.obstacles[:3])
-              or np.hypot(*(p - (20.0, 80.0))) < 5.0 for p in pts]
+              or np.hypot(*(p - (20.0, 80.0))) < 5.0 or not prob.frame.in_bounds(p)[0]
+              for p in pts]
     assert all(inside)
 
 

@@ -592,8 +592,12 @@ def test_far_obstacles_are_allowed_and_ignored():
            {"type": "polygon", "vertices": [[-1e12, 0.0], [-1e12 + 5.0, 0.0], [-1e12, 5.0]]}]
     p = _parse(_scene(far))
     assert len(p.obstacles) == 2
-    assert p.obstacle_set(1.0).n_items == 0
-    assert np.isinf(p.obstacle_set(1.0).point_distances(np.array([[50.0, 50.0]]))[0])
+    assert p.obstacle_set(1.0, walls=False).n_items == 0
+    assert np.isinf(p.obstacle_set(1.0, walls=False).point_distances(np.array([[50.0, 50.0]]))[0])
+    # with the bounds wall: only the wall remains (50 from the centre of a 100 x 100 map)
+    walled = p.obstacle_set(1.0)
+    assert walled.members == {} and walled.names[-1] == "bounds"
+    assert walled.point_distances(np.array([[50.0, 50.0]]))[0] == pytest.approx(50.0)
 
 
 def _precision_case(tmp_path, text: str) -> str:

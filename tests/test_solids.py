@@ -84,13 +84,14 @@ def shared_corners(rng: np.random.Generator) -> list[Polygon]:
 MAKERS = {"grid": grid_cells, "strips": split_walls, "corners": shared_corners}
 
 
-def oracle_length(polys: list[Polygon], r: float) -> tuple[float, float]:
+def oracle_length(polys: list[Polygon], r: float, start=START, goal=GOAL
+                  ) -> tuple[float, float]:
     """The oracle's optimum (lo == hi for a point robot; a radius within the tolerance is a
     point robot, docs/geometry.md) or its bracket for a disc."""
     if r <= EPS:
-        v = plain_visibility_length(polys, START, GOAL)
+        v = plain_visibility_length(polys, start, goal)
         return v, v
-    return polygonal_bracket(polys, r, START, GOAL)
+    return polygonal_bracket(polys, r, start, goal)
 
 
 def _radii(seed: int) -> tuple[float, ...]:
@@ -264,3 +265,117 @@ def test_a_temporary_obstacle_touching_a_known_one_closes_the_gap() -> None:
     assert full.crossings(seam[None]).count[0] == 1
     along = np.array([[50.0, 0.0], [50.0, 100.0]])
     assert full.crossings(along[None]).count[0] == 1  # one solid, counted once
+
+
+# --------------------------------------------------------------------------------------
+# the bounds are a wall
+# --------------------------------------------------------------------------------------
+
+
+def outside_bounds(margin: float = 50.0) -> Polygon:
+    """The oracle's bounds wall: the complement of the open bounds, ``margin`` wide."""
+    x0, y0, x1, y1 = BOUNDS
+    return Polygon(shapely.box(x0 - margin, y0 - margin, x1 + margin, y1 + margin).exterior,
+                   [shapely.box(x0, y0, x1, y1).exterior.coords])
+
+
+def edge_maps(rng: np.random.Generator) -> list[Polygon]:
+    """Walls drawn from an edge into the map (some split into strips), rectangles crossing an
+    edge, and an obstacle leaving a corridor of random width to an edge."""
+    out: list[Polygon] = []
+    for _ in range(int(rng.integers(1, 4))):
+        side, t = int(rng.integers(4)), rng.uniform(20, 80)
+        depth, w = rng.uniform(20, 75), rng.uniform(2, 6)
+        a, b = (0.0, depth) if side < 2 else (100.0 - depth, 100.0)
+        cut = rng.uniform(a, b) if rng.random() < 0.5 else None
+        spans = [(a, b)] if cut is None else [(a, cut), (cut, b)]
+        for lo, hi in spans:
+            out.append(shapely.box(t, lo, t + w, hi) if side % 2 else
+                       shapely.box(lo, t, hi, t + w))
+    for _ in range(int(rng.integers(0, 3))):  # crossing an edge
+        c = rng.uniform(20, 80)
+        out.append(shapely.box(c, -10, c + rng.uniform(3, 10), rng.uniform(3, 15))
+                   if rng.random() < 0.5 else
+                   shapely.box(rng.uniform(85, 97), c, 110, c + rng.uniform(3, 10)))
+    gap, c = rng.uniform(0.3, 6.0), rng.uniform(25, 75)
+    out.append(shapely.box(c, 100 - gap - 8, c + 8, 100 - gap))  # a corridor to the top edge
+    return out
+
+
+def _edge_case(seed: int) -> list[Polygon]:
+    rng = np.random.default_rng(5000 + seed)
+    while True:
+        polys = edge_maps(rng)
+        ends = shapely.MultiPoint([START, GOAL])
+        if not any(p.distance(ends) < 2.5 for p in polys):
+            return polys
+
+
+def _oracle_in_bounds(polys: list[Polygon], r: float, start=START, goal=GOAL
+                      ) -> tuple[float, float]:
+    return oracle_length([*polys, outside_bounds()], r, start, goal)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_the_bounds_are_a_wall_against_the_oracle(seed: int) -> None:
+    """Walls touching the edge, obstacles crossing it, corridors to the edge narrower and wider
+    than the robot, start and goal touching the edge (r = 2): visgraph equals the oracle,
+    with the complement of the bounds as one more obstacle."""
+    polys = _edge_case(seed)
+    for r in (RADII[seed % 3], RADII[3 + seed % 2], 0.7, 2.0):
+        oset = obstacle_set([polygon(p, f"p{k}") for k, p in enumerate(polys)], r, FRAME)
+        res = shortest_path(oset, START, GOAL)
+        lo, hi = _oracle_in_bounds(polys, r)
+        if math.isinf(lo):
+            assert res.polyline is None, (seed, r)
+            continue
+        assert res.polyline is not None and res.info["certified"], (seed, r, res.info)
+        tol = 1e-9 * lo
+        assert lo - tol <= res.length <= hi + tol, (seed, r, res.length, lo, hi)
+        assert oset.crossings(res.polyline[None]).count[0] == 0
+        assert path_is_free(res.polyline, [*polys, outside_bounds()], r, 1e-7)
+
+
+def _edge_problem(obstacles: list[dict], r: float, start=(10.0, 50.0), goal=(90.0, 50.0)):
+    return parse_problem({
+        "name": "edge", "bounds": list(BOUNDS),
+        "robots": [{"id": "r", "start": list(start), "goal": list(goal), "radius": r}],
+        "obstacles": obstacles})
+
+
+@pytest.mark.parametrize("r", (0.0, 1e-9, 1.0))
+def test_a_wall_across_the_map_is_a_proof_of_infeasibility(r: float) -> None:
+    """A wall from edge to edge (drawn in two touching pieces, one crossing the bounds):
+    visgraph says infeasible, not failed, and a path along the edge is a collision."""
+    prob = _edge_problem([{"type": "rectangle", "min": [45.0, -20.0], "max": [55.0, 40.0]},
+                          {"type": "rectangle", "min": [45.0, 40.0], "max": [55.0, 100.0]}], r)
+    res = op.solve(prob, "visgraph")
+    assert res.status is op.Status.infeasible
+    along = {"r": np.array([[10.0, 100.0], [90.0, 100.0]])}
+    m = op.evaluate(prob, along)
+    assert m["static_collisions"] >= 1 and not m["feasible"]
+
+
+def test_the_optimum_runs_along_the_edge() -> None:
+    """A wall drawn to the top edge with the way round along the bottom edge at distance
+    3 - r (the analytic optimum of a disc touching the wall's corner and the edge)."""
+    for r in (0.0, 1.0):
+        prob = _edge_problem([{"type": "rectangle", "min": [45.0, 3.0], "max": [55.0, 100.0]}],
+                             r, start=(10.0, 50.0), goal=(90.0, 50.0))
+        res = op.solve(prob, "visgraph")
+        assert res.status is op.Status.optimal
+        lo, hi = _oracle_in_bounds([shapely.box(45, 3, 55, 100)], r, (10.0, 50.0),
+                                   (90.0, 50.0))
+        assert lo * (1 - 1e-9) <= res.metrics["optimum"] <= hi * (1 + 1e-9)
+    # a corridor to the edge narrower than the robot closes the way
+    prob = _edge_problem([{"type": "rectangle", "min": [45.0, 1.5], "max": [55.0, 100.0]}], 1.0)
+    assert op.solve(prob, "visgraph").status is op.Status.infeasible
+
+
+def test_a_path_closer_than_r_to_the_edge_collides_with_the_bounds() -> None:
+    prob = _edge_problem([], 1.0)
+    hug = {"r": np.array([[10.0, 50.0], [50.0, 99.5], [90.0, 50.0]])}
+    m = op.evaluate(prob, hug)
+    assert m["static_collisions"] == 2 and m["crossed"] == ["bounds"]  # both segments
+    ok = {"r": np.array([[10.0, 50.0], [50.0, 99.0], [90.0, 50.0]])}  # touching: allowed
+    assert op.evaluate(prob, ok)["static_collisions"] == 0

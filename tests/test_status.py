@@ -140,21 +140,23 @@ def test_wall_time_includes_the_validation(solver, monkeypatch) -> None:
 
 def test_a_new_problem_builds_each_obstacle_set_once(monkeypatch) -> None:
     """The swarm plans on the known view; without temporary obstacles the validator uses the
-    set the planner built instead of building it again (issue 23, part 4)."""
+    set the planner built instead of building it again (issue 23, part 4).  The swarm's
+    fitness set has no bounds wall (its search box keeps the waypoints in the bounds), the
+    validator's has: one build of each."""
     import optplan.geometry as geometry
 
-    built: list[float] = []
+    built: list[tuple[float, bool]] = []
     real = geometry.obstacle_set
 
     def counted(*a, **k):
-        built.append(float(a[1]))
+        built.append((float(a[1]), bool(k.get("walls", True))))
         return real(*a, **k)
 
     monkeypatch.setattr(geometry, "obstacle_set", counted)
     prob = dataclasses.replace(op.load_problem("paper-env1"), _cache={})
     assert all(o.known for o in prob.obstacles)
     op.solve(prob, "pso-paper", rng=0, k_max=3)
-    assert prob.leader.radius in built
+    assert (prob.leader.radius, True) in built
     assert len(built) == len(set(built)), built
 
 

@@ -66,7 +66,7 @@ def _hexagon_problem() -> op.Problem:
 @pytest.mark.parametrize("radius", [0.0, 1.5])
 def test_obstacle_set_is_the_exact_disc_test(grid, radius):
     prob = _hexagon_problem()
-    obs = obstacle_set(prob.obstacles, radius, prob.frame, grid=grid)
+    obs = obstacle_set(prob.obstacles, radius, prob.frame, grid=grid, walls=False)
     rng = np.random.default_rng(4)
     paths = rng.uniform(-5, 105, (300, 4, 2))
     paths[0] = [[10, 50], [10, 50], [50, 50], [50, 50]]  # degenerate segments, one inside
@@ -106,8 +106,10 @@ def test_obstacle_set_grid_and_all_pairs_agree_on_many_obstacles():
     rng = np.random.default_rng(0)
     prob = _many_obstacles(rng)
     paths = rng.uniform(0, 100, (40, 6, 2))
-    a = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=False).crossings(paths, details=True)
-    b = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=True).crossings(paths, details=True)
+    a = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=False,
+                     walls=False).crossings(paths, details=True)
+    b = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=True,
+                     walls=False).crossings(paths, details=True)
     # default: a grid from 48 items on
     assert obstacle_set(prob.obstacles, 0.5, prob.frame).grid is not None
     np.testing.assert_array_equal(a.seg_count, b.seg_count)
@@ -126,7 +128,7 @@ def test_pairs_free_is_the_exact_disc_test(grid, radius):
     """The compiled any-hit kernel (early exit, last colliding item first, box screen) against
     shapely distances, and the same flags as the counting kernel on every segment."""
     prob = _hexagon_problem()
-    obs = obstacle_set(prob.obstacles, radius, prob.frame, grid=grid)
+    obs = obstacle_set(prob.obstacles, radius, prob.frame, grid=grid, walls=False)
     rng = np.random.default_rng(5)
     pts = rng.uniform(-5, 105, (120, 2))
     pts[:3] = [[10, 50], [50, 50], [30, 40 + radius]]  # outside, inside the hexagon, grazing
@@ -181,7 +183,7 @@ def test_pairs_free_with_the_grid_on_many_obstacles():
     keep = np.hypot(*(pts[i] - pts[j]).T) < 25.0  # short segments: some are free
     i, j = i[keep], j[keep]
     for grid in (False, True):
-        obs = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=grid)
+        obs = obstacle_set(prob.obstacles, 0.5, prob.frame, grid=grid, walls=False)
         free = sw.pairs_free(pts, i, j, _free_space(obs))
         np.testing.assert_array_equal(free, obs.segment_free(pts[i], pts[j]))
         assert 0.05 < free.mean() < 0.95
@@ -208,7 +210,7 @@ def test_fitness_kernel_decides_like_the_validator_at_rounded_corners():
     near = np.stack([foot - 3 * tang, foot + 3 * tang], axis=1)
     segs = np.concatenate([segs, near])
     fit = obs.crossings(segs).count
-    val = prob.obstacle_set(r).crossings(segs).count  # what metrics.evaluate uses
+    val = prob.obstacle_set(r, walls=False).crossings(segs).count  # the engine, no wall
     np.testing.assert_array_equal(fit, val)
     assert np.any(fit[6000:] > 0) and np.any(fit[6000:] == 0)
     # a pinned case: 1.995 from a raw corner (the disc touches the corner): a collision
@@ -232,7 +234,7 @@ def test_convex_pieces_and_penetration():
     assert all(shapely.Polygon(v).exterior.is_ccw for v in pieces)
     # penetration: r - distance outside, r + inside length through the raw obstacle
     prob = _problem(obstacles=[{"type": "rectangle", "min": [40.0, 30.0], "max": [60.0, 70.0]}])
-    obs = obstacle_set(prob.obstacles, 2.0, prob.frame)
+    obs = obstacle_set(prob.obstacles, 2.0, prob.frame, walls=False)
     res = obs.crossings(np.array([[[30.0, 50.0], [70.0, 50.0]], [[30.0, 71.5], [70.0, 71.5]],
                                   [[30.0, 80.0], [70.0, 80.0]]]))
     assert res.count.tolist() == [1, 1, 0]
@@ -241,10 +243,11 @@ def test_convex_pieces_and_penetration():
 
 def test_obstacle_set_empty_map_and_single_point():
     prob = _problem()
-    obs = obstacle_set([], 1.0, prob.frame)
+    obs = obstacle_set([], 1.0, prob.frame, walls=False)
     res = obs.crossings(np.zeros((3, 4, 2)), details=True)
     assert res.count.tolist() == [0, 0, 0] and res.seg_count.shape == (3, 3)
-    one = obstacle_set(prob.obstacles, 1.0, prob.frame).crossings(np.array([[5.0, 5.0]]))
+    one = obstacle_set(prob.obstacles, 1.0, prob.frame,
+                       walls=False).crossings(np.array([[5.0, 5.0]]))
     assert one.count.tolist() == [0]
 
 
@@ -275,7 +278,8 @@ def test_fitness_calls_the_kernel_once_per_evaluation(monkeypatch):
     prob = _problem()
     space = sw.make_space(prob, prob.robots[0], 3)
     # the fitness kernel is the problem's (cached) obstacle set for the robot's radius
-    assert space.obstacles is prob.obstacle_set(prob.robots[0].radius, known_only=True)
+    assert space.obstacles is prob.obstacle_set(prob.robots[0].radius, known_only=True,
+                                                walls=False)
     calls = []
     real = type(space.obstacles).crossings
 
@@ -289,7 +293,8 @@ def test_fitness_calls_the_kernel_once_per_evaluation(monkeypatch):
     assert calls == [((50, 5, 2), {"penetration": False})]
     assert ev.count.sum() > 0  # uniform waypoints among six obstacles: some collide
     # the validator's test on the same paths gives the same counts
-    val = prob.obstacle_set(1.0).crossings(sw.decode(X, space), penetration=False).count
+    val = prob.obstacle_set(1.0, walls=False).crossings(sw.decode(X, space),
+                                                    penetration=False).count
     np.testing.assert_array_equal(ev.count, val)
 
 

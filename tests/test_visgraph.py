@@ -197,16 +197,25 @@ def test_backend_statuses_and_options() -> None:
     assert seen.metrics["static_collisions"] == 0
 
 
-def test_bounds_active_is_not_certified() -> None:
-    """A wall leaves only a way round outside the bounds: the bounds-restricted path is
-    feasible but not certified (status solved, no optimum)."""
-    prob = parse_problem({
-        "name": "edge", "bounds": [0.0, 0.0, 100.0, 100.0],
-        "robots": [{"id": "r", "start": [10.0, 50.0], "goal": [90.0, 50.0], "radius": 1.0}],
-        "obstacles": [{"type": "rectangle", "min": [45.0, -50.0], "max": [55.0, 99.5]}]})
-    res = op.solve(prob, "visgraph")
-    assert res.status in (op.Status.solved, op.Status.failed, op.Status.approximate)
-    assert "optimum" not in res.metrics or res.status is not op.Status.optimal
+def test_a_wall_to_the_edge_is_certified_or_infeasible() -> None:
+    """The bounds are a wall: a wall drawn to the top edge (and beyond the bottom one) leaves
+    no way round, a proof (infeasible); with a gap at the top the optimum runs along it."""
+    def prob(ymax):
+        return parse_problem({
+            "name": "edge", "bounds": [0.0, 0.0, 100.0, 100.0],
+            "robots": [{"id": "r", "start": [10.0, 50.0], "goal": [90.0, 50.0], "radius": 1.0}],
+            "obstacles": [{"type": "rectangle", "min": [45.0, -50.0], "max": [55.0, ymax]}]})
+
+    for ymax in (99.5, 100.0, 150.0):
+        assert op.solve(prob(ymax), "visgraph").status is op.Status.infeasible
+    res = op.solve(prob(97.0), "visgraph")
+    assert res.status is op.Status.optimal
+    # analytic: the tangent from (10, 50) to the corner circle ((45, 97), r = 1), the arc over
+    # it to heading 0, the 10 along the top side, and the mirror image
+    d = math.hypot(35.0, 47.0)
+    heading = math.atan2(47.0, 35.0) + math.asin(1.0 / d)
+    assert res.metrics["optimum"] == pytest.approx(2 * (math.sqrt(d * d - 1) + heading) + 10,
+                                                   rel=1e-12)
 
 
 @pytest.mark.parametrize("seed, r", [(1, 0.0), (2, 0.0), (3, 1.0), (4, 1.0)])

@@ -259,7 +259,7 @@ def _build_pieces(problem: Problem, robot: Robot, known_only: bool, margin: floa
     local = Frame(frame.local_bounds, np.zeros(2), frame.length)
     out = Pieces(frame, verts, need_a + margin + safety, need_a, np.asarray(rad, float),
                  np.asarray(owner, np.int64), names,
-                 obstacle_set(objs, r, local, solids=False))
+                 obstacle_set(objs, r, local, solids=False, walls=False))
     return out
 
 
@@ -854,9 +854,9 @@ class WaypointNLP(Backend):
         if self.init_from == "visgraph":
             res = problem_shortest_path(problem, robot, known_only=not self.see_temporary)
             if res.polyline is None:
-                # proven only when the search was not restricted to the bounds
-                st = Status.failed if res.info.get("bounds_active") else Status.infeasible
-                return None, res.info.get("reason", "the tangent graph has no path"), st
+                # the walled tangent graph is complete: no path is a proof
+                return (None, res.info.get("reason", "the tangent graph has no path"),
+                        Status.infeasible)
             return res.polyline, "visgraph", Status.solved
         return np.vstack([robot.start, robot.goal]), "straight", Status.solved
 

@@ -225,9 +225,12 @@ def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
     x0, y0, x1, y1 = problem.bounds
     lo = np.tile([x0, y0], n_waypoints).astype(float)
     hi = np.tile([x1, y1], n_waypoints).astype(float)
-    obs = problem.obstacle_set(robot.radius, known_only=True)
+    # the bounds are the search box (bounds handling keeps every waypoint inside them), not
+    # a wall of the fitness: the swarm's encoding is the paper's; the validator holds the
+    # robot's disc inside the bounds (docs/geometry.md, "The bounds are a wall")
+    obs = problem.obstacle_set(robot.radius, known_only=True, walls=False)
     clear = problem.obstacle_set(robot.radius + CLEAR_MARGIN * math.hypot(x1 - x0, y1 - y0),
-                                 known_only=True)
+                                 known_only=True, walls=False)
     pw = default_penalty(problem.bounds, n_waypoints) if penalty_weight is None else penalty_weight
     return SwarmSpace(np.asarray(robot.start, float), np.asarray(robot.goal, float),
                       n_waypoints, lo, hi, obs, float(pw), float(penetration_weight), clear)

@@ -9,12 +9,11 @@ shortest path among the true obstacles (segments + arcs), reported as ``metrics[
 (so it stays ``>= r`` from every obstacle; ``metrics["length"]`` is that polyline's length,
 slightly above the exact one).
 
-Statuses: ``optimal`` when the exact shortest path stays inside the bounds (then it is the
-global optimum for this problem, to round-off) and the validator accepts the polyline;
-``solved`` when the unconstrained optimum leaves the bounds and a path restricted to tangent
-points inside them was found instead (feasible, not certified); ``infeasible`` when the start or
-goal lies within ``r`` of an obstacle or the goal is unreachable (proven: the tangent graph
-contains a path whenever one exists); ``failed`` when the bounds-restricted search finds none.
+The bounds are a wall of the exact geometry (the robot's disc stays inside them), so the
+search is complete inside the bounds.  Statuses: ``optimal`` when a path is found (the global
+optimum for this problem, to round-off) and the validator accepts the polyline; ``infeasible``
+when the start or goal lies within ``r`` of an obstacle or of the bounds, or the goal is
+unreachable (proven: the tangent graph contains a path whenever one exists).
 """
 
 from __future__ import annotations
@@ -35,8 +34,7 @@ __all__ = ["VisGraph", "shortest_length"]
 
 
 def shortest_length(problem: Problem, robot: Robot, known_only: bool = True) -> float | None:
-    """Exact length of the certified shortest path of ``robot`` (None if there is none or it
-    is not certified because the bounds are active)."""
+    """Exact length of the certified shortest path of ``robot`` (None if there is none)."""
     res = problem_shortest_path(problem, robot, known_only)
     return res.length if res.info.get("certified") else None
 
@@ -93,18 +91,12 @@ class VisGraph(Backend):
                                                 info={"robot": r.id, **res.info}))
             infos[r.id] = dict(res.info)
             if res.polyline is None:
-                bounds = res.info.get("bounds_active")
-                status = Status.failed if bounds else Status.infeasible
+                status = Status.infeasible
                 msgs.append(f"{r.id}: {res.info.get('reason', 'no path')}")
                 paths[r.id] = np.vstack([r.start, r.start])
                 continue
             paths[r.id] = res.polyline
             exact[r.id] = res.length
-            if not res.info.get("certified") and status is Status.optimal:
-                status = Status.solved
-                msgs.append(f"{r.id}: the unconstrained shortest path leaves the bounds; "
-                            "returned the shortest path with tangent points inside them "
-                            "(not certified)")
         lead = problem.leader.id if problem.leader.id in paths else next(iter(paths))
         extra = {}
         if lead in exact:

@@ -87,10 +87,12 @@ class Frame:
 
     @property
     def local_bounds(self) -> tuple[float, float, float, float]:
-        """The bounds in the local frame (symmetric around 0)."""
+        """The bounds in the local frame, exactly symmetric around 0: ``(-w/2, -h/2, w/2,
+        h/2)`` (the same numbers wherever the map sits; at the origin they equal
+        ``bounds - origin``)."""
         x0, y0, x1, y1 = self.bounds
-        return (x0 - self.origin[0], y0 - self.origin[1], x1 - self.origin[0],
-                y1 - self.origin[1])
+        hw, hh = 0.5 * (x1 - x0), 0.5 * (y1 - y0)
+        return (-hw, -hh, hw, hh)
 
     def local(self, points) -> np.ndarray:
         """World -> local coordinates (float array, same shape)."""

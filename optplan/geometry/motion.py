@@ -222,7 +222,7 @@ def shape_set(kind: str, radius: float | None, local_geometry, robot_radius: flo
         o = Obstacle("circle", None, name="moving", center=np.zeros(2), radius=float(radius))
     else:
         o = Obstacle("polygon", local_geometry, name="moving")
-    return obstacle_set([o], robot_radius, frame)
+    return obstacle_set([o], robot_radius, frame, walls=False)
 
 
 def relative_contact(rel: np.ndarray, times: np.ndarray, oset: ObstacleSet) -> Contact | None:

@@ -63,13 +63,17 @@ from optplan.geometry.frame import Frame
 from optplan.geometry.pieces import convex_pieces
 from optplan.geometry.solids import merge_solids
 
-__all__ = ["PIECE_EDGES", "DiscCrossings", "ObstacleSet", "obstacle_set", "clip_obstacles"]
+__all__ = ["PIECE_EDGES", "BOUNDS_NAME", "DiscCrossings", "ObstacleSet", "obstacle_set",
+           "clip_obstacles", "bounds_wall"]
 
 #: Edges per convex piece (larger convex polygons are fan-split; triangles repeat an edge).
 PIECE_EDGES = 4
 
 #: Number of items from which the uniform grid replaces the all-pairs screen.
 GRID_FROM = 48
+
+#: Name of the bounds wall in results (``ObstacleSet.names[-1]`` of a walled set).
+BOUNDS_NAME = "bounds"
 
 
 @dataclass(frozen=True)
@@ -171,6 +175,15 @@ def _check_far_edges(g, frame: Frame, lo: np.ndarray, hi: np.ndarray, label: str
                                    f"{label}, an oblique edge reaching into the map")
 
 
+def bounds_wall(frame: Frame, margin: float) -> Polygon:
+    """The bounds as a wall (local frame): the closed complement of the open bounds within the
+    bounds grown by ``margin``, a rectangular frame whose hole is the bounds."""
+    x0, y0, x1, y1 = frame.local_bounds
+    outer = [(x0 - margin, y0 - margin), (x1 + margin, y0 - margin),
+             (x1 + margin, y1 + margin), (x0 - margin, y1 + margin)]
+    return Polygon(outer, [[(x0, y0), (x0, y1), (x1, y1), (x1, y0)]])
+
+
 @dataclass(frozen=True, eq=False)
 class ObstacleSet:
     """Static obstacles of a map laid out for exact disc-robot queries (module docstring).
@@ -185,7 +198,8 @@ class ObstacleSet:
     radius : float
         Robot radius ``r``.
     names : tuple of str
-        Names of *all* obstacles given (indices in results refer to this list).
+        Names of *all* obstacles given (indices in results refer to this list), then
+        :data:`BOUNDS_NAME` when the set is walled.
     shapes : tuple
         ``(obstacle index, local shape)`` of the solids kept: the obstacles clipped by
         :func:`clip_obstacles`, touching polygons merged into one solid under the smallest
@@ -223,6 +237,7 @@ class ObstacleSet:
     boundary: np.ndarray
     grid: dict | None
     members: dict = field(default_factory=dict)
+    walled: bool = False
     _cache: dict = field(default_factory=dict, repr=False)
 
     def solid_name(self, k: int) -> str:
@@ -236,6 +251,7 @@ class ObstacleSet:
 
     @property
     def n_obstacles(self) -> int:
+        """Obstacles an index may refer to (the bounds wall included when walled)."""
         return len(self.names)
 
     @property
@@ -409,11 +425,13 @@ class ObstacleSet:
         K, Pt, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
         near, dist = kernel.nearest(np.ascontiguousarray(self.frame.local(pts)), K, Pt, E, N,
                                     C, B, IC, IR, CR, OWN, n, float(max_range))
-        return near + self.frame.origin, dist
+        m = n - 1 if self.walled else n  # the wall alone is not an obstacle of the map
+        return near[:, :m] + self.frame.origin, dist[:, :m]
 
 
 def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
-                 grid: bool | None = None, solids: bool = True) -> ObstacleSet:
+                 grid: bool | None = None, solids: bool = True,
+                 walls: bool = True) -> ObstacleSet:
     """Build the :class:`ObstacleSet` of static ``obstacles`` for a disc of ``radius``.
 
     Parameters
@@ -429,12 +447,23 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
         Merge touching polygons into solids (the obstacle region, module docstring).  False
         keeps every obstacle apart: only for distances to each of a decomposition's pieces
         (the NLP's convex pieces), never for a collision decision.
+    walls : bool
+        The bounds are a wall (:func:`bounds_wall`, named :data:`BOUNDS_NAME`): the robot's
+        disc stays inside them like outside any obstacle, obstacles touching the bounds are one
+        solid with it.  False only for a sensor that sees obstacles, not the map's edge (the
+        simulator's sensing), or for a set that is not a map (a decomposition's pieces, one
+        moving shape).
     """
     if not (radius >= 0 and math.isfinite(radius)):
         raise ValueError(f"radius must be finite and >= 0, got {radius}")
     obstacles = list(obstacles)
     eps = frame.eps
-    shapes = clip_obstacles(obstacles, frame, radius + frame.length)
+    margin = radius + frame.length
+    shapes = clip_obstacles(obstacles, frame, margin)
+    names = tuple(getattr(o, "name", "") for o in obstacles)
+    if walls:
+        shapes.append((len(obstacles), bounds_wall(frame, margin)))
+        names += (BOUNDS_NAME,)
     members: dict = {}
     if solids:
         shapes, members = merge_solids(shapes, eps)
@@ -481,20 +510,34 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
     reach = np.concatenate([reach, circ[:, 2]])
     item_obstacle = np.array(owner + c_owner, dtype=np.int64)
     n_items = len(item_obstacle)
-    use_grid = n_items >= GRID_FROM if grid is None else bool(grid)
+    # items of the solid that holds the bounds wall: large pieces around the bounds, listed
+    # in the grid by their boxes (not their bounding squares) and left out of the grid's
+    # extent and cell size, so that the rest of the grid is the one an unwalled map has
+    wall_ids = {len(obstacles)} if walls else set()
+    wall_ids |= {k for k, ms in members.items() if len(obstacles) in ms}
+    in_wall = np.isin(item_obstacle, sorted(wall_ids))
+    plain = ~in_wall if (~in_wall).any() else np.ones(n_items, bool)
+    use_grid = int(plain.sum()) >= GRID_FROM if grid is None else bool(grid)
     gd = None
     if use_grid and n_items:
         ext = reach + radius + 4 * eps
-        lo = (centers - ext[:, None]).min(axis=0)
-        hi = (centers + ext[:, None]).max(axis=0)
+        lo = (centers - ext[:, None])[plain].min(axis=0)
+        hi = (centers + ext[:, None])[plain].max(axis=0)
         span = float(np.max(hi - lo))
-        h = max(2.0 * float(np.median(ext)), span / 256.0, eps)
+        h = max(2.0 * float(np.median(ext[plain])), span / 256.0, eps)
         nx = int(math.floor((hi[0] - lo[0]) / h)) + 1
         ny = int(math.floor((hi[1] - lo[1]) / h)) + 1
-        i0 = np.clip(np.floor((centers[:, 0] - ext - lo[0]) / h), 0, nx - 1).astype(np.int64)
-        i1 = np.clip(np.floor((centers[:, 0] + ext - lo[0]) / h), 0, nx - 1).astype(np.int64)
-        j0 = np.clip(np.floor((centers[:, 1] - ext - lo[1]) / h), 0, ny - 1).astype(np.int64)
-        j1 = np.clip(np.floor((centers[:, 1] + ext - lo[1]) / h), 0, ny - 1).astype(np.int64)
+        blo = centers - ext[:, None]
+        bhi = centers + ext[:, None]
+        if in_wall.any():  # boxes of the wall's pieces, grown by the collision reach
+            g = radius + 4 * eps
+            wk = np.flatnonzero(in_wall[:K])  # circles are never part of the wall's solid
+            blo[wk] = V[wk].min(axis=1) - g
+            bhi[wk] = V[wk].max(axis=1) + g
+        i0 = np.clip(np.floor((blo[:, 0] - lo[0]) / h), 0, nx - 1).astype(np.int64)
+        i1 = np.clip(np.floor((bhi[:, 0] - lo[0]) / h), 0, nx - 1).astype(np.int64)
+        j0 = np.clip(np.floor((blo[:, 1] - lo[1]) / h), 0, ny - 1).astype(np.int64)
+        j1 = np.clip(np.floor((bhi[:, 1] - lo[1]) / h), 0, ny - 1).astype(np.int64)
         cells, items = [], []
         for k in range(n_items):
             ii, jj = np.meshgrid(np.arange(i0[k], i1[k] + 1), np.arange(j0[k], j1[k] + 1))
@@ -506,6 +549,6 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
         gd = {"h": h, "x0": float(lo[0]), "y0": float(lo[1]), "nx": nx, "ny": ny,
               "items": items_a[order], "count": count, "reach": radius + 4 * eps,
               "start": np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)}
-    return ObstacleSet(frame, float(radius), tuple(getattr(o, "name", "") for o in obstacles),
+    return ObstacleSet(frame, float(radius), names,
                        tuple(shapes), K, item_obstacle, centers[:, 0] + 1j * centers[:, 1],
-                       reach, circ[:, 2], table, boundary, gd, members)
+                       reach, circ[:, 2], table, boundary, gd, members, bool(walls))

@@ -38,10 +38,13 @@ replaces each arc by a *circumscribed* polyline (vertices outside the circle, ev
 to it), so it stays ``>= r`` from the obstacle; its length is slightly larger and is reported
 apart.  Memory grows with the number of candidates generated, never with ``n^2`` dense arrays.
 
-Bounds: the search first ignores the bounds.  When its path stays inside them it is also the
-shortest path inside the bounds (certified).  Otherwise the search is repeated with tangent
-points restricted to the bounds; that path is feasible but not certified (a corner where an
-inflated obstacle meets the boundary of the bounds is not a graph node).
+Bounds: the bounds are a wall of the obstacle set (:func:`~optplan.geometry.obstacles.bounds_wall`),
+merged with every obstacle that touches them into one solid.  Its convex vertices (where a wall
+drawn to the edge meets it, for instance) are circles like any other, the bounds' own corners
+are reflex and never touched, and no tangent can leave the bounds.  The search is therefore
+complete and exact on a walled set: the path it returns is the shortest path inside the bounds
+(certified), and when it finds none, no path exists (a proof of infeasibility).  On a set
+built with ``walls=False`` the bounds are ignored and ``info["certified"]`` is False.
 """
 
 from __future__ import annotations
@@ -104,6 +107,15 @@ def _convex_vertices(v: np.ndarray, prv: np.ndarray, nxt: np.ndarray):
     return v[convex], n1[convex], width[convex]
 
 
+def _reaches_bounds(oset: ObstacleSet, centers: np.ndarray, rho) -> np.ndarray:
+    """Per circle (local centres ``(n, 2)``, radii ``rho``): it comes within ``eps`` of the
+    bounds, so a path inside them may touch it."""
+    x0, y0, x1, y1 = oset.frame.local_bounds
+    dx = np.maximum(np.maximum(x0 - centers[:, 0], centers[:, 0] - x1), 0.0)
+    dy = np.maximum(np.maximum(y0 - centers[:, 1], centers[:, 1] - y1), 0.0)
+    return np.hypot(dx, dy) <= rho + 2.0 * oset.frame.eps
+
+
 def circles_of(oset: ObstacleSet) -> Circles:
     """Circles of the tangent graph for the obstacles of ``oset`` (radius ``oset.radius``)."""
     r = oset.radius
@@ -130,6 +142,12 @@ def circles_of(oset: ObstacleSet) -> Circles:
     else:
         v, lo, wd = np.zeros((0, 2)), np.zeros(0), np.zeros(0)
     cc = np.array(circ, dtype=float).reshape(-1, 3)
+    # walled: a circle farther outside the bounds than its radius is never touched by a path
+    # inside them (the wall's outer corners, vertices of obstacles clipped beyond the edge)
+    if oset.walled:
+        keep = _reaches_bounds(oset, v, r)
+        v, lo, wd = v[keep], lo[keep], wd[keep]
+        cc = cc[_reaches_bounds(oset, cc[:, :2], cc[:, 2] + r)]
     return Circles(np.concatenate([v[:, 0] + 1j * v[:, 1], cc[:, 0] + 1j * cc[:, 1]]),
                    np.concatenate([np.full(len(v), r), cc[:, 2] + r]),
                    np.concatenate([lo, np.zeros(len(cc))]),
@@ -256,7 +274,7 @@ class TangentPath:
         Per circle visited: ``(centre, radius, angle_in, sweep, sense)`` (local angles).
     info : dict
         ``n_circles``, ``n_expanded``, ``n_generated``, ``n_checked``, ``reason``,
-        ``bounds_active``, ``certified``.
+        ``certified`` (a path on a walled set: the shortest path inside the bounds).
     """
 
     length: float
@@ -290,12 +308,10 @@ class _Search:
     of an expanded node form one :class:`_Stream` sorted by ``f``, consumed lazily.
     """
 
-    def __init__(self, oset: ObstacleSet, C: Circles, zs: complex, zg: complex,
-                 restrict_to_bounds: bool, info: dict):
+    def __init__(self, oset: ObstacleSet, C: Circles, zs: complex, zg: complex, info: dict):
         self.oset, self.C, self.zs, self.zg = oset, C, zs, zg
         self.fr = oset.frame
         self.eps = self.fr.eps
-        self.restrict = restrict_to_bounds
         self.info = info
         self.arcs = _ArcChecker(oset, C)
         self.box = self.fr.local_bounds
@@ -309,13 +325,6 @@ class _Search:
         self.streams: list[_Stream] = []
         self.all_j = np.arange(self.n)
         self.senses = np.array([1, -1])
-
-    def in_box(self, z):
-        """Whether local points ``z`` (complex) lie inside the bounds (up to eps)."""
-        x0, y0, x1, y1 = self.box
-        eps = self.eps
-        return ((z.real >= x0 - eps) & (z.real <= x1 + eps) & (z.imag >= y0 - eps)
-                & (z.imag <= y1 + eps))
 
     def cone_off(self, k, th):
         """Offset of angle ``th`` from the cone start of circle(s) ``k``, or nan outside."""
@@ -387,8 +396,6 @@ class _Search:
         kj = np.where(isg, 0, jj)
         if self.n:
             ok &= isg | np.isfinite(self.cone_off(kj, th_arr))
-        if self.restrict:
-            ok &= self.in_box(pj) & (self.in_box(pi) if i >= 0 else True)
         seg = np.sqrt(np.maximum(dd * dd - delta * delta, 0.0))
         g = g0 + ri * sweep + seg
         f = g + np.abs(pj - self.zg)
@@ -528,8 +535,8 @@ def _endpoint_problem(oset: ObstacleSet, start, goal) -> str | None:
     return None
 
 
-def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = False,
-                  circles: Circles | None = None, arc_step: float = math.pi / 36,
+def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = None,
+                  arc_step: float = math.pi / 36,
                   stop: Callable[[], bool] | None = None) -> TangentPath:
     """Arc-exact shortest path of a disc of radius ``oset.radius`` from ``start`` to ``goal``.
 
@@ -539,8 +546,6 @@ def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = 
         Static obstacles and radius (:meth:`optplan.problem.Problem.obstacle_set`).
     start, goal : array-like ``(2,)``
         World coordinates.
-    restrict_to_bounds : bool
-        Only use tangent points inside the bounds (module docstring).
     circles : Circles, optional
         Precomputed :func:`circles_of` (reused across queries).
     arc_step : float
@@ -559,15 +564,16 @@ def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = 
     zs, zg = complex(s_loc[0], s_loc[1]), complex(g_loc[0], g_loc[1])
     C = circles_of(oset) if circles is None else circles
     info = {"n_circles": C.n, "n_expanded": 0, "n_generated": 0, "n_checked": 0,
-            "bounds_active": False, "certified": False}
+            "certified": False}
     why = _endpoint_problem(oset, start, goal)
     if why is not None:
         info["reason"] = why
         return TangentPath(math.inf, None, [], info)
     if abs(zg - zs) <= fr.eps:  # start = goal: the empty path
+        info["certified"] = bool(oset.walled)
         poly = np.vstack([np.asarray(start, float), np.asarray(goal, float)])
         return TangentPath(0.0, poly, [], info)
-    search = _Search(oset, C, zs, zg, restrict_to_bounds, info)
+    search = _Search(oset, C, zs, zg, info)
     try:
         goal_node = search.run(stop)
     except _Stopped:
@@ -583,6 +589,7 @@ def shortest_path(oset: ObstacleSet, start, goal, *, restrict_to_bounds: bool = 
     keep = np.r_[True, np.any(np.diff(poly, axis=0) != 0, axis=1)]
     poly = poly[keep]
     poly[0], poly[-1] = np.asarray(start, float), np.asarray(goal, float)
+    info["certified"] = bool(oset.walled)
     return TangentPath(length, poly, wps, info)
 
 
@@ -613,8 +620,8 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
     """:func:`shortest_path` of ``robot`` on ``problem``'s static map, cached per problem.
 
     ``known_only``: plan on the known obstacles only (the map a global planner sees).  The
-    unrestricted search runs first; when its path leaves the bounds, the search is repeated with
-    tangent points inside the bounds and ``info["certified"]`` is False.
+    obstacle set is walled (the bounds are a wall), so a path found is the certified shortest
+    path inside the bounds and none found proves that no path exists.
     """
 
     def build() -> TangentPath:
@@ -622,19 +629,6 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
         res = shortest_path(oset, robot.start, robot.goal, arc_step=arc_step, stop=stop)
         if res.info.get("stopped"):
             raise _Uncached(res)  # a later call without a stop must finish the search
-        if res.polyline is not None and not np.all(problem.frame.in_bounds(res.polyline)):
-            free_len = res.length
-            res = shortest_path(oset, robot.start, robot.goal, restrict_to_bounds=True,
-                                arc_step=arc_step, stop=stop)
-            if res.info.get("stopped"):
-                raise _Uncached(res)
-            res.info["bounds_active"] = True
-            res.info["unbounded_length"] = free_len
-            if res.polyline is None:
-                res.info["reason"] = ("the shortest path leaves the bounds and no path with "
-                                      "tangent points inside the bounds was found")
-        else:
-            res.info["certified"] = res.polyline is not None
         if res.polyline is not None:
             # the circumscribed arcs stay >= r from the arc's own obstacle; refine where they
             # come too close to a neighbour
