@@ -50,6 +50,7 @@ Candidate pairs and the compiled loops
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
@@ -184,6 +185,18 @@ def bounds_wall(frame: Frame, margin: float) -> Polygon:
     return Polygon(outer, [[(x0, y0), (x0, y1), (x1, y1), (x1, y0)]])
 
 
+@functools.lru_cache(maxsize=64)
+def _wall_pieces(x0: float, y0: float, x1: float, y1: float, margin: float) -> tuple:
+    """:func:`convex_pieces` of the bounds wall alone, cached by its size (every obstacle set
+    of a map, and of every map of the same size, has the same one)."""
+    frame = Frame.from_bounds((x0, y0, x1, y1))
+    out = convex_pieces(bounds_wall(frame, margin), PIECE_EDGES)
+    for v, fl in out:
+        v.setflags(write=False)
+        fl.setflags(write=False)
+    return tuple(out)
+
+
 @dataclass(frozen=True, eq=False)
 class ObstacleSet:
     """Static obstacles of a map laid out for exact disc-robot queries (module docstring).
@@ -247,7 +260,9 @@ class ObstacleSet:
         others = [self.names[j] or f"obstacle {j}" for j in self.members.get(k, ()) if j != k]
         if not others:
             return name
-        return f"{name} (one solid with {', '.join(repr(o) for o in others)})"
+        shown = ", ".join(repr(o) for o in others[:3])
+        more = f" and {len(others) - 3} more" if len(others) > 3 else ""
+        return f"{name} (one solid with {shown}{more})"
 
     @property
     def n_obstacles(self) -> int:
@@ -473,7 +488,9 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
             circles.append(g)
             c_owner.append(i)
             continue
-        for v, fl in convex_pieces(g, PIECE_EDGES):
+        alone = walls and i == len(obstacles)  # the wall, touched by no obstacle
+        for v, fl in (_wall_pieces(*frame.local_bounds, margin) if alone else
+                      convex_pieces(g, PIECE_EDGES)):
             pieces.append(v)
             bflags.append(fl)
             owner.append(i)

@@ -68,8 +68,8 @@ def merge_solids(shapes: list[tuple[int, object]], eps: float
     Parameters
     ----------
     shapes : list of ``(index, shape)``
-        As returned by :func:`optplan.geometry.obstacles.clip_obstacles`: a shapely polygonal
-        shape, or a ``(cx, cy, R)`` tuple for a circle (kept as is).
+        As returned by :func:`optplan.geometry.obstacles.clip_obstacles`: a valid, non-empty
+        shapely Polygon or MultiPolygon, or a ``(cx, cy, R)`` tuple for a circle (kept as is).
     eps : float
         The geometric tolerance of the frame.
 
@@ -85,10 +85,9 @@ def merge_solids(shapes: list[tuple[int, object]], eps: float
     circles = [(i, g) for i, g in shapes if isinstance(g, tuple)]
     if not polys:
         return list(shapes), {}
-    geoms = [_valid_polygonal(g) for _, g in polys]
-    keep = [k for k, g in enumerate(geoms) if g is not None]
-    idx = [polys[k][0] for k in keep]
-    geoms = [geoms[k] for k in keep]
+    # the shapes of clip_obstacles are valid, non-empty polygonal geometries
+    idx = [i for i, _ in polys]
+    geoms = [g for _, g in polys]
     n = len(geoms)
     if n == 0:
         return circles, {}
