@@ -49,15 +49,25 @@ def _valid_polygonal(g) -> object | None:
     return polys[0] if len(polys) == 1 else MultiPolygon(polys)
 
 
-def _union(geoms: list, eps: float) -> object | None:
-    """Exact union of ``geoms`` after snapping each onto the union of the ones before it."""
-    merged = geoms[0]
-    for g in geoms[1:]:
-        snapped = _valid_polygonal(shapely.snap(g, merged, eps))
-        try:
-            merged = shapely.union(merged, g if snapped is None else snapped)
-        except shapely.errors.GEOSException:  # snapping made the overlay fail: plain union
-            merged = shapely.union(merged, g)
+def _union(geoms: list, before: list[list[int]], eps: float) -> object | None:
+    """Exact union of ``geoms`` after snapping each onto its (already snapped) neighbours
+    that come before it (``before[k]``: indices ``< k`` within ``eps`` of ``geoms[k]``).
+
+    Snapping in one order, each piece onto pieces that no longer move, makes two near-equal
+    vertices meet instead of trading places; the work per piece grows with its neighbours,
+    not with the size of the solid.
+    """
+    snapped: list = []
+    for k, g in enumerate(geoms):
+        if before[k]:
+            ref = shapely.union_all([snapped[j] for j in before[k]])
+            s = _valid_polygonal(shapely.snap(g, ref, eps))
+            g = g if s is None else s
+        snapped.append(g)
+    try:
+        merged = shapely.union_all(snapped)
+    except shapely.errors.GEOSException:  # snapping made the overlay fail: plain union
+        merged = shapely.union_all(geoms)
     return _valid_polygonal(merged)
 
 
@@ -96,6 +106,12 @@ def merge_solids(shapes: list[tuple[int, object]], eps: float
     off = a != b
     graph = coo_matrix((np.ones(int(off.sum())), (a[off], b[off])), shape=(n, n))
     n_comp, label = connected_components(graph, directed=False)
+    # every piece is snapped onto its neighbours of smaller obstacle index (pairs both ways)
+    rank = np.argsort(np.argsort(np.asarray(idx), kind="stable"), kind="stable")
+    earlier = off & (rank[b] < rank[a])
+    nbrs: dict[int, list[int]] = {}
+    for u_, v_ in zip(a[earlier].tolist(), b[earlier].tolist()):
+        nbrs.setdefault(u_, []).append(v_)
     out: dict[int, object] = {}
     members: dict[int, tuple[int, ...]] = {}
     for c in range(n_comp):
@@ -104,7 +120,9 @@ def merge_solids(shapes: list[tuple[int, object]], eps: float
             out[idx[ks[0]]] = geoms[ks[0]]
             continue
         group = sorted(ks, key=lambda k: idx[k])
-        u = _union([geoms[k] for k in group], eps)
+        pos = {k: q for q, k in enumerate(group)}
+        before = [[pos[v_] for v_ in nbrs.get(k, ())] for k in group]
+        u = _union([geoms[k] for k in group], before, eps)
         if u is None:
             continue
         rep = idx[group[0]]
