@@ -15,7 +15,7 @@ runs and the worst single step.  The machine is shared: the load average is prin
 each size.
 
 ``--refinement both`` also runs every size with Clarabel's iterative refinement switched on
-(the shipped setting is off, :func:`optplan.backends.formation_qp.qp_settings`) and prints the
+(the shipped setting is off, :func:`optplan.formation.formation_qp.qp_settings`) and prints the
 solve path of both settings and the largest difference between the two runs' trajectories.
 
     python benchmarks/bench_formation_qp.py [--steps 80] [--sizes 3,30,100] [--repeat 3]
@@ -32,7 +32,7 @@ import platform
 import numpy as np
 
 import optplan as op
-import optplan.backends.formation_qp as fq
+import optplan.formation.formation_qp as fq
 from optplan.generators import formation_scene
 
 TARGET_MS = {3: 0.5, 30: 1.5, 100: 4.0}
@@ -58,7 +58,7 @@ def run(n: int, steps: int, refinement: bool = False) -> dict:
     solver = op.get_solver("formation-qp", path_solver="visgraph", max_steps=steps,
                            neighbor_radius=20.0)
     if refinement and _SHIPPED is None:
-        raise SystemExit("--refinement on/both needs optplan.backends.formation_qp.qp_settings")
+        raise SystemExit("--refinement on/both needs optplan.formation.formation_qp.qp_settings")
     if _SHIPPED is not None:
         fq.qp_settings = _refined if refinement else _SHIPPED
     try:

@@ -2,7 +2,7 @@
 
 1. Wall time (and process CPU time) per run on ``paper-env1`` of the one implementation: the
    compiled fitness kernel ``ObstacleSet.crossings`` and the IPSO step compiled with numba
-   (``optplan.backends.ipso``); targets (issue 12): ``ipso-paper`` <= 40 ms median, ``ipso``
+   (``optplan.swarm.ipso``); targets (issue 12): ``ipso-paper`` <= 40 ms median, ``ipso``
    <= 45 ms median.
 2. Where the time of one ``ipso-paper`` run goes: the compiled kernel loop, the Python wrapper
    of ``ObstacleSet.crossings`` around it (local frame, segment arrays, result object), the
@@ -32,10 +32,10 @@ import time
 import numpy as np
 
 import optplan as op
-from optplan.backends import ipso as ip
-from optplan.backends import swarm as sw
-from optplan.backends.swarm import make_space
 from optplan.geometry import kernel
+from optplan.swarm import core as sw
+from optplan.swarm import ipso as ip
+from optplan.swarm.core import make_space
 
 #: Targets of the median runs on paper-env1 (seconds).
 TARGETS = {"ipso-paper": 0.040, "ipso": 0.045}

@@ -27,10 +27,10 @@ import time
 import numpy as np
 
 import optplan as op
-from optplan.backends.swarm import make_space
 from optplan.generators import random_obstacles as _random_obstacles
 from optplan.geometry import Frame, ObstacleSet, kernel, obstacle_set
 from optplan.problem import Obstacle
+from optplan.swarm.core import make_space
 
 
 def per_call(obs: ObstacleSet, batches: list[np.ndarray], penetration: bool,

@@ -1785,7 +1785,7 @@ def _replace(pool: list[_Worker], w: _Worker, log_dir: Path, born: dict) -> None
 #: explains is reported in the "known findings" column (and ``tests/test_fuzz.py`` xfails it).
 KNOWN_FINDINGS: dict[str, tuple[str, str, Callable[[Outcome], bool]]] = {
     "int-option-recompiles": (
-        "optplan/backends/ipso.py (swarm kernels)",
+        "optplan/swarm/ipso.py (swarm kernels)",
         "an integer value for a float option (c1 = 0) makes numba compile a new "
         "specialisation: ~7 s with time_limit = 2 (c1 = 0.0 takes 0.1 s)",
         lambda o: o.case.family == "option" and o.category == "hang"

@@ -4,9 +4,9 @@ For each map (default ``shelves-1`` and ``doors-0`` of :func:`optplan.generators
 the paper scene names also work) and seeds ``0 .. --seeds-1``, after a warm-up run:
 
 1. ``ipso``: median wall time of the run and of its parts (the roadmap: nodes, edge tests,
-   the rest of :func:`~optplan.backends.swarm.build_roadmap`; the corridor search
-   :func:`~optplan.backends.swarm._k_classes`; the swarm iterations; the end-game
-   :func:`~optplan.backends.swarm.tighten`), and the median number of roadmap segments
+   the rest of :func:`~optplan.swarm.core.build_roadmap`; the corridor search
+   :func:`~optplan.swarm.core._k_classes`; the swarm iterations; the end-game
+   :func:`~optplan.swarm.core.tighten`), and the median number of roadmap segments
    tested (neighbour and Yao edges, corner pairs) and of labels of the corridor search.
 2. ``nlp-ipopt`` warm-started from each ``ipso`` path: total time, IPOPT iterations, the
    CasADi function evaluations (IPOPT's ``t_wall_nlp_*`` statistics), the CasADi build time,
@@ -26,9 +26,9 @@ import time
 import numpy as np
 
 import optplan as op
-from optplan.backends import ipso as ip
-from optplan.backends import swarm as sw
 from optplan.generators import corridor_scene
+from optplan.swarm import core as sw
+from optplan.swarm import ipso as ip
 
 
 def load(name: str) -> op.Problem:

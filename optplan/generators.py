@@ -9,7 +9,7 @@ seeded random obstacles of every kind the kernels handle (benchmarks and kernel 
 :func:`swap_scene` is two independently planned robots swapping ends of an empty field.
 :func:`corridor_scene` draws seeded maps of a family that is hard for global planners to get
 into the right corridor (homotopy class): walls with narrow doors, warehouse shelf rows and U
-traps (``optplan.backends.ipso``'s tail benchmark).
+traps (``optplan.swarm.ipso``'s tail benchmark).
 """
 
 from __future__ import annotations

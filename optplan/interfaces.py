@@ -1,9 +1,9 @@
 """Declared capabilities of the stages a composite planner is built from.
 
 A *stage* is a solver used inside another one: the hybrid planner's global path solver, local
-planner and formation backend (:class:`~optplan.backends.hybrid.Hybrid`), a formation
+planner and formation backend (:class:`~optplan.hybrid.planner.Hybrid`), a formation
 backend's leader pilot and reference path solver
-(:class:`~optplan.backends.leader_follower.PilotedFormation`).  What a stage must provide is
+(:class:`~optplan.formation.leader_follower.PilotedFormation`).  What a stage must provide is
 declared here as :class:`typing.Protocol` classes (``runtime_checkable``, so ``isinstance``
 checks the methods and attributes are there; subclassing them is optional and only documents
 the intent), and :func:`resolve_stage` turns a stage option into a backend object when the
@@ -108,8 +108,8 @@ class LocalController(Protocol):
 class LocalPlanner(Protocol):
     """A backend that can drive one robot inside someone else's simulation.
 
-    Implemented by :class:`~optplan.backends.apf.APF` and
-    :class:`~optplan.backends.sa_apf.SAAPF`; required of the hybrid planner's
+    Implemented by :class:`~optplan.potential.apf.APF` and
+    :class:`~optplan.potential.sa_apf.SAAPF`; required of the hybrid planner's
     ``local_solver`` and of a formation backend's ``pilot``.
     """
 
@@ -174,8 +174,8 @@ class FollowerController(Protocol):
 class FormationBackend(Protocol):
     """A backend whose follower law can run around a leader driven by another planner.
 
-    Implemented by :class:`~optplan.backends.leader_follower.LeaderFollower` and
-    :class:`~optplan.backends.formation_qp.FormationQP`; required of the hybrid planner's
+    Implemented by :class:`~optplan.formation.leader_follower.LeaderFollower` and
+    :class:`~optplan.formation.formation_qp.FormationQP`; required of the hybrid planner's
     ``formation`` option.
     """
 

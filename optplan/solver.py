@@ -1,6 +1,7 @@
 """The Solver interface: registry, presets, :func:`solve` (the API contract, docs/api.md).
 
-A *backend* is an implementation: a frozen, keyword-only dataclass in ``optplan/backends/``
+A *backend* is an implementation: a frozen, keyword-only dataclass in its family's package
+(``optplan/exact/``, ``swarm/``, ``potential/``, ``formation/``, ``hybrid/``)
 whose fields are its options, with a ``solve(problem, /, *, rng, init, callback)`` method.
 A *solver* is a named, configured backend: a preset in ``solvers/NAME.toml``.
 
@@ -21,7 +22,7 @@ Writing a backend::
             ...
             return self.finish(problem, paths, claim=Status.solved, ...)
 
-and add ``"my-planner": "optplan.backends.my_planner:MyPlanner"`` to :data:`BACKENDS` (or call
+and add ``"my-planner": "optplan.swarm.my_planner:MyPlanner"`` to :data:`BACKENDS` (or call
 :func:`register`).
 
 Plugins: an installed distribution declares backends in the entry-point group
@@ -68,16 +69,16 @@ __all__ = [
 
 #: backend name -> "module:Class" (resolved lazily).
 BACKENDS: dict[str, str] = {
-    "visgraph": "optplan.backends.visgraph:VisGraph",
-    "pso": "optplan.backends.pso:PSO",
-    "mpso": "optplan.backends.mpso:MPSO",
-    "ipso": "optplan.backends.ipso:IPSO",
-    "nlp": "optplan.backends.nlp:WaypointNLP",
-    "apf": "optplan.backends.apf:APF",
-    "sa-apf": "optplan.backends.sa_apf:SAAPF",
-    "leader-follower": "optplan.backends.leader_follower:LeaderFollower",
-    "formation-qp": "optplan.backends.formation_qp:FormationQP",
-    "hybrid": "optplan.backends.hybrid:Hybrid",
+    "visgraph": "optplan.exact.visgraph:VisGraph",
+    "pso": "optplan.swarm.pso:PSO",
+    "mpso": "optplan.swarm.mpso:MPSO",
+    "ipso": "optplan.swarm.ipso:IPSO",
+    "nlp": "optplan.exact.nlp:WaypointNLP",
+    "apf": "optplan.potential.apf:APF",
+    "sa-apf": "optplan.potential.sa_apf:SAAPF",
+    "leader-follower": "optplan.formation.leader_follower:LeaderFollower",
+    "formation-qp": "optplan.formation.formation_qp:FormationQP",
+    "hybrid": "optplan.hybrid.planner:Hybrid",
 }
 
 

@@ -6,7 +6,9 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.backends.apf import (
+from optplan.generators import swap_scene
+from optplan.interfaces import LocalController, LocalPlanner
+from optplan.potential.apf import (
     APF,
     FieldParams,
     attractive_force,
@@ -16,8 +18,6 @@ from optplan.backends.apf import (
     repulsive_force,
     repulsive_potential,
 )
-from optplan.generators import swap_scene
-from optplan.interfaces import LocalController, LocalPlanner
 from optplan.sim import ObstacleField, simulate
 
 C = np.array([50.0, 40.0])  # circle obstacle centre
@@ -233,7 +233,7 @@ def test_sense_robots_changes_nothing_for_one_robot():
 
 
 def test_robots_as_obstacles_field():
-    from optplan.backends.apf import RobotsAsObstacles
+    from optplan.potential.apf import RobotsAsObstacles
 
     prob = op.load_problem("trap-saddle")
     base = ObstacleField(prob)

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.backends.apf import APF, PotentialFieldBackend, evaluate_field
-from optplan.backends.hybrid import Hybrid
-from optplan.backends.sa_apf import K_B_PAPER, SAAPF
+from optplan.hybrid.planner import Hybrid
 from optplan.options import describe_options, option_spec
+from optplan.potential.apf import APF, PotentialFieldBackend, evaluate_field
+from optplan.potential.sa_apf import K_B_PAPER, SAAPF
 from optplan.problem import transform_problem
 from optplan.sim import ObstacleField
 

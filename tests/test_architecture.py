@@ -16,7 +16,9 @@ ROOT = Path(__file__).resolve().parents[1] / "optplan"
 CORE = ("optplan.problem", "optplan.canonical", "optplan.geometry", "optplan.metrics",
         "optplan.result", "optplan.options", "optplan.catalog", "optplan.solver",
         "optplan.interfaces", "optplan.sim")
-METHODS = ("optplan.backends",)
+#: the method families (one package each)
+METHODS = ("optplan.exact", "optplan.swarm", "optplan.potential", "optplan.formation",
+           "optplan.hybrid")
 TOOLS = ("optplan.cli", "optplan.bench", "optplan.benchdb", "optplan.report", "optplan.plot",
          "optplan.maps", "optplan.generators", "optplan.experiments")
 
@@ -64,11 +66,11 @@ def test_methods_never_import_a_tool(mod: str) -> None:
 
 
 def test_the_checker_sees_lazy_imports(tmp_path: Path) -> None:
-    pkg = tmp_path / "optplan" / "backends"
+    pkg = tmp_path / "optplan" / "swarm"
     pkg.mkdir(parents=True)
     (pkg / "bad.py").write_text("def f():\n    from optplan.plot import plot_result\n"
                                 "    import optplan.bench\n")
-    deps = modules(tmp_path / "optplan")["optplan.backends.bad"]
+    deps = modules(tmp_path / "optplan")["optplan.swarm.bad"]
     assert {"optplan.plot", "optplan.bench"} <= deps
     assert [d for d in deps if under(d, TOOLS)]
 

@@ -11,8 +11,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import optplan as op
-from optplan.backends.formation_qp import FormationQP, QPData, QPLayout, QPModel, QPSolver
-from optplan.backends.leader_follower import (
+from optplan.formation.formation_qp import FormationQP, QPData, QPLayout, QPModel, QPSolver
+from optplan.formation.leader_follower import (
     LPhiFollowers,
     adapted_angle,
     lphi_gradient,

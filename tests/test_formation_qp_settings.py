@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 import optplan as op
-import optplan.backends.formation_qp as fq
+import optplan.formation.formation_qp as fq
 
 FAST = {"path_solver": "visgraph"}
 

@@ -14,9 +14,9 @@ import pytest
 import shapely
 
 import optplan as op
-from optplan.backends.formation_qp import FormationQP
-from optplan.backends.leader_follower import LeaderFollower, PilotedFormation
 from optplan.cli import main as cli_main
+from optplan.formation.formation_qp import FormationQP
+from optplan.formation.leader_follower import LeaderFollower, PilotedFormation
 from optplan.options import describe_options, option_spec
 from optplan.problem import transform_problem
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.backends.hybrid import Hybrid, inflection_points, subgoals, turning_angles
+from optplan.hybrid.planner import Hybrid, inflection_points, subgoals, turning_angles
 from optplan.interfaces import FormationBackend, LocalPlanner
 from optplan.solver import Backend
 

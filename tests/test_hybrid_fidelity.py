@@ -74,7 +74,7 @@ def test_reach_visible_waits_until_the_next_subgoal_is_in_sight():
 
 
 def test_next_visible_checks_the_segment_to_the_next_subgoal():
-    from optplan.backends.hybrid import _Driver, _SubgoalTracker
+    from optplan.hybrid.planner import _Driver, _SubgoalTracker
     from optplan.sim import ObstacleField, SimState
 
     prob = op.parse_problem({

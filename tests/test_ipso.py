@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.backends import ipso as ip
-from optplan.backends import swarm as sw
-from optplan.backends.mpso import MPSO, mutate_one_coordinate, refine_trials
-from optplan.backends.pso import PSO, pso_step
 from optplan.geometry.polyline import resample_path
+from optplan.swarm import core as sw
+from optplan.swarm import ipso as ip
+from optplan.swarm.mpso import MPSO, mutate_one_coordinate, refine_trials
+from optplan.swarm.pso import PSO, pso_step
 
 # ---------------------------------------------------------------------------------------
 # eqs 17-21: adaptive inertia weight

@@ -11,8 +11,8 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from optplan.backends import swarm as sw
 from optplan.generators import corridor_scene
+from optplan.swarm import core as sw
 
 
 def _octant(dx, dy):

@@ -10,7 +10,7 @@ import shapely
 from shapely.geometry import Polygon
 
 import optplan as op
-from optplan.backends.nlp import (
+from optplan.exact.nlp import (
     SAFETY_REL,
     WaypointNLP,
     init_hyperplanes,
@@ -151,7 +151,7 @@ def test_hyperplane_init_is_the_separating_direction() -> None:
 
 def test_twin_numpy_fitness_and_casadi_objective_agree() -> None:
     """The swarm fitness's length part and the NLP objective score paths identically."""
-    from optplan.backends.swarm import evaluate_swarm, make_space
+    from optplan.swarm.core import evaluate_swarm, make_space
 
     prob = _scene([BOX])
     rob = prob.robots[0]

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 import optplan as op
-from optplan.backends.nlp import WaypointNLP, _build, _pair_rows
+from optplan.exact.nlp import WaypointNLP, _build, _pair_rows
 
 
 def _scene() -> op.Problem:

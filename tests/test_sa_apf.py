@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.backends.sa_apf import K_B, SAAPF
 from optplan.experiments import traps
+from optplan.potential.sa_apf import K_B, SAAPF
 
 
 def _d(problem: str) -> float:

@@ -10,9 +10,9 @@ import pytest
 import shapely
 
 import optplan as op
-from optplan.backends import swarm as sw
 from optplan.geometry import PIECE_EDGES, convex_pieces, obstacle_set
 from optplan.geometry.polyline import resample_path
+from optplan.swarm import core as sw
 
 
 def _problem(obstacles=None, **kw) -> op.Problem:

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 import optplan as op
-from optplan.backends.sa_apf import K_B, K_B_PAPER
+from optplan.potential.sa_apf import K_B, K_B_PAPER
 from optplan.problem import transform_problem
 
 __all__ = ["sweep_rows", "format_sweep", "KB_SCENES", "PRESETS", "REPRESENTATIVE",

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 import optplan as op
-from optplan.backends.visgraph import shortest_length
+from optplan.exact.visgraph import shortest_length
 
 __all__ = ["main", "summary_table"]
 

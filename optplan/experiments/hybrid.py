@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 import optplan as op
-from optplan.backends.visgraph import shortest_length
+from optplan.exact.visgraph import shortest_length
 
 __all__ = ["main", "three_way", "formation_runs", "temporary_collision", "time_to_goal",
            "format_three_way", "format_formation"]

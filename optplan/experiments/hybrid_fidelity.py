@@ -168,7 +168,7 @@ def eq52_scene(rho: float, side: str) -> tuple[op.Problem, np.ndarray]:
 def eq52_probe(rho: float, side: str, safety: bool) -> dict[str, float]:
     """One follower command of ``leader-follower-paper`` (``recovery`` off) in
     :func:`eq52_scene`: the component toward the wall and the eq 52 ratios."""
-    from optplan.backends.leader_follower import adapted_angle
+    from optplan.formation.leader_follower import adapted_angle
     from optplan.sim import ObstacleField, SimState
 
     prob, n = eq52_scene(rho, side)

@@ -346,7 +346,7 @@ def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_g
       ``r + 2 eps``, which the screens of :func:`crossings` skip as well).
 
     Tested against shapely and against :func:`crossings` in ``tests/test_swarm.py`` (its
-    caller is :func:`optplan.backends.swarm.pairs_free`).
+    caller is :func:`optplan.swarm.core.pairs_free`).
     """
     n = I.shape[0]
     free = np.ones(n, np.bool_)

@@ -70,7 +70,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.backends.apf import RobotsAsObstacles
 from optplan.canonical import canonical_problem, to_canonical, to_world
 from optplan.interfaces import (
     FORMATION_BACKEND,
@@ -82,6 +81,7 @@ from optplan.interfaces import (
     stage_name,
 )
 from optplan.options import option
+from optplan.potential.apf import RobotsAsObstacles
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Result, Status, notify
 from optplan.sim import SimOutcome, SimState, simulate

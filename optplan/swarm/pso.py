@@ -9,7 +9,7 @@ with ``eps, eta ~ U(0, 1)`` drawn per particle and coordinate every iteration, `
 particle's best position and ``p_g`` the swarm's best.  The paper prints ``x_gd`` in the social
 term of eq 1; that is a typo for ``x_id`` (the textbook PSO, and the only reading in which the
 social term pulls particle ``i`` toward ``p_g``).  Encoding, fitness (eqs 31-33), bounds
-handling and bookkeeping are shared with MPSO and IPSO in :mod:`optplan.backends.swarm`.
+handling and bookkeeping are shared with MPSO and IPSO in :mod:`optplan.swarm.core`.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.backends.swarm import (
+from optplan.solver import option
+from optplan.swarm.core import (
     SwarmBackend,
     SwarmSpace,
     SwarmState,
@@ -27,7 +28,6 @@ from optplan.backends.swarm import (
     handle_bounds,
     velocity_update,
 )
-from optplan.solver import option
 
 __all__ = ["PSO", "pso_step"]
 
@@ -37,7 +37,7 @@ def pso_step(state: SwarmState, w: float, c1: float, c2: float, vmax: np.ndarray
     """Eqs 1-2 for the whole swarm: returns the new ``(X, V)`` (bounds not yet handled).
 
     ``eps`` then ``eta`` ~ U(0, 1) per particle and coordinate are drawn from ``rng``; the
-    velocity is :func:`optplan.backends.swarm.velocity_update` with gbest as the one guide,
+    velocity is :func:`optplan.swarm.core.velocity_update` with gbest as the one guide,
     clamped to ``vmax`` per coordinate (``inf``: none).
     """
     P, D = state.X.shape
@@ -59,7 +59,7 @@ class PSO(SwarmBackend):
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
 penetration_weight, roadmap_samples, roadmap_boundary, roadmap_medial, roadmap_neighbours, \
 corridors
-        Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
+        Shared swarm options, see :class:`optplan.swarm.core.SwarmBackend`.
     """
 
     name: ClassVar[str] = "pso"

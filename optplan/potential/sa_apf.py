@@ -9,10 +9,10 @@ Potential: :math:`U = U_{att} + \sum_i U_{rep,i}` with the improved repulsion of
 
 whose negative gradient is :math:`F_{rep1}` (eq 36, away from the obstacle) plus
 :math:`F_{rep2}` (eq 37, toward the goal); both vanish at the goal for :math:`n > 1`, so the goal
-is the global minimum (GNRON fixed).  The forces are in :mod:`optplan.backends.apf`.
+is the global minimum (GNRON fixed).  The forces are in :mod:`optplan.potential.apf`.
 
 Flow (Fig. 12): APF step (eqs 12-13) -> local-minimum test (eq 38, stall, oscillation; see
-:mod:`optplan.backends.apf`) -> at the goal: done; elsewhere: simulated annealing escape
+:mod:`optplan.potential.apf`) -> at the goal: done; elsewhere: simulated annealing escape
 (§IV.B.3), then back to APF.
 
 Simulated annealing escape (§IV.B.3 steps 1-4):
@@ -50,15 +50,15 @@ from typing import ClassVar
 
 import numpy as np
 
-from optplan.backends.apf import (
+from optplan.canonical import format_point
+from optplan.interfaces import LocalPlanner
+from optplan.options import option
+from optplan.potential.apf import (
     APFController,
     FieldParams,
     PotentialFieldBackend,
     evaluate_field,
 )
-from optplan.canonical import format_point
-from optplan.interfaces import LocalPlanner
-from optplan.options import option
 from optplan.problem import Problem, Robot
 from optplan.sim import ObstacleField, SimState
 
@@ -272,10 +272,10 @@ class SAAPF(PotentialFieldBackend, LocalPlanner):
         Length of the greedy roll-out in the escape test (x length_scale).
     evade_factor : float
         Moving-obstacle safety step when a dynamic obstacle is closer than ``evade_factor * l``
-        (``0`` disables; see :meth:`~optplan.backends.apf.APFController.evade`).  Default 2.
+        (``0`` disables; see :meth:`~optplan.potential.apf.APFController.evade`).  Default 2.
     k, eta, rho_0, l, dt, max_steps, rho_min, sense_range, window, stall_ratio, n_probe, \
 detect_eq38, sense_robots
-        Shared options, see :class:`~optplan.backends.apf.PotentialFieldBackend`.
+        Shared options, see :class:`~optplan.potential.apf.PotentialFieldBackend`.
     """
 
     name: ClassVar[str] = "sa-apf"

@@ -20,7 +20,7 @@ Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration
    The text around the equations ("if dw = delta, w decreases linearly"; ``beta > 1`` gives a
    stronger reduction) describes instead ``w(k) = w(k-1) - dw(k-1)`` from ``w_max`` to
    ``w_min``; that is ``inertia = "linear"`` (clipped to ``[w_min, w_max]``).
-2. **Velocity** (eq 22): eq 1 with ``w(k)`` (:func:`optplan.backends.swarm.velocity_update`).
+2. **Velocity** (eq 22): eq 1 with ``w(k)`` (:func:`optplan.swarm.core.velocity_update`).
 3. **Position** (eqs 23-24)::
 
        psi(k)  = 1 - tanh(k / (k_max + 1))               (23)
@@ -55,7 +55,7 @@ Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration
    with the position factor.  The children (with their velocities) take the slots of the
    worst particles of the moved swarm ("weakly adapted individuals die out"); their personal
    best is reset to themselves.  Swarm, children and mutants are scored in one batch.
-5. Fitness: eqs 30-33, see :mod:`optplan.backends.swarm`.
+5. Fitness: eqs 30-33, see :mod:`optplan.swarm.core`.
 
 Implementation: the per-iteration steps (:func:`ga_pairs`, :func:`ga_children`,
 :func:`move`, :func:`absorb`) are compiled with numba (the only implementation); every random
@@ -78,7 +78,9 @@ from typing import Any, ClassVar
 import numba
 import numpy as np
 
-from optplan.backends.swarm import (
+from optplan.geometry import path_lengths
+from optplan.solver import option
+from optplan.swarm.core import (
     BOUND_CODES,
     PathBuffer,
     SwarmBackend,
@@ -92,8 +94,6 @@ from optplan.backends.swarm import (
     tighten,
     velocity_update,
 )
-from optplan.geometry import path_lengths
-from optplan.solver import option
 
 __all__ = [
     "IPSO",
@@ -122,7 +122,7 @@ CROSSOVER_MODES = ("blend", "swap")
 _jit = numba.njit(cache=True, nogil=True)
 _NO_DRAW = np.zeros(0)
 #: The end-game's quick ranking pass: rounds and cut fractions (1/2 to 1/16) of
-#: :func:`~optplan.backends.swarm.tighten`; at most ENDGAME_KEEP candidates (those within
+#: :func:`~optplan.swarm.core.tighten`; at most ENDGAME_KEEP candidates (those within
 #: ``endgame_margin`` of the best) are then tightened in full.
 QUICK_ROUNDS = 2
 QUICK_FRACTIONS = 0.5 ** np.arange(1, 5)
@@ -348,7 +348,7 @@ def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, g
     """The pre-evaluation part of one iteration, into the batch ``B``: GA children and
     mutants (:func:`ga_children`, rows ``P .. P + 2m``), the move (:func:`move`, rows
     ``:P`` and ``V_new``), then bounds handling of swarm and mutants (``bound_code``: see
-    :func:`optplan.backends.swarm.bound_rows`; velocities of reflected coordinates reversed,
+    :func:`optplan.swarm.core.bound_rows`; velocities of reflected coordinates reversed,
     of clipped ones zeroed).  Returns the children's velocities and the out-of-bounds mask
     (for ``random`` mode, whose re-draws the caller makes)."""
     P = X.shape[0]
@@ -517,7 +517,7 @@ class IPSO(SwarmBackend):
         per island.
     tighten_rounds : int
         Beyond the paper (the end-game): after the ``k_max`` iterations,
-        :func:`optplan.backends.swarm.tighten` (deterministic corner cutting + string pulling,
+        :func:`optplan.swarm.core.tighten` (deterministic corner cutting + string pulling,
         at most this many rounds) is applied to the candidates of ``endgame``; the shortest
         result is returned (one extra history row).  The returned path then has as many
         vertices as the tightening needs (more than ``n_waypoints`` around rounded corners).
@@ -533,7 +533,7 @@ class IPSO(SwarmBackend):
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
 penetration_weight, roadmap_samples, roadmap_boundary, roadmap_medial, roadmap_neighbours, \
 corridors
-        Shared swarm options, see :class:`optplan.backends.swarm.SwarmBackend`.
+        Shared swarm options, see :class:`optplan.swarm.core.SwarmBackend`.
     """
 
     name: ClassVar[str] = "ipso"
@@ -691,7 +691,7 @@ corridors
 
     def _finish(self, space: SwarmSpace, state: SwarmState, run: IPSORun,
                 rng: np.random.Generator):
-        """Beyond the paper: :func:`~optplan.backends.swarm.tighten` the end-game candidates
+        """Beyond the paper: :func:`~optplan.swarm.core.tighten` the end-game candidates
         (a few rounds for all of them, then the full ``tighten_rounds`` for those within
         ``endgame_margin`` of the best); the shortest result is the answer."""
         if not self.tighten_rounds:

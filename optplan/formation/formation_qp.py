@@ -25,7 +25,7 @@ for every robot and each of its ``max_obstacles`` nearest sensed obstacles (near
 
 position bounds :math:`x_i + \tau u_i \in [\ell + r_i, \mathrm{hi} - r_i]` (relaxed to
 "do not move further out" when already outside), and :math:`\|u_i\| \le v_{max,i}`.  The
-formation offsets :math:`o_f` are the L-phi slots (:mod:`optplan.backends.leader_follower`), with
+formation offsets :math:`o_f` are the L-phi slots (:mod:`optplan.formation.leader_follower`), with
 the eq 52 angle adaptation when ``adapt_phi``.  :math:`u^{nom}` is the pilot's command for the
 leader (weight ``w_leader``) and the leader's command (feed-forward) for each follower (weight 1).
 
@@ -95,7 +95,7 @@ from typing import Any, ClassVar
 import numpy as np
 import scipy.sparse as sp
 
-from optplan.backends.leader_follower import (
+from optplan.formation.leader_follower import (
     PilotedFormation,
     adapted_angle,
     run_formation,
@@ -918,7 +918,7 @@ class FormationQP(PilotedFormation, FormationBackend):
         ``length_scale``, so the tolerance is relative to the scene's size).
     k, eta, rho_0, n, adapt_phi, rho_0_f, c_phi, pilot, path_solver, v_factor, ref_spacing,
     lookahead, tau_h, dt, max_steps, settle_tol
-        See :class:`~optplan.backends.leader_follower.PilotedFormation` (the leader's pilot,
+        See :class:`~optplan.formation.leader_follower.PilotedFormation` (the leader's pilot,
         eq 52 and the run settings).
     """
 

@@ -106,7 +106,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.backends.apf import attractive_force, repulsive_force
 from optplan.interfaces import (
     LOCAL_PLANNER,
     PATH_SOLVER,
@@ -114,6 +113,7 @@ from optplan.interfaces import (
     LocalController,
     resolve_stage,
 )
+from optplan.potential.apf import attractive_force, repulsive_force
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status
 from optplan.sim import ObstacleField, SimState, simulate
@@ -191,7 +191,7 @@ def pilot_force(x: np.ndarray, goal: np.ndarray, near: np.ndarray, clear: np.nda
                 k: float, eta: float, rho_0: float, n: float) -> np.ndarray:
     """Total pilot force, eqs 40 + 44 + 45, summed over obstacles.
 
-    The same improved field as SA-APF (eqs 34-37, :mod:`optplan.backends.apf`) with the
+    The same improved field as SA-APF (eqs 34-37, :mod:`optplan.potential.apf`) with the
     pilot's gains.
 
     Parameters

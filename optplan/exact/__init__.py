@@ -1,0 +1,1 @@
+"""Exact references: the certified shortest path and the waypoint NLP."""

@@ -1,0 +1,1 @@
+"""The paper's hybrid planner: global path, sub-goals, local planning, formation."""

@@ -1,0 +1,1 @@
+"""The swarm family: encoding, fitness and operators (core), PSO, MPSO, IPSO."""
