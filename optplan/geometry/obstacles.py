@@ -61,6 +61,7 @@ from shapely.geometry import Polygon
 
 from optplan.geometry import kernel
 from optplan.geometry.frame import Frame
+from optplan.geometry.grid import item_grid
 from optplan.geometry.pieces import convex_pieces
 from optplan.geometry.solids import merge_solids
 
@@ -69,9 +70,6 @@ __all__ = ["PIECE_EDGES", "BOUNDS_NAME", "DiscCrossings", "ObstacleSet", "obstac
 
 #: Edges per convex piece (larger convex polygons are fan-split; triangles repeat an edge).
 PIECE_EDGES = 4
-
-#: Number of items from which the uniform grid replaces the all-pairs screen.
-GRID_FROM = 48
 
 #: Name of the bounds wall in results (``ObstacleSet.names[-1]`` of a walled set).
 BOUNDS_NAME = "bounds"
@@ -474,6 +472,39 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
     obstacles = list(obstacles)
     eps = frame.eps
     margin = radius + frame.length
+    shapes, names, members = _solids(obstacles, frame, margin, solids, walls)
+    n_obs = len(obstacles)
+    pieces, bflags, owner, circles, c_owner = [], [], [], [], []
+    for i, g in shapes:
+        if isinstance(g, tuple):
+            circles.append(g)
+            c_owner.append(i)
+            continue
+        alone = walls and i == n_obs  # the wall, touched by no obstacle
+        for v, fl in (_wall_pieces(*frame.local_bounds, margin) if alone else
+                      convex_pieces(g, PIECE_EDGES)):
+            pieces.append(v)
+            bflags.append(fl)
+            owner.append(i)
+    K = len(pieces)
+    V, table, boundary, pc, reach = _edge_table(pieces, bflags, eps)
+    circ = np.array(circles, dtype=float).reshape(-1, 3)
+    centers = np.vstack([pc, circ[:, :2]])
+    reach = np.concatenate([reach, circ[:, 2]])
+    item_obstacle = np.array(owner + c_owner, dtype=np.int64)
+    # items of the solid that holds the bounds wall (module docstring of grid)
+    wall_ids = ({n_obs} | {k for k, ms in members.items() if n_obs in ms}) if walls else set()
+    in_wall = np.isin(item_obstacle, sorted(wall_ids))
+    gd = item_grid(centers, reach, V, in_wall, radius, eps, grid)
+    return ObstacleSet(frame, float(radius), names,
+                       tuple(shapes), K, item_obstacle, centers[:, 0] + 1j * centers[:, 1],
+                       reach, circ[:, 2], table, boundary, gd, members, bool(walls))
+
+
+def _solids(obstacles: list, frame: Frame, margin: float, solids: bool, walls: bool
+            ) -> tuple[list, tuple, dict]:
+    """The clipped shapes (the bounds wall appended when walled), merged into solids when
+    asked; their names (``"bounds"`` last when walled) and the solids' members."""
     shapes = clip_obstacles(obstacles, frame, margin)
     names = tuple(getattr(o, "name", "") for o in obstacles)
     if walls:
@@ -481,19 +512,13 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
         names += (BOUNDS_NAME,)
     members: dict = {}
     if solids:
-        shapes, members = merge_solids(shapes, eps)
-    pieces, owner, bflags, circles, c_owner = [], [], [], [], []
-    for i, g in shapes:
-        if isinstance(g, tuple):
-            circles.append(g)
-            c_owner.append(i)
-            continue
-        alone = walls and i == len(obstacles)  # the wall, touched by no obstacle
-        for v, fl in (_wall_pieces(*frame.local_bounds, margin) if alone else
-                      convex_pieces(g, PIECE_EDGES)):
-            pieces.append(v)
-            bflags.append(fl)
-            owner.append(i)
+        shapes, members = merge_solids(shapes, frame.eps)
+    return shapes, names, members
+
+
+def _edge_table(pieces: list, bflags: list, eps: float) -> tuple:
+    """Padded vertices ``(K, 4, 2)``, the edge table, boundary flags, bounding-circle centres
+    and radii of the convex pieces (:class:`ObstacleSet` attributes)."""
     K = len(pieces)
     # padded vertex / flag arrays (K, 4): a triangle repeats its last vertex (a zero-length
     # edge would have no normal, so the last *edge* is repeated instead)
@@ -515,57 +540,9 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
     table = np.stack([p, ev, nrm, -ev.conj() / np.abs(ev) ** 2, c + 0j, c - eps * FB.T + 0j])
     boundary = FB.T.copy()
     nv = np.array([len(v) for v in pieces], dtype=float)
-    if K:
-        pc = np.stack([(V[..., 0] * (np.arange(PIECE_EDGES) < nv[:, None])).sum(1) / nv,
-                       (V[..., 1] * (np.arange(PIECE_EDGES) < nv[:, None])).sum(1) / nv],
-                      axis=1)
-        reach = np.max(np.hypot(V[..., 0] - pc[:, :1], V[..., 1] - pc[:, 1:]), axis=1)
-    else:
-        pc, reach = np.zeros((0, 2)), np.zeros(0)
-    circ = np.array(circles, dtype=float).reshape(-1, 3)
-    centers = np.vstack([pc, circ[:, :2]])
-    reach = np.concatenate([reach, circ[:, 2]])
-    item_obstacle = np.array(owner + c_owner, dtype=np.int64)
-    n_items = len(item_obstacle)
-    # items of the solid that holds the bounds wall: large pieces around the bounds, listed
-    # in the grid by their boxes (not their bounding squares) and left out of the grid's
-    # extent and cell size, so that the rest of the grid is the one an unwalled map has
-    wall_ids = {len(obstacles)} if walls else set()
-    wall_ids |= {k for k, ms in members.items() if len(obstacles) in ms}
-    in_wall = np.isin(item_obstacle, sorted(wall_ids))
-    plain = ~in_wall if (~in_wall).any() else np.ones(n_items, bool)
-    use_grid = int(plain.sum()) >= GRID_FROM if grid is None else bool(grid)
-    gd = None
-    if use_grid and n_items:
-        ext = reach + radius + 4 * eps
-        lo = (centers - ext[:, None])[plain].min(axis=0)
-        hi = (centers + ext[:, None])[plain].max(axis=0)
-        span = float(np.max(hi - lo))
-        h = max(2.0 * float(np.median(ext[plain])), span / 256.0, eps)
-        nx = int(math.floor((hi[0] - lo[0]) / h)) + 1
-        ny = int(math.floor((hi[1] - lo[1]) / h)) + 1
-        blo = centers - ext[:, None]
-        bhi = centers + ext[:, None]
-        if in_wall.any():  # boxes of the wall's pieces, grown by the collision reach
-            g = radius + 4 * eps
-            wk = np.flatnonzero(in_wall[:K])  # circles are never part of the wall's solid
-            blo[wk] = V[wk].min(axis=1) - g
-            bhi[wk] = V[wk].max(axis=1) + g
-        i0 = np.clip(np.floor((blo[:, 0] - lo[0]) / h), 0, nx - 1).astype(np.int64)
-        i1 = np.clip(np.floor((bhi[:, 0] - lo[0]) / h), 0, nx - 1).astype(np.int64)
-        j0 = np.clip(np.floor((blo[:, 1] - lo[1]) / h), 0, ny - 1).astype(np.int64)
-        j1 = np.clip(np.floor((bhi[:, 1] - lo[1]) / h), 0, ny - 1).astype(np.int64)
-        cells, items = [], []
-        for k in range(n_items):
-            ii, jj = np.meshgrid(np.arange(i0[k], i1[k] + 1), np.arange(j0[k], j1[k] + 1))
-            cells.append((ii * ny + jj).ravel())
-            items.append(np.full(ii.size, k, np.int64))
-        cells_a, items_a = np.concatenate(cells), np.concatenate(items)
-        order = np.argsort(cells_a, kind="stable")
-        count = np.bincount(cells_a, minlength=nx * ny)
-        gd = {"h": h, "x0": float(lo[0]), "y0": float(lo[1]), "nx": nx, "ny": ny,
-              "items": items_a[order], "count": count, "reach": radius + 4 * eps,
-              "start": np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)}
-    return ObstacleSet(frame, float(radius), names,
-                       tuple(shapes), K, item_obstacle, centers[:, 0] + 1j * centers[:, 1],
-                       reach, circ[:, 2], table, boundary, gd, members, bool(walls))
+    if not K:
+        return V, table, boundary, np.zeros((0, 2)), np.zeros(0)
+    pc = np.stack([(V[..., 0] * (np.arange(PIECE_EDGES) < nv[:, None])).sum(1) / nv,
+                   (V[..., 1] * (np.arange(PIECE_EDGES) < nv[:, None])).sum(1) / nv], axis=1)
+    reach = np.max(np.hypot(V[..., 0] - pc[:, :1], V[..., 1] - pc[:, 1:]), axis=1)
+    return V, table, boundary, pc, reach
