@@ -123,31 +123,41 @@ def clip_obstacles(obstacles: Sequence, frame: Frame, margin: float) -> list[tup
     out: list[tuple[int, object]] = []
     for i, o in enumerate(obstacles):
         label = f"obstacle {i} ({o.name!r})" if getattr(o, "name", "") else f"obstacle {i}"
-        if o.is_circle:
-            c = frame.local(o.center)
-            R = float(o.radius)
-            if np.any(c + R < lo) or np.any(c - R > hi):
-                continue  # entirely outside the region (exact box test)
-            frame.check_extent(float(np.max(np.abs(c))) + R, label)
-            out.append((i, (float(c[0]), float(c[1]), R)))
-            continue
-        wx0, wy0, wx1, wy1 = o.geometry.bounds
-        blo = frame.local([wx0, wy0])
-        bhi = frame.local([wx1, wy1])
-        if np.any(bhi < lo) or np.any(blo > hi):
-            continue
-        g = shapely.transform(o.geometry, lambda xy: xy - frame.origin)
-        if np.any(blo < lo) or np.any(bhi > hi):
-            _check_far_edges(g, frame, lo, hi, label)
-            g = shapely.clip_by_rect(g, lo[0], lo[1], hi[0], hi[1])
-            g = shapely.make_valid(g) if not g.is_valid else g
-            polys = [q for q in getattr(g, "geoms", [g]) if isinstance(q, Polygon)
-                     and not q.is_empty and q.area > 0]
-            if not polys:
-                continue
-            g = shapely.MultiPolygon(polys) if len(polys) > 1 else polys[0]
-        out.append((i, g))
+        shape = (_clip_circle(o, frame, lo, hi, label) if o.is_circle else
+                 _clip_polygon(o, frame, lo, hi, label))
+        if shape is not None:
+            out.append((i, shape))
     return out
+
+
+def _clip_circle(o, frame: Frame, lo: np.ndarray, hi: np.ndarray, label: str):
+    """A circle obstacle as ``(cx, cy, R)`` (local), None when it lies outside the region."""
+    c = frame.local(o.center)
+    R = float(o.radius)
+    if np.any(c + R < lo) or np.any(c - R > hi):
+        return None  # entirely outside the region (exact box test)
+    frame.check_extent(float(np.max(np.abs(c))) + R, label)
+    return (float(c[0]), float(c[1]), R)
+
+
+def _clip_polygon(o, frame: Frame, lo: np.ndarray, hi: np.ndarray, label: str):
+    """A polygon obstacle in the local frame clipped to the region, None outside it."""
+    wx0, wy0, wx1, wy1 = o.geometry.bounds
+    blo = frame.local([wx0, wy0])
+    bhi = frame.local([wx1, wy1])
+    if np.any(bhi < lo) or np.any(blo > hi):
+        return None
+    g = shapely.transform(o.geometry, lambda xy: xy - frame.origin)
+    if not (np.any(blo < lo) or np.any(bhi > hi)):
+        return g
+    _check_far_edges(g, frame, lo, hi, label)
+    g = shapely.clip_by_rect(g, lo[0], lo[1], hi[0], hi[1])
+    g = shapely.make_valid(g) if not g.is_valid else g
+    polys = [q for q in getattr(g, "geoms", [g]) if isinstance(q, Polygon)
+             and not q.is_empty and q.area > 0]
+    if not polys:
+        return None
+    return shapely.MultiPolygon(polys) if len(polys) > 1 else polys[0]
 
 
 def _check_far_edges(g, frame: Frame, lo: np.ndarray, hi: np.ndarray, label: str) -> None:

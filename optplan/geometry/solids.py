@@ -98,35 +98,44 @@ def merge_solids(shapes: list[tuple[int, object]], eps: float
     # the shapes of clip_obstacles are valid, non-empty polygonal geometries
     idx = [i for i, _ in polys]
     geoms = [g for _, g in polys]
-    n = len(geoms)
-    if n == 0:
-        return circles, {}
-    tree = shapely.STRtree(geoms)
-    a, b = tree.query(geoms, predicate="dwithin", distance=eps)
-    off = a != b
-    graph = coo_matrix((np.ones(int(off.sum())), (a[off], b[off])), shape=(n, n))
-    n_comp, label = connected_components(graph, directed=False)
-    # every piece is snapped onto its neighbours of smaller obstacle index (pairs both ways)
-    rank = np.argsort(np.argsort(np.asarray(idx), kind="stable"), kind="stable")
-    earlier = off & (rank[b] < rank[a])
-    nbrs: dict[int, list[int]] = {}
-    for u_, v_ in zip(a[earlier].tolist(), b[earlier].tolist()):
-        nbrs.setdefault(u_, []).append(v_)
+    groups, nbrs = _groups(geoms, idx, eps)
     out: dict[int, object] = {}
     members: dict[int, tuple[int, ...]] = {}
-    for c in range(n_comp):
-        ks = np.flatnonzero(label == c)
+    for ks in groups:
         if len(ks) == 1:
             out[idx[ks[0]]] = geoms[ks[0]]
             continue
-        group = sorted(ks, key=lambda k: idx[k])
-        pos = {k: q for q, k in enumerate(group)}
-        before = [[pos[v_] for v_ in nbrs.get(k, ())] for k in group]
-        u = _union([geoms[k] for k in group], before, eps)
-        if u is None:
-            continue
-        rep = idx[group[0]]
-        out[rep] = u
-        members[rep] = tuple(idx[k] for k in group)
+        group = sorted(ks.tolist(), key=lambda k: idx[k])
+        u = _merge_group(group, geoms, nbrs, eps)
+        if u is not None:
+            out[idx[group[0]]] = u
+            members[idx[group[0]]] = tuple(idx[k] for k in group)
     solids = sorted([*out.items(), *circles], key=lambda t: t[0])
     return solids, members
+
+
+def _merge_group(group: list[int], geoms: list, nbrs: dict[int, list[int]], eps: float):
+    """The union of the pieces at positions ``group`` (in obstacle-index order)."""
+    pos = {k: q for q, k in enumerate(group)}
+    return _union([geoms[k] for k in group], [[pos[v] for v in nbrs.get(k, ())]
+                                              for k in group], eps)
+
+
+def _groups(geoms: list, idx: list[int], eps: float
+            ) -> tuple[list[np.ndarray], dict[int, list[int]]]:
+    """The connected components of "closer than ``eps``" (arrays of positions in ``geoms``)
+    and, per position, its neighbours of smaller obstacle index (the pieces it is snapped
+    onto)."""
+    n = len(geoms)
+    a, b = shapely.STRtree(geoms).query(geoms, predicate="dwithin", distance=eps)
+    off = a != b
+    graph = coo_matrix((np.ones(int(off.sum())), (a[off], b[off])), shape=(n, n))
+    n_comp, label = connected_components(graph, directed=False)
+    order = np.argsort(label, kind="stable")
+    groups = np.split(order, np.cumsum(np.bincount(label, minlength=n_comp))[:-1])
+    rank = np.argsort(np.argsort(np.asarray(idx), kind="stable"), kind="stable")
+    earlier = off & (rank[b] < rank[a])
+    nbrs: dict[int, list[int]] = {}
+    for u, v in zip(a[earlier].tolist(), b[earlier].tolist()):
+        nbrs.setdefault(u, []).append(v)
+    return groups, nbrs
