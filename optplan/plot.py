@@ -42,6 +42,7 @@ from matplotlib.path import Path as MplPath
 
 from optplan.problem import Problem
 from optplan.result import Result
+from optplan.violations import violations
 
 __all__ = ["plot_problem", "plot_result", "plot_convergence", "animate", "new_figure"]
 
@@ -308,129 +309,9 @@ def _problem_of(result: Result, problem: Problem | None) -> Problem:
     return load_problem(result.problem)
 
 
-def _contact_spans(oset: Any, a: np.ndarray, b: np.ndarray, short: float
-                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Per colliding segment ``a[k] -> b[k]``: the parameters of its first and last contact.
-
-    Whether the prefix ``a -> a + u (b - a)`` collides grows with ``u`` and whether the suffix
-    ``a + u (b - a) -> b`` does shrinks with it; two rounds of 64 exact tests of each locate
-    the first and the last contact to 1/4096 of the segment (the span drawn red is never
-    shorter than the contact).  Segments shorter than ``short`` are kept whole.
-    """
-    k = len(a)
-    u0, u1 = np.zeros(k), np.ones(k)
-    todo = np.flatnonzero(np.hypot(*(b - a).T) >= short)
-    if not todo.size:
-        return u0, u1
-    A, D = a[todo], (b - a)[todo]
-    grid = np.linspace(0.0, 1.0, 65)
-    rows = np.repeat(np.arange(len(todo)), len(grid))
-
-    def bad(lo: np.ndarray, hi: np.ndarray, prefix: bool) -> tuple[np.ndarray, np.ndarray]:
-        u = lo[:, None] + (hi - lo)[:, None] * grid[None, :]
-        pts = A[rows] + u.reshape(-1, 1) * D[rows]
-        ends = A[rows] if prefix else A[rows] + D[rows]
-        return u, ~oset.segment_free(ends, pts).reshape(u.shape)
-
-    lo, hi = np.zeros(len(todo)), np.ones(len(todo))
-    for _ in range(2):  # the first contact: the first u whose prefix collides
-        u, hit = bad(lo, hi, True)
-        j = np.where(hit.any(axis=1), hit.argmax(axis=1), len(grid) - 1)
-        lo, hi = u[np.arange(len(u)), np.maximum(j - 1, 0)], u[np.arange(len(u)), j]
-    u0[todo] = lo
-    lo, hi = np.zeros(len(todo)), np.ones(len(todo))
-    for _ in range(2):  # the last contact: the last u whose suffix collides
-        u, hit = bad(lo, hi, False)
-        j = np.where(hit.any(axis=1), len(grid) - 1 - hit[:, ::-1].argmax(axis=1), 0)
-        lo = u[np.arange(len(u)), j]
-        hi = u[np.arange(len(u)), np.minimum(j + 1, len(grid) - 1)]
-    u1[todo] = hi
-    return u0, u1
-
-
-def _violations(prob: Problem, paths: Mapping[str, np.ndarray], metrics: Mapping,
-                times: np.ndarray | None) -> dict[str, list]:
-    """Where the validator's complaints are, on the map.
-
-    ``segments``: the path segments colliding with a static obstacle, recomputed with the
-    exact engine (``problem.obstacle_set(radius).crossings(..., details=True).pairs``), each
-    trimmed to its spans of contact with each obstacle it meets (:func:`_contact_spans`),
-    joined into one polyline where consecutive spans meet; ``entries``: each colliding robot's
-    first static contact point;
-    ``contacts``: the contacts in time (moving obstacles, other robots) with ``time`` and
-    ``position``, from ``metrics["contacts"]``, else ``metrics["first_contact"]`` (and, when
-    the metrics count more than one, all of them recomputed by
-    :func:`optplan.metrics.time_checks`); ``moving``: the shapes of the moving obstacles met,
-    where they were at the contact (first 10 contacts); ``outside``: runs of path points
-    outside the bounds, with the neighbouring points inside (the excursion).
-    """
-    from optplan.geometry import obstacle_set
-
-    out: dict[str, list] = {"segments": [], "entries": [], "contacts": [], "moving": [],
-                            "outside": [], "outside_points": []}
-    own = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in paths.items()
-           if k in prob.robot_ids and len(np.asarray(v))}
-    for rid, p in own.items():
-        oset = prob.obstacle_set(prob.robot(rid).radius)
-        sp = p if len(p) > 1 else np.vstack([p, p])
-        cr = oset.crossings(sp[None], details=True, penetration=False)
-        seg, obs = cr.pairs[1], cr.pairs[2]
-        if seg.size:
-            # the contact span of every (segment, obstacle) pair, against that obstacle alone
-            u0, u1 = np.zeros(len(seg)), np.ones(len(seg))
-            n_obs = len(prob.obstacles)
-            for j in np.unique(obs):
-                sel = np.flatnonzero(obs == j)
-                solid = oset.members.get(int(j), (int(j),))  # a solid, maybe with the wall
-                one = obstacle_set([prob.obstacles[m] for m in solid if m < n_obs],
-                                   oset.radius, prob.frame, walls=max(solid) >= n_obs)
-                u0[sel], u1[sel] = _contact_spans(one, sp[seg[sel]], sp[seg[sel] + 1],
-                                                  2e-3 * prob.extent)
-            order = np.lexsort((u0, seg))
-            spans: list[list] = []  # [segment, u0, u1], overlaps on a segment merged
-            for i in order:
-                if spans and spans[-1][0] == seg[i] and u0[i] <= spans[-1][2]:
-                    spans[-1][2] = max(spans[-1][2], u1[i])
-                else:
-                    spans.append([int(seg[i]), float(u0[i]), float(u1[i])])
-            line: list = []
-            for i, (k, a0, a1) in enumerate(spans):
-                a, d = sp[k], sp[k + 1] - sp[k]
-                joined = (i > 0 and spans[i - 1][0] == k - 1 and spans[i - 1][2] == 1.0
-                          and a0 == 0.0)
-                if line and not joined:
-                    out["segments"].append(np.asarray(line))
-                    line = []
-                line += [a + a1 * d] if line else [a + a0 * d, a + a1 * d]
-            out["segments"].append(np.asarray(line))
-            k, a0 = spans[0][0], spans[0][1]
-            out["entries"].append(sp[k] + a0 * (sp[k + 1] - sp[k]))
-        off = np.flatnonzero(~prob.frame.in_bounds(p))
-        if off.size:
-            out["outside_points"].append(p[off])
-            for run in np.split(off, np.flatnonzero(np.diff(off) > 1) + 1):
-                out["outside"].append(p[max(run[0] - 1, 0): run[-1] + 2])
-    contacts = metrics.get("contacts")
-    if contacts is None:
-        first = metrics.get("first_contact")
-        contacts = [first] if first else []
-        n = int(metrics.get("dynamic_contacts", 0) or 0) + int(
-            metrics.get("separation_violations", 0) or 0)
-        if first and n > 1 and set(own) == set(paths):
-            from optplan.metrics import time_checks, time_stamps
-
-            tc = time_checks(prob, own, time_stamps(prob, own, times))
-            contacts = sorted(tc["contacts"], key=lambda c: c["time"]) or contacts
-    out["contacts"] = [c for c in contacts if c and c.get("position") is not None]
-    movers = {d.name: d for d in prob.dynamic_obstacles}
-    out["moving"] = [movers[c["other"]].geometry_at(float(c["time"]))
-                     for c in out["contacts"][:10]
-                     if c.get("kind") == "moving obstacle" and c.get("other") in movers]
-    return out
-
-
 def _draw_violations(ax: Axes, v: Mapping[str, list]) -> None:
-    """Red marks for :func:`_violations`; legend entries "collision" and "outside the map"."""
+    """Red marks for :func:`optplan.violations.violations`; legend entries "collision" and
+    "outside the map"."""
     label = "collision"
     for seg in v["segments"]:
         # a wide red band under the path: the robot's colour stays visible along its middle
@@ -675,7 +556,7 @@ def plot_result(result: Result, problem: Problem | None = None, ax: Axes | None 
                             xytext=(5, -10), fontsize=6, color="#37474f", zorder=9)
     m = result.metrics or {}
     paths = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in result.paths.items()}
-    _draw_violations(ax, _violations(prob, paths, m, times))
+    _draw_violations(ax, violations(prob, paths, m, times))
     _include_points(ax, prob, paths)
     bits = [f"{result.status.value}", f"length {m.get('length', float('nan')):.2f}"]
     if m.get("ratio_to_optimum") is not None:
@@ -979,7 +860,7 @@ def animate(result: Result, out: str | Path, problem: Problem | None = None, fps
     plot_problem(prob, ax=ax, t_end=float(t[-1]) if n else None, legend=None)
     _draw_global_path(ax, result)
     paths = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in result.paths.items()}
-    _draw_violations(ax, _violations(prob, paths, result.metrics or {}, result.times))
+    _draw_violations(ax, violations(prob, paths, result.metrics or {}, result.times))
     _include_points(ax, prob, paths)
     update = _Frames(ax, prob, pos, t, trail)
     # the clock: above the axes on the right, the title on the left, the legend outside on

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1] / "optplan"
 #: the model, the geometry and the core: never import a method or a tool
 CORE = ("optplan.problem", "optplan.canonical", "optplan.geometry", "optplan.metrics",
         "optplan.result", "optplan.options", "optplan.catalog", "optplan.solver",
-        "optplan.interfaces", "optplan.sim")
+        "optplan.interfaces", "optplan.sim", "optplan.violations")
 #: the method families (one package each)
 METHODS = ("optplan.exact", "optplan.swarm", "optplan.potential", "optplan.formation",
            "optplan.hybrid")
