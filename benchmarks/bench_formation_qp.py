@@ -18,8 +18,13 @@ each size.
 (the shipped setting is off, :func:`optplan.formation.formation_qp.qp_settings`) and prints the
 solve path of both settings and the largest difference between the two runs' trajectories.
 
+``--oracle`` (issue 24) re-solves every recorded step of one run per size both ways, through
+the compiled map (the one run-time path) and through cvxpy's re-solve pipeline (the oracle,
+:meth:`optplan.formation.qp_model.QPModel.solve_cvxpy`), and prints both medians and the largest
+difference of the velocities.
+
     python benchmarks/bench_formation_qp.py [--steps 80] [--sizes 3,30,100] [--repeat 3]
-                                            [--refinement off|on|both]
+                                            [--refinement off|on|both] [--oracle]
 """
 
 from __future__ import annotations
@@ -28,6 +33,7 @@ import argparse
 import dataclasses
 import os
 import platform
+import time
 
 import numpy as np
 
@@ -79,6 +85,36 @@ def run(n: int, steps: int, refinement: bool = False) -> dict:
                       else np.zeros(0))}
 
 
+def oracle(n: int, steps: int) -> str:
+    """One run; every step's Parameter vector re-solved by the compiled map and by cvxpy."""
+    import optplan.formation.qp_model as qm
+
+    seen, orig = [], qm.QPModel.solve
+
+    def record(self, data):
+        seen.append((self, data.theta(self.linear_term(data))))
+        return orig(self, data)
+
+    qm.QPModel.solve = record
+    try:
+        op.get_solver("formation-qp", path_solver="visgraph", max_steps=steps,
+                      neighbor_radius=20.0).solve(scene(n), rng=np.random.default_rng(0))
+    finally:
+        qm.QPModel.solve = orig
+    tc, tp, dev = [], [], 0.0
+    for m, theta in seen:
+        t0 = time.perf_counter()
+        a = m.compiled.solve(theta, m.soft)
+        t1 = time.perf_counter()
+        b, _ = m.solve_cvxpy(theta)
+        tp.append(time.perf_counter() - t1)
+        tc.append(t1 - t0)
+        if a.U is not None and b.U is not None:
+            dev = max(dev, float(np.abs(a.U - b.U).max()))
+    return (f"| {n} | {len(seen)} | {np.median(tc) * 1e3:.2f} | {np.median(tp) * 1e3:.2f} | "
+            f"{np.median(tp) / np.median(tc):.1f} | {dev:.1e} |")
+
+
 def load() -> str:
     return ", ".join(f"{x:.2f}" for x in os.getloadavg())
 
@@ -90,7 +126,16 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--refinement", choices=("off", "on", "both"), default="off",
                     help="Clarabel's iterative refinement (shipped: off)")
+    ap.add_argument("--oracle", action="store_true",
+                    help="compare the compiled map with cvxpy's pipeline (issue 24)")
     a = ap.parse_args(argv)
+    if a.oracle:
+        print("| robots | steps | compiled map median ms | cvxpy pipeline median ms | ratio "
+              "| max velocity difference |")
+        print("|---:|---:|---:|---:|---:|---:|")
+        for n in a.sizes.split(","):
+            print(oracle(int(n), a.steps))
+        return
     modes = {"off": [False], "on": [True], "both": [False, True]}[a.refinement]
     print(f"machine: {platform.machine()}, {os.cpu_count()} cores (shared); python "
           f"{platform.python_version()}; {a.steps} steps per run, {a.repeat} run(s) per size\n")

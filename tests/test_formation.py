@@ -148,12 +148,48 @@ def test_qp_is_dpp_and_matches_the_written_out_model():
         np.testing.assert_allclose(sol.U, ref, atol=2e-5)
         via_cvxpy, _ = m.solve_cvxpy(d.theta(m.linear_term(d)))
         np.testing.assert_allclose(via_cvxpy.U, ref, atol=2e-5)
-    slow = QPModel(_layout(), 0.5, 4.0, 1e4, _SETTINGS, fast=False)  # cvxpy in the loop
-    assert slow.compiled is None
-    np.testing.assert_allclose(slow.solve(d).U, sol.U, atol=2e-5)
     data = m.problem.get_problem_data(cp.CLARABEL)[0]
     assert data["dims"].zero == 0  # no auxiliary equality rows: Q goes to Clarabel as is
     assert data["c"].size == 2 * m.layout.n  # and no auxiliary variables
+
+
+@pytest.mark.parametrize("soft", [False, True])
+def test_the_one_qp_path_matches_the_cvxpy_oracle_on_random_instances(soft):
+    """Issue 24: the compiled map is the only run-time path; cvxpy's re-solve pipeline is its
+    oracle.  Random layouts (robots, pair patterns, obstacle and external rows) and random
+    feasible instances: the same status, the same objective to 10 x tol and the same
+    velocities to 1e-3 (two solves to tol 1e-7 on a speed-cone boundary differ by about
+    sqrt(tol))."""
+    rng = np.random.default_rng(24)
+    for _ in range(12):
+        n, K, ne = int(rng.integers(1, 9)), int(rng.integers(0, 4)), int(rng.integers(0, 2))
+        iu, ju = np.triu_indices(n, 1)
+        sel = rng.random(len(iu)) < 0.5
+        li = -1 if ne else 0
+        edges = np.array([(k, li) for k in range(n) if k != 0 or li < 0], int).reshape(-1, 2)
+        layout = QPLayout(n, np.stack([iu[sel], ju[sel]], 1).reshape(-1, 2), K, ne, edges,
+                          np.ones(n), rng.uniform(0.5, 2.0, n))
+        m = QPModel(layout, 0.5, 4.0, 1e4, _SETTINGS, soft=soft)
+        for _ in range(3):
+            theta = m.feasible_theta(rng)
+            got = m.compiled.solve(theta, soft)
+            ref, _ = m.solve_cvxpy(theta)
+            assert got.status in ("Solved", "AlmostSolved") and ref.status == got.status
+            assert got.objective == pytest.approx(ref.objective, rel=1e-6, abs=1e-6)
+            np.testing.assert_allclose(got.U, ref.U, atol=1e-3)
+            assert got.slack == pytest.approx(ref.slack, abs=1e-3)
+
+
+def test_every_native_clarabel_status_has_a_meaning():
+    import clarabel
+
+    from optplan.formation import clarabel as cl
+
+    native = {s for s in dir(clarabel.SolverStatus) if not s.startswith("_")}
+    assert native <= set(cl.STATUS), native - set(cl.STATUS)
+    assert {s for s, v in cl.STATUS.items() if v == cl.ACCEPTED} == {"Solved", "AlmostSolved"}
+    assert all(cl.meaning(s) == cl.CERTIFICATE for s in cl.STATUS if "Infeasible" in s)
+    assert cl.meaning("SomeFutureStatus") == cl.NUMERICAL and not cl.accepted("Unsolved")
 
 
 def test_rows_implied_by_the_speed_cones_are_dropped():

@@ -31,12 +31,13 @@ def test_numerical_failure_is_retried_with_refinement():
     theta = m.feasible_theta(np.random.default_rng(1))
     good = c.solve(theta)
     assert good.status == "Solved" and not good.retried and good.iterations > 0
-    c.settings = {**c.settings, "max_iter": 1}  # a numerical stop, not an infeasibility
-    c._solver = None
+    cs = c.clarabel  # the Clarabel adapter (optplan.formation.clarabel)
+    cs.settings = {**cs.settings, "max_iter": 1}  # a numerical stop, not an infeasibility
+    cs.reset()
     bad = c.solve(theta)
     assert bad.retried and bad.U is None and bad.status == "MaxIterations"
-    assert c.retries == 1
-    c.settings = {**c.settings, "max_iter": 50}
+    assert cs.retries == 1
+    cs.settings = {**cs.settings, "max_iter": 50}
     again = c.solve(theta)  # the next step builds the solver afresh and solves
     assert again.status == "Solved" and not again.retried
     np.testing.assert_allclose(again.U, good.U, atol=1e-5)  # both to tol 1e-7

@@ -44,31 +44,23 @@ the QP's solution is applied, for any step length.  For a convex obstacle the ha
 :math:`\ge r_i + m` (up to the reported slack).  ``neighbor_radius`` is raised to at least
 :math:`D_s + 2\tau v_{max}` so no unconstrained pair can close the gap in one step.
 
-Implementation (one implementation: a cvxpy DPP model solved by Clarabel)
-------------------------------------------------------------------------
-The objective is expanded once: :math:`u^TQu + q^Tu` with the constant
-:math:`Q = W + w_f\tau^2E^TE` (:math:`E` the formation-error Jacobian) and the linear term
-:math:`q = -2Wu^{nom} + 2w_f\tau E^Tr`, so cvxpy passes :math:`Q` to Clarabel as its quadratic
-term (no auxiliary variables or equality rows); the speed limits are second-order cones on
-:math:`(v_{max,i}, u_i)` directly.  Every row family has a fixed shape (a :class:`QPLayout`):
-pair rows on a pattern of the pairs within ``1.5 * neighbor_radius``, ``max_obstacles`` rows per
-robot, one row per robot and external robot; rows that do not apply this step are padded (zero
-coefficients, right-hand side ``BIG``).  All per-step numbers are one Parameter vector
-(:meth:`QPData.theta`).  The model is DPP (``problem.is_dpp()`` is checked) and compiled once per
-layout.
-
-Per step, cvxpy is out of the loop (:class:`CompiledQP`): a DPP problem's compiled solver data
-is affine in its Parameters, and that map is read off cvxpy's compilation
+Implementation (one implementation, one run-time path)
+------------------------------------------------------
+The model is one cvxpy DPP problem per layout (:mod:`optplan.formation.qp_model`: the objective
+expanded to :math:`u^TQu + q^Tu`, fixed row shapes, one Parameter vector).  Per step cvxpy is
+out of the loop (:mod:`optplan.formation.compiled_qp`): the compiled solver data of a DPP
+problem is affine in its Parameters, and that map is read off cvxpy's compilation
 (``Problem.get_problem_data``, documented as enough to call the solver directly) when the model
-is built, verified against a further compilation and against cvxpy's own re-solve.  A step
-evaluates the map, drops the inequality rows the speed cones already imply
+is built, checked against a further compilation and against cvxpy's own re-solve of a random
+instance.  A step evaluates the map, drops the inequality rows the speed cones already imply
 (:math:`\sum_i\|a_i\|v_{max,i} \le b`: the padded rows, far pairs, walls out of reach; the
-feasible set and the solution are unchanged) and gives the rest to Clarabel, updated in place with
-``DefaultSolver.update`` (``presolve_enable`` and ``chordal_decomposition_enable`` off) while the
-kept rows stay the same.  If the map cannot be read off or verified, every step goes through
-cvxpy's documented re-solve pipeline instead (``get_problem_data`` on the cached compilation ->
-``SolvingChain.solve_via_data(warm_start=True)`` -> ``unpack_results``;
-:meth:`QPModel.solve_cvxpy`), the same model and the same solution, only slower.
+feasible set and the solution are unchanged) and gives the rest to Clarabel
+(:mod:`optplan.formation.clarabel`, updated in place with ``DefaultSolver.update`` while the
+kept rows stay the same).  This is the only run-time path.  cvxpy's documented re-solve
+pipeline (:meth:`QPModel.solve_cvxpy`) is the oracle: of the check above, and of the tests,
+which solve random instances both ways.  A map that cannot be read off or checked is a
+:class:`~optplan.formation.compiled_qp.CompileError` when the model is built (a modelling error,
+like a model that is not DPP), never a silent switch to a slower path.
 
 Units: the QP is posed in units of the scene's ``length_scale`` (positions, radii, speeds, the
 safety distance, the obstacle data and the bounds divided by it, the solution multiplied back);
@@ -79,7 +71,8 @@ numerical status is repeated once with it (``stats["qp_retries"]``).
 
 A new pair inside ``neighbor_radius`` outside the pattern, or a change of the controlled robots,
 rebuilds the model (``stats["rebuilds"]``).  A Clarabel status other than ``Solved`` /
-``AlmostSolved`` after the fallback, or a solver error, gives a safe stop (all controlled robots
+``AlmostSolved`` (:data:`optplan.formation.clarabel.STATUS`) after the fallback, or a solver
+error, gives a safe stop (all controlled robots
 hold still), counted in ``stats["qp_failures"]``; nothing is raised.
 """
 
@@ -88,19 +81,16 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-import warnings
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
-import scipy.sparse as sp
 
-from optplan.formation.leader_follower import (
-    PilotedFormation,
-    adapted_angle,
-    run_formation,
-    slot_positions,
-)
+from optplan.formation.compiled_qp import CompiledQP
+from optplan.formation.leader_follower import adapted_angle
+from optplan.formation.pilot import PilotedFormation, run_formation
+from optplan.formation.qp_model import BIG, QPData, QPLayout, QPModel, QPSolution
+from optplan.formation.slots import slot_positions
 from optplan.interfaces import FormationBackend
 from optplan.problem import Problem
 from optplan.result import Result
@@ -108,468 +98,12 @@ from optplan.sim import SimState
 from optplan.solver import make_rng, option
 
 __all__ = ["FormationQP", "QPData", "QPLayout", "QPModel", "QPSolver", "QPSolution",
-           "QPStepRecord", "QPFormationController", "qp_summary"]
-
-#: Right-hand side of an inactive (all-zero) row.
-BIG = 1e5
-#: Clarabel statuses accepted as a solution.
-_OK = ("Solved", "AlmostSolved")
+           "QPStepRecord", "QPFormationController", "qp_summary", "qp_settings", "CompiledQP"]
 
 
 # --------------------------------------------------------------------------------------
-# the QP: fixed layout, per-step data, the cvxpy model
+# the hard model and its slack fallback
 # --------------------------------------------------------------------------------------
-
-
-@dataclass(frozen=True, eq=False)
-class QPLayout:
-    """The fixed shapes of one QP model (a change rebuilds the model).
-
-    Attributes
-    ----------
-    n : int
-        Controlled robots.
-    pairs : array ``(P, 2)`` of int
-        Pattern of controlled pairs (rows padded / deactivated per step).
-    K : int
-        Obstacle rows per robot.
-    n_ext : int
-        Rows per controlled robot against external (known-velocity) robots.
-    edges : array ``(F, 2)`` of int
-        Formation edges ``(follower, leader)`` in controlled-robot indices; leader ``-1`` when
-        it is external.
-    weights : array ``(n,)``
-        Weights :math:`w_i` of the nominal-velocity terms.
-    vmax : array ``(n,)``
-        Speed limits.
-    """
-
-    n: int
-    pairs: np.ndarray
-    K: int
-    n_ext: int
-    edges: np.ndarray
-    weights: np.ndarray
-    vmax: np.ndarray
-
-    @property
-    def P(self) -> int:
-        return len(self.pairs)
-
-    @property
-    def F(self) -> int:
-        return len(self.edges)
-
-    @property
-    def nK(self) -> int:
-        return self.n * self.K
-
-    @property
-    def nE(self) -> int:
-        return self.n * self.n_ext
-
-    def jacobian(self) -> np.ndarray:
-        """The formation-error Jacobian ``E`` ``(2F, 2n)``: ``E u = u_f - u_leader`` per edge."""
-        E = np.zeros((2 * self.F, 2 * self.n))
-        for k, (f, l) in enumerate(self.edges):
-            E[2 * k: 2 * k + 2, 2 * f: 2 * f + 2] = np.eye(2)
-            if l >= 0:
-                E[2 * k: 2 * k + 2, 2 * l: 2 * l + 2] = -np.eye(2)
-        return E
-
-
-@dataclass
-class QPData:
-    """The numbers of one step, in the shapes of a :class:`QPLayout`.
-
-    Rows: ``G u_i - G u_j <= bp`` (pairs), ``N u_i <= bo`` (obstacles, ``K`` per robot, robot
-    ``k // K``), ``Ne u_i <= be`` (external robots, ``n_ext`` per robot), ``lo <= u <= hi``.
-    An inactive row has zero coefficients and right-hand side :data:`BIG`.  Objective data:
-    ``unom`` (nominal velocities) and ``r`` (formation error before the step, per edge).
-    """
-
-    unom: np.ndarray
-    r: np.ndarray
-    G: np.ndarray
-    bp: np.ndarray
-    N: np.ndarray
-    bo: np.ndarray
-    Ne: np.ndarray
-    be: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-
-    @classmethod
-    def inactive(cls, layout: QPLayout) -> QPData:
-        """Every row inactive, zero objective data, bounds at the speed limits."""
-        n, v = layout.n, layout.vmax[:, None]
-        return cls(unom=np.zeros((n, 2)), r=np.zeros((layout.F, 2)),
-                   G=np.zeros((layout.P, 2)), bp=np.full(layout.P, BIG),
-                   N=np.zeros((layout.nK, 2)), bo=np.full(layout.nK, BIG),
-                   Ne=np.zeros((layout.nE, 2)), be=np.full(layout.nE, BIG),
-                   lo=-np.repeat(v, 2, axis=1), hi=np.repeat(v, 2, axis=1))
-
-    @property
-    def active_pairs(self) -> int:
-        return int(np.sum(self.bp < BIG))
-
-    def theta(self, q: np.ndarray) -> np.ndarray:
-        """The model's Parameter vector: ``q`` (the linear objective term), the bounds and the
-        rows, each block flattened row-major (:data:`_THETA`)."""
-        return np.concatenate([q, self.lo.ravel(), self.hi.ravel(), self.G.ravel(), self.bp,
-                               self.N.ravel(), self.bo, self.Ne.ravel(), self.be])
-
-
-@dataclass
-class QPSolution:
-    """What one solve returned: ``U`` ``(n, 2)`` or ``None``, the status, the largest slack
-    (0 unless the slack fallback was used), whether it was, whether the solve was repeated
-    with iterative refinement (:func:`qp_settings`) and Clarabel's iteration count (-1: not
-    known, the cvxpy pipeline)."""
-
-    U: np.ndarray | None
-    status: str
-    slack: float = 0.0
-    fallback: bool = False
-    retried: bool = False
-    iterations: int = -1
-
-
-class QPModel:
-    """The cvxpy DPP model of one layout, solved by Clarabel.
-
-    All per-step numbers enter through one Parameter vector :math:`\theta` (the linear
-    objective term, the bounds and every row family, in the order of :meth:`QPData.theta`),
-    so a step sets one Parameter value.
-
-    Parameters
-    ----------
-    layout : QPLayout
-    tau : float
-        Time step.
-    w_f, w_s : float
-        Formation and slack weights.
-    settings : dict
-        Clarabel settings (``presolve_enable`` and ``chordal_decomposition_enable`` must be
-        off for cvxpy to update the cached solver).
-    soft : bool
-        Obstacle rows with a slack (the fallback model) instead of hard.
-    """
-
-    def __init__(self, layout: QPLayout, tau: float, w_f: float, w_s: float,
-                 settings: dict[str, Any], soft: bool = False, fast: bool = True):
-        import cvxpy as cp
-
-        self.layout, self.tau, self.w_f, self.settings, self.soft = layout, tau, w_f, settings, \
-            soft
-        L = layout
-        n = L.n
-        self._E = L.jacobian()
-        self._W2 = np.repeat(L.weights, 2)
-        Q = np.diag(self._W2) + w_f * tau**2 * (self._E.T @ self._E)
-        self.theta = cp.Parameter(theta_size(L))
-        part = _theta_parts(L, self.theta)
-        self.u = cp.Variable(2 * n)  # (u_0x, u_0y, u_1x, ...): quad_form on the variable itself
-        self.U = cp.reshape(self.u, (n, 2), order="C")
-        obj = cp.quad_form(self.u, cp.psd_wrap(Q)) + part["q"] @ self.u
-        cons = [self.U >= part["lo"], self.U <= part["hi"], cp.SOC(L.vmax, self.U, axis=1)]
-        self.S = None
-        if L.P:
-            I, J = L.pairs[:, 0], L.pairs[:, 1]
-            cons.append(cp.sum(cp.multiply(part["G"], self.U[I, :] - self.U[J, :]), axis=1)
-                        <= part["bp"])
-        if L.nK:
-            rep = np.repeat(np.arange(n), L.K)
-            lhs = cp.sum(cp.multiply(part["N"], self.U[rep, :]), axis=1)
-            if soft:
-                self.S = cp.Variable(L.nK, nonneg=True)
-                cons.append(lhs <= part["bo"] + self.S)
-                obj = obj + w_s * cp.sum(self.S)
-            else:
-                cons.append(lhs <= part["bo"])
-        if L.nE:
-            rep = np.repeat(np.arange(n), L.n_ext)
-            cons.append(cp.sum(cp.multiply(part["Ne"], self.U[rep, :]), axis=1) <= part["be"])
-        self.problem = cp.Problem(cp.Minimize(obj), cons)
-        if not self.problem.is_dpp():
-            raise RuntimeError("the formation QP must be DPP (a modelling error in optplan)")
-        self._solver = cp.CLARABEL
-        #: The per-step map (None: every step goes through cvxpy's pipeline).
-        self.compiled: CompiledQP | None = CompiledQP.learn(self) if fast else None
-
-    def linear_term(self, data: QPData) -> np.ndarray:
-        """:math:`q = -2Wu^{nom} + 2w_f\tau E^Tr` (the objective's only per-step data)."""
-        q = -2.0 * self._W2 * data.unom.ravel()
-        if self.layout.F:
-            q += 2.0 * self.w_f * self.tau * (self._E.T @ data.r.ravel())
-        return q
-
-    def solve(self, data: QPData) -> QPSolution:
-        """Set the Parameter from ``data`` and re-solve (never raises on solver trouble).
-
-        Through the :class:`CompiledQP` map when it could be read off cvxpy's compiled data
-        (:attr:`compiled`), else through cvxpy's re-solve pipeline (:meth:`solve_cvxpy`).
-        """
-        theta = data.theta(self.linear_term(data))
-        if self.compiled is not None:
-            return self.compiled.solve(theta, self.soft)
-        return self.solve_cvxpy(theta)[0]
-
-    def solve_cvxpy(self, theta: np.ndarray) -> tuple[QPSolution, np.ndarray | None]:
-        """cvxpy's documented re-solve pipeline: ``get_problem_data`` (the cached DPP
-        compilation applies the Parameter), ``SolvingChain.solve_via_data`` (cvxpy updates its
-        cached Clarabel solver) and ``unpack_results``.  Returns the solution and Clarabel's
-        raw ``x``.  Statuses are Clarabel's."""
-        from cvxpy.error import SolverError
-
-        self.theta.value = theta
-        p = self.problem
-        try:
-            pdata, chain, inverse = p.get_problem_data(self._solver, solver_opts=self.settings)
-            raw = chain.solve_via_data(p, pdata, warm_start=True, verbose=False,
-                                       solver_opts=self.settings)
-            with warnings.catch_warnings():  # "may be inaccurate": the status says it
-                warnings.simplefilter("ignore", UserWarning)
-                p.unpack_results(raw, chain, inverse)
-        except (SolverError, ValueError, ArithmeticError) as e:
-            return QPSolution(None, f"error: {type(e).__name__}", math.nan, self.soft), None
-        st = str(raw.status)
-        if st not in _OK or self.u.value is None:
-            return QPSolution(None, st, math.nan, self.soft), None
-        slack = max(float(self.S.value.max()), 0.0) if self.S is not None else 0.0
-        U = np.asarray(self.u.value).reshape(-1, 2)
-        return QPSolution(U, st, slack, self.soft), np.asarray(raw.x, float)
-
-    def compiled_data(self, theta: np.ndarray) -> dict[str, Any]:
-        """cvxpy's compiled Clarabel data (``P``, ``c``, ``A``, ``b``, ``dims``) at ``theta``."""
-        self.theta.value = theta
-        return self.problem.get_problem_data(self._solver, solver_opts=self.settings)[0]
-
-    def feasible_theta(self, rng: np.random.Generator) -> np.ndarray:
-        """A Parameter vector of random data at which ``u = 0`` is feasible (for checks)."""
-        L = self.layout
-        d = QPData.inactive(L)
-        d.unom = rng.normal(size=d.unom.shape) * L.vmax[:, None]
-        d.r = rng.normal(size=d.r.shape)
-        d.G, d.bp = rng.normal(size=d.G.shape), rng.uniform(0.1, 1.0, L.P)
-        d.N, d.bo = rng.normal(size=d.N.shape), rng.uniform(0.1, 1.0, L.nK)
-        d.Ne, d.be = rng.normal(size=d.Ne.shape), rng.uniform(0.1, 1.0, L.nE)
-        return d.theta(self.linear_term(d))
-
-
-class CompiledQP:
-    """The per-step solve with cvxpy out of the loop: cvxpy's compiled data as an affine map.
-
-    A DPP problem's compiled solver data is an affine function of its Parameters (that is what
-    cvxpy caches).  :meth:`learn` reads that map off :meth:`QPModel.compiled_data` at
-    :math:`\\theta = 0` and three random Parameter vectors, assuming that every entry of the
-    data (``c``, ``A``, ``b``) depends on at most one Parameter entry (true for this model), and
-    accepts it only when it predicts the fourth compilation exactly and its Clarabel solve
-    agrees with cvxpy's own pipeline (:meth:`QPModel.solve_cvxpy`); otherwise the model keeps
-    the pipeline.
-
-    Each step evaluates the map (``c0 + c1 * theta[j]``), drops the inequality rows that the
-    speed cones already imply (:math:`a^Tu \\le b` with
-    :math:`\\sum_i \\|a_i\\|\\,v_{max,i} \\le b`: every padded row, far pairs, walls out of
-    reach; the feasible set is unchanged, so is the solution) and hands the rest to Clarabel:
-    ``DefaultSolver.update`` when the kept rows are those of the last step, else a new
-    ``DefaultSolver`` (counted in :attr:`builds`).
-    """
-
-    def __init__(self, P: Any, cones: dict[str, Any], pattern: tuple[np.ndarray, np.ndarray],
-                 affine: tuple[np.ndarray, np.ndarray, np.ndarray], sizes: tuple[int, int, int],
-                 u_off: int, vmax: np.ndarray, settings: dict[str, Any]):
-        self.P, self.cones, self.settings = P, cones, settings
-        self.rows, self.cols = pattern
-        self.c0, self.c1, self.j = affine
-        self.nx, self.nnz, self.m = sizes
-        self.n, self.u_off = len(vmax), u_off
-        self.builds = 0
-        #: solves repeated with iterative refinement after a numerical failure without it
-        self.retries = 0
-        n, rows, cols = self.n, self.rows, self.cols
-        is_u = (cols >= u_off) & (cols < u_off + 2 * n)
-        self._droppable = np.zeros(self.m, bool)
-        self._droppable[cones["zero"]: cones["zero"] + cones["nonneg"]] = True
-        self._droppable &= np.bincount(rows[~is_u], minlength=self.m) == 0
-        grp, self._gid = np.unique(rows * n + np.where(is_u, (cols - u_off) // 2, 0),
-                                   return_inverse=True)
-        self._g_row, self._g_vmax = grp // n, np.asarray(vmax, float)[grp % n]
-        self._other = np.r_[0:u_off, u_off + 2 * n: self.nx].astype(np.int64)
-        self._keep: np.ndarray | None = None
-        self._solver: Any = None
-
-    # -- reading the map off cvxpy ----------------------------------------------------------
-    @classmethod
-    def learn(cls, model: QPModel) -> CompiledQP | None:
-        """The map of ``model``'s compilation, or None when it cannot be read off and verified."""
-        rng = np.random.default_rng(20240601)
-        m = theta_size(model.layout)
-        probes = [np.zeros(m)] + [rng.uniform(1.0, 2.0, m) * rng.choice([-1.0, 1.0], m)
-                                  for _ in range(3)]
-        data = [model.compiled_data(t) for t in probes]
-        dims = data[1]["dims"]
-        if dims.exp or dims.psd or getattr(dims, "p3d", None) or getattr(dims, "pnd", None):
-            return None
-        A1 = sp.csc_matrix(data[1]["A"])
-        A1.sort_indices()
-        pattern = (A1.indices.astype(np.int64),
-                   np.repeat(np.arange(A1.shape[1]), np.diff(A1.indptr)))
-        v = [_flat(d, pattern) for d in data]
-        P = sp.triu(sp.csc_matrix(data[1]["P"])).tocsc()
-        if any(x is None for x in v) or any(
-                abs(sp.triu(sp.csc_matrix(d["P"])) - P).sum() > 0 for d in data):
-            return None  # an entry off the pattern, or a quadratic term that varies
-        affine = _affine_fit(probes, v)
-        if affine is None:
-            return None
-        sizes = (len(data[1]["c"]), len(pattern[0]), A1.shape[0])
-        cones = {"zero": dims.zero, "nonneg": dims.nonneg, "soc": list(dims.soc)}
-        theta = model.feasible_theta(rng)
-        ref, x = model.solve_cvxpy(theta)
-        u_off = _offset(x, ref.U)
-        if u_off is None:
-            return None
-        out = cls(P, cones, pattern, affine, sizes, u_off, model.layout.vmax, model.settings)
-        got = out.solve(theta, model.soft)
-        scale = 1e-5 * (1.0 + float(np.abs(ref.U).max()))
-        if got.U is None or not np.allclose(got.U, ref.U, atol=scale):
-            return None
-        return out
-
-    # -- one step ----------------------------------------------------------------------------
-    def rows_needed(self, Av: np.ndarray, b: np.ndarray) -> np.ndarray:
-        """False for the inequality rows the speed cones imply."""
-        g = np.bincount(self._gid, weights=Av * Av, minlength=len(self._g_row))
-        bound = np.bincount(self._g_row, weights=np.sqrt(g) * self._g_vmax, minlength=self.m)
-        return ~(self._droppable & (bound <= b + 1e-12 * (1.0 + np.abs(b))))
-
-    def solve(self, theta: np.ndarray, soft: bool = False) -> QPSolution:
-        vals = self.c0 + self.c1 * np.append(theta, 0.0)[self.j]
-        q, Av, b = vals[: self.nx], vals[self.nx: self.nx + self.nnz], vals[self.nx + self.nnz:]
-        keep = self.rows_needed(Av, b)
-        ent = keep[self.rows]
-        try:
-            if self._solver is not None and np.array_equal(keep, self._keep):
-                self._solver.update(q=q, A=Av[ent], b=b[keep])
-            else:
-                self._build(q, Av, b, keep, ent)
-            sol = self._solver.solve()
-        except (ValueError, RuntimeError, ArithmeticError) as e:  # solver trouble: safe stop
-            self._solver = None
-            return QPSolution(None, f"error: {type(e).__name__}", math.nan, soft)
-        st = str(sol.status)
-        retried = False
-        if st not in _OK and "Infeasible" not in st and not self.settings.get(
-                "iterative_refinement_enable", True):
-            # numerical trouble without iterative refinement: the same data once more with it
-            # (counted in ``retries``); the next step builds the solver afresh
-            try:
-                self._build(q, Av, b, keep, ent, {"iterative_refinement_enable": True})
-                sol = self._solver.solve()
-            except (ValueError, RuntimeError, ArithmeticError) as e:
-                self._solver = None
-                return QPSolution(None, f"error: {type(e).__name__}", math.nan, soft)
-            self.retries += 1
-            self._solver = None
-            st, retried = str(sol.status), True
-        if st not in _OK:
-            return QPSolution(None, st, math.nan, soft, retried=retried)
-        x = np.asarray(sol.x, float)
-        U = x[self.u_off: self.u_off + 2 * self.n].reshape(-1, 2)
-        slack = max(float(x[self._other].max()), 0.0) if soft and len(self._other) else 0.0
-        return QPSolution(U, st, slack, soft, retried=retried, iterations=int(sol.iterations))
-
-    def _build(self, q: np.ndarray, Av: np.ndarray, b: np.ndarray, keep: np.ndarray,
-               ent: np.ndarray, extra: dict[str, Any] | None = None) -> None:
-        import clarabel
-
-        rows = (np.cumsum(keep) - 1)[self.rows[ent]]
-        indptr = np.r_[0, np.cumsum(np.bincount(self.cols[ent], minlength=self.nx))]
-        A = sp.csc_matrix((Av[ent], rows, indptr), shape=(int(keep.sum()), self.nx))
-        z, l = self.cones["zero"], int(keep[self.cones["zero"]: self.cones["zero"]
-                                            + self.cones["nonneg"]].sum())
-        cones = ([clarabel.ZeroConeT(z)] if z else []) + (
-            [clarabel.NonnegativeConeT(l)] if l else []) + [
-            clarabel.SecondOrderConeT(k) for k in self.cones["soc"]]
-        st = clarabel.DefaultSettings()
-        for k, v in {**self.settings, **(extra or {})}.items():
-            setattr(st, k, v)
-        self._solver = clarabel.DefaultSolver(self.P, q, A, b[keep], cones, st)
-        self._keep = keep
-        self.builds += 1
-
-
-def _flat(d: dict[str, Any], pattern: tuple[np.ndarray, np.ndarray]) -> np.ndarray | None:
-    """``c``, the values of ``A`` on the pattern and ``b`` as one vector (None when ``A`` has
-    an entry off the pattern)."""
-    A = sp.csr_matrix(d["A"])
-    at = np.asarray(A[pattern[0], pattern[1]]).ravel()
-    if not np.isclose(abs(A).sum(), np.abs(at).sum(), rtol=1e-12, atol=0.0):
-        return None
-    return np.concatenate([np.asarray(d["c"], float).ravel(), at,
-                           np.asarray(d["b"], float).ravel()])
-
-
-def _affine_fit(probes: list[np.ndarray], v: list[np.ndarray]
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """``(c0, c1, j)`` with ``v = c0 + c1 * theta[j]`` (``j = len(theta)``: constant) from the
-    probes ``theta = 0, t1, t2`` (identifying ``j`` by the ratio ``t1[j] / t2[j]``), checked on
-    ``t3``; None when the data is not of that form."""
-    m = len(probes[0])
-    v0, v1, v2, v3 = v
-    scale = 1e-10 * (1.0 + max(float(np.abs(x).max()) for x in v))
-    d1, d2 = v1 - v0, v2 - v0
-    varies = (np.abs(d1) > scale) | (np.abs(d2) > scale)
-    ratio = probes[1] / probes[2]
-    order = np.argsort(ratio)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = d1[varies] / d2[varies]
-    pos = np.clip(np.searchsorted(ratio[order], r), 1, max(m - 1, 1))
-    cand = np.stack([order[pos - 1], order[np.minimum(pos, m - 1)]])
-    best = cand[np.argmin(np.abs(ratio[cand] - r), axis=0), np.arange(len(r))]
-    j = np.full(len(v0), m, np.int64)
-    j[varies] = best
-    c1 = np.zeros(len(v0))
-    c1[varies] = d1[varies] / probes[1][best]
-    if not np.allclose(v0 + c1 * np.append(probes[3], 0.0)[j], v3, rtol=1e-9, atol=scale):
-        return None
-    return v0, c1, j
-
-
-def _offset(x: np.ndarray | None, U: np.ndarray | None) -> int | None:
-    """Where the robots' velocities sit in Clarabel's ``x``."""
-    if x is None or U is None:
-        return None
-    u = U.ravel()
-    tol = 1e-9 * (1.0 + float(np.abs(u).max()))
-    hits = [o for o in range(len(x) - len(u) + 1) if np.allclose(x[o: o + len(u)], u, atol=tol)]
-    return hits[0] if len(hits) == 1 else None
-
-
-#: The blocks of the Parameter vector, in order: name -> (size function, shape function).
-_THETA = (("q", lambda L: (2 * L.n,)), ("lo", lambda L: (L.n, 2)), ("hi", lambda L: (L.n, 2)),
-          ("G", lambda L: (L.P, 2)), ("bp", lambda L: (L.P,)), ("N", lambda L: (L.nK, 2)),
-          ("bo", lambda L: (L.nK,)), ("Ne", lambda L: (L.nE, 2)), ("be", lambda L: (L.nE,)))
-
-
-def theta_size(layout: QPLayout) -> int:
-    """Length of the Parameter vector of a layout."""
-    return int(sum(np.prod(shape(layout)) for _, shape in _THETA))
-
-
-def _theta_parts(layout: QPLayout, theta: Any) -> dict[str, Any]:
-    """The blocks of the Parameter vector as cvxpy expressions of their shapes (row-major)."""
-    import cvxpy as cp
-
-    out, k = {}, 0
-    for name, shape in _THETA:
-        sh = shape(layout)
-        m = int(np.prod(sh))
-        block = theta[k: k + m]
-        out[name] = cp.reshape(block, sh, order="C") if len(sh) == 2 else block
-        k += m
-    return out
 
 
 class QPSolver:
@@ -658,8 +192,8 @@ class QPFormationController:
     stats : dict
         ``qp_solves``, ``qp_failures`` (safe stops), ``slack_steps`` (steps solved by the slack
         fallback), ``max_slack``, ``rebuilds``, ``solve_times`` (s, whole step),
-        ``statuses`` (count per Clarabel status), ``compiled`` (the current model is solved
-        through :class:`CompiledQP`, else through cvxpy's pipeline).
+        ``statuses`` (count per Clarabel status), ``compiled`` (a model was built: its steps
+        go through :class:`CompiledQP`, the only run-time path).
     last : QPStepRecord or None
         The record of the last step (the QP's history columns).
     """
