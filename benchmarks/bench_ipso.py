@@ -33,7 +33,8 @@ import numpy as np
 
 import optplan as op
 from optplan.geometry import kernel
-from optplan.swarm import core as sw
+from optplan.swarm import backend as be
+from optplan.swarm import endgame as eg
 from optplan.swarm import ipso as ip
 from optplan.swarm.core import make_space
 
@@ -163,8 +164,8 @@ def main(argv: list[str] | None = None) -> int:
 
     print("### Where the time of one ipso run on paper-env1 goes")
     print()
-    spec2 = {"roadmap": (sw, "roadmap_corridors"), "iterate": (ip.IPSO, "_iterate"),
-             "endgame": (ip, "tighten")}
+    spec2 = {"roadmap": (be, "roadmap_corridors"), "iterate": (ip.IPSO, "_iterate"),
+             "endgame": (eg, "tighten")}
     tot2, part2 = _split(prob, "ipso", args.runs, spec2)
     k_max = op.get_solver("ipso").k_max
     print("| part | median ms per run |")

@@ -4,9 +4,9 @@ For each map (default ``shelves-1`` and ``doors-0`` of :func:`optplan.generators
 the paper scene names also work) and seeds ``0 .. --seeds-1``, after a warm-up run:
 
 1. ``ipso``: median wall time of the run and of its parts (the roadmap: nodes, edge tests,
-   the rest of :func:`~optplan.swarm.core.build_roadmap`; the corridor search
-   :func:`~optplan.swarm.core._k_classes`; the swarm iterations; the end-game
-   :func:`~optplan.swarm.core.tighten`), and the median number of roadmap segments
+   the rest of :func:`~optplan.swarm.roadmap.build_roadmap`; the corridor search
+   :func:`~optplan.swarm.roadmap._k_classes`; the swarm iterations; the end-game
+   :func:`~optplan.swarm.refine.tighten`), and the median number of roadmap segments
    tested (neighbour and Yao edges, corner pairs) and of labels of the corridor search.
 2. ``nlp-ipopt`` warm-started from each ``ipso`` path: total time, IPOPT iterations, the
    CasADi function evaluations (IPOPT's ``t_wall_nlp_*`` statistics), the CasADi build time,
@@ -27,8 +27,9 @@ import numpy as np
 
 import optplan as op
 from optplan.generators import corridor_scene
-from optplan.swarm import core as sw
+from optplan.swarm import endgame as eg
 from optplan.swarm import ipso as ip
+from optplan.swarm import roadmap as rm
 
 
 def load(name: str) -> op.Problem:
@@ -73,29 +74,29 @@ def ipso_parts(prob: op.Problem, seeds: int) -> None:
     op.solve(prob, "ipso", rng=0)
     rows = []
     tm = Timers()
-    tm.wrap(sw, "roadmap_nodes", "roadmap nodes (samples, their tests)")
-    tm.wrap(sw, "_tested_edges", "roadmap edges (candidates and their tests)")
-    tm.wrap(sw, "build_roadmap", "build_roadmap (all)")
-    tm.wrap(sw, "_k_classes", "corridor search (_k_classes)", _count_labels)
+    tm.wrap(rm, "roadmap_nodes", "roadmap nodes (samples, their tests)")
+    tm.wrap(rm, "_tested_edges", "roadmap edges (candidates and their tests)")
+    tm.wrap(rm, "build_roadmap", "build_roadmap (all)")
+    tm.wrap(rm, "_k_classes", "corridor search (_k_classes)", _count_labels)
     tm.wrap(ip.IPSO, "_iterate", "swarm iterations")
-    tm.wrap(ip, "tighten", "end-game (tighten)")
+    tm.wrap(eg, "tighten", "end-game (tighten)")
     edges = Timers()
-    orig_tested = sw._tested_edges
+    orig_tested = rm._tested_edges
 
     def tested(space, nodes, corner, k, slack):
-        real = sw.pairs_free
+        real = rm.pairs_free
 
         def counting(pts, i, j, s):
             edges.n["tested"] += len(i)
             return real(pts, i, j, s)
 
-        sw.pairs_free = counting
+        rm.pairs_free = counting
         try:
             return orig_tested(space, nodes, corner, k, slack)
         finally:
-            sw.pairs_free = real
+            rm.pairs_free = real
 
-    sw._tested_edges = tested
+    rm._tested_edges = tested
     try:
         for s in range(seeds):
             tm.t.clear()
@@ -106,7 +107,7 @@ def ipso_parts(prob: op.Problem, seeds: int) -> None:
             row = {"run (total)": time.perf_counter() - t, **tm.t}
             rows.append((row, {**tm.n, "roadmap edges tested": edges.n["tested"]}))
     finally:
-        sw._tested_edges = orig_tested
+        rm._tested_edges = orig_tested
         tm.restore()
     print("| part | median ms per run |")
     print("|---|---|")

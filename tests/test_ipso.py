@@ -9,8 +9,13 @@ import pytest
 
 import optplan as op
 from optplan.geometry.polyline import resample_path
+from optplan.swarm import backend as be
 from optplan.swarm import core as sw
+from optplan.swarm import ga
 from optplan.swarm import ipso as ip
+from optplan.swarm import operators as ops
+from optplan.swarm import refine as rf
+from optplan.swarm import signatures as sig
 from optplan.swarm.mpso import MPSO, mutate_one_coordinate, refine_trials
 from optplan.swarm.pso import PSO, pso_step
 
@@ -89,10 +94,10 @@ def _pair_sharing_waypoints_1_and_4():
 def test_swap_crossover_exchanges_the_fragment_between_shared_waypoints():
     x1, x2 = _pair_sharing_waypoints_1_and_4()
     tol2 = 0.1 ** 2
-    assert ip.shared_fragment(x1, x2, tol2) == (2, 4)  # waypoints 2, 3 lie between 1 and 4
+    assert ga.shared_fragment(x1, x2, tol2) == (2, 4)  # waypoints 2, 3 lie between 1 and 4
     v1, v2 = np.ones(12), -np.ones(12)
     frag = np.array([[2, 4]])
-    c1x, c2x, c1v, c2v = ip.swap_fragments(x1[None], x2[None], v1[None], v2[None], frag)
+    c1x, c2x, c1v, c2v = ga.swap_fragments(x1[None], x2[None], v1[None], v2[None], frag)
     inside = np.zeros(12, bool)
     inside[4:8] = True  # coordinates of waypoints 2 and 3
     np.testing.assert_array_equal(c1x[0][inside], x2[inside])  # fragment from parent 2
@@ -109,11 +114,11 @@ def test_swap_fragment_runs_to_the_goal_after_a_single_shared_waypoint():
     x1, x2 = _pair_sharing_waypoints_1_and_4()
     x2 = x2.copy()
     x2[8:10] += 3.0  # waypoint 4 no longer shared: only waypoint 1 is
-    assert ip.shared_fragment(x1, x2, 0.1 ** 2) == (2, 6)  # the tail after waypoint 1
+    assert ga.shared_fragment(x1, x2, 0.1 ** 2) == (2, 6)  # the tail after waypoint 1
     x3 = x1.copy()
     x3[:10] -= 7.0  # only the last waypoint shared: nothing between it and the goal
-    assert ip.shared_fragment(x1, x3, 0.1 ** 2) == (0, 0)
-    assert ip.shared_fragment(x1, x1 + 1.0, 0.1 ** 2) == (0, 0)  # nothing shared
+    assert ga.shared_fragment(x1, x3, 0.1 ** 2) == (0, 0)
+    assert ga.shared_fragment(x1, x1 + 1.0, 0.1 ** 2) == (0, 0)  # nothing shared
 
 
 def test_swap_mode_pairs_only_particles_with_a_fragment_and_swaps_it():
@@ -121,12 +126,12 @@ def test_swap_mode_pairs_only_particles_with_a_fragment_and_swaps_it():
     far = x1 + 100.0
     X = np.vstack([x1, x2, far, far + 50.0])
     F = np.array([1.0, 2.0, 3.0, 4.0])
-    pairs, isl, frag = ip.ga_pairs(F, X, 1, 4, 0.1 ** 2, True)
+    pairs, isl, frag = ga.ga_pairs(F, X, 1, 4, 0.1 ** 2, True)
     np.testing.assert_array_equal(pairs, [[0, 1]])  # the far pair shares nothing
     np.testing.assert_array_equal(frag, [[2, 4]])
     V = np.zeros_like(X)
     out = np.zeros((4, 12))
-    ip.ga_children(X, V, pairs, np.zeros(0), np.zeros((2, 12)), np.zeros(12), out, frag, True)
+    ga.ga_children(X, V, pairs, np.zeros(0), np.zeros((2, 12)), np.zeros(12), out, frag, True)
     c1, c2 = out[2], out[3]  # children after the m = 2 mutant rows (noise 0: mutants = children)
     np.testing.assert_array_equal(c1[4:8], x2[4:8])
     np.testing.assert_array_equal(c2[4:8], x1[4:8])
@@ -143,7 +148,7 @@ def test_ipso_paper_uses_the_swap_and_crosses():
 def test_eq25_28_children_are_the_stated_convex_combinations():
     x1, x2 = np.array([[0.0, 10.0, 4.0]]), np.array([[10.0, 0.0, 4.0]])
     v1, v2 = np.array([[1.0, 2.0, 3.0]]), np.array([[-1.0, 0.0, 1.0]])
-    c1x, c2x, c1v, c2v = ip.crossover(x1, x2, v1, v2, np.array([0.3]))
+    c1x, c2x, c1v, c2v = ga.crossover(x1, x2, v1, v2, np.array([0.3]))
     np.testing.assert_allclose(c1x, [[7.0, 3.0, 4.0]])   # 0.3 x1 + 0.7 x2
     np.testing.assert_allclose(c2x, [[3.0, 7.0, 4.0]])   # 0.7 x1 + 0.3 x2
     np.testing.assert_allclose(c1v, [[-0.4, 0.6, 1.6]])
@@ -152,14 +157,14 @@ def test_eq25_28_children_are_the_stated_convex_combinations():
     rng = np.random.default_rng(0)
     X1, X2, V1, V2 = (rng.normal(size=(5, 4)) for _ in range(4))
     pc = rng.random(5)
-    a, b, c, d = ip.crossover(X1, X2, V1, V2, pc)
+    a, b, c, d = ga.crossover(X1, X2, V1, V2, pc)
     np.testing.assert_allclose(a + b, X1 + X2)
     np.testing.assert_allclose(c + d, V1 + V2)
     np.testing.assert_allclose(a, pc[:, None] * X1 + (1 - pc[:, None]) * X2)
 
 
 def test_eq29_greedy_mutation_keeps_the_better():
-    keep = ip.greedy_mutation(np.array([5.0, 5.0, 5.0]), np.array([4.0, 6.0, 5.0]))
+    keep = ga.greedy_mutation(np.array([5.0, 5.0, 5.0]), np.array([4.0, 6.0, 5.0]))
     assert keep.tolist() == [True, False, False]
 
 
@@ -169,7 +174,7 @@ def test_eq29_greedy_mutation_keeps_the_better():
 
 
 def test_eq1_2_pso_step():
-    st = sw.SwarmState(X=np.array([[1.0, 2.0]]), V=np.array([[0.5, -0.5]]), F=np.zeros(1),
+    st = be.SwarmState(X=np.array([[1.0, 2.0]]), V=np.array([[0.5, -0.5]]), F=np.zeros(1),
                        pbest=np.array([[3.0, 2.0]]), pbest_f=np.zeros(1),
                        gbest=np.array([0.0, 0.0]), gbest_f=0.0, gbest_count=0)
     X, V = pso_step(st, 0.5, 1.5, 1.5, np.full(2, np.inf), np.random.default_rng(7))
@@ -273,7 +278,7 @@ def test_paper_position_update_pulls_toward_the_origin():
     """Eq 24 as printed multiplies absolute coordinates by psi R < 1 (documented)."""
     prob = _corridor()
     space = sw.make_space(prob, prob.robots[0], 2)
-    X0 = sw.initial_swarm(space, 30, "uniform", np.random.default_rng(0))
+    X0 = ops.initial_swarm(space, 30, "uniform", np.random.default_rng(0))
     V0 = np.zeros_like(X0)
     U = np.random.default_rng(1).random((3, 30, 4))
     lead = np.zeros(30, np.int64)
@@ -302,7 +307,7 @@ def test_velocity_update_is_eq_1_with_a_guide_per_particle():
     lead = np.array([0, 0, 1, 1])
     eps, eta = rng.random((4, 6)), rng.random((4, 6))
     vmax = np.full(6, 0.3)
-    out = sw.velocity_update(V, X, Pb, G, lead, 0.7, 1.5, 2.0, eps, eta, vmax, np.empty((4, 6)))
+    out = ops.velocity_update(V, X, Pb, G, lead, 0.7, 1.5, 2.0, eps, eta, vmax, np.empty((4, 6)))
     ref = 0.7 * V + 1.5 * eps * (Pb - X) + 2.0 * eta * (G[lead] - X)
     np.testing.assert_array_equal(out, np.clip(ref, -vmax, vmax))
 
@@ -319,7 +324,7 @@ def test_tighten_contracts_a_detour_onto_the_optimum():
     detour = np.array([[10.0, 50.0], [10.0, 95.0], [90.0, 95.0], [90.0, 50.0]])
     below = detour * [1.0, -1.0] + [0.0, 100.0]
     assert sw.evaluate_swarm(detour[1:-1].reshape(1, -1), space).count[0] == 0
-    (path, other), n = sw.tighten([detour, below], space, rounds=40)
+    (path, other), n = rf.tighten([detour, below], space, rounds=40)
     L = float(np.hypot(*np.diff(path, axis=0).T).sum())
     ref = op.solve(prob, "visgraph").metrics["length"]
     assert n > 0
@@ -330,7 +335,7 @@ def test_tighten_contracts_a_detour_onto_the_optimum():
     # the two sides of the wall: mirror images, tightened alike in one batch, each in its class
     assert float(np.hypot(*np.diff(other, axis=0).T).sum()) == pytest.approx(L, rel=1e-6)
     assert np.all(path[1:-1, 1] > 50) and np.all(other[1:-1, 1] < 50)
-    h = sw.signature_hashes(np.stack([resample_path(path, 9),
+    h = sig.signature_hashes(np.stack([resample_path(path, 9),
                                       resample_path(other, 9)]), space)
     assert h[0] != h[1]
 
@@ -353,8 +358,8 @@ def test_islands_follow_their_own_best_and_stay_deterministic():
     np.testing.assert_array_equal(r1.path, r2.path)
     assert r1.success and r1.n_iter == 15 and len(r1.history) == 17
     space = sw.make_space(prob.known_view(), prob.robots[0], 3)
-    X = sw.initial_swarm(space, 20, "uniform", np.random.default_rng(0))
-    st = sw.new_state(X, np.zeros_like(X), sw.evaluate_swarm(X, space))
+    X = ops.initial_swarm(space, 20, "uniform", np.random.default_rng(0))
+    st = be.new_state(X, np.zeros_like(X), sw.evaluate_swarm(X, space))
     run = b._start(space, st, [], np.random.default_rng(0))
     for i in range(4):
         assert run.island_idx[i] == 5 * i + int(np.argmin(st.pbest_f[5 * i:5 * i + 5]))
@@ -370,7 +375,7 @@ def test_compiled_step_follows_eqs_22_to_29():
     F = rng.random(P)
     gbest = pbest[0]
     lo, hi = np.zeros(D), np.full(D, 10.0)
-    pairs, isl, frag = ip.ga_pairs(F, X, 1, 4, np.inf)
+    pairs, isl, frag = ga.ga_pairs(F, X, 1, 4, np.inf)
     order = np.argsort(F, kind="stable")[:4]
     np.testing.assert_array_equal(pairs, order.reshape(2, 2))  # rank-order pairs
     h = len(pairs)

@@ -13,6 +13,9 @@ from scipy.spatial import cKDTree
 
 from optplan.generators import corridor_scene
 from optplan.swarm import core as sw
+from optplan.swarm import refine as rf
+from optplan.swarm import roadmap as rm
+from optplan.swarm import samples as smp
 
 
 def _octant(dx, dy):
@@ -70,7 +73,7 @@ def _reference_edges(space, nodes, corner, k, slack):
     m = csr_matrix((np.r_[w, w], (np.r_[bi[okb], bj[okb]], np.r_[bj[okb], bi[okb]])),
                    shape=(n, n))
     U = dijkstra(m, directed=True, indices=0)[1]
-    reach2 = (sw.CORNER_REACH * space.diag) ** 2
+    reach2 = (rm.CORNER_REACH * space.diag) ** 2
     ds = np.hypot(*(nodes - nodes[0]).T)
     dg = np.hypot(*(nodes - nodes[1]).T)
     cidx = np.flatnonzero(corner)
@@ -100,16 +103,16 @@ def test_sector_matches_the_nested_octant_test():
     d[200:300, 1] = d[200:300, 0]
     d[300:400, 1] = -d[300:400, 0]
     for dx, dy in d:
-        assert sw._sector(dx, dy, 8) == _octant(dx, dy)
-        assert sw._sector(dx, dy, 4) == _octant(dx, dy) * 4 // 8
+        assert rm._sector(dx, dy, 8) == _octant(dx, dy)
+        assert rm._sector(dx, dy, 4) == _octant(dx, dy) * 4 // 8
 
 
 @pytest.mark.parametrize("kind, seed", [("shelves", 1), ("doors", 0)])
 def test_compiled_roadmap_edges_match_the_reference(kind, seed):
     prob = corridor_scene(kind, seed)
     space = sw.make_space(prob, prob.planned_robots[0], 8)
-    nodes, corner = sw.roadmap_nodes(space, 40, np.random.default_rng(3), 360, 200)
-    i, j, ok = sw._tested_edges(space, nodes, corner, 25, 1.1)
+    nodes, corner = smp.roadmap_nodes(space, 40, np.random.default_rng(3), 360, 200)
+    i, j, ok = rm._tested_edges(space, nodes, corner, 25, 1.1)
     assert list(zip(i[ok].tolist(), j[ok].tolist())) == [
         (int(a), int(b)) for a, b in _reference_edges(space, nodes, corner, 25, 1.1)]
 
@@ -117,7 +120,7 @@ def test_compiled_roadmap_edges_match_the_reference(kind, seed):
 def test_roadmap_csr_and_heuristic_match_scipy():
     prob = corridor_scene("shelves", 0)
     space = sw.make_space(prob, prob.planned_robots[0], 8)
-    g = sw.build_roadmap(space, np.random.default_rng(5), 40, 25, 360, 200, 1.1)
+    g = rm.build_roadmap(space, np.random.default_rng(5), 40, 25, 360, 200, 1.1)
     n = len(g.nodes)
     src = np.repeat(np.arange(n), np.diff(g.indptr))
     # every directed edge has its reverse, with the same length and the negated hash
@@ -151,14 +154,14 @@ def _reference_cuts(pts, rows, f, thr, space):
 def test_staged_cuts_choose_what_testing_every_cut_chooses():
     prob = corridor_scene("shelves", 1)
     space = sw.make_space(prob, prob.planned_robots[0], 8)
-    paths = sw.roadmap_corridors(space, 10, np.random.default_rng(2), 40, 25, 360, 200)
+    paths = rm.roadmap_corridors(space, 10, np.random.default_rng(2), 40, 25, 360, 200)
     assert paths
-    pts, off = sw._flat(paths)
+    pts, off = rf._flat(paths)
     rows = np.concatenate([np.arange(off[p] + 1, off[p + 1] - 1) for p in range(len(paths))])
     thr = np.full(len(rows), 1e-5 * 700.0)
     thr[::3] = 0.0  # vertices whose every cut counts
-    for f in (sw.CUT_FRACTIONS, sw.CUT_FRACTIONS[:4]):
-        P, Q, j, cut, n = sw._best_cuts(pts, rows, f, thr, space)
+    for f in (rf.CUT_FRACTIONS, rf.CUT_FRACTIONS[:4]):
+        P, Q, j, cut, n = rf._best_cuts(pts, rows, f, thr, space)
         P0, Q0, j0, cut0, n0 = _reference_cuts(pts, rows, f, thr, space)
         np.testing.assert_array_equal(P, P0)
         np.testing.assert_array_equal(Q, Q0)

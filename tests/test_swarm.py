@@ -12,7 +12,13 @@ import shapely
 import optplan as op
 from optplan.geometry import PIECE_EDGES, convex_pieces, obstacle_set
 from optplan.geometry.polyline import resample_path
+from optplan.swarm import backend as be
 from optplan.swarm import core as sw
+from optplan.swarm import operators as ops
+from optplan.swarm import refine as rf
+from optplan.swarm import roadmap as rm
+from optplan.swarm import samples as smp
+from optplan.swarm import signatures as sig
 
 
 def _problem(obstacles=None, **kw) -> op.Problem:
@@ -288,7 +294,7 @@ def test_fitness_calls_the_kernel_once_per_evaluation(monkeypatch):
         return real(self, paths, *a, **k)
 
     monkeypatch.setattr(type(space.obstacles), "crossings", spy)
-    X = sw.initial_swarm(space, 50, "uniform", np.random.default_rng(0))
+    X = ops.initial_swarm(space, 50, "uniform", np.random.default_rng(0))
     ev = sw.evaluate_swarm(X, space)
     assert calls == [((50, 5, 2), {"penetration": False})]
     assert ev.count.sum() > 0  # uniform waypoints among six obstacles: some collide
@@ -301,7 +307,7 @@ def test_fitness_calls_the_kernel_once_per_evaluation(monkeypatch):
 def test_fitness_without_obstacles_counts_no_crossings():
     prob = _problem(obstacles=[])
     space = sw.make_space(prob, prob.robots[0], 2, penetration_weight=1.0)
-    X = sw.initial_swarm(space, 8, "uniform", np.random.default_rng(0))
+    X = ops.initial_swarm(space, 8, "uniform", np.random.default_rng(0))
     ev = sw.evaluate_swarm(X, space)
     assert ev.count.tolist() == [0] * 8 and ev.penetration.tolist() == [0.0] * 8
     np.testing.assert_allclose(ev.cost, ev.length)
@@ -320,7 +326,7 @@ def test_default_penalty_makes_every_feasible_path_win():
     space = sw.make_space(prob, prob.robots[0], n)
     assert space.penalty_weight == pytest.approx((n + 1) * math.hypot(100, 100))
     rng = np.random.default_rng(1)
-    X = sw.initial_swarm(space, 4000, "uniform", rng)
+    X = ops.initial_swarm(space, 4000, "uniform", rng)
     # the worst case a feasible path can reach: zig-zag between opposite corners
     X[0] = [0, 0, 100, 100, 0, 0]
     ev = sw.evaluate_swarm(X, space)
@@ -334,12 +340,12 @@ def test_default_penalty_makes_every_feasible_path_win():
 # ---------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("mode", sw.BOUNDS_MODES)
+@pytest.mark.parametrize("mode", ops.BOUNDS_MODES)
 def test_bounds_handling_keeps_particles_inside(mode):
     lo, hi = np.zeros(4), np.array([10.0, 20.0, 10.0, 20.0])
     X = np.array([[-3.0, 5.0, 12.0, 45.0], [1.0, 2.0, 3.0, 4.0]])
     V = np.ones_like(X)
-    Xn, Vn = sw.handle_bounds(X, V, lo, hi, mode, np.random.default_rng(0))
+    Xn, Vn = ops.handle_bounds(X, V, lo, hi, mode, np.random.default_rng(0))
     assert np.all((Xn >= lo) & (Xn <= hi))
     np.testing.assert_array_equal(Xn[1], X[1])  # inside: untouched
     np.testing.assert_array_equal(Vn[1], V[1])
@@ -351,11 +357,11 @@ def test_bounds_handling_keeps_particles_inside(mode):
         np.testing.assert_array_equal(Vn[0], [0, 1, 0, 0])
 
 
-@pytest.mark.parametrize("mode", sw.INIT_MODES)
+@pytest.mark.parametrize("mode", ops.INIT_MODES)
 def test_initial_swarm(mode):
     prob = _problem()
     space = sw.make_space(prob, prob.robots[0], 5)
-    X = sw.initial_swarm(space, 30, mode, np.random.default_rng(0))
+    X = ops.initial_swarm(space, 30, mode, np.random.default_rng(0))
     assert X.shape == (30, 10)
     assert np.all((X >= space.lo) & (X <= space.hi))
     if mode == "sorted":
@@ -384,9 +390,9 @@ def test_resample_path_keeps_every_vertex_or_follows_the_arc_length():
 
 def test_converged_iteration_definition():
     best = np.array([100.0, 50.0, 20.0, 10.005, 10.0, 10.0])
-    assert sw.converged_iteration(best) == 3  # first within 0.1 % of 10
-    assert sw.converged_iteration(np.array([5.0, 5.0])) == 0
-    assert sw.converged_iteration(np.array([])) == 0
+    assert be.converged_iteration(best) == 3  # first within 0.1 % of 10
+    assert be.converged_iteration(np.array([5.0, 5.0])) == 0
+    assert be.converged_iteration(np.array([])) == 0
 
 
 # ---------------------------------------------------------------------------------------
@@ -406,7 +412,7 @@ def test_history_and_extras(backend):
         assert col in h
     assert h["n_eval"][-1] == res.n_eval
     # over the swarm iterations 0..k_max (not the final tightening row)
-    assert res.extras["converged_iteration"] == sw.converged_iteration(h["best_cost"][:31])
+    assert res.extras["converged_iteration"] == be.converged_iteration(h["best_cost"][:31])
     assert res.n_iter == 30
     if res.success:
         assert res.metrics["length"] == pytest.approx(h["feasible_best_length"][-1])
@@ -462,12 +468,12 @@ def test_signature_hashes_tell_the_sides_of_an_obstacle_apart():
     above = np.array([[10.0, 50.0], [40.0, 80.0], [60.0, 80.0], [90.0, 50.0]])
     above2 = np.array([[10.0, 50.0], [30.0, 90.0], [70.0, 75.0], [90.0, 50.0]])
     below = np.array([[10.0, 50.0], [40.0, 10.0], [60.0, 10.0], [90.0, 50.0]])
-    h = sw.signature_hashes(np.stack([above, above2, below]), space)
+    h = sig.signature_hashes(np.stack([above, above2, below]), space)
     assert h[0] == h[1] != h[2]
     # a loop around the wall is a third class; the list variant pads unequal lengths
     loop = np.array([[10.0, 50.0], [40.0, 80.0], [60.0, 80.0], [60.0, 10.0], [40.0, 10.0],
                      [40.0, 80.0], [60.0, 80.0], [90.0, 50.0]])
-    hl = sw.signature_hashes_list([above, below, loop], space)
+    hl = sig.signature_hashes_list([above, below, loop], space)
     assert hl[0] == h[0] and hl[1] == h[2] and len(set(hl.tolist())) == 3
 
 
@@ -478,14 +484,14 @@ def test_k_classes_label_search_on_a_hand_graph():
     keys = np.array([7], np.int64)
     i = np.array([a for a, _ in edges])
     j = np.array([b for _, b in edges])
-    eh = sw._segment_hashes(nodes[i], nodes[j], np.zeros((1, 2)), keys)
+    eh = sig._segment_hashes(nodes[i], nodes[j], np.zeros((1, 2)), keys)
     src, dst = np.concatenate([i, j]), np.concatenate([j, i])
     order = np.argsort(src, kind="stable")
     indptr = np.searchsorted(src[order], np.arange(5)).astype(np.int64)
     w = np.hypot(*(nodes[src] - nodes[dst]).T)[order]
     h = np.concatenate([eh, -eh])[order]
     heur = np.hypot(*(nodes - nodes[1]).T)
-    goals, lab_node, lab_par = sw._k_classes(indptr, dst[order], w, h, heur, 0, 1, 3, 3)
+    goals, lab_node, lab_par = rm._k_classes(indptr, dst[order], w, h, heur, 0, 1, 3, 3)
     walks = []
     for g in goals:
         seq, lab = [], int(g)
@@ -495,17 +501,17 @@ def test_k_classes_label_search_on_a_hand_graph():
         walks.append(seq[::-1])
     assert walks[:2] == [[0, 2, 1], [0, 3, 1]]  # shortest first, both classes
     # the slack bound drops the longer class
-    goals, *_ = sw._k_classes(indptr, dst[order], w, h, heur, 0, 1, 3, 3, 1.1)
+    goals, *_ = rm._k_classes(indptr, dst[order], w, h, heur, 0, 1, 3, 3, 1.1)
     assert len(goals) == 1
 
 
 def test_roadmap_corridors_are_distinct_collision_free_classes():
     prob = _wall()
     space = sw.make_space(prob, prob.robots[0], 4)
-    cor = sw.roadmap_corridors(space, 6, np.random.default_rng(0), n_samples=20,
+    cor = rm.roadmap_corridors(space, 6, np.random.default_rng(0), n_samples=20,
                                boundary=60, medial=20, slack=1.5)
     assert len(cor) >= 2
-    h = sw.signature_hashes_list(cor, space)
+    h = sig.signature_hashes_list(cor, space)
     assert len(set(h.tolist())) == len(cor)
     for p in cor:
         np.testing.assert_allclose(p[[0, -1]], [space.start, space.goal])
@@ -517,7 +523,7 @@ def test_roadmap_corridors_are_distinct_collision_free_classes():
     assert any(o and not u for o, u in zip(over, under))
     assert any(u and not o for o, u in zip(over, under))
     # the default slack (1.1) keeps only classes at most 10 % longer than the shortest walk
-    assert len(sw.roadmap_corridors(space, 6, np.random.default_rng(0), n_samples=20,
+    assert len(rm.roadmap_corridors(space, 6, np.random.default_rng(0), n_samples=20,
                                     boundary=60, medial=20)) < len(cor)
 
 
@@ -527,15 +533,15 @@ def test_roadmap_samples_lie_beside_the_obstacles_and_in_narrow_gaps():
                                {"type": "rectangle", "min": [53.5, 40.0], "max": [80.0, 60.0]}])
     space = sw.make_space(prob, prob.robots[0], 4)
     rng = np.random.default_rng(1)
-    b = sw.boundary_samples(space, 400, rng)
+    b = smp.boundary_samples(space, 400, rng)
     d = space.obstacles.point_distances(b)
     # beside, not far from, the obstacles (a few land in the other box: filtered later)
     assert np.mean(d >= 1.0 - 1e-9) > 0.8 and np.median(d) < 5.0
-    m = sw.medial_samples(space, 200, rng)
+    m = smp.medial_samples(space, 200, rng)
     assert len(m) and np.all(space.clear.segment_free(m, m))
     gap = (np.abs(m[:, 0] - 50.0) < 0.5) & (m[:, 1] > 40.0) & (m[:, 1] < 60.0)
     assert gap.sum() >= 3  # on the passage's centre line
-    nodes, corner = sw.roadmap_nodes(space, 20, rng, 40, 20)
+    nodes, corner = smp.roadmap_nodes(space, 20, rng, 40, 20)
     assert corner[:2].all() and len(nodes) == len(corner)
     np.testing.assert_array_equal(nodes[:2], [space.start, space.goal])
 
@@ -544,7 +550,7 @@ def test_tighten_keeps_the_clearance_margin():
     prob = _wall()
     space = sw.make_space(prob, prob.robots[0], 2)
     detour = np.array([[10.0, 50.0], [10.0, 95.0], [90.0, 95.0], [90.0, 50.0]])
-    (p,), _ = sw.tighten([detour], space, rounds=40)
+    (p,), _ = rf.tighten([detour], space, rounds=40)
     margin = sw.CLEAR_MARGIN * space.diag
     c = space.obstacles.clearance(np.stack([p[:-1], p[1:]], axis=1))
     assert c.min() >= margin * (1 - 1e-6)
@@ -565,19 +571,20 @@ def test_roadmap_slack_pruning_skips_tests_but_not_walks(monkeypatch):
         tested.append(len(i))
         return real(pts, i, j, sp)
 
-    monkeypatch.setattr(sw, "pairs_free", counting)
-    full = sw.build_roadmap(space, np.random.default_rng(3), 40, 25, 360, 200, None)
+    monkeypatch.setattr(sw, "pairs_free", counting)  # node tests (segment_free)
+    monkeypatch.setattr(rm, "pairs_free", counting)  # edge tests
+    full = rm.build_roadmap(space, np.random.default_rng(3), 40, 25, 360, 200, None)
     n_full = sum(tested)
     tested.clear()
-    pruned = sw.build_roadmap(space, np.random.default_rng(3), 40, 25, 360, 200, 1.1)
+    pruned = rm.build_roadmap(space, np.random.default_rng(3), 40, 25, 360, 200, 1.1)
     assert sum(tested) < 0.9 * n_full  # long corner pairs far from the line are skipped
     assert len(pruned.target) < len(full.target)
-    orig = sw.build_roadmap
+    orig = rm.build_roadmap
     got = {}
     for slack in (1.1, None):
-        monkeypatch.setattr(sw, "build_roadmap",
+        monkeypatch.setattr(rm, "build_roadmap",
                             lambda *a, s=slack: orig(*a[:6], s))
-        got[slack] = sw.roadmap_corridors(space, 30, np.random.default_rng(3), 40, 25, 360,
+        got[slack] = rm.roadmap_corridors(space, 30, np.random.default_rng(3), 40, 25, 360,
                                           200)
     assert len(got[1.1]) == len(got[None]) > 1
     for a, b in zip(got[1.1], got[None]):

@@ -1,1 +1,2 @@
-"""The swarm family: encoding, fitness and operators (core), PSO, MPSO, IPSO."""
+"""The swarm family: PSO, MPSO, IPSO and their shared machinery (core, operators, backend,
+refine, signatures, samples, roadmap; IPSO's ga and endgame)."""

@@ -20,7 +20,7 @@ Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration
    The text around the equations ("if dw = delta, w decreases linearly"; ``beta > 1`` gives a
    stronger reduction) describes instead ``w(k) = w(k-1) - dw(k-1)`` from ``w_max`` to
    ``w_min``; that is ``inertia = "linear"`` (clipped to ``[w_min, w_max]``).
-2. **Velocity** (eq 22): eq 1 with ``w(k)`` (:func:`optplan.swarm.core.velocity_update`).
+2. **Velocity** (eq 22): eq 1 with ``w(k)`` (:func:`optplan.swarm.operators.velocity_update`).
 3. **Position** (eqs 23-24)::
 
        psi(k)  = 1 - tanh(k / (k_max + 1))               (23)
@@ -40,8 +40,9 @@ Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration
    says the pair then swaps the path fragment between shared points, and that a pair with no
    identical fragment is not crossed: ``crossover = "swap"`` (``ipso-paper``) exchanges the
    waypoints between the first two shared waypoints (or the first one and the goal),
-   velocities likewise (:func:`shared_fragment`, :func:`swap_fragments`).  The equations
-   printed after that sentence are arithmetic crossovers of whole vectors,
+   velocities likewise (:func:`~optplan.swarm.ga.shared_fragment`,
+   :func:`~optplan.swarm.ga.swap_fragments`).  The equations printed after that sentence are
+   arithmetic crossovers of whole vectors,
    ``crossover = "blend"`` (pairs with at least one shared waypoint)::
 
        child_1(x) = p_c parent_1(x) + (1 - p_c) parent_2(x)       (25)
@@ -57,16 +58,17 @@ Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration
    best is reset to themselves.  Swarm, children and mutants are scored in one batch.
 5. Fitness: eqs 30-33, see :mod:`optplan.swarm.core`.
 
-Implementation: the per-iteration steps (:func:`ga_pairs`, :func:`ga_children`,
-:func:`move`, :func:`absorb`) are compiled with numba (the only implementation); every random
-number is drawn in Python from the run's generator, in this order per iteration: ``p_c``
-(one per crossed pair, ``"blend"`` only), the mutation noise ``(children, D)``, then
-``eps, eta, R`` as one ``(3, P, D)`` draw (and, with ``bounds_mode = "random"``, the
-re-draws of the bounds handling).
+Implementation: the per-iteration steps (the GA operators of :mod:`optplan.swarm.ga`,
+:func:`~optplan.swarm.ga.ga_pairs` and :func:`~optplan.swarm.ga.ga_children`, and
+:func:`move`, :func:`advance`, :func:`absorb`) are compiled with numba (the only
+implementation); every random number is drawn in Python from the run's generator, in this
+order per iteration: ``p_c`` (one per crossed pair, ``"blend"`` only), the mutation noise
+``(children, D)``, then ``eps, eta, R`` as one ``(3, P, D)`` draw (and, with
+``bounds_mode = "random"``, the re-draws of the bounds handling).
 
 Beyond the paper (options, all off in ``ipso-paper``): islands, roadmap seeding with
 several homotopy classes (``init_mode = "roadmap"``, ``corridors``) and the end-game
-(``tighten_rounds``, ``endgame``); see :class:`IPSO`.
+(``tighten_rounds``, ``endgame``, :mod:`optplan.swarm.endgame`); see :class:`IPSO`.
 """
 
 from __future__ import annotations
@@ -78,22 +80,12 @@ from typing import Any, ClassVar
 import numba
 import numpy as np
 
-from optplan.geometry import path_lengths
 from optplan.solver import option
-from optplan.swarm.core import (
-    BOUND_CODES,
-    PathBuffer,
-    SwarmBackend,
-    SwarmSpace,
-    SwarmState,
-    bound_rows,
-    decode,
-    evaluate_paths,
-    redraw_out,
-    signature_hashes,
-    tighten,
-    velocity_update,
-)
+from optplan.swarm.backend import SwarmBackend, SwarmState
+from optplan.swarm.core import PathBuffer, SwarmSpace, evaluate_paths
+from optplan.swarm.endgame import endgame_candidates, tighten_best
+from optplan.swarm.ga import ga_children, ga_pairs
+from optplan.swarm.operators import BOUND_CODES, bound_rows, redraw_out, velocity_update
 
 __all__ = [
     "IPSO",
@@ -103,15 +95,10 @@ __all__ = [
     "velocity_ratio",
     "inertia_weight",
     "position_factor",
-    "crossover",
-    "greedy_mutation",
-    "shared_fragment",
-    "swap_fragments",
-    "ga_pairs",
-    "ga_children",
     "move",
     "advance",
     "absorb",
+    "island_bests",
 ]
 
 INERTIA_MODES = ("paper", "linear")
@@ -121,12 +108,6 @@ CROSSOVER_MODES = ("blend", "swap")
 
 _jit = numba.njit(cache=True, nogil=True)
 _NO_DRAW = np.zeros(0)
-#: The end-game's quick ranking pass: rounds and cut fractions (1/2 to 1/16) of
-#: :func:`~optplan.swarm.core.tighten`; at most ENDGAME_KEEP candidates (those within
-#: ``endgame_margin`` of the best) are then tightened in full.
-QUICK_ROUNDS = 2
-QUICK_FRACTIONS = 0.5 ** np.arange(1, 5)
-ENDGAME_KEEP = 4
 
 
 # --------------------------------------------------------------------------------------
@@ -166,146 +147,10 @@ def position_factor(k: float | np.ndarray, k_max: int) -> float | np.ndarray:
     return 1.0 - np.tanh(np.asarray(k, dtype=float) / (k_max + 1.0))
 
 
-@_jit
-def crossover(x1, x2, v1, v2, pc):
-    """Eqs 25-28 for a batch of pairs: ``pc`` has one value per pair (shape ``(m,)``).
-
-    Returns ``(child1_x, child2_x, child1_v, child2_v)``::
-
-        child_1 = p_c parent_1 + (1 - p_c) parent_2 = parent_2 + p_c (parent_1 - parent_2)
-        child_2 = (1 - p_c) parent_1 + p_c parent_2 = parent_1 - p_c (parent_1 - parent_2)
-    """
-    p = pc.reshape(-1, 1)
-    dx = (x1 - x2) * p
-    dv = (v1 - v2) * p
-    return x2 + dx, x1 - dx, v2 + dv, v1 - dv
-
-
-def greedy_mutation(cost_child: np.ndarray, cost_mutant: np.ndarray) -> np.ndarray:
-    """Eq 29: True where the mutant ``child + C_k`` is kept (strictly better), else the child."""
-    return np.asarray(cost_mutant) < np.asarray(cost_child)
-
-
 # --------------------------------------------------------------------------------------
 # the compiled steps of one iteration
 # --------------------------------------------------------------------------------------
 
-
-@_jit
-def shared_fragment(xa, xb, tol2):
-    """The fragment two particles exchange in the paper's crossover ("intercept the locally
-    identical path information ... swapping each other"): waypoint indices ``[lo, hi)``.
-
-    Waypoint ``j`` is *shared* when the two particles' ``j``-th waypoints are closer than
-    ``sqrt(tol2)``; ``a`` is the first shared waypoint, ``b`` the next shared one after
-    ``a + 1`` (else the goal, index ``n``, which every path shares).  The fragment is the
-    waypoints strictly between them, ``[a + 1, b)``; ``(0, 0)`` (empty: no crossover) when no
-    waypoint is shared or only the last one is.
-    """
-    n = xa.shape[0] // 2
-    a = -1
-    b = n
-    for j in range(n):
-        dx = xa[2 * j] - xb[2 * j]
-        dy = xa[2 * j + 1] - xb[2 * j + 1]
-        if dx * dx + dy * dy <= tol2:
-            if a < 0:
-                a = j
-            elif j > a + 1:
-                b = j
-                break
-    if a < 0 or a + 1 >= b:
-        return 0, 0
-    return a + 1, b
-
-
-@_jit
-def ga_pairs(F, X, n_islands, n_select, tol2, swap=False):
-    """Selection of eqs 25-28: per island (blocks of consecutive particles) its ``n_select``
-    best particles by cost, in stable rank order, paired 1st-2nd, 3rd-4th, ...; a pair is kept
-    when some corresponding waypoints are closer than ``sqrt(tol2)`` ("locally identical path
-    information"; ``tol2 = inf`` keeps every pair).  With ``swap`` (the fragment swap of
-    ``crossover = "swap"``) a pair is kept when its :func:`shared_fragment` is not empty.
-
-    Returns the kept pairs ``(h, 2)`` (particle indices, island by island), their islands and
-    their fragments ``(h, 2)`` (waypoint index ranges ``[lo, hi)``; ``(0, 0)`` without
-    ``swap``).
-    """
-    P, D = X.shape
-    m_i = P // n_islands
-    half = n_select // 2
-    pairs = np.empty((n_islands * half, 2), np.int64)
-    isl = np.empty(n_islands * half, np.int64)
-    frag = np.zeros((n_islands * half, 2), np.int64)
-    h = 0
-    for i in range(n_islands):
-        order = np.argsort(F[i * m_i:(i + 1) * m_i], kind="mergesort") + i * m_i
-        for r in range(half):
-            a = order[2 * r]
-            b = order[2 * r + 1]
-            lo = 0
-            hi = 0
-            if swap:
-                lo, hi = shared_fragment(X[a], X[b], tol2)
-                close = hi > lo
-            else:
-                close = tol2 == np.inf
-                if not close:
-                    for j in range(0, D, 2):
-                        dx = X[a, j] - X[b, j]
-                        dy = X[a, j + 1] - X[b, j + 1]
-                        if dx * dx + dy * dy <= tol2:
-                            close = True
-                            break
-            if close:
-                pairs[h, 0] = a
-                pairs[h, 1] = b
-                isl[h] = i
-                frag[h, 0] = lo
-                frag[h, 1] = hi
-                h += 1
-    return pairs[:h], isl[:h], frag[:h]
-
-
-@_jit
-def swap_fragments(x1, x2, v1, v2, frag):
-    """The paper's crossover text for a batch of pairs: child 1 is parent 1 with the fragment
-    ``frag[r]`` (waypoints ``[lo, hi)``) of parent 2, child 2 the converse; velocities the
-    same way.  Returns ``(child1_x, child2_x, child1_v, child2_v)``."""
-    c1x, c2x, c1v, c2v = x1.copy(), x2.copy(), v1.copy(), v2.copy()
-    for r in range(x1.shape[0]):
-        for d in range(2 * frag[r, 0], 2 * frag[r, 1]):
-            c1x[r, d] = x2[r, d]
-            c2x[r, d] = x1[r, d]
-            c1v[r, d] = v2[r, d]
-            c2v[r, d] = v1[r, d]
-    return c1x, c2x, c1v, c2v
-
-
-@_jit
-def ga_children(X, V, pairs, pc, noise, sigma, out, frag, swap):
-    """Eqs 25-28 (``swap``: :func:`swap_fragments` of ``frag``; ``pc`` unused) and the
-    mutation candidates of eq 29 for the ``h`` crossed pairs.
-
-    Children go to ``out[m:2m]`` (first children of every pair, then second children,
-    ``m = 2h``) and the mutants ``child + C_k`` with ``C_k = noise * sigma`` to ``out[:m]``;
-    returns the children's velocities ``(m, D)`` (eqs 27-28).
-    """
-    h = pairs.shape[0]
-    m = 2 * h
-    a, b = pairs[:, 0], pairs[:, 1]
-    if swap:
-        c1x, c2x, c1v, c2v = swap_fragments(X[a], X[b], V[a], V[b], frag)
-    else:
-        c1x, c2x, c1v, c2v = crossover(X[a], X[b], V[a], V[b], pc)
-    out[m:m + h] = c1x
-    out[m + h:2 * m] = c2x
-    for r in range(m):
-        out[r] = noise[r] * sigma + out[m + r]  # child + C_k
-    cv = np.empty((m, X.shape[1]))
-    cv[:h] = c1v
-    cv[h:] = c2v
-    return cv
 
 
 @_jit
@@ -348,7 +193,7 @@ def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, g
     """The pre-evaluation part of one iteration, into the batch ``B``: GA children and
     mutants (:func:`ga_children`, rows ``P .. P + 2m``), the move (:func:`move`, rows
     ``:P`` and ``V_new``), then bounds handling of swarm and mutants (``bound_code``: see
-    :func:`optplan.swarm.core.bound_rows`; velocities of reflected coordinates reversed,
+    :func:`optplan.swarm.operators.bound_rows`; velocities of reflected coordinates reversed,
     of clipped ones zeroed).  Returns the children's velocities and the out-of-bounds mask
     (for ``random`` mode, whose re-draws the caller makes)."""
     P = X.shape[0]
@@ -436,13 +281,6 @@ def island_bests(pbest_f, n_islands):
     return out
 
 
-def _free_paths(paths: np.ndarray, test) -> np.ndarray:
-    """Collision-free flags of the polylines ``(P, M, 2)`` for the obstacle set ``test``
-    (None: every path is free)."""
-    if test is None:
-        return np.ones(len(paths), bool)
-    return test.crossings(paths, penetration=False).count == 0
-
 
 # --------------------------------------------------------------------------------------
 # the backend
@@ -496,10 +334,10 @@ class IPSO(SwarmBackend):
         The GA crossover of a selected pair.  ``"swap"`` (``ipso-paper``): the paper's text,
         "intercept the locally identical path information in two particles ... swapping each
         other": the waypoints between the pair's first two shared waypoints (or between the
-        first shared one and the goal) are exchanged (:func:`shared_fragment`,
-        :func:`swap_fragments`), velocities likewise; a pair without such a fragment is not
-        crossed.  ``"blend"``: eqs 25-28 on the whole particles (``p_c ~ U(0, 1)`` per pair),
-        for the pairs with at least one shared waypoint.
+        first shared one and the goal) are exchanged (:func:`optplan.swarm.ga.shared_fragment`,
+        :func:`optplan.swarm.ga.swap_fragments`), velocities likewise; a pair without such a
+        fragment is not crossed.  ``"blend"``: eqs 25-28 on the whole particles
+        (``p_c ~ U(0, 1)`` per pair), for the pairs with at least one shared waypoint.
     crossover_tol : float
         Two corresponding waypoints are *shared* ("locally identical path information") when
         they are closer than ``crossover_tol * map diagonal``; ``inf`` shares every waypoint
@@ -517,7 +355,7 @@ class IPSO(SwarmBackend):
         per island.
     tighten_rounds : int
         Beyond the paper (the end-game): after the ``k_max`` iterations,
-        :func:`optplan.swarm.core.tighten` (deterministic corner cutting + string pulling,
+        :func:`optplan.swarm.refine.tighten` (deterministic corner cutting + string pulling,
         at most this many rounds) is applied to the candidates of ``endgame``; the shortest
         result is returned (one extra history row).  The returned path then has as many
         vertices as the tightening needs (more than ``n_waypoints`` around rounded corners).
@@ -529,11 +367,12 @@ class IPSO(SwarmBackend):
         has seen is compared after tightening.
     endgame_margin : float
         Beyond the paper: after a quick coarse tightening of every end-game candidate, those
-        within this fraction of the best (at most ``ENDGAME_KEEP``) are tightened in full.
+        within this fraction of the best (at most :data:`optplan.swarm.endgame.ENDGAME_KEEP`)
+        are tightened in full.
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
 penetration_weight, roadmap_samples, roadmap_boundary, roadmap_medial, roadmap_neighbours, \
 corridors
-        Shared swarm options, see :class:`optplan.swarm.core.SwarmBackend`.
+        Shared swarm options, see :class:`optplan.swarm.backend.SwarmBackend`.
     """
 
     name: ClassVar[str] = "ipso"
@@ -653,77 +492,33 @@ corridors
     def _stats(self, run: IPSORun) -> dict[str, Any]:
         return run.stats()
 
-    # -- beyond the paper: the end-game -------------------------------------------------
-    def _endgame_candidates(self, space: SwarmSpace, st: SwarmState, run: IPSORun
-                            ) -> list[np.ndarray]:
-        """Collision-free candidate paths of the end-game (see the ``endgame`` option),
-        shortest first."""
-        X = [st.feas_x] if st.feas_x is not None else []
-        if run.n_islands > 1:
-            X += list(st.pbest[run.island_idx])
-        paths = list(decode(np.array(X), space)) if X else []
-        if self.endgame == "classes":
-            paths += [np.asarray(p, float) for p in run.seeds]
-        if not paths:
-            return []
-        M = max(len(p) for p in paths)
-        # repeated end points add zero-length segments (no crossing, no ray crossing)
-        padded = np.array([np.vstack([p, np.repeat(p[-1:], M - len(p), axis=0)])
-                           for p in paths])
-        st.n_eval += len(paths)
-        # collision-free with the margin of space.clear: a path that is free only within the
-        # geometric tolerance (a swarm best pressed onto an obstacle) can collide once cut
-        feas = _free_paths(padded, space.clear if space.clear is not None else space.obstacles)
-        if not feas.any():
-            feas = _free_paths(padded, space.obstacles)
-        lens = [path_lengths(p) for p in paths]
-        cand = sorted((lens[i], i) for i in range(len(paths)) if feas[i])
-        if self.endgame == "classes":
-            sig = signature_hashes(padded, space)
-            seen: set[int] = set()
-            keep = []
-            for L, i in cand:  # the shortest candidate of each class
-                if sig[i] not in seen:
-                    seen.add(sig[i])
-                    keep.append((L, i))
-            cand = keep
-        return [paths[i] for _, i in cand]
 
+    # -- beyond the paper: the end-game (optplan.swarm.endgame) --------------------------
     def _finish(self, space: SwarmSpace, state: SwarmState, run: IPSORun,
                 rng: np.random.Generator):
-        """Beyond the paper: :func:`~optplan.swarm.core.tighten` the end-game candidates
-        (a few rounds for all of them, then the full ``tighten_rounds`` for those within
-        ``endgame_margin`` of the best); the shortest result is the answer."""
+        """Beyond the paper: :func:`~optplan.swarm.endgame.tighten_best` of the end-game
+        candidates (:func:`~optplan.swarm.endgame.endgame_candidates`: a few rounds for all of
+        them, then the full ``tighten_rounds`` for those within ``endgame_margin`` of the
+        best); the shortest result is the answer."""
         if not self.tighten_rounds:
             return
         st = state
-        cand = self._endgame_candidates(space, st, run)
+        cand, n = endgame_candidates(
+            space, st.feas_x, st.pbest[run.island_idx] if run.n_islands > 1 else (),
+            run.seeds if self.endgame == "classes" else (), self.endgame == "classes")
+        st.n_eval += n
         if not cand:
             return
-        if len(cand) > 1:  # rank the candidates after a quick coarse tightening
-            out, n = tighten(cand, space, rounds=min(self.tighten_rounds, QUICK_ROUNDS),
-                             fractions=QUICK_FRACTIONS)
-            st.n_eval += n
-            lens = np.array([path_lengths(p) for p in out])
-            cand = [out[i] for i in np.argsort(lens, kind="stable")
-                    if lens[i] <= lens.min() * (1.0 + self.endgame_margin)][:ENDGAME_KEEP]
-        out, n = tighten(cand, space, rounds=self.tighten_rounds)
+        path, best_len, n_cand, n = tighten_best(cand, space, self.tighten_rounds,
+                                                 self.endgame_margin)
         st.n_eval += n
-        lens = np.array([path_lengths(p) for p in out])
-        # a safety net: only paths the fitness finds collision-free
-        M = max(len(p) for p in out)
-        ok = _free_paths(np.array([np.vstack([p, np.repeat(p[-1:], M - len(p), axis=0)])
-                                   for p in out]), space.obstacles)
-        if not ok.any():
+        if path is None:
             return
-        lens = np.where(ok, lens, np.inf)
-        j = int(np.argmin(lens))
-        best_len = float(lens[j])
         if best_len < st.feas_len:
-            st.final_path = out[j]
+            st.final_path = path
             st.stats["tightened_from"] = st.feas_len
             st.feas_len = best_len
             if best_len < st.gbest_f:
                 st.gbest_f, st.gbest_count = best_len, 0
-        st.stats["endgame_candidates"] = len(cand)
+        st.stats["endgame_candidates"] = n_cand
         yield {"tightened": best_len}

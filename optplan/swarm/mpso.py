@@ -25,13 +25,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan.solver import option
-from optplan.swarm.core import (
-    SwarmBackend,
-    SwarmSpace,
-    SwarmState,
-    evaluate_swarm,
-    handle_bounds,
-)
+from optplan.swarm.backend import SwarmBackend, SwarmState
+from optplan.swarm.core import SwarmSpace, evaluate_swarm
+from optplan.swarm.operators import handle_bounds
 from optplan.swarm.pso import pso_step
 
 __all__ = ["MPSO", "mutate_one_coordinate", "refine_trials"]
@@ -84,7 +80,7 @@ class MPSO(SwarmBackend):
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
 penetration_weight, roadmap_samples, roadmap_boundary, roadmap_medial, roadmap_neighbours, \
 corridors
-        Shared swarm options, see :class:`optplan.swarm.core.SwarmBackend`.
+        Shared swarm options, see :class:`optplan.swarm.backend.SwarmBackend`.
     """
 
     name: ClassVar[str] = "mpso"

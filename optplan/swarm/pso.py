@@ -8,8 +8,10 @@ Velocity and position updates, for particle ``i`` and coordinate ``d``::
 with ``eps, eta ~ U(0, 1)`` drawn per particle and coordinate every iteration, ``p_i`` the
 particle's best position and ``p_g`` the swarm's best.  The paper prints ``x_gd`` in the social
 term of eq 1; that is a typo for ``x_id`` (the textbook PSO, and the only reading in which the
-social term pulls particle ``i`` toward ``p_g``).  Encoding, fitness (eqs 31-33), bounds
-handling and bookkeeping are shared with MPSO and IPSO in :mod:`optplan.swarm.core`.
+social term pulls particle ``i`` toward ``p_g``).  Encoding and fitness (eqs 31-33,
+:mod:`optplan.swarm.core`), the velocity update and bounds handling
+(:mod:`optplan.swarm.operators`) and the driver (:mod:`optplan.swarm.backend`) are shared with
+MPSO and IPSO.
 """
 
 from __future__ import annotations
@@ -20,14 +22,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan.solver import option
-from optplan.swarm.core import (
-    SwarmBackend,
-    SwarmSpace,
-    SwarmState,
-    evaluate_swarm,
-    handle_bounds,
-    velocity_update,
-)
+from optplan.swarm.backend import SwarmBackend, SwarmState
+from optplan.swarm.core import SwarmSpace, evaluate_swarm
+from optplan.swarm.operators import handle_bounds, velocity_update
 
 __all__ = ["PSO", "pso_step"]
 
@@ -37,7 +34,7 @@ def pso_step(state: SwarmState, w: float, c1: float, c2: float, vmax: np.ndarray
     """Eqs 1-2 for the whole swarm: returns the new ``(X, V)`` (bounds not yet handled).
 
     ``eps`` then ``eta`` ~ U(0, 1) per particle and coordinate are drawn from ``rng``; the
-    velocity is :func:`optplan.swarm.core.velocity_update` with gbest as the one guide,
+    velocity is :func:`optplan.swarm.operators.velocity_update` with gbest as the one guide,
     clamped to ``vmax`` per coordinate (``inf``: none).
     """
     P, D = state.X.shape
@@ -59,7 +56,7 @@ class PSO(SwarmBackend):
     n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
 penetration_weight, roadmap_samples, roadmap_boundary, roadmap_medial, roadmap_neighbours, \
 corridors
-        Shared swarm options, see :class:`optplan.swarm.core.SwarmBackend`.
+        Shared swarm options, see :class:`optplan.swarm.backend.SwarmBackend`.
     """
 
     name: ClassVar[str] = "pso"

@@ -1,0 +1,345 @@
+"""Local refinement of collision-free polylines (beyond the paper): string pulling and corner
+cutting.
+
+:func:`tighten`: deterministic corner cutting and string pulling of collision-free paths with
+the fitness kernel only (used by ``ipso``'s ``tighten_rounds``, :mod:`optplan.swarm.endgame`).
+Backends add such post-iteration steps through
+:meth:`optplan.swarm.backend.SwarmBackend._finish` (one history row each, not counted as
+iterations).  :func:`shortcut`: greedy string pulling of one path.
+
+The paths are handled together as *flat paths*: one point array and the start offsets of the
+paths (:func:`_flat`), so that every round tests the segments of all paths in one call of the
+collision kernel (:func:`optplan.swarm.core.pairs_free`).  The roadmap string-pulls its walks
+with :func:`_pull` too.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from optplan.swarm.core import SwarmSpace, pairs_free, segment_free
+
+__all__ = ["CUT_FRACTIONS", "CUT_STAGES", "shortcut", "tighten"]
+
+#: Compiled helpers (numba; cached on disk after the first run, see docs/solvers/pso.md).
+_jit = numba.njit(cache=True, nogil=True)
+
+
+def shortcut(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
+    """Greedy string pulling: from each kept vertex jump to the farthest visible later vertex."""
+    return _shortcut_many([np.asarray(path, dtype=float)], space)[0]
+
+
+def _shortcut_many(paths: list[np.ndarray], space: SwarmSpace) -> list[np.ndarray]:
+    """:func:`shortcut` of several paths with one visibility test for all vertex pairs."""
+    if not paths:
+        return []
+    pts, off = _flat(paths)
+    pts, off = _pull(pts, off, space, 0)[:2]
+    return [pts[off[i]:off[i + 1]] for i in range(len(paths))]
+
+
+def _flat(paths: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """Paths as one point array and the start offsets ``(n_paths + 1,)``."""
+    off = np.zeros(len(paths) + 1, np.int64)
+    off[1:] = np.cumsum([len(p) for p in paths])
+    return np.ascontiguousarray(np.concatenate([np.asarray(p, float) for p in paths])), off
+
+
+@_jit
+def _pairs(off, window):
+    """Global index pairs ``(i, j)``, ``i < j`` in the same path and at most ``window`` apart
+    (0: every pair)."""
+    n = 0
+    for p in range(off.shape[0] - 1):
+        m = off[p + 1] - off[p]
+        for i in range(m):
+            n += min(m - 1 - i, window) if window > 0 else m - 1 - i
+    I = np.empty(n, np.int64)
+    J = np.empty(n, np.int64)
+    q = 0
+    for p in range(off.shape[0] - 1):
+        o, m = off[p], off[p + 1] - off[p]
+        for i in range(m):
+            top = m if window <= 0 else min(m, i + window + 1)
+            for j in range(i + 1, top):
+                I[q] = o + i
+                J[q] = o + j
+                q += 1
+    return I, J
+
+
+@_jit
+def _greedy_keep(off, I, J, free):
+    """Greedy string pulling from the visibility of the pairs ``(I, J)`` (sorted by ``I``
+    then ``J``, as :func:`_pairs` makes them): from each kept vertex the farthest visible
+    later vertex (the next vertex when none is).  Returns the keep mask."""
+    N = off[-1]
+    far = np.arange(N) + 1  # farthest visible later vertex per vertex
+    for q in range(I.shape[0]):
+        if free[q] and J[q] > far[I[q]]:
+            far[I[q]] = J[q]
+    keep = np.zeros(N, np.bool_)
+    for p in range(off.shape[0] - 1):
+        v = off[p]
+        last = off[p + 1] - 1
+        keep[v] = True
+        while v < last:
+            v = min(far[v], last)
+            keep[v] = True
+    return keep
+
+
+def _pull(pts: np.ndarray, off: np.ndarray, space: SwarmSpace, window: int,
+          ids: np.ndarray | None = None):
+    """String pulling of flat paths (pairs at most ``window`` apart, 0: all): the kept
+    points, offsets, ids and the number of segments tested."""
+    I, J = _pairs(off, window)
+    keep = _greedy_keep(off, I, J, pairs_free(pts, I, J, space))
+    cnt = np.add.reduceat(keep, off[:-1]) if len(pts) else np.zeros(0, np.int64)
+    new_off = np.zeros_like(off)
+    new_off[1:] = np.cumsum(cnt)
+    return pts[keep], new_off, (ids[keep] if ids is not None else None), len(I)
+
+
+@_jit
+def _dirty_rows(off, ids, settled_prev, settled_next, active):
+    """Interior vertices of the active paths not known to admit no cut with their current
+    neighbours (global indices)."""
+    out = np.empty(off[-1], np.int64)
+    n = 0
+    for p in range(off.shape[0] - 1):
+        if not active[p]:
+            continue
+        for v in range(off[p] + 1, off[p + 1] - 1):
+            x = ids[v]
+            if settled_prev[x] != ids[v - 1] or settled_next[x] != ids[v + 1]:
+                out[n] = v
+                n += 1
+    return out[:n]
+
+
+@_jit
+def _apply_cuts(pts, off, ids, rows, cut, P, Q, next_id, settled_prev, settled_next):
+    """Replace every cut vertex ``rows[r]`` by its two cut points ``P[r], Q[r]`` (new ids from
+    ``next_id``); a tested vertex without a cut is recorded as settled with its neighbours.
+    Returns the new points, offsets, ids and the next free id."""
+    n_cut = 0
+    for r in range(rows.shape[0]):
+        if cut[r]:
+            n_cut += 1
+        else:
+            v = rows[r]
+            settled_prev[ids[v]] = ids[v - 1]
+            settled_next[ids[v]] = ids[v + 1]
+    N = pts.shape[0]
+    new_pts = np.empty((N + n_cut, 2))
+    new_ids = np.empty(N + n_cut, np.int64)
+    new_off = np.zeros_like(off)
+    which = np.full(N, -1, np.int64)
+    for r in range(rows.shape[0]):
+        if cut[r]:
+            which[rows[r]] = r
+    q = 0
+    for p in range(off.shape[0] - 1):
+        new_off[p] = q
+        for v in range(off[p], off[p + 1]):
+            r = which[v]
+            if r < 0:
+                new_pts[q] = pts[v]
+                new_ids[q] = ids[v]
+                q += 1
+            else:
+                new_pts[q] = P[r]
+                new_pts[q + 1] = Q[r]
+                new_ids[q] = next_id
+                new_ids[q + 1] = next_id + 1
+                next_id += 2
+                q += 2
+    new_off[-1] = q
+    return new_pts, new_off, new_ids, next_id
+
+
+@_jit
+def _lengths(pts, off):
+    """Length of each flat path."""
+    out = np.zeros(off.shape[0] - 1)
+    for p in range(off.shape[0] - 1):
+        for v in range(off[p], off[p + 1] - 1):
+            out[p] += math.hypot(pts[v + 1, 0] - pts[v, 0], pts[v + 1, 1] - pts[v, 1])
+    return out
+
+
+#: Corner-cut fractions of :func:`tighten` (how far along each adjacent segment).
+CUT_FRACTIONS = 0.5 ** np.arange(1, 11)
+
+
+#: Rank boundaries of the staged cut tests of :func:`tighten` (by decreasing gain).
+CUT_STAGES = (8, 24)
+
+
+@_jit
+def _cut_table(pts, rows, f, thr):
+    """The corner cuts of :func:`tighten` for the vertices ``rows``: the cut points
+    ``P[r, s] = v + f[s] (a - v)``, ``Q[r, t] = v + f[t] (b - v)``, the length gain of each
+    cut ``(s, t)`` (flat index ``s F + t``), the cuts in order of decreasing gain (ties: the
+    lower index first) and per vertex how many gain more than ``thr[r]``."""
+    R = rows.shape[0]
+    F = f.shape[0]
+    P = np.empty((R, F, 2))
+    Q = np.empty((R, F, 2))
+    gain = np.empty((R, F * F))
+    order = np.empty((R, F * F), np.int64)
+    n_above = np.zeros(R, np.int64)
+    dp = np.empty(F)
+    dq = np.empty(F)
+    for r in range(R):
+        v = rows[r]
+        vx, vy = pts[v, 0], pts[v, 1]
+        ax, ay = pts[v - 1, 0] - vx, pts[v - 1, 1] - vy
+        bx, by = pts[v + 1, 0] - vx, pts[v + 1, 1] - vy
+        for s in range(F):
+            P[r, s, 0] = vx + f[s] * ax
+            P[r, s, 1] = vy + f[s] * ay
+            Q[r, s, 0] = vx + f[s] * bx
+            Q[r, s, 1] = vy + f[s] * by
+            dp[s] = math.hypot(P[r, s, 0] - vx, P[r, s, 1] - vy)
+            dq[s] = math.hypot(Q[r, s, 0] - vx, Q[r, s, 1] - vy)
+        for s in range(F):
+            for t in range(F):
+                g = (dp[s] + dq[t]) - math.hypot(Q[r, t, 0] - P[r, s, 0],
+                                                 Q[r, t, 1] - P[r, s, 1])
+                gain[r, s * F + t] = g
+                if g > thr[r]:
+                    n_above[r] += 1
+        order[r] = np.argsort(-gain[r], kind="mergesort")
+    return P, Q, gain, order, n_above
+
+
+@_jit
+def _stage_segments(P, Q, order, n_above, found, lo, hi):
+    """The cuts of ranks ``lo .. hi - 1`` (among those above the threshold) of the vertices
+    without a free cut yet: their segments ``p -> q``, vertex and rank."""
+    R = order.shape[0]
+    F = P.shape[1]
+    n = 0
+    for r in range(R):
+        if not found[r]:
+            n += max(0, min(hi, n_above[r]) - lo)
+    A = np.empty((n, 2))
+    B = np.empty((n, 2))
+    who = np.empty(n, np.int64)
+    rank = np.empty(n, np.int64)
+    q = 0
+    for r in range(R):
+        if found[r]:
+            continue
+        for k in range(lo, min(hi, n_above[r])):
+            c = order[r, k]
+            A[q, 0] = P[r, c // F, 0]
+            A[q, 1] = P[r, c // F, 1]
+            B[q, 0] = Q[r, c % F, 0]
+            B[q, 1] = Q[r, c % F, 1]
+            who[q] = r
+            rank[q] = k
+            q += 1
+    return A, B, who, rank
+
+
+@_jit
+def _stage_pick(order, who, rank, free, found, choice):
+    """Per vertex the first free cut of the stage (in rank order: the largest gain)."""
+    for q in range(who.shape[0]):
+        r = who[q]
+        if free[q] and not found[r]:
+            found[r] = True
+            choice[r] = order[r, rank[q]]
+
+
+def _best_cuts(pts: np.ndarray, rows: np.ndarray, f: np.ndarray, thr: np.ndarray,
+               space: SwarmSpace):
+    """Per vertex ``rows[r]`` its collision-free corner cut with the largest gain, if that
+    gain is above ``thr[r]``: the cut points ``P, Q`` (``(R, F, 2)``), the chosen flat index
+    ``j`` and the mask ``cut``, and the number of segments tested.
+
+    The same choice as testing all ``F x F`` cuts and taking the argmax of the gains of the
+    free ones (the first on ties), with fewer tests: the cuts that gain at most ``thr[r]``
+    cannot be taken and are not tested, and the others are tested in stages of decreasing
+    gain (ranks below :data:`CUT_STAGES`, then the rest), each vertex only until it has a
+    free cut."""
+    P, Q, gain, order, n_above = _cut_table(pts, rows, f, thr)
+    R = len(rows)
+    found = np.zeros(R, bool)
+    choice = np.zeros(R, np.int64)
+    n_eval = 0
+    lo = 0
+    for hi in (*CUT_STAGES, order.shape[1]):
+        A, B, who, rank = _stage_segments(P, Q, order, n_above, found, lo, hi)
+        if len(A):
+            _stage_pick(order, who, rank, segment_free(A, B, space), found, choice)
+            n_eval += len(A)
+        lo = hi
+        if lo >= order.shape[1]:
+            break
+    return P, Q, choice, found, n_eval
+
+
+def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
+            rel_tol: float = 1e-7, min_gain: float = 1e-5,
+            fractions: np.ndarray = CUT_FRACTIONS) -> tuple[list[np.ndarray], int]:
+    """Deterministic corner cutting and string pulling of collision-free polylines (beyond
+    the paper), all paths together (two visibility tests per round for all of them).
+
+    First a greedy :func:`shortcut` of each path.  Then each round, for every interior vertex
+    ``v`` with neighbours ``a``, ``b`` (skipping vertices that admitted no cut with the same
+    neighbours in an earlier round), the cuts ``p = v + s (a - v)``, ``q = v + t (b - v)`` for
+    ``s, t`` in ``fractions`` (default :data:`CUT_FRACTIONS`, 1/2 to 1/1024) are tested (one
+    batch of segments ``p -> q``); each vertex takes its collision-free cut with the largest
+    length gain.  Fractions are at most 1/2, so the cuts of neighbouring vertices do not
+    overlap and ``a -> p``, ``q -> b`` are sub-segments of collision-free segments.  Then a
+    greedy string pulling over vertices at most 6 apart drops the vertices that are no longer
+    needed.  Visibility is tested with the margin of ``space.clear``.  A path stays
+    collision-free for the fitness (hence for the validator), never gets longer, and contracts
+    onto the obstacle corners it wraps (the locally shortest path of its homotopy class).  A
+    cut must gain more than ``min_gain`` x the path length (this bounds the number of vertices
+    spent on approximating the rounded corners of the disc robot's free space).  A path stops
+    after ``rounds`` rounds, when a round gains less than ``rel_tol`` of its length or when no
+    vertex admits a cut.  Returns ``(paths, number of segments tested)``.
+    """
+    if not paths:
+        return [], 0
+    pts, off = _flat(paths)
+    pts, off, _, n_eval = _pull(pts, off, space, 0)
+    ids = np.arange(len(pts), dtype=np.int64)
+    next_id = len(pts)
+    cap = max(4 * len(pts), 64)
+    s_prev = np.full(cap, -1, np.int64)
+    s_next = np.full(cap, -1, np.int64)
+    length = _lengths(pts, off)
+    active = np.diff(off) > 2
+    f = np.asarray(fractions, dtype=float)
+    F = len(f)
+    for _ in range(rounds):
+        rows = _dirty_rows(off, ids, s_prev, s_next, active)
+        if not len(rows):
+            break
+        owner = np.searchsorted(off, rows, side="right") - 1
+        P, Q, j, cut, n = _best_cuts(pts, rows, f, min_gain * length[owner], space)
+        n_eval += n
+        if next_id + 2 * int(cut.sum()) > cap:  # room for the new ids
+            cap = 2 * (next_id + 2 * int(cut.sum()))
+            s_prev = np.concatenate([s_prev, np.full(cap - len(s_prev), -1, np.int64)])
+            s_next = np.concatenate([s_next, np.full(cap - len(s_next), -1, np.int64)])
+        r = np.arange(len(rows))
+        pts, off, ids, next_id = _apply_cuts(pts, off, ids, rows, cut, P[r, j // F],
+                                             Q[r, j % F], next_id, s_prev, s_next)
+        pts, off, ids, n = _pull(pts, off, space, 6, ids)
+        n_eval += n
+        new = _lengths(pts, off)
+        active &= (new < length * (1.0 - rel_tol)) & (np.diff(off) > 2)
+        length = new
+    return [pts[off[i]:off[i + 1]] for i in range(len(paths))], int(n_eval)
+
