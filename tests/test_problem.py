@@ -17,7 +17,8 @@ import pytest
 import shapely
 
 import optplan as op
-from optplan.problem import (
+from optplan.problem import Follower, Formation
+from optplan.problem.context import (
     _DYN_KEYS,
     _FOLL_KEYS,
     _FORM_KEYS,
@@ -25,8 +26,6 @@ from optplan.problem import (
     _ROBOT_KEYS,
     _SENS_KEYS,
     _TOP_KEYS,
-    Follower,
-    Formation,
 )
 
 ROOT = Path(__file__).resolve().parents[1]

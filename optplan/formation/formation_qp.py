@@ -425,11 +425,14 @@ class FormationQP(PilotedFormation, FormationBackend):
     Parameters
     ----------
     w_f : float
-        Weight of the formation error after the step (1/s^2 relative to the velocity term).
+        Weight of the formation error after the step (1/s^2 relative to the velocity term),
+        at most 1e6 (the QP's conditioning).
     w_leader : float
-        Weight of the leader's deviation from its pilot command (with ``leader_in_qp``).
+        Weight of the leader's deviation from its pilot command (with ``leader_in_qp``), at
+        most 1e6.
     w_s : float
-        Linear weight of the obstacle-row slack in the slack fallback (exact penalty).
+        Linear weight of the obstacle-row slack in the slack fallback (exact penalty), at
+        most 1e9.
     gamma : float
         CBF gain (1/s), linear class-K function; must satisfy ``gamma * dt <= 1``.
     margin : float
@@ -457,9 +460,11 @@ class FormationQP(PilotedFormation, FormationBackend):
     """
 
     name: ClassVar[str] = "formation-qp"
-    w_f: float = option(4.0, lo=0.0, lo_open=True)
-    w_leader: float = option(10.0, lo=0.0, lo_open=True)
-    w_s: float = option(1e4, lo=0.0, lo_open=True)
+    # weights relative to the unit weight of the followers' feed-forward term; beyond 1e6
+    # (1e9 for the exact-penalty slack) the QP's conditioning defeats Clarabel's tolerances
+    w_f: float = option(4.0, lo=0.0, lo_open=True, hi=1e6)
+    w_leader: float = option(10.0, lo=0.0, lo_open=True, hi=1e6)
+    w_s: float = option(1e4, lo=0.0, lo_open=True, hi=1e9)
     gamma: float = option(1.0, lo=0.0, lo_open=True)
     margin: float = option(0.5, lo=0.0, scale=True)
     neighbor_radius: float = option(30.0, lo=0.0, lo_open=True, scale=True)
