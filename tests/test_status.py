@@ -169,13 +169,11 @@ def test_a_new_problem_builds_each_obstacle_set_once(monkeypatch) -> None:
 def test_time_limit_stops_every_kind_of_backend(solver, problem, over) -> None:
     prob = op.load_problem(problem)
     op.solve(prob, solver, rng=0, time_limit=0.01, **over)  # warm caches and imports
-    t0 = time.perf_counter()
     res = op.solve(prob, solver, rng=0, time_limit=0.02, **over)
-    took = time.perf_counter() - t0
+    # behaviour only: how soon it returns is bench_overhead.py's figure, not a test bound
     assert res.stop_reason == "time_limit", res.message
     assert res.status in (op.Status.solved, op.Status.approximate)
     assert "time limit" in res.message
-    assert took < 2.0  # generous: the benchmark, not this test, measures the 0.3 s target
 
 
 def test_callback_stop_and_errors() -> None:
