@@ -8,13 +8,13 @@ import pytest
 import optplan as op
 from optplan.generators import swap_scene
 from optplan.interfaces import LocalController, LocalPlanner
-from optplan.potential.apf import (
-    APF,
+from optplan.potential.apf import APF
+from optplan.potential.backend import oscillation_index
+from optplan.potential.field import (
     FieldParams,
     attractive_force,
     attractive_potential,
     evaluate_field,
-    oscillation_index,
     repulsive_force,
     repulsive_potential,
 )
@@ -233,7 +233,7 @@ def test_sense_robots_changes_nothing_for_one_robot():
 
 
 def test_robots_as_obstacles_field():
-    from optplan.potential.apf import RobotsAsObstacles
+    from optplan.potential.backend import RobotsAsObstacles
 
     prob = op.load_problem("trap-saddle")
     base = ObstacleField(prob)

@@ -11,7 +11,9 @@ import pytest
 import optplan as op
 from optplan.hybrid.planner import Hybrid
 from optplan.options import describe_options, option_spec
-from optplan.potential.apf import APF, PotentialFieldBackend, evaluate_field
+from optplan.potential.apf import APF
+from optplan.potential.backend import PotentialFieldBackend
+from optplan.potential.field import evaluate_field
 from optplan.potential.sa_apf import K_B_PAPER, SAAPF
 from optplan.problem import transform_problem
 from optplan.sim import ObstacleField

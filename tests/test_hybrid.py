@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.hybrid.planner import Hybrid, inflection_points, subgoals, turning_angles
+from optplan.hybrid.planner import Hybrid
+from optplan.hybrid.subgoals import inflection_points, subgoals, turning_angles
 from optplan.interfaces import FormationBackend, LocalPlanner
 from optplan.solver import Backend
 

@@ -74,7 +74,7 @@ def test_reach_visible_waits_until_the_next_subgoal_is_in_sight():
 
 
 def test_next_visible_checks_the_segment_to_the_next_subgoal():
-    from optplan.hybrid.planner import _Driver, _SubgoalTracker
+    from optplan.hybrid.tracker import Driver, SubgoalTracker
     from optplan.sim import ObstacleField, SimState
 
     prob = op.parse_problem({
@@ -83,9 +83,9 @@ def test_next_visible_checks_the_segment_to_the_next_subgoal():
                     "max_speed": 5.0}],
         "obstacles": [{"type": "polygon", "vertices": [[40, 0], [60, 0], [60, 60], [40, 60]]}]})
     goals = np.array([[30.0, 70.0], [70.0, 70.0], [90.0, 90.0]])
-    d = _Driver(0, prob.robots[0], goals, controller=None, reach_tol=10.0, goal_tol=1.0)
-    tr = _SubgoalTracker([d], skip_blocked=True, stall_steps=0, sensing=None,
-                         reach_visible=True)
+    d = Driver(0, prob.robots[0], goals, controller=None, reach_tol=10.0, goal_tol=1.0)
+    tr = SubgoalTracker([d], skip_blocked=True, stall_steps=0, sensing=None,
+                        reach_visible=True)
     fld = ObstacleField(prob)
 
     def state(x):

@@ -10,11 +10,11 @@ import shapely
 from shapely.geometry import Polygon
 
 import optplan as op
-from optplan.exact.nlp import (
+from optplan.exact.nlp import WaypointNLP
+from optplan.exact.nlp_model import objective_function
+from optplan.exact.nlp_pieces import (
     SAFETY_REL,
-    WaypointNLP,
     init_hyperplanes,
-    objective_function,
     obstacle_pieces,
     pair_distances,
     piece_distances,

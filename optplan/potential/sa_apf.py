@@ -53,12 +53,9 @@ import numpy as np
 from optplan.canonical import format_point
 from optplan.interfaces import LocalPlanner
 from optplan.options import option
-from optplan.potential.apf import (
-    APFController,
-    FieldParams,
-    PotentialFieldBackend,
-    evaluate_field,
-)
+from optplan.potential.backend import PotentialFieldBackend
+from optplan.potential.controller import APFController
+from optplan.potential.field import FieldParams, evaluate_field
 from optplan.problem import Problem, Robot
 from optplan.sim import ObstacleField, SimState
 
@@ -272,10 +269,10 @@ class SAAPF(PotentialFieldBackend, LocalPlanner):
         Length of the greedy roll-out in the escape test (x length_scale).
     evade_factor : float
         Moving-obstacle safety step when a dynamic obstacle is closer than ``evade_factor * l``
-        (``0`` disables; see :meth:`~optplan.potential.apf.APFController.evade`).  Default 2.
+        (``0`` disables; see :meth:`~optplan.potential.controller.APFController.evade`).  Default 2.
     k, eta, rho_0, l, dt, max_steps, rho_min, sense_range, window, stall_ratio, n_probe, \
 detect_eq38, sense_robots
-        Shared options, see :class:`~optplan.potential.apf.PotentialFieldBackend`.
+        Shared options, see :class:`~optplan.potential.backend.PotentialFieldBackend`.
     """
 
     name: ClassVar[str] = "sa-apf"

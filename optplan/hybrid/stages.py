@@ -1,0 +1,104 @@
+"""The hybrid planner's global stage (paper §V step 3) and the stages' progress forwarding.
+
+:func:`global_stage` plans a path for every driving robot on the known map
+(``problem.known_view()``) with the ``global_solver`` stage (an ``init`` path replaces it);
+:class:`StageCallback` forwards the stages' progress to the caller in world units, with a
+running iteration offset.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from optplan.hybrid.answer import early_answer
+from optplan.hybrid.policy import Team
+from optplan.problem import Problem, Robot
+from optplan.result import Progress, Result, Status, notify
+
+if TYPE_CHECKING:
+    from optplan.hybrid.planner import Hybrid
+
+__all__ = ["StageCallback", "GlobalStage", "global_stage"]
+
+#: Progress.info entries of the stages that are lengths (mapped back from the canonical frame).
+_LENGTH_INFO = ("feasible_best_length",)
+
+
+class StageCallback:
+    """Forwards the stages' progress with a running iteration offset; remembers a stop."""
+
+    def __init__(self, callback: Callable[[Progress], Any] | None, unit: float = 1.0):
+        self.callback = callback
+        self.offset = 0
+        self.stopped = False
+        self.unit = unit  # world length of a canonical unit (best_cost is a length)
+
+    def __call__(self, p: Progress) -> None:
+        info = {k: v * self.unit if k in _LENGTH_INFO else v for k, v in p.info.items()}
+        q = Progress(p.iteration + self.offset, p.best_cost * self.unit, p.n_eval, p.elapsed,
+                     info, p.sim_time)
+        if notify(self.callback, q):
+            self.stopped = True
+            raise StopIteration
+
+    @property
+    def forward(self) -> Callable[[Progress], Any] | None:
+        """What to pass to a stage: this object, or None without a callback."""
+        return self if self.callback is not None else None
+
+
+@dataclass
+class GlobalStage:
+    """Step 3's outcome: a path per driving robot."""
+
+    paths: dict[str, np.ndarray]
+    result: Result | None = None
+    wall_time: float = 0.0
+    messages: list[str] = field(default_factory=list)
+
+
+def global_stage(opts: Hybrid, problem: Problem, team: Team,
+                 init: dict[str, np.ndarray] | None, rng: np.random.Generator,
+                 cb: StageCallback, t_start: float) -> GlobalStage | dict[str, Any]:
+    """Step 3: a path per driving robot (an ``init`` path replaces the planned one), or the
+    early answer (a dict, :func:`~optplan.hybrid.answer.early_answer`) when the callback
+    stopped the stage or no path exists on the known map."""
+    out = GlobalStage({})
+    need = [r for r in team.drivers if not (init and r.id in init)]
+    if need:
+        t0 = time.perf_counter()
+        gres = opts.stages["global_solver"].solve(problem.known_view(), rng=rng,
+                                                  callback=cb.forward)
+        out.result, out.wall_time = gres, time.perf_counter() - t0
+        cb.offset += max(gres.n_iter, len(gres.history))
+        if cb.stopped:
+            return early_answer(problem, team.ids, gres, "stopped by callback during the "
+                                "global stage", t_start, opts.angle_tol)
+        if gres.status is Status.infeasible:
+            return early_answer(problem, team.ids, gres, "global planner: no path exists on "
+                                f"the known map ({gres.message})", t_start, opts.angle_tol,
+                                Status.infeasible)
+        _take_paths(gres, need, out)
+    for r in team.drivers:
+        if init and r.id in init:
+            out.paths[r.id] = np.vstack([r.start, np.asarray(init[r.id], dtype=float)[1:]])
+    return out
+
+
+def _take_paths(gres: Result, need: list[Robot], out: GlobalStage) -> None:
+    """The global result's path of each robot in ``need`` into ``out`` (the straight line to
+    the goal, with a message, where it has none), and a note when it is not solved."""
+    for r in need:
+        p = gres.paths.get(r.id)
+        if p is None or len(p) < 2 or gres.status is Status.failed:
+            out.messages.append(f"global stage gave no path for {r.id} "
+                                f"({gres.status.value}); heading straight for the goal")
+            p = np.vstack([r.start, r.goal])
+        out.paths[r.id] = np.asarray(p, dtype=float)
+    if gres.status not in (Status.optimal, Status.solved):
+        out.messages.append(f"global path {gres.status.value} on the known map")
