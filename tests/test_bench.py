@@ -9,6 +9,10 @@ import pytest
 
 import optplan as op
 from optplan import bench
+from optplan.bench import pool as bench_pool
+from optplan.bench import run as bench_run
+from optplan.bench.rows import _overrides_for
+from optplan.bench.run import _fresh
 
 SCENE_TOML = """
 name = "bench-box"
@@ -84,7 +88,8 @@ def test_process_pool_matches_inline():
 ])
 def test_bad_input_fails_before_running(kwargs, match, monkeypatch):
     ran = []
-    monkeypatch.setattr(bench, "run_one", lambda *a: ran.append(a))
+    monkeypatch.setattr(bench_run, "_execute", lambda *a, **k: ran.append(a))
+    monkeypatch.setattr(bench_pool, "_execute", lambda *a, **k: ran.append(a))
     kwargs.setdefault("seeds", 1)
     with pytest.raises(ValueError, match=match):
         bench.run_grid(**kwargs)
@@ -93,11 +98,11 @@ def test_bad_input_fails_before_running(kwargs, match, monkeypatch):
 
 def test_overrides_star_then_per_solver():
     ov = {"*": {"a": 1, "b": 2}, "x": {"b": 3}}
-    assert bench._overrides_for(ov, "x") == {"a": 1, "b": 3}
-    assert bench._overrides_for(ov, "y") == {"a": 1, "b": 2}
-    assert bench._overrides_for(None, "x") == {}
+    assert _overrides_for(ov, "x") == {"a": 1, "b": 3}
+    assert _overrides_for(ov, "y") == {"a": 1, "b": 2}
+    assert _overrides_for(None, "x") == {}
     with pytest.raises(ValueError, match="solver name"):
-        bench._overrides_for({"bracket": True}, "x")
+        _overrides_for({"bracket": True}, "x")
 
 
 def test_overrides_reach_the_solver(monkeypatch):
@@ -198,7 +203,7 @@ def test_visgraph_times_are_not_cache_hits():
     # the reference is computed once per problem and process, and reported for every run
     assert len({r["reference_time"] for r in rows}) == 1 and rows[0]["reference_time"] > 0
     base = op.load_problem("paper-env1")
-    fresh = bench._fresh(base)
+    fresh = _fresh(base)
     assert fresh._cache is not base._cache and set(fresh._cache) <= {("frame",)}
 
 

@@ -13,6 +13,7 @@ import warnings
 import pytest
 
 from optplan import cli
+from optplan.cli import app
 from optplan.result import Result
 
 
@@ -236,7 +237,7 @@ def test_validate_dispatch_and_missing(capsys, monkeypatch):
     calls = _fake_experiment(monkeypatch, "validate")
     rc, out, _ = run(capsys, "validate", "paper-env1", "--solver", "ipso-paper", "--seeds", "3")
     assert rc == 0 and calls == [["paper-env1", "--solver", "ipso-paper", "--seeds", "3"]]
-    monkeypatch.setattr(cli, "_experiment", lambda name: None)
+    monkeypatch.setattr(app, "_experiment", lambda name: None)
     rc, _, err = run(capsys, "validate", "paper-env1")
     assert rc == 2 and "optplan.experiments.validate is missing" in _one_line_error(err)
 
@@ -412,12 +413,12 @@ def test_warnings_never_precede_the_error_line(capsys, monkeypatch):
             return 0
         return fake
 
-    monkeypatch.setattr(cli, "_dispatch", warn_then(True))
+    monkeypatch.setattr(app, "_dispatch", warn_then(True))
     rc, out, err = run(capsys, "show", "x.toml")
     assert rc == 2 and _one_line_error(err) == (
         "optplan: error: x.toml: robots[0].radius: must be >= 0, got -1")
     # after a success each distinct warning is reported once, after the output
-    monkeypatch.setattr(cli, "_dispatch", warn_then(False))
+    monkeypatch.setattr(app, "_dispatch", warn_then(False))
     rc, out, err = run(capsys, "show", "x.toml")
     assert rc == 0 and out == "done\n"
     assert err == ("optplan: warning: RuntimeWarning: invalid value encountered in divide\n")
@@ -427,7 +428,7 @@ def test_internal_error_is_one_line_exit_1(capsys, monkeypatch):
     def boom(argv, out):
         raise TypeError("unhashable type: 'list'")
 
-    monkeypatch.setattr(cli, "_dispatch", boom)
+    monkeypatch.setattr(app, "_dispatch", boom)
     rc, _, err = run(capsys, "show", "x.toml")
     lines = err.strip().splitlines()
     assert rc == 1 and len(lines) == 1 and "Traceback" not in err

@@ -6,12 +6,14 @@ import os
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import optplan as op
 from optplan import plot
+from optplan.plot.convergence import _quartiles
 from optplan.result import History, Result, Status
 
 PIL = pytest.importorskip("PIL.Image")
@@ -205,13 +207,14 @@ def test_plot_module_is_headless_and_never_uses_pyplot(tmp_path):
                          env=env, timeout=120)
     assert out.returncode == 0, out.stderr
     assert (tmp_path / "a.png").is_file() and (tmp_path / "a.gif").is_file()
-    assert ".show(" not in open(plot.__file__, encoding="utf-8").read()
+    for f in Path(plot.__file__).parent.glob("*.py"):
+        assert ".show(" not in f.read_text(encoding="utf-8")
 
 
 def test_quartiles_treat_inf_as_infinite_and_ignore_nan():
     v = np.array([[1.0, np.inf, np.inf], [2.0, 3.0, np.inf], [3.0, 4.0, 5.0],
                   [np.nan, np.nan, np.nan]]).T
-    lo, med, hi = plot._quartiles(v)
+    lo, med, hi = _quartiles(v)
     # column 0: {1, inf, inf} -> all quartiles infinite -> not drawn
     assert np.isnan(lo[0]) and np.isnan(med[0]) and np.isnan(hi[0])
     # column 1: {2, 3, inf}: q25 = 2.5, median 3, q75 infinite
@@ -449,7 +452,7 @@ def test_cli_plot_svg_and_dpi(tmp_path):
 
 def test_plot_draws_the_embedded_map_not_the_catalogue_one(tmp_path) -> None:
     """An edited copy named like a catalogue scene: the saved result redraws its own map."""
-    from optplan.plot import _problem_of
+    from optplan.plot.scene import _problem_of
 
     prob = op.parse_problem({
         "name": "paper-env1", "bounds": [0.0, 0.0, 100.0, 100.0],

@@ -1,0 +1,114 @@
+"""One run of a sweep: a solve with its shared reference, and the hard time limit around it."""
+
+from __future__ import annotations
+
+import dataclasses
+import signal
+import threading
+import time
+from collections.abc import Mapping
+from typing import Any
+
+from optplan.bench.rows import Task, Trace, _describe, _error_row, _num, row_from_result
+
+_REF_KEY = ("optplan.bench", "reference")
+
+
+def _fresh(prob: Any) -> Any:
+    """A copy of ``prob`` with empty caches (its frame kept: it only depends on the bounds)."""
+    keep = {k: v for k, v in prob._cache.items() if k == ("frame",)}
+    return dataclasses.replace(prob, _cache=keep)
+
+
+def _reference(prob: Any) -> dict[str, Any]:
+    """The certified optimum of ``prob``, computed once per process on a cold copy."""
+    from optplan.solver import reference_optimum
+
+    return prob.memo(_REF_KEY, lambda: reference_optimum(_fresh(prob)))
+
+
+def _apply_reference(res: Any, prob: Any, ref: Mapping[str, Any]) -> Any:
+    """What ``solve(..., reference=True)`` adds to the metrics, from a precomputed reference."""
+    metrics = dict(res.metrics)
+    metrics["reference_time"] = ref["reference_time"]
+    if ref["optimum"] is not None and "length" in metrics and prob.leader.id in res.paths:
+        metrics["optimum"] = ref["optimum"]
+        metrics["ratio_to_optimum"] = metrics["length"] / ref["optimum"]
+    elif ref["reference_error"] is not None:
+        metrics["reference_error"] = ref["reference_error"]
+    return dataclasses.replace(res, metrics=metrics)
+
+
+def _execute(problem: str, solver: str, seed: int, overrides: Mapping[str, Any] | None = None,
+             time_limit: float | None = None) -> tuple[dict[str, Any], Trace]:
+    """One run on a cold copy of the problem: its tidy row and its thinned progress trace."""
+    from optplan.benchdb import thin_progress
+    from optplan.catalog import load_problem
+    from optplan.solver import solve
+
+    trace: Trace = []
+    try:
+        base = load_problem(problem)
+        ref = _reference(base)
+        prob = _fresh(base)
+        t0 = time.perf_counter()
+
+        def record(p: Any) -> None:
+            trace.append((int(p.iteration), _num(p.best_cost), int(p.n_eval),
+                          time.perf_counter() - t0))
+
+        kw: dict[str, Any] = {"rng": seed, "callback": record}
+        if time_limit is not None:
+            kw["time_limit"] = time_limit
+        res = solve(prob, solver, **kw, **dict(overrides or {}))
+        res = _apply_reference(res, prob, ref)
+    except Exception as e:  # noqa: BLE001 - one broken run must not stop the grid
+        return _error_row(problem, solver, seed, _describe(e)), []
+    return row_from_result(res, problem, solver, seed), thin_progress(trace)
+
+
+def run_one(problem: str, solver: str, seed: int,
+            overrides: Mapping[str, Any] | None = None,
+            time_limit: float | None = None) -> dict[str, Any]:
+    """Solve one (problem, solver, seed) cell and return its tidy row (never raises).
+
+    The run solves a fresh copy of the problem (no cache from earlier runs); ``time_limit`` is
+    passed to :func:`optplan.solve` (no hard limit here: see :func:`run_grid`).
+    """
+    return _execute(problem, solver, seed, overrides, time_limit)[0]
+
+
+class _HardTimeout(BaseException):
+    """Raised by the inline watchdog (a BaseException: a backend's ``except Exception``
+    does not swallow it)."""
+
+
+def _guarded(task: Task, hard: float | None) -> tuple[tuple[dict[str, Any], Trace] | None, str]:
+    """``_execute(*task)``, stopped after ``hard`` seconds: (result or None, how it stopped).
+
+    In the main thread a ``SIGALRM`` raises inside the run; elsewhere (a Dask worker thread)
+    the run goes to a daemon thread that is abandoned when it overruns.
+    """
+    if hard is None:
+        return _execute(*task), ""
+    if threading.current_thread() is threading.main_thread() and hasattr(signal, "setitimer"):
+        def on_alarm(signum: int, frame: Any) -> None:
+            raise _HardTimeout
+
+        old = signal.signal(signal.SIGALRM, on_alarm)
+        signal.setitimer(signal.ITIMER_REAL, hard)
+        try:
+            return _execute(*task), ""
+        except _HardTimeout:
+            return None, "stopped in-process by the harness"
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, old)
+    box: list[Any] = []
+    th = threading.Thread(target=lambda: box.append(_execute(*task)), daemon=True,
+                          name=f"optplan-run-{task[0]}-{task[1]}-{task[2]}")
+    th.start()
+    th.join(hard)
+    if th.is_alive() or not box:
+        return None, "abandoned by the harness (its thread runs on until the backend returns)"
+    return box[0], ""

@@ -1,0 +1,67 @@
+"""``optplan import-map``: an occupancy map -> a scenario TOML."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from pathlib import Path
+from typing import Any, TextIO
+
+from optplan.cli.common import PROG, CLIError
+
+
+def _xy(text: str, flag: str) -> tuple[float, ...]:
+    try:
+        vals = tuple(float(t) for t in text.replace(",", " ").split())
+    except ValueError:
+        vals = ()
+    if len(vals) != 2 or not all(math.isfinite(v) for v in vals):
+        raise CLIError(f"{flag}: expected X,Y (two numbers), got {text!r}")
+    return vals
+
+
+def cmd_import_map(args: argparse.Namespace, out: TextIO) -> int:
+    from optplan.catalog import find_map
+    from optplan.maps import import_map, to_toml
+
+    path = find_map(args.map)
+    starts = [_xy(s, "--start") for s in args.start]
+    goals = [_xy(g, "--goal") for g in args.goal]
+    if len(starts) != len(goals):
+        raise CLIError(f"give one --goal per --start (got {len(starts)} and {len(goals)})")
+    if args.robot and len(args.robot) != len(starts):
+        raise CLIError(f"give one --robot per --start (got {len(args.robot)} and {len(starts)})")
+    origin = None
+    if args.origin is not None:
+        try:
+            origin = [float(t) for t in args.origin.replace(",", " ").split()]
+        except ValueError:
+            origin = []
+        if len(origin) not in (2, 3):
+            raise CLIError(f"--origin: expected X,Y or X,Y,YAW, got {args.origin!r}")
+    info: dict[str, Any] = {}
+    t0 = time.perf_counter()
+    prob = import_map(
+        path, radius=args.radius, start=starts, goal=goals, robot_id=args.robot or None,
+        max_speed=args.max_speed, resolution=args.resolution, origin=origin,
+        negate=True if args.negate else None, mode=args.mode,
+        occupied_thresh=args.occupied_thresh, free_thresh=args.free_thresh,
+        unknown=args.unknown, grow=args.grow, simplify=args.simplify, join=args.join,
+        fill_unreachable=not args.keep_holes, name=args.name, info=info)
+    dt = time.perf_counter() - t0
+    header = (f"Imported from {path} by 'optplan import-map' (grow {args.grow:g} cells, "
+              f"simplify {args.simplify:g} cells, unknown = {args.unknown}).")
+    text = to_toml(prob, header)
+    if not args.out:
+        out.write(text)
+        return 0
+    dest = Path(args.out)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    dest.write_text(text, encoding="utf-8")
+    c = info["cells"]
+    print(f"{path}: {c['occupied']} occupied, {c['unknown']} unknown, {c['free']} free cells "
+          f"-> {info['polygons']} polygons, {info['vertices']} vertices "
+          f"({info['holes_filled']} unreachable holes filled) in {dt * 1e3:.0f} ms", file=out)
+    print(f"wrote {dest} (try: {PROG} solve {dest} visgraph)", file=out)
+    return 0

@@ -1,0 +1,69 @@
+"""``optplan solve``: one problem, one solver, the result's summary lines."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any, TextIO
+
+from optplan.cli.common import _fmt, parse_set
+
+
+def _result_lines(res: Any) -> list[str]:
+    m = res.metrics
+    lines = [f"{res.problem} / {res.solver} (backend {res.backend}, seed {res.seed})",
+             f"  status      {res.status.value}"]
+    length = f"  length      {_fmt(m.get('length'))}"
+    if m.get("ratio_to_optimum") is not None:
+        length += (f"   ratio to optimum {_fmt(m['ratio_to_optimum'])}"
+                   f" (optimum {_fmt(m.get('optimum'))})")
+    lines.append(length)
+    lens = m.get("lengths") or {}
+    if len(lens) > 1:
+        lines.append("  lengths     " + ", ".join(f"{k} {_fmt(v, 2)}" for k, v in lens.items()))
+    coll = f"  collisions  {m.get('collisions', '?')}"
+    if m.get("collisions"):
+        coll += (f" (static {m.get('static_collisions', 0)}, dynamic "
+                 f"{m.get('dynamic_contacts', 0)}, separation "
+                 f"{m.get('separation_violations', 0)})")
+        if m.get("per_robot"):
+            crossed = sorted({c for pr in m["per_robot"].values() for c in pr.get("crossed", [])})
+            if crossed:
+                coll += f"; crossed {', '.join(crossed)}"
+    lines.append(coll)
+    lines.append(f"  reached     {m.get('reached')}   min clearance "
+                 f"{_fmt(m.get('min_clearance'), 3)}")
+    if "formation_rmse" in m:
+        lines.append(f"  formation   rmse {_fmt(m['formation_rmse'], 3)}, max error "
+                     f"{_fmt(m.get('formation_max_error'), 3)}")
+    if "min_separation" in m:
+        lines.append(f"  separation  min {_fmt(m['min_separation'], 3)} (safety "
+                     f"{_fmt(m.get('safety_distance'), 3)})")
+    if res.times is not None and len(res.times):
+        lines.append(f"  time to goal {_fmt(res.times[-1], 2)} (simulated)")
+    lines.append(f"  effort      {res.n_iter} iterations, {res.n_eval} evaluations, "
+                 f"{res.wall_time * 1e3:.1f} ms")
+    if res.message:
+        lines.append(f"  message     {res.message}")
+    return lines
+
+
+def cmd_solve(args: argparse.Namespace, out: TextIO) -> int:
+    from optplan.catalog import load_problem
+    from optplan.solver import solve
+
+    overrides = parse_set(args.set)
+    res = solve(args.problem, args.solver, rng=args.seed, time_limit=args.time_limit,
+                reference=not args.no_reference, **overrides)
+    for line in _result_lines(res):
+        print(line, file=out)
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        res.save(args.json)
+        print(f"wrote {args.json}", file=out)
+    if args.plot:
+        from optplan.plot import plot_result
+
+        plot_result(res, problem=load_problem(args.problem), out=args.plot)
+        print(f"wrote {args.plot}", file=out)
+    return 0

@@ -1,0 +1,147 @@
+"""The occupancy grid (:class:`Grid`) and the checks of its inputs."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon, box
+
+from optplan.maps.polygons import exact_union
+from optplan.problem import ProblemError
+
+#: Cell states of a :class:`Grid`.
+FREE, OCCUPIED, UNKNOWN = 0, 1, 2
+
+
+def _err(where: Any, key: str, msg: str) -> ProblemError:
+    return ProblemError(f"{where}: {key}: {msg}")
+
+
+
+
+@dataclass(frozen=True, eq=False)
+class Grid:
+    """An occupancy grid: ``cells[row, col]`` in ``FREE``/``OCCUPIED``/``UNKNOWN``.
+
+    Row 0 is the **top** row of the map (image order).  ``resolution`` is the side of a cell
+    in map units (metres for ROS maps); ``origin = (x, y, yaw)`` is the world pose of the
+    lower-left corner of the grid (ROS convention; yaw in radians, counter-clockwise).
+    """
+
+    cells: np.ndarray
+    resolution: float
+    origin: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    source: str = ""
+
+    @property
+    def height(self) -> int:
+        return int(self.cells.shape[0])
+
+    @property
+    def width(self) -> int:
+        return int(self.cells.shape[1])
+
+    def obstacle_mask(self, unknown: str = "occupied") -> np.ndarray:
+        """Boolean ``(H, W)`` mask of the cells that become obstacles."""
+        _check_unknown(unknown, self.source or "<grid>")
+        if unknown == "occupied":
+            return self.cells != FREE
+        return self.cells == OCCUPIED
+
+    # -- frames --------------------------------------------------------------------
+    def affine(self) -> list[float]:
+        """shapely ``affine_transform`` matrix ``[a, b, d, e, xoff, yoff]`` from cell units
+        (``x = col``, ``y = H - row``, i.e. y up) to world coordinates."""
+        ox, oy, yaw = self.origin
+        res = float(self.resolution)
+        if yaw == 0.0:
+            c, s = 1.0, 0.0
+        else:
+            c, s = math.cos(yaw), math.sin(yaw)
+        return [res * c, -res * s, res * s, res * c, float(ox), float(oy)]
+
+    def to_world(self, geom: Any) -> Any:
+        """A shapely geometry in cell units mapped to world coordinates."""
+        return shapely.affinity.affine_transform(geom, self.affine())
+
+    def cell_to_world(self, xy: np.ndarray) -> np.ndarray:
+        """Points ``(n, 2)`` in cell units (``x = col``, ``y = H - row``) to world."""
+        a, b, d, e, xo, yo = self.affine()
+        p = np.asarray(xy, dtype=float).reshape(-1, 2)
+        return np.column_stack([a * p[:, 0] + b * p[:, 1] + xo, d * p[:, 0] + e * p[:, 1] + yo])
+
+    def world_to_cell(self, points: np.ndarray) -> np.ndarray:
+        """World points ``(n, 2)`` to cell units (``x = col``, ``y = H - row``)."""
+        ox, oy, yaw = self.origin
+        p = np.asarray(points, dtype=float).reshape(-1, 2) - [ox, oy]
+        c, s = (1.0, 0.0) if yaw == 0.0 else (math.cos(yaw), math.sin(yaw))
+        return np.column_stack([c * p[:, 0] + s * p[:, 1], -s * p[:, 0] + c * p[:, 1]]) \
+            / float(self.resolution)
+
+    def cell_of(self, point: Sequence[float]) -> tuple[int, int] | None:
+        """``(row, col)`` of the cell containing a world point (``None`` outside the grid)."""
+        x, y = self.world_to_cell(np.asarray(point, dtype=float))[0]
+        tol = 1e-9 * max(self.width, self.height)  # points on the outline belong to the grid
+        if not (-tol <= x <= self.width + tol and -tol <= y <= self.height + tol):
+            return None
+        col = min(max(int(math.floor(x)), 0), self.width - 1)
+        row = min(max(int(math.floor(self.height - y)), 0), self.height - 1)
+        return row, col
+
+    def cell_centre(self, row: int, col: int) -> np.ndarray:
+        """World position of the centre of cell ``(row, col)``."""
+        return self.cell_to_world([col + 0.5, self.height - row - 0.5])[0]
+
+    @property
+    def outline(self) -> Polygon:
+        """The grid's rectangle in world coordinates."""
+        return self.to_world(box(0.0, 0.0, float(self.width), float(self.height)))
+
+    @property
+    def bounds(self) -> tuple[float, float, float, float]:
+        """World axis-aligned bounds of the grid (of its rotated rectangle when yaw != 0)."""
+        ox, oy, yaw = self.origin
+        if yaw == 0.0:
+            r = float(self.resolution)
+            return (float(ox), float(oy), float(ox) + self.width * r, float(oy) + self.height * r)
+        return tuple(float(v) for v in self.outline.bounds)
+
+    def squares(self, mask: np.ndarray | None = None) -> Any:
+        """Exact union of the cell squares of ``mask`` (default: occupied or unknown), world."""
+        m = self.obstacle_mask() if mask is None else np.asarray(mask, dtype=bool)
+        return self.to_world(exact_union(m))
+
+
+def _check_unknown(unknown: str, where: Any) -> None:
+    if unknown not in ("occupied", "free"):
+        raise _err(where, "unknown", f"expected 'occupied' or 'free', got {unknown!r}")
+
+
+
+
+def _number(v: Any, where: Any, key: str, *, positive: bool = False) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise _err(where, key, f"expected a number, got {v!r}")
+    x = float(v)
+    if not math.isfinite(x):
+        raise _err(where, key, f"must be finite, got {v!r}")
+    if positive and x <= 0:
+        raise _err(where, key, f"must be > 0, got {v!r}")
+    return x
+
+
+def _origin(v: Any, where: Any, key: str = "origin") -> tuple[float, float, float]:
+    if isinstance(v, str):
+        try:
+            v = [float(t) for t in v.replace(",", " ").split()]
+        except ValueError:
+            raise _err(where, key, f"expected [x, y] or [x, y, yaw], got {v!r}") from None
+    if not isinstance(v, (list, tuple)) or len(v) not in (2, 3):
+        raise _err(where, key, f"expected [x, y] or [x, y, yaw], got {v!r}")
+    xs = [_number(t, where, f"{key}[{k}]") for k, t in enumerate(v)]
+    return (xs[0], xs[1], xs[2] if len(xs) == 3 else 0.0)

@@ -1,0 +1,260 @@
+"""An occupancy map -> a Problem (:func:`import_map`): world polygons, robots' ends, the
+import's record."""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon, box
+
+from optplan.maps.grid import FREE, OCCUPIED, UNKNOWN, Grid, _check_unknown, _err, _number
+from optplan.maps.occupancy import read_grid
+from optplan.maps.polygons import _polys, grid_polygons
+from optplan.problem import Problem, parse_problem, ring_points
+
+#: World coordinates of imported polygons are rounded to this fraction of the map's size
+#: (decimal digits; far below the geometric tolerance ``1e-9 x`` the bounds diagonal).
+ROUND_REL = 1e-12
+
+
+def _world(grid: Grid, q: Polygon) -> Polygon:
+    """A polygon in cell units in world coordinates, rounded to ``ROUND_REL x`` the map size
+    (``20.025`` rather than ``20.025000000000006`` in the written scenario)."""
+    size = max(grid.width, grid.height) * grid.resolution
+    digits = max(0, -math.floor(math.log10(ROUND_REL * size)))
+    w = grid.to_world(q)
+    return shapely.transform(w, lambda xy: np.round(xy, digits))
+
+
+def _fill_unreachable(polys: list[Polygon], points: np.ndarray) -> tuple[list[Polygon], int]:
+    """Fill the holes that contain none of ``points`` and drop polygons then covered."""
+    pts = shapely.points(points) if len(points) else []
+    filled = 0
+    out = []
+    for q in polys:
+        keep = []
+        for ring in q.interiors:
+            hole = Polygon(ring)
+            if len(pts) and np.any(shapely.covers(hole, pts)):
+                keep.append(ring)
+            else:
+                filled += 1
+        out.append(Polygon(q.exterior, keep) if len(keep) != len(q.interiors) else q)
+    if filled:
+        tree = shapely.STRtree(out)
+        drop = set()
+        for i, q in enumerate(out):
+            for j in tree.query(q, predicate="covered_by"):
+                if j != i and j not in drop and out[j].area >= q.area:
+                    drop.add(i)
+                    break
+        out = [q for i, q in enumerate(out) if i not in drop]
+    return out, filled
+
+
+
+
+def _polygon_table(q: Polygon, name: str) -> dict[str, Any]:
+    t: dict[str, Any] = {"type": "polygon", "name": name, "vertices": ring_points(q.exterior)}
+    if q.interiors:
+        t["holes"] = [ring_points(h) for h in q.interiors]
+    return t
+
+
+def _points(v: Any, where: Any, key: str) -> np.ndarray:
+    """One point ``(x, y)`` or a list of points -> ``(n, 2)``."""
+    if isinstance(v, str):
+        v = [float(t) for t in v.replace(",", " ").split()]
+    try:
+        a = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        raise _err(where, key, f"expected a point (x, y) or a list of points, got {v!r}") from None
+    if a.ndim == 1:
+        a = a.reshape(1, -1)
+    if a.ndim != 2 or a.shape[1] != 2 or not np.all(np.isfinite(a)):
+        raise _err(where, key, f"expected a point (x, y) or a list of points, got {v!r}")
+    return a
+
+
+def _check_vector_args(where: str, grow: Any, simplify: Any, join: str, radius: Any) -> float:
+    """Validate the polygon-conversion arguments of :func:`import_map`; the radius."""
+    for key, v in (("grow", grow), ("simplify", simplify)):
+        x = _number(v, where, key)
+        if x < 0:
+            raise _err(where, key, f"must be >= 0 (cells), got {v!r}")
+        if x > 4:
+            raise _err(where, key, f"{v!r} cells is coarser than the map; use at most 4")
+    if simplify > 0 and grow == 0:
+        raise _err(where, "simplify", "needs grow > 0 (a simplified polygon without growth "
+                                      "cannot cover every cell); pass simplify=0")
+    if join not in ("round", "mitre"):
+        raise _err(where, "join", f"expected 'round' or 'mitre', got {join!r}")
+    r = _number(radius, where, "radius")
+    if r < 0:
+        raise _err(where, "radius", f"must be >= 0, got {radius!r}")
+    return r
+
+
+def _robot_ends(where: str, start: Any, goal: Any,
+                robot_id: str | Sequence[str] | None) -> tuple[np.ndarray, np.ndarray, list]:
+    """Starts, goals and robot ids of :func:`import_map` (one robot per start/goal pair)."""
+    starts, goals = _points(start, where, "start"), _points(goal, where, "goal")
+    if len(starts) != len(goals):
+        raise _err(where, "goal", f"{len(starts)} start(s) but {len(goals)} goal(s)")
+    if robot_id is None:
+        ids = ["r1"] if len(starts) == 1 else [f"r{k + 1}" for k in range(len(starts))]
+    else:
+        ids = [robot_id] if isinstance(robot_id, str) else list(robot_id)
+    if len(ids) != len(starts):
+        raise _err(where, "robot", f"{len(ids)} robot id(s) for {len(starts)} start(s)")
+    return starts, goals, ids
+
+
+def _check_ends_free(where: str, grid: Grid, mask: np.ndarray, starts: np.ndarray,
+                     goals: np.ndarray) -> None:
+    """Every start and goal lies in a free cell of the map (the radius check is the parser's
+    exact test)."""
+    for k in range(len(starts)):
+        for key, q in (("start", starts[k]), ("goal", goals[k])):
+            cell = grid.cell_of(q)
+            if cell is None:
+                raise _err(where, f"robots[{k}].{key}", f"{q.tolist()} lies outside the map "
+                                                         f"{list(grid.bounds)}")
+            if mask[cell]:
+                state = "unknown" if grid.cells[cell] == UNKNOWN else "occupied"
+                raise _err(where, f"robots[{k}].{key}",
+                           f"{q.tolist()} lies in an {state} cell (row {cell[0]}, column "
+                           f"{cell[1]}) of the map")
+
+
+def _map_obstacles(grid: Grid, polys: list, stem: str, unknown: str) -> list[dict]:
+    """Obstacle tables of the polygons, plus the unknown corners of a rotated map."""
+    obstacles = [_polygon_table(q, f"{stem}-{k}") for k, q in enumerate(polys)]
+    if grid.origin[2] != 0.0 and unknown == "occupied":
+        # the corners of the bounding box outside the rotated image are unknown
+        outside = box(*grid.bounds).difference(grid.outline)
+        obstacles += [_polygon_table(q, f"{stem}-outside-{k}") for k, q in
+                      enumerate(_polys(outside)) if q.area > 1e-12 * grid.outline.area]
+    return obstacles
+
+
+def _optional_keys(data: dict[str, Any], goal_tolerance: float | None,
+                   dynamic_obstacles: Sequence[dict], sensing_range: float | None) -> None:
+    """Add the optional scenario keys that were given."""
+    if goal_tolerance is not None:
+        data["goal_tolerance"] = goal_tolerance
+    if dynamic_obstacles:
+        data["dynamic_obstacles"] = [dict(d) for d in dynamic_obstacles]
+    if sensing_range is not None:
+        data["sensing"] = {"range": sensing_range}
+
+
+def _import_info(grid: Grid, stats: dict, polys: list, holes_filled: int,
+                 obstacles: list[dict]) -> dict[str, Any]:
+    """What ``import_map(info=...)`` receives."""
+    return dict(stats, polygons=len(polys), holes_filled=holes_filled,
+                vertices=sum(len(o["vertices"]) + sum(len(h) for h in o.get("holes", ()))
+                             for o in obstacles),
+                cells={"occupied": int(np.sum(grid.cells == OCCUPIED)),
+                       "unknown": int(np.sum(grid.cells == UNKNOWN)),
+                       "free": int(np.sum(grid.cells == FREE))})
+
+
+def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
+               robot_id: str | Sequence[str] | None = None, max_speed: float = 1.0,
+               resolution: float | None = None, origin: Sequence[float] | None = None,
+               negate: bool | None = None, occupied_thresh: float | None = None,
+               free_thresh: float | None = None, mode: str | None = None,
+               unknown: str = "occupied", grow: float = 0.5, simplify: float = 0.5,
+               join: str = "round", fill_unreachable: bool = True, name: str | None = None,
+               description: str | None = None, source: str | None = None,
+               tags: Iterable[str] = ("map",), goal_tolerance: float | None = None,
+               dynamic_obstacles: Sequence[dict] = (), sensing_range: float | None = None,
+               grid: Grid | None = None, info: dict | None = None) -> Problem:
+    """Import an occupancy map as a validated :class:`~optplan.Problem`.
+
+    Parameters
+    ----------
+    path : path
+        ``.yaml``/``.yml`` (ROS ``map_server``), ``.map`` (MovingAI) or an image (PNG, PGM...;
+        then ``resolution`` is required and ``origin`` defaults to ``(0, 0)``).
+    radius : float
+        Robot radius (map units).
+    start, goal : point or list of points
+        One robot per start/goal pair (world coordinates, map units).
+    robot_id : str or list of str, optional
+        Default ``"r1"`` (``"r1", "r2", ...`` for several robots).
+    max_speed : float
+        Every robot's speed limit (map units / s).
+    resolution, origin, negate, occupied_thresh, free_thresh, mode
+        For bare images (:func:`read_image`); for MovingAI maps ``resolution`` and ``origin``
+        only; ROS maps take them from their YAML file.
+    unknown : ``"occupied"`` (default) or ``"free"``
+        What unknown cells are.
+    grow, simplify : float
+        Growth and Douglas-Peucker tolerance in **cells** (:func:`grid_polygons`).
+    join : ``"round"`` or ``"mitre"``
+        Growth join style (:func:`grid_polygons`).
+    fill_unreachable : bool
+        Fill the holes of obstacles that contain no start or goal (free regions no robot can
+        reach: closed rooms, voids in walls) and drop the obstacles inside them.  Still
+        conservative; fewer vertices.
+    name, description, source, tags, goal_tolerance, sensing_range, dynamic_obstacles
+        Scenario keys (``dynamic_obstacles``: tables as in the TOML format).
+    grid : Grid, optional
+        An already read grid (``path`` then only names the source in messages).
+    info : dict, optional
+        Receives ``components``, ``polygons``, ``vertices``, ``holes_filled``, ``fallbacks``,
+        ``tolerance_min`` and ``cells`` (occupied, unknown, free counts).
+
+    Raises
+    ------
+    ProblemError
+        For every bad input, naming the file and the key (a start or goal in an obstacle:
+        ``robots[i].start``).
+    """
+    p = Path(path)
+    where = str(p)
+    _check_unknown(unknown, where)
+    if grid is None:
+        extra = {"negate": negate, "occupied_thresh": occupied_thresh,
+                 "free_thresh": free_thresh, "mode": mode}
+        extra = {k: v for k, v in extra.items() if v is not None}
+        grid = read_grid(p, resolution=resolution, origin=origin, **extra)
+    r = _check_vector_args(where, grow, simplify, join, radius)
+    starts, goals, ids = _robot_ends(where, start, goal, robot_id)
+    mask = grid.obstacle_mask(unknown)
+    _check_ends_free(where, grid, mask, starts, goals)
+    stats: dict[str, Any] = {}
+    polys = [_world(grid, q) for q in grid_polygons(mask, grow=grow, simplify=simplify,
+                                                     join=join, stats=stats)]
+    holes_filled = 0
+    if fill_unreachable:
+        polys, holes_filled = _fill_unreachable(polys, np.vstack([starts, goals]))
+    stem = re.sub(r"[^A-Za-z0-9_.-]+", "-", p.stem) or "map"
+    name = name or stem
+    obstacles = _map_obstacles(grid, polys, stem, unknown)
+    res = grid.resolution
+    data: dict[str, Any] = {
+        "name": name,
+        "description": description or f"imported from {p.name} ({grid.width} x "
+                                      f"{grid.height} cells of {res:g})",
+        "source": source or f"optplan.maps.import_map({p.name!r}, grow={grow:g} cells, "
+                            f"simplify={simplify:g} cells, unknown={unknown!r})",
+        "tags": list(tags),
+        "bounds": list(grid.bounds),
+        "robots": [{"id": ids[k], "start": starts[k].tolist(), "goal": goals[k].tolist(),
+                    "radius": r, "max_speed": max_speed} for k in range(len(starts))],
+        "obstacles": obstacles,
+    }
+    _optional_keys(data, goal_tolerance, dynamic_obstacles, sensing_range)
+    prob = parse_problem(data, where)
+    if info is not None:
+        info.update(_import_info(grid, stats, polys, holes_filled, obstacles))
+    return prob

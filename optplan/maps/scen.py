@@ -1,0 +1,189 @@
+"""MovingAI ``.scen`` files -> Problems (one robot per entry) and their octile lengths."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from optplan.maps.grid import Grid, _err
+from optplan.maps.importer import _polygon_table, _world
+from optplan.maps.movingai import read_movingai
+from optplan.maps.polygons import grid_polygons
+from optplan.problem import Problem, ProblemError, parse_problem
+
+
+@dataclass(frozen=True)
+class ScenEntry:
+    """One line of a MovingAI ``.scen`` file (cells: column ``x``, row ``y`` from the top)."""
+
+    bucket: int
+    map: str
+    width: int
+    height: int
+    start: tuple[int, int]
+    goal: tuple[int, int]
+    optimal_length: float
+    line: int
+
+
+def read_scen_entries(path: str | Path) -> list[ScenEntry]:
+    """Parse a MovingAI ``.scen`` file (``version 1`` header, tab-separated lines
+    ``bucket map width height start_x start_y goal_x goal_y optimal_length``)."""
+    p = Path(path)
+    try:
+        lines = p.read_text(encoding="utf-8").splitlines()
+    except OSError as e:
+        raise ProblemError(f"{p}: cannot read file ({e.strerror})") from None
+    out = []
+    for k, ln in enumerate(lines, start=1):
+        if not ln.strip() or (k == 1 and ln.split()[0].lower() == "version"):
+            continue
+        parts = ln.split("\t") if "\t" in ln else ln.split()
+        parts = [t.strip() for t in parts if t.strip() != ""]
+        if len(parts) != 9:
+            raise _err(p, f"line {k}", f"expected 9 fields (bucket map width height start_x "
+                                       f"start_y goal_x goal_y optimal_length), got {len(parts)}")
+        try:
+            b, w, h, sx, sy, gx, gy = (int(parts[i]) for i in (0, 2, 3, 4, 5, 6, 7))
+            opt = float(parts[8])
+        except ValueError:
+            raise _err(p, f"line {k}", f"non-numeric field in {ln!r}") from None
+        out.append(ScenEntry(b, parts[1], w, h, (sx, sy), (gx, gy), opt, k))
+    if not out:
+        raise _err(p, "<file>", "no scenario lines")
+    return out
+
+
+_OCTILE_RE = re.compile(r"octile length ([0-9.eE+-]+)")
+
+
+def scen_octile_length(problem: Problem) -> float | None:
+    """The ``.scen`` optimal (octile, 8-connected grid) length of a problem made by
+    :func:`read_scen`, in map units (kept in its description), or ``None``."""
+    m = _OCTILE_RE.search(problem.description)
+    return float(m.group(1)) if m else None
+
+
+def read_scen(path: str | Path, *, map_path: str | Path | None = None, radius: float = 0.0,
+              grow: float = 0.25, simplify: float = 0.2, join: str = "round",
+              max_speed: float = 1.0, resolution: float = 1.0,
+              origin: Sequence[float] = (0.0, 0.0), buckets: Iterable[int] | None = None,
+              limit: int | None = None) -> list[Problem]:
+    """A MovingAI ``.scen`` as a list of problems, one per line (a batch for ``bench``:
+    :func:`write_batch` writes them as scenario files).
+
+    Each problem has one robot (radius ``radius``, a point by default) from the centre of the
+    start cell to the centre of the goal cell, the map's obstacles imported once
+    (:func:`grid_polygons`; the defaults ``grow = 0.25``, ``simplify = 0.2`` cells keep every
+    cell-centre path of the 8-connected grid free for a point robot, since
+    ``grow + simplify < 0.5``), the name ``<scen stem>-<line>`` and the description
+    ``"... octile length L ..."`` with the ``.scen`` optimum in map units
+    (:func:`scen_octile_length`).  The map is ``map_path`` or the ``.scen`` file's ``map``
+    field, looked up next to the ``.scen`` file (as written, then by its base name).
+    """
+    p = Path(path)
+    entries = _select(read_scen_entries(p), buckets, limit)
+    if not entries:
+        return []
+    if map_path is None:
+        map_path = _find_map(p, entries[0])
+    grid = read_movingai(map_path, resolution=resolution, origin=origin)
+    mask = grid.obstacle_mask()
+    polys = [_world(grid, q) for q in grid_polygons(mask, grow=grow, simplify=simplify,
+                                                     join=join)]
+    obstacles = [_polygon_table(q, f"{Path(map_path).stem}-{k}") for k, q in enumerate(polys)]
+    res = grid.resolution
+    stem = re.sub(r"(\.map)?\.scen$", "", p.name) or p.stem
+    out: list[Problem] = []
+    template: Problem | None = None
+    for e in entries:
+        _check_entry(p, e, grid, mask, map_path)
+        s = grid.cell_centre(e.start[1], e.start[0])
+        g = grid.cell_centre(e.goal[1], e.goal[0])
+        keys = _entry_keys(p, stem, e, res)
+        where = f"{p}:{e.line}"
+        if template is None:  # the first line goes through the parser ...
+            data = {
+                **keys, "tags": list(keys["tags"]),
+                "source": f"MovingAI benchmark {p.name} on {Path(map_path).name} "
+                          f"(optplan.maps.read_scen, grow={grow:g}, simplify={simplify:g} "
+                          "cells)",
+                "bounds": list(grid.bounds),
+                "robots": [{"id": "r1", "start": s.tolist(), "goal": g.tolist(),
+                            "radius": radius, "max_speed": max_speed}],
+                "obstacles": obstacles,
+            }
+            template = parse_problem(data, where)
+            out.append(template)
+            continue
+        # ... the others share its validated obstacles and exact engine (same checks)
+        out.append(_like(template, where, s, g, keys))
+    return out
+
+
+def _select(entries: list[ScenEntry], buckets: Iterable[int] | None,
+            limit: int | None) -> list[ScenEntry]:
+    """The entries of the given buckets, the first ``limit`` of them."""
+    if buckets is not None:
+        bs = set(buckets)
+        entries = [e for e in entries if e.bucket in bs]
+    if limit is not None:
+        entries = entries[:limit]
+    return entries
+
+
+def _find_map(p: Path, first: ScenEntry) -> Path:
+    """The ``.scen`` file's map next to it: as written, then by its base name."""
+    cands = [p.parent / first.map, p.parent / Path(first.map).name]
+    found = next((c for c in cands if c.is_file()), None)
+    if found is None:
+        raise _err(p, "map", f"cannot find the map {first.map!r} (looked for "
+                             f"{', '.join(str(c) for c in cands)}); pass map_path")
+    return found
+
+
+def _check_entry(p: Path, e: ScenEntry, grid: Grid, mask: np.ndarray,
+                 map_path: str | Path) -> None:
+    """The entry's map size is the map's; its start and goal cells are free cells of it."""
+    key = f"line {e.line}"
+    if (e.width, e.height) != (grid.width, grid.height):
+        raise _err(p, key, f"the scenario is for a {e.width} x {e.height} map, "
+                           f"{map_path} is {grid.width} x {grid.height}")
+    for what, (x, y) in (("start", e.start), ("goal", e.goal)):
+        if not (0 <= x < grid.width and 0 <= y < grid.height):
+            raise _err(p, key, f"{what} cell ({x}, {y}) lies outside the map")
+        if mask[y, x]:
+            raise _err(p, key, f"{what} cell ({x}, {y}) is blocked in {map_path}")
+
+
+def _entry_keys(p: Path, stem: str, e: ScenEntry, res: float) -> dict[str, Any]:
+    """The entry's name, description (with its octile length) and tags."""
+    return {
+        "name": f"{stem}-{e.line}",
+        "description": f"MovingAI {p.name} line {e.line}: bucket {e.bucket}, cell "
+                       f"({e.start[0]}, {e.start[1]}) -> ({e.goal[0]}, {e.goal[1]}), "
+                       f"octile length {e.optimal_length * res!r} (map units)",
+        "tags": ("movingai", f"bucket-{e.bucket}"),
+    }
+
+
+def _like(template: Problem, where: str, s: np.ndarray, g: np.ndarray,
+          keys: dict[str, Any]) -> Problem:
+    """A copy of the first problem with another start and goal (checked free), sharing its
+    validated obstacles and exact engine."""
+    for k, q in (("start", s), ("goal", g)):
+        hit = template.blocking_obstacle(q, template.robots[0].radius)
+        if hit is not None:
+            raise _err(where, f"robots[0].{k}", f"{q.tolist()} lies inside obstacle "
+                       f"{template.obstacles[hit].name!r} (obstacles[{hit}]) inflated by "
+                       f"the robot radius {template.robots[0].radius:g}")
+    shared = {k: v for k, v in template._cache.items()
+              if k[0] in ("frame", "obstacle_set")}
+    robot = dataclasses.replace(template.robots[0], start=s, goal=g)
+    return dataclasses.replace(template, robots=(robot,), path=where, _cache=shared, **keys)
