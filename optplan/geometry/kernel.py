@@ -24,7 +24,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["pair", "pairs", "crossings", "free_pairs", "clearance", "nearest"]
+__all__ = ["pair", "pairs", "crossings", "free_pairs", "clearance"]
 
 _jit = numba.njit(cache=True, fastmath=False, nogil=True)
 #: small helpers of a hot loop: inlined into their caller by numba (no call per item)
@@ -79,49 +79,47 @@ def _clip(ax, ay, dx, dy, k, N, C):
 
 
 @_jit
-def pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps):
-    """Exact ``(dist, inside)`` of segment ``A -> A + D`` and item ``k`` (module docstring)."""
-    dl = math.sqrt(dx * dx + dy * dy)
-    if k >= K:  # circle
-        cx = IC[k, 0]
-        cy = IC[k, 1]
-        R = CR[k - K]
-        wx = cx - ax
-        wy = cy - ay
-        dd = dx * dx + dy * dy
-        tl = 0.0
-        if dd > 0.0:
-            tl = (wx * dx + wy * dy) / dd
-        t = _clamp01(tl)
-        fx = wx - t * dx
-        fy = wy - t * dy
-        dist = math.sqrt(fx * fx + fy * fy) - R
-        if dist < 0.0:
-            dist = 0.0
-        inside = 0.0
-        re = R - eps
-        if re > 0.0 and dd > 0.0:
-            lx = wx - tl * dx
-            ly = wy - tl * dy
-            h2 = re * re - (lx * lx + ly * ly)
-            if h2 > 0.0:
-                half = math.sqrt(h2 / dd)
-                a = tl - half
-                b = tl + half
-                if a < 0.0:
-                    a = 0.0
-                if b > 1.0:
-                    b = 1.0
-                if b > a:
-                    inside = (b - a) * dl
-        return dist, inside
-    t_in, t_out = _clip(ax, ay, dx, dy, k, N, C)
-    if t_in <= t_out:
-        e_in, e_out = _clip(ax, ay, dx, dy, k, N, CE)
-        inside = 0.0
-        if e_out > e_in:
-            inside = (e_out - e_in) * dl
-        return 0.0, inside
+def _pair_circle(ax, ay, dx, dy, dl, k, K, IC, CR, eps):
+    """:func:`pair` for circle item ``k``: centre-to-segment distance minus the radius, and the
+    chord length inside the circle shrunk by ``eps``."""
+    cx = IC[k, 0]
+    cy = IC[k, 1]
+    R = CR[k - K]
+    wx = cx - ax
+    wy = cy - ay
+    dd = dx * dx + dy * dy
+    tl = 0.0
+    if dd > 0.0:
+        tl = (wx * dx + wy * dy) / dd
+    t = _clamp01(tl)
+    fx = wx - t * dx
+    fy = wy - t * dy
+    dist = math.sqrt(fx * fx + fy * fy) - R
+    if dist < 0.0:
+        dist = 0.0
+    inside = 0.0
+    re = R - eps
+    if re > 0.0 and dd > 0.0:
+        lx = wx - tl * dx
+        ly = wy - tl * dy
+        h2 = re * re - (lx * lx + ly * ly)
+        if h2 > 0.0:
+            half = math.sqrt(h2 / dd)
+            a = tl - half
+            b = tl + half
+            if a < 0.0:
+                a = 0.0
+            if b > 1.0:
+                b = 1.0
+            if b > a:
+                inside = (b - a) * dl
+    return dist, inside
+
+
+@_jit
+def _piece_distance(ax, ay, dx, dy, k, P, E):
+    """Distance from segment ``A -> A + D`` to convex piece ``k`` when they do not meet: the
+    smallest vertex-to-segment and endpoint-to-edge distance (disjoint convex sets)."""
     bx = ax + dx
     by = ay + dy
     d2 = math.inf
@@ -139,7 +137,23 @@ def pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps):
         v = _pt_seg2(bx, by, px, py, ex, ey)  # B -> edge
         if v < d2:
             d2 = v
-    return math.sqrt(d2), 0.0
+    return math.sqrt(d2)
+
+
+@_jit
+def pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps):
+    """Exact ``(dist, inside)`` of segment ``A -> A + D`` and item ``k`` (module docstring)."""
+    dl = math.sqrt(dx * dx + dy * dy)
+    if k >= K:  # circle
+        return _pair_circle(ax, ay, dx, dy, dl, k, K, IC, CR, eps)
+    t_in, t_out = _clip(ax, ay, dx, dy, k, N, C)
+    if t_in <= t_out:
+        e_in, e_out = _clip(ax, ay, dx, dy, k, N, CE)
+        inside = 0.0
+        if e_out > e_in:
+            inside = (e_out - e_in) * dl
+        return 0.0, inside
+    return _piece_distance(ax, ay, dx, dy, k, P, E), 0.0
 
 
 @_jit
@@ -264,6 +278,37 @@ def _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx
 
 
 @_jit
+def _segment_items(ax, ay, dx, dy, s, cand, m, K, P, E, N, C, CE, IC, CR, OWN, r, eps, lim,
+                   want_pen, o_stamp, o_close, o_in, o_pen, touched):
+    """One segment of :func:`crossings` against its ``m`` candidate items: per obstacle met
+    (listed in ``touched``, stamped ``s``) whether an item is closer than ``r - eps``, the
+    summed ``inside`` and the penetration; returns the number of obstacles met."""
+    nt = 0
+    for q in range(m):
+        k = cand[q]
+        if k < K and _apart(ax, ay, dx, dy, k, N, C, lim):
+            continue
+        dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
+        o = OWN[k]
+        if o_stamp[o] != s:
+            o_stamp[o] = s
+            o_close[o] = False
+            o_in[o] = 0.0
+            o_pen[o] = 0.0
+            touched[nt] = o
+            nt += 1
+        if dist < r - eps:
+            o_close[o] = True
+        o_in[o] += inside
+        if want_pen and (dist < r or inside > 0.0):
+            v = r - dist
+            if v < 0.0:
+                v = 0.0
+            o_pen[o] += v + inside
+    return nt
+
+
+@_jit
 def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_pen,
               use_grid, gh, gx0, gy0, gnx, gny, gstart, gcount, gitems, hits):
     """Collision count (and penetration) per path for segments ``A[s] -> A[s] + D[s]``, ``S``
@@ -295,28 +340,8 @@ def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_p
         dy = D[s, 1]
         m = _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx0,
                         gy0, gnx, gny, gstart, gcount, gitems, stamp, s, cand)
-        nt = 0
-        for q in range(m):
-            k = cand[q]
-            if k < K and _apart(ax, ay, dx, dy, k, N, C, lim):
-                continue
-            dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
-            o = OWN[k]
-            if o_stamp[o] != s:
-                o_stamp[o] = s
-                o_close[o] = False
-                o_in[o] = 0.0
-                o_pen[o] = 0.0
-                touched[nt] = o
-                nt += 1
-            if dist < r - eps:
-                o_close[o] = True
-            o_in[o] += inside
-            if want_pen and (dist < r or inside > 0.0):
-                v = r - dist
-                if v < 0.0:
-                    v = 0.0
-                o_pen[o] += v + inside
+        nt = _segment_items(ax, ay, dx, dy, s, cand, m, K, P, E, N, C, CE, IC, CR, OWN, r,
+                            eps, lim, want_pen, o_stamp, o_close, o_in, o_pen, touched)
         path = s // S
         for q in range(nt):
             o = touched[q]
@@ -328,6 +353,52 @@ def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_p
                     hits[n_hits, 1] = o
                 n_hits += 1
     return count, pen, n_hits
+
+
+@_jit
+def _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim):
+    """Item ``k`` may be within ``lim`` of the segment: its grown box meets the segment's box
+    ``(x0, x1, y0, y1)``, its bounding circle is near, no edge line separates them."""
+    if bb[0, k] > x1 or bb[1, k] < x0 or bb[2, k] > y1 or bb[3, k] < y0:
+        return False
+    if not _near_item(ax, ay, dx, dy, k, IC, IR, lim):
+        return False
+    return not (k < K and _apart(ax, ay, dx, dy, k, N, C, lim))
+
+
+@_jit
+def _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K, P, E, N, C,
+                   CE, IC, IR, CR, OWN, r, eps, lim, o_stamp, o_in, touched):
+    """One segment of :func:`free_pairs` (its box ``(x0, x1, y0, y1)``): the first item closer
+    than ``r - eps`` (the item ``last`` tried first), ``-2`` when only an obstacle's summed
+    ``inside`` exceeds ``eps``, ``-1`` when the segment is free."""
+    x0, x1, y0, y1 = box
+    nt = 0
+    for c in range(-1, m):
+        if c < 0:  # the last colliding item first (with a grid: if the segment lists it)
+            k = last
+            if k < 0 or (use_grid and stamp[k] != q):
+                continue
+        else:
+            k = cand[c]
+            if k == last:
+                continue
+        if not _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim):
+            continue
+        dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
+        if dist < r - eps:
+            return k
+        o = OWN[k]
+        if o_stamp[o] != q:
+            o_stamp[o] = q
+            o_in[o] = 0.0
+            touched[nt] = o
+            nt += 1
+        o_in[o] += inside
+    for c in range(nt):
+        if o_in[touched[c]] > eps:
+            return -2
+    return -1
 
 
 @_jit
@@ -367,49 +438,17 @@ def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_g
         by = L[J[q], 1]
         dx = bx - ax
         dy = by - ay
-        x0 = min(ax, bx)
-        x1 = max(ax, bx)
-        y0 = min(ay, by)
-        y1 = max(ay, by)
+        box = (min(ax, bx), max(ax, bx), min(ay, by), max(ay, by))
         m = n_items
         if use_grid:
             m = _candidates(ax, ay, dx, dy, n_items, IC, IR, bb, mask, lim, use_grid, gh, gx0,
                             gy0, gnx, gny, gstart, gcount, gitems, stamp, q, cand)
-        nt = 0
-        hit = False
-        for c in range(-1, m):
-            if c < 0:  # the last colliding item first (with a grid: if the segment lists it)
-                k = last
-                if k < 0 or (use_grid and stamp[k] != q):
-                    continue
-            else:
-                k = cand[c]
-                if k == last:
-                    continue
-            if bb[0, k] > x1 or bb[1, k] < x0 or bb[2, k] > y1 or bb[3, k] < y0:
-                continue
-            if not _near_item(ax, ay, dx, dy, k, IC, IR, lim):
-                continue
-            if k < K and _apart(ax, ay, dx, dy, k, N, C, lim):
-                continue
-            dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
-            if dist < r - eps:
-                hit = True
-                last = k
-                break
-            o = OWN[k]
-            if o_stamp[o] != q:
-                o_stamp[o] = q
-                o_in[o] = 0.0
-                touched[nt] = o
-                nt += 1
-            o_in[o] += inside
-        if not hit:
-            for c in range(nt):
-                if o_in[touched[c]] > eps:
-                    hit = True
-                    break
-        free[q] = not hit
+        blocker = _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K,
+                                 P, E, N, C, CE, IC, IR, CR, OWN, r, eps, lim, o_stamp, o_in,
+                                 touched)
+        if blocker >= 0:
+            last = blocker
+        free[q] = blocker == -1
     return free
 
 
@@ -450,108 +489,6 @@ def clearance(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist):
                 best = v
         out[s] = best
     return out
-
-
-@_jit_inline
-def _near_circle(qx, qy, cx, cy, r):
-    """Nearest boundary point of the circle (centre ``(cx, cy)``, radius ``r``) to q:
-    (distance, 0 inside; x; y; q inside)."""
-    vx = qx - cx
-    vy = qy - cy
-    nv = math.sqrt(vx * vx + vy * vy)
-    ux, uy = 1.0, 0.0
-    if nv > 0.0:
-        ux = vx / nv
-        uy = vy / nv
-    d = nv - r
-    ins = False
-    if d < 0.0:
-        d = 0.0
-        ins = True
-    return d, cx + ux * r, cy + uy * r, ins
-
-
-@_jit_inline
-def _in_piece(qx, qy, k, N, C):
-    """Whether q is inside (or on) convex piece ``k``."""
-    for j in range(4):
-        if N[k, j, 0] * qx + N[k, j, 1] * qy - C[k, j] > 0.0:
-            return False
-    return True
-
-
-@_jit_inline
-def _near_piece(qx, qy, k, P, E, B):
-    """Nearest point to q on the boundary edges of piece ``k``: (distance, x, y); (inf, nan,
-    nan) when the piece has no boundary edge.  The first edge wins a tie."""
-    best = math.inf
-    bx = math.nan
-    by = math.nan
-    for j in range(4):
-        if not B[k, j]:
-            continue
-        px = P[k, j, 0]
-        py = P[k, j, 1]
-        ex = E[k, j, 0]
-        ey = E[k, j, 1]
-        ee = ex * ex + ey * ey
-        t = 0.0
-        if ee > 0.0:
-            t = _clamp01(((qx - px) * ex + (qy - py) * ey) / ee)
-        x = px + t * ex
-        y = py + t * ey
-        d = math.sqrt((x - qx) ** 2 + (y - qy) ** 2)
-        if d < best:
-            best = d
-            bx = x
-            by = y
-    return best, bx, by
-
-
-@_jit
-def _finish_nearest(near, dist, inside, max_range):
-    """Distance 0 for a point inside an obstacle; (inf, nan) beyond ``max_range``."""
-    for i in range(dist.shape[0]):
-        for o in range(dist.shape[1]):
-            if inside[i, o]:
-                dist[i, o] = 0.0
-            elif dist[i, o] > max_range:
-                dist[i, o] = math.inf
-                near[i, o, 0] = np.nan
-                near[i, o, 1] = np.nan
-
-
-@_jit
-def nearest(Q, K, P, E, N, C, B, IC, IR, CR, OWN, n_obs, max_range):
-    """Nearest boundary point and exact distance (0 inside) per (point, obstacle); obstacles
-    whose bounding circles are all farther than ``max_range`` are skipped (inf, nan)."""
-    R = Q.shape[0]
-    near = np.full((R, n_obs, 2), np.nan)
-    dist = np.full((R, n_obs), math.inf)
-    inside = np.zeros((R, n_obs), np.bool_)
-    n_items = IC.shape[0]
-    for i in range(R):
-        qx = Q[i, 0]
-        qy = Q[i, 1]
-        for k in range(n_items):
-            wx = IC[k, 0] - qx
-            wy = IC[k, 1] - qy
-            if math.sqrt(wx * wx + wy * wy) - IR[k] > max_range:
-                continue
-            o = OWN[k]
-            if k >= K:
-                d, x, y, ins = _near_circle(qx, qy, IC[k, 0], IC[k, 1], CR[k - K])
-            else:
-                ins = _in_piece(qx, qy, k, N, C)
-                d, x, y = _near_piece(qx, qy, k, P, E, B)
-            if ins:
-                inside[i, o] = True
-            if d < dist[i, o]:
-                dist[i, o] = d
-                near[i, o, 0] = x
-                near[i, o, 1] = y
-    _finish_nearest(near, dist, inside, max_range)
-    return near, dist
 
 
 @_jit

@@ -59,7 +59,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
-from optplan.geometry import kernel
+from optplan.geometry import kernel, nearest_kernel
 from optplan.geometry.frame import Frame
 from optplan.geometry.grid import item_grid
 from optplan.geometry.pieces import convex_pieces
@@ -446,8 +446,8 @@ class ObstacleSet:
         if self.n_items == 0 or R == 0:
             return np.full((R, n, 2), np.nan), np.full((R, n), math.inf)
         K, Pt, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
-        near, dist = kernel.nearest(np.ascontiguousarray(self.frame.local(pts)), K, Pt, E, N,
-                                    C, B, IC, IR, CR, OWN, n, float(max_range))
+        near, dist = nearest_kernel.nearest(np.ascontiguousarray(self.frame.local(pts)), K, Pt,
+                                            E, N, C, B, IC, IR, CR, OWN, n, float(max_range))
         m = n - 1 if self.walled else n  # the wall alone is not an obstacle of the map
         return near[:, :m] + self.frame.origin, dist[:, :m]
 

@@ -1,0 +1,124 @@
+"""Compiled nearest-point queries of the exact collision engine (numba; the only
+implementation): per (point, obstacle) the nearest boundary point and the exact distance, 0
+inside (:meth:`optplan.geometry.obstacles.ObstacleSet.nearest`).
+
+The data layout is that of :mod:`optplan.geometry.kernel`; tested against shapely in
+``tests/test_geometry.py``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from optplan.geometry.kernel import _clamp01
+
+__all__ = ["nearest"]
+
+_jit = numba.njit(cache=True, fastmath=False, nogil=True)
+#: small helpers of the loop: inlined into their caller by numba (no call per item)
+_jit_inline = numba.njit(cache=True, fastmath=False, nogil=True, inline="always")
+
+
+@_jit_inline
+def _near_circle(qx, qy, cx, cy, r):
+    """Nearest boundary point of the circle (centre ``(cx, cy)``, radius ``r``) to q:
+    (distance, 0 inside; x; y; q inside)."""
+    vx = qx - cx
+    vy = qy - cy
+    nv = math.sqrt(vx * vx + vy * vy)
+    ux, uy = 1.0, 0.0
+    if nv > 0.0:
+        ux = vx / nv
+        uy = vy / nv
+    d = nv - r
+    ins = False
+    if d < 0.0:
+        d = 0.0
+        ins = True
+    return d, cx + ux * r, cy + uy * r, ins
+
+
+@_jit_inline
+def _in_piece(qx, qy, k, N, C):
+    """Whether q is inside (or on) convex piece ``k``."""
+    for j in range(4):
+        if N[k, j, 0] * qx + N[k, j, 1] * qy - C[k, j] > 0.0:
+            return False
+    return True
+
+
+@_jit_inline
+def _near_piece(qx, qy, k, P, E, B):
+    """Nearest point to q on the boundary edges of piece ``k``: (distance, x, y); (inf, nan,
+    nan) when the piece has no boundary edge.  The first edge wins a tie."""
+    best = math.inf
+    bx = math.nan
+    by = math.nan
+    for j in range(4):
+        if not B[k, j]:
+            continue
+        px = P[k, j, 0]
+        py = P[k, j, 1]
+        ex = E[k, j, 0]
+        ey = E[k, j, 1]
+        ee = ex * ex + ey * ey
+        t = 0.0
+        if ee > 0.0:
+            t = _clamp01(((qx - px) * ex + (qy - py) * ey) / ee)
+        x = px + t * ex
+        y = py + t * ey
+        d = math.sqrt((x - qx) ** 2 + (y - qy) ** 2)
+        if d < best:
+            best = d
+            bx = x
+            by = y
+    return best, bx, by
+
+
+@_jit
+def _finish_nearest(near, dist, inside, max_range):
+    """Distance 0 for a point inside an obstacle; (inf, nan) beyond ``max_range``."""
+    for i in range(dist.shape[0]):
+        for o in range(dist.shape[1]):
+            if inside[i, o]:
+                dist[i, o] = 0.0
+            elif dist[i, o] > max_range:
+                dist[i, o] = math.inf
+                near[i, o, 0] = np.nan
+                near[i, o, 1] = np.nan
+
+
+@_jit
+def nearest(Q, K, P, E, N, C, B, IC, IR, CR, OWN, n_obs, max_range):
+    """Nearest boundary point and exact distance (0 inside) per (point, obstacle); obstacles
+    whose bounding circles are all farther than ``max_range`` are skipped (inf, nan)."""
+    R = Q.shape[0]
+    near = np.full((R, n_obs, 2), np.nan)
+    dist = np.full((R, n_obs), math.inf)
+    inside = np.zeros((R, n_obs), np.bool_)
+    n_items = IC.shape[0]
+    for i in range(R):
+        qx = Q[i, 0]
+        qy = Q[i, 1]
+        for k in range(n_items):
+            wx = IC[k, 0] - qx
+            wy = IC[k, 1] - qy
+            if math.sqrt(wx * wx + wy * wy) - IR[k] > max_range:
+                continue
+            o = OWN[k]
+            if k >= K:
+                d, x, y, ins = _near_circle(qx, qy, IC[k, 0], IC[k, 1], CR[k - K])
+            else:
+                ins = _in_piece(qx, qy, k, N, C)
+                d, x, y = _near_piece(qx, qy, k, P, E, B)
+            if ins:
+                inside[i, o] = True
+            if d < dist[i, o]:
+                dist[i, o] = d
+                near[i, o, 0] = x
+                near[i, o, 1] = y
+    _finish_nearest(near, dist, inside, max_range)
+    return near, dist
