@@ -172,45 +172,122 @@ def _cost_is_length(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, Ma
     return bool(rel) and float(np.median(rel)) < 1e-3
 
 
-def _plot_convergence(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, Mapping],
-                      solvers: Sequence[str], colours: Sequence[str]) -> Any:
-    fig = _fig(len(solvers), wide=True)
-    fig.set_size_inches(7.0, 4.2)
-    ax = fig.add_subplot(1, 1, 1)
-    opts = _finite([r["optimum"] for r in rows])
-    norm = float(np.median(opts)) if len(opts) else 1.0
-    drew, skipped = False, []
-    for s, colour in zip(solvers, colours):
-        if not _cost_is_length(rows, progress, s):
-            skipped.append(s)
-            continue
-        traces = [progress[r["id"]] for r in rows
-                  if r["solver"] == s and r.get("id") in progress]
-        traces = [(np.asarray(p["time"], float), np.asarray(p["best_cost"], float) / norm)
-                  for p in traces if len(p["time"])]
-        if not traces:
-            continue
-        drew = True
-        multi = [tc for tc in traces if len(tc[0]) > 1]
-        if not multi:  # one record per run (exact solvers): their median end point
-            tt = np.array([tc[0][-1] for tc in traces])
-            cc = _finite([tc[1][-1] for tc in traces])
-            if len(cc):
-                ax.plot([max(float(np.median(tt)), 1e-6)], [float(np.median(cc))], "o",
-                        color=colour, label=f"{s} (one step, n={len(traces)})")
-            continue
-        t_lo = min(max(float(tc[0][0]), 1e-6) for tc in multi)
-        t_hi = max(float(tc[0][-1]) for tc in multi)
-        grid = np.geomspace(t_lo, max(t_hi, t_lo * 1.01), 200)
-        vals = np.vstack([_step_on_grid(*tc, grid) for tc in multi])
-        alive = np.sum(np.isfinite(vals), axis=0)
-        keep = alive == len(multi)  # from the time every run has recorded a first value
-        if not keep.any():
-            continue
-        with np.errstate(all="ignore"):
-            q25, q50, q75 = (np.nanpercentile(vals[:, keep], q, axis=0) for q in (25, 50, 75))
-        ax.plot(grid[keep], q50, color=colour, label=f"{s} (median, n={len(multi)})")
-        ax.fill_between(grid[keep], q25, q75, color=colour, alpha=0.2, lw=0)
+def _traces(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, Mapping], solver: str,
+            norm: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The recorded progress of one solver's runs, costs divided by the optimum.
+
+    Parameters
+    ----------
+    rows
+        The runs of one problem (every solver).
+    progress
+        Progress records by run id (``time`` and ``best_cost`` lists).
+    solver
+        The solver whose runs are taken.
+    norm
+        The divisor of the costs (the median certified optimum, or 1).
+
+    Returns
+    -------
+    list of tuple of numpy.ndarray
+        ``(time, best_cost / norm)`` of every run of ``solver`` with at least one record.
+    """
+    recs = [progress[r["id"]] for r in rows if r["solver"] == solver and r.get("id") in progress]
+    return [(np.asarray(p["time"], float), np.asarray(p["best_cost"], float) / norm)
+            for p in recs if len(p["time"])]
+
+
+def _draw_end_points(ax: Any, traces: Sequence[tuple[np.ndarray, np.ndarray]], solver: str,
+                     colour: str) -> None:
+    """Mark the median end point of runs that recorded one step each (exact solvers).
+
+    Parameters
+    ----------
+    ax
+        The convergence axes.
+    traces
+        ``(time, cost)`` of every run of ``solver``.
+    solver
+        The solver's name (legend label).
+    colour
+        Its colour.
+    """
+    tt = np.array([tc[0][-1] for tc in traces])
+    cc = _finite([tc[1][-1] for tc in traces])
+    if len(cc):
+        ax.plot([max(float(np.median(tt)), 1e-6)], [float(np.median(cc))], "o",
+                color=colour, label=f"{solver} (one step, n={len(traces)})")
+
+
+def _draw_band(ax: Any, multi: Sequence[tuple[np.ndarray, np.ndarray]], solver: str,
+               colour: str) -> None:
+    """Draw the median best cost so far of several runs and its inter-quartile band.
+
+    The curves start from the time every run has recorded a first value; nothing is drawn
+    when there is no such time on the grid.
+
+    Parameters
+    ----------
+    ax
+        The convergence axes.
+    multi
+        ``(time, cost)`` of the runs of ``solver`` with more than one record.
+    solver
+        The solver's name (legend label).
+    colour
+        Its colour.
+    """
+    t_lo = min(max(float(tc[0][0]), 1e-6) for tc in multi)
+    t_hi = max(float(tc[0][-1]) for tc in multi)
+    grid = np.geomspace(t_lo, max(t_hi, t_lo * 1.01), 200)
+    vals = np.vstack([_step_on_grid(*tc, grid) for tc in multi])
+    alive = np.sum(np.isfinite(vals), axis=0)
+    keep = alive == len(multi)  # from the time every run has recorded a first value
+    if not keep.any():
+        return
+    with np.errstate(all="ignore"):
+        q25, q50, q75 = (np.nanpercentile(vals[:, keep], q, axis=0) for q in (25, 50, 75))
+    ax.plot(grid[keep], q50, color=colour, label=f"{solver} (median, n={len(multi)})")
+    ax.fill_between(grid[keep], q25, q75, color=colour, alpha=0.2, lw=0)
+
+
+def _draw_solver(ax: Any, traces: Sequence[tuple[np.ndarray, np.ndarray]], solver: str,
+                 colour: str) -> None:
+    """Draw one solver's convergence: a band over its multi-record runs, else an end point.
+
+    Parameters
+    ----------
+    ax
+        The convergence axes.
+    traces
+        ``(time, cost)`` of every run of ``solver`` with at least one record (not empty).
+    solver
+        The solver's name (legend label).
+    colour
+        Its colour.
+    """
+    multi = [tc for tc in traces if len(tc[0]) > 1]
+    if multi:
+        _draw_band(ax, multi, solver, colour)
+    else:  # one record per run (exact solvers): their median end point
+        _draw_end_points(ax, traces, solver, colour)
+
+
+def _finish_convergence(ax: Any, drew: bool, skipped: Sequence[str], has_optimum: bool
+                        ) -> None:
+    """Scales, legend, notes, labels and title of the convergence axes.
+
+    Parameters
+    ----------
+    ax
+        The convergence axes.
+    drew
+        Whether any solver was drawn (else the axes say that no progress was recorded).
+    skipped
+        The solvers not drawn because their best cost is not the path length.
+    has_optimum
+        Whether the costs were divided by a certified optimum (the y label says so).
+    """
     if drew:
         ax.set_xscale("log")
         lo, hi = ax.get_ylim()
@@ -225,8 +302,45 @@ def _plot_convergence(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, 
                 + ", ".join(skipped), transform=ax.transAxes, fontsize=7, color="#555555",
                 va="bottom")
     ax.set_xlabel("wall time since the run started (s, log scale)")
-    ax.set_ylabel("best cost / optimum" if len(opts) else "best cost")
+    ax.set_ylabel("best cost / optimum" if has_optimum else "best cost")
     ax.set_title("Convergence (best cost so far: median and IQR band over runs)", fontsize=11)
+
+
+def _plot_convergence(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, Mapping],
+                      solvers: Sequence[str], colours: Sequence[str]) -> Any:
+    """The convergence figure of one problem: best cost so far against wall time.
+
+    Parameters
+    ----------
+    rows
+        The runs of one problem.
+    progress
+        Progress records by run id.
+    solvers
+        The problem's solvers, in drawing order.
+    colours
+        Their colours.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+        The figure (Agg canvas).
+    """
+    fig = _fig(len(solvers), wide=True)
+    fig.set_size_inches(7.0, 4.2)
+    ax = fig.add_subplot(1, 1, 1)
+    opts = _finite([r["optimum"] for r in rows])
+    norm = float(np.median(opts)) if len(opts) else 1.0
+    drew, skipped = False, []
+    for s, colour in zip(solvers, colours):
+        if not _cost_is_length(rows, progress, s):
+            skipped.append(s)
+            continue
+        traces = _traces(rows, progress, s, norm)
+        if traces:
+            drew = True
+            _draw_solver(ax, traces, s, colour)
+    _finish_convergence(ax, drew, skipped, bool(len(opts)))
     return fig
 
 

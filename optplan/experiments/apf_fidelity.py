@@ -149,33 +149,135 @@ def _agree_until(a: dict[str, Any], b: dict[str, Any]) -> float:
     return t_div
 
 
+def _scale_groups(rows: list[dict[str, Any]]) -> list[tuple[str, str, list[dict[str, Any]]]]:
+    """The rows of :func:`scale_rows` grouped by ``(preset, scene)``, in first-seen order.
+
+    Parameters
+    ----------
+    rows
+        Rows of :func:`scale_rows`.
+
+    Returns
+    -------
+    list of tuple
+        ``(preset, scene, rows of that pair)``.
+    """
+    pairs = dict.fromkeys((r["preset"], r["scene"]) for r in rows)
+    return [(p, scene, [r for r in rows if r["preset"] == p and r["scene"] == scene])
+            for p, scene in pairs]
+
+
+def _scale_line(p: str, scene: str, rs: list[dict[str, Any]]) -> str:
+    """One table line: status and length / scale at each scale, their largest relative
+    difference and how long the trajectories agree with the x 1 one (:func:`_agreement`).
+
+    Parameters
+    ----------
+    p, scene
+        The preset and the scene.
+    rs
+        Their rows, one per scale (one of them at scale 1).
+
+    Returns
+    -------
+    str
+        The markdown table line.
+    """
+    base = next(r["length"] for r in rs if r["scale"] == 1.0)
+    dev = max(abs(r["length"] - base) / base for r in rs) if base > 0 else math.nan
+    cells = " | ".join(f"{r['status']}, {r['length']:.3f}" for r in rs)
+    return f"| {p} | {scene} | {cells} | {dev:.1e} | {_agreement(rs)} |"
+
+
+def _agreement(rs: list[dict[str, Any]]) -> str:
+    """How long the trajectories at every scale agree with the x 1 one.
+
+    Parameters
+    ----------
+    rs
+        The rows of one ``(preset, scene)``, one per scale (one of them at scale 1).
+
+    Returns
+    -------
+    str
+        ``"the end"`` when they agree all the way, else the time (s) of the first
+        divergence, one decimal.
+    """
+    one = next(r for r in rs if r["scale"] == 1.0)
+    until = min(_agree_until(one, r) for r in rs if r is not one)
+    return "the end" if until == np.inf else f"{until:.1f}"
+
+
+def _same_global(gs: list[np.ndarray], extent: float) -> bool:
+    """True when the global paths of one robot at every scale have the same vertex count and
+    agree within 1e-9 x the map extent.
+
+    Parameters
+    ----------
+    gs
+        The robot's rescaled global path at each scale.
+    extent
+        The rescaled map extent.
+
+    Returns
+    -------
+    bool
+        Whether the paths agree.
+    """
+    return all(len(g) == len(gs[0]) and np.allclose(g, gs[0], rtol=0, atol=1e-9 * extent)
+               for g in gs)
+
+
+def _global_notes(p: str, scene: str, rs: list[dict[str, Any]]) -> list[str]:
+    """Notes on the robots whose global paths differ between the scales.
+
+    Parameters
+    ----------
+    p, scene
+        The preset and the scene.
+    rs
+        Their rows; only the rows with global paths count, and nothing is noted unless
+        there is one such row per scale.
+
+    Returns
+    -------
+    list of str
+        One markdown list item per robot whose global paths differ.
+    """
+    rs = [r for r in rs if r["global"]]
+    if len(rs) != len(SCALES):
+        return []
+    notes = []
+    for rid in rs[0]["global"]:
+        gs = [r["global"][rid] for r in rs]
+        if _same_global(gs, rs[0]["extent"]):
+            continue
+        desc = " / ".join(f"{float(np.sum(np.hypot(*np.diff(g, axis=0).T))):.6f} "
+                          f"({len(g)} vertices)" for g in gs)
+        notes.append(f"- {p} on {scene}, {rid}: global path length / scale at x "
+                     + " / ".join(f"{k:g}" for k in SCALES) + f": {desc}")
+    return notes
+
+
 def format_scale(rows: list[dict[str, Any]]) -> str:
+    """Markdown table of :func:`scale_rows`, with notes on global paths that differ.
+
+    Parameters
+    ----------
+    rows
+        Rows of :func:`scale_rows`.
+
+    Returns
+    -------
+    str
+        The table, one line per ``(preset, scene)``, then the notes if any.
+    """
     out = ["| preset | scene | " + " | ".join(f"x {k:g}: status, length / scale" for k in SCALES)
            + " | max relative length difference | trajectories agree until (s) |",
            "|---|---|" + "---|" * (len(SCALES) + 2)]
-    for p, scene in dict.fromkeys((r["preset"], r["scene"]) for r in rows):
-        rs = [r for r in rows if r["preset"] == p and r["scene"] == scene]
-        base = next(r["length"] for r in rs if r["scale"] == 1.0)
-        dev = max(abs(r["length"] - base) / base for r in rs) if base > 0 else math.nan
-        cells = " | ".join(f"{r['status']}, {r['length']:.3f}" for r in rs)
-        one = next(r for r in rs if r["scale"] == 1.0)
-        until = min(_agree_until(one, r) for r in rs if r is not one)
-        u = "the end" if until == np.inf else f"{until:.1f}"
-        out.append(f"| {p} | {scene} | {cells} | {dev:.1e} | {u} |")
-    notes = []
-    for p, scene in dict.fromkeys((r["preset"], r["scene"]) for r in rows):
-        rs = [r for r in rows if r["preset"] == p and r["scene"] == scene and r["global"]]
-        if len(rs) != len(SCALES):
-            continue
-        for rid in rs[0]["global"]:
-            gs = [r["global"][rid] for r in rs]
-            if all(len(g) == len(gs[0]) and np.allclose(g, gs[0], rtol=0, atol=1e-9 * rs[0][
-                    "extent"]) for g in gs):
-                continue
-            desc = " / ".join(f"{float(np.sum(np.hypot(*np.diff(g, axis=0).T))):.6f} "
-                              f"({len(g)} vertices)" for g in gs)
-            notes.append(f"- {p} on {scene}, {rid}: global path length / scale at x "
-                         + " / ".join(f"{k:g}" for k in SCALES) + f": {desc}")
+    groups = _scale_groups(rows)
+    out += [_scale_line(p, scene, rs) for p, scene, rs in groups]
+    notes = [n for p, scene, rs in groups for n in _global_notes(p, scene, rs)]
     if notes:
         out += ["", "Global paths that differ between the scales:", *notes]
     return "\n".join(out)

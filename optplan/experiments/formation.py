@@ -70,26 +70,69 @@ def _med(v: list[float]) -> float:
     return float(np.median(a)) if len(a) else float("nan")
 
 
+def _error_cells(g: list[dict[str, Any]]) -> str:
+    """Success count and the median formation errors (RMSE, worst, final) of one group.
+
+    Parameters
+    ----------
+    g
+        The rows of one (scene, solver).
+
+    Returns
+    -------
+    str
+        The four cells, joined by ``" | "``.
+    """
+    n_ok = sum(r["success"] for r in g)
+    return (f"{n_ok}/{len(g)} | {_med([r['rmse'] for r in g]):.2f} | "
+            f"{_med([r['max_err'] for r in g]):.1f} | {_med([r['final_err'] for r in g]):.2g}")
+
+
+def _safety_cells(g: list[dict[str, Any]]) -> str:
+    """Worst separation (with the safety distance), clearances and total collisions.
+
+    Parameters
+    ----------
+    g
+        The rows of one (scene, solver).
+
+    Returns
+    -------
+    str
+        The three cells, joined by ``" | "``.
+    """
+    return (f"{min(r['min_sep'] for r in g):.2f} ({g[0]['safety']:g}) | "
+            f"{min(r['clear'] for r in g):.2f} / {min(r['clear_dyn'] for r in g):.1f} | "
+            f"{sum(r['collisions'] for r in g)}")
+
+
+def _run_cells(g: list[dict[str, Any]]) -> str:
+    """Median time to goal, total QP failures and median wall time of one group.
+
+    Parameters
+    ----------
+    g
+        The rows of one (scene, solver).
+
+    Returns
+    -------
+    str
+        The three cells, joined by ``" | "``.
+    """
+    return (f"{_med([r['time'] for r in g]):.1f} | {sum(r['qp_failures'] for r in g)} | "
+            f"{_med([r['wall'] for r in g]):.1f}")
+
+
 def format_table(rows: list[dict[str, Any]]) -> str:
     """Markdown summary: one line per (scene, solver)."""
     out = ["| scene | solver | success | formation RMSE | worst error | final error (median) "
            "| min separation (D_s) | min clearance static / moving | collisions | time to goal s "
            "| QP failures | wall s |",
            "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
-    keys = []
-    for r in rows:
-        if (r["scene"], r["solver"]) not in keys:
-            keys.append((r["scene"], r["solver"]))
-    for scene, solver in keys:
+    for scene, solver in dict.fromkeys((r["scene"], r["solver"]) for r in rows):
         g = [r for r in rows if r["scene"] == scene and r["solver"] == solver]
-        n_ok = sum(r["success"] for r in g)
-        out.append(
-            f"| {scene} | {solver} | {n_ok}/{len(g)} | {_med([r['rmse'] for r in g]):.2f} | "
-            f"{_med([r['max_err'] for r in g]):.1f} | {_med([r['final_err'] for r in g]):.2g} | "
-            f"{min(r['min_sep'] for r in g):.2f} ({g[0]['safety']:g}) | "
-            f"{min(r['clear'] for r in g):.2f} / {min(r['clear_dyn'] for r in g):.1f} | "
-            f"{sum(r['collisions'] for r in g)} | {_med([r['time'] for r in g]):.1f} | "
-            f"{sum(r['qp_failures'] for r in g)} | {_med([r['wall'] for r in g]):.1f} |")
+        out.append(f"| {scene} | {solver} | {_error_cells(g)} | {_safety_cells(g)} | "
+                   f"{_run_cells(g)} |")
     return "\n".join(out)
 
 

@@ -121,32 +121,95 @@ def three_way(seeds: Sequence[int], problem: str = "paper-hybrid",
     return rows
 
 
-def format_three_way(rows: dict[str, list[dict[str, Any]]], problem: str = "paper-hybrid"
-                     ) -> str:
+def _three_way_header(rows: dict[str, list[dict[str, Any]]], problem: str) -> list[str]:
+    """Title (seeds, both optima) and column heads of the three-way table.
+
+    Parameters
+    ----------
+    rows
+        Output of :func:`three_way` (with its ``_optimum`` entry).
+    problem
+        The scene named in the title.
+
+    Returns
+    -------
+    list of str
+        The title, a blank line, the head line and the separator line.
+    """
     opt = rows["_optimum"][0]
     n = max(len(v) for k, v in rows.items() if not k.startswith("_"))
-    out = [f"Three-way comparison on `{problem}` ({n} seeds; medians; static optimum on the "
-           f"known map {opt['known']:.2f}, with the temporary obstacles {opt['full']:.2f})", "",
-           "| method | success | length | collisions | temp. obstacle hit | time to goal (s) "
-           "| ratio to static optimum | ratio to full-map optimum | wall time (s) |",
-           "|---|---|---|---|---|---|---|---|---|"]
-    for label, rs in rows.items():
-        if label.startswith("_"):
-            continue
-        ok = sum(r["success"] for r in rs)
-        hit = sum(r["temporary_collision"] for r in rs)
-        out.append(
-            f"| {label} | {ok}/{len(rs)} | {_median([r['length'] for r in rs]):.1f} "
+    return [f"Three-way comparison on `{problem}` ({n} seeds; medians; static optimum on the "
+            f"known map {opt['known']:.2f}, with the temporary obstacles {opt['full']:.2f})",
+            "", "| method | success | length | collisions | temp. obstacle hit "
+            "| time to goal (s) | ratio to static optimum | ratio to full-map optimum "
+            "| wall time (s) |", "|---|---|---|---|---|---|---|---|---|"]
+
+
+def _three_way_line(label: str, rs: list[dict[str, Any]]) -> str:
+    """One method's line: successes, temporary-obstacle hits and medians over its runs.
+
+    Parameters
+    ----------
+    label
+        The method's label.
+    rs
+        Its per-run rows.
+
+    Returns
+    -------
+    str
+        The markdown table line.
+    """
+    ok = sum(r["success"] for r in rs)
+    hit = sum(r["temporary_collision"] for r in rs)
+    return (f"| {label} | {ok}/{len(rs)} | {_median([r['length'] for r in rs]):.1f} "
             f"| {_median([r['collisions'] for r in rs]):g} | {hit}/{len(rs)} "
             f"| {_median([r['time_to_goal'] for r in rs]):.1f} "
             f"| {_median([r['ratio_known'] for r in rs]):.3f} "
             f"| {_median([r['ratio_full'] for r in rs]):.3f} "
             f"| {_median([r['wall'] for r in rs]):.2f} |")
-    if "hybrid" in rows and "IPSO alone" in rows:
-        rat = [h["length"] / i["length"] for h, i in zip(rows["hybrid"], rows["IPSO alone"])]
-        out += ["", f"hybrid length / IPSO length, same seed: median {_median(rat):.3f}, "
-                f"max {max(rat):.3f}"]
-    return "\n".join(out)
+
+
+def _hybrid_vs_ipso(rows: dict[str, list[dict[str, Any]]]) -> list[str]:
+    """The hybrid's length over IPSO's, seed by seed (median and max).
+
+    Parameters
+    ----------
+    rows
+        Output of :func:`three_way`.
+
+    Returns
+    -------
+    list of str
+        A blank line and the comparison, or nothing unless both methods ran.
+    """
+    if "hybrid" not in rows or "IPSO alone" not in rows:
+        return []
+    rat = [h["length"] / i["length"] for h, i in zip(rows["hybrid"], rows["IPSO alone"])]
+    return ["", f"hybrid length / IPSO length, same seed: median {_median(rat):.3f}, "
+            f"max {max(rat):.3f}"]
+
+
+def format_three_way(rows: dict[str, list[dict[str, Any]]], problem: str = "paper-hybrid"
+                     ) -> str:
+    """Markdown three-way comparison of :func:`three_way` rows.
+
+    Parameters
+    ----------
+    rows
+        Output of :func:`three_way`.
+    problem
+        The scene named in the title.
+
+    Returns
+    -------
+    str
+        The title, one line per method, then the hybrid / IPSO length ratio.
+    """
+    out = _three_way_header(rows, problem)
+    out += [_three_way_line(label, rs) for label, rs in rows.items()
+            if not label.startswith("_")]
+    return "\n".join(out + _hybrid_vs_ipso(rows))
 
 
 def formation_runs(seeds: Sequence[int], scenes: Sequence[str] = FORMATION_SCENES,
@@ -185,37 +248,77 @@ def formation_runs(seeds: Sequence[int], scenes: Sequence[str] = FORMATION_SCENE
     return rows
 
 
-def format_formation(rows: list[dict[str, Any]]) -> str:
-    out = ["Hybrid formation runs (medians over seeds)", "",
-           "| scene | solver | solved | all reached | collisions | min separation (safety) "
-           "| formation RMSE | min clearance | time to goal (s) | wall time (s) |",
-           "|---|---|---|---|---|---|---|---|---|---|"]
-    keys = []
-    for r in rows:
-        k = (r["scene"], r["solver"])
-        if k not in keys:
-            keys.append(k)
-    for scene, solver in keys:
-        rs = [r for r in rows if (r["scene"], r["solver"]) == (scene, solver)]
-        if rs[0]["status"].startswith("unavailable"):
-            out.append(f"| {scene} | {solver} | {rs[0]['status']} | | | | | | | |")
-            continue
-        ok = sum(r["status"] in ("solved", "optimal") for r in rs)
-        out.append(
-            f"| {scene} | {solver} | {ok}/{len(rs)} | {sum(r['reached'] for r in rs)}/{len(rs)} "
+def _formation_line(scene: str, solver: str, rs: list[dict[str, Any]]) -> str:
+    """One (scene, solver) line of the formation table: counts and medians over seeds.
+
+    Parameters
+    ----------
+    scene, solver
+        The scene and the solver.
+    rs
+        Their rows of :func:`formation_runs`; a first row whose status starts with
+        ``unavailable`` makes the line say so instead.
+
+    Returns
+    -------
+    str
+        The markdown table line.
+    """
+    if rs[0]["status"].startswith("unavailable"):
+        return f"| {scene} | {solver} | {rs[0]['status']} | | | | | | | |"
+    ok = sum(r["status"] in ("solved", "optimal") for r in rs)
+    return (f"| {scene} | {solver} | {ok}/{len(rs)} | {sum(r['reached'] for r in rs)}/{len(rs)} "
             f"| {_median([r['collisions'] for r in rs]):g} "
             f"| {_median([r['min_separation'] for r in rs]):.2f} ({rs[0]['safety']:g}) "
             f"| {_median([r['rmse'] for r in rs]):.2f} "
             f"| {_median([r['min_clearance'] for r in rs]):.2f} "
             f"| {_median([r['time_to_goal'] for r in rs]):.1f} "
             f"| {_median([r['wall'] for r in rs]):.2f} |")
+
+
+def _formation_failures(rows: list[dict[str, Any]]) -> list[str]:
+    """The runs that were available but neither solved nor optimal.
+
+    Parameters
+    ----------
+    rows
+        Rows of :func:`formation_runs`.
+
+    Returns
+    -------
+    list of str
+        A blank line, a heading and one list item per such run; nothing when there is none.
+    """
     fails = [r for r in rows if r["status"] not in ("solved", "optimal")
              and not r["status"].startswith("unavailable")]
-    if fails:
-        out += ["", "Unsuccessful runs:"]
-        out += [f"- {r['scene']} / {r['solver']} seed {r['seed']}: {r['status']} "
-                f"({r['message']})" for r in fails]
-    return "\n".join(out)
+    if not fails:
+        return []
+    return ["", "Unsuccessful runs:"] + [
+        f"- {r['scene']} / {r['solver']} seed {r['seed']}: {r['status']} ({r['message']})"
+        for r in fails]
+
+
+def format_formation(rows: list[dict[str, Any]]) -> str:
+    """Markdown table of :func:`formation_runs` rows, then the unsuccessful runs.
+
+    Parameters
+    ----------
+    rows
+        Rows of :func:`formation_runs`.
+
+    Returns
+    -------
+    str
+        One line per (scene, solver), in first-seen order, then the list of failures.
+    """
+    out = ["Hybrid formation runs (medians over seeds)", "",
+           "| scene | solver | solved | all reached | collisions | min separation (safety) "
+           "| formation RMSE | min clearance | time to goal (s) | wall time (s) |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
+    for scene, solver in dict.fromkeys((r["scene"], r["solver"]) for r in rows):
+        rs = [r for r in rows if (r["scene"], r["solver"]) == (scene, solver)]
+        out.append(_formation_line(scene, solver, rs))
+    return "\n".join(out + _formation_failures(rows))
 
 
 def main(argv: list[str] | None = None) -> int:
