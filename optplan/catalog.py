@@ -135,10 +135,36 @@ def read_preset(path: Path) -> dict:
         keys, ``backend`` / ``summary`` not strings, ``options`` not a table.
     """
     path = Path(path)
+    data = _preset_toml(path)
+    _check_preset_keys(path, data)
+    _check_preset_types(path, data)
+    return {"backend": data["backend"], "summary": data.get("summary", ""),
+            "options": data.get("options", {}), "paper": data.get("paper", {}),
+            "paper_notes": data.get("paper_notes", {})}
+
+
+def _preset_toml(path: Path) -> dict:
+    """The parsed TOML of a preset file.
+
+    Parameters
+    ----------
+    path : Path
+        The preset file.
+
+    Returns
+    -------
+    dict
+        Its top-level table.
+
+    Raises
+    ------
+    ValueError
+        Naming the file: a directory, unreadable, not UTF-8, invalid or too deeply nested TOML.
+    """
     if path.is_dir():
         raise ValueError(f"{path}: is a directory, not a preset file")
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except OSError as e:
         raise ValueError(f"{path}: cannot read file ({e.strerror or e})") from None
     except UnicodeDecodeError as e:
@@ -148,6 +174,23 @@ def read_preset(path: Path) -> dict:
     except RecursionError:
         raise ValueError(f"{path}: invalid TOML: arrays or inline tables nested too "
                          "deeply") from None
+
+
+def _check_preset_keys(path: Path, data: dict) -> None:
+    """Reject unknown top-level keys of a preset and a missing ``backend``.
+
+    Parameters
+    ----------
+    path : Path
+        The preset file (named in errors).
+    data : dict
+        Its top-level table.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the key.
+    """
     allowed = {"backend", "summary", "options", "paper", "paper_notes"}
     for k in data:
         if k not in allowed:
@@ -156,6 +199,23 @@ def read_preset(path: Path) -> dict:
             raise ValueError(f"{path}: {k}: unknown key{hint} (allowed: {sorted(allowed)})")
     if "backend" not in data:
         raise ValueError(f"{path}: backend: missing required key")
+
+
+def _check_preset_types(path: Path, data: dict) -> None:
+    """Check the types of a preset's values: strings, tables, ``paper_notes`` of strings.
+
+    Parameters
+    ----------
+    path : Path
+        The preset file (named in errors).
+    data : dict
+        Its top-level table (keys already checked).
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the key.
+    """
     for k in ("backend", "summary"):
         if k in data and not isinstance(data[k], str):
             raise ValueError(f"{path}: {k}: expected a string, got {type(data[k]).__name__}")
@@ -166,9 +226,6 @@ def read_preset(path: Path) -> dict:
         if not isinstance(v, str):
             raise ValueError(f"{path}: paper_notes.{k}: expected a string, got "
                              f"{type(v).__name__}")
-    return {"backend": data["backend"], "summary": data.get("summary", ""),
-            "options": data.get("options", {}), "paper": data.get("paper", {}),
-            "paper_notes": data.get("paper_notes", {})}
 
 
 def paper_table(preset: str) -> str:

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from optplan.geometry import Frame, ObstacleSet, obstacle_set
-from optplan.problem import Obstacle, Problem
+from optplan.problem import Obstacle, Problem, Robot
 from optplan.result import Progress, notify
 
 __all__ = ["ObstacleField", "SimState", "SimOutcome", "simulate"]
@@ -268,8 +268,7 @@ def simulate(
     robots = [problem.robot(i) for i in ids]
     radii = np.array([r.radius for r in robots])
     vmax = np.array([r.max_speed for r in robots])
-    pos = np.array([r.start for r in robots], dtype=float) if start is None else np.array(
-        start, dtype=float)
+    pos = _start_positions(robots, start)
     state = SimState(0, t0, list(ids), pos.copy(), np.zeros_like(pos), fld, dt=float(dt))
     times = [t0]
     traj = [pos.copy()]
@@ -284,39 +283,20 @@ def simulate(
         if u is None:
             reason = "gave_up"
             break
-        u = np.asarray(u, dtype=float).reshape(pos.shape)
-        sp = np.hypot(u[:, 0], u[:, 1])
-        scale = np.where(sp > vmax, vmax / np.where(sp > 0, sp, 1.0), 1.0)
-        u = u * scale[:, None]
+        u = _clamp_speeds(np.asarray(u, dtype=float).reshape(pos.shape), vmax)
         pos = pos + dt * u
         state.positions, state.velocities = pos.copy(), u
         t_new = t0 + (k + 1) * dt
         times.append(t_new)
         traj.append(pos.copy())
-        _, d = fld.nearest(pos, t_new, max_range=float(radii.max()) + 1.0)
-        hit = d < radii[:, None] - tol
-        if len(ids) > 1:
-            diff = pos[:, None, :] - pos[None, :, :]
-            dd = np.hypot(diff[..., 0], diff[..., 1])
-            np.fill_diagonal(dd, np.inf)
-            rr = radii[:, None] + radii[None, :]
-            pair_hit = dd < rr - tol
-        else:
-            pair_hit = np.zeros((1, 1), bool)
-        if hit.any() or pair_hit.any():
-            if hit.any():
-                ri, oi = np.argwhere(hit)[0]
-                coll = f"{ids[ri]} touched {fld.names[oi]} at t={t_new:.2f}"
-            else:
-                ri, rj = np.argwhere(pair_hit)[0]
-                coll = f"{ids[ri]} touched {ids[rj]} at t={t_new:.2f}"
+        contact = _contact(fld, pos, t_new, radii, ids, tol)
+        if contact:
+            coll = contact
             state.contacts.append(coll)
             if stop_on_collision:
                 reason = "collision"
                 break
-        cost = progress_cost(state) if progress_cost else float("nan")
-        if notify(callback, Progress(k, cost, k + 1, time.perf_counter() - wall0, {},
-                                     sim_time=t_new)):
+        if _report(callback, progress_cost, state, k, t_new, wall0):
             reason = "callback"
             break
     else:
@@ -325,3 +305,139 @@ def simulate(
             reason = "done"
     return SimOutcome(np.array(times), np.array(traj), list(ids), reason, coll,
                       len(times) - 1, list(state.contacts))
+
+
+def _start_positions(robots: list[Robot], start: np.ndarray | None) -> np.ndarray:
+    """The initial positions: ``start`` when given, else the robots' starts.
+
+    Parameters
+    ----------
+    robots : list of Robot
+        The robots simulated.
+    start : array or None
+        ``(R, 2)`` initial positions, or None.
+
+    Returns
+    -------
+    ndarray
+        ``(R, 2)`` float positions (a new array).
+    """
+    if start is None:
+        return np.array([r.start for r in robots], dtype=float)
+    return np.array(start, dtype=float)
+
+
+def _report(callback: Callable[[Progress], Any] | None,
+            progress_cost: Callable[[SimState], float] | None, state: SimState, k: int,
+            t: float, wall0: float) -> bool:
+    """Send step ``k``'s :class:`~optplan.result.Progress` to ``callback``.
+
+    Parameters
+    ----------
+    callback : callable or None
+        The receiver.
+    progress_cost : callable or None
+        Scalar reported as ``best_cost`` (NaN without it).
+    state : SimState
+        The state after the step.
+    k : int
+        The step.
+    t : float
+        The simulated time after the step (s).
+    wall0 : float
+        ``time.perf_counter()`` at the start of the run.
+
+    Returns
+    -------
+    bool
+        True when the callback asked to stop.
+    """
+    cost = progress_cost(state) if progress_cost else float("nan")
+    return notify(callback, Progress(k, cost, k + 1, time.perf_counter() - wall0, {},
+                                     sim_time=t))
+
+
+def _clamp_speeds(u: np.ndarray, vmax: np.ndarray) -> np.ndarray:
+    """Scale each robot's velocity down to its speed limit (directions kept).
+
+    Parameters
+    ----------
+    u : ndarray
+        ``(R, 2)`` desired velocities.
+    vmax : ndarray
+        ``(R,)`` speed limits.
+
+    Returns
+    -------
+    ndarray
+        ``(R, 2)`` velocities with ``|u_i| <= vmax_i``.
+    """
+    sp = np.hypot(u[:, 0], u[:, 1])
+    scale = np.where(sp > vmax, vmax / np.where(sp > 0, sp, 1.0), 1.0)
+    return u * scale[:, None]
+
+
+def _contact(fld: ObstacleField, pos: np.ndarray, t: float, radii: np.ndarray,
+             ids: list[str], tol: float) -> str:
+    """The first contact of the robots at ``pos`` and time ``t``, described.
+
+    Obstacle contacts are reported before robot-robot contacts.
+
+    Parameters
+    ----------
+    fld : ObstacleField
+        The obstacles checked.
+    pos : ndarray
+        ``(R, 2)`` robot positions.
+    t : float
+        The time (s).
+    radii : ndarray
+        ``(R,)`` robot radii.
+    ids : list of str
+        The robots' ids (in the order of ``pos``).
+    tol : float
+        The map tolerance (an overlap must exceed it).
+
+    Returns
+    -------
+    str
+        ``"<robot> touched <other> at t=..."``, or ``""`` without contact.
+    """
+    _, d = fld.nearest(pos, t, max_range=float(radii.max()) + 1.0)
+    hit = d < radii[:, None] - tol
+    pair_hit = _pair_hits(pos, radii, tol, len(ids))
+    if hit.any():
+        ri, oi = np.argwhere(hit)[0]
+        return f"{ids[ri]} touched {fld.names[oi]} at t={t:.2f}"
+    if pair_hit.any():
+        ri, rj = np.argwhere(pair_hit)[0]
+        return f"{ids[ri]} touched {ids[rj]} at t={t:.2f}"
+    return ""
+
+
+def _pair_hits(pos: np.ndarray, radii: np.ndarray, tol: float, n_robots: int) -> np.ndarray:
+    """Which pairs of robot discs overlap by more than ``tol``.
+
+    Parameters
+    ----------
+    pos : ndarray
+        ``(R, 2)`` robot positions.
+    radii : ndarray
+        ``(R,)`` robot radii.
+    tol : float
+        The map tolerance.
+    n_robots : int
+        The number of robots simulated.
+
+    Returns
+    -------
+    ndarray
+        ``(R, R)`` booleans (``(1, 1)`` False for one robot); the diagonal is False.
+    """
+    if n_robots > 1:
+        diff = pos[:, None, :] - pos[None, :, :]
+        dd = np.hypot(diff[..., 0], diff[..., 1])
+        np.fill_diagonal(dd, np.inf)
+        rr = radii[:, None] + radii[None, :]
+        return dd < rr - tol
+    return np.zeros((1, 1), bool)

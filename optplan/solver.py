@@ -326,26 +326,38 @@ class Backend:
         metrics = evaluate(problem, paths, times)
         if metrics_extra:
             metrics.update(metrics_extra)
-        status = Status(claim)
+        status, message = self._grade(Status(claim), metrics, message)
+        return Result(
+            status=status, paths=paths, metrics=metrics, solver=self.preset or self.name,
+            backend=self.name, options=self.options(), seed=None, problem=problem.name,
+            times=times, cost=float(cost), n_iter=int(n_iter), n_eval=int(n_eval),
+            wall_time=float(wall_time) + time.perf_counter() - t_val, message=message,
+            history=history or History(),
+            extras=extras or {},
+        )
+
+    def _grade(self, status: Status, metrics: dict[str, Any],
+               message: str) -> tuple[Status, str]:
+        """The status of a claim given the validator's metrics (:meth:`finish`'s rules).
+
+        Parameters
+        ----------
+        status : Status
+            The backend's claim.
+        metrics : dict
+            The validator's metrics (with the backend's ``metrics_extra``).
+        message : str
+            The backend's message.
+
+        Returns
+        -------
+        tuple
+            ``(status, message)``: the graded status and the message, with the validator's
+            complaints or the grading's reason appended.
+        """
         if status in (Status.optimal, Status.solved):
             if not (metrics["feasible"] and metrics["reached"]):
-                why = []
-                if metrics["static_collisions"]:
-                    why.append(f"{metrics['static_collisions']} static collision(s) with "
-                               + ", ".join(repr(n) for n in metrics["crossed"]))
-                fc = metrics.get("first_contact")
-                if fc is not None:
-                    n_t = metrics["dynamic_contacts"] + metrics["separation_violations"]
-                    why.append(f"{n_t} contact(s) in time ({metrics['timing']} timing); first: "
-                               f"{fc['robot']} with {fc['kind']} {fc['other']!r} at "
-                               f"t={fc['time']:.3f} near ({fc['position'][0]:.4g}, "
-                               f"{fc['position'][1]:.4g})")
-                if not metrics["in_bounds"]:
-                    why.append("out of bounds")
-                if not metrics["reached"]:
-                    why.append("goal not reached")
-                if not metrics.get("starts_ok", True):
-                    why.append("path does not start at the start")
+                why = _validator_complaints(metrics)
                 status = Status.approximate
                 message = (message + "; " if message else "") + "validator: " + ", ".join(why)
             elif status is Status.optimal and not self.certifies:
@@ -358,14 +370,57 @@ class Backend:
             status = Status.solved
             message = (message + "; " if message else "") + (
                 "validator: the returned paths are feasible and reach the goal")
-        return Result(
-            status=status, paths=paths, metrics=metrics, solver=self.preset or self.name,
-            backend=self.name, options=self.options(), seed=None, problem=problem.name,
-            times=times, cost=float(cost), n_iter=int(n_iter), n_eval=int(n_eval),
-            wall_time=float(wall_time) + time.perf_counter() - t_val, message=message,
-            history=history or History(),
-            extras=extras or {},
-        )
+        return status, message
+
+
+def _validator_complaints(metrics: dict[str, Any]) -> list[str]:
+    """Why the validator rejects a success claim, in the order of the checks.
+
+    Parameters
+    ----------
+    metrics : dict
+        The validator's metrics of paths that are infeasible or do not reach their goals.
+
+    Returns
+    -------
+    list of str
+        One phrase per failed check.
+    """
+    why = []
+    if metrics["static_collisions"]:
+        why.append(f"{metrics['static_collisions']} static collision(s) with "
+                   + ", ".join(repr(n) for n in metrics["crossed"]))
+    fc = metrics.get("first_contact")
+    if fc is not None:
+        why.append(_first_contact_text(metrics, fc))
+    if not metrics["in_bounds"]:
+        why.append("out of bounds")
+    if not metrics["reached"]:
+        why.append("goal not reached")
+    if not metrics.get("starts_ok", True):
+        why.append("path does not start at the start")
+    return why
+
+
+def _first_contact_text(metrics: dict[str, Any], fc: dict[str, Any]) -> str:
+    """The validator's phrase for contacts in time: their number and the first one.
+
+    Parameters
+    ----------
+    metrics : dict
+        The validator's metrics.
+    fc : dict
+        ``metrics["first_contact"]``: robot, kind, other, time and position.
+
+    Returns
+    -------
+    str
+    """
+    n_t = metrics["dynamic_contacts"] + metrics["separation_violations"]
+    return (f"{n_t} contact(s) in time ({metrics['timing']} timing); first: "
+            f"{fc['robot']} with {fc['kind']} {fc['other']!r} at "
+            f"t={fc['time']:.3f} near ({fc['position'][0]:.4g}, "
+            f"{fc['position'][1]:.4g})")
 
 
 def _confirm_optimal(metrics: dict[str, Any], message: str) -> tuple[Status, str]:

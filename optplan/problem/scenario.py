@@ -35,16 +35,29 @@ from optplan.problem.parse_obstacles import (
 
 
 def _parse_formation(ctx: _Ctx, tbl: Any, robots: list[Robot], diag: float) -> Formation:
+    """The ``[formation]`` table: leader, followers and safety distance.
+
+    Parameters
+    ----------
+    ctx : _Ctx
+        The parsing context (file name, error messages).
+    tbl : Any
+        The raw table.
+    robots : list of Robot
+        The parsed robots.
+    diag : float
+        The bounds diagonal (upper bound of ``L`` and ``safety_distance``).
+
+    Returns
+    -------
+    Formation
+    """
     if not isinstance(tbl, dict):
         raise ctx.err("formation", f"expected a table, got {_show(tbl)}")
     ctx.check_keys(tbl, _FORM_KEYS, "formation.")
     ids = [r.id for r in robots]
     diag_s = f"the bounds diagonal {diag:.6g}"
-    leader = ctx.require(tbl, "leader", "formation.")
-    if not isinstance(leader, str):
-        raise ctx.err("formation.leader", f"expected a robot id string, got {_show(leader)}")
-    if leader not in ids:
-        raise ctx.err("formation.leader", f"names no robot: {leader!r} (robots: {sorted(ids)})")
+    leader = _formation_leader(ctx, tbl, ids)
     fl = ctx.require(tbl, "followers", "formation.")
     if not isinstance(fl, list) or not fl:
         got = "an empty list" if isinstance(fl, list) else _show(fl)
@@ -52,32 +65,137 @@ def _parse_formation(ctx: _Ctx, tbl: Any, robots: list[Robot], diag: float) -> F
                                              f"{{ id = ..., L = ..., phi = ... }}, got {got}")
     followers: list[Follower] = []
     for k, f in enumerate(fl):
-        pre = f"formation.followers[{k}]."
-        if not isinstance(f, dict):
-            raise ctx.err(f"formation.followers[{k}]", f"expected a table, got {_show(f)}")
-        ctx.check_keys(f, _FOLL_KEYS, pre)
-        fid = ctx.require(f, "id", pre)
-        if not isinstance(fid, str):
-            raise ctx.err(f"{pre}id", f"expected a robot id string, got {_show(fid)}")
-        if fid in {x.id for x in followers}:
-            raise ctx.err(f"{pre}id", f"follower {fid!r} is listed twice")
-        if fid not in ids:
-            raise ctx.err(f"{pre}id", f"names no robot: {fid!r} (robots: {sorted(ids)})")
-        if fid == leader:
-            raise ctx.err(f"{pre}id", f"the leader {leader!r} cannot also be a follower")
-        L = ctx.number(ctx.require(f, "L", pre), f"{pre}L", positive=True, hi=diag,
-                       hi_what=diag_s)
-        phi = ctx.number(ctx.require(f, "phi", pre), f"{pre}phi")
-        if abs(phi) > math.pi:
-            raise ctx.err(f"{pre}phi", f"must be in [-pi, pi] rad, got {phi}")
-        followers.append(Follower(fid, L, phi))
+        followers.append(_parse_follower(ctx, f, k, followers, ids, leader, diag, diag_s))
+    sd = _safety_distance(ctx, tbl, robots, diag, diag_s)
+    return Formation(leader, tuple(followers), sd)
+
+
+def _formation_leader(ctx: _Ctx, tbl: dict, ids: list[str]) -> str:
+    """The checked ``formation.leader``: the id of a robot.
+
+    Parameters
+    ----------
+    ctx : _Ctx
+        The parsing context.
+    tbl : dict
+        The ``[formation]`` table.
+    ids : list of str
+        The robots' ids.
+
+    Returns
+    -------
+    str
+    """
+    leader = ctx.require(tbl, "leader", "formation.")
+    if not isinstance(leader, str):
+        raise ctx.err("formation.leader", f"expected a robot id string, got {_show(leader)}")
+    if leader not in ids:
+        raise ctx.err("formation.leader", f"names no robot: {leader!r} (robots: {sorted(ids)})")
+    return leader
+
+
+def _parse_follower(ctx: _Ctx, f: Any, k: int, followers: list[Follower], ids: list[str],
+                    leader: str, diag: float, diag_s: str) -> Follower:
+    """One ``formation.followers`` table: ``id``, ``L`` and ``phi``.
+
+    Parameters
+    ----------
+    ctx : _Ctx
+        The parsing context.
+    f : Any
+        The raw table.
+    k : int
+        Its index in ``formation.followers``.
+    followers : list of Follower
+        The followers parsed before it.
+    ids : list of str
+        The robots' ids.
+    leader : str
+        The leader's id.
+    diag : float
+        The bounds diagonal (upper bound of ``L``).
+    diag_s : str
+        How ``diag`` is named in messages.
+
+    Returns
+    -------
+    Follower
+    """
+    pre = f"formation.followers[{k}]."
+    if not isinstance(f, dict):
+        raise ctx.err(f"formation.followers[{k}]", f"expected a table, got {_show(f)}")
+    ctx.check_keys(f, _FOLL_KEYS, pre)
+    fid = _follower_id(ctx, f, pre, followers, ids, leader)
+    L = ctx.number(ctx.require(f, "L", pre), f"{pre}L", positive=True, hi=diag,
+                   hi_what=diag_s)
+    phi = ctx.number(ctx.require(f, "phi", pre), f"{pre}phi")
+    if abs(phi) > math.pi:
+        raise ctx.err(f"{pre}phi", f"must be in [-pi, pi] rad, got {phi}")
+    return Follower(fid, L, phi)
+
+
+def _follower_id(ctx: _Ctx, f: dict, pre: str, followers: list[Follower], ids: list[str],
+                 leader: str) -> str:
+    """The checked ``id`` of a follower: a robot, listed once, not the leader.
+
+    Parameters
+    ----------
+    ctx : _Ctx
+        The parsing context.
+    f : dict
+        The follower's table.
+    pre : str
+        The key prefix, ``formation.followers[k].``.
+    followers : list of Follower
+        The followers parsed before it.
+    ids : list of str
+        The robots' ids.
+    leader : str
+        The leader's id.
+
+    Returns
+    -------
+    str
+    """
+    fid = ctx.require(f, "id", pre)
+    if not isinstance(fid, str):
+        raise ctx.err(f"{pre}id", f"expected a robot id string, got {_show(fid)}")
+    if fid in {x.id for x in followers}:
+        raise ctx.err(f"{pre}id", f"follower {fid!r} is listed twice")
+    if fid not in ids:
+        raise ctx.err(f"{pre}id", f"names no robot: {fid!r} (robots: {sorted(ids)})")
+    if fid == leader:
+        raise ctx.err(f"{pre}id", f"the leader {leader!r} cannot also be a follower")
+    return fid
+
+
+def _safety_distance(ctx: _Ctx, tbl: dict, robots: list[Robot], diag: float,
+                     diag_s: str) -> float:
+    """The checked ``formation.safety_distance`` (default: 2 x the largest robot radius).
+
+    Parameters
+    ----------
+    ctx : _Ctx
+        The parsing context.
+    tbl : dict
+        The ``[formation]`` table.
+    robots : list of Robot
+        The parsed robots.
+    diag : float
+        The bounds diagonal (upper bound).
+    diag_s : str
+        How ``diag`` is named in messages.
+
+    Returns
+    -------
+    float
+    """
     rmax = max(r.radius for r in robots)
     if "safety_distance" not in tbl and rmax == 0:
         raise ctx.err("formation.safety_distance", "missing: the default 2 x the largest "
                       "robot radius is 0 for point robots; give safety_distance > 0")
-    sd = ctx.number(tbl.get("safety_distance", 2 * rmax), "formation.safety_distance",
-                    positive=True, hi=diag, hi_what=diag_s)
-    return Formation(leader, tuple(followers), sd)
+    return ctx.number(tbl.get("safety_distance", 2 * rmax), "formation.safety_distance",
+                      positive=True, hi=diag, hi_what=diag_s)
 
 
 def parse_problem(data: dict, where: str = "<problem>") -> Problem:
