@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1] / "optplan"
 #: the model, the geometry and the core: never import a method or a tool
 CORE = ("optplan.problem", "optplan.canonical", "optplan.geometry", "optplan.metrics",
         "optplan.result", "optplan.options", "optplan.catalog", "optplan.solver",
-        "optplan.interfaces", "optplan.sim", "optplan.violations")
+        "optplan.interfaces", "optplan.sim", "optplan.violations", "optplan.backend")
 #: the method families (one package each)
 METHODS = ("optplan.exact", "optplan.swarm", "optplan.potential", "optplan.formation",
            "optplan.hybrid")
@@ -86,3 +86,28 @@ def test_every_module_is_on_the_architecture_page() -> None:
         if entry not in page:
             missing.append(entry)
     assert not missing, f"modules missing from docs/architecture.md: {missing}"
+
+
+#: the size budget of a module (lines) and of a function (cyclomatic complexity, radon)
+MAX_LINES = 600
+MAX_COMPLEXITY = 15
+
+
+def test_every_module_is_small() -> None:
+    big = {str(p.relative_to(ROOT.parent)): n for p in sorted(ROOT.rglob("*.py"))
+           if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
+    assert not big, f"modules over {MAX_LINES} lines: {big}"
+
+
+def test_no_function_is_too_complex() -> None:
+    """Cyclomatic complexity as radon counts it (boolean operators included)."""
+    from radon.complexity import cc_visit
+
+    bad = []
+    for p in sorted(ROOT.rglob("*.py")):
+        for block in cc_visit(p.read_text(encoding="utf-8")):
+            for b in [block, *getattr(block, "methods", [])]:
+                if b.complexity > MAX_COMPLEXITY:
+                    bad.append(f"{p.relative_to(ROOT.parent)}:{b.lineno} {b.name} "
+                               f"{b.complexity}")
+    assert not bad, f"functions above complexity {MAX_COMPLEXITY}: {bad}"

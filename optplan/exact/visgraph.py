@@ -1,7 +1,7 @@
 r"""Certified shortest path: the arc-exact tangent visibility graph (``optplan.geometry``).
 
 The mathematics lives in :mod:`optplan.geometry.tangent_graph` (the certified optimum is a
-geometry algorithm); this module is the thin :class:`~optplan.solver.Backend` driver.
+geometry algorithm); this module is the thin :class:`~optplan.backend.Backend` driver.
 
 For each planned robot (a disc of radius ``r >= 0``) the search returns the exact length of the
 shortest path among the true obstacles (segments + arcs), reported as ``metrics["optimum"]`` and
