@@ -20,6 +20,7 @@ CORE = ("optplan.problem", "optplan.canonical", "optplan.geometry", "optplan.met
 METHODS = ("optplan.exact", "optplan.swarm", "optplan.potential", "optplan.formation",
            "optplan.hybrid")
 TOOLS = ("optplan.cli", "optplan.bench", "optplan.benchdb", "optplan.report", "optplan.plot",
+         "optplan.doc_tables",
          "optplan.maps", "optplan.generators", "optplan.experiments")
 
 
@@ -111,3 +112,9 @@ def test_no_function_is_too_complex() -> None:
                     bad.append(f"{p.relative_to(ROOT.parent)}:{b.lineno} {b.name} "
                                f"{b.complexity}")
     assert not bad, f"functions above complexity {MAX_COMPLEXITY}: {bad}"
+
+
+def test_the_catalogue_does_not_import_the_solver() -> None:
+    """The catalogue reads files; the solver uses it (the docs' preset tables, which need
+    both, live in optplan.doc_tables)."""
+    assert not any(under(d, ("optplan.solver",)) for d in MODULES["optplan.catalog"])

@@ -115,7 +115,7 @@ def test_generated_options_table_lists_every_option_with_each_presets_value() ->
     import importlib.util
     from pathlib import Path
 
-    from optplan.catalog import options_table
+    from optplan.doc_tables import options_table
     from optplan.solver import get_solver
 
     presets = ["apf-paper", "sa-apf-paper"]

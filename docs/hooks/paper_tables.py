@@ -2,8 +2,8 @@
 ``<!-- options-table: PRESET [PRESET ...] -->`` with the presets' options table.
 
 The table is generated from ``solvers/PRESET.toml`` (its ``[options]``, ``[paper]`` and
-``[paper_notes]`` tables) by :func:`optplan.catalog.paper_table`, so it is always the values the
-solver really uses; the options table by :func:`optplan.catalog.options_table` from the
+``[paper_notes]`` tables) by :func:`optplan.doc_tables.paper_table`, so it is always the values the
+solver really uses; the options table by :func:`optplan.doc_tables.options_table` from the
 declared options and the backends' docstrings.
 """
 
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import re
 
-from optplan.catalog import options_table, paper_table
+from optplan.doc_tables import options_table, paper_table
 
 _MARK = re.compile(r"<!--\s*paper-table:\s*([\w.-]+)\s*-->")
 _OPTIONS = re.compile(r"<!--\s*options-table:\s*([\w.\s-]+?)\s*-->")
