@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 import optplan as op
+from optplan.geometry.polyline import path_lengths
 from optplan.potential.sa_apf import K_B, K_B_PAPER
 from optplan.problem import transform_problem
 
@@ -252,7 +253,7 @@ def _global_notes(p: str, scene: str, rs: list[dict[str, Any]]) -> list[str]:
         gs = [r["global"][rid] for r in rs]
         if _same_global(gs, rs[0]["extent"]):
             continue
-        desc = " / ".join(f"{float(np.sum(np.hypot(*np.diff(g, axis=0).T))):.6f} "
+        desc = " / ".join(f"{path_lengths(g):.6f} "
                           f"({len(g)} vertices)" for g in gs)
         notes.append(f"- {p} on {scene}, {rid}: global path length / scale at x "
                      + " / ".join(f"{k:g}" for k in SCALES) + f": {desc}")

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from optplan.canonical import to_world
+from optplan.geometry.polyline import path_lengths
 from optplan.hybrid.subgoals import inflection_points
 from optplan.interfaces import LocalController, stage_name
 from optplan.problem import Problem
@@ -56,7 +57,7 @@ def assemble(opts: Hybrid, glob: GlobalStage, policy: HybridPolicy, out: SimOutc
     n_eval = glob.result.n_eval if glob.result is not None else 0
     return dict(
         paths=paths, claim=claim, times=out.times,
-        cost=float(np.sum(np.hypot(*np.diff(lp, axis=0).T))), message=msg,
+        cost=path_lengths(lp), message=msg,
         n_iter=out.steps, n_eval=n_eval + out.steps, history=hist,
         extras=_extras(opts, glob, policy, out), wall_time=time.perf_counter() - t_start,
     )
@@ -95,7 +96,7 @@ def _extras(opts: Hybrid, glob: GlobalStage, policy: HybridPolicy,
         "local_solver": stage_name(opts.local_solver),
         "formation_solver": stage_name(opts.formation) if fctrl is not None else "",
         "global_status": gres.status.value if gres is not None else "init",
-        "global_length": float(np.sum(np.hypot(*np.diff(gpath, axis=0).T))),
+        "global_length": path_lengths(gpath),
         "global_metrics": _small_metrics(gres.metrics) if gres is not None else {},
         "global_wall_time": glob.wall_time,
         "subgoal_events": {d.robot.id: [{"subgoal": j, "t": t, "how": h}

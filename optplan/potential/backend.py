@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from optplan.geometry.polyline import path_lengths
 from optplan.options import option
 from optplan.potential.controller import APFController, Trace
 from optplan.potential.field import FieldParams
@@ -163,7 +164,7 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
     unit = problem.length_scale
     extra = {"time_to_goal": t_goal, "oscillation_index": oscillation_index(paths[lead], unit)}
     return backend.finish(problem, paths, claim=claim, times=out.times,
-                          cost=float(np.sum(np.hypot(*np.diff(paths[lead], axis=0).T))),
+                          cost=path_lengths(paths[lead]),
                           message=msg, n_iter=int(out.steps), n_eval=int(out.steps),
                           history=_trace_history(ctrls[li].trace, dt),
                           extras=_local_extras(out, ids, ctrls, unit),
