@@ -41,7 +41,8 @@ def one(engine: list[str], after: int, tmp: Path) -> tuple[float, int, int]:
            "--solvers", "pso-paper", "--set", "k_max=60", "--seeds", "40", *engine,
            "--db", str(db), "--out", str(tmp / "out"), "--quiet"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            cwd=tmp)
+                            cwd=tmp,  # SIGINT not ignored even when this script runs detached
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 300
         while _rows(db) < after and proc.poll() is None and time.monotonic() < deadline:

@@ -177,8 +177,11 @@ def test_ctrl_c_keeps_finished_runs_and_a_rerun_completes_the_rest(tmp_path):
            "--solvers", "pso-paper", "--set", "k_max=60", "--seeds", "40", "--workers", "2",
            "--db", str(db),
            "--out", str(tmp_path / "out"), "--quiet"]
+    # a suite run in the background of a non-interactive shell has SIGINT ignored, and a
+    # child inherits that: give the sweep the default disposition, as a terminal would
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            cwd=tmp_path)
+                            cwd=tmp_path,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         t_end = time.monotonic() + 90
         while _count(db) < 6:
