@@ -560,7 +560,6 @@ def test_warehouse_grid_scene():
     assert _union(prob).covers(g.squares().buffer(-1e-9))
     res = op.solve(prob, "visgraph")
     assert res.status.value == "optimal" and res.metrics["collisions"] == 0
-    assert res.wall_time < 1.0
 
 
 def test_office_floor_scene_has_holes():
@@ -569,7 +568,7 @@ def test_office_floor_scene_has_holes():
     assert any(o.geometry.interiors for o in prob.obstacles)
     assert _union(prob).covers(g.squares().buffer(-1e-9))
     res = op.solve(prob, "visgraph")
-    assert res.status.value == "optimal" and res.wall_time < 1.0
+    assert res.status.value == "optimal" and res.metrics["collisions"] == 0
 
 
 # --------------------------------------------------------------------------------------
