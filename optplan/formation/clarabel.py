@@ -111,7 +111,8 @@ class ResidentSolver:
         trouble.
         """
         try:
-            if self._solver is not None and np.array_equal(key, self._key):
+            if self._solver is not None and self._key is not None \
+                    and np.array_equal(key, self._key):
                 self._solver.update(q=q, A=values, b=b)
             else:
                 self._build(key, q, b, assemble)

@@ -114,8 +114,8 @@ class CompiledQP:
         A1.sort_indices()
         pattern = (A1.indices.astype(np.int64),
                    np.repeat(np.arange(A1.shape[1]), np.diff(A1.indptr)))
-        v = [_flat(d, pattern) for d in data]
-        _require(all(x is not None for x in v), "an entry of A off the common pattern")
+        v = [x for x in (_flat(d, pattern) for d in data) if x is not None]
+        _require(len(v) == len(data), "an entry of A off the common pattern")
         P = sp.triu(sp.csc_matrix(data[1]["P"])).tocsc()
         _require(all(abs(sp.triu(sp.csc_matrix(d["P"])) - P).sum() == 0 for d in data),
                  "a quadratic term that varies with the Parameter")
@@ -137,7 +137,8 @@ class CompiledQP:
         if out is None:
             st = {**model.settings, "max_iter": max(CHECK_ITER, model.settings.get("max_iter", 0))}
             out, why = cls._check(model, theta, args, st)
-            _require(out is not None, why)
+            if out is None:
+                raise CompileError(f"formation QP: {why}")
             out.clarabel.settings = model.settings
             out.clarabel.reset()
         return out

@@ -158,9 +158,9 @@ class _Geometry:
     Ds: float
     li: int | None  # controlled index of the leader, None when external
     edges: np.ndarray  # (F, 2)
+    xc_map: np.ndarray  # the controlled robots in map units (sensing)
     near: np.ndarray | None = None  # sensed nearest obstacle points (n, n_obs, 2)
     dist: np.ndarray | None = None  # and distances (n, n_obs)
-    xc_map: np.ndarray | None = None  # the controlled robots in map units (sensing)
 
 
 @dataclass
@@ -340,7 +340,7 @@ class QPFormationController:
     def _obstacle_rows(self, data: QPData, state: SimState, geo: _Geometry) -> None:
         """CBF rows of each robot's ``max_obstacles`` nearest sensed obstacles."""
         K, fld = self.o.max_obstacles, state.field
-        if not K or geo.dist is None:
+        if not K or geo.dist is None or geo.near is None:  # near and dist are sensed together
             return
         n, g, dt = len(geo.xc), self.o.gamma, state.dt
         vel = (fld.offsets(state.t + dt) - fld.offsets(state.t)) / (dt * self.ell)

@@ -188,6 +188,8 @@ def reference_path(problem: Problem, path_solver: Backend, rng: np.random.Genera
     if path is not None and len(path) >= 2 and res.status.value in ("optimal", "solved",
                                                                      "approximate"):
         return np.asarray(path, float), f"reference by {name} ({res.status.value})"
+    if lead.goal is None:
+        raise ValueError(f"problem {problem.name!r}: the leader {lead.id!r} has no goal")
     return (np.vstack([lead.start, lead.goal]),
             f"{name} returned {res.status.value}; straight-line reference used")
 
@@ -223,6 +225,8 @@ class _FormationRun:
         self.o, self.problem, self.tracker, self.fctrl = o, problem, tracker, fctrl
         self.joint, self.step_columns = joint, step_columns
         form = problem.formation
+        if form is None:
+            raise ValueError(f"problem {problem.name!r} has no [formation]")
         self.lead = problem.leader
         self.ids = [self.lead.id] + [f.id for f in form.followers]
         self.fidx = list(range(1, len(self.ids)))
@@ -419,7 +423,7 @@ class PilotedFormation(Backend):
     dt: float = option(0.5, lo=0.0, lo_open=True)
     max_steps: int = option(4000, lo=1, hi=10_000_000)
     settle_tol: float = option(0.005, lo=0.0, lo_open=True)
-    _stages: dict[str, Any] = field(init=False, repr=False, compare=False, default=None)
+    _stages: dict[str, Any] | None = field(init=False, repr=False, compare=False, default=None)
 
     def check(self) -> None:
         """Resolve the ``pilot`` and ``path_solver`` stages (a ``ValueError`` names the option)."""
@@ -442,6 +446,8 @@ class PilotedFormation(Backend):
     def stages(self) -> dict[str, Any]:
         """The resolved stages: ``{"pilot": LocalPlanner or None (the built-in pilot),
         "path_solver": Backend}``, set when the backend is built."""
+        if self._stages is None:  # check() runs in __post_init__, so only if it was bypassed
+            raise RuntimeError(f"{self.name}: the stages are not resolved (check() has not run)")
         return self._stages
 
     def options(self) -> dict[str, Any]:

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from optplan.formation.slots import slot_positions
+from optplan.problem import Formation, Problem
 from optplan.sim import ObstacleField, SimState
 
 __all__ = ["SafetyLayer", "project_halfplanes"]
@@ -119,7 +120,14 @@ class SafetyLayer:
     """
 
     o: Any
+    problem: Problem
+    form: Formation
+    ell: float
     stats: dict[str, Any]
+    _trail: np.ndarray
+    _lost: np.ndarray
+    _speed_rows: np.ndarray
+    _speed_rhs: float
 
     def _clear_segments(self, fld: ObstacleField, t: float, p: np.ndarray, C: np.ndarray,
                         clear: float) -> np.ndarray:
