@@ -139,6 +139,15 @@ def _now() -> str:
     return _dt.datetime.now(_dt.UTC).isoformat(timespec="milliseconds")
 
 
+def _inserted_id(cur: sqlite3.Cursor) -> int:
+    """The row id of the row the ``INSERT`` just run on ``cur`` added (``lastrowid`` is only
+    ``None`` before any ``INSERT``)."""
+    rid = cur.lastrowid
+    if rid is None:
+        raise sqlite3.DatabaseError("INSERT gave no row id")
+    return int(rid)
+
+
 def _float_in(x: Any) -> float | None:
     try:
         v = float(x)
@@ -283,7 +292,7 @@ class ResultsDB:
                  json.dumps(info.get("machine", {}), sort_keys=True),
                  info.get("command_line"), json.dumps(info.get("spec", {}), default=str),
                  int(planned), int(skipped)))
-        return int(cur.lastrowid)
+        return _inserted_id(cur)
 
     def end_experiment(self, experiment_id: int, outcome: str, done: int) -> None:
         with self.con:
@@ -308,7 +317,7 @@ class ResultsDB:
                 f"INSERT INTO runs (experiment_id, {', '.join(_ROW_COLS)}, config, worker, "
                 f"finished) VALUES ({', '.join('?' * (len(_ROW_COLS) + 4))})",
                 (int(experiment_id), *vals, config, worker, _now()))
-            run_id = int(cur.lastrowid)
+            run_id = _inserted_id(cur)
             self.con.executemany(
                 "INSERT INTO progress (run_id, iteration, best_cost, n_eval, time) "
                 "VALUES (?, ?, ?, ?, ?)",

@@ -232,7 +232,7 @@ def _shelves(rng: np.random.Generator, side: float, r: float) -> tuple[list, lis
     width = (x1 - x0 - cross.sum()) / cols
     pitch = (y1 - y0) / rows
     turn = rng.random() < 0.5
-    boxes = []
+    boxes: list[tuple[float, float, float, float]] = []
     x = x0
     for c in range(cols):
         for q in range(rows):

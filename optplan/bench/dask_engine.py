@@ -44,7 +44,7 @@ def _dask_chunk(chunk: Sequence[Task], init: Mapping[str, Any], hard: float | No
         wid = str(get_worker().address)
     except (ImportError, ValueError):
         wid = _worker_id()
-    out = []
+    out: list[tuple[dict[str, Any], Trace, str]] = []
     for task in chunk:
         t0 = time.perf_counter()
         res, how = _guarded(task, hard)

@@ -46,7 +46,7 @@ def _config(options: Mapping[str, Any], time_limit: float | None) -> str:
 
 def _not_count(v: Any) -> bool:
     """Not an integer >= 1 (a bool is not an integer here)."""
-    return isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1
+    return isinstance(v, bool) or not isinstance(v, (int, np.integer)) or bool(v < 1)
 
 
 def _check_time_args(time_limit: Any, time_grace: Any) -> None:

@@ -25,7 +25,9 @@ Record = Callable[[int, dict[str, Any], Trace, str], None]
 
 
 def _seed_list(seeds: int | Iterable[int]) -> list[int]:
-    if isinstance(seeds, (int, np.integer)) and not isinstance(seeds, bool):
+    if isinstance(seeds, bool):  # an int to isinstance, but neither a count nor seeds
+        raise TypeError(f"seeds must be an int or an iterable of ints, got {seeds!r}")
+    if isinstance(seeds, (int, np.integer)):
         if seeds < 1:
             raise ValueError(f"seeds must be >= 1, got {seeds}")
         return list(range(int(seeds)))

@@ -85,7 +85,7 @@ def _check_paths_times(res: Any, prob: Any, path: str) -> None:
 def _is_count(v: Any) -> bool:
     import numbers
 
-    return isinstance(v, numbers.Integral) and not isinstance(v, bool) and v >= 0
+    return isinstance(v, numbers.Integral) and not isinstance(v, bool) and int(v) >= 0
 
 
 def _is_robot_table(v: Any) -> bool:

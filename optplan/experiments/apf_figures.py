@@ -10,16 +10,25 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import numpy as np
+
 import optplan as op
 from optplan.plot import new_figure, plot_problem
 
 STYLE = {"apf-paper": ("tab:red", "basic APF"), "sa-apf-paper": ("tab:blue", "SA-APF")}
 
 
+def _times(r: op.Result) -> np.ndarray:
+    """``r.times`` (the APF presets time-stamp their paths)."""
+    if r.times is None:
+        raise ValueError(f"{r.solver} on {r.problem}: the result has no time stamps")
+    return r.times
+
+
 def draw(ax, name: str, seed: int = 0) -> None:
     prob = op.load_problem(name)
     results = {s: op.solve(prob, s, rng=seed) for s in STYLE}
-    t_end = max(float(r.times[-1]) for r in results.values())
+    t_end = max(float(_times(r)[-1]) for r in results.values())
     plot_problem(prob, ax=ax, t_end=t_end, labels=False)
     for s, r in results.items():
         c, lab = STYLE[s]

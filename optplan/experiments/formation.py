@@ -40,6 +40,9 @@ def run_comparison(scenes: Sequence[str] = SCENES, solvers: Sequence[str] = SOLV
     rows = []
     for scene in scenes:
         base = op.load_problem(scene)
+        if base.formation is None:
+            raise ValueError(f"{scene}: not a formation scene")
+        safety = base.formation.safety_distance
         for seed in range(seeds):
             prob = base if seed == 0 else jitter_phases(base, np.random.default_rng(seed))
             for solver in solvers:
@@ -53,7 +56,7 @@ def run_comparison(scenes: Sequence[str] = SCENES, solvers: Sequence[str] = SOLV
                     "max_err": m.get("formation_max_error", np.nan),
                     "final_err": m.get("formation_final_error", np.nan),
                     "min_sep": m.get("min_separation", np.nan),
-                    "safety": prob.formation.safety_distance,
+                    "safety": safety,
                     "clear": m.get("min_clearance", np.nan),
                     "clear_dyn": m.get("min_clearance_dynamic", np.nan),
                     "collisions": int(m.get("collisions", 0)),

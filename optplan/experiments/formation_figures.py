@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 import matplotlib
 
@@ -22,21 +23,29 @@ from matplotlib.patches import Circle  # noqa: E402
 
 import optplan as op  # noqa: E402
 
+if TYPE_CHECKING:
+    from shapely.geometry import Polygon
+
 SCENES = ("paper-formation", "paper-warehouse")
 SOLVERS = (("leader-follower-paper", "leader-follower-paper (eqs 39-52)"),
            ("formation-qp", "formation-qp (CBF QP)"))
 
 
 def draw(ax, prob: op.Problem, res: op.Result, title: str, n_snap: int = 10) -> None:
+    if res.times is None:
+        raise ValueError(f"{res.solver} on {prob.name}: the result has no time stamps")
+    times = res.times
     for o in prob.obstacles:
         colour = "0.25" if o.known else "0.6"
         if o.is_circle:  # exact centre and radius (circles have no polygon geometry)
-            ax.add_patch(Circle(tuple(o.center), o.radius, color=colour, alpha=0.8, lw=0))
-        else:
-            x, y = o.geometry.exterior.xy
+            # a circle's center and radius are set (Obstacle's invariant)
+            ax.add_patch(Circle(tuple(cast(np.ndarray, o.center)), cast(float, o.radius),
+                                color=colour, alpha=0.8, lw=0))
+        else:  # a polygon or rectangle: geometry is set (Obstacle's invariant)
+            x, y = cast("Polygon", o.geometry).exterior.xy
             ax.fill(x, y, color=colour, alpha=0.8, lw=0)
     for d in prob.dynamic_obstacles:
-        for t in res.times[:: max(1, len(res.times) // 8)]:
+        for t in times[:: max(1, len(times) // 8)]:
             x, y = d.geometry_at(t).exterior.xy
             ax.plot(x, y, color="m", lw=0.5, alpha=0.6)
     ref = res.extras.get("reference")
@@ -47,7 +56,7 @@ def draw(ax, prob: op.Problem, res: op.Result, title: str, n_snap: int = 10) -> 
     for k, rid in enumerate(ids):
         p = res.paths[rid]
         ax.plot(p[:, 0], p[:, 1], color=colours[k % 3], lw=1.2, label=rid)
-    n = len(res.times)
+    n = len(times)
     for k in np.linspace(0, n - 1, n_snap).astype(int):
         P = np.array([res.paths[i][k] for i in ids])
         ax.plot(np.r_[P[:, 0], P[0, 0]], np.r_[P[:, 1], P[0, 1]], ":", color="k", lw=0.7)
@@ -77,6 +86,8 @@ def main(argv: list[str] | None = None) -> None:
             res = op.solve(prob, solver, rng=0, path_solver="visgraph")
             draw(ax, prob, res, f"{scene}: {label}")
             fe = res.history["formation_error"]
+            if res.times is None:
+                raise ValueError(f"{solver} on {scene}: the result has no time stamps")
             axes[2].plot(res.times[: len(fe)], fe, label=label, lw=1)
         axes[2].set_xlabel("time (s)")
         axes[2].set_ylabel("worst follower distance to its slot")

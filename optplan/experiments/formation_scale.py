@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 from collections.abc import Sequence
+from typing import Any
 
 import optplan as op
 from optplan.problem import transform_problem
@@ -30,7 +31,7 @@ def run(scene: str, solver: str, scale: float, path_solver: str | None = None
         ) -> tuple[str, float, float]:
     """``(status, total path length / scale, formation RMSE / scale)``."""
     prob = transform_problem(op.load_problem(scene), scale)
-    extra = {} if path_solver is None else {"path_solver": path_solver}
+    extra: dict[str, Any] = {} if path_solver is None else {"path_solver": path_solver}
     r = op.solve(prob, solver, rng=0, **extra)
     total = sum(float(v) for v in r.metrics["lengths"].values())
     return r.status.value, total / scale, float(r.metrics["formation_rmse"]) / scale

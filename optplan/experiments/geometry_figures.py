@@ -17,6 +17,7 @@ Writes ``geometry-solids.png`` into ``--out`` (default ``runs/geometry-figures``
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +30,7 @@ __all__ = ["main", "scenes"]
 DEFAULT_OUT = Path("runs") / "geometry-figures"
 
 
-def _scene(name: str, rects: list[tuple[float, float, float, float]], r: float,
+def _scene(name: str, rects: Sequence[tuple[float, float, float, float]], r: float,
            start: tuple[float, float], goal: tuple[float, float]) -> op.Problem:
     return op.parse_problem({
         "name": name, "bounds": [0.0, 0.0, 100.0, 100.0],

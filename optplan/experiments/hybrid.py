@@ -223,7 +223,8 @@ def formation_runs(seeds: Sequence[int], scenes: Sequence[str] = FORMATION_SCENE
         for solver in solvers:
             for s in seeds:
                 t0 = time.perf_counter()
-                over = {} if global_solver == "ipso" else {"global_solver": global_solver}
+                over: dict[str, Any] = ({} if global_solver == "ipso"
+                                        else {"global_solver": global_solver})
                 try:
                     res = op.solve(prob, solver, rng=int(s), **over)
                 except (ValueError, ImportError) as e:  # a stage not available in this build

@@ -26,11 +26,15 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 import optplan as op
+
+if TYPE_CHECKING:
+    from optplan.formation.leader_follower import LeaderFollower
+    from optplan.hybrid.planner import Hybrid
 
 __all__ = ["reach_visible_rows", "format_reach_visible", "leader_rho_0_rows",
            "format_leader_rho_0", "ipso_paper_known_rows",
@@ -69,7 +73,8 @@ def leader_rho_0_rows(seeds: Sequence[int], scenes: Sequence[str] = RHO_SCENES
 
 
 def format_leader_rho_0(rows: list[dict[str, Any]]) -> str:
-    rho_preset = op.get_solver("hybrid-paper").stages["local_solver"].rho_0
+    # the hybrid-paper preset is a "hybrid" backend (solvers/hybrid-paper.toml)
+    rho_preset = cast("Hybrid", op.get_solver("hybrid-paper")).stages["local_solver"].rho_0
     out = ["| scene | leader rho_0 | success | leader length | collisions | time to goal (s) "
            "| SA escapes (total) |", "|---|---|---|---|---|---|---|"]
     for scene in dict.fromkeys(r["scene"] for r in rows):
@@ -165,14 +170,16 @@ def eq52_scene(rho: float, side: str) -> tuple[op.Problem, np.ndarray]:
     return prob, np.array([0.0, n])
 
 
-def eq52_probe(rho: float, side: str, safety: bool) -> dict[str, float]:
+def eq52_probe(rho: float, side: str, safety: bool) -> dict[str, Any]:
     """One follower command of ``leader-follower-paper`` (``recovery`` off) in
     :func:`eq52_scene`: the component toward the wall and the eq 52 ratios."""
     from optplan.formation.leader_follower import adapted_angle
     from optplan.sim import ObstacleField, SimState
 
     prob, n = eq52_scene(rho, side)
-    fb = op.get_solver("leader-follower-paper", safety=safety, recovery=False)
+    # a "leader-follower" backend (solvers/leader-follower-paper.toml)
+    fb = cast("LeaderFollower", op.get_solver("leader-follower-paper", safety=safety,
+                                                recovery=False))
     ctrl = fb.followers_controller(prob, np.random.default_rng(0))
     P = np.array([prob.robot("leader").start, prob.robot("f1").start])
     st = SimState(0, 0.0, ["leader", "f1"], P, np.array([[5.0, 0.0], [5.0, 0.0]]),
@@ -186,12 +193,12 @@ def eq52_probe(rho: float, side: str, safety: bool) -> dict[str, float]:
             "toward": float(v @ n), "speed": float(np.hypot(*v))}
 
 
-def eq52_rows(rhos: Sequence[float] = (0.01, 0.04, 0.1, 1.0, 5.0)) -> list[dict[str, float]]:
+def eq52_rows(rhos: Sequence[float] = (0.01, 0.04, 0.1, 1.0, 5.0)) -> list[dict[str, Any]]:
     return [eq52_probe(rho, side, safety) for safety in (True, False)
             for side in ("outer", "inner") for rho in rhos]
 
 
-def format_eq52(rows: list[dict[str, float]]) -> str:
+def format_eq52(rows: list[dict[str, Any]]) -> str:
     out = ["| safety layer | wall side | clearance rho | phi_d / Phi (code, rho >= 1/c) | "
            "literal eq 52 | follower command toward the wall |", "|---|---|---|---|---|---|"]
     for r in rows:

@@ -63,6 +63,8 @@ def formation(seed: int, out: Path) -> dict[str, op.Result]:
         prob = op.load_problem(scene)
         res = op.solve(prob, "hybrid-paper", rng=seed, **OVER)
         runs[scene] = res
+        if res.times is None:
+            raise ValueError(f"hybrid-paper on {scene}: the result has no time stamps")
         fig = new_figure(size=(9.5, 7.0), layout="constrained")
         ax = fig.subplots()
         plot_result(res, problem=prob, ax=ax, snapshot_every=max(1, len(res.times) // 10),
@@ -77,13 +79,18 @@ def formation_error(runs: dict[str, op.Result], out: Path) -> None:
     axes = fig.subplots(2, len(runs), squeeze=False)
     for j, (scene, res) in enumerate(runs.items()):
         prob = op.load_problem(scene)
+        form = prob.formation
+        if form is None:
+            raise ValueError(f"{scene}: not a formation scene")
         fe = formation_errors(prob, res.paths)["position"]
         t = res.times
+        if t is None:
+            raise ValueError(f"hybrid-paper on {scene}: the result has no time stamps")
         print(f"{scene}: largest follower slot error " + ", ".join(
             f"{f.id} {fe[:, k].max():.1f} at t = {t[int(np.argmax(fe[:, k]))]:.1f} s"
-            for k, f in enumerate(prob.formation.followers)))
+            for k, f in enumerate(form.followers)))
         ax = axes[0, j]
-        for k, f in enumerate(prob.formation.followers):
+        for k, f in enumerate(form.followers):
             ax.plot(t, fe[:, k], label=f"{f.id} (L = {f.L:g})")
         ax.set_title(f"{scene}: follower distance to its slot", fontsize=10)
         ax.set_xlabel("t (s)")
@@ -96,7 +103,7 @@ def formation_error(runs: dict[str, op.Result], out: Path) -> None:
         for a in range(len(ids)):
             for b in range(a + 1, len(ids)):
                 ax.plot(t, np.hypot(*(P[:, a] - P[:, b]).T), label=f"{ids[a]}-{ids[b]}")
-        ax.axhline(prob.formation.safety_distance, color="r", ls="--", lw=1,
+        ax.axhline(form.safety_distance, color="r", ls="--", lw=1,
                    label="safety distance")
         ax.set_title(f"{scene}: pairwise separation", fontsize=10)
         ax.set_xlabel("t (s)")

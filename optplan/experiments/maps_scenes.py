@@ -344,6 +344,8 @@ def team_figure(out: Path, prob: op.Problem, runs: dict[str, op.Result]) -> Path
     out.mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(len(runs), 1, figsize=(12.5, 3.9 * len(runs)), layout="constrained")
     for ax, (s, r) in zip(np.atleast_1d(axes), runs.items()):
+        if r.times is None:
+            raise ValueError(f"{s} on {prob.name}: the result has no time stamps")
         every = max(1, int(round(8.0 / float(np.median(np.diff(r.times))))))
         plot.plot_result(r, problem=prob, ax=ax, snapshot_every=every, legend="outside")
         ax.set_xlim(-14.5, 14.0)
