@@ -88,7 +88,8 @@ def _merged_spans(seg: np.ndarray, u0: np.ndarray, u1: np.ndarray) -> list[list]
 
 def _polylines(sp: np.ndarray, spans: list[list]) -> list[np.ndarray]:
     """The spans as polylines, joined where one ends at a vertex and the next starts there."""
-    out, line = [], []
+    out: list[np.ndarray] = []
+    line: list[np.ndarray] = []
     for i, (k, a0, a1) in enumerate(spans):
         a, d = sp[k], sp[k + 1] - sp[k]
         joined = i > 0 and spans[i - 1][0] == k - 1 and spans[i - 1][2] == 1.0 and a0 == 0.0

@@ -55,7 +55,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
@@ -175,7 +175,7 @@ class Hybrid(Backend):
     v_factor: float = option(0.75, lo=0.0, hi=1.0, lo_open=True)
     heading_rate: float = option(0.0, lo=0.0)
     stop_on_collision: bool = option(True)
-    _stages: dict[str, Any] = field(init=False, repr=False, compare=False, default=None)
+    _stages: dict[str, Any] | None = field(init=False, repr=False, compare=False, default=None)
 
     def check(self) -> None:
         """Resolve the three stages (names of the wrong kind raise ``ValueError``) and check
@@ -188,7 +188,8 @@ class Hybrid(Backend):
                                  "(set leader_rho_0 = None to use it as it is)")
             prev = local
             try:
-                local = dataclasses.replace(prev, rho_0=float(self.leader_rho_0))
+                # a planner with a rho_0 field (hasattr above), which Backend does not declare
+                local = dataclasses.replace(cast(Any, prev), rho_0=float(self.leader_rho_0))
             except ValueError as e:
                 raise ValueError(f"option 'leader_rho_0' of backend 'hybrid': {e}") from None
             object.__setattr__(local, "_preset", getattr(prev, "_preset", None))
@@ -207,6 +208,8 @@ class Hybrid(Backend):
         """The resolved stages: ``global_solver`` (Backend), ``local_solver``
         (:class:`~optplan.interfaces.LocalPlanner`) and ``formation``
         (:class:`~optplan.interfaces.FormationBackend`, or None for ``formation = ""``)."""
+        if self._stages is None:  # check() runs in __post_init__, so only if it was bypassed
+            raise RuntimeError(f"{self.name}: the stages are not resolved (check() has not run)")
         return self._stages
 
     def options(self) -> dict[str, Any]:
@@ -276,6 +279,8 @@ class Hybrid(Backend):
         rngs = rng.spawn(len(team.drivers))
         drivers = []
         for i, r in enumerate(team.drivers):
+            if r.goal is None:  # drivers are robots with a goal (_team; the leader has one)
+                raise ValueError(f"{self.name}: robot {r.id!r} drives itself but has no goal")
             goals = subgoals(gpaths[r.id], r.goal, self.angle_tol,
                              self.subgoal_spacing * problem.length_scale)
             ctrl = planner.controller(problem, r.id, rngs[i])

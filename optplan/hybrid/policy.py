@@ -12,15 +12,15 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
 from optplan.hybrid.tracker import Driver, SubgoalTracker
 from optplan.interfaces import FollowerController
 from optplan.potential.backend import RobotsAsObstacles
-from optplan.problem import Problem, Robot
-from optplan.sim import SimState
+from optplan.problem import Formation, Problem, Robot
+from optplan.sim import ObstacleField, SimState
 
 if TYPE_CHECKING:
     from optplan.hybrid.planner import Hybrid
@@ -48,8 +48,10 @@ class HybridPolicy:
         lid = problem.leader.id
         self.lead = next((d for d in drivers if d.robot.id == lid), drivers[0])
         self.f_idx = [team.ids.index(f) for f in team.follower_ids] if fctrl else []
-        form = problem.formation
-        self.L = np.array([f.L for f in form.followers]) if fctrl else np.zeros(0)
+        if fctrl:  # a follower controller only with a formation (Hybrid.solve)
+            self.L = np.array([f.L for f in cast(Formation, problem.formation).followers])
+        else:
+            self.L = np.zeros(0)
         self.k_arrived: int | None = None
         self.gave_up: list[str] = []
         # several drivers (no formation between them): each one's local planner senses the
@@ -76,8 +78,9 @@ class HybridPolicy:
         """Driver ``d``'s command (capped, heading updated), or None when it gave up."""
         if self.sense_others:
             o = self._d_idx != d.index
-            state = dataclasses.replace(state, field=RobotsAsObstacles(
-                state.field, state.positions[self._d_idx[o]], self._d_rad[o]))
+            # RobotsAsObstacles implements the part of ObstacleField the controllers use
+            state = dataclasses.replace(state, field=cast(ObstacleField, RobotsAsObstacles(
+                state.field, state.positions[self._d_idx[o]], self._d_rad[o])))
         v = d.controller.velocity(state, d.index)
         while v is None and not d.final:
             d.advance(state.k, state.t, "gave_up")
@@ -108,7 +111,8 @@ class HybridPolicy:
         """The followers' commands into ``u``; False on non-finite output."""
         li = self.lead.index
         state.leader_velocity = u[li].copy()
-        uf = self.fctrl.velocities(state, li, self.f_idx, self.lead.heading)
+        fctrl = cast(FollowerController, self.fctrl)  # called only with one (__call__)
+        uf = fctrl.velocities(state, li, self.f_idx, self.lead.heading)
         uf = np.asarray(uf, dtype=float).reshape(len(self.f_idx), 2)
         if not np.all(np.isfinite(uf)):
             self.gave_up.append(f"formation controller returned non-finite velocities at "
@@ -120,8 +124,9 @@ class HybridPolicy:
     def followers_settled(self, positions: np.ndarray) -> bool:
         if self.fctrl is None:
             return True
-        slots = positions[self.lead.index] + self.problem.formation.slot_offsets(
-            self.lead.heading)
+        # a follower controller only with a formation (Hybrid.solve: team.use_formation)
+        form = cast(Formation, self.problem.formation)
+        slots = positions[self.lead.index] + form.slot_offsets(self.lead.heading)
         err = np.hypot(*(positions[self.f_idx] - slots).T)
         return bool(np.all(err <= self.o.settle_tol * self.L))
 

@@ -98,6 +98,8 @@ def _take_paths(gres: Result, need: list[Robot], out: GlobalStage) -> None:
         if p is None or len(p) < 2 or gres.status is Status.failed:
             out.messages.append(f"global stage gave no path for {r.id} "
                                 f"({gres.status.value}); heading straight for the goal")
+            if r.goal is None:  # drivers are robots with a goal (Hybrid._team)
+                raise ValueError(f"robot {r.id!r} drives itself but has no goal")
             p = np.vstack([r.start, r.goal])
         out.paths[r.id] = np.asarray(p, dtype=float)
     if gres.status not in (Status.optimal, Status.solved):

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 import shapely
 from shapely.geometry import Polygon, box
 
@@ -69,7 +70,7 @@ class Grid:
         """A shapely geometry in cell units mapped to world coordinates."""
         return shapely.affinity.affine_transform(geom, self.affine())
 
-    def cell_to_world(self, xy: np.ndarray) -> np.ndarray:
+    def cell_to_world(self, xy: npt.ArrayLike) -> np.ndarray:
         """Points ``(n, 2)`` in cell units (``x = col``, ``y = H - row``) to world."""
         a, b, d, e, xo, yo = self.affine()
         p = np.asarray(xy, dtype=float).reshape(-1, 2)
@@ -109,7 +110,8 @@ class Grid:
         if yaw == 0.0:
             r = float(self.resolution)
             return (float(ox), float(oy), float(ox) + self.width * r, float(oy) + self.height * r)
-        return tuple(float(v) for v in self.outline.bounds)
+        x0, y0, x1, y1 = self.outline.bounds
+        return (float(x0), float(y0), float(x1), float(y1))
 
     def squares(self, mask: np.ndarray | None = None) -> Any:
         """Exact union of the cell squares of ``mask`` (default: occupied or unknown), world."""

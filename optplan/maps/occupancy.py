@@ -27,8 +27,9 @@ def _read_pixels(path: Path, where: Any, key: str) -> tuple[np.ndarray, np.ndarr
     from PIL import Image, UnidentifiedImageError
 
     try:
-        with Image.open(path) as im:
-            im.load()
+        with Image.open(path) as src:
+            src.load()
+            im: Image.Image = src
             mode = im.mode
             if mode == "P":
                 im = im.convert("RGBA" if "transparency" in im.info else "RGB")

@@ -3,18 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
+from matplotlib.text import Text
 
 from optplan.plot.legend import _place_legend
 from optplan.plot.scene import _problem_of, _robot_colour, plot_problem
 from optplan.plot.shapes import _draw_poly, _draw_violations, _include_points, _poly_path, _polygons
 from optplan.plot.style import DYN_COLOUR, GLOBAL_COLOUR
-from optplan.problem import Problem
+from optplan.problem import Formation, Problem
 from optplan.result import Result
 from optplan.violations import violations
 
@@ -74,7 +75,7 @@ class _Frames:
             patches = _draw_poly(ax, d.geometry_at(float(t[0])), fc=DYN_COLOUR, ec="black",
                                  lw=0.6, alpha=0.8, zorder=6)
             self.dyn_patches.append((d, patches))
-        self.clock = None
+        self.clock: Text | None = None  # set by animate, before the first frame
 
     def _add_robot(self, ax: Axes, k: str) -> None:
         """Robot ``k``'s disc (at least 0.6 % of the map wide) and its trail."""
@@ -107,13 +108,16 @@ class _Frames:
             if self.trail:
                 self.trails[k].set_data(pos[k][: i + 1, 0], pos[k][: i + 1, 1])
         if self.links:
-            pl = pos[self.prob.formation.leader][i]
+            # links only with a formation (_add_links)
+            pl = pos[cast(Formation, self.prob.formation).leader][i]
             for fid, ln in self.links:
                 ln.set_data([pl[0], pos[fid][i][0]], [pl[1], pos[fid][i][1]])
         for d, patches in self.dyn_patches:
             polys = _polygons(d.geometry_at(ti))
             for patch, poly in zip(patches, polys):
                 patch.set_path(_poly_path(poly))
+        if self.clock is None:
+            raise RuntimeError("_Frames.clock must be set before the first frame")
         self.clock.set_text(f"t = {ti:.2f}")
         return []
 

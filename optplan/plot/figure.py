@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -13,7 +13,7 @@ from optplan.plot.style import FORMATS
 
 
 def new_figure(size: tuple[float, float] = (6.0, 6.0), dpi: int = 100,
-               layout: str | None = None) -> Figure:
+               layout: Literal["constrained", "compressed", "tight"] | None = None) -> Figure:
     """A figure on the Agg canvas (headless, no pyplot state).
 
     ``layout="constrained"`` makes room for legends placed outside the axes (the default
@@ -26,7 +26,9 @@ def new_figure(size: tuple[float, float] = (6.0, 6.0), dpi: int = 100,
 
 def _get_ax(ax: Axes | None, size: tuple[float, float] = (7.6, 6.0)) -> tuple[Figure, Axes]:
     if ax is not None:
-        return ax.figure, ax
+        # the root Figure (ax.figure itself, or the Figure holding the SubFigure of ax: a
+        # SubFigure has no savefig)
+        return ax.figure.figure, ax
     fig = new_figure(size, layout="constrained")
     return fig, fig.add_subplot(1, 1, 1)
 
@@ -50,4 +52,5 @@ def _renderer(fig: Figure) -> Any:
     canvas = fig.canvas
     if hasattr(canvas, "get_renderer"):
         return canvas.get_renderer()
-    return fig._get_renderer()  # a bare Figure (animate): a throw-away Agg renderer
+    # a bare Figure (animate): a throw-away Agg renderer (private, not in matplotlib's stubs)
+    return fig._get_renderer()  # type: ignore[attr-defined]

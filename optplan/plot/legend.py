@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal, cast
 
 import numpy as np
 from matplotlib.axes import Axes
 
 from optplan.plot.figure import _renderer
 from optplan.plot.style import LEGEND_PLACES
+
+_Corner = Literal["upper right", "upper left", "lower left", "lower right"]
+_CORNERS: tuple[_Corner, ...] = ("upper right", "upper left", "lower left", "lower right")
 
 
 def _data_samples(ax: Axes, renderer: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -55,8 +58,9 @@ def _data_samples(ax: Axes, renderer: Any) -> tuple[np.ndarray, np.ndarray]:
             covered |= path.contains_points(grid)
         else:
             path = patch.get_transform().transform_path(patch.get_path().interpolated(8))
-            pts.append(path.vertices)
-            wts.append(np.full(len(path.vertices), 0.5))
+            v = np.asarray(path.vertices)  # an ndarray already (typed ArrayLike)
+            pts.append(v)
+            wts.append(np.full(len(v), 0.5))
     pts.append(grid[covered])
     wts.append(np.full(int(covered.sum()), 0.25))
     return np.concatenate(pts), np.concatenate(wts)
@@ -67,11 +71,11 @@ def _corner_legend(ax: Axes, fontsize: float) -> Any:
 
     Ties go to the first of upper right, upper left, lower left, lower right.
     """
-    renderer = _renderer(ax.figure)
+    renderer = _renderer(ax.figure.figure)  # the root Figure (the same canvas)
     ax.apply_aspect()  # the box the axes will be drawn in (equal aspect)
     pts, wts = _data_samples(ax, renderer)
-    best = None
-    for loc in ("upper right", "upper left", "lower left", "lower right"):
+    best: tuple[float, _Corner] | None = None
+    for loc in _CORNERS:
         leg = ax.legend(loc=loc, fontsize=fontsize, framealpha=0.9)
         b = leg.get_window_extent(renderer)
         inside = ((pts[:, 0] >= b.x0) & (pts[:, 0] <= b.x1) & (pts[:, 1] >= b.y0)
@@ -79,7 +83,9 @@ def _corner_legend(ax: Axes, fontsize: float) -> Any:
         score = float(wts[inside].sum())
         if best is None or score < best[0]:
             best = (score, loc)
-    return ax.legend(loc=best[1], fontsize=fontsize, framealpha=0.9)
+    # set by the first corner: the loop runs over four
+    return ax.legend(loc=cast(tuple[float, _Corner], best)[1], fontsize=fontsize,
+                     framealpha=0.9)
 
 
 def _place_legend(ax: Axes, where: str | None, own_figure: bool, fontsize: float = 8) -> Any:

@@ -145,7 +145,7 @@ def _draw_snapshot(ax: Axes, prob: Problem, pos: dict[str, np.ndarray], ids: lis
         _draw_poly(ax, d.geometry_at(t), fc="none", ec=DYN_COLOUR,
                    lw=0.8, alpha=alpha, zorder=4)
     if prob.dynamic_obstacles and ids:
-        ax.annotate(f"t={t_label:.3g}", pos[ids[0]], textcoords="offset points",
+        ax.annotate(f"t={t_label:.3g}", tuple(pos[ids[0]]), textcoords="offset points",
                     xytext=(5, -10), fontsize=6, color="#37474f", zorder=9)
 
 

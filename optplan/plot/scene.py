@@ -162,5 +162,5 @@ def _draw_robots(ax: Axes, problem: Problem, labels: bool) -> None:
         if r.goal is not None:
             ax.plot(*r.goal, "*", color=c, ms=11, mec="black", mew=0.5, zorder=5)
         if labels:
-            ax.annotate(r.id, r.start, textcoords="offset points", xytext=(4, 4), fontsize=8,
+            ax.annotate(r.id, tuple(r.start), textcoords="offset points", xytext=(4, 4), fontsize=8,
                         color=c, zorder=6)

@@ -86,7 +86,7 @@ def _draw_inflated(ax: Axes, obstacles: Sequence, r: float, **kw: Any) -> None:
 def _draw_violations(ax: Axes, v: Mapping[str, list]) -> None:
     """Red marks for :func:`optplan.violations.violations`; legend entries "collision" and
     "outside the map"."""
-    label = "collision"
+    label: str | None = "collision"
     for seg in v["segments"]:
         # a wide red band under the path: the robot's colour stays visible along its middle
         ax.plot(seg[:, 0], seg[:, 1], "-", color=COLLISION_COLOUR, lw=6.0, alpha=0.75,
@@ -117,8 +117,8 @@ def _draw_violations(ax: Axes, v: Mapping[str, list]) -> None:
 
 def _include_points(ax: Axes, prob: Problem, paths: Mapping[str, np.ndarray]) -> None:
     """Widen the limits so that points outside the bounds are in view."""
-    pts = [np.asarray(p, dtype=float).reshape(-1, 2) for p in paths.values()]
-    pts = np.concatenate(pts) if pts else np.zeros((0, 2))
+    parts = [np.asarray(p, dtype=float).reshape(-1, 2) for p in paths.values()]
+    pts = np.concatenate(parts) if parts else np.zeros((0, 2))
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     if not len(pts):
         return
