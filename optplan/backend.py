@@ -7,10 +7,11 @@ optimum confirms it, docs/api.md).  The registry, presets and :func:`optplan.sol
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import numpy as np
 
@@ -185,7 +186,8 @@ def _confirm_optimal(metrics: dict[str, Any], message: str) -> tuple[Status, str
     """The grading of an ``optimal`` claim of a certifying backend: kept when the certified
     optimum it reports confirms the length (:func:`~optplan.result.confirms_optimum`), else
     ``solved`` with the gap in the message."""
-    length = metrics.get("length_exact", metrics.get("length"))
+    # the validator's metrics always report the length
+    length = cast(float, metrics.get("length_exact", metrics.get("length")))
     opt = metrics.get("optimum")
     if confirms_optimum(length, opt):
         return Status.optimal, message
@@ -208,4 +210,4 @@ def share_known_view_sets(problem: Problem) -> None:
         return
     view = problem.known_view()
     for r in sorted({float(x.radius) for x in problem.robots}):
-        problem.memo(("obstacle_set", r, False), lambda r=r: view.obstacle_set(r))
+        problem.memo(("obstacle_set", r, False), functools.partial(view.obstacle_set, r))

@@ -63,6 +63,8 @@ def formation_errors(problem: Problem, paths: dict[str, np.ndarray]) -> dict[str
     from its slot), ``distance`` (``|r| - L``) and ``angle`` (wrapped ``phi_actual - phi``).
     """
     f = problem.formation
+    if f is None:
+        raise ValueError(f"problem {problem.name!r} has no formation")
     lead = np.asarray(paths[f.leader])
     lead_r = problem.robot(f.leader)
     fb = 0.0
@@ -70,7 +72,7 @@ def formation_errors(problem: Problem, paths: dict[str, np.ndarray]) -> dict[str
         g = lead_r.goal - lead_r.start
         fb = float(np.arctan2(g[1], g[0]))
     th = leader_headings(lead, fb, min_step=1e-6 * problem.extent)
-    slots = lead[:, None, :] + problem.formation.slot_offsets(th)
+    slots = lead[:, None, :] + f.slot_offsets(th)
     fol = np.stack([np.asarray(paths[x.id]) for x in f.followers], axis=1)
     rel = fol - lead[:, None, :]
     dist = np.hypot(rel[..., 0], rel[..., 1])

@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from dataclasses import field as dc_field
 from typing import Any
 
 import numpy as np
@@ -89,7 +90,7 @@ class ObstacleField:
         self._static_set = (problem.obstacle_set(0.0, known_only, walls=False) if self.static
                             else None)
         # dynamic: circles by index and radius; polygons as (index, engine of the local shape)
-        circ = [(self.n_static + k, float(d.radius)) for k, d in enumerate(self.dynamic)
+        circ = [(self.n_static + k, d.circle_radius()) for k, d in enumerate(self.dynamic)
                 if d.kind == "circle"]
         self._circ_idx = np.array([j for j, _ in circ], dtype=np.int64)
         self._circ_r = np.array([r for _, r in circ], dtype=float)
@@ -154,9 +155,9 @@ class ObstacleField:
         if len(self._circ_idx):
             j = self._circ_sel
             near[:, j], dist[:, j] = _circle_nearest(pts, off[j], self._circ_r, max_range)
-        for j, oset in self._dyn_polys:
-            q, d = oset.nearest(pts - off[j], max_range)
-            near[:, j], dist[:, j] = q[:, 0] + off[j], d[:, 0]
+        for i, oset in self._dyn_polys:
+            q, d = oset.nearest(pts - off[i], max_range)
+            near[:, i], dist[:, i] = q[:, 0] + off[i], d[:, 0]
         return near, dist
 
 
@@ -195,9 +196,9 @@ class SimState:
     positions: np.ndarray  # (R, 2)
     velocities: np.ndarray  # (R, 2) commanded at the previous step
     field: ObstacleField
-    dt: float = field(kw_only=True)
-    leader_velocity: np.ndarray | None = field(default=None, kw_only=True)
-    contacts: list[str] = field(default_factory=list, kw_only=True)
+    dt: float = dc_field(kw_only=True)
+    leader_velocity: np.ndarray | None = dc_field(default=None, kw_only=True)
+    contacts: list[str] = dc_field(default_factory=list, kw_only=True)
 
     def leader_command(self, leader_index: int) -> np.ndarray:
         """``leader_velocity`` when a driver set it, else the leader's previous velocity."""
@@ -215,7 +216,7 @@ class SimOutcome:
     reason: str  # 'done', 'collision', 'budget', 'gave_up', 'callback'
     collision: str = ""
     steps: int = 0
-    contacts: list[str] = field(default_factory=list)
+    contacts: list[str] = dc_field(default_factory=list)
 
     def paths(self) -> dict[str, np.ndarray]:
         return {rid: self.positions[:, i, :].copy() for i, rid in enumerate(self.ids)}

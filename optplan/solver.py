@@ -44,7 +44,7 @@ import math
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -251,7 +251,8 @@ def make_rng(rng: int | np.random.Generator | None) -> tuple[np.random.Generator
     if isinstance(rng, np.random.Generator):
         return rng, None
     if rng is None:
-        seed = int(np.random.SeedSequence().entropy % (2**63))
+        # a SeedSequence drawn from OS entropy has an int entropy (numpy types it loosely)
+        seed = int(cast(int, np.random.SeedSequence().entropy) % (2**63))
         return np.random.default_rng(seed), seed
     if isinstance(rng, (bool, float)) or not isinstance(rng, (int, np.integer)) or rng < 0:
         raise ValueError(f"rng must be a non-negative int, a numpy Generator or None, got {rng!r}")

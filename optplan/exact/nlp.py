@@ -268,6 +268,8 @@ class WaypointNLP(Backend):
                 return (None, res.info.get("reason", "the tangent graph has no path"),
                         Status.infeasible)
             return res.polyline, "visgraph", Status.solved
+        if robot.goal is None:
+            raise ValueError(f"robot {robot.id!r} has no goal to plan to")
         return np.vstack([robot.start, robot.goal]), "straight", Status.solved
 
 
@@ -349,15 +351,16 @@ class WaypointNLP(Backend):
             if out is None:
                 continue
             if len(problem.planned_robots) == 1:
-                prog.best = min(prog.best, path_lengths(path))
-            hist.append(iteration=prog.it or out.iterations, best_cost=path_lengths(path),
+                prog.best = min(prog.best, float(path_lengths(path)))
+            hist.append(iteration=prog.it or out.iterations, best_cost=float(path_lengths(path)),
                         n_eval=out.iterations, time=time.perf_counter() - t0,
                         robot=robot.id, rounds=out.rounds)
         claim = combine_claims(claims, prog.stop)
         lead = problem.leader.id if problem.leader.id in paths else next(iter(paths))
         opt = extras["ipopt"].get(lead, {}).get("optimum")
         return self.finish(
-            problem, paths, claim=claim, cost=path_lengths(paths[lead]), message="; ".join(msgs),
+            problem, paths, claim=claim, cost=float(path_lengths(paths[lead])),
+            message="; ".join(msgs),
             metrics_extra=None if opt is None else {"optimum": opt},
             n_iter=sum(e["iterations"] for e in extras["ipopt"].values()),
             n_eval=sum(e["iterations"] for e in extras["ipopt"].values()),

@@ -53,11 +53,11 @@ class IterCallback:
     """Factory of a casadi iteration callback forwarding to a Python target (set per solve)."""
 
     @staticmethod
-    def make(nx: int, ng: int, np_: int):
+    def make(nx: int, ng: int, np_: int) -> Any:
         import casadi as ca
 
         class CB(ca.Callback):
-            def __init__(self):
+            def __init__(self) -> None:
                 ca.Callback.__init__(self)
                 self.target: Callable[[float], bool] | None = None
                 self.construct("optplan_nlp_iter", {})

@@ -47,7 +47,7 @@ def certify(problem: Problem, robot: Robot, path: np.ndarray,
     ref = problem_shortest_path(problem, robot, known_only)  # cached: the visgraph init
     if ref.polyline is None or not ref.info.get("certified"):
         return Status.solved, "locally optimal (KKT); no certified optimum to compare", None
-    length, opt = path_lengths(path), ref.length
+    length, opt = float(path_lengths(path)), ref.length
     same = same_homotopy(path, ref.polyline, problem.obstacle_set(robot.radius, known_only))
     if same and confirms_optimum(length, opt):
         return Status.optimal, "", opt

@@ -219,6 +219,8 @@ def shape_set(kind: str, radius: float | None, local_geometry, robot_radius: flo
     h = length / (2.0 * math.sqrt(2.0))
     frame = Frame.from_bounds((-h, -h, h, h))
     if kind == "circle":
+        if radius is None:
+            raise ValueError("a moving circle needs a radius")
         o = Obstacle("circle", None, name="moving", center=np.zeros(2), radius=float(radius))
     else:
         o = Obstacle("polygon", local_geometry, name="moving")

@@ -305,7 +305,8 @@ class ObstacleSet:
                 np.ascontiguousarray(self.item_obstacle, dtype=np.int64))
         return self._cache["arrays"]
 
-    def _grid_args(self) -> tuple:
+    def _grid_args(self) -> tuple[bool, float, float, float, int, int, np.ndarray, np.ndarray,
+                                  np.ndarray]:
         g = self.grid
         if g is None:
             z = np.zeros(1, np.int64)

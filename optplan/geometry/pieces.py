@@ -113,7 +113,7 @@ def convex_decompose(geom) -> list[np.ndarray]:
         for k, t in enumerate(getattr(shapely.constrained_delaunay_triangles(poly), "geoms",
                                       [])):
             if t.area > 0:
-                rings[k] = [tuple(map(float, q)) for q in
+                rings[k] = [(float(x), float(y)) for x, y in
                             np.asarray(orient(t, 1.0).exterior.coords)[:-1]]
         out.extend(_merge_convex(rings))
     return [v for v in out if len(v) >= 3]

@@ -53,6 +53,7 @@ import heapq
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -369,7 +370,7 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
     g_loc = fr.local(np.asarray(goal, float))
     zs, zg = complex(s_loc[0], s_loc[1]), complex(g_loc[0], g_loc[1])
     C = circles_of(oset) if circles is None else circles
-    info = {"n_circles": C.n, "n_expanded": 0, "n_generated": 0, "n_checked": 0,
+    info: dict[str, Any] = {"n_circles": C.n, "n_expanded": 0, "n_generated": 0, "n_checked": 0,
             "certified": False}
     why = _endpoint_problem(oset, start, goal)
     if why is not None:
@@ -455,12 +456,12 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
 
 def _rebuild_polyline(res: TangentPath, frame, robot, step: float) -> TangentPath:
     """``res`` with its arcs re-drawn with chords of at most ``step`` radians."""
-    z = [complex(*frame.local(robot.start))]
+    pts = [complex(*frame.local(robot.start))]
     for c, rho, th, sweep, s in res.waypoints:
         arc = arc_polyline(c, rho, th, sweep * s, step)
-        z.extend(arc if rho > 0 else arc[:1])
-    z.append(complex(*frame.local(robot.goal)))
-    z = np.array(z)
+        pts.extend(arc if rho > 0 else arc[:1])
+    pts.append(complex(*frame.local(robot.goal)))
+    z = np.array(pts)
     poly = frame.world(np.stack([z.real, z.imag], axis=1))
     keep = np.r_[True, np.any(np.diff(poly, axis=0) != 0, axis=1)]
     poly = poly[keep]

@@ -14,7 +14,7 @@ import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -111,8 +111,9 @@ class _TeamPolicy:
         if not self.sense_robots:
             return state
         o = np.arange(len(self.ctrls)) != i
-        return dataclasses.replace(state, field=RobotsAsObstacles(
-            state.field, state.positions[o], self.radii[o]))
+        # duck-typed: RobotsAsObstacles is the part of ObstacleField the controllers use
+        return dataclasses.replace(state, field=cast(ObstacleField, RobotsAsObstacles(
+            state.field, state.positions[o], self.radii[o])))
 
     def __call__(self, state: SimState) -> np.ndarray | None:
         out = np.zeros((len(self.ctrls), 2))
@@ -164,7 +165,7 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
     unit = problem.length_scale
     extra = {"time_to_goal": t_goal, "oscillation_index": oscillation_index(paths[lead], unit)}
     return backend.finish(problem, paths, claim=claim, times=out.times,
-                          cost=path_lengths(paths[lead]),
+                          cost=float(path_lengths(paths[lead])),
                           message=msg, n_iter=int(out.steps), n_eval=int(out.steps),
                           history=_trace_history(ctrls[li].trace, dt),
                           extras=_local_extras(out, ids, ctrls, unit),
@@ -290,6 +291,10 @@ class PotentialFieldBackend(Backend):
     detect_eq38: bool = option(True)
     evade_factor: float = option(0.0, lo=0.0, hi=100.0)
     sense_robots: bool = option(True)
+
+    if TYPE_CHECKING:  # each planner (APF, SAAPF) defines it (LocalPlanner)
+        def controller(self, problem: Problem, robot_id: str, rng: np.random.Generator
+                       ) -> APFController: ...
 
     def check(self) -> None:
         if self.rho_min > self.rho_0:

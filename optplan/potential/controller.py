@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -41,6 +41,7 @@ from optplan.problem import Problem, Robot
 from optplan.sim import ObstacleField, SimState
 
 if TYPE_CHECKING:
+    from optplan.potential.apf import APF
     from optplan.potential.backend import PotentialFieldBackend
 
 __all__ = ["APFController", "Trace"]
@@ -235,7 +236,8 @@ class APFController:
         if self._trap_at is not None:
             if np.hypot(*(x - self._trap_at)) > r_same + l_step:
                 self._trap_at, self._trap_since = None, None
-            elif self.stats["steps"] - self._trap_since >= self.b.patience:
+            # built by APF.controller only (SAAPFController overrides _step): the backend is APF
+            elif self.stats["steps"] - self._trap_since >= cast("APF", self.b).patience:
                 dg = float(np.hypot(*(self.goal - x)))
                 kind = ("oscillating near the goal (GNRON)" if dg <= self.params.rho_0 +
                         self.robot.radius else "trapped in a local minimum")

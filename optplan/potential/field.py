@@ -172,7 +172,7 @@ def evaluate_field(points: np.ndarray, goal: np.ndarray, fld: ObstacleField, t: 
     rho_g = np.hypot(g[:, 0], g[:, 1])
     u_att = 0.5 * p.k * rho_g * rho_g
     F = p.k * g
-    u_rep = np.zeros(P)
+    u_rep: np.ndarray = np.zeros(P)  # np.bincount with weights: float64
     cmin = np.full(P, np.inf)
     r_idx, o_idx = np.nonzero(dist <= p.rho_0 + p.radius)  # pairs inside the influence range
     if len(r_idx):

@@ -150,14 +150,29 @@ class Obstacle:
     def is_circle(self) -> bool:
         return self.kind == "circle"
 
+    def disc(self) -> tuple[np.ndarray, float]:
+        """``(center, radius)`` of a circle (``ValueError`` for a polygon or rectangle)."""
+        if not self.is_circle or self.center is None or self.radius is None:
+            raise ValueError(f"obstacle {self.name!r} ({self.kind}) is not a circle with a "
+                             "center and a radius")
+        return self.center, self.radius
+
+    def polygon(self) -> Polygon:
+        """The shapely ``geometry`` of a polygon or rectangle (``ValueError`` for a circle)."""
+        if self.geometry is None:
+            raise ValueError(f"obstacle {self.name!r} ({self.kind}) has no polygon geometry")
+        return self.geometry
+
     @property
     def bounds(self) -> tuple[float, float, float, float]:
         """Exact axis-aligned bounding box ``(xmin, ymin, xmax, ymax)`` (world coordinates)."""
         if self.is_circle:
-            cx, cy = (float(v) for v in self.center)
-            r = float(self.radius)
+            center, radius = self.disc()
+            cx, cy = (float(v) for v in center)
+            r = float(radius)
             return (cx - r, cy - r, cx + r, cy + r)
-        return tuple(float(v) for v in self.geometry.bounds)
+        x0, y0, x1, y1 = (float(v) for v in self.polygon().bounds)
+        return (x0, y0, x1, y1)
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,6 +194,13 @@ class DynamicObstacle:
     after: str = "hold"
     name: str = ""
     radius: float | None = None
+
+    def circle_radius(self) -> float:
+        """The ``radius`` of a circle (``ValueError`` for a polygon)."""
+        if self.kind != "circle" or self.radius is None:
+            raise ValueError(f"dynamic obstacle {self.name!r} ({self.kind}) is not a circle "
+                             "with a radius")
+        return float(self.radius)
 
     def position(self, t: float | np.ndarray) -> np.ndarray:
         """Reference position at time(s) ``t``; shape ``(2,)`` or ``(len(t), 2)``.
@@ -205,7 +227,7 @@ class DynamicObstacle:
         centre = self.position(t)
         rel = pts - centre
         if self.kind == "circle":
-            return np.maximum(np.hypot(rel[:, 0], rel[:, 1]) - float(self.radius), 0.0)
+            return np.maximum(np.hypot(rel[:, 0], rel[:, 1]) - self.circle_radius(), 0.0)
         return shapely.distance(shapely.points(rel), self.local_geometry)
 
 

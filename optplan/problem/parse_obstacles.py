@@ -4,7 +4,7 @@
 from __future__ import annotations
 
 import difflib
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 from shapely.geometry import Point
@@ -243,13 +243,14 @@ def _check_extent(ctx: _Ctx, frame, o: Obstacle, key: str, margin: float) -> Non
     lo = np.array([x0 - margin, y0 - margin])
     hi = np.array([x1 + margin, y1 + margin])
     if o.is_circle:
-        c = frame.local(o.center)
-        R = float(o.radius)
+        center, radius = o.disc()
+        c = frame.local(center)
+        R = float(radius)
         if np.any(c + R < lo) or np.any(c - R > hi):
             return
         extent = float(np.max(np.abs(c))) + R
     else:
-        wx0, wy0, wx1, wy1 = o.geometry.bounds
+        wx0, wy0, wx1, wy1 = o.polygon().bounds
         blo, bhi = frame.local([wx0, wy0]), frame.local([wx1, wy1])
         if np.any(bhi < lo) or np.any(blo > hi):
             return
@@ -380,7 +381,9 @@ def _check_dynamic_size(ctx: _Ctx, frame: Any, pre: str, name: str, radius: floa
     float
         The shape's extent about its origin.
     """
-    size = float(radius) if radius is not None else float(np.max(np.abs(verts)))
+    # a polygon (radius None) has its vertices
+    size = (float(radius) if radius is not None
+            else float(np.max(np.abs(cast(np.ndarray, verts)))))
     try:
         frame.check_extent(size, f"the shape of dynamic obstacle {name!r}")
     except ValueError as e:

@@ -215,12 +215,13 @@ def parse_problem(data: dict, where: str = "<problem>") -> Problem:
         raise ctx.err("<root>", "values nested too deeply") from None
 
 
-def _parse_bounds(ctx: _Ctx, data: dict) -> tuple[tuple[float, ...], Any]:
+def _parse_bounds(ctx: _Ctx, data: dict) -> tuple[tuple[float, float, float, float], Any]:
     """The ``bounds`` key: (xmin, ymin, xmax, ymax) and the map's :class:`Frame`."""
     b = ctx.require(data, "bounds", "")
     if not isinstance(b, list) or len(b) != 4:
         raise ctx.err("bounds", f"expected [xmin, ymin, xmax, ymax], got {_show(b)}")
-    bounds = tuple(ctx.number(v, f"bounds[{k}]") for k, v in enumerate(b))
+    bx0, by0, bx1, by1 = (ctx.number(v, f"bounds[{k}]") for k, v in enumerate(b))
+    bounds = (bx0, by0, bx1, by1)
     if bounds[0] >= bounds[2] or bounds[1] >= bounds[3]:
         raise ctx.err("bounds", f"need xmin < xmax and ymin < ymax, got {list(bounds)}")
     w, h = bounds[2] - bounds[0], bounds[3] - bounds[1]

@@ -36,15 +36,17 @@ def _obstacle_to_dict(o: Obstacle) -> dict[str, Any]:
     """The ``[[obstacles]]`` table of ``o``."""
     t: dict[str, Any] = {"type": o.kind, "name": o.name}
     if o.is_circle:
-        t["center"] = [float(v) for v in o.center]
-        t["radius"] = float(o.radius)
+        center, radius = o.disc()
+        t["center"] = [float(v) for v in center]
+        t["radius"] = float(radius)
     elif o.kind == "rectangle":
-        x0, y0, x1, y1 = o.geometry.bounds
+        x0, y0, x1, y1 = o.polygon().bounds
         t["min"], t["max"] = [x0, y0], [x1, y1]
     else:
-        t["vertices"] = ring_points(o.geometry.exterior)
-        if o.geometry.interiors:
-            t["holes"] = [ring_points(h) for h in o.geometry.interiors]
+        poly = o.polygon()
+        t["vertices"] = ring_points(poly.exterior)
+        if poly.interiors:
+            t["holes"] = [ring_points(h) for h in poly.interiors]
     if not o.known:
         t["known"] = False
     return t
@@ -54,7 +56,7 @@ def _dynamic_to_dict(d: DynamicObstacle) -> dict[str, Any]:
     """The ``[[dynamic_obstacles]]`` table of ``d``."""
     t: dict[str, Any] = {"type": d.kind, "name": d.name}
     if d.kind == "circle":
-        t["radius"] = float(d.radius)
+        t["radius"] = d.circle_radius()
     else:
         t["vertices"] = ring_points(d.local_geometry.exterior)
     t["waypoints"] = [[float(x), float(y)] for x, y in d.waypoints]

@@ -341,7 +341,7 @@ class SwarmBackend(Backend):
                 msgs.append(f"{robot.id}: no collision-free particle found "
                             f"({st.gbest_count} crossing(s) in gbest)")
         hist = _merge_rows(all_rows)
-        first = next(iter(per_robot.values()), {})
+        first: dict[str, Any] = next(iter(per_robot.values()), {})
         extras = {
             "converged_iteration": first.get("converged_iteration", 0),
             "per_robot": per_robot,

@@ -97,7 +97,7 @@ def endgame_candidates(space: SwarmSpace, feas_x: np.ndarray | None, island_x: I
     feas = free_paths(padded, space.clear if space.clear is not None else space.obstacles)
     if not feas.any():
         feas = free_paths(padded, space.obstacles)
-    lens = [path_lengths(p) for p in paths]
+    lens = [float(path_lengths(p)) for p in paths]
     cand = sorted((lens[i], i) for i in range(len(paths)) if feas[i])
     if by_class:
         cand = one_per_class(cand, signature_hashes(padded, space))

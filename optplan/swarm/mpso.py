@@ -41,6 +41,8 @@ def mutate_one_coordinate(X: np.ndarray, lo: np.ndarray, hi: np.ndarray, p_t: fl
 
     Returns the new positions and the boolean mask of mutated particles.
     """
+    P: int  # numpy types shape entries as Any: the int picks rng's array overloads
+    D: int
     P, D = X.shape
     hit = rng.random(P) > p_t
     dims = rng.integers(0, D, size=P)
