@@ -13,7 +13,7 @@ export NO_MKDOCS_2_WARNING := 1
 
 help:
 	@echo "make demo       the main job: paper-warehouse with hybrid-paper (table, PNG and GIF under runs/)"
-	@echo "make test       ruff + pytest (not slow) + mkdocs build --strict"
+	@echo "make test       ruff + mypy + pytest (not slow) + mkdocs build --strict"
 	@echo "make bench      run the speed benchmarks in benchmarks/"
 	@echo "make docs       build the documentation site into site/"
 	@echo "make clean      remove build artefacts (make distclean also removes .venv)"
@@ -31,6 +31,7 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/ruff check .
+	$(BIN)/mypy optplan
 	$(BIN)/python -m pytest -m "not slow" -q
 	$(BIN)/mkdocs build --strict --quiet
 
