@@ -3,7 +3,7 @@
 A *stage* is a solver used inside another one: the hybrid planner's global path solver, local
 planner and formation backend (:class:`~optplan.hybrid.planner.Hybrid`), a formation
 backend's leader pilot and reference path solver
-(:class:`~optplan.formation.leader_follower.PilotedFormation`).  What a stage must provide is
+(:class:`~optplan.formation.pilot.PilotedFormation`).  What a stage must provide is
 declared here as :class:`typing.Protocol` classes (``runtime_checkable``, so ``isinstance``
 checks the methods and attributes are there; subclassing them is optional and only documents
 the intent), and :func:`resolve_stage` turns a stage option into a backend object when the

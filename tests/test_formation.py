@@ -17,11 +17,10 @@ from optplan.formation.leader_follower import (
     adapted_angle,
     lphi_gradient,
     lphi_potential,
-    pilot_force,
-    project_halfplanes,
-    relative_polar,
-    slot_positions,
 )
+from optplan.formation.pilot import pilot_force
+from optplan.formation.safety import project_halfplanes
+from optplan.formation.slots import relative_polar, slot_positions
 from optplan.generators import formation_scene, jitter_phases
 from optplan.interfaces import FollowerController, FormationBackend
 from optplan.metrics import formation_errors

@@ -16,7 +16,8 @@ import shapely
 import optplan as op
 from optplan.cli import main as cli_main
 from optplan.formation.formation_qp import FormationQP
-from optplan.formation.leader_follower import LeaderFollower, PilotedFormation
+from optplan.formation.leader_follower import LeaderFollower
+from optplan.formation.pilot import PilotedFormation
 from optplan.options import describe_options, option_spec
 from optplan.problem import transform_problem
 

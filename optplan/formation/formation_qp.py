@@ -455,7 +455,7 @@ class FormationQP(PilotedFormation, FormationBackend):
         ``length_scale``, so the tolerance is relative to the scene's size).
     k, eta, rho_0, n, adapt_phi, rho_0_f, c_phi, pilot, path_solver, v_factor, ref_spacing,
     lookahead, tau_h, dt, max_steps, settle_tol
-        See :class:`~optplan.formation.leader_follower.PilotedFormation` (the leader's pilot,
+        See :class:`~optplan.formation.pilot.PilotedFormation` (the leader's pilot,
         eq 52 and the run settings).
     """
 

@@ -92,43 +92,22 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan.formation.pilot import (
-    BUILTIN_PILOT,
-    PILOT_GAINS,
-    PilotAPF,
     PilotedFormation,
-    ReferenceTracker,
-    make_pilot,
-    pilot_force,
-    reference_path,
     run_formation,
 )
-from optplan.formation.safety import SafetyLayer, project_halfplanes
-from optplan.formation.slots import relative_polar, slot_positions, wrap
+from optplan.formation.safety import SafetyLayer
+from optplan.formation.slots import relative_polar
 from optplan.interfaces import FormationBackend
 from optplan.problem import Problem
 from optplan.sim import SimState
 from optplan.solver import make_rng, option
 
 __all__ = [
-    "PilotedFormation",
     "LeaderFollower",
     "LPhiFollowers",
-    "PilotAPF",
-    "ReferenceTracker",
     "lphi_potential",
     "lphi_gradient",
     "adapted_angle",
-    "relative_polar",
-    "slot_positions",
-    "pilot_force",
-    "run_formation",
-    # defined in pilot, safety and slots, importable from here as before the split
-    "BUILTIN_PILOT",
-    "PILOT_GAINS",
-    "make_pilot",
-    "reference_path",
-    "project_halfplanes",
-    "wrap",
 ]
 
 #: robot clearance floor used in 1/rho terms (map units)

@@ -30,7 +30,7 @@ import numpy as np
 
 from optplan.formation.slots import slot_positions, wrap
 from optplan.interfaces import LOCAL_PLANNER, PATH_SOLVER, LocalController, resolve_stage
-from optplan.potential.apf import attractive_force, repulsive_force
+from optplan.potential.field import attractive_force, repulsive_force
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status
 from optplan.sim import ObstacleField, SimState, simulate

@@ -19,8 +19,6 @@ which is exactly the paper's comparison.  ``eta_match_n = 0`` gives the literal 
 The basic planner only counts detections; it gives up when it is still within
 ``2 l + radius`` of a detected minimum ``patience`` steps later (status ``approximate``).
 
-The forces :func:`attractive_force`, :func:`repulsive_force` and the multi-robot sensing view
-:class:`RobotsAsObstacles` are importable from here too (the formation family uses them).
 """
 
 from __future__ import annotations
@@ -32,12 +30,12 @@ import numpy as np
 
 from optplan.interfaces import LocalPlanner
 from optplan.options import option
-from optplan.potential.backend import PotentialFieldBackend, RobotsAsObstacles
+from optplan.potential.backend import PotentialFieldBackend
 from optplan.potential.controller import APFController
-from optplan.potential.field import FieldParams, attractive_force, repulsive_force
+from optplan.potential.field import FieldParams
 from optplan.problem import Problem, Robot
 
-__all__ = ["APF", "attractive_force", "repulsive_force", "RobotsAsObstacles"]
+__all__ = ["APF"]
 
 
 @dataclass(frozen=True, kw_only=True)
