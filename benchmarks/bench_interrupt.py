@@ -5,8 +5,9 @@ installed) a sweep of ``pso-paper`` on ``paper-env1`` and ``paper-env2`` (``k_ma
 seeds) is started in a subprocess with a results database; once ``--after`` runs are stored,
 SIGINT is sent and the time until the process exits is measured.  Printed per engine and
 repetition: seconds from the signal to the exit, the exit status (130 expected) and the rows
-kept.  The behaviour (exit 130, rows kept, resume) is what ``tests/test_benchdb.py`` tests; the
-time is this script's figure (the docs quote it), measured on whatever else the machine runs.
+kept.  The behaviour (exit 130, rows kept, resume) is what ``tests/tools/test_benchdb.py``
+tests; the time is this script's figure (the docs quote it), measured on whatever else the
+machine runs.
 
 Run: ``python benchmarks/bench_interrupt.py [--repeats 3] [--after 6]``.
 """

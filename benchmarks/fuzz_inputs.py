@@ -41,7 +41,7 @@ Every case is classified:
 
 Run ``python benchmarks/fuzz_inputs.py`` for the full run (>= 3,000 scenarios, >= 2,500 option
 values, >= 200 inits, >= 50 result files; ``--workers N``, ``--seed S``, ``--quick``) and the
-counts table; ``tests/test_fuzz.py`` runs a bounded, seeded slice.  Known findings in files
+counts table; ``tests/tools/test_fuzz.py`` runs a bounded, seeded slice.  Known findings in files
 other engineers own (backends, ``solve``'s option and ``init`` checks) are listed in
 :data:`KNOWN_FINDINGS`: cases they explain are reported in their own column.
 """
@@ -1782,7 +1782,7 @@ def _replace(pool: list[_Worker], w: _Worker, log_dir: Path, born: dict) -> None
 # ======================================================================================
 
 #: finding id -> (where, what happens, predicate on a bad outcome).  A bad outcome a finding
-#: explains is reported in the "known findings" column (and ``tests/test_fuzz.py`` xfails it).
+#: explains is reported in the "known findings" column (and ``tests/tools/test_fuzz.py`` xfails it).
 KNOWN_FINDINGS: dict[str, tuple[str, str, Callable[[Outcome], bool]]] = {
     "int-option-recompiles": (
         "optplan/swarm/ipso.py (swarm kernels)",

@@ -29,7 +29,7 @@ What is and is not invariant: a drawing scaled by any factor gives bit-identical
 (up to the straddle chance above); a translated drawing does not (the frame is about the origin, and
 translation changes the last bits of every coordinate).  The ``hybrid`` backend plans in this frame;
 the other backends plan on the scene as given (their scale invariance within 1 % is tested
-directly, ``tests/test_scale_invariance.py``).
+directly, ``tests/core/test_scale_invariance.py``).
 """
 
 from __future__ import annotations

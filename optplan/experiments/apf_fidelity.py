@@ -37,7 +37,7 @@ __all__ = ["sweep_rows", "format_sweep", "KB_SCENES", "PRESETS", "REPRESENTATIVE
 
 KB_SCENES = ("paper-apf-env1", "paper-apf-env2", "trap-u")
 PRESETS = ("apf-paper", "sa-apf-paper", "hybrid-paper", "hybrid-qp")
-#: the scene of each time-stepping preset in tests/test_scale_invariance.py
+#: the scene of each time-stepping preset in tests/core/test_scale_invariance.py
 REPRESENTATIVE = {"apf-paper": "trap-saddle", "sa-apf-paper": "trap-u",
                   "hybrid-paper": "paper-hybrid", "hybrid-qp": "paper-hybrid"}
 #: (preset, scene) pairs whose simulated-annealing walks are chaotic: before the hybrid planned

@@ -1,8 +1,8 @@
 """Two independently planned robots swapping the ends of an empty field, with and without the
 ``sense_robots`` option of ``apf`` / ``sa-apf`` (beyond the paper).
 
-Prints the table quoted in docs/solvers/apf.md ("Several robots"); ``tests/test_apf.py`` asserts
-the statuses.
+Prints the table quoted in docs/solvers/apf.md ("Several robots");
+``tests/potential/test_apf.py`` asserts the statuses.
 
     python -m optplan.experiments.apf_multi_robot
 """

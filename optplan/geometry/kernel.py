@@ -2,7 +2,7 @@
 
 Every function here is ``@njit(cache=True)``: compiled on first use (a few seconds once per
 machine; the machine code is cached in ``__pycache__``) and tested against shapely in
-``tests/test_geometry.py``.  Why compiled: the engine answers many small queries (a swarm's
+``tests/geometry/test_geometry.py``.  Why compiled: the engine answers many small queries (a swarm's
 fitness: tens of paths x a few segments x the obstacles near them, thousands of times per run);
 per-query numpy overhead, not arithmetic, would dominate, and early exits per (segment, item)
 pair are natural in loops.  The maths is in :mod:`optplan.geometry.obstacles`' docstring.
@@ -416,7 +416,7 @@ def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_g
       is compared with the segment's box (no division; an item outside it is farther than
       ``r + 2 eps``, which the screens of :func:`crossings` skip as well).
 
-    Tested against shapely and against :func:`crossings` in ``tests/test_swarm.py`` (its
+    Tested against shapely and against :func:`crossings` in ``tests/swarm/test_swarm.py`` (its
     caller is :func:`optplan.swarm.core.pairs_free`).
     """
     n = I.shape[0]

@@ -3,7 +3,7 @@ implementation): per (point, obstacle) the nearest boundary point and the exact 
 inside (:meth:`optplan.geometry.obstacles.ObstacleSet.nearest`).
 
 The data layout is that of :mod:`optplan.geometry.kernel`; tested against shapely in
-``tests/test_geometry.py``.
+``tests/geometry/test_geometry.py``.
 """
 
 from __future__ import annotations

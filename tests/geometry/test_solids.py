@@ -10,7 +10,6 @@ import math
 import numpy as np
 import pytest
 import shapely
-from oracles import path_is_free, plain_visibility_length, polygonal_bracket
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 from shapely.ops import split
@@ -19,6 +18,7 @@ import optplan as op
 from optplan.geometry import Frame, obstacle_set
 from optplan.geometry.tangent_graph import shortest_path
 from optplan.problem import Obstacle, parse_problem
+from tests.geometry.oracles import path_is_free, plain_visibility_length, polygonal_bracket
 
 BOUNDS = (0.0, 0.0, 100.0, 100.0)
 FRAME = Frame.from_bounds(BOUNDS)

@@ -134,7 +134,7 @@ def test_generated_options_table_lists_every_option_with_each_presets_value() ->
     assert "(x length_scale)" in rows["rho_0"] and "eq 4" in rows["k"]
     assert rows["n"].endswith("| - | `3.0` |")  # an option of sa-apf only
     spec = importlib.util.spec_from_file_location(
-        "paper_tables", Path(__file__).parents[1] / "docs" / "hooks" / "paper_tables.py")
+        "paper_tables", Path(__file__).parents[2] / "docs" / "hooks" / "paper_tables.py")
     hook = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(hook)
     page = ("a\n\n<!-- options-table: apf-paper sa-apf-paper -->\n\n"

@@ -28,8 +28,8 @@ from optplan.problem.context import (
     _TOP_KEYS,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
-BAD_DIR = Path(__file__).resolve().parent / "data" / "bad"
+ROOT = Path(__file__).resolve().parents[2]
+BAD_DIR = Path(__file__).resolve().parents[1] / "data" / "bad"
 README = ROOT / "problems" / "README.md"
 
 # fixture file -> (key the message must name, further text the message must contain)

@@ -10,7 +10,6 @@ import math
 import numpy as np
 import pytest
 import shapely
-from oracles import plain_visibility_length, polygonal_bracket
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
@@ -18,6 +17,7 @@ import optplan as op
 from optplan.geometry import Frame, obstacle_set
 from optplan.geometry.tangent_graph import shortest_path
 from optplan.problem import Obstacle, parse_problem, transform_problem
+from tests.geometry.oracles import plain_visibility_length, polygonal_bracket
 
 BOUNDS = (0.0, 0.0, 100.0, 100.0)
 

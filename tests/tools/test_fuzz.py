@@ -13,18 +13,15 @@ name instead.
 from __future__ import annotations
 
 import random
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import optplan as op
+from benchmarks import fuzz_inputs as fz
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
-
-import fuzz_inputs as fz  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 SEED = 14
 #: the slice: scenario mutations (small scenes), option values, inits, result files

@@ -19,7 +19,7 @@ import pytest
 from optplan import bench, benchdb, cli
 from optplan.solver import BACKENDS
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 PROBLEMS = ["open-field", "paper-env1"]
 SOLVERS = ["visgraph", "pso-paper"]
 OVERRIDES = {"pso-paper": {"k_max": 25}}

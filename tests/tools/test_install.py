@@ -17,7 +17,7 @@ from pathlib import Path
 
 import optplan as op
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 
 CHECK = r"""
 import json, sys

@@ -42,7 +42,7 @@ from optplan.maps import (
     write_toml,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 RES = 0.05
 ORIGIN = (-3.2, 1.7)
 RADIUS = 0.12

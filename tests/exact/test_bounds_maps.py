@@ -12,21 +12,18 @@ and its path must pass the validator.
 from __future__ import annotations
 
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
 import shapely
 
 import optplan as op
+from benchmarks import bench_bounds as bb
 from optplan.catalog import map_files
 from optplan.maps import read_ros_yaml, read_scen, scen_octile_length
 from optplan.solver import reference_optimum
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
-
-import bench_bounds as bb  # noqa: E402
+ROOT = Path(__file__).resolve().parents[2]
 
 REL = 1e-9
 

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1] / "optplan"
+ROOT = Path(__file__).resolve().parents[2] / "optplan"
 
 #: the model, the geometry and the core: never import a method or a tool
 CORE = ("optplan.problem", "optplan.canonical", "optplan.geometry", "optplan.metrics",

@@ -1,0 +1,1 @@
+"""optplan's tests, one package per part of optplan (tests/<family>/)."""

@@ -1,0 +1,1 @@
+"""Tests of optplan's swarm part."""
