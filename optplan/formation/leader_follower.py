@@ -4,20 +4,6 @@ The formation frame (slots, polar coordinates) is :mod:`optplan.formation.slots`
 reference and the simulation loop shared with the formation QP are
 :mod:`optplan.formation.pilot`; the safety layer is :mod:`optplan.formation.safety`.
 
-Geometry (the L-phi convention, fixed in :class:`optplan.problem.Follower`)
---------------------------------------------------------------------------
-The leader is at :math:`p_L` with heading :math:`\theta_L`.  A follower's slot is
-
-.. math::  s = p_L + L\,R(\theta_L)\,[-\cos\varphi,\ \sin\varphi]^T,
-
-i.e. :math:`\varphi` is measured from the leader's *backward* heading, positive to the leader's
-left; :math:`\varphi = 0` is directly behind.  The actual polar coordinates of a follower at
-:math:`p_F` are :math:`r = \|p_F - p_L\|` and
-:math:`\varphi = \mathrm{wrap}(\theta_L + \pi - \operatorname{atan2}(p_F - p_L))`.
-With the paper-formation start (leader (60, 60) heading :math:`\pi/4`, :math:`L = 60`),
-:math:`\varphi = +\pi/4` puts f1 at (0, 60) and :math:`\varphi = -\pi/4` puts f2 at (60, 0),
-as in the paper's Figs. 13 and 31.
-
 Followers, eqs 46-52
 --------------------
 Each follower descends the total L-phi potential (eq 50)
@@ -54,21 +40,8 @@ APF repulsion of the eq 6 form between robots (``eta_r``, influence ``d_0``) and
 (``eta_f``, influence ``rho_f``).  The simulator clamps every speed to ``max_speed``.
 
 Safety layer (options ``safety`` and ``recovery``; beyond the paper's equations, on in the
-``leader-follower-paper`` preset)
------------------------------------------------------------------------------------------
-The eq 6-style repulsions act only within a few units, less than one control step of motion,
-so they cannot stop two followers that the rotating formation frame drives together (on
-``paper-warehouse``, L = 21, f1 and f2 touch at t = 28.5 s).  With ``safety`` every follower
-command is replaced by the closest velocity (exact 2-D projection,
-:func:`project_halfplanes`) meeting discrete-time barrier half-planes: for a neighbour robot at
-centre distance :math:`d` along unit vector :math:`n` (from it to the follower)
-:math:`n^T(u_i - u_j) \ge -\gamma_s(d - D)/\tau` with :math:`D = D_s +` ``sep_margin`` (split
-half and half between two followers; the leader's command is known), for every sensed obstacle
-:math:`n^T u_i \ge n^T v_o - \gamma_s(\rho - m)/\tau` from its nearest boundary point, the
-arena walls, and an inscribed polygon of the speed disc.  Because
-:math:`\|x + \tau w\| \ge n^T(x + \tau w)`, a met row keeps the gap :math:`\ge D` (clearance
-:math:`\ge m` for a convex obstacle) after the step, whatever the step length, for
-:math:`\gamma_s \le 1`.  Safety has priority over formation keeping.
+``leader-follower-paper`` preset): the barrier filter and its guarantee are documented in
+:mod:`optplan.formation.safety`.
 
 The recovery of a *lost* follower (option ``recovery``) is described in
 :mod:`optplan.formation.safety`.
