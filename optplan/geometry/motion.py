@@ -30,7 +30,8 @@ import numpy as np
 from optplan.geometry.frame import Frame
 from optplan.geometry.obstacles import ObstacleSet, obstacle_set
 
-__all__ = ["Contact", "mover_period", "mover_track", "mover_position", "track_eval",
+__all__ = ["Contact", "mover_period", "mover_track", "mover_pieces", "mover_position",
+           "track_eval",
            "positions_at", "relative_segments", "polyline_segments", "relative_contact",
            "shape_set"]
 
@@ -117,6 +118,39 @@ def mover_track(dyn, t_lo: float, t_hi: float) -> tuple[np.ndarray, np.ndarray]:
     tk[:, 0], tk[:, -1] = start[:-1], start[1:]
     tk = np.minimum(np.maximum.accumulate(tk, axis=1), start[1:, None])  # rounding-proof order
     return tk.ravel(), np.tile(base_p, (len(start) - 1, 1))
+
+
+def mover_pieces(dyn, t_lo: float, t_hi: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The linear pieces of a dynamic obstacle's motion on ``[t_lo, t_hi]`` (the track of
+    :func:`mover_track`), the last one open-ended where the motion is known for ever.
+
+    Returns
+    -------
+    ta, tb : ndarray ``(P,)``
+        Start and end time of each piece (``tb > ta``; ``tb = inf`` for the last piece of a
+        ``hold`` track or a constant velocity: the motion goes on unchanged).  A repeating
+        (``loop``/``bounce``) track ends at its last knot at or after ``t_hi``.
+    b, w : ndarray ``(P, 2)``
+        Position at ``ta`` and velocity on the piece: ``b + (t - ta) w``.  A jump of a ``loop``
+        ends one piece and starts the next (it is never a piece).
+    """
+    if dyn.velocity is not None:
+        p0 = mover_position(dyn, float(t_lo))
+        return (np.array([float(t_lo)]), np.array([np.inf]), p0[None, :],
+                np.asarray(dyn.velocity, float)[None, :])
+    tk, pk = mover_track(dyn, t_lo, t_hi)
+    forever = mover_period(dyn) is None
+    ta = np.concatenate([[min(float(t_lo), float(tk[0]))], tk])
+    tb = np.concatenate([tk, [np.inf if forever else float(tk[-1])]])
+    b = np.concatenate([pk[:1], pk])
+    e = np.concatenate([pk, pk[-1:]])
+    keep = tb > ta
+    ta, tb, b, e = ta[keep], tb[keep], b[keep], e[keep]
+    dt = np.where(np.isfinite(tb), tb - ta, 1.0)
+    w = np.where(np.isfinite(tb)[:, None], (e - b) / dt[:, None], 0.0)
+    inside = (tb > t_lo) & (ta <= max(float(t_lo), float(t_hi)))
+    return ta[inside], tb[inside], b[inside], w[inside]
 
 
 def track_eval(tk: np.ndarray, pk: np.ndarray, t, side: str = "right") -> np.ndarray:

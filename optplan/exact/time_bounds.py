@@ -1,0 +1,124 @@
+"""Certified lower bounds on the arrival time of a robot among moving obstacles.
+
+Moving obstacles can only delay a robot, never shorten its way, and a robot cannot end its
+motion at a goal that a moving obstacle occupies.  :func:`arrival_lower_bound` combines both
+into a bound that holds for *every* collision-free motion at speed ``<= max_speed``:
+
+1. the static bound ``L* / v``: ``L*`` is the certified shortest path of the robot's disc among
+   all static obstacles (temporary ones included: they are there all the time), the exact
+   tangent graph (:mod:`optplan.geometry.tangent_graph`), ``v`` its ``max_speed``;
+2. the goal bound: the robot parked at its goal overlaps a moving obstacle at the times of
+   :func:`parked_contact_times` (closed form, :mod:`optplan.geometry.contact_times`); an
+   arrival at time ``T`` needs the goal free at ``T``, so the bound is the first free time of
+   the goal at or after the static bound.
+
+Both are proofs, not estimates; the bound is ``None`` (with the reason) when there is no
+certified static optimum, and ``inf`` when the goal is occupied from the static bound on for
+ever (no motion arrives).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from optplan.geometry.contact_times import line_intervals, shape_pieces
+from optplan.geometry.motion import mover_period, mover_pieces
+from optplan.problem import Problem
+
+__all__ = ["TimeBound", "parked_contact_times", "arrival_lower_bound"]
+
+
+@dataclass(frozen=True)
+class TimeBound:
+    """A certified lower bound on the arrival time (s) and what it rests on."""
+
+    value: float | None
+    static_bound: float | None
+    goal_bound: float | None
+    reason: str
+
+
+def _merge(lo: np.ndarray, hi: np.ndarray) -> list[tuple[float, float]]:
+    """Union of open intervals ``(lo_i, hi_i)`` (touching ones merged)."""
+    out: list[tuple[float, float]] = []
+    for a, b in sorted(zip(lo.tolist(), hi.tolist())):
+        if out and a <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
+def parked_contact_times(problem: Problem, point, radius: float, t_lo: float, t_hi: float
+                         ) -> list[tuple[float, float]]:
+    """The times in ``[t_lo, t_hi]`` at which a disc of ``radius`` parked at ``point`` overlaps
+    a moving obstacle: sorted disjoint open intervals (an interval may end at ``inf``).
+
+    Per linear piece of each obstacle's motion (:func:`~optplan.geometry.motion.mover_pieces`)
+    and per convex piece of its shape, the parked disc seen from the obstacle moves on the line
+    ``point - b - (t - ta) w``: one closed-form interval
+    (:func:`~optplan.geometry.contact_times.line_intervals`), clipped to the piece.
+    """
+    p = np.asarray(point, float)
+    los, his = [], []
+    for d in problem.dynamic_obstacles:
+        ta, tb, b, w = mover_pieces(d, t_lo, t_hi)
+        for shape in shape_pieces(d.kind, d.radius, d.local_geometry):
+            lo, hi = line_intervals(p - b, -w, shape, float(radius))
+            ok = ~np.isnan(lo)
+            lo_t = np.maximum(ta + lo, ta)[ok]
+            hi_t = np.minimum(ta + hi, tb)[ok]
+            keep = (hi_t > lo_t) & (hi_t > t_lo) & (lo_t < t_hi)
+            los.append(lo_t[keep])
+            his.append(hi_t[keep])
+    if not los:
+        return []
+    return _merge(np.concatenate(los), np.concatenate(his))
+
+
+def _first_free(busy: list[tuple[float, float]], t: float) -> float:
+    for a, b in busy:
+        if a < t < b:
+            t = b
+    return t
+
+
+def arrival_lower_bound(problem: Problem, robot_id: str | None = None) -> TimeBound:
+    """A certified lower bound on the arrival time of ``robot_id`` (default the planned robot,
+    ``problem.leader``) at its goal; see the module docstring.
+
+    Raises
+    ------
+    ValueError
+        If the robot is unknown or has no goal (a formation follower).
+    """
+    from optplan.geometry.tangent_graph import problem_shortest_path
+
+    robot = problem.leader if robot_id is None else problem.robot(robot_id)
+    rid = robot.id
+    if robot.goal is None:
+        raise ValueError(f"robot {rid!r} has no goal (a formation follower): no arrival bound")
+    res = problem_shortest_path(problem, robot, known_only=False)
+    if res.polyline is None or not res.info.get("certified"):
+        why = res.info.get("reason", "the shortest path is not certified")
+        return TimeBound(None, None, None, f"no certified static optimum: {why}")
+    static = float(res.length) / robot.max_speed
+    periods = [p for p in map(mover_period, problem.dynamic_obstacles) if p is not None]
+    knots = [float(np.max(d.times)) for d in problem.dynamic_obstacles]
+    # past every knot a hold/velocity motion is known for ever (open-ended pieces); a repeating
+    # one repeats: one more period than the window covers every free time there is
+    t_hi = max([static, *knots]) + (max(periods) if periods else 0.0) + 1.0
+    busy = parked_contact_times(problem, robot.goal, robot.radius, 0.0, t_hi)
+    goal = _first_free(busy, static)
+    if goal > t_hi and periods:  # a repeating obstacle covers the goal for a whole period
+        goal = math.inf
+    if math.isinf(goal):
+        return TimeBound(math.inf, static, math.inf,
+                         "the goal is occupied by a moving obstacle for ever from the static "
+                         f"bound {static:.6g} s on: no motion arrives")
+    reason = ("static optimum / max_speed" if goal == static else
+              "first time the goal is free at or after static optimum / max_speed")
+    return TimeBound(goal, static, goal, reason)
