@@ -352,6 +352,29 @@ def with_reference(metrics: dict[str, Any], problem: Problem, paths: dict[str, A
     return out
 
 
+def with_time_reference(metrics: dict[str, Any], problem: Problem, paths: dict[str, Any],
+                        times: Any) -> dict[str, Any]:
+    """``metrics`` plus the grading in time of the planned robot on a problem with moving
+    obstacles: ``arrival_time`` (the plan as executed,
+    :func:`optplan.exact.time_bounds.arrival_time`), the certified ``time_lower_bound``
+    (:func:`optplan.exact.time_bounds.arrival_lower_bound`) with its ``time_bound_reason``, and
+    ``arrival_ratio_to_bound`` (>= 1 for every collision-free plan that arrives)."""
+    from optplan.exact.time_bounds import arrival_lower_bound, arrival_time
+
+    rid = problem.leader.id
+    if not problem.dynamic_obstacles or rid not in paths:
+        return metrics
+    out = dict(metrics)
+    bound = arrival_lower_bound(problem)
+    arrival = arrival_time(problem, rid, paths[rid], times)
+    out["arrival_time"] = arrival
+    out["time_lower_bound"] = bound.value
+    out["time_bound_reason"] = bound.reason
+    if arrival is not None and bound.value is not None and 0 < bound.value < float("inf"):
+        out["arrival_ratio_to_bound"] = arrival / bound.value
+    return out
+
+
 def _early_stop_status(res: Result) -> Status:
     """The one status of a run stopped by its callback or time limit: ``solved`` when the best
     path so far is feasible and reaches the goal, else ``approximate``."""
@@ -389,7 +412,10 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         cached per problem): ``metrics["optimum"]``, ``metrics["ratio_to_optimum"]`` and
         ``metrics["reference_time"]`` (not part of ``wall_time``: the call took
         ``wall_time + metrics["reference_time"]``), or
-        ``metrics["reference_error"]`` when there is no certified optimum.
+        ``metrics["reference_error"]`` when there is no certified optimum.  On a problem with
+        moving obstacles, also the grading in time of the planned robot
+        (:func:`with_time_reference`): ``arrival_time``, ``time_lower_bound``,
+        ``time_bound_reason`` and ``arrival_ratio_to_bound``.
     **overrides
         Replace preset options (unknown names raise ``ValueError``).
 
@@ -434,6 +460,7 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
     if reference:
         t1 = time.perf_counter()
         metrics = with_reference(metrics, prob, res.paths, reference_optimum(prob))
+        metrics = with_time_reference(metrics, prob, res.paths, res.times)
         t_ref = time.perf_counter() - t1
     out = dataclasses.replace(res, solver=backend.preset or backend.name, backend=backend.name,
                               seed=seed, metrics=metrics, status=status, message=message,

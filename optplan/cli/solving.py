@@ -18,6 +18,12 @@ def _result_lines(res: Any) -> list[str]:
         length += (f"   ratio to optimum {_fmt(m['ratio_to_optimum'])}"
                    f" (optimum {_fmt(m.get('optimum'))})")
     lines.append(length)
+    if "time_lower_bound" in m:
+        arr = f"  arrival     {_fmt(m.get('arrival_time'))} s"
+        if m.get("arrival_ratio_to_bound") is not None:
+            arr += (f"   ratio to lower bound {_fmt(m['arrival_ratio_to_bound'])}"
+                    f" (bound {_fmt(m['time_lower_bound'])} s: {m.get('time_bound_reason')})")
+        lines.append(arr)
     lens = m.get("lengths") or {}
     if len(lens) > 1:
         lines.append("  lengths     " + ", ".join(f"{k} {_fmt(v, 2)}" for k, v in lens.items()))

@@ -28,7 +28,7 @@ from optplan.geometry.contact_times import line_intervals, shape_pieces
 from optplan.geometry.motion import mover_period, mover_pieces
 from optplan.problem import Problem
 
-__all__ = ["TimeBound", "parked_contact_times", "arrival_lower_bound"]
+__all__ = ["TimeBound", "parked_contact_times", "arrival_lower_bound", "arrival_time"]
 
 
 @dataclass(frozen=True)
@@ -122,3 +122,24 @@ def arrival_lower_bound(problem: Problem, robot_id: str | None = None) -> TimeBo
     reason = ("static optimum / max_speed" if goal == static else
               "first time the goal is free at or after static optimum / max_speed")
     return TimeBound(goal, static, goal, reason)
+
+
+def arrival_time(problem: Problem, robot_id: str, path, times=None) -> float | None:
+    """The arrival time of a plan as executed: the first time stamp at which ``robot_id`` is
+    within the goal tolerance of its goal (``problem.goal_tol``), ``None`` if it never is.
+
+    ``times`` are the plan's own stamps (a time-stepping planner's trajectory); without them a
+    geometric path is timed at the robot's ``max_speed`` from ``t = 0``, the validator's
+    convention.
+    """
+    robot = problem.robot(robot_id)
+    if robot.goal is None:
+        return None
+    pts = np.asarray(path, float)
+    if times is None:
+        seg = np.hypot(*np.diff(pts, axis=0).T) if len(pts) > 1 else np.zeros(0)
+        stamps = np.concatenate([[0.0], np.cumsum(seg)]) / robot.max_speed
+    else:
+        stamps = np.asarray(times, float)
+    near = np.hypot(*(pts - robot.goal).T) <= problem.goal_tol(robot) + problem.frame.eps
+    return float(stamps[int(np.argmax(near))]) if near.any() else None

@@ -117,3 +117,29 @@ def test_a_follower_has_no_goal_bound():
     with pytest.raises(ValueError, match="no goal"):
         arrival_lower_bound(p, "F")
     assert arrival_lower_bound(p).value == pytest.approx(10.0)
+
+
+def test_reference_grades_the_plan_in_time():
+    import optplan as op
+
+    movers = [{"type": "circle", "radius": 0.5, "waypoints": [[5, 9.5], [5, 9.0]],
+               "times": [0, 1]}]
+    p = _problem(movers, speed=2.0)
+    res = op.solve(p, "visgraph", reference=True)
+    m = res.metrics
+    assert m["arrival_time"] == pytest.approx(m["length"] / 2.0, rel=1e-12)
+    assert m["time_lower_bound"] == pytest.approx(4.0, rel=1e-12)
+    assert m["arrival_ratio_to_bound"] == pytest.approx(m["arrival_time"] / 4.0)
+    assert res.status.value == "optimal" and m["arrival_ratio_to_bound"] >= 1 - 1e-12
+    static = op.solve(_problem([]), "visgraph", reference=True).metrics
+    assert "arrival_time" not in static and "time_lower_bound" not in static
+
+
+def test_arrival_time_of_a_timed_plan():
+    from optplan.exact.time_bounds import arrival_time
+
+    p = _problem([])
+    path = np.array([[1, 5], [5, 5], [9, 5], [9, 5]], float)
+    assert arrival_time(p, "r", path, np.array([0.0, 10.0, 20.0, 30.0])) == 20.0
+    assert arrival_time(p, "r", path) == pytest.approx(8.0)
+    assert arrival_time(p, "r", path[:2]) is None
