@@ -356,10 +356,10 @@ def with_time_reference(metrics: dict[str, Any], problem: Problem, paths: dict[s
                         times: Any) -> dict[str, Any]:
     """``metrics`` plus the grading in time of the planned robot on a problem with moving
     obstacles: ``arrival_time`` (the plan as executed,
-    :func:`optplan.exact.time_bounds.arrival_time`), the certified ``time_lower_bound``
-    (:func:`optplan.exact.time_bounds.arrival_lower_bound`) with its ``time_bound_reason``, and
+    :func:`optplan.geometry.time_bounds.arrival_time`), the certified ``time_lower_bound``
+    (:func:`optplan.geometry.time_bounds.arrival_lower_bound`) with its ``time_bound_reason``, and
     ``arrival_ratio_to_bound`` (>= 1 for every collision-free plan that arrives)."""
-    from optplan.exact.time_bounds import arrival_lower_bound, arrival_time
+    from optplan.geometry.time_bounds import arrival_lower_bound, arrival_time
 
     rid = problem.leader.id
     if not problem.dynamic_obstacles or rid not in paths:

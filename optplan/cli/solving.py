@@ -9,21 +9,29 @@ from typing import Any, TextIO
 from optplan.cli.common import _fmt, parse_set
 
 
-def _result_lines(res: Any) -> list[str]:
-    m = res.metrics
-    lines = [f"{res.problem} / {res.solver} (backend {res.backend}, seed {res.seed})",
-             f"  status      {res.status.value}"]
+def _arrival_line(m: dict[str, Any]) -> str:
+    """The grading in time (``reference=True`` with moving obstacles)."""
+    arr = f"  arrival     {_fmt(m.get('arrival_time'))} s"
+    if m.get("arrival_ratio_to_bound") is not None:
+        arr += (f"   ratio to lower bound {_fmt(m['arrival_ratio_to_bound'])}"
+                f" (bound {_fmt(m['time_lower_bound'])} s: {m.get('time_bound_reason')})")
+    return arr
+
+
+def _length_lines(m: dict[str, Any]) -> list[str]:
+    """The length (with its ratio to the certified optimum) and the arrival lines."""
     length = f"  length      {_fmt(m.get('length'))}"
     if m.get("ratio_to_optimum") is not None:
         length += (f"   ratio to optimum {_fmt(m['ratio_to_optimum'])}"
                    f" (optimum {_fmt(m.get('optimum'))})")
-    lines.append(length)
-    if "time_lower_bound" in m:
-        arr = f"  arrival     {_fmt(m.get('arrival_time'))} s"
-        if m.get("arrival_ratio_to_bound") is not None:
-            arr += (f"   ratio to lower bound {_fmt(m['arrival_ratio_to_bound'])}"
-                    f" (bound {_fmt(m['time_lower_bound'])} s: {m.get('time_bound_reason')})")
-        lines.append(arr)
+    return [length, _arrival_line(m)] if "time_lower_bound" in m else [length]
+
+
+def _result_lines(res: Any) -> list[str]:
+    m = res.metrics
+    lines = [f"{res.problem} / {res.solver} (backend {res.backend}, seed {res.seed})",
+             f"  status      {res.status.value}"]
+    lines.extend(_length_lines(m))
     lens = m.get("lengths") or {}
     if len(lens) > 1:
         lines.append("  lengths     " + ", ".join(f"{k} {_fmt(v, 2)}" for k, v in lens.items()))

@@ -21,12 +21,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from optplan.geometry.contact_times import line_intervals, shape_pieces
 from optplan.geometry.motion import mover_period, mover_pieces
-from optplan.problem import Problem
+
+if TYPE_CHECKING:
+    from optplan.problem import Problem
 
 __all__ = ["TimeBound", "parked_contact_times", "arrival_lower_bound", "arrival_time"]
 

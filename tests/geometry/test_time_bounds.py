@@ -1,4 +1,4 @@
-"""Certified arrival lower bounds (optplan.exact.time_bounds): analytic and metamorphic cases."""
+"""Certified arrival lower bounds (optplan.geometry.time_bounds): analytic, metamorphic cases."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from optplan.exact.time_bounds import arrival_lower_bound, parked_contact_times
 from optplan.geometry.motion import mover_pieces
+from optplan.geometry.time_bounds import arrival_lower_bound, parked_contact_times
 from optplan.problem import parse_problem
 
 SQUARE = [[-1, -1], [1, -1], [1, 1], [-1, 1]]
@@ -136,7 +136,7 @@ def test_reference_grades_the_plan_in_time():
 
 
 def test_arrival_time_of_a_timed_plan():
-    from optplan.exact.time_bounds import arrival_time
+    from optplan.geometry.time_bounds import arrival_time
 
     p = _problem([])
     path = np.array([[1, 5], [5, 5], [9, 5], [9, 5]], float)
