@@ -9,7 +9,12 @@ Rules (documented in docs/index.md, "Docs that stay true"):
 * a ``console`` block preceded by ``<!-- run -->`` runs through the CLI: each line
   ``$ optplan ARGS`` (or ``.venv/bin/optplan ARGS``) is passed to :func:`optplan.cli.main`
   (in the page's temporary directory, in page order) and must exit with status 0 and print
-  the lines that follow it, compared like a doctest (``...`` for what varies);
+  the lines that follow it, compared like a doctest (``...`` for what varies); a command whose
+  shown output starts with ``optplan: error:`` must exit with status 2 and print that on stderr;
+* a python block with an ``if __name__ == "__main__":`` guard runs with ``__name__`` set to
+  ``"__main__"`` (as the script it shows would);
+* every code fence is closed, and no ```` ```lang ```` line sits inside an open block (a missing
+  closing fence renders the rest of the page as code; neither mkdocs nor the blocks notice);
 * a block preceded by ``<!-- no-run -->`` is not run (use it only for fragments that cannot run
   on their own, and say so in the text);
 * a python block followed by a ``text`` block introduced by a line starting with "prints" must
@@ -37,32 +42,66 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGES = sorted([ROOT / "README.md", *(ROOT / "docs").rglob("*.md")])
-FENCE = re.compile(r"^(?P<indent>[ ]*)```(?P<lang>[\w-]*)[^\n]*$")
+FENCE = re.compile(r"^(?P<indent>[ ]*)```+(?P<lang>[\w-]*)[^\n]*$")
 MARK = re.compile(r"^\s*<!--\s*(?P<what>no-run|run|file:\s*(?P<name>[\w./-]+))\s*-->\s*$")
+
+
+def _closes(line: str, ticks: str) -> bool:
+    """Whether ``line`` closes a fence opened with ``ticks`` (CommonMark: backticks at least as
+    many as the opening ones and nothing else; ```` ```text ```` opens, it never closes)."""
+    s = line.strip()
+    return s.startswith(ticks) and set(s) == {"`"}
+
+
+def fences(lines: list[str]) -> list[tuple[int, int, re.Match[str], list[int]]]:
+    """``(opening line, closing line or len(lines), opening match, inner openers)`` of every
+    fenced block; an inner opener is a line that opens a fence (```` ```lang ````, as many
+    backticks) inside the block: to a renderer it is code, not the start of a new block."""
+    out, i = [], 0
+    while i < len(lines):
+        m = FENCE.match(lines[i])
+        if not m:
+            i += 1
+            continue
+        ticks = "`" * (len(lines[i].strip()) - len(lines[i].strip().lstrip("`")))
+        j, inner = i + 1, []
+        while j < len(lines) and not _closes(lines[j], ticks):
+            im = FENCE.match(lines[j])
+            if im and im["lang"] and lines[j].strip().startswith(ticks):
+                inner.append(j)
+            j += 1
+        out.append((i, j, m, inner))
+        i = j + 1
+    return out
+
+
+def fence_problems(text: str) -> list[str]:
+    """Fences a Markdown renderer would not read as the author meant: a fence never closed, and
+    an opening fence (```` ```lang ````) inside an open block, which is code to the renderer
+    (the block above it lacks its closing fence)."""
+    lines = text.splitlines()
+    out = []
+    for i, j, _, inner in fences(lines):
+        out += [f"line {k + 1}: '{lines[k].strip()}' inside the block opened at line {i + 1} "
+                f"(is that block's closing fence missing?)" for k in inner]
+        if j == len(lines):
+            out.append(f"line {i + 1}: fence never closed")
+    return out
 
 
 def blocks(text: str) -> list[dict]:
     """Fenced blocks with their language, code, marker and the line before them."""
     lines = text.splitlines()
-    out, i = [], 0
-    while i < len(lines):
-        m = FENCE.match(lines[i])
-        if not m or not m["lang"] and not lines[i].strip().startswith("```"):
-            i += 1
-            continue
-        indent, lang = m["indent"], m["lang"]
-        j = i + 1
-        body = []
-        while j < len(lines) and not lines[j].strip().startswith("```"):
-            body.append(lines[j][len(indent):] if lines[j].startswith(indent) else lines[j])
-            j += 1
+    out = []
+    for i, j, m, _ in fences(lines):
+        indent = m["indent"]
+        body = [x[len(indent):] if x.startswith(indent) else x for x in lines[i + 1:j]]
         prev = [x for x in lines[:i] if x.strip()]
         before = prev[-1] if prev else ""
         mk = MARK.match(before)
-        out.append({"lang": lang, "code": "\n".join(body) + "\n", "line": i + 1,
+        out.append({"lang": m["lang"], "code": "\n".join(body) + "\n", "line": i + 1,
                     "mark": mk["what"] if mk else "", "file": mk["name"] if mk else None,
                     "before": before})
-        i = j + 1
     return out
 
 
@@ -91,14 +130,51 @@ def run_console(block: dict, page: Path, checker, flags) -> None:
         argv = shlex.split(cmd)
         assert Path(argv[0]).name == "optplan", (
             f"{page.name}:{block['line']}: not an optplan command: {cmd}")
-        buf = io.StringIO()
-        with contextlib.redirect_stdout(buf):
+        out, err = io.StringIO(), io.StringIO()
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             rc = main(argv[1:])
-        got = buf.getvalue()
-        assert rc == 0, f"{page.name}:{block['line']}: `{cmd}` exited with {rc}"
+        # a command the page shows failing must fail with the usage status and say so on stderr
+        fails = want.startswith("optplan: error:")
+        got = err.getvalue() if fails else out.getvalue()
+        assert rc == (2 if fails else 0), (
+            f"{page.name}:{block['line']}: `{cmd}` exited with {rc}\n{err.getvalue()}")
         assert not want or checker.check_output(want, got, flags), (
             f"{page.relative_to(ROOT)}:{block['line']}: `{cmd}` prints\n{got}\n"
             f"but the page says\n{want}")
+
+
+def run_python(block: dict, page: Path, ns: dict) -> str:
+    """Run a python block in the page's namespace and return what it printed.  A block with an
+    ``if __name__ == "__main__":`` guard (a script that starts worker processes) runs as a
+    script would: with ``__name__`` set to ``"__main__"`` for that block."""
+    buf = io.StringIO()
+    name = ns.get("__name__")
+    if re.search(r"^if __name__ == .__main__.:", block["code"], re.M):
+        ns["__name__"] = "__main__"
+    try:
+        with contextlib.redirect_stdout(buf):
+            exec(compile(block["code"], f"{page.name}:{block['line']}", "exec"), ns)  # noqa: S102
+    finally:
+        ns["__name__"] = name
+    return buf.getvalue()
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: str(p.relative_to(ROOT)))
+def test_every_fence_is_closed(page: Path) -> None:
+    problems = fence_problems(page.read_text(encoding="utf-8"))
+    assert not problems, f"{page.relative_to(ROOT)}: " + "; ".join(problems)
+
+
+def test_the_fence_check_catches_a_missing_closing_fence() -> None:
+    # docs/solvers/apf.md had this: a table in a text block with no closing fence, so the
+    # next three sections rendered as code (the next opening fence closed nothing)
+    text = "intro\n\n```text\n| a |\n\nprose\n\n```text\nmore\n```\n\nend\n"
+    problems = fence_problems(text)
+    assert problems == ["line 8: '```text' inside the block opened at line 3 (is that "
+                        "block's closing fence missing?)"]
+    assert fence_problems("```python\nx = 1\n") == ["line 1: fence never closed"]
+    assert fence_problems("````markdown\n```python\nx\n```\n````\n") == []  # nested
+    assert fence_problems("```python\nx = 1\n```\n\n```text\n1\n```\n") == []
 
 
 @pytest.mark.parametrize("page", [p for p in PAGES if runnable(p)],
@@ -124,12 +200,9 @@ def test_doc_blocks_run_and_print_what_the_page_says(page: Path, tmp_path: Path)
                 continue
             if b["lang"] not in ("python", "py") or b["mark"] == "no-run" or b["file"]:
                 continue
-            buf = io.StringIO()
-            with contextlib.redirect_stdout(buf):
-                exec(compile(b["code"], f"{page.name}:{b['line']}", "exec"), ns)  # noqa: S102
+            got = run_python(b, page, ns)
             nxt = bl[k + 1] if k + 1 < len(bl) else None
             if nxt and nxt["lang"] == "text" and nxt["before"].lower().startswith("prints"):
-                got = buf.getvalue()
                 assert checker.check_output(nxt["code"], got, flags), (
                     f"{page.relative_to(ROOT)}:{b['line']}: the block prints\n{got}\n"
                     f"but the page says (line {nxt['line']})\n{nxt['code']}")
@@ -142,3 +215,31 @@ def test_doc_blocks_run_and_print_what_the_page_says(page: Path, tmp_path: Path)
 
 
 _TRACKED = {p.name for p in ROOT.iterdir()} | {"site", "runs", "build", "dist"}
+
+
+def _load_hook(name: str) -> types.ModuleType:
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(name, ROOT / "docs" / "hooks" / f"{name}.py")
+    assert spec and spec.loader
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.mark.parametrize("page", [p for p in PAGES
+                                  if any(b["file"] for b in blocks(p.read_text("utf-8")))],
+                         ids=lambda p: str(p.relative_to(ROOT)))
+def test_hidden_file_blocks_show_their_name(page: Path) -> None:
+    """A block written to a file by ``<!-- file: NAME -->`` (a comment, which does not render)
+    shows NAME in the rendered page: the site's hook gives its fence a title."""
+    import markdown
+
+    hook = _load_hook("file_titles")
+    text = page.read_text(encoding="utf-8")
+    names = [b["file"] for b in blocks(text) if b["file"]]
+    html = markdown.markdown(hook.on_page_markdown(text),
+                             extensions=["pymdownx.superfences", "pymdownx.highlight"])
+    for name in names:
+        assert f'<span class="filename">{name}</span>' in html, (
+            f"{page.relative_to(ROOT)}: the block written to {name} does not show its name")
