@@ -7,20 +7,34 @@ The catalogues are data directories, not import packages.  They are looked up in
 ``$OPTPLAN_CATALOG`` (a directory holding ``problems/`` and ``solvers/``), the source checkout
 next to the package (editable installs), and the copy shipped inside the wheel
 (``optplan/_data``).
+
+Plugin distributions add backends (entry-point group ``optplan.backends``, ``line =
+"toyplug.planner:Line"``) and preset folders (``optplan.presets``, ``toyplug =
+"toyplug.presets"``: a package, regular or namespace, whose folder holds ``*.toml`` presets).
+A plugin cannot break the toolkit: an entry point that is malformed, or a plugin package that
+raises when imported, is reported once per process as a :class:`PluginWarning` naming the
+distribution, the entry point and the error; everything else keeps working.  Asking for the
+broken backend by name raises an error with the same text (:func:`broken_backend`).
 """
 
 from __future__ import annotations
 
 import difflib
 import os
+import re
 import tomllib
+import warnings
 from functools import lru_cache
+from importlib.metadata import EntryPoint, entry_points
 from pathlib import Path
+from typing import Any
 
 from optplan.problem import Problem, ProblemError, read_problem
 
 __all__ = ["catalog_dir", "problem_files", "preset_files", "load_problem", "list_problems",
-           "read_preset", "map_files", "find_map"]
+           "read_preset", "map_files", "find_map", "BACKEND_GROUP", "PRESET_GROUP",
+           "PluginWarning", "check_entry", "discover_backends", "plugin_preset_files",
+           "broken_backend"]
 
 #: Suffixes of the shipped occupancy maps in ``problems/maps/`` (:func:`map_files`).
 MAP_SUFFIXES = (".yaml", ".yml", ".map")
@@ -226,3 +240,147 @@ def _check_preset_types(path: Path, data: dict) -> None:
         if not isinstance(v, str):
             raise ValueError(f"{path}: paper_notes.{k}: expected a string, got "
                              f"{type(v).__name__}")
+
+
+# --------------------------------------------------------------------------------------
+# plugin distributions
+# --------------------------------------------------------------------------------------
+
+#: Entry-point groups of plugin distributions.
+BACKEND_GROUP = "optplan.backends"
+PRESET_GROUP = "optplan.presets"
+
+#: ``package.module:Class`` (dotted identifiers on both sides of one colon)
+_ENTRY = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*$")
+_MODULE = re.compile(r"^[A-Za-z_]\w*(\.[A-Za-z_]\w*)*$")
+
+#: per-process state: what was reported, the broken backends, the plugin presets
+_state: dict[str, Any] = {"reported": set(), "broken": {}}
+
+
+class PluginWarning(UserWarning):
+    """A plugin distribution could not be loaded; the rest of optplan works without it."""
+
+
+def describe(ep: EntryPoint) -> str:
+    """How messages name a plugin's entry point.
+
+    Parameters
+    ----------
+    ep : EntryPoint
+        An entry point of a plugin distribution.
+
+    Returns
+    -------
+    str
+        ``plugin distribution 'toyplug' (entry point line = toyplug.planner:Line in
+        optplan.backends)``.
+    """
+    dist = getattr(ep, "dist", None)
+    name = getattr(dist, "name", None) or "?"
+    return f"plugin distribution {name!r} (entry point {ep.name} = {ep.value} in {ep.group})"
+
+
+def report(message: str) -> None:
+    """Warn ``message`` as a :class:`PluginWarning`, once per process."""
+    if message in _state["reported"]:
+        return
+    _state["reported"].add(message)
+    warnings.warn(message, PluginWarning, stacklevel=3)
+
+
+def check_entry(value: str, what: str = "backend") -> str | None:
+    """Why ``value`` is not a valid entry point of a ``what`` (None when it is).
+
+    >>> check_entry("toyplug.planner:Line") is None
+    True
+    >>> check_entry("toyplug.planner")
+    "expected 'package.module:Class', got 'toyplug.planner'"
+    """
+    pattern, form = (_ENTRY, "package.module:Class") if what == "backend" else (_MODULE,
+                                                                                "package.folder")
+    if not isinstance(value, str) or not pattern.match(value.strip()):
+        return f"expected {form!r}, got {value!r}"
+    return None
+
+
+def _error(e: BaseException) -> str:
+    return f"{type(e).__name__}: {' '.join(str(e).split())}"[:300]
+
+
+def discover_backends(backends: dict[str, str]) -> list[str]:
+    """Add the plugin backends to ``backends`` (name -> ``module:Class``); a shipped name wins.
+
+    A malformed entry point is not added: it is reported and recorded as broken.
+
+    Returns
+    -------
+    list of str
+        The conflicts: plugin backends ignored because the name is taken.
+    """
+    conflicts = []
+    for ep in entry_points(group=BACKEND_GROUP):
+        why = check_entry(ep.value)
+        if why is not None:
+            msg = f"{describe(ep)} ignored: {why}"
+            _state["broken"].setdefault(ep.name, msg)
+            report(msg)
+            continue
+        if ep.name not in backends:
+            backends[ep.name] = ep.value
+            _state.setdefault("plugin_backends", {})[ep.name] = describe(ep)
+        elif backends[ep.name] != ep.value:
+            conflicts.append(f"plugin backend {ep.name!r} = {ep.value!r} ignored: the name is "
+                             f"taken by {backends[ep.name]!r}")
+    return conflicts
+
+
+def broken_backend(name: str) -> str | None:
+    """The report on the plugin backend ``name`` when it could not be loaded, else None."""
+    return _state["broken"].get(name)
+
+
+def import_failed(name: str, entry: str, e: BaseException) -> str:
+    """Record and report that importing the backend ``name`` (``entry``) raised ``e``; return
+    the message (the caller raises it as an :class:`ImportError`)."""
+    who = _state.get("plugin_backends", {}).get(name, f"backend {name!r} = {entry!r}")
+    msg = f"{who}: importing it raised {_error(e)}"
+    _state["broken"][name] = msg
+    report(msg)
+    return msg
+
+
+def _preset_dirs(ep: EntryPoint) -> list[Path]:
+    """The folders of the preset package ``ep.value`` (several for a namespace package)."""
+    import importlib.util
+
+    why = check_entry(ep.value, "presets")
+    if why is not None:
+        raise ValueError(why)
+    spec = importlib.util.find_spec(ep.value.strip())
+    if spec is None:
+        raise ModuleNotFoundError(f"no module named {ep.value.strip()!r}")
+    if spec.submodule_search_locations is None:
+        raise ValueError(f"{ep.value!r} is a module, not a package folder")
+    return [Path(p) for p in spec.submodule_search_locations]
+
+
+def plugin_preset_files() -> dict[str, Path]:
+    """Presets shipped by plugin distributions: file stem -> path (the first one found wins).
+
+    A preset package that cannot be found or raises when imported is reported (once) and
+    skipped.
+    """
+    if "presets" not in _state:
+        out: dict[str, Path] = {}
+        for ep in entry_points(group=PRESET_GROUP):
+            try:
+                dirs = _preset_dirs(ep)
+            except Exception as e:  # noqa: BLE001 - a plugin must not break optplan
+                report(f"{describe(ep)}: presets skipped: {_error(e)}")
+                continue
+            for d in dirs:
+                for f in sorted(d.glob("*.toml")):
+                    out.setdefault(f.stem, f)
+        _state["presets"] = out
+    return dict(_state["presets"])

@@ -31,7 +31,9 @@ Plugins: an installed distribution declares backends in the entry-point group
 ``*.toml`` files).  They are discovered lazily, the first time the registry is used, in every
 process (so they also work in the CLI and in ``optplan bench`` worker processes).  A backend
 added with :func:`register` exists in the calling process, and :mod:`optplan.bench` passes it on
-to its workers; another process (the CLI) does not know it.
+to its workers; another process (the CLI) does not know it.  A plugin that is malformed or
+raises when imported is reported once (:class:`optplan.catalog.PluginWarning`) and leaves
+everything else working.
 """
 
 from __future__ import annotations
@@ -49,7 +51,18 @@ from typing import Any, cast
 import numpy as np
 
 from optplan.backend import Backend
-from optplan.catalog import load_problem, preset_files, read_preset
+from optplan.catalog import BACKEND_GROUP as BACKEND_GROUP
+from optplan.catalog import PRESET_GROUP as PRESET_GROUP
+from optplan.catalog import (
+    broken_backend,
+    check_entry,
+    discover_backends,
+    import_failed,
+    load_problem,
+    preset_files,
+    read_preset,
+)
+from optplan.catalog import plugin_preset_files as plugin_preset_files
 from optplan.options import option
 from optplan.problem import Problem
 from optplan.result import Progress, Result, Status
@@ -81,10 +94,6 @@ BACKENDS: dict[str, str] = {
 }
 
 
-#: Entry-point groups of plugin distributions.
-BACKEND_GROUP = "optplan.backends"
-PRESET_GROUP = "optplan.presets"
-
 _plugins: dict[str, Any] = {}
 
 
@@ -93,33 +102,9 @@ def _discover() -> None:
     if "done" in _plugins:
         return
     _plugins["done"] = True
-    from importlib.metadata import entry_points
-
-    for ep in entry_points(group=BACKEND_GROUP):
-        if ep.name not in BACKENDS:
-            BACKENDS[ep.name] = ep.value
-        elif BACKENDS[ep.name] != ep.value:
-            _plugins.setdefault("conflicts", []).append(
-                f"plugin backend {ep.name!r} = {ep.value!r} ignored: the name is taken by "
-                f"{BACKENDS[ep.name]!r}")
-
-
-def plugin_preset_files() -> dict[str, Path]:
-    """Presets shipped by plugin distributions (entry-point group ``optplan.presets``)."""
-    if "presets" not in _plugins:
-        from importlib.metadata import entry_points
-        from importlib.resources import files
-
-        out: dict[str, Path] = {}
-        for ep in entry_points(group=PRESET_GROUP):
-            try:
-                root = Path(str(files(ep.value)))
-            except (ModuleNotFoundError, TypeError):
-                continue
-            for f in sorted(root.glob("*.toml")):
-                out.setdefault(f.stem, f)
-        _plugins["presets"] = out
-    return dict(_plugins["presets"])
+    conflicts = discover_backends(BACKENDS)
+    if conflicts:
+        _plugins.setdefault("conflicts", []).extend(conflicts)
 
 
 def all_preset_files() -> dict[str, Path]:
@@ -128,24 +113,38 @@ def all_preset_files() -> dict[str, Path]:
 
 
 def register(name: str, entry_point: str) -> None:
-    """Register a backend ``name -> "module:Class"``; raises on a name collision."""
+    """Register a backend ``name -> "module:Class"``.
+
+    Raises
+    ------
+    ValueError
+        On a name collision, or an entry point not of the form ``package.module:Class``.
+    """
+    why = check_entry(entry_point)
+    if why is not None:
+        raise ValueError(f"register({name!r}, ...): {why}")
     if name in BACKENDS and BACKENDS[name] != entry_point:
         raise ValueError(f"backend {name!r} is already registered as {BACKENDS[name]!r}")
     BACKENDS[name] = entry_point
 
 
-def _available(entry: str) -> bool:
-    mod = entry.split(":")[0]
+def _available(name: str) -> bool:
+    """Whether the module of backend ``name`` exists (without importing the module itself; a
+    plugin package that raises when imported is reported and counts as absent)."""
+    entry = BACKENDS[name]
     try:
-        return importlib.util.find_spec(mod) is not None
+        return importlib.util.find_spec(entry.split(":")[0]) is not None
     except ModuleNotFoundError:
+        return False
+    except Exception as e:  # noqa: BLE001 - a plugin's package raised when imported
+        import_failed(name, entry, e)
         return False
 
 
 def list_backends() -> list[str]:
     """Backend names whose implementation is present (plugins included)."""
     _discover()
-    return [n for n, e in BACKENDS.items() if _available(e)]
+    return [n for n in BACKENDS if _available(n)]
 
 
 def list_solvers(backends: bool = False) -> list[str]:
@@ -157,7 +156,7 @@ def list_solvers(backends: bool = False) -> list[str]:
             b = read_preset(path)["backend"]
         except ValueError:
             continue
-        if b in BACKENDS and _available(BACKENDS[b]):
+        if b in BACKENDS and _available(b):
             out.append(name)
     if backends:
         out += list_backends()
@@ -169,6 +168,9 @@ def _load_class(name: str) -> type[Backend]:
     if name not in BACKENDS:
         close = difflib.get_close_matches(name, list(BACKENDS), n=3)
         hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+        broken = broken_backend(name)
+        if broken:
+            raise ImportError(broken)
         raise ValueError(f"unknown backend {name!r}{hint} (backends: {', '.join(BACKENDS)})")
     mod, cls = BACKENDS[name].split(":")
     try:
@@ -179,7 +181,13 @@ def _load_class(name: str) -> type[Backend]:
                 f"backend {name!r} needs the package {e.name!r}: pip install {e.name}"
             ) from e
         raise ValueError(f"backend {name!r} is registered but not implemented in this build") from e
-    return getattr(module, cls)
+    except Exception as e:  # noqa: BLE001 - a plugin's module raised when imported
+        raise ImportError(import_failed(name, BACKENDS[name], e)) from e
+    try:
+        return getattr(module, cls)
+    except AttributeError:
+        raise ImportError(f"backend {name!r}: module {mod!r} has no {cls!r} (registered as "
+                          f"{BACKENDS[name]!r})") from None
 
 
 def _check_names(cls: type[Backend], options: dict[str, Any], where: str) -> None:
@@ -229,6 +237,8 @@ def get_solver(spec: str | Path | Backend, **overrides: Any) -> Backend:
         elif s in BACKENDS:
             data, where, preset = {"backend": s, "options": {}}, f"backend {s}", None
         else:
+            if broken_backend(s):
+                raise ImportError(broken_backend(s))
             names = list(dict.fromkeys([*presets, *BACKENDS]))
             close = difflib.get_close_matches(s, names, n=3)
             hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""

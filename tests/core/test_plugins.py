@@ -23,26 +23,39 @@ def page_file(name: str) -> str:
     return m.group(1)
 
 
-@pytest.fixture(scope="module")
-def plugin_path(tmp_path_factory) -> Path:
-    """A tiny installed distribution: a package plus its ``.dist-info`` with entry points."""
-    root = tmp_path_factory.mktemp("plugin")
-    pkg = root / "toyplug"
-    (pkg / "presets").mkdir(parents=True)
-    (pkg / "__init__.py").write_text("")
-    (pkg / "planner.py").write_text(page_file("toyplug/planner.py"))
-    (pkg / "presets" / "__init__.py").write_text("")
-    (pkg / "presets" / "line-five.toml").write_text(page_file("toyplug/presets/line-five.toml"))
-    info = root / "toyplug-0.1.dist-info"
+def make_dist(root: Path, name: str, files: dict[str, str], entry_points: str) -> None:
+    """Install (by path) a distribution ``name``: its ``files`` and a ``.dist-info`` with
+    ``entry_points``."""
+    for rel, text in files.items():
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(text)
+    info = root / f"{name}-0.1.dist-info"
     info.mkdir()
-    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: toyplug\nVersion: 0.1\n")
-    (info / "entry_points.txt").write_text(textwrap.dedent("""\
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {name}\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(textwrap.dedent(entry_points))
+
+
+def toyplug(root: Path) -> None:
+    """The plugin of docs/adding-a-solver.md, laid out as the page shows: ``toyplug`` and its
+    ``presets`` folder are namespace packages (no ``__init__.py``)."""
+    make_dist(root, "toyplug", {
+        "toyplug/planner.py": page_file("toyplug/planner.py"),
+        "toyplug/presets/line-five.toml": page_file("toyplug/presets/line-five.toml"),
+    }, """\
         [optplan.backends]
         line = toyplug.planner:Line
 
         [optplan.presets]
         toyplug = toyplug.presets
-        """))
+        """)
+
+
+@pytest.fixture(scope="module")
+def plugin_path(tmp_path_factory) -> Path:
+    """The toy plugin alone (:func:`toyplug`)."""
+    root = tmp_path_factory.mktemp("plugin")
+    toyplug(root)
+    assert not list(root.rglob("__init__.py"))
     return root
 
 
@@ -90,3 +103,110 @@ def test_plugin_in_the_cli_and_in_bench_workers(plugin_path: Path) -> None:
     assert out.returncode == 0, out.stderr
     assert "error" not in out.stdout.lower(), out.stdout
     assert out.stdout.count("line") >= 2
+
+
+@pytest.fixture(scope="module")
+def broken_path(tmp_path_factory) -> Path:
+    """Beside the working toy plugin: a distribution whose package raises when imported (its
+    backend and its presets are lost), one whose backend module raises when imported, and one
+    with malformed entry points."""
+    root = tmp_path_factory.mktemp("broken")
+    toyplug(root)
+    make_dist(root, "boomplug", {
+        "boomplug/__init__.py": "raise RuntimeError('boom in the package')\n",
+        "boomplug/planner.py": "",
+        "boomplug/presets/boom-fast.toml": 'backend = "boom"\n',
+    }, """\
+        [optplan.backends]
+        boom = boomplug.planner:Boom
+
+        [optplan.presets]
+        boomplug = boomplug.presets
+        """)
+    make_dist(root, "modplug", {
+        "modplug/__init__.py": "",
+        "modplug/planner.py": "raise RuntimeError('boom in the planner')\n",
+    }, """\
+        [optplan.backends]
+        kaboom = modplug.planner:Kaboom
+        """)
+    make_dist(root, "badplug", {"badplug/__init__.py": ""}, """\
+        [optplan.backends]
+        nocolon = badplug.planner
+        twocolons = badplug.planner:A:B
+
+        [optplan.presets]
+        badplug = badplug/presets
+        """)
+    return root
+
+
+def test_a_broken_plugin_is_reported_once_and_breaks_nothing(broken_path: Path) -> None:
+    code = textwrap.dedent("""
+        import warnings
+        import optplan as op
+        from optplan.catalog import PluginWarning
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            print(op.solve("open-field", "visgraph").status.value)
+            print(op.solve("open-field", "line-five").status.value)
+            print("line-five" in op.list_solvers(), "line" in op.list_backends())
+            op.list_solvers()
+            for name in ("kaboom", "boom", "boom-fast", "nocolon", "twocolons"):
+                try:
+                    op.solve("open-field", name)
+                except (ImportError, ValueError) as e:
+                    print("error:", e)
+        for w in caught:
+            assert w.category is PluginWarning, w
+            print("warning:", w.message)
+    """)
+    out = _run(broken_path, "-c", code)
+    assert out.returncode == 0, out.stderr
+    lines = out.stdout.splitlines()
+    assert lines[:3] == ["optimal", "solved", "True True"]
+    errors = [ln for ln in lines if ln.startswith("error:")]
+    assert errors[0] == ("error: plugin distribution 'modplug' (entry point kaboom = "
+                         "modplug.planner:Kaboom in optplan.backends): importing it raised "
+                         "RuntimeError: boom in the planner")
+    assert errors[1] == ("error: plugin distribution 'boomplug' (entry point boom = "
+                         "boomplug.planner:Boom in optplan.backends): importing it raised "
+                         "RuntimeError: boom in the package")
+    assert errors[2].startswith("error: unknown solver 'boom-fast'")  # its presets are lost
+    assert errors[3] == ("error: plugin distribution 'badplug' (entry point nocolon = "
+                         "badplug.planner in optplan.backends) ignored: expected "
+                         "'package.module:Class', got 'badplug.planner'")
+    assert "'badplug.planner:A:B'" in errors[4] and "too many values" not in errors[4]
+    warned = [ln for ln in lines if ln.startswith("warning:")]
+    # each problem once; the working plugin is not mentioned
+    assert len(warned) == len(set(warned)) == 6, warned
+    assert sum("'boomplug'" in w for w in warned) == 2
+    assert any("'boomplug'" in w and "presets skipped: RuntimeError: boom in the package" in w
+               for w in warned)
+    assert sum("'modplug'" in w for w in warned) == 1
+    assert sum("'badplug'" in w for w in warned) == 3
+    assert any("'badplug'" in w and "presets skipped: ValueError: expected 'package.folder'" in w
+               for w in warned)
+    assert not any("toyplug" in w for w in warned)
+
+
+def test_a_broken_plugin_leaves_the_cli_working(broken_path: Path) -> None:
+    out = _run(broken_path, "-m", "optplan", "list", "solvers")
+    assert out.returncode == 0, out.stderr
+    assert "line-five" in out.stdout and "visgraph" in out.stdout
+    warned = [ln for ln in out.stderr.splitlines() if "PluginWarning" in ln]
+    assert any("'boomplug'" in w and "boom in the package" in w for w in warned), out.stderr
+    assert len(warned) == len(set(warned))
+    out = _run(broken_path, "-m", "optplan", "solve", "open-field", "line-five")
+    assert out.returncode == 0, out.stderr
+    out = _run(broken_path, "-m", "optplan", "solve", "open-field", "kaboom")
+    assert out.returncode == 2
+    assert out.stderr.startswith("optplan: error: plugin distribution 'modplug'"), out.stderr
+    assert "RuntimeError: boom in the planner" in out.stderr
+
+
+def test_register_rejects_a_malformed_entry_point() -> None:
+    import optplan as op
+
+    with pytest.raises(ValueError, match=r"expected 'package.module:Class', got 'a:b:c'"):
+        op.register("abc", "a:b:c")
