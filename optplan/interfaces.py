@@ -21,6 +21,9 @@ Protocols
     :class:`FollowerController`: velocities of a formation's followers around a leader that
     someone else drives (``leader-follower``, ``formation-qp``).
 
+Both declare ``stats_units``, the units of their controllers' ``stats``
+(:mod:`optplan.units`).
+
 Both controllers are called from inside :func:`optplan.sim.simulate` with the simulator's
 :class:`~optplan.sim.SimState`: ``state.dt`` is the time step, ``state.positions`` the robots'
 positions (rows in ``state.ids`` order), ``state.field`` the sensed obstacles, and, for a
@@ -40,6 +43,7 @@ if TYPE_CHECKING:
     from optplan.problem import Problem
     from optplan.sim import SimState
     from optplan.solver import Backend
+    from optplan.units import Record
 
 __all__ = [
     "LocalController",
@@ -111,7 +115,18 @@ class LocalPlanner(Protocol):
     Implemented by :class:`~optplan.potential.apf.APF` and
     :class:`~optplan.potential.sa_apf.SAAPF`; required of the hybrid planner's
     ``local_solver`` and of a formation backend's ``pilot``.
+
+    Attributes
+    ----------
+    stats_units : Record
+        The units of its controllers' ``stats`` (:mod:`optplan.units`), every key declared:
+        the caller reports them in its extras, and the hybrid planner maps them back from its
+        canonical frame by them (an undeclared key raises
+        :class:`~optplan.units.UndeclaredUnit`).
     """
+
+    @property
+    def stats_units(self) -> Record: ...
 
     def controller(self, problem: Problem, robot_id: str,
                    rng: np.random.Generator) -> LocalController:
@@ -177,7 +192,16 @@ class FormationBackend(Protocol):
     Implemented by :class:`~optplan.formation.leader_follower.LeaderFollower` and
     :class:`~optplan.formation.formation_qp.FormationQP`; required of the hybrid planner's
     ``formation`` option.
+
+    Attributes
+    ----------
+    stats_units : Record
+        The units of its follower controller's ``stats`` (:mod:`optplan.units`), every key
+        declared (as for :class:`LocalPlanner`).
     """
+
+    @property
+    def stats_units(self) -> Record: ...
 
     def followers_controller(self, problem: Problem,
                              rng: np.random.Generator) -> FollowerController:
@@ -209,17 +233,27 @@ class StageKind:
     method : str
         The method the protocol requires, shown in messages and used to classify backend
         classes without building them.
+    attributes : tuple of str
+        The attributes the protocol requires besides ``method`` (named in messages).
     """
 
     label: str
     protocol: type | None = None
     method: str = ""
+    attributes: tuple[str, ...] = ()
 
     def accepts_class(self, cls: type) -> bool:
         return not self.method or callable(getattr(cls, self.method, None))
 
     def accepts(self, obj: Any) -> bool:
         return self.protocol is None or isinstance(obj, self.protocol)
+
+    def missing(self, obj: Any) -> str:
+        """What ``obj`` lacks of the protocol, for messages: the method (``"controller()"``),
+        else the attributes (``"stats_units"``)."""
+        if not callable(getattr(obj, self.method, None)):
+            return f"{self.method}()"
+        return " and ".join(a for a in self.attributes if not hasattr(obj, a)) or "?"
 
     def describe(self) -> str:
         if self.protocol is None:
@@ -231,9 +265,10 @@ class StageKind:
 #: Any backend: every backend returns paths from ``solve``.
 PATH_SOLVER = StageKind("path solver")
 #: A :class:`LocalPlanner`.
-LOCAL_PLANNER = StageKind("local planner", LocalPlanner, "controller")
+LOCAL_PLANNER = StageKind("local planner", LocalPlanner, "controller", ("stats_units",))
 #: A :class:`FormationBackend`.
-FORMATION_BACKEND = StageKind("formation backend", FormationBackend, "followers_controller")
+FORMATION_BACKEND = StageKind("formation backend", FormationBackend, "followers_controller",
+                              ("stats_units",))
 
 
 def _backend_class_of(name: str) -> type | None:
@@ -321,7 +356,7 @@ def resolve_stage(owner: str, option: str, spec: Any, kind: StageKind) -> Backen
             f"backend {obj.name!r}")
         hint = _suggest(spec, kind, exclude=spec) if isinstance(spec, str) else ""
         raise ValueError(f"{where} must be {kind.describe()}; {what} has no "
-                         f"{kind.method}(){hint}")
+                         f"{kind.missing(obj)}{hint}")
     return obj
 
 

@@ -13,8 +13,9 @@ within a range.  Distances are to the raw obstacle (not inflated); inside an obs
 distance is 0.  The static obstacles are answered by the one exact geometry core
 (:meth:`optplan.geometry.ObstacleSet.nearest`, whose bounding-circle screen discards obstacles
 farther than the range before any edge-level work); the simulator keeps no distance code of its
-own beyond a moving circle's centre and radius.  Contacts are checked with the map tolerance
-:attr:`optplan.geometry.Frame.eps`.
+own beyond a moving circle's centre and radius and the nearest point on a disc
+(:func:`disc_nearest`, also the robots' as others sense them).  Contacts are checked with the
+map tolerance :attr:`optplan.geometry.Frame.eps`.
 """
 
 from __future__ import annotations
@@ -31,14 +32,20 @@ from optplan.geometry import Frame, ObstacleSet, obstacle_set
 from optplan.problem import Obstacle, Problem, Robot
 from optplan.result import Progress, notify
 
-__all__ = ["ObstacleField", "SimState", "SimOutcome", "simulate"]
+__all__ = ["ObstacleField", "SimState", "SimOutcome", "simulate", "disc_nearest"]
 
 
-def _circle_nearest(pts: np.ndarray, c: np.ndarray, r: np.ndarray,
-                    max_range: float) -> tuple[np.ndarray, np.ndarray]:
-    """Nearest boundary points ``(R, m, 2)`` and distances ``(R, m)`` of circles (centres
-    ``c``, radii ``r``): exact, 0 inside; skipped (``nan`` / ``inf``) beyond ``max_range``."""
+def disc_nearest(pts: np.ndarray, c: np.ndarray, r: np.ndarray,
+                 max_range: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest boundary points ``(R, m, 2)`` and distances ``(R, m)`` of the points ``pts
+    (R, 2)`` to discs (centres ``c (m, 2)``, radii ``r (m,)``): exact, 0 inside; skipped
+    (``nan`` / ``inf``) beyond ``max_range``; from a disc's centre, the boundary point towards
+    +x.  The one nearest point on a disc of the simulator's sensing: moving circles
+    (:meth:`ObstacleField.nearest`) and other robots
+    (:class:`~optplan.potential.backend.RobotsAsObstacles`)."""
     v = pts[:, None, :] - c
+    if v.size == 0:  # no point or no disc
+        return np.full(v.shape, np.nan), np.full(v.shape[:2], np.inf)
     nv = np.hypot(v[..., 0], v[..., 1])
     d = nv - r
     if d.min() > max_range:  # the usual case: every moving circle out of range
@@ -154,7 +161,7 @@ class ObstacleField:
         off = self.offsets(t)
         if len(self._circ_idx):
             j = self._circ_sel
-            near[:, j], dist[:, j] = _circle_nearest(pts, off[j], self._circ_r, max_range)
+            near[:, j], dist[:, j] = disc_nearest(pts, off[j], self._circ_r, max_range)
         for i, oset in self._dyn_polys:
             q, d = oset.nearest(pts - off[i], max_range)
             near[:, i], dist[:, i] = q[:, 0] + off[i], d[:, 0]

@@ -96,9 +96,26 @@ from optplan.problem import Problem
 from optplan.result import Result
 from optplan.sim import SimState
 from optplan.solver import make_rng, option
+from optplan.units import Each, Record, Unit
 
 __all__ = ["FormationQP", "QPData", "QPLayout", "QPModel", "QPSolver", "QPSolution",
-           "QPStepRecord", "QPFormationController", "qp_summary", "qp_settings", "CompiledQP"]
+           "QPStepRecord", "QPFormationController", "qp_summary", "qp_settings", "CompiledQP",
+           "STATS_UNITS", "SUMMARY_UNITS"]
+
+#: The units of :attr:`QPFormationController.stats`.  The QP is posed in units of
+#: ``length_scale``, so its slack (a speed in those units) is dimensionless.
+STATS_UNITS = Record({
+    "qp_failures": Unit.DIMENSIONLESS, "qp_solves": Unit.DIMENSIONLESS,
+    "rebuilds": Unit.DIMENSIONLESS, "qp_retries": Unit.DIMENSIONLESS,
+    "slack_steps": Unit.DIMENSIONLESS, "max_slack": Unit.DIMENSIONLESS,
+    "solve_times": Unit.WALL_TIME, "statuses": Each(Unit.DIMENSIONLESS),
+    "compiled": Unit.DIMENSIONLESS})
+#: The units of :func:`qp_summary` (the QP's statistics in the extras).
+SUMMARY_UNITS = Record({
+    "qp_failures": Unit.DIMENSIONLESS, "qp_solves": Unit.DIMENSIONLESS,
+    "slack_steps": Unit.DIMENSIONLESS, "max_slack": Unit.DIMENSIONLESS,
+    "rebuilds": Unit.DIMENSIONLESS, "qp_compiled": Unit.DIMENSIONLESS,
+    "qp_retries": Unit.DIMENSIONLESS, "qp_median_ms": Unit.WALL_TIME})
 
 
 # --------------------------------------------------------------------------------------
@@ -216,7 +233,7 @@ class QPFormationController:
         self.stats: dict[str, Any] = {"qp_failures": 0, "qp_solves": 0, "rebuilds": 0,
                                       "qp_retries": 0,
                                       "slack_steps": 0, "max_slack": 0.0, "solve_times": [],
-                                      "statuses": {}, "compiled": False}
+                                      "statuses": {}, "compiled": False}  # STATS_UNITS
         self._settings = qp_settings(opts)
 
     # -- FollowerController: the leader is external (driven by someone else) ----------------
@@ -460,6 +477,8 @@ class FormationQP(PilotedFormation, FormationBackend):
     """
 
     name: ClassVar[str] = "formation-qp"
+    stats_units: ClassVar[Record] = STATS_UNITS
+    summary_units: ClassVar[Record] = SUMMARY_UNITS
     # weights relative to the unit weight of the followers' feed-forward term; beyond 1e6
     # (1e9 for the exact-penalty slack) the QP's conditioning defeats Clarabel's tolerances
     w_f: float = option(4.0, lo=0.0, lo_open=True, hi=1e6)
@@ -518,7 +537,8 @@ def qp_settings(opts: FormationQP) -> dict[str, Any]:
 
 
 def qp_summary(stats: dict[str, Any]) -> dict[str, Any]:
-    """The QP's statistics for ``Result.extras`` (backend statistics, not metrics)."""
+    """The QP's statistics for ``Result.extras`` (backend statistics, not metrics; units:
+    :data:`SUMMARY_UNITS`)."""
     times = np.asarray(stats["solve_times"])
     return {"qp_failures": stats["qp_failures"], "qp_solves": stats["qp_solves"],
             "slack_steps": stats["slack_steps"], "max_slack": stats["max_slack"],

@@ -74,8 +74,10 @@ from optplan.interfaces import FormationBackend
 from optplan.problem import Problem
 from optplan.sim import SimState
 from optplan.solver import make_rng, option
+from optplan.units import Record, Unit
 
 __all__ = [
+    "STATS_UNITS",
     "LeaderFollower",
     "LPhiFollowers",
     "lphi_potential",
@@ -85,6 +87,12 @@ __all__ = [
 
 #: robot clearance floor used in 1/rho terms (map units)
 RHO_MIN = 1e-3
+
+#: The units of :attr:`LPhiFollowers.stats`: the smallest angle ratio of eq 52 and counters.
+STATS_UNITS = Record({
+    "min_phi_ratio": Unit.DIMENSIONLESS, "steps": Unit.DIMENSIONLESS,
+    "filtered": Unit.DIMENSIONLESS, "infeasible": Unit.DIMENSIONLESS,
+    "lost": Unit.DIMENSIONLESS, "recovery_steps": Unit.DIMENSIONLESS})
 
 
 # --------------------------------------------------------------------------------------
@@ -133,7 +141,8 @@ class LPhiFollowers(SafetyLayer):
         #: the problem's length unit: the distance-like options are multiples of it
         self.ell = float(problem.length_scale)
         self.stats: dict[str, Any] = {"min_phi_ratio": 1.0, "steps": 0, "filtered": 0,
-                                      "infeasible": 0, "lost": 0, "recovery_steps": 0}
+                                      "infeasible": 0, "lost": 0,
+                                      "recovery_steps": 0}  # units: STATS_UNITS
         self._trail = np.zeros((0, 2))  # the pilot's path so far (option trail)
         self._lost = np.zeros(len(self.form.followers), bool)
         m = max(int(opts.speed_sides), 3)
@@ -269,6 +278,7 @@ class LeaderFollower(PilotedFormation, FormationBackend):
     """
 
     name: ClassVar[str] = "leader-follower"
+    stats_units: ClassVar[Record] = STATS_UNITS
     A: float = option(0.5, lo=0.0, lo_open=True)
     B: float = option(0.5, lo=0.0, lo_open=True)
     k_f: float = option(1.0, lo=0.0, lo_open=True)

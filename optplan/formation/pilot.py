@@ -24,20 +24,25 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
 from optplan.formation.slots import slot_positions, wrap
+from optplan.geometry.polyline import cumulative_length, resample_uniform
 from optplan.interfaces import LOCAL_PLANNER, PATH_SOLVER, LocalController, resolve_stage
 from optplan.potential.field import attractive_force, repulsive_force
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status
 from optplan.sim import ObstacleField, SimState, simulate
 from optplan.solver import Backend, get_solver, option
+from optplan.units import Record, Unit
 
 __all__ = ["PilotedFormation", "PilotAPF", "ReferenceTracker", "pilot_force", "reference_path",
-           "make_pilot", "run_formation", "BUILTIN_PILOT", "PILOT_GAINS"]
+           "make_pilot", "run_formation", "BUILTIN_PILOT", "PILOT_GAINS", "PILOT_STATS_UNITS"]
+
+#: The units of :attr:`PilotAPF.stats`.
+PILOT_STATS_UNITS = Record({"steps": Unit.DIMENSIONLESS})
 
 
 def pilot_force(x: np.ndarray, goal: np.ndarray, near: np.ndarray, clear: np.ndarray,
@@ -81,7 +86,7 @@ class PilotAPF:
         self.speed, self.rho_min, self.scale = speed, rho_min, float(scale)
         self.goal = np.array(self.robot.goal if self.robot.goal is not None
                              else self.robot.start, float)
-        self.stats: dict[str, Any] = {"steps": 0}
+        self.stats: dict[str, Any] = {"steps": 0}  # units: PILOT_STATS_UNITS
 
     def reset(self, goal: np.ndarray) -> None:
         self.goal = np.asarray(goal, float).copy()
@@ -118,12 +123,10 @@ class ReferenceTracker:
     def __init__(self, ref: np.ndarray, controller: Any, *, spacing: float, lookahead: float,
                  speed: float, goal_tol: float, clearance: float = 0.0):
         ref = np.asarray(ref, float)
-        seg = np.hypot(*np.diff(ref, axis=0).T) if len(ref) > 1 else np.zeros(0)
-        s = np.r_[0.0, np.cumsum(seg)]
+        length = cumulative_length(ref)[-1]  # the arc length resample_uniform spreads
         # at most 100,000 samples: a tiny spacing cannot exhaust memory
-        n = max(2, min(100_000, int(math.ceil(s[-1] / spacing)) + 1)) if s[-1] > 0 else 1
-        ss = np.linspace(0, s[-1], n)
-        self.points = np.stack([np.interp(ss, s, ref[:, 0]), np.interp(ss, s, ref[:, 1])], 1)
+        n = max(2, min(100_000, int(math.ceil(length / spacing)) + 1)) if length > 0 else 1
+        self.points = resample_uniform(ref, n)
         self.goal = ref[-1].copy()
         self.ctrl, self.lookahead, self.speed, self.goal_tol = controller, lookahead, speed, \
             goal_tol
@@ -424,6 +427,20 @@ class PilotedFormation(Backend):
     max_steps: int = option(4000, lo=1, hi=10_000_000)
     settle_tol: float = option(0.005, lo=0.0, lo_open=True)
     _stages: dict[str, Any] | None = field(init=False, repr=False, compare=False, default=None)
+
+    #: The units of the follower controller's ``stats`` (each formation backend's own).
+    stats_units: ClassVar[Record] = Record({})
+    #: The units of the backend's own statistics in the extras (``run_formation(extras=)``).
+    summary_units: ClassVar[Record] = Record({})
+
+    @property
+    def extras_units(self) -> Record:
+        """The units of the result's extras (:func:`run_formation`; :mod:`optplan.units`)."""
+        pilot = self.stages["pilot"]
+        return Record({
+            "reference": Unit.POINT, "stop_reason": Unit.TEXT, "pilot": Unit.TEXT,
+            "pilot_stats": PILOT_STATS_UNITS if pilot is None else pilot.stats_units,
+            "follower_stats": self.stats_units, "contacts": Unit.TEXT}) | self.summary_units
 
     def check(self) -> None:
         """Resolve the ``pilot`` and ``path_solver`` stages (a ``ValueError`` names the option)."""

@@ -13,29 +13,48 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from optplan.canonical import to_world
 from optplan.geometry.polyline import path_lengths
 from optplan.hybrid.subgoals import inflection_points
 from optplan.interfaces import LocalController, stage_name
 from optplan.problem import Problem
 from optplan.result import History, Result, Status
 from optplan.sim import SimOutcome
+from optplan.units import Each, Record, Unit, to_scale
 
 if TYPE_CHECKING:
     from optplan.hybrid.planner import Hybrid
     from optplan.hybrid.policy import HybridPolicy
     from optplan.hybrid.stages import GlobalStage
 
-__all__ = ["assemble", "early_answer", "world_answer"]
+__all__ = ["assemble", "early_answer", "world_answer", "extras_units", "HISTORY_UNITS"]
 
-#: History columns that are lengths (mapped back from the canonical frame).
-_LENGTH_COLUMNS = ("best_cost", "dist_to_goal")
-#: Extras whose values are points or lengths (mapped back from the canonical frame).
-#: ``None``: the whole value; a tuple: those keys of a dict value.
-_LENGTH_EXTRAS: dict[str, tuple[str, ...] | None] = {
-    "global_path": None, "inflection_points": None, "subgoals": None, "global_paths": None,
-    "subgoal_sequences": None, "global_length": None, "leader_field": None,
-    "global_metrics": ("length", "min_clearance"), "formation_stats": ("max_slack",)}
+#: The units of the history's columns (:mod:`optplan.units`).
+HISTORY_UNITS = Record({
+    "iteration": Unit.DIMENSIONLESS, "best_cost": Unit.LENGTH, "dist_to_goal": Unit.LENGTH,
+    "n_eval": Unit.DIMENSIONLESS, "time": Unit.TIME})
+_D = Unit.DIMENSIONLESS
+
+
+def extras_units(local_stats: Record, formation_stats: Record) -> Record:
+    """The units of the run's extras (:func:`_extras`, :func:`early_answer`,
+    :func:`world_answer`), given those of the local controllers' and of the follower
+    controller's ``stats`` (the stages' ``stats_units``)."""
+    return Record({
+        "global_path": Unit.POINT, "inflection_points": Unit.POINT, "subgoals": Unit.POINT,
+        "global_paths": Each(Unit.POINT), "subgoal_sequences": Each(Unit.POINT),
+        "global_solver": Unit.TEXT, "local_solver": Unit.TEXT, "formation_solver": Unit.TEXT,
+        "global_status": Unit.TEXT, "global_length": Unit.LENGTH,
+        "global_metrics": Record({"feasible": _D, "length": Unit.LENGTH, "collisions": _D,
+                                  "static_collisions": _D, "min_clearance": Unit.LENGTH,
+                                  "reached": _D}),
+        "global_wall_time": Unit.WALL_TIME,
+        "subgoal_events": Each(Each(Record({"subgoal": _D, "t": Unit.TIME, "how": Unit.TEXT}))),
+        "subgoal_times": Unit.TIME, "time_to_goal": Unit.TIME,
+        "local_stats": Each(local_stats),
+        "leader_field": Record({"rho_0": Unit.LENGTH, "sense_range": Unit.LENGTH,
+                                "length_scale": Unit.LENGTH}),
+        "formation_stats": formation_stats, "sim_reason": Unit.TEXT, "contacts": Unit.TEXT,
+        "dt": Unit.TIME, "canonical_unit": Unit.LENGTH})
 
 
 def assemble(opts: Hybrid, glob: GlobalStage, policy: HybridPolicy, out: SimOutcome,
@@ -83,7 +102,8 @@ def _outcome(opts: Hybrid, glob: GlobalStage, policy: HybridPolicy,
 
 def _extras(opts: Hybrid, glob: GlobalStage, policy: HybridPolicy,
             out: SimOutcome) -> dict[str, Any]:
-    """The result's extras: the global path, sub-goals, stage names, statistics."""
+    """The result's extras (units: :func:`extras_units`): the global path, sub-goals, stage
+    names, statistics."""
     ld, gres, fctrl = policy.lead, glob.result, policy.fctrl
     gpath = glob.paths[ld.robot.id]
     return {
@@ -129,10 +149,14 @@ def early_answer(problem: Problem, ids: list[str], gres: Result | None, msg: str
                 wall_time=time.perf_counter() - t_start)
 
 
-def world_answer(world: Problem, image: Problem, answer: dict[str, Any]
+def world_answer(world: Problem, image: Problem, answer: dict[str, Any], units: Record
                  ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """``answer``, planned on the canonical ``image``, mapped back to ``world`` (x its unit;
-    each path starts at the robot's exact start): ``(paths, the other finish arguments)``."""
+    each path starts at the robot's exact start): ``(paths, the other finish arguments)``.
+
+    The history and the extras are mapped by their declared units (:data:`HISTORY_UNITS`,
+    ``units``: :func:`extras_units`); a column or an extra without one raises
+    :class:`~optplan.units.UndeclaredUnit`."""
     u = image.world_unit
     paths = {}
     for rid, p in answer.pop("paths").items():
@@ -141,21 +165,12 @@ def world_answer(world: Problem, image: Problem, answer: dict[str, Any]
         paths[rid] = p
     hist = answer.pop("history", None)
     if hist is not None:
-        hist = History({k: (to_world(hist[k].tolist(), u) if k in _LENGTH_COLUMNS
-                            else hist[k].tolist()) for k in hist.keys()})
-    extras = answer.pop("extras")
-    extras = {k: _extra_to_world(v, _LENGTH_EXTRAS[k], u) if k in _LENGTH_EXTRAS else v
-              for k, v in extras.items()}
+        hist = History(to_scale({k: hist[k].tolist() for k in hist.keys()}, HISTORY_UNITS, u,
+                                "history"))
+    extras = to_scale(answer.pop("extras"), units, u)
     extras["canonical_unit"] = u
     return paths, dict(cost=answer.pop("cost", float("nan")) * u, history=hist, extras=extras,
                        **answer)
-
-
-def _extra_to_world(value: Any, keys: tuple[str, ...] | None, unit: float) -> Any:
-    """An extras value of the canonical run in world units (``keys``: :data:`_LENGTH_EXTRAS`)."""
-    if keys is None:
-        return to_world(value, unit)
-    return {k: to_world(v, unit) if k in keys else v for k, v in value.items()}
 
 
 def _field_summary(ctrl: LocalController) -> dict:

@@ -60,7 +60,7 @@ from typing import Any, ClassVar, cast
 import numpy as np
 
 from optplan.canonical import canonical_problem, to_canonical
-from optplan.hybrid.answer import assemble, early_answer, world_answer
+from optplan.hybrid.answer import assemble, early_answer, extras_units, world_answer
 from optplan.hybrid.policy import HybridPolicy, Team
 from optplan.hybrid.stages import StageCallback, global_stage
 from optplan.hybrid.subgoals import subgoals
@@ -77,6 +77,7 @@ from optplan.problem import Problem
 from optplan.result import Progress, Result, Status
 from optplan.sim import simulate
 from optplan.solver import Backend, make_rng
+from optplan.units import Record
 
 __all__ = ["Hybrid"]
 
@@ -212,6 +213,14 @@ class Hybrid(Backend):
             raise RuntimeError(f"{self.name}: the stages are not resolved (check() has not run)")
         return self._stages
 
+    @property
+    def extras_units(self) -> Record:
+        """The units of the result's extras (:func:`~optplan.hybrid.answer.extras_units`,
+        :mod:`optplan.units`), with the stages' declared ``stats_units``."""
+        form = self.stages["formation"]
+        return extras_units(self.stages["local_solver"].stats_units,
+                            form.stats_units if form is not None else Record({}))
+
     def options(self) -> dict[str, Any]:
         out = super().options()
         for k in ("global_solver", "local_solver", "formation"):
@@ -256,7 +265,7 @@ class Hybrid(Backend):
     def _world_result(self, world: Problem, image: Problem, answer: dict[str, Any]) -> Result:
         """The answer planned on the canonical ``image`` mapped back to ``world`` (x its unit;
         each path starts at the robot's exact start) and graded there by the validator."""
-        paths, kwargs = world_answer(world, image, answer)
+        paths, kwargs = world_answer(world, image, answer, self.extras_units)
         return self.finish(world, paths, **kwargs)
 
     # -- which robots drive themselves, which follow -----------------------------------

@@ -19,14 +19,23 @@ from optplan.hybrid.answer import early_answer
 from optplan.hybrid.policy import Team
 from optplan.problem import Problem, Robot
 from optplan.result import Progress, Result, Status, notify
+from optplan.units import Record, Unit, to_scale
 
 if TYPE_CHECKING:
     from optplan.hybrid.planner import Hybrid
 
-__all__ = ["StageCallback", "GlobalStage", "global_stage"]
+__all__ = ["StageCallback", "GlobalStage", "global_stage", "PROGRESS_INFO_UNITS"]
 
-#: Progress.info entries of the stages that are lengths (mapped back from the canonical frame).
-_LENGTH_INFO = ("feasible_best_length",)
+_D = Unit.DIMENSIONLESS
+#: The units of the stages' ``Progress.info`` (:mod:`optplan.units`), mapped back from the
+#: canonical frame by them: the swarm's, the visibility graph's (its search counters), the
+#: NLP's (its objective, in normalised units); the simulator reports none.  A stage that
+#: reports a key declared nowhere here stops the run with
+#: :class:`~optplan.units.UndeclaredUnit`.
+PROGRESS_INFO_UNITS = Record({
+    "robot": Unit.TEXT, "feasible_best_length": Unit.LENGTH, "phase": Unit.TEXT,
+    "n_circles": _D, "n_expanded": _D, "n_generated": _D, "n_checked": _D, "certified": _D,
+    "reason": Unit.TEXT, "stopped": _D, "objective": _D})
 
 
 class StageCallback:
@@ -39,7 +48,7 @@ class StageCallback:
         self.unit = unit  # world length of a canonical unit (best_cost is a length)
 
     def __call__(self, p: Progress) -> None:
-        info = {k: v * self.unit if k in _LENGTH_INFO else v for k, v in p.info.items()}
+        info = to_scale(p.info, PROGRESS_INFO_UNITS, self.unit, "Progress.info")
         q = Progress(p.iteration + self.offset, p.best_cost * self.unit, p.n_eval, p.elapsed,
                      info, p.sim_time)
         if notify(self.callback, q):

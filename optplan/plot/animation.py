@@ -11,6 +11,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 from matplotlib.text import Text
 
+from optplan.geometry.polyline import cumulative_length, points_along
 from optplan.plot.legend import _place_legend
 from optplan.plot.scene import _problem_of, _robot_colour, plot_problem
 from optplan.plot.shapes import _draw_poly, _draw_violations, _include_points, _poly_path, _polygons
@@ -34,7 +35,7 @@ def _timed_paths(result: Result, prob: Problem) -> tuple[np.ndarray, dict[str, n
     arr = {}
     t_end = 0.0
     for k, p in paths.items():
-        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
+        s = cumulative_length(p)
         v = prob.robot(k).max_speed if k in prob.robot_ids else 1.0
         arr[k] = (s / v, p)
         t_end = max(t_end, float(s[-1] / v))
@@ -44,7 +45,7 @@ def _timed_paths(result: Result, prob: Problem) -> tuple[np.ndarray, dict[str, n
         if len(p) == 1 or tk[-1] == 0:
             out[k] = np.repeat(p[:1], len(t), axis=0)
         else:
-            out[k] = np.stack([np.interp(t, tk, p[:, 0]), np.interp(t, tk, p[:, 1])], axis=1)
+            out[k] = points_along(p, t, tk)
     return t, out
 
 

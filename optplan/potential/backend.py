@@ -14,21 +14,29 @@ import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any, ClassVar, cast
 
 import numpy as np
 
 from optplan.geometry.polyline import path_lengths
 from optplan.options import option
-from optplan.potential.controller import APFController, Trace
+from optplan.potential.controller import STATS_UNITS, APFController, Trace
 from optplan.potential.field import FieldParams
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status
-from optplan.sim import ObstacleField, SimState, simulate
+from optplan.sim import ObstacleField, SimState, disc_nearest, simulate
 from optplan.solver import Backend, make_rng
+from optplan.units import Each, Record, Unit
 
 __all__ = ["PotentialFieldBackend", "run_local_planner", "RobotsAsObstacles",
-           "oscillation_index"]
+           "oscillation_index", "EXTRAS_UNITS"]
+
+#: The units of the result's extras (:func:`run_local_planner`; :mod:`optplan.units`).
+EXTRAS_UNITS = Record({
+    "local_minima_detected": Unit.DIMENSIONLESS, "detections": Each(Unit.DIMENSIONLESS),
+    "local_minima_escaped": Unit.DIMENSIONLESS, "sa_steps": Unit.DIMENSIONLESS,
+    "sim_steps": Unit.DIMENSIONLESS, "sim_reason": Unit.TEXT, "length_scale": Unit.LENGTH,
+    "controllers": Each(STATS_UNITS), "minima": Each(Unit.POINT), "collision": Unit.TEXT})
 
 
 def oscillation_index(path: np.ndarray, unit: float = 1.0) -> float:
@@ -71,15 +79,7 @@ class RobotsAsObstacles:
         """:meth:`ObstacleField.nearest` with the robot discs appended (same conventions)."""
         near, dist = self.base.nearest(points, t, max_range)
         pts = np.atleast_2d(np.asarray(points, dtype=float))
-        v = pts[:, None, :] - self.centers[None, :, :]  # (R, K, 2)
-        nv = np.hypot(v[..., 0], v[..., 1])
-        u = np.where(nv[..., None] > 1e-12, v / np.maximum(nv, 1e-12)[..., None],
-                     np.array([1.0, 0.0]))
-        rn = self.centers[None] + u * self.radii[None, :, None]
-        rd = np.maximum(nv - self.radii[None, :], 0.0)
-        far = rd > max_range
-        rn[far] = np.nan
-        rd[far] = np.inf
+        rn, rd = disc_nearest(pts, self.centers, self.radii, max_range)
         return np.concatenate([near, rn], axis=1), np.concatenate([dist, rd], axis=1)
 
 
@@ -180,7 +180,8 @@ def _time_to_goal(out: Any, i: int, goal: np.ndarray, tol: float) -> float:
 
 def _local_extras(out: Any, ids: list[str], ctrls: list[APFController],
                   unit: float) -> dict[str, Any]:
-    """The result's extras: the controllers' detection counts and statistics, the run."""
+    """The result's extras (units: :data:`EXTRAS_UNITS`): the controllers' detection counts
+    and statistics, the run."""
     detections = {k: int(sum(c.stats["detections"][k] for c in ctrls))
                   for k in ("eq38", "stall", "oscillation")}
     return {
@@ -291,6 +292,11 @@ class PotentialFieldBackend(Backend):
     detect_eq38: bool = option(True)
     evade_factor: float = option(0.0, lo=0.0, hi=100.0)
     sense_robots: bool = option(True)
+
+    #: The units of the controllers' ``stats`` (:class:`~optplan.interfaces.LocalPlanner`).
+    stats_units: ClassVar[Record] = STATS_UNITS
+    #: The units of the result's extras (:mod:`optplan.units`).
+    extras_units: ClassVar[Record] = EXTRAS_UNITS
 
     if TYPE_CHECKING:  # each planner (APF, SAAPF) defines it (LocalPlanner)
         def controller(self, problem: Problem, robot_id: str, rng: np.random.Generator

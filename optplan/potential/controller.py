@@ -39,12 +39,20 @@ from optplan.canonical import format_point
 from optplan.potential.field import FieldParams, evaluate_field
 from optplan.problem import Problem, Robot
 from optplan.sim import ObstacleField, SimState
+from optplan.units import Each, Record, Unit
 
 if TYPE_CHECKING:
     from optplan.potential.apf import APF
     from optplan.potential.backend import PotentialFieldBackend
 
-__all__ = ["APFController", "Trace"]
+__all__ = ["APFController", "Trace", "STATS_UNITS"]
+
+#: The units of :attr:`APFController.stats` (and SA-APF's): counters, and the reason it gave up.
+STATS_UNITS = Record({
+    "local_minima_detected": Unit.DIMENSIONLESS, "distinct_minima": Unit.DIMENSIONLESS,
+    "escapes": Unit.DIMENSIONLESS, "sa_steps": Unit.DIMENSIONLESS, "steps": Unit.DIMENSIONLESS,
+    "evasions": Unit.DIMENSIONLESS, "detections": Each(Unit.DIMENSIONLESS),
+    "gave_up": Unit.TEXT})
 
 
 @dataclass
@@ -74,7 +82,7 @@ class APFController:
         self.rng = rng
         self.params = params
         self.goal = np.asarray(robot.goal if robot.goal is not None else robot.start, float)
-        self.stats: dict[str, Any] = {
+        self.stats: dict[str, Any] = {  # units: STATS_UNITS
             "local_minima_detected": 0, "distinct_minima": 0, "escapes": 0, "sa_steps": 0,
             "steps": 0,
             "detections": {"eq38": 0, "stall": 0, "oscillation": 0}, "gave_up": "",

@@ -20,6 +20,7 @@ from optplan.hybrid.planner import Hybrid
 from optplan.hybrid.subgoals import inflection_points, subgoals, turning_angles
 from optplan.interfaces import FormationBackend, LocalPlanner
 from optplan.solver import Backend
+from optplan.units import Record, Unit
 
 # --------------------------------------------------------------------------------------
 # private stand-in stages
@@ -54,6 +55,7 @@ class _Tracker:
 @dataclass(frozen=True, kw_only=True)
 class _StraightLocal(Backend):
     name: ClassVar[str] = "test-straight"
+    stats_units: ClassVar[Record] = Record({"resets": Unit.DIMENSIONLESS})
     give_up_intermediate: bool = False
 
     def controller(self, problem, robot_id, rng):
@@ -79,6 +81,7 @@ class _SlotTracker:
 @dataclass(frozen=True, kw_only=True)
 class _SlotFormation(Backend):
     name: ClassVar[str] = "test-slots"
+    stats_units: ClassVar[Record] = Record({"calls": Unit.DIMENSIONLESS})
 
     def followers_controller(self, problem, rng):
         return _SlotTracker(problem)
@@ -386,3 +389,15 @@ def test_hybrid_result_plots_and_animates(tmp_path):
         im.seek(k)
         frames.append(np.asarray(im.convert("RGB"), dtype=int))
     assert np.any(frames[0] != frames[1])  # the robot moves
+
+
+def test_a_stage_without_stats_units_is_refused_when_the_solver_is_built():
+    @dataclass(frozen=True, kw_only=True)
+    class Undeclared(Backend):
+        name: ClassVar[str] = "test-undeclared"
+
+        def controller(self, problem, robot_id, rng):
+            raise NotImplementedError
+
+    with pytest.raises(ValueError, match="'local_solver'.*has no stats_units"):
+        _hybrid(local_solver=Undeclared())
