@@ -1,10 +1,13 @@
-"""Summaries of a sweep's rows (medians, IQRs, success rates), their Markdown table and the
-CSV file."""
+"""Summaries of a sweep's rows (medians, IQRs, success rates), their Markdown table, the CSV
+file, and the sweep as an OMPL benchmark database for Planner Arena (:func:`export_arena`)."""
 
 from __future__ import annotations
 
 import csv
+import json
 import math
+import os
+import sqlite3
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -154,3 +157,211 @@ def read_csv(path: str | Path) -> list[dict[str, Any]]:
                 row["success"] = _truthy(row["success"])
             out.append(row)
     return out
+
+
+# --------------------------------------------------------------------------------------
+# OMPL's benchmark database (Planner Arena)
+# --------------------------------------------------------------------------------------
+
+#: OMPL's benchmark database schema (``ompl_benchmark_statistics.py``): the five tables, with
+#: the columns every OMPL database has; ``runs`` and ``progress`` get one column per attribute
+ARENA_SCHEMA = """
+CREATE TABLE experiments (id INTEGER PRIMARY KEY AUTOINCREMENT, name VARCHAR(512),
+    totaltime REAL, timelimit REAL, memorylimit REAL, runcount INTEGER, version VARCHAR(128),
+    hostname VARCHAR(1024), cpuinfo TEXT, date DATETIME, seed VARCHAR(24), setup TEXT);
+CREATE TABLE plannerConfigs (id INTEGER PRIMARY KEY AUTOINCREMENT,
+    name VARCHAR(512) NOT NULL, settings TEXT);
+CREATE TABLE enums (name VARCHAR(512), value INTEGER, description TEXT,
+    PRIMARY KEY (name, value));
+CREATE TABLE runs (id INTEGER PRIMARY KEY AUTOINCREMENT, experimentid INTEGER,
+    plannerid INTEGER, {runs},
+    FOREIGN KEY (experimentid) REFERENCES experiments(id) ON DELETE CASCADE,
+    FOREIGN KEY (plannerid) REFERENCES plannerConfigs(id) ON DELETE CASCADE);
+CREATE TABLE progress (runid INTEGER, time REAL, best_cost REAL, iterations INTEGER,
+    evaluations INTEGER, PRIMARY KEY (runid, time),
+    FOREIGN KEY (runid) REFERENCES runs(id) ON DELETE CASCADE);
+"""
+
+#: ``runs`` attributes: (column, SQL type, tidy-row key); OMPL's names first, then optplan's
+ARENA_RUN_COLUMNS = (
+    ("time", "REAL", "wall_time"), ("memory", "REAL", None), ("solved", "BOOLEAN", "success"),
+    ("approximate_solution", "BOOLEAN", None), ("solution_length", "REAL", "length"),
+    ("solution_clearance", "REAL", "min_clearance"), ("status", "ENUM", None),
+    ("iterations", "INTEGER", "n_iter"), ("evaluations", "INTEGER", "n_eval"),
+    ("certified_optimum", "REAL", "optimum"), ("ratio_to_optimum", "REAL", "ratio"),
+    ("collisions", "INTEGER", "collisions"), ("reference_time", "REAL", "reference_time"),
+    ("seed", "INTEGER", "seed"))
+
+#: the ``status`` enum: optplan's statuses, then the harness's outcomes
+ARENA_STATUS = ("optimal", "solved", "approximate", "infeasible", "failed", "error",
+                "time_limit")
+
+
+def _arena_real(x: Any) -> float | None:
+    """A finite float, else None (OMPL stores nan and inf as NULL)."""
+    v = _num(x)
+    return v if math.isfinite(v) else None
+
+
+def _arena_run(row: Mapping[str, Any]) -> list[Any]:
+    """The ``runs`` attribute values of a tidy row, in :data:`ARENA_RUN_COLUMNS` order."""
+    status = str(row.get("status", ""))
+    out: list[Any] = []
+    for col, sql, key in ARENA_RUN_COLUMNS:
+        if col == "status":
+            out.append(ARENA_STATUS.index(status) if status in ARENA_STATUS else None)
+        elif col == "approximate_solution":
+            out.append(int(status == "approximate"))
+        elif key is None:
+            out.append(None)  # memory: not measured
+        elif sql == "BOOLEAN":
+            out.append(int(bool(row.get(key))))
+        elif sql == "INTEGER":
+            out.append(int(row[key]))
+        else:
+            out.append(_arena_real(row.get(key)))
+    return out
+
+
+def _arena_key(row: Mapping[str, Any], sweeps: Mapping[int, Mapping[str, Any]]
+               ) -> tuple[str, str]:
+    """The experiment of a run: (problem, ``optplan VERSION`` of the sweep that ran it)."""
+    sweep = sweeps.get(int(row.get("experiment_id") or 0), {})
+    return str(row["problem"]), f"optplan {sweep.get('optplan_version') or '0.0.0'}"
+
+
+def _arena_experiments(runs: Sequence[Mapping[str, Any]],
+                       sweeps: Mapping[int, Mapping[str, Any]]) -> dict[tuple[str, str], dict]:
+    """One experiment per (problem, optplan version): its ``experiments`` row."""
+    out: dict[tuple[str, str], dict] = {}
+    for r in runs:
+        sweep = sweeps.get(int(r.get("experiment_id") or 0), {})
+        key = _arena_key(r, sweeps)
+        machine: dict[str, Any] = sweep.get("machine") or {}
+        if not isinstance(machine, dict):
+            machine = {}
+        limit = json.loads(r.get("config") or "{}").get("time_limit")
+        e = out.setdefault(key, {
+            "name": key[0], "totaltime": 0.0, "timelimit": None, "memorylimit": None,
+            "seeds": set(), "version": key[1], "hostname": machine.get("host"),
+            "cpuinfo": f"{machine.get('processor') or machine.get('machine') or '?'}, "
+                       f"{machine.get('cpu_count')} CPUs ({machine.get('platform')})",
+            "date": sweep.get("started"), "setup": set()})
+        e["totaltime"] += _arena_real(r.get("wall_time")) or 0.0
+        if limit is not None:
+            e["timelimit"] = max(e["timelimit"] or 0.0, float(limit))
+        e["seeds"].add(int(r["seed"]))
+        e["setup"].add(str(sweep.get("command_line") or ""))
+    return out
+
+
+def _arena_counts(runs: Sequence[Mapping[str, Any]]) -> int:
+    """Runs per planner configuration of an experiment (the most any configuration has)."""
+    per: dict[str, int] = {}
+    for r in runs:
+        per[r["solver"]] = per.get(r["solver"], 0) + 1
+    return max(per.values(), default=0)
+
+
+def export_arena(db: str | Path, out: str | Path) -> dict[str, int]:
+    """Write a results database (``optplan bench --db``) as an OMPL benchmark database.
+
+    The file has OMPL's schema (``experiments``, ``plannerConfigs``, ``enums``, ``runs``,
+    ``progress``) and opens in Planner Arena (``plannerarena``, the benchmark browser of OMPL):
+    one experiment per problem (and optplan version), one planner configuration per solver and
+    its effective options, one ``runs`` row per run with OMPL's attributes (``time``,
+    ``memory`` (NULL: not measured), ``solved``, ``approximate solution``, ``solution
+    length``, ``solution clearance``, ``status``) and optplan's (``iterations``,
+    ``evaluations``, ``certified optimum``, ``ratio to optimum``, ``collisions`` (the
+    validator's, in continuous time), ``reference time``, ``seed``), and the convergence
+    traces in ``progress`` (``time``, ``best cost``, ``iterations``, ``evaluations``).
+    NaN and infinite values are NULL, as OMPL stores them.
+
+    Parameters
+    ----------
+    db : str or Path
+        The results database.
+    out : str or Path
+        The OMPL database to write; an existing file is replaced (written to a temporary
+        file first, then renamed).
+
+    Returns
+    -------
+    dict
+        ``experiments``, ``planners``, ``runs``, ``progress``: the rows written.
+
+    Raises
+    ------
+    ValueError
+        ``db`` is not a results database, or ``out`` is ``db`` itself.
+    FileNotFoundError
+        ``db`` does not exist.
+    """
+    from optplan.benchdb import read_experiments, read_progress, read_runs
+
+    src, dst = Path(db), Path(out)
+    if dst.exists() and src.exists() and dst.resolve() == src.resolve():
+        raise ValueError(f"{dst}: the Planner Arena database would replace the results "
+                         f"database it is made from; give another file name")
+    runs = read_runs(src)
+    sweeps = {int(e["id"]): e for e in read_experiments(src)}
+    progress = read_progress(src)
+    con = sqlite3.connect(f"file:{src}?mode=ro", uri=True)
+    try:
+        sweep_of = dict(con.execute("SELECT id, experiment_id FROM runs").fetchall())
+    finally:
+        con.close()
+    for r in runs:
+        r["experiment_id"] = sweep_of.get(r["id"])
+    dst.parent.mkdir(parents=True, exist_ok=True)
+    tmp = dst.with_name(dst.name + ".tmp")
+    tmp.unlink(missing_ok=True)
+    con = sqlite3.connect(str(tmp))
+    try:
+        counts = _write_arena(con, runs, sweeps, progress)
+        con.commit()
+    finally:
+        con.close()
+    os.replace(tmp, dst)
+    return counts
+
+
+def _write_arena(con: sqlite3.Connection, runs: Sequence[dict[str, Any]],
+                 sweeps: Mapping[int, Mapping[str, Any]],
+                 progress: Mapping[int, Mapping[str, list[float]]]) -> dict[str, int]:
+    """Fill an empty SQLite database with the OMPL tables (:func:`export_arena`)."""
+    cols = ARENA_RUN_COLUMNS
+    con.executescript(ARENA_SCHEMA.format(runs=", ".join(f"{c} {t}" for c, t, _ in cols)))
+    con.executemany("INSERT INTO enums VALUES ('status', ?, ?)", list(enumerate(ARENA_STATUS)))
+    exp_ids, planner_ids = {}, {}
+    for key, e in _arena_experiments(runs, sweeps).items():
+        seeds = sorted(e["seeds"])
+        mine = [r for r in runs if str(r["problem"]) == key[0]]
+        cur = con.execute(
+            "INSERT INTO experiments (name, totaltime, timelimit, memorylimit, runcount, "
+            "version, hostname, cpuinfo, date, seed, setup) VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+            (e["name"], e["totaltime"], e["timelimit"], e["memorylimit"],
+             _arena_counts(mine), e["version"], e["hostname"], e["cpuinfo"], e["date"],
+             f"{seeds[0]}..{seeds[-1]}", "optplan bench: " + "; ".join(sorted(e["setup"]))))
+        exp_ids[key] = cur.lastrowid
+    n_prog = 0
+    for r in runs:
+        key = _arena_key(r, sweeps)
+        settings = json.dumps({"backend": r["backend"], "options": json.loads(
+            r["options"] or "{}")}, sort_keys=True)
+        if (r["solver"], settings) not in planner_ids:
+            cur = con.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?, ?)",
+                              (r["solver"], settings))
+            planner_ids[(r["solver"], settings)] = cur.lastrowid
+        cur = con.execute(
+            f"INSERT INTO runs (experimentid, plannerid, {', '.join(c for c, _, _ in cols)}) "
+            f"VALUES ({', '.join('?' * (len(cols) + 2))})",
+            (exp_ids[key], planner_ids[(r["solver"], settings)], *_arena_run(r)))
+        trace = progress.get(int(r["id"]), {})
+        rows = [(cur.lastrowid, t, _arena_real(c), int(it), int(ne)) for t, c, it, ne in zip(
+            trace.get("time", []), trace.get("best_cost", []), trace.get("iteration", []),
+            trace.get("n_eval", []))]
+        n_prog += con.executemany("INSERT OR IGNORE INTO progress VALUES (?, ?, ?, ?, ?)",
+                                  rows).rowcount
+    return {"experiments": len(exp_ids), "planners": len(planner_ids), "runs": len(runs),
+            "progress": n_prog}

@@ -10,7 +10,7 @@ from optplan.cli.common import PROG
 from optplan.cli.figures import cmd_animate, cmd_plot
 from optplan.cli.map_import import cmd_import_map
 from optplan.cli.solving import cmd_solve
-from optplan.cli.sweep import cmd_bench, cmd_report
+from optplan.cli.sweep import cmd_bench, cmd_export_arena, cmd_report
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -98,6 +98,17 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--out", default="report", help="output directory (default report)")
     s.add_argument("--dpi", type=int, default=100, help="PNG resolution (default 100)")
     s.set_defaults(func=cmd_report)
+
+    s = sub.add_parser("export-arena",
+                       help="a bench results database as an OMPL benchmark database "
+                            "(Planner Arena)",
+                       description="Write a database written by 'optplan bench --db' in OMPL's "
+                                   "benchmark database schema, to open in Planner Arena "
+                                   "(pip install plannerarena): one experiment per problem, "
+                                   "one planner configuration per solver and its options.")
+    s.add_argument("db", help="results database (SQLite) written by 'optplan bench --db'")
+    s.add_argument("out", help="OMPL benchmark database to write (replaced if it exists)")
+    s.set_defaults(func=cmd_export_arena)
 
     s = sub.add_parser("validate", add_help=False,
                        help="certify a solver against the exact references "

@@ -176,6 +176,18 @@ def cmd_report(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def cmd_export_arena(args: argparse.Namespace, out: TextIO) -> int:
+    """``optplan export-arena RUNS.sqlite ARENA.db``: the sweep as an OMPL benchmark database
+    (:func:`optplan.bench.summary.export_arena`) for Planner Arena."""
+    from optplan.bench.summary import export_arena
+
+    n = export_arena(args.db, args.out)
+    print(f"wrote {args.out}: {n['experiments']} experiment(s), {n['planners']} planner "
+          f"configuration(s), {n['runs']} run(s), {n['progress']} progress row(s) "
+          f"(open it in Planner Arena: plannerarena, then upload the file)", file=out)
+    return 0
+
+
 #: Largest ``optplan validate --seeds``.
 MAX_SEEDS = 100_000
 
