@@ -4,6 +4,7 @@ by its suffix (:func:`read_grid`)."""
 from __future__ import annotations
 
 import difflib
+import re
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -39,7 +40,8 @@ def _read_pixels(path: Path, where: Any, key: str) -> tuple[np.ndarray, np.ndarr
             arr = np.asarray(im)
     except FileNotFoundError:
         raise _err(where, key, f"no such image file {str(path)!r}") from None
-    except (UnidentifiedImageError, OSError) as e:
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError,
+            Image.DecompressionBombError) as e:  # Pillow's complaints about a malformed file
         raise _err(where, key, f"cannot read image {str(path)!r} ({e})") from None
     arr = np.asarray(arr, dtype=float)
     if mode.startswith("I;16") or (mode == "I" and arr.max(initial=0) > 255):
@@ -129,6 +131,22 @@ def read_image(path: str | Path, *, resolution: float, origin: Sequence[float] =
     return Grid(cells, res, org, str(p))
 
 
+#: a float in exponent notation without a dot (``5e-2``): a float in YAML 1.2 and to ROS,
+#: a string to PyYAML's YAML 1.1 resolver
+_EXP_FLOAT = re.compile(r"^[-+]?(?:\d+\.?\d*|\.\d+)[eE][-+]?\d+$")
+
+
+def _yaml_load(text: str) -> Any:
+    """``yaml.safe_load`` reading ``5e-2`` as the number ROS reads (YAML 1.2), not a string."""
+    import yaml
+
+    class Loader(yaml.SafeLoader):
+        pass
+
+    Loader.add_implicit_resolver("tag:yaml.org,2002:float", _EXP_FLOAT, list("-+.0123456789"))
+    return yaml.load(text, Loader=Loader)  # noqa: S506 - a SafeLoader
+
+
 def read_ros_yaml(path: str | Path) -> Grid:
     """Read a ROS ``map_server`` map (YAML + image) as a :class:`Grid`.
 
@@ -144,7 +162,7 @@ def read_ros_yaml(path: str | Path) -> Grid:
     except OSError as e:
         raise ProblemError(f"{p}: cannot read file ({e.strerror})") from None
     try:
-        data = yaml.safe_load(text)
+        data = _yaml_load(text)
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""

@@ -607,6 +607,29 @@ def test_yaml_errors(tmp_path, body, pattern):
         import_map(_yaml(tmp_path, body), radius=0.1, start=(1, 1), goal=(2, 2))
 
 
+def test_yaml_numbers_in_exponent_notation_are_numbers(tmp_path):
+    """``5e-2`` is a float to ROS (YAML 1.2) and to optplan, not the string PyYAML's YAML 1.1
+    resolver makes of it (it was rejected: "resolution: expected a number, got '5e-2'")."""
+    body = "image: m.png\nresolution: 5e-2\norigin: [0, -1E+1, 0]\noccupied_thresh: 65e-2\n"
+    g = read_ros_yaml(_yaml(tmp_path, body))
+    ref = read_ros_yaml(_yaml(tmp_path, "image: m.png\nresolution: 0.05\norigin: [0, -10, 0]\n"))
+    assert g.resolution == 0.05 and g.origin == (0.0, -10.0, 0.0)
+    assert np.array_equal(g.cells, ref.cells)
+
+
+@pytest.mark.parametrize("header", [b"P5\n2 2\n0\n", b"P5\n2 2\n70000\n", b"P5\n0 2\n255\n"])
+def test_malformed_pgm_names_the_file(tmp_path, header):
+    """Pillow's own complaints about a malformed image (``maxval 0``: a bare ValueError naming
+    no file) come out as an error naming the map file and the key."""
+    (tmp_path / "m.pgm").write_bytes(header + b"\0" * 8)
+    y = tmp_path / "m.yaml"
+    y.write_text("image: m.pgm\nresolution: 0.05\norigin: [0, 0, 0]\n", encoding="utf-8")
+    with pytest.raises(ProblemError, match=r"m\.yaml: image: cannot read image .*m\.pgm"):
+        read_ros_yaml(y)
+    with pytest.raises(ProblemError, match=r"m\.pgm: .*cannot read image"):
+        read_grid(tmp_path / "m.pgm", resolution=1.0)
+
+
 def test_import_errors(tmp_path, ros_map):
     g = read_ros_yaml(ros_map)
     s, t = free_point(g, *START_RC), free_point(g, *GOAL_RC)
