@@ -60,7 +60,7 @@ def run_comparison(scenes: Sequence[str] = SCENES, solvers: Sequence[str] = SOLV
                     "clear": m.get("min_clearance", np.nan),
                     "clear_dyn": m.get("min_clearance_dynamic", np.nan),
                     "collisions": int(m.get("collisions", 0)),
-                    "time": m.get("time_to_goal", np.nan) if res.success else np.nan,
+                    "time": res.extras.get("time_to_goal", np.nan) if res.success else np.nan,
                     "qp_failures": res.extras.get("qp_failures", 0),
                     "wall": time.perf_counter() - t0, "message": res.message,
                 })

@@ -327,7 +327,7 @@ def team_table(runs: dict[str, op.Result]) -> str:
                    f"{m.get('min_separation', np.nan):.3f} | "
                    f"{m.get('min_clearance', np.nan):.3f} / "
                    f"{m.get('min_clearance_dynamic', np.nan):.3f} | {m['collisions']} | "
-                   f"{m.get('time_to_goal', np.nan):.1f} | {r.wall_time:.1f} |")
+                   f"{r.extras.get('time_to_goal', np.nan):.1f} | {r.wall_time:.1f} |")
     return "\n".join(out)
 
 

@@ -92,7 +92,7 @@ def run(traps: tuple[str, ...] = TRAPS, solvers: tuple[str, ...] = SOLVERS, n_va
                 det = ex.get("detections", {})
                 rows.append({
                     "trap": trap, "variant": k, "solver": s, "status": res.status.value,
-                    "success": res.success, "time_to_goal": m.get("time_to_goal", np.nan),
+                    "success": res.success, "time_to_goal": ex.get("time_to_goal", np.nan),
                     "ratio": m.get("ratio_to_optimum", np.nan),
                     "minima": ex.get("local_minima_detected", 0),
                     "eq38": det.get("eq38", 0),

@@ -335,13 +335,12 @@ def run_formation(backend: PilotedFormation, problem: Problem, fctrl: Any, *,
     ex = {"reference": ref, "stop_reason": out.reason, "pilot": pilot_name,
           "pilot_stats": dict(getattr(pilot, "stats", {})),
           "follower_stats": dict(getattr(fctrl, "stats", {})),
-          "contacts": list(out.contacts)}
+          "contacts": list(out.contacts), "time_to_goal": float(out.times[-1])}
     if extras is not None:
         ex.update(extras())
     return backend.finish(problem, out.paths(), claim=claim, times=out.times,
                           cost=float(out.times[-1]), message=msg, n_iter=out.steps,
                           n_eval=out.steps, history=run.hist, extras=ex,
-                          metrics_extra={"time_to_goal": float(out.times[-1])},
                           wall_time=time.perf_counter() - t_start)
 
 
@@ -440,7 +439,8 @@ class PilotedFormation(Backend):
         return Record({
             "reference": Unit.POINT, "stop_reason": Unit.TEXT, "pilot": Unit.TEXT,
             "pilot_stats": PILOT_STATS_UNITS if pilot is None else pilot.stats_units,
-            "follower_stats": self.stats_units, "contacts": Unit.TEXT}) | self.summary_units
+            "follower_stats": self.stats_units, "contacts": Unit.TEXT,
+            "time_to_goal": Unit.TIME}) | self.summary_units
 
     def check(self) -> None:
         """Resolve the ``pilot`` and ``path_solver`` stages (a ``ValueError`` names the option)."""

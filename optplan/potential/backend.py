@@ -36,7 +36,8 @@ EXTRAS_UNITS = Record({
     "local_minima_detected": Unit.DIMENSIONLESS, "detections": Each(Unit.DIMENSIONLESS),
     "local_minima_escaped": Unit.DIMENSIONLESS, "sa_steps": Unit.DIMENSIONLESS,
     "sim_steps": Unit.DIMENSIONLESS, "sim_reason": Unit.TEXT, "length_scale": Unit.LENGTH,
-    "controllers": Each(STATS_UNITS), "minima": Each(Unit.POINT), "collision": Unit.TEXT})
+    "controllers": Each(STATS_UNITS), "minima": Each(Unit.POINT), "collision": Unit.TEXT,
+    "time_to_goal": Unit.TIME, "oscillation_index": Unit.DIMENSIONLESS})
 
 
 def oscillation_index(path: np.ndarray, unit: float = 1.0) -> float:
@@ -163,13 +164,14 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
     li = ids.index(lead)
     t_goal = _time_to_goal(out, li, goals[li], tols[li]) if reached[li] else float("nan")
     unit = problem.length_scale
-    extra = {"time_to_goal": t_goal, "oscillation_index": oscillation_index(paths[lead], unit)}
+    extras = _local_extras(out, ids, ctrls, unit)
+    # the backend's own measures of the leader's trajectory (the validator's are the metrics)
+    extras.update(time_to_goal=t_goal, oscillation_index=oscillation_index(paths[lead], unit))
     return backend.finish(problem, paths, claim=claim, times=out.times,
                           cost=float(path_lengths(paths[lead])),
                           message=msg, n_iter=int(out.steps), n_eval=int(out.steps),
-                          history=_trace_history(ctrls[li].trace, dt),
-                          extras=_local_extras(out, ids, ctrls, unit),
-                          metrics_extra=extra, wall_time=time.perf_counter() - t_start)
+                          history=_trace_history(ctrls[li].trace, dt), extras=extras,
+                          wall_time=time.perf_counter() - t_start)
 
 
 def _time_to_goal(out: Any, i: int, goal: np.ndarray, tol: float) -> float:
@@ -180,8 +182,8 @@ def _time_to_goal(out: Any, i: int, goal: np.ndarray, tol: float) -> float:
 
 def _local_extras(out: Any, ids: list[str], ctrls: list[APFController],
                   unit: float) -> dict[str, Any]:
-    """The result's extras (units: :data:`EXTRAS_UNITS`): the controllers' detection counts
-    and statistics, the run."""
+    """The result's extras (units: :data:`EXTRAS_UNITS`) but the leader's ``time_to_goal``
+    and ``oscillation_index``: the controllers' detection counts and statistics, the run."""
     detections = {k: int(sum(c.stats["detections"][k] for c in ctrls))
                   for k in ("eq38", "stall", "oscillation")}
     return {

@@ -110,7 +110,7 @@ def test_same_trajectory_in_centimetres(solver):
     b = op.solve(transform_problem(prob, 100.0), solver, rng=2)
     assert a.status is b.status
     np.testing.assert_allclose(b.paths["r1"] / 100.0, a.paths["r1"], atol=1e-6)
-    assert b.metrics["oscillation_index"] == pytest.approx(a.metrics["oscillation_index"])
+    assert b.extras["oscillation_index"] == pytest.approx(a.extras["oscillation_index"])
 
 
 def test_eq38_detections_counted_apart_from_the_added_tests():

@@ -23,7 +23,7 @@ def test_env1_sa_apf_reaches_goal_avoiding_movers():
     m = res.metrics
     assert m["reached"] and m["collisions"] == 0 and m["dynamic_contacts"] == 0
     assert m["min_clearance_dynamic"] > 0 and m["min_clearance"] > 0
-    assert m["time_to_goal"] == pytest.approx(res.times[-1], abs=0.21)
+    assert res.extras["time_to_goal"] == pytest.approx(res.times[-1], abs=0.21)
 
 
 def test_env1_fails_without_the_rho_n_factor():
