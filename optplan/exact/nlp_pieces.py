@@ -81,10 +81,6 @@ class Pieces:
     def n(self) -> int:
         return len(self.verts)
 
-    @property
-    def max_verts(self) -> int:
-        return max((len(v) for v in self.verts), default=1)
-
 
 def obstacle_pieces(problem: Problem, robot: Robot, *, known_only: bool = True,
                     margin: float = 0.0) -> Pieces:

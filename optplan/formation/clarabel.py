@@ -76,7 +76,7 @@ class ResidentSolver:
 
     ``DefaultSolver.update`` (which needs ``presolve_enable`` and
     ``chordal_decomposition_enable`` off) is used while the caller's ``key`` (the kept rows) is
-    that of the last build; otherwise a new solver is built (counted in :attr:`builds`).
+    that of the last build; otherwise a new solver is built.
 
     Parameters
     ----------
@@ -90,7 +90,6 @@ class ResidentSolver:
 
     def __init__(self, P: Any, soc: list[int], settings: dict[str, Any]):
         self.P, self.soc, self.settings = P, list(soc), settings
-        self.builds = 0
         #: solves repeated with iterative refinement after a numerical stop without it
         self.retries = 0
         self._solver: Any = None
@@ -148,4 +147,3 @@ class ResidentSolver:
             setattr(st, k, v)
         self._solver = clarabel.DefaultSolver(self.P, q, A, b, cones, st)
         self._key = key
-        self.builds += 1

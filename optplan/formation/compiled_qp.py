@@ -85,7 +85,7 @@ class CompiledQP:
         self.c0, self.c1, self.j = affine
         self.nx, self.nnz, self.m = sizes
         self.n, self.u_off = len(vmax), u_off
-        #: the resident Clarabel solver (its ``builds``, ``retries`` and ``settings``)
+        #: the resident Clarabel solver (its ``retries`` and ``settings``)
         self.clarabel = cl.ResidentSolver(P, cones["soc"], settings)
         n, rows, cols = self.n, self.rows, self.cols
         is_u = (cols >= u_off) & (cols < u_off + 2 * n)

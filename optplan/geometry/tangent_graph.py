@@ -265,7 +265,7 @@ class _Search:
 
     def _pop(self) -> tuple[_Stream, int]:
         """The cheapest open candidate: (stream, index); its stream's next one goes back."""
-        f0, sid = heapq.heappop(self.heap)
+        _, sid = heapq.heappop(self.heap)
         st = self.streams[sid]
         k = st.pos
         st.pos += 1

@@ -86,7 +86,6 @@ class SAAPFController(APFController):
         self.T = float("nan")
         self.T0 = float("nan")
         self.target: np.ndarray | None = None
-        self.x_lm: np.ndarray | None = None
         self.escape_steps = 0
         self.restarts = 0
 
@@ -95,10 +94,9 @@ class SAAPFController(APFController):
         self._sa_reset()
 
     # -- SA pieces ------------------------------------------------------------------------
-    def _start_sa(self, xm: np.ndarray, x: np.ndarray) -> None:
-        """Step 1: enter SA at the detected minimum ``xm`` (robot at ``x``), ``T = T_0``."""
+    def _start_sa(self, x: np.ndarray) -> None:
+        """Step 1: enter SA at a detected minimum (robot at ``x``), ``T = T_0``."""
         self.mode = "sa"
-        self.x_lm = xm
         g = (x - self.goal) / self.params.unit  # U_att in length units, as in the field
         u_att = 0.5 * self.params.k * float(np.sum(g * g))
         self.T0 = self.sb.tau_0 * max(u_att, 1e-12)
@@ -229,7 +227,7 @@ class SAAPFController(APFController):
             return step
         xm = self._centroid(x)
         self._note_minimum(xm, reason, l_step)
-        self._start_sa(xm, x)
+        self._start_sa(x)
         return self._sa_step(state, x, l_step, ev)
 
 

@@ -118,3 +118,38 @@ def test_the_catalogue_does_not_import_the_solver() -> None:
     """The catalogue reads files; the solver uses it (the docs' preset tables, which need
     both, live in optplan.doc_tables)."""
     assert not any(under(d, ("optplan.solver",)) for d in MODULES["optplan.catalog"])
+
+
+#: names vulture reports that are used from outside its view, each with the reason
+VULTURE_USED = {
+    "signum": "a signal handler's signature (bench.run)",
+    "exc": "a context manager's __exit__ signature (benchdb)",
+    "_negative_number_matcher": "argparse reads it (cli.parser)",
+    "get_n_in": "casadi.Callback method, called by CasADi (exact.nlp_model)",
+    "get_n_out": "casadi.Callback method", "get_name_in": "casadi.Callback method",
+    "get_name_out": "casadi.Callback method", "get_sparsity_in": "casadi.Callback method",
+    "eval": "casadi.Callback method",
+    "n_rows": "size of a built NLP, checked by tests/exact/test_nlp_flat.py",
+    "obstacle": "owner of each NLP piece, checked by tests/exact/test_nlp.py",
+    "retries": "Clarabel adapter's retry count, checked by tests/formation",
+    "static_bound": "field of the public TimeBound record (geometry.time_bounds)",
+    "goal_bound": "field of the public TimeBound record (geometry.time_bounds)",
+    "squares": "public method of maps.Grid (the exact union of cells as a shapely geometry)",
+    "maxdict": "reprlib.Repr setting (problem.model)", "maxlevel": "reprlib.Repr setting",
+    "maxlist": "reprlib.Repr setting", "maxtuple": "reprlib.Repr setting",
+    "maxlong": "reprlib.Repr setting", "maxother": "reprlib.Repr setting",
+    "maxstring": "reprlib.Repr setting",
+    "writeable": "numpy's array flag (swarm.core)",
+}
+
+
+def test_no_dead_code() -> None:
+    """vulture (the dev extra) finds nothing unused at 60 % confidence or more, but the names
+    above."""
+    import vulture
+
+    v = vulture.Vulture(ignore_names=sorted(VULTURE_USED))
+    v.scavenge([str(ROOT)])
+    dead = [f"{Path(i.filename).relative_to(ROOT.parent)}:{i.first_lineno} {i.typ} {i.name}"
+            for i in v.get_unused_code(min_confidence=60)]
+    assert not dead, f"unused code (remove it, or add the name to VULTURE_USED): {dead}"

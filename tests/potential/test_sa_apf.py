@@ -65,7 +65,7 @@ def test_cooling_eq16_and_perturbation_eq14():
     b = SAAPF(theta=0.97, sa_batch=10)
     c = b.controller(prob, "r1", np.random.default_rng(0))
     x = np.array([120.0, 50.0])
-    c._start_sa(x, x)
+    c._start_sa(x)
     T0 = c.T
     assert T0 == pytest.approx(b.tau_0 * 0.5 * b.k * 45.0**2)
     from optplan.sim import ObstacleField
