@@ -15,20 +15,20 @@ shows a negative clearance.
 from __future__ import annotations
 
 import itertools
+import math
 from typing import Any
 
 import numpy as np
 
-from optplan.geometry import cumulative_length, path_lengths
+from optplan.geometry import Frame, ObstacleSet, cumulative_length, obstacle_set, path_lengths
 from optplan.geometry.motion import (
     mover_track,
     polyline_segments,
     positions_at,
     relative_contact,
     relative_segments,
-    shape_set,
 )
-from optplan.problem import Problem, Robot
+from optplan.problem import Obstacle, Problem, Robot
 
 __all__ = ["evaluate", "leader_headings", "formation_errors", "time_stamps", "time_checks"]
 
@@ -123,6 +123,21 @@ def time_stamps(problem: Problem, paths: dict[str, np.ndarray],
     if times is not None:
         return {k: times for k in paths}
     return {k: cumulative_length(v) / problem.robot(k).max_speed for k, v in paths.items()}
+
+
+def shape_set(kind: str, radius: float | None, local_geometry, robot_radius: float,
+              length: float) -> ObstacleSet:
+    """Exact engine for a shape placed at the origin (a translating obstacle in its own frame),
+    with the tolerance of a map of diagonal ``length``."""
+    h = length / (2.0 * math.sqrt(2.0))
+    frame = Frame.from_bounds((-h, -h, h, h))
+    if kind == "circle":
+        if radius is None:
+            raise ValueError("a moving circle needs a radius")
+        o = Obstacle("circle", None, name="moving", center=np.zeros(2), radius=float(radius))
+    else:
+        o = Obstacle("polygon", local_geometry, name="moving")
+    return obstacle_set([o], robot_radius, frame, walls=False)
 
 
 def _shape_set(problem: Problem, k: int, radius: float):

@@ -12,17 +12,43 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 import scipy.sparse as sp
 
 from optplan.formation import clarabel as cl
 
-if TYPE_CHECKING:
-    from optplan.formation.qp_model import QPModel
+__all__ = ["CompiledQP", "QPSolution", "CompileError", "CvxpyModel"]
 
-__all__ = ["CompiledQP", "QPSolution", "CompileError"]
+
+class CvxpyModel(Protocol):
+    """What :meth:`CompiledQP.learn` reads off the cvxpy model
+    (:class:`~optplan.formation.qp_model.QPModel`, which solves through the map it learns).
+
+    Attributes
+    ----------
+    theta : cvxpy.Parameter
+        The model's one Parameter vector.
+    settings : dict
+        Clarabel's settings of the model.
+    soft : bool
+        Whether the model has the slack variables.
+    layout : QPLayout
+        The model's fixed shapes (``layout.vmax``: the robots' speed bounds).
+    """
+
+    theta: Any
+    settings: dict[str, Any]
+    soft: bool
+    layout: Any
+
+    def compiled_data(self, theta: np.ndarray) -> dict[str, Any]: ...
+
+    def feasible_theta(self, rng: np.random.Generator) -> np.ndarray: ...
+
+    def solve_cvxpy(self, theta: np.ndarray, settings: dict[str, Any] | None = None
+                    ) -> tuple[QPSolution, np.ndarray | None]: ...
 
 
 @dataclass
@@ -99,7 +125,7 @@ class CompiledQP:
 
     # -- reading the map off cvxpy ----------------------------------------------------------
     @classmethod
-    def learn(cls, model: QPModel) -> CompiledQP:
+    def learn(cls, model: CvxpyModel) -> CompiledQP:
         """The verified map of ``model``'s compilation (:class:`CompileError` when it cannot be
         read off or disagrees with cvxpy's own solve)."""
         rng = np.random.default_rng(20240601)
@@ -126,7 +152,7 @@ class CompiledQP:
         return cls._verified(model, rng, P, cones, pattern, affine, sizes)
 
     @classmethod
-    def _verified(cls, model: QPModel, rng: np.random.Generator, *args: Any) -> CompiledQP:
+    def _verified(cls, model: CvxpyModel, rng: np.random.Generator, *args: Any) -> CompiledQP:
         """The map, after its solve of a random feasible instance agrees with the oracle's.
 
         When the check does not solve with the model's settings (an iteration cap too low for
@@ -144,7 +170,7 @@ class CompiledQP:
         return out
 
     @classmethod
-    def _check(cls, model: QPModel, theta: np.ndarray, args: tuple,
+    def _check(cls, model: CvxpyModel, theta: np.ndarray, args: tuple,
                settings: dict[str, Any]) -> tuple[CompiledQP | None, str]:
         ref, x = model.solve_cvxpy(theta, settings)
         u_off = _offset(x, ref.U)

@@ -27,13 +27,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optplan.geometry.frame import Frame
-from optplan.geometry.obstacles import ObstacleSet, obstacle_set
+from optplan.geometry.obstacles import ObstacleSet
 
 __all__ = ["Contact", "mover_period", "mover_track", "mover_pieces", "mover_position",
            "track_eval",
-           "positions_at", "relative_segments", "polyline_segments", "relative_contact",
-           "shape_set"]
+           "positions_at", "relative_segments", "polyline_segments", "relative_contact"]
 
 
 @dataclass(frozen=True)
@@ -242,23 +240,6 @@ def polyline_segments(rel: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, n
         rel, times = np.vstack([rel, rel]), np.r_[times, times]
     return (np.stack([rel[:-1], rel[1:]], axis=1),
             np.stack([times[:-1], times[1:]], axis=1))
-
-
-def shape_set(kind: str, radius: float | None, local_geometry, robot_radius: float,
-              length: float) -> ObstacleSet:
-    """Exact engine for a shape placed at the origin (a translating obstacle in its own frame),
-    with the tolerance of a map of diagonal ``length``."""
-    from optplan.problem import Obstacle
-
-    h = length / (2.0 * math.sqrt(2.0))
-    frame = Frame.from_bounds((-h, -h, h, h))
-    if kind == "circle":
-        if radius is None:
-            raise ValueError("a moving circle needs a radius")
-        o = Obstacle("circle", None, name="moving", center=np.zeros(2), radius=float(radius))
-    else:
-        o = Obstacle("polygon", local_geometry, name="moving")
-    return obstacle_set([o], robot_radius, frame, walls=False)
 
 
 def relative_contact(rel: np.ndarray, times: np.ndarray, oset: ObstacleSet) -> Contact | None:

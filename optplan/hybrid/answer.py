@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from optplan.geometry.polyline import path_lengths
+from optplan.hybrid.steps import GlobalStage, RunOptions
 from optplan.hybrid.subgoals import inflection_points
 from optplan.interfaces import LocalController, stage_name
 from optplan.problem import Problem
@@ -22,9 +23,7 @@ from optplan.sim import SimOutcome
 from optplan.units import Each, Record, Unit, to_scale
 
 if TYPE_CHECKING:
-    from optplan.hybrid.planner import Hybrid
     from optplan.hybrid.policy import HybridPolicy
-    from optplan.hybrid.stages import GlobalStage
 
 __all__ = ["assemble", "early_answer", "world_answer", "extras_units", "HISTORY_UNITS"]
 
@@ -57,7 +56,7 @@ def extras_units(local_stats: Record, formation_stats: Record) -> Record:
         "dt": Unit.TIME, "canonical_unit": Unit.LENGTH})
 
 
-def assemble(opts: Hybrid, glob: GlobalStage, policy: HybridPolicy, out: SimOutcome,
+def assemble(opts: RunOptions, glob: GlobalStage, policy: HybridPolicy, out: SimOutcome,
              t_start: float) -> dict[str, Any]:
     """The answer of a finished simulation (canonical frame): the :meth:`Backend.finish`
     arguments."""
@@ -82,7 +81,7 @@ def assemble(opts: Hybrid, glob: GlobalStage, policy: HybridPolicy, out: SimOutc
     )
 
 
-def _outcome(opts: Hybrid, glob: GlobalStage, policy: HybridPolicy,
+def _outcome(opts: RunOptions, glob: GlobalStage, policy: HybridPolicy,
              out: SimOutcome) -> tuple[Status, str]:
     """The claim and the message of a finished simulation."""
     if out.reason == "done" and policy.tracker.all_done:
@@ -100,7 +99,7 @@ def _outcome(opts: Hybrid, glob: GlobalStage, policy: HybridPolicy,
     return claim, "; ".join([msg, *notes])
 
 
-def _extras(opts: Hybrid, glob: GlobalStage, policy: HybridPolicy,
+def _extras(opts: RunOptions, glob: GlobalStage, policy: HybridPolicy,
             out: SimOutcome) -> dict[str, Any]:
     """The result's extras (units: :func:`extras_units`): the global path, sub-goals, stage
     names, statistics."""

@@ -23,7 +23,7 @@ from optplan.problem import Formation, Problem, Robot
 from optplan.sim import ObstacleField, SimState
 
 if TYPE_CHECKING:
-    from optplan.hybrid.planner import Hybrid
+    from optplan.hybrid.steps import RunOptions
 
 __all__ = ["Team", "HybridPolicy"]
 
@@ -41,7 +41,7 @@ class Team:
 class HybridPolicy:
     """The simulator's policy, ``done`` test and progress cost of one hybrid run."""
 
-    def __init__(self, opts: Hybrid, problem: Problem, team: Team, drivers: list[Driver],
+    def __init__(self, opts: RunOptions, problem: Problem, team: Team, drivers: list[Driver],
                  tracker: SubgoalTracker, fctrl: FollowerController | None):
         self.o, self.problem, self.team, self.drivers = opts, problem, team, drivers
         self.tracker, self.fctrl = tracker, fctrl

@@ -10,21 +10,18 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from optplan.hybrid.answer import early_answer
 from optplan.hybrid.policy import Team
+from optplan.hybrid.steps import GlobalStage, RunOptions
 from optplan.problem import Problem, Robot
 from optplan.result import Progress, Result, Status, notify
 from optplan.units import Record, Unit, to_scale
 
-if TYPE_CHECKING:
-    from optplan.hybrid.planner import Hybrid
-
-__all__ = ["StageCallback", "GlobalStage", "global_stage", "PROGRESS_INFO_UNITS"]
+__all__ = ["StageCallback", "global_stage", "PROGRESS_INFO_UNITS"]
 
 _D = Unit.DIMENSIONLESS
 #: The units of the stages' ``Progress.info`` (:mod:`optplan.units`), mapped back from the
@@ -61,17 +58,7 @@ class StageCallback:
         return self if self.callback is not None else None
 
 
-@dataclass
-class GlobalStage:
-    """Step 3's outcome: a path per driving robot."""
-
-    paths: dict[str, np.ndarray]
-    result: Result | None = None
-    wall_time: float = 0.0
-    messages: list[str] = field(default_factory=list)
-
-
-def global_stage(opts: Hybrid, problem: Problem, team: Team,
+def global_stage(opts: RunOptions, problem: Problem, team: Team,
                  init: dict[str, np.ndarray] | None, rng: np.random.Generator,
                  cb: StageCallback, t_start: float) -> GlobalStage | dict[str, Any]:
     """Step 3: a path per driving robot (an ``init`` path replaces the planned one), or the

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, Protocol, cast
 
 import numpy as np
 
@@ -41,11 +41,32 @@ from optplan.problem import Problem, Robot
 from optplan.sim import ObstacleField, SimState
 from optplan.units import Each, Record, Unit
 
-if TYPE_CHECKING:
-    from optplan.potential.apf import APF
-    from optplan.potential.backend import PotentialFieldBackend
+__all__ = ["APFController", "Trace", "STATS_UNITS", "ControllerOptions"]
 
-__all__ = ["APFController", "Trace", "STATS_UNITS"]
+
+class ControllerOptions(Protocol):
+    """The options an :class:`APFController` reads: those of
+    :class:`~optplan.potential.backend.PotentialFieldBackend` (their meaning is there)."""
+
+    @property
+    def l(self) -> float | None: ...  # noqa: E743 - the paper's name of the step length
+    @property
+    def window(self) -> int: ...
+    @property
+    def n_probe(self) -> int: ...
+    @property
+    def evade_factor(self) -> float: ...
+    @property
+    def stall_ratio(self) -> float: ...
+    @property
+    def detect_eq38(self) -> bool: ...
+
+
+class _APFOptions(ControllerOptions, Protocol):
+    """The basic planner's (:class:`~optplan.potential.apf.APF`) also has ``patience``."""
+
+    @property
+    def patience(self) -> int: ...
 
 #: The units of :attr:`APFController.stats` (and SA-APF's): counters, and the reason it gave up.
 STATS_UNITS = Record({
@@ -74,7 +95,7 @@ class APFController:
     steps after a detection.
     """
 
-    def __init__(self, backend: PotentialFieldBackend, problem: Problem, robot: Robot,
+    def __init__(self, backend: ControllerOptions, problem: Problem, robot: Robot,
                  rng: np.random.Generator, params: FieldParams):
         self.b = backend
         self.problem = problem
@@ -245,7 +266,7 @@ class APFController:
             if np.hypot(*(x - self._trap_at)) > r_same + l_step:
                 self._trap_at, self._trap_since = None, None
             # built by APF.controller only (SAAPFController overrides _step): the backend is APF
-            elif self.stats["steps"] - self._trap_since >= cast("APF", self.b).patience:
+            elif self.stats["steps"] - self._trap_since >= cast(_APFOptions, self.b).patience:
                 dg = float(np.hypot(*(self.goal - x)))
                 kind = ("oscillating near the goal (GNRON)" if dg <= self.params.rho_0 +
                         self.robot.radius else "trapped in a local minimum")

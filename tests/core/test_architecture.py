@@ -125,20 +125,17 @@ VULTURE_USED = {
     "signum": "a signal handler's signature (bench.run)",
     "exc": "a context manager's __exit__ signature (benchdb)",
     "_negative_number_matcher": "argparse reads it (cli.parser)",
-    "get_n_in": "casadi.Callback method, called by CasADi (exact.nlp_model)",
-    "get_n_out": "casadi.Callback method", "get_name_in": "casadi.Callback method",
-    "get_name_out": "casadi.Callback method", "get_sparsity_in": "casadi.Callback method",
-    "eval": "casadi.Callback method",
+    **dict.fromkeys(("get_n_in", "get_n_out", "get_name_in", "get_name_out",
+                     "get_sparsity_in", "eval"),
+                    "casadi.Callback methods, called by CasADi (exact.nlp_model)"),
     "n_rows": "size of a built NLP, checked by tests/exact/test_nlp_flat.py",
     "obstacle": "owner of each NLP piece, checked by tests/exact/test_nlp.py",
     "retries": "Clarabel adapter's retry count, checked by tests/formation",
-    "static_bound": "field of the public TimeBound record (geometry.time_bounds)",
-    "goal_bound": "field of the public TimeBound record (geometry.time_bounds)",
+    **dict.fromkeys(("static_bound", "goal_bound"),
+                    "fields of the public TimeBound record (geometry.time_bounds)"),
     "squares": "public method of maps.Grid (the exact union of cells as a shapely geometry)",
-    "maxdict": "reprlib.Repr setting (problem.model)", "maxlevel": "reprlib.Repr setting",
-    "maxlist": "reprlib.Repr setting", "maxtuple": "reprlib.Repr setting",
-    "maxlong": "reprlib.Repr setting", "maxother": "reprlib.Repr setting",
-    "maxstring": "reprlib.Repr setting",
+    **dict.fromkeys(("maxdict", "maxlevel", "maxlist", "maxtuple", "maxlong", "maxother",
+                     "maxstring"), "reprlib.Repr settings (problem.model)"),
     "writeable": "numpy's array flag (swarm.core)",
 }
 
@@ -153,3 +150,83 @@ def test_no_dead_code() -> None:
     dead = [f"{Path(i.filename).relative_to(ROOT.parent)}:{i.first_lineno} {i.typ} {i.name}"
             for i in v.get_unused_code(min_confidence=60)]
     assert not dead, f"unused code (remove it, or add the name to VULTURE_USED): {dead}"
+
+
+def import_graph(root: Path = ROOT) -> dict[str, set[str]]:
+    """module -> the optplan modules it imports, every import statement counted (inside
+    functions and under ``TYPE_CHECKING`` too): ``from a import b`` is an import of ``a.b``
+    when that is a module, else of ``a``; relative imports are resolved."""
+    files = {".".join(p.relative_to(root.parent).with_suffix("").parts).removesuffix(
+        ".__init__"): p for p in sorted(root.rglob("*.py"))}
+    graph: dict[str, set[str]] = {}
+    for name, p in files.items():
+        pkg = name if p.name == "__init__.py" else name.rpartition(".")[0]
+        deps: set[str] = set()
+        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    up = pkg.split(".")[: len(pkg.split(".")) - node.level + 1]
+                    base = ".".join([*up, base] if base else up)
+                deps.update(f"{base}.{a.name}" if f"{base}.{a.name}" in files else base
+                            for a in node.names)
+            elif isinstance(node, ast.Import):
+                deps.update(a.name for a in node.names)
+        graph[name] = {d for d in deps if d in files and d != name}
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The import cycles: strongly connected components of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while not comp or comp[-1] != v:
+                comp.append(stack.pop())
+            if len(comp) > 1:
+                out.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+#: import cycles that must stay, each with its reason (none today: a new one fails the test)
+CYCLES_ALLOWED: dict[tuple[str, ...], str] = {}
+
+
+def test_no_import_cycle() -> None:
+    """No two modules import each other, directly or around a loop (lazy imports and
+    annotations under TYPE_CHECKING count: a type the other way is still a dependency)."""
+    found = {tuple(c) for c in cycles(import_graph())}
+    new = sorted(found - set(CYCLES_ALLOWED))
+    assert not new, f"import cycles: {new}"
+    assert not set(CYCLES_ALLOWED) - found, "CYCLES_ALLOWED lists a cycle that is gone"
+
+
+def test_the_cycle_check_sees_a_lazy_cycle(tmp_path: Path) -> None:
+    pkg = tmp_path / "optplan" / "fam"
+    pkg.mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from optplan.fam import b\n")
+    (pkg / "b.py").write_text("def f():\n    from . import c\n")
+    (pkg / "c.py").write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+                              "    from optplan.fam.a import X\n")
+    (pkg / "d.py").write_text("import optplan.fam.a\n")
+    graph = import_graph(tmp_path / "optplan")
+    assert graph["optplan.fam.b"] == {"optplan.fam.c"}
+    assert cycles(graph) == [["optplan.fam.a", "optplan.fam.b", "optplan.fam.c"]]
