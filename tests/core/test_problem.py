@@ -1,8 +1,8 @@
 """Scenario format and catalogue: loading, validation errors, dynamic obstacles, formation slots.
 
-Covers design §3 (the TOML format and what validation rejects) and issue 2 item 7 (the
-catalogue).  Bad scenario fixtures live in ``tests/data/bad/``; every fixture there must be
-listed in :data:`BAD_CASES` (or :data:`KNOWN_PARSER_GAPS`) with the key its error must name.
+Covers the TOML format, what validation rejects, and the catalogue.  Bad scenario fixtures
+live in ``tests/data/bad/``; every fixture there must be listed in :data:`BAD_CASES` (or
+:data:`KNOWN_PARSER_GAPS`) with the key its error must name.
 """
 
 from __future__ import annotations
@@ -580,7 +580,7 @@ def test_degenerate_polygons_rejected():
     msg = _reject(_scene([{"type": "polygon", "vertices": flat}]))
     assert ": obstacles[0].vertices: " in msg and ("zero area" in msg or "degenerate" in msg)
     # an exact consecutive repeat in an otherwise fine polygon is dropped (a zero-length edge
-    # made the exact geometry core ignore the whole obstacle: issue 14 fuzzing)
+    # made the exact geometry core ignore the whole obstacle; found by the input fuzz)
     ok = _SQ[:2] + [_SQ[1]] + _SQ[2:]
     o = _parse(_scene([{"type": "polygon", "vertices": ok}])).obstacles[0]
     assert o.geometry.area == pytest.approx(100.0) and _n_vertices(o) == 4
@@ -667,7 +667,7 @@ def test_strings_must_be_strings(patch, key):
     assert f"scene.toml: {key}: expected a string" in msg, msg
 
 
-# -- issue 14: wrong types, misattributed errors, files, documented ranges -----------------------
+# -- wrong types, misattributed errors, files, documented ranges ---------------------------------
 
 
 def _team(**formation):

@@ -140,7 +140,7 @@ def test_wall_time_includes_the_validation(solver, monkeypatch) -> None:
 
 def test_a_new_problem_builds_each_obstacle_set_once(monkeypatch) -> None:
     """The swarm plans on the known view; without temporary obstacles the validator uses the
-    set the planner built instead of building it again (issue 23, part 4).  The swarm's
+    set the planner built instead of building it again.  The swarm's
     fitness set has no bounds wall (its search box keeps the waypoints in the bounds), the
     validator's has: one build of each."""
     import optplan.geometry as geometry

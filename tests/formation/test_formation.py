@@ -154,7 +154,7 @@ def test_qp_is_dpp_and_matches_the_written_out_model():
 
 @pytest.mark.parametrize("soft", [False, True])
 def test_the_one_qp_path_matches_the_cvxpy_oracle_on_random_instances(soft):
-    """Issue 24: the compiled map is the only run-time path; cvxpy's re-solve pipeline is its
+    """The compiled map is the only run-time path; cvxpy's re-solve pipeline is its
     oracle.  Random layouts (robots, pair patterns, obstacle and external rows) and random
     feasible instances: the same status, the same objective to 10 x tol and the same
     velocities to 1e-3 (two solves to tol 1e-7 on a speed-cone boundary differ by about
@@ -521,7 +521,7 @@ def test_recovery_returns_followers_to_their_own_side():
 
 
 def test_leader_follower_paper_warehouse_safe():
-    """Issue 6/7 regression: the small formation keeps D_s through the pilot's swerve."""
+    """The small formation keeps D_s through the pilot's swerve (a regression test)."""
     prob = op.load_problem("paper-warehouse")
     res = op.solve(prob, "leader-follower-paper", rng=0, **FAST)
     m = res.metrics

@@ -1,4 +1,4 @@
-"""Clarabel settings of the formation QP (issue 18): refinement off, retried with it on trouble."""
+"""Clarabel settings of the formation QP: refinement off, retried with it on trouble."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Formation backends: declared options, scale invariance (issue 15), the warehouse-team scene.
+"""Formation backends: declared options, scale invariance, the warehouse-team scene.
 
 The same scene drawn 100 x smaller or larger (:func:`optplan.problem.transform_problem`) must
 give the same status and path lengths that scale within 1 % for both formation presets, on the

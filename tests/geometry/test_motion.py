@@ -1,4 +1,4 @@
-"""The motion model of moving obstacles and the continuous-time validator (issue 23, part 2).
+"""The motion model of moving obstacles and the continuous-time validator.
 
 The validator (:func:`optplan.evaluate` with time stamps) is checked against an independent
 reference written here with numpy and shapely only: the mover's position from the documented
@@ -331,7 +331,7 @@ def test_a_jump_onto_the_robot_is_caught_at_the_jump_time() -> None:
 
 
 # --------------------------------------------------------------------------------------
-# the reported scene (issue 23): a looping mover 14 % of the robot's radius deep at t = 17.77
+# a reported scene: a looping mover 14 % of the robot's radius deep at t = 17.77 (was missed)
 # --------------------------------------------------------------------------------------
 
 def _report_scene(after: str) -> op.Problem:
@@ -342,7 +342,7 @@ def _report_scene(after: str) -> op.Problem:
     wps = ([[23.31, y], [33.31, y], [80.0, 90.0]] if after == "bounce"
            else [[80.0, 90.0], [33.31, y], [23.31, y]])
     return op.parse_problem({
-        "name": f"issue23-{after}", "bounds": [0.0, 0.0, 100.0, 100.0],
+        "name": f"loop-jump-{after}", "bounds": [0.0, 0.0, 100.0, 100.0],
         "robots": [{"id": "r", "start": [10.0, 50.0], "goal": [40.0, 50.0], "radius": 1.0,
                     "max_speed": 1.0}],
         "dynamic_obstacles": [{"type": "circle", "radius": 2.0, "waypoints": wps,

@@ -350,7 +350,7 @@ def test_paper_hybrid_three_way_ordering():
     assert hyb.success and hyb.metrics["collisions"] == 0, hyb.message
     assert hyb.metrics["dynamic_checked"]
     assert ipso.metrics["length"] < hyb.metrics["length"] < apf.metrics["length"]
-    # issue 7 must-show: the hybrid is within 10 % of IPSO's length (measured 1.078, docs)
+    # the hybrid is within 10 % of IPSO's length (measured 1.078, docs/solvers/hybrid.md)
     assert hyb.metrics["length"] <= 1.10 * ipso.metrics["length"]
     np.testing.assert_allclose(hyb.extras["global_path"][0], prob.leader.start)
 

@@ -1,4 +1,4 @@
-"""Hybrid fidelity items (issue #17; docs/solvers/hybrid.md, "Fidelity notes")."""
+"""Hybrid fidelity items (docs/solvers/hybrid.md, "Fidelity notes")."""
 
 from __future__ import annotations
 

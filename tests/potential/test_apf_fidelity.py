@@ -1,5 +1,5 @@
 """Declared options, scale invariance and paper-fidelity items of the local planners
-(issues #12, #15, #17; docs/solvers/apf.md)."""
+(docs/solvers/apf.md)."""
 
 from __future__ import annotations
 

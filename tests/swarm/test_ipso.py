@@ -465,7 +465,7 @@ def test_ipso_variant_worst_within_one_percent_of_the_optimum(name):
 @pytest.mark.slow
 @pytest.mark.parametrize("kind,seed", [("doors", 0), ("shelves", 1)])
 def test_ipso_variant_worst_ratio_on_generated_corridor_maps(kind, seed):
-    """Issue 18: on generated maps with narrow corridors and shelf rows, 30 seeds, every run
+    """On generated maps with narrow corridors and shelf rows, 30 seeds, every run
     collision-free and within 1 % of the certified optimum."""
     from optplan.generators import corridor_scene
     from optplan.geometry.tangent_graph import problem_shortest_path

@@ -1,5 +1,5 @@
 """The compiled roadmap edges and the staged corner-cut tests give the same results as the
-straightforward numpy / scipy versions they replaced (pure speed changes, issue 18)."""
+straightforward numpy / scipy versions they replaced (pure speed changes)."""
 
 from __future__ import annotations
 

@@ -175,7 +175,7 @@ def test_summarise_median_iqr_success():
 
 
 def test_quality_medians_ignore_failing_runs():
-    # the case: a colliding PSO run shows a ratio of 0.97 to the certified optimum
+    # a colliding PSO run would show a ratio of 0.97 to the certified optimum
     rows = [_row("p", "pso", 0, 2.2), _row("p", "pso", 1, 1.94, success=False,
                                            status="approximate")]
     s = bench.summarise(rows)[0]

@@ -1,4 +1,4 @@
-"""Issue #15: a MovingAI ``.scen`` file as a bench batch (``optplan bench --problems X.scen``)."""
+"""A MovingAI ``.scen`` file as a bench batch (``optplan bench --problems X.scen``)."""
 
 from __future__ import annotations
 

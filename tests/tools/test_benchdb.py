@@ -1,4 +1,4 @@
-"""Benchmarks at scale (issue 16): the SQLite results database, resume, Ctrl-C, time limits,
+"""Benchmarks at scale: the SQLite results database, resume, Ctrl-C, time limits,
 the Dask engine and ``optplan report``."""
 
 from __future__ import annotations

@@ -256,7 +256,7 @@ def test_import_optplan_stays_light():
     assert out.returncode == 0 and out.stdout.strip() == "False"
 
 
-# -- issue 14: bad input is one line and exit 2, never a traceback or a warning --------------
+# -- bad input is one line and exit 2, never a traceback or a warning -----------------------
 
 _SCENE = """name = "s"
 bounds = [0.0, 0.0, 100.0, 100.0]

@@ -1,4 +1,4 @@
-"""Issue 14: bad input never crashes, never hangs, never lies -- a bounded, seeded slice of the
+"""Bad input never crashes, never hangs, never lies -- a bounded, seeded slice of the
 input fuzz of ``benchmarks/fuzz_inputs.py`` (the full run is ``python
 benchmarks/fuzz_inputs.py``: >= 3,000 scenarios, >= 2,500 option values, >= 200 inits, >= 50
 result files, and its counts table).
@@ -84,8 +84,8 @@ def test_known_findings_in_code_owned_elsewhere(outcomes, finding):
 
 
 def test_full_run_sizes():
-    """The full run's option, init and result families reach the issue's sizes (the scenario
-    count is a parameter: 3,000 by default)."""
+    """The full run's option, init and result families reach their documented sizes (the
+    scenario count is a parameter: 3,000 by default)."""
     presets = fz.preset_table()
     assert len(fz.OptionFuzzer(0).cases(presets)) >= 2500
     assert len(fz.init_cases(presets)) >= 200

@@ -1,4 +1,4 @@
-"""Occupancy-grid import (optplan.maps, issue 15): ROS map_server YAML, bare images, MovingAI.
+"""Occupancy-grid import (optplan.maps): ROS map_server YAML, bare images, MovingAI.
 
 * classification as map_server (negate 0/1, trinary/scale/raw, unknown cells);
 * conservative polygons: every obstacle cell square inside, no more than the growth plus the

@@ -239,7 +239,7 @@ def test_feasible_length_median_starts_when_half_are_feasible():
     np.testing.assert_allclose(y[3:], [17.0, 16.0, 15.0])
 
 
-# -- legends, clock, collisions, formats (issue 17) ----------------------------------------
+# -- legends, clock, collisions, formats ---------------------------------------------------
 
 
 def _drawn(fig):
