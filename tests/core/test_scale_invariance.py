@@ -75,9 +75,10 @@ def test_scale_invariance_representative(solver: str) -> None:
 @pytest.mark.parametrize("scene", ["warehouse-grid"])
 def test_hybrid_is_exactly_scale_invariant_on_chaotic_scenes(scene: str) -> None:
     """Without the canonical frame the walks parted (x 1 vs x 0.01: 772 vs 1937 m); the slow
-    grid below checks office-floor (2100 vs 456 m before) and the other scenes."""
+    grid below checks x 100 too (a 17,000-step walk here: 10 s a run), office-floor (2100 vs
+    456 m before) and the other scenes."""
     st1, len1 = outcome(scene, "hybrid-paper", 1.0)
-    for k in SCALES:
+    for k in (0.01,):
         st, length = outcome(scene, "hybrid-paper", k)
         assert st == st1
         assert length == pytest.approx(len1, rel=1e-9)
