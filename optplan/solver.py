@@ -82,6 +82,7 @@ __all__ = [
 #: backend name -> "module:Class" (resolved lazily).
 BACKENDS: dict[str, str] = {
     "visgraph": "optplan.exact.visgraph:VisGraph",
+    "sipp": "optplan.exact.sipp:SIPP",
     "pso": "optplan.swarm.pso:PSO",
     "mpso": "optplan.swarm.mpso:MPSO",
     "ipso": "optplan.swarm.ipso:IPSO",
