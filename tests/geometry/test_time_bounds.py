@@ -10,35 +10,8 @@ import pytest
 from optplan.geometry.motion import mover_pieces
 from optplan.geometry.time_bounds import arrival_lower_bound, parked_contact_times
 from optplan.problem import parse_problem
-
-SQUARE = [[-1, -1], [1, -1], [1, 1], [-1, 1]]
-
-
-def _problem(movers, obstacles=(), scale=1.0, shift=(0.0, 0.0), speed=1.0):
-    """A 10 x 10 map (robot from (1, 5) to (9, 5), radius 0.2), scaled in space by ``scale``
-    and in time by ``scale`` too (speeds unchanged), then translated by ``shift``."""
-    sx, sy = shift
-
-    def pt(p):
-        return [p[0] * scale + sx, p[1] * scale + sy]
-
-    dyn = []
-    for m in movers:
-        m = dict(m)
-        m["waypoints"] = [pt(p) for p in m["waypoints"]]
-        if "times" in m:
-            m["times"] = [t * scale for t in m["times"]]
-        if "radius" in m:
-            m["radius"] = m["radius"] * scale
-        if "vertices" in m:
-            m["vertices"] = [[x * scale, y * scale] for x, y in m["vertices"]]
-        dyn.append(m)
-    obs = [{"type": "circle", "center": pt(o[0]), "radius": o[1] * scale} for o in obstacles]
-    return parse_problem({
-        "name": "t", "bounds": [sx, sy, sx + 10 * scale, sy + 10 * scale],
-        "robots": [{"id": "r", "start": pt([1, 5]), "goal": pt([9, 5]), "radius": 0.2 * scale,
-                    "max_speed": speed}],
-        "obstacles": obs, "dynamic_obstacles": dyn})
+from tests.geometry.time_scenes import SQUARE
+from tests.geometry.time_scenes import time_scene as _problem
 
 
 def test_static_bound_is_the_optimum_over_speed():
