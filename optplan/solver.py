@@ -66,6 +66,7 @@ from optplan.catalog import plugin_preset_files as plugin_preset_files
 from optplan.options import option
 from optplan.problem import Problem
 from optplan.result import Progress, Result, Status
+from optplan.time_grading import with_time_reference
 
 __all__ = [
     "BACKENDS",
@@ -363,27 +364,11 @@ def with_reference(metrics: dict[str, Any], problem: Problem, paths: dict[str, A
     return out
 
 
-def with_time_reference(metrics: dict[str, Any], problem: Problem, paths: dict[str, Any],
-                        times: Any) -> dict[str, Any]:
-    """``metrics`` plus the grading in time of the planned robot on a problem with moving
-    obstacles: ``arrival_time`` (the plan as executed,
-    :func:`optplan.geometry.time_bounds.arrival_time`), the certified ``time_lower_bound``
-    (:func:`optplan.geometry.time_bounds.arrival_lower_bound`) with its ``time_bound_reason``, and
-    ``arrival_ratio_to_bound`` (>= 1 for every collision-free plan that arrives)."""
-    from optplan.geometry.time_bounds import arrival_lower_bound, arrival_time
-
-    rid = problem.leader.id
-    if not problem.dynamic_obstacles or rid not in paths:
-        return metrics
-    out = dict(metrics)
-    bound = arrival_lower_bound(problem)
-    arrival = arrival_time(problem, rid, paths[rid], times)
-    out["arrival_time"] = arrival
-    out["time_lower_bound"] = bound.value
-    out["time_bound_reason"] = bound.reason
-    if arrival is not None and bound.value is not None and 0 < bound.value < float("inf"):
-        out["arrival_ratio_to_bound"] = arrival / bound.value
-    return out
+def time_reference(problem: Problem, robot_id: str) -> Any:
+    """The reference in time of ``reference=True``: the ``sipp`` preset's earliest arrival of
+    ``robot_id`` (:func:`optplan.time_grading.with_time_reference`)."""
+    backend: Any = get_solver("sipp")  # optplan.exact.sipp.SIPP (the core names no family)
+    return backend.earliest_arrival(problem, robot_id)
 
 
 def _early_stop_status(res: Result) -> Status:
@@ -424,9 +409,11 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         ``metrics["reference_time"]`` (not part of ``wall_time``: the call took
         ``wall_time + metrics["reference_time"]``), or
         ``metrics["reference_error"]`` when there is no certified optimum.  On a problem with
-        moving obstacles, also the grading in time of the planned robot
-        (:func:`with_time_reference`): ``arrival_time``, ``time_lower_bound``,
-        ``time_bound_reason`` and ``arrival_ratio_to_bound``.
+        moving obstacles, also the grading in time of every robot
+        (:func:`optplan.time_grading.with_time_reference`): ``arrival_time``,
+        ``schedule_arrival`` (the fastest timing of the plan's own path), ``time_reference``
+        (the ``sipp`` preset's earliest arrival), ``time_lower_bound`` and the ratios of the
+        arrival to each; ``time_per_robot`` for a team.
     **overrides
         Replace preset options (unknown names raise ``ValueError``).
 
@@ -471,7 +458,7 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
     if reference:
         t1 = time.perf_counter()
         metrics = with_reference(metrics, prob, res.paths, reference_optimum(prob))
-        metrics = with_time_reference(metrics, prob, res.paths, res.times)
+        metrics = with_time_reference(metrics, prob, res.paths, res.times, time_reference)
         t_ref = time.perf_counter() - t1
     out = dataclasses.replace(res, solver=backend.preset or backend.name, backend=backend.name,
                               seed=seed, metrics=metrics, status=status, message=message,

@@ -9,13 +9,22 @@ from typing import Any, TextIO
 from optplan.cli.common import _fmt, parse_set
 
 
-def _arrival_line(m: dict[str, Any]) -> str:
-    """The grading in time (``reference=True`` with moving obstacles)."""
-    arr = f"  arrival     {_fmt(m.get('arrival_time'))} s"
-    if m.get("arrival_ratio_to_bound") is not None:
-        arr += (f"   ratio to lower bound {_fmt(m['arrival_ratio_to_bound'])}"
-                f" (bound {_fmt(m['time_lower_bound'])} s: {m.get('time_bound_reason')})")
-    return arr
+def _arrival_line(m: dict[str, Any]) -> list[str]:
+    """The grading in time (``reference=True`` with moving obstacles): the arrival, then its
+    ratios to the fastest timing of the same path, to the ``sipp`` reference and to the
+    certified lower bound."""
+    lines = [f"  arrival     {_fmt(m.get('arrival_time'))} s"]
+    refs = (("schedule", "arrival_ratio_to_schedule", "schedule_arrival",
+             "the fastest timing of this path"),
+            ("reference", "arrival_ratio_to_reference", "time_reference", "sipp"),
+            ("lower bound", "arrival_ratio_to_bound", "time_lower_bound",
+             m.get("time_bound_reason")))
+    for name, ratio, value, what in refs:
+        if m.get(ratio) is not None:
+            lines.append(f"    ratio to {name:<12}{_fmt(m[ratio])} ({_fmt(m[value])} s: {what})")
+    if m.get("schedule_message"):
+        lines.append(f"    schedule: {m['schedule_message']}")
+    return lines
 
 
 def _length_lines(m: dict[str, Any]) -> list[str]:
@@ -24,7 +33,7 @@ def _length_lines(m: dict[str, Any]) -> list[str]:
     if m.get("ratio_to_optimum") is not None:
         length += (f"   ratio to optimum {_fmt(m['ratio_to_optimum'])}"
                    f" (optimum {_fmt(m.get('optimum'))})")
-    return [length, _arrival_line(m)] if "time_lower_bound" in m else [length]
+    return [length, *_arrival_line(m)] if "arrival_time" in m else [length]
 
 
 def _result_lines(res: Any) -> list[str]:

@@ -501,6 +501,13 @@ class SIPP(Backend):
             movers.append(_robot_mover(r.id, r.radius, plan))
         return self._answer(problem, plans, t0)
 
+    def earliest_arrival(self, problem: Problem, robot_id: str) -> TimedPlan:
+        """:func:`earliest_arrival` of one robot with this preset's options (the reference in
+        time of ``op.solve(..., reference=True)``)."""
+        return earliest_arrival(problem, robot_id, arc_step=self.arc_step,
+                                max_doublings=self.max_doublings,
+                                max_expansions=self.max_expansions)
+
     def _answer(self, problem: Problem, plans: dict[str, TimedPlan], t0: float) -> Result:
         """The Result of the plans (every planned robot gets a path)."""
         lead = problem.planned_robots[0].id

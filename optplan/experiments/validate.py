@@ -46,7 +46,7 @@ from optplan.problem import Problem
 from optplan.result import Result
 from optplan.solver import Backend, get_solver, solve
 
-__all__ = ["validate", "format_table", "summarize", "main"]
+__all__ = ["validate", "format_table", "format_time_table", "summarize", "main", "TIME_COLUMNS"]
 
 
 def _pct(a: float, b: float) -> float:
@@ -84,7 +84,10 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
         ``within_gap_pct``, ``homotopy_gap_pct``, ``total_gap_pct``, ``optimal_class``
         (the heuristic's path is feasible and in the optimum's homotopy class),
         ``nlp_optimal_class`` (the same for the NLP's path), ``heuristic_feasible``,
-        ``nlp_feasible``.
+        ``nlp_feasible``; on a problem with moving obstacles also the heuristic's grades in
+        time (:data:`TIME_COLUMNS`, :mod:`optplan.time_grading`): its arrival, the fastest
+        timing of its own path, the ``sipp`` reference, the certified lower bound and the
+        ratios of the arrival to them.
     """
     prob = load_problem(problem)
     heur = get_solver(solver, **(solver_options or {}))
@@ -98,7 +101,7 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
     rows = []
     for seed in range(first_seed, first_seed + seeds):
         t0 = time.perf_counter()
-        h: Result = solve(prob, heur, rng=seed)
+        h: Result = solve(prob, heur, rng=seed, reference=bool(prob.dynamic_obstacles))
         th = time.perf_counter() - t0
         t0 = time.perf_counter()
         n: Result = solve(prob, pol, rng=seed, init={rid: h.paths[rid]})
@@ -128,8 +131,23 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
             "nlp_optimal_class": bool(ncls),
             "heuristic_feasible": hf,
             "nlp_feasible": nf,
+            **_time_columns(h),
         })
     return rows
+
+
+#: The grading in time copied into a row (problems with moving obstacles).
+TIME_COLUMNS = ("arrival_time", "schedule_arrival", "time_reference", "time_lower_bound",
+                "arrival_ratio_to_schedule", "arrival_ratio_to_reference",
+                "arrival_ratio_to_bound")
+
+
+def _time_columns(h: Result) -> dict[str, Any]:
+    """The heuristic's grades in time (:mod:`optplan.time_grading`), NaN where missing."""
+    if "arrival_time" not in h.metrics:
+        return {}
+    return {k: (float("nan") if h.metrics.get(k) is None else float(h.metrics[k]))
+            for k in TIME_COLUMNS}
 
 
 def _med(rows: list[dict], key: str) -> float:
@@ -211,7 +229,25 @@ def format_table(rows: list[dict], title: str | None = None) -> str:
         f"{_f(s['median_total_gap_pct_optimal_class'])} % before (over the "
         f"{s['n_optimal_class_feasible_heuristic']} feasible heuristic paths) and "
         f"{_f(s['median_nlp_gap_pct_optimal_class'], 4)} % after the NLP polish.")
+    if rows and "arrival_time" in rows[0]:
+        out += ["", *format_time_table(rows)]
     return "\n".join(out)
+
+
+def format_time_table(rows: list[dict]) -> list[str]:
+    """The arrival of the heuristic beside the references in time, one row per seed and a
+    median row (the lines of a Markdown table)."""
+    out = ["| seed | arrival s | fastest timing of its path s | ratio | sipp s | ratio "
+           "| lower bound s | ratio |", "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    cols = ("arrival_time", "schedule_arrival", "arrival_ratio_to_schedule", "time_reference",
+            "arrival_ratio_to_reference", "time_lower_bound", "arrival_ratio_to_bound")
+    for r in rows:
+        out.append(f"| {r['seed']} | " + " | ".join(_f(r[k]) for k in cols) + " |")
+    out.append("| **median** | " + " | ".join(_f(_med(rows, k)) for k in cols) + " |")
+    out += ["", "Arrival of the heuristic's plan as executed; ratios of it to the fastest timing "
+                "of the same path (exact), to the earliest arrival of `sipp` (exact within the "
+                "tangent-roadmap model) and to the certified lower bound (every motion)."]
+    return out
 
 
 def _parse_set(items: list[str] | None) -> dict[str, Any]:

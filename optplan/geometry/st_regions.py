@@ -118,8 +118,8 @@ def path_regions(movers: list[DynamicObstacle], path: np.ndarray, radius: float,
         for shp in shape_pieces(dyn.kind, dyn.radius, dyn.local_geometry):
             q = len(shapes)
             shapes.append(shp)
-            grid = np.meshgrid(np.arange(len(keep)), np.arange(len(ta)), indexing="ij")
-            kk, pp = grid[0].ravel(), grid[1].ravel()
+            kk, pp = _near_pairs(p[keep], p[keep + 1], b, b + (tb - ta)[:, None] * w,
+                                 _reach(shp) + float(radius))
             cols["seg"].append(keep[kk])
             cols["s0"].append(s0[keep][kk])
             cols["ell"].append(ell[keep][kk])
@@ -137,6 +137,26 @@ def path_regions(movers: list[DynamicObstacle], path: np.ndarray, radius: float,
     cat = {k: np.concatenate(v) for k, v in cols.items()}
     return Regions(cat["seg"], cat["s0"], cat["ell"], cat["c0"], cat["u"], cat["ta"],
                    cat["T"], cat["w"], cat["shape"], cat["mover"], shapes, float(radius))
+
+
+def _reach(shp: ConvexShape) -> float:
+    """The largest distance of the shape from its reference point."""
+    if shp.is_circle:
+        return float(shp.radius or 0.0)
+    return float(np.max(np.hypot(*np.asarray(shp.vertices).T)))
+
+
+def _near_pairs(a0: np.ndarray, a1: np.ndarray, b0: np.ndarray, b1: np.ndarray, reach: float
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """The (segment, piece) index pairs whose bounding boxes come within ``reach``: the path
+    segments ``a0 -> a1`` and the swept reference points ``b0 -> b1`` (every other pair is
+    farther apart than the robot's and the shape's extent: no region)."""
+    lo_a, hi_a = np.minimum(a0, a1), np.maximum(a0, a1)
+    lo_b, hi_b = np.minimum(b0, b1), np.maximum(b0, b1)
+    near = np.all((lo_a[:, None, :] <= hi_b[None, :, :] + reach)
+                  & (lo_b[None, :, :] <= hi_a[:, None, :] + reach), axis=2)
+    kk, pp = np.nonzero(near)
+    return kk, pp
 
 
 def _by_shape(reg: Regions):

@@ -1,0 +1,119 @@
+"""Grading a plan in time: every robot's arrival against the references in time.
+
+On a problem with moving obstacles, ``op.solve(..., reference=True)`` grades each robot of the
+plan (:func:`with_time_reference`):
+
+* ``arrival_time``: the plan as executed (:func:`~optplan.geometry.time_bounds.arrival_time`:
+  the first stamp within the goal tolerance; a geometric path is timed at ``max_speed``).  A
+  follower has no goal: its arrival is the time it reaches the end of its path for good;
+* ``schedule_arrival``: the fastest timing of the same geometric path up to that point
+  (:func:`~optplan.geometry.schedule.fastest_schedule`, exact): how much the planner lost by
+  its timing alone;
+* ``time_reference``: the earliest arrival of the reference planner in time (``op.solve``
+  passes the ``sipp`` preset's: safe intervals on the exact tangent roadmap), for robots with
+  a goal;
+* ``time_lower_bound``: the certified bound of
+  :func:`~optplan.geometry.time_bounds.arrival_lower_bound` (robots with a goal);
+* the ratios of ``arrival_time`` to each of them.
+
+The planned robot's (the leader's) grades are metrics of their own; with more than one robot,
+``time_per_robot`` holds every robot's.  The references are cached on the problem.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from optplan.geometry.schedule import fastest_schedule
+from optplan.geometry.time_bounds import arrival_lower_bound, arrival_time
+from optplan.problem import Problem
+
+__all__ = ["with_time_reference", "grade_robot", "Reference"]
+
+#: ``reference(problem, robot_id)``: a plan with ``arrival``, ``status`` and ``message``
+#: (the earliest arrival of a reference planner in time).
+Reference = Callable[[Problem, str], Any]
+
+
+def _stamps(problem: Problem, rid: str, pts: np.ndarray, times: Any) -> np.ndarray:
+    if times is not None:
+        return np.asarray(times, float)
+    seg = np.hypot(*np.diff(pts, axis=0).T) if len(pts) > 1 else np.zeros(0)
+    return np.concatenate([[0.0], np.cumsum(seg)]) / problem.robot(rid).max_speed
+
+
+def _arrival(problem: Problem, rid: str, pts: np.ndarray, times: Any
+             ) -> tuple[float | None, int | None]:
+    """The arrival as executed and the index of the point where it happens."""
+    robot = problem.robot(rid)
+    stamps = _stamps(problem, rid, pts, times)
+    if robot.goal is not None:
+        t = arrival_time(problem, rid, pts, times)
+        return t, (None if t is None else int(np.searchsorted(stamps, t)))
+    moved = np.flatnonzero(np.any(pts != pts[-1], axis=1))
+    end = 0 if len(moved) == 0 else int(moved[-1]) + 1
+    return float(stamps[end]), end
+
+
+def _reference(problem: Problem, rid: str, reference: Reference) -> dict[str, Any]:
+    """The reference planner's earliest arrival of one robot (cached on the problem)."""
+
+    def build() -> dict[str, Any]:
+        plan = reference(problem, rid)
+        return {"time_reference": plan.arrival, "time_reference_status": plan.status,
+                "time_reference_message": plan.message}
+
+    return dict(problem.memo(("time_reference", rid), build))
+
+
+def _ratio(a: float | None, b: float | None) -> float | None:
+    ok = a is not None and b is not None and 0 < b < math.inf
+    return float(a) / float(b) if ok else None  # type: ignore[arg-type]
+
+
+def grade_robot(problem: Problem, rid: str, path: Any, times: Any = None,
+                reference: Reference | None = None) -> dict[str, Any]:
+    """One robot's grades in time (module docstring): ``arrival_time``, ``schedule_arrival``,
+    ``schedule_status`` and, for a robot with a goal, ``time_reference``,
+    ``time_lower_bound``, ``time_bound_reason``; the ratios ``arrival_ratio_to_schedule``,
+    ``arrival_ratio_to_reference``, ``arrival_ratio_to_bound`` where both sides exist
+    (``time_reference`` only with a ``reference`` planner)."""
+    pts = np.asarray(path, float)
+    arrival, end = _arrival(problem, rid, pts, times)
+    out: dict[str, Any] = {"arrival_time": arrival, "schedule_arrival": None,
+                           "schedule_status": "no arrival"}
+    if end is not None:
+        sch = fastest_schedule(problem, pts[:end + 1], rid)
+        out["schedule_arrival"], out["schedule_status"] = sch.arrival, sch.status
+        if sch.status != "scheduled":
+            out["schedule_message"] = sch.message
+    out["arrival_ratio_to_schedule"] = _ratio(arrival, out["schedule_arrival"])
+    if problem.robot(rid).goal is None:
+        return out
+    if reference is not None:
+        out.update(_reference(problem, rid, reference))
+    bound = problem.memo(("arrival_lower_bound", rid), lambda: arrival_lower_bound(problem, rid))
+    out["time_lower_bound"], out["time_bound_reason"] = bound.value, bound.reason
+    out["arrival_ratio_to_reference"] = _ratio(arrival, out.get("time_reference"))
+    out["arrival_ratio_to_bound"] = _ratio(arrival, bound.value)
+    return out
+
+
+def with_time_reference(metrics: dict[str, Any], problem: Problem, paths: dict[str, Any],
+                        times: Any, reference: Reference | None = None) -> dict[str, Any]:
+    """``metrics`` plus the grades in time of the plan (module docstring; ``reference``: see
+    :func:`grade_robot`); unchanged on a problem without moving obstacles."""
+    if not problem.dynamic_obstacles or not paths:
+        return metrics
+    out = dict(metrics)
+    per = {rid: grade_robot(problem, rid, p, times, reference) for rid, p in paths.items()}
+    lead = problem.leader.id
+    if lead in per:
+        out.update(per[lead])
+    if len(per) > 1:
+        out["time_per_robot"] = per
+    return out
