@@ -92,6 +92,7 @@ BACKENDS: dict[str, str] = {
     "sa-apf": "optplan.potential.sa_apf:SAAPF",
     "leader-follower": "optplan.formation.leader_follower:LeaderFollower",
     "formation-qp": "optplan.formation.formation_qp:FormationQP",
+    "formation-nlp": "optplan.formation.formation_nlp:FormationNLP",
     "hybrid": "optplan.hybrid.planner:Hybrid",
 }
 

@@ -1,0 +1,228 @@
+"""Backend ``formation-nlp``: the whole manoeuvre of a team as one trajectory optimisation.
+
+A local optimum of "arrival time + weighted formation error" over the positions of the leader
+and every follower on a time grid, under speed limits, exact static-obstacle constraints,
+moving obstacles at their known motion and robot-robot separation (the model:
+:mod:`optplan.formation.team_nlp`; docs/solvers/formation-nlp.md).  IPOPT is local: the result
+depends on the warm start, by default the ``hybrid-qp`` plan of the same problem (option
+``warm_start``), or the paths given by ``init=`` (timed at uniform steps up to the slowest
+robot's path time).  The status is ``solved`` with "locally optimal" in the message (never
+``optimal``), when the exact continuous-time validator accepts the plan and it is no worse than
+its warm start in arrival and formation error; otherwise the warm start is kept and the message
+says why.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from optplan.exact.nlp_pieces import SAFETY_REL, obstacle_pieces
+from optplan.formation.team_nlp import MoverTable, TeamModel, solve_team_nlp
+from optplan.geometry.motion import mover_track, positions_at
+from optplan.geometry.time_bounds import arrival_time
+from optplan.problem import Problem
+from optplan.result import History, Progress, Result, Status
+from optplan.solver import Backend, get_solver, option
+
+__all__ = ["FormationNLP", "Warm"]
+
+
+@dataclass(frozen=True)
+class Warm:
+    """A team plan to start from: synchronised ``paths`` at ``times``, its arrival ``T0``."""
+
+    paths: dict[str, np.ndarray]
+    times: np.ndarray
+    T0: float
+    metrics: dict[str, Any]
+
+
+@dataclass(frozen=True, kw_only=True)
+class FormationNLP(Backend):
+    """Joint trajectory NLP of a formation (module docstring).
+
+    Options
+    -------
+    n_steps : int
+        Grid intervals ``N``.
+    w_formation : float
+        Weight of the formation error against the arrival time (both dimensionless).
+    warm_start : str
+        The team planner whose plan starts IPOPT when no ``init`` is given.
+    prune : float
+        Static (robot, step, piece) pairs within this fraction of the map diagonal of the warm
+        start are constrained.
+    t_max : float
+        Largest arrival, in multiples of the warm start's.
+    max_iter, tol : int, float
+        IPOPT's iteration limit and tolerance.
+    """
+
+    name: ClassVar[str] = "formation-nlp"
+    n_steps: int = option(60, lo=2, hi=2000)
+    w_formation: float = option(1.0, lo=0.0, hi=1e6)
+    warm_start: str = option("hybrid-qp", kind="str")
+    prune: float = option(0.05, lo=0.0, lo_open=True, hi=1.0)
+    t_max: float = option(2.0, lo=1.0, hi=100.0)
+    max_iter: int = option(3000, lo=1, hi=100_000)
+    tol: float = option(1e-6, lo=1e-12, hi=1e-2)
+
+    def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
+              init: dict[str, np.ndarray] | None = None,
+              callback: Callable[[Progress], Any] | None = None) -> Result:
+        t0 = time.perf_counter()
+        why = _unsupported(problem)
+        if why:
+            return self._give_up(problem, why, t0)
+        if init is not None:
+            warm = _warm_from_paths(problem, init)
+        else:
+            res = get_solver(self.warm_start).solve(problem, rng=rng)
+            warm = warm_from_result(problem, res)
+        if warm is None:
+            return self._give_up(problem, f"the warm start ({self.warm_start}) gives no "
+                                 "synchronised team plan that reaches the goal", t0)
+        return self.polish(problem, warm, t0)
+
+    def polish(self, problem: Problem, warm: Warm, t0: float | None = None) -> Result:
+        """Solve the NLP from ``warm`` and grade it (the kept warm start when it is better)."""
+        t0 = time.perf_counter() if t0 is None else t0
+        model, ids = self._model(problem, warm)
+        ipopt = {"max_iter": int(self.max_iter), "tol": float(self.tol), "print_level": 0,
+                 "sb": "yes"}
+        X, T, info = solve_team_nlp(model, ipopt)
+        frame = problem.frame
+        paths = {rid: frame.world(X[k] * model.scale) for k, rid in enumerate(ids)}
+        times = np.linspace(0.0, T * warm.T0, self.n_steps + 1)
+        res = self.finish(problem, paths, claim=Status.solved if info["success"] else
+                          Status.approximate, times=times, cost=T * warm.T0,
+                          message="", n_iter=int(info["iter_count"]),
+                          n_eval=int(info["iter_count"]), history=History(),
+                          extras={"ipopt": info, "warm_arrival": warm.T0},
+                          wall_time=time.perf_counter() - t0)
+        return self._judged(problem, res, warm, info, t0)
+
+    def _model(self, problem: Problem, warm: Warm) -> tuple[TeamModel, list[str]]:
+        form = problem.formation
+        assert form is not None
+        ids = [form.leader, *[f.id for f in form.followers]]
+        robots = [problem.robot(r) for r in ids]
+        frame, scale, T0 = problem.frame, float(problem.frame.length), warm.T0
+        grid = np.linspace(0.0, T0, self.n_steps + 1)
+        X0 = np.stack([frame.local(positions_at(warm.times, warm.paths[r], grid)) / scale
+                       for r in ids])
+        sep = max([form.safety_distance, *[a.radius + b.radius for a in robots
+                                          for b in robots if a is not b]])
+        return TeamModel(
+            X0=X0, radius=np.array([r.radius for r in robots]) / scale,
+            speed=np.array([r.max_speed for r in robots]) * T0 / scale,
+            goal=frame.local(robots[0].goal) / scale,
+            L=np.array([f.L for f in form.followers]) / scale,
+            phi=np.array([f.phi for f in form.followers]),
+            separation=sep / scale + SAFETY_REL,
+            pieces=[obstacle_pieces(problem, r, known_only=False) for r in robots],
+            scale=scale, movers=_movers(problem, T0, self.t_max * T0, scale),
+            w_formation=float(self.w_formation), prune=float(self.prune),
+            t_max=float(self.t_max)), ids
+
+    def _judged(self, problem: Problem, res: Result, warm: Warm, info: dict, t0: float
+                ) -> Result:
+        """``res`` when it is valid and no worse than the warm start, else the warm start."""
+        m, w = res.metrics, warm.metrics
+        ok = res.status is Status.solved
+        better = (ok and res.cost <= warm.T0 * (1 + 1e-9)
+                  and m.get("formation_rmse", 0.0) <= w.get("formation_rmse", np.inf) + 1e-9)
+        ipopt = f"IPOPT: {info['return_status']}, {info['iter_count']} iterations"
+        if better:
+            return _with_message(res, f"locally optimal ({ipopt}): arrival {res.cost:.6g} s, "
+                                 f"warm start {warm.T0:.6g} s")
+        why = ("the validator rejects the NLP's plan" if not ok else
+               "the NLP's plan is not better than its warm start")
+        kept = self.finish(problem, warm.paths, claim=Status.solved, times=warm.times,
+                           cost=warm.T0, message="", extras={"ipopt": info,
+                                                             "kept_warm_start": True,
+                                                             "warm_arrival": warm.T0},
+                           wall_time=time.perf_counter() - t0)
+        return _with_message(kept, f"kept the warm start ({why}; {ipopt})")
+
+    def _give_up(self, problem: Problem, why: str, t0: float) -> Result:
+        paths = {r.id: np.vstack([r.start, r.start]) for r in problem.robots}
+        return self.finish(problem, paths, claim=Status.failed, times=np.zeros(2),
+                           message=why, wall_time=time.perf_counter() - t0)
+
+
+def _with_message(res: Result, text: str) -> Result:
+    import dataclasses
+
+    msg = text if not res.message else f"{text}; {res.message}"
+    return dataclasses.replace(res, message=msg)
+
+
+def _unsupported(problem: Problem) -> str:
+    """Why the NLP cannot run on ``problem`` (``""`` when it can)."""
+    form = problem.formation
+    if form is None or not form.followers:
+        return f"problem {problem.name!r} has no formation: formation-nlp plans a team"
+    if problem.robot(form.leader).goal is None:
+        return f"the leader {form.leader!r} has no goal"
+    return ""
+
+
+def warm_from_result(problem: Problem, res: Result) -> Warm | None:
+    """A :class:`Warm` start from a team planner's result (``None`` when it has no shared
+    time stamps or its leader never arrives)."""
+    form = problem.formation
+    if form is None or res.times is None:
+        return None
+    ids = [form.leader, *[f.id for f in form.followers]]
+    if any(r not in res.paths for r in ids):
+        return None
+    times = np.asarray(res.times, float)
+    T0 = arrival_time(problem, form.leader, res.paths[form.leader], times)
+    if T0 is None or T0 <= 0:
+        return None
+    return Warm({r: np.asarray(res.paths[r], float) for r in ids}, times, float(T0),
+                dict(res.metrics))
+
+
+def _warm_from_paths(problem: Problem, init: dict[str, np.ndarray]) -> Warm | None:
+    """Paths without times: each robot timed at uniform steps up to the slowest robot's time
+    along its own path (at its ``max_speed``)."""
+    form = problem.formation
+    assert form is not None
+    ids = [form.leader, *[f.id for f in form.followers]]
+    if any(r not in init for r in ids):
+        return None
+    T0 = max(float(np.sum(np.hypot(*np.diff(init[r], axis=0).T))) / problem.robot(r).max_speed
+             for r in ids)
+    if T0 <= 0:
+        return None
+    paths = {r: np.asarray(init[r], float) for r in ids}
+    n = max(len(p) for p in paths.values())
+    times = np.linspace(0.0, T0, n)
+    paths = {r: positions_at(np.linspace(0.0, T0, len(p)), p, times) for r, p in paths.items()}
+    from optplan.metrics import evaluate
+
+    return Warm(paths, times, T0, evaluate(problem, paths, times))
+
+
+def _movers(problem: Problem, T0: float, horizon: float, scale: float) -> list[MoverTable]:
+    """The moving obstacles' tracks in the NLP's units (module docstring of team_nlp)."""
+    out = []
+    for d in problem.dynamic_obstacles:
+        tk, pk = mover_track(d, 0.0, horizon)
+        if d.kind == "circle":
+            rad = float(d.radius or 0.0)
+        else:
+            rad = float(np.max(np.hypot(*np.asarray(d.local_geometry.exterior.coords).T)))
+        step = np.diff(tk)
+        speed = (float(np.max(np.hypot(*np.diff(pk, axis=0).T)[step > 0] / step[step > 0]))
+                 if np.any(step > 0) else 0.0)
+        out.append(MoverTable(tk / T0, problem.frame.local(pk) / scale, rad / scale,
+                              speed * T0 / scale))
+    return out
