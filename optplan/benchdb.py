@@ -47,6 +47,12 @@ Schema (version :data:`SCHEMA_VERSION`; ``docs/benchmarks.md`` has the same tabl
     :data:`MAX_PROGRESS` rows per run.
 
 ``meta``: ``key``/``value`` pairs (``schema_version``).
+
+Opening a file checks it before anything is read or written (:class:`ResultsDBError`, a
+``ValueError``, naming the file): a file of another program (tables or columns missing), a
+schema version other than :data:`SCHEMA_VERSION`, a file that fails SQLite's
+``PRAGMA integrity_check`` or cannot be decoded, and a file another connection keeps locked
+for more than :data:`LOCK_TIMEOUT` seconds are errors; a foreign file is never modified.
 """
 
 from __future__ import annotations
@@ -59,16 +65,21 @@ import platform
 import sqlite3
 import subprocess
 import sys
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from functools import cache
 from pathlib import Path
 from typing import Any
 
-__all__ = ["SCHEMA", "SCHEMA_VERSION", "MAX_PROGRESS", "ResultsDB", "experiment_info",
-           "read_runs", "read_progress", "read_experiments", "thin_progress"]
+__all__ = ["SCHEMA", "SCHEMA_VERSION", "MAX_PROGRESS", "LOCK_TIMEOUT", "ResultsDB",
+           "ResultsDBError", "experiment_info", "read_runs", "read_progress",
+           "read_experiments", "thin_progress"]
 
 SCHEMA_VERSION = 1
 #: at most this many progress rows are stored per run
 MAX_PROGRESS = 500
+#: seconds to wait for a lock another connection holds on the file before giving up
+LOCK_TIMEOUT = 30.0
 
 SCHEMA = """
 CREATE TABLE IF NOT EXISTS meta (
@@ -133,6 +144,105 @@ _ROW_COLS = ("problem", "solver", "seed", "status", "success", "length", "optimu
              "stop_reason", "message", "backend", "options")
 _FLOATS = ("length", "optimum", "ratio", "min_clearance", "wall_time", "reference_time")
 _INTS = ("seed", "collisions", "n_iter", "n_eval")
+
+
+class ResultsDBError(ValueError):
+    """A results database that cannot be used: locked, of another program, of another schema
+    version, or damaged.  The message names the file."""
+
+
+def _is_lock(e: sqlite3.Error) -> bool:
+    code = getattr(e, "sqlite_errorcode", None)
+    return code in (sqlite3.SQLITE_BUSY, sqlite3.SQLITE_LOCKED) or "locked" in str(e)
+
+
+def _db_error(path: Path, e: sqlite3.Error) -> ResultsDBError:
+    """The error to report for ``e``, raised by SQLite on the results database ``path``."""
+    if _is_lock(e):
+        return ResultsDBError(
+            f"{path}: the results database is locked by another connection (waited "
+            f"{LOCK_TIMEOUT:g} s); wait until the program holding it (another sweep, an open "
+            f"sqlite3 shell) lets it go, or use another file")
+    if isinstance(e, sqlite3.DatabaseError) and "not a database" in str(e):
+        return ResultsDBError(f"{path}: not an optplan results database (not an SQLite file)")
+    return ResultsDBError(f"{path}: the results database is damaged ({e}); restore a copy, or "
+                          f"run the sweep again into a new file")
+
+
+@contextmanager
+def _guarded(path: Path) -> Iterator[None]:
+    """Turn SQLite's errors on ``path`` into :class:`ResultsDBError` naming the file."""
+    try:
+        yield
+    except sqlite3.Error as e:
+        raise _db_error(path, e) from None
+
+
+@cache
+def _layout() -> dict[str, tuple[str, ...]]:
+    """Table -> columns of :data:`SCHEMA`."""
+    con = sqlite3.connect(":memory:")
+    try:
+        con.executescript(SCHEMA)
+        return _tables(con)
+    finally:
+        con.close()
+
+
+def _tables(con: sqlite3.Connection) -> dict[str, tuple[str, ...]]:
+    names = [r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table' "
+                                       "AND name NOT LIKE 'sqlite_%' ORDER BY name")]
+    return {t: tuple(r[1] for r in con.execute(f'PRAGMA table_info("{t}")')) for t in names}
+
+
+def _check_layout(path: Path, tables: Mapping[str, Sequence[str]]) -> None:
+    """Every table and column of :data:`SCHEMA` is there (extra ones are allowed)."""
+    ours = ", ".join(_layout())
+    for table, cols in _layout().items():
+        if table not in tables:
+            have = ", ".join(tables) or "none"
+            raise ResultsDBError(f"{path}: not an optplan results database: no table {table!r} "
+                                 f"(it has: {have}; optplan's tables: {ours})")
+        missing = [c for c in cols if c not in tables[table]]
+        if missing:
+            raise ResultsDBError(
+                f"{path}: not an optplan results database: table {table!r} has no column "
+                f"{', '.join(missing)} (its columns: {', '.join(tables[table])})")
+
+
+def _check_version(path: Path, con: sqlite3.Connection) -> None:
+    row = con.execute("SELECT value FROM meta WHERE key = 'schema_version'").fetchone()
+    if row is None:
+        raise ResultsDBError(f"{path}: not an optplan results database: table 'meta' has no "
+                             f"schema_version")
+    if str(row[0]) != str(SCHEMA_VERSION):
+        raise ResultsDBError(
+            f"{path}: meta.schema_version: results database schema version {row[0]!r}; this "
+            f"optplan reads and writes version {SCHEMA_VERSION} only (a newer optplan wrote "
+            f"it? upgrade optplan, or use another file)")
+
+
+def _check_file(path: Path, con: sqlite3.Connection) -> bool:
+    """Check an open results database before it is used; ``True`` when it has no tables yet
+    (a new or empty file).  Raises :class:`ResultsDBError` naming the file."""
+    tables = _tables(con)
+    if not tables:
+        return True
+    _check_layout(path, tables)
+    _check_version(path, con)
+    bad = [r[0] for r in con.execute("PRAGMA integrity_check(3)")]
+    if bad != ["ok"]:
+        raise ResultsDBError(
+            f"{path}: the results database fails SQLite's integrity check "
+            f"({'; '.join(' '.join(b.split()) for b in bad)}); restore a copy, or run the "
+            f"sweep again into a new file")
+    return False
+
+
+def _open(path: Path) -> sqlite3.Connection:
+    """A connection to ``path`` waiting :data:`LOCK_TIMEOUT` seconds for locks."""
+    with _guarded(path):
+        return sqlite3.connect(str(path), timeout=LOCK_TIMEOUT)
 
 
 def _now() -> str:
@@ -258,31 +368,35 @@ class ResultsDB:
         self.path = Path(path)
         if self.path.parent and not self.path.parent.exists():
             self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.con = _open(self.path)
         try:
-            self.con = sqlite3.connect(str(self.path), timeout=30.0)
-            self.con.execute("PRAGMA foreign_keys = ON")
-            # WAL + synchronous NORMAL: a commit costs ~0.2 ms instead of ~15 ms (no fsync per
-            # run); committed runs survive a crash or kill of the sweep (not a power cut, where
-            # the last runs may be lost, never the file).  The -wal/-shm side files exist only
-            # while a sweep writes: the file is a single file again once it closes.
-            self.con.execute("PRAGMA journal_mode = WAL")
-            self.con.execute("PRAGMA synchronous = NORMAL")
+            with _guarded(self.path):
+                self._setup()
+        except BaseException:
+            self.con.close()
+            raise
+
+    def _setup(self) -> None:
+        """Check the file (:func:`_check_file`, before anything is written), then set the
+        write-ahead log and create the tables of a new file."""
+        self.con.execute("PRAGMA foreign_keys = ON")
+        fresh = _check_file(self.path, self.con)
+        # WAL + synchronous NORMAL: a commit costs ~0.2 ms instead of ~15 ms (no fsync per
+        # run); committed runs survive a crash or kill of the sweep (not a power cut, where
+        # the last runs may be lost, never the file).  The -wal/-shm side files exist only
+        # while a sweep writes: the file is a single file again once it closes.
+        self.con.execute("PRAGMA journal_mode = WAL")
+        self.con.execute("PRAGMA synchronous = NORMAL")
+        if fresh:
             with self.con:
                 self.con.executescript(SCHEMA)
-                row = self.con.execute("SELECT value FROM meta WHERE key = 'schema_version'"
-                                       ).fetchone()
-                if row is None:
-                    self.con.execute("INSERT INTO meta VALUES ('schema_version', ?)",
-                                     (str(SCHEMA_VERSION),))
-                elif int(row[0]) != SCHEMA_VERSION:
-                    raise ValueError(f"{self.path}: results database schema version {row[0]}, "
-                                     f"this optplan writes version {SCHEMA_VERSION}")
-        except sqlite3.DatabaseError as e:
-            raise ValueError(f"{self.path}: not an optplan results database ({e})") from None
+                self.con.execute("INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)",
+                                 (str(SCHEMA_VERSION),))
+            _check_file(self.path, self.con)  # another process may have made it meanwhile
 
     # -- writing ---------------------------------------------------------------------
     def begin_experiment(self, info: Mapping[str, Any], planned: int, skipped: int) -> int:
-        with self.con:
+        with _guarded(self.path), self.con:
             cur = self.con.execute(
                 "INSERT INTO experiment (started, optplan_version, git_revision, python, "
                 "packages, machine, command_line, spec, runs_planned, runs_skipped, runs_done) "
@@ -295,13 +409,15 @@ class ResultsDB:
         return _inserted_id(cur)
 
     def end_experiment(self, experiment_id: int, outcome: str, done: int) -> None:
-        with self.con:
+        with _guarded(self.path), self.con:
             self.con.execute("UPDATE experiment SET finished = ?, outcome = ?, runs_done = ? "
                              "WHERE id = ?", (_now(), outcome, int(done), int(experiment_id)))
 
     def add_run(self, experiment_id: int, row: Mapping[str, Any], config: str,
                 progress: Iterable[Sequence[Any]] = (), worker: str = "") -> int:
-        """Insert one finished run and its progress rows in one transaction (committed)."""
+        """Insert one finished run and its progress rows, and count it in the experiment's
+        ``runs_done``, in one transaction (committed): a sweep killed at any moment leaves
+        ``runs_done`` equal to the runs it stored."""
         vals = []
         for c in _ROW_COLS:
             v = row.get(c)
@@ -312,7 +428,7 @@ class ResultsDB:
             elif c in _INTS:
                 v = None if v is None else int(v)
             vals.append(v)
-        with self.con:
+        with _guarded(self.path), self.con:
             cur = self.con.execute(
                 f"INSERT INTO runs (experiment_id, {', '.join(_ROW_COLS)}, config, worker, "
                 f"finished) VALUES ({', '.join('?' * (len(_ROW_COLS) + 4))})",
@@ -323,6 +439,8 @@ class ResultsDB:
                 "VALUES (?, ?, ?, ?, ?)",
                 [(run_id, int(it), _float_in(c), int(ne), float(t))
                  for it, c, ne, t in progress])
+            self.con.execute("UPDATE experiment SET runs_done = runs_done + 1 WHERE id = ?",
+                             (int(experiment_id),))
         return run_id
 
     # -- reading ---------------------------------------------------------------------
@@ -337,10 +455,12 @@ class ResultsDB:
     def runs(self, with_ids: bool = False) -> list[dict[str, Any]]:
         """Every run as a tidy row (NULL -> nan, success -> bool), in insertion order."""
         extra = ", id, config, worker, finished" if with_ids else ""
-        cur = self.con.execute(f"SELECT {', '.join(_ROW_COLS)}{extra} FROM runs ORDER BY id")
-        names = [d[0] for d in cur.description]
+        with _guarded(self.path):
+            cur = self.con.execute(f"SELECT {', '.join(_ROW_COLS)}{extra} FROM runs ORDER BY id")
+            names = [d[0] for d in cur.description]
+            recs = cur.fetchall()
         out = []
-        for rec in cur:
+        for rec in recs:
             r = dict(zip(names, rec))
             for c in _FLOATS:
                 r[c] = _float_out(r[c])
@@ -368,12 +488,14 @@ def _connect_read(path: str | Path) -> sqlite3.Connection:
         raise FileNotFoundError(f"{p}: no such results database")
     # a read-write connection (that only reads): the last connection to close removes the
     # write-ahead log's side files, which a read-only one would leave behind
-    con = sqlite3.connect(str(p), timeout=30.0)
+    con = _open(p)
     try:
-        con.execute("SELECT 1 FROM runs LIMIT 1")
-    except sqlite3.DatabaseError as e:
+        with _guarded(p):
+            if _check_file(p, con):
+                raise ResultsDBError(f"{p}: not an optplan results database (no tables)")
+    except BaseException:
         con.close()
-        raise ValueError(f"{p}: not an optplan results database ({e})") from None
+        raise
     return con
 
 
@@ -393,9 +515,10 @@ def read_progress(path: str | Path) -> dict[int, dict[str, list[float]]]:
     con = _connect_read(path)
     out: dict[int, dict[str, list[float]]] = {}
     try:
-        for rid, it, c, ne, t in con.execute(
-                "SELECT run_id, iteration, best_cost, n_eval, time FROM progress "
-                "ORDER BY run_id, rowid"):
+        with _guarded(Path(path)):
+            recs = con.execute("SELECT run_id, iteration, best_cost, n_eval, time FROM progress "
+                               "ORDER BY run_id, rowid").fetchall()
+        for rid, it, c, ne, t in recs:
             d = out.setdefault(int(rid), {"iteration": [], "best_cost": [], "n_eval": [],
                                           "time": []})
             d["iteration"].append(int(it))
@@ -411,10 +534,12 @@ def read_experiments(path: str | Path) -> list[dict[str, Any]]:
     """The ``experiment`` rows (JSON columns decoded)."""
     con = _connect_read(path)
     try:
-        cur = con.execute("SELECT * FROM experiment ORDER BY id")
-        names = [d[0] for d in cur.description]
+        with _guarded(Path(path)):
+            cur = con.execute("SELECT * FROM experiment ORDER BY id")
+            names = [d[0] for d in cur.description]
+            recs = cur.fetchall()
         out = []
-        for rec in cur:
+        for rec in recs:
             r = dict(zip(names, rec))
             for k in ("packages", "machine", "spec"):
                 try:

@@ -71,25 +71,26 @@ def _run_inline(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
 
 
 def _pool_worker(conn: Any, init: Mapping[str, Any]) -> None:
-    """A process-pool worker: set up, then run the tasks it is sent one at a time."""
+    """A process-pool worker: set up, then run the tasks it is sent one at a time.  When the
+    parent is gone (killed: SIGKILL, a crash) the worker ends quietly at its next message."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop
     try:
-        _worker_setup(init)
-    except BaseException as e:  # noqa: BLE001 - reported to the parent
-        conn.send(("setup_error", _describe(e)))
-        return
-    wid = _worker_id()
-    conn.send(("ready",))
-    while True:
         try:
+            _worker_setup(init)
+        except BaseException as e:  # noqa: BLE001 - reported to the parent
+            conn.send(("setup_error", _describe(e)))
+            return
+        wid = _worker_id()
+        conn.send(("ready",))
+        while True:
             msg = conn.recv()
-        except (EOFError, OSError):
-            return
-        if msg is None:
-            return
-        i, task = msg
-        row, trace = _execute(*task)
-        conn.send(("done", i, row, trace, wid))
+            if msg is None:
+                return
+            i, task = msg
+            row, trace = _execute(*task)
+            conn.send(("done", i, row, trace, wid))
+    except (EOFError, OSError):  # the parent's end of the pipe is closed (BrokenPipeError)
+        return
 
 
 class _Slot:

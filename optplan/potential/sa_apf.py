@@ -264,7 +264,9 @@ class SAAPF(PotentialFieldBackend, LocalPlanner):
     sa_restarts : int
         Re-heats (``T <- T_0``) allowed per escape when ``T < 1e-3 T_0``.
     rollout : float
-        Length of the greedy roll-out in the escape test (x length_scale).
+        Length of the greedy roll-out in the escape test (x length_scale), at most 1e4
+        (about 14 diagonals of a map at its default ``length_scale``; each escape test takes
+        up to ``rollout / l`` field evaluations, so a longer one only costs time).
     evade_factor : float
         Moving-obstacle safety step when a dynamic obstacle is closer than ``evade_factor * l``
         (``0`` disables; see :meth:`~optplan.potential.controller.APFController.evade`).  Default 2.
@@ -282,7 +284,7 @@ detect_eq38, sense_robots
     sa_batch: int = option(8, lo=1, hi=1000)
     sa_budget: int = option(4000, lo=1, hi=10_000_000)
     sa_restarts: int = option(10, lo=0, hi=10_000)
-    rollout: float = option(60.0, lo=0.0, scale=True)
+    rollout: float = option(60.0, lo=0.0, hi=1e4, scale=True)
     evade_factor: float = option(2.0, lo=0.0, hi=100.0)
 
     def field_params(self, problem: Problem, robot: Robot) -> FieldParams:

@@ -56,10 +56,18 @@ def test_cross_field_rule_rho_min_at_most_rho_0():
 
 
 @pytest.mark.parametrize("bad", [{"k_B": 0.0}, {"sa_step": 0.0}, {"rollout": float("inf")},
+                                 {"rollout": 1e300}, {"rollout": 10001.0},
                                  {"detect_eq38": 1}, {"sa_batch": 1.5}])
 def test_declared_ranges_are_enforced(bad):
     with pytest.raises(ValueError, match=next(iter(bad))):
         SAAPF(**bad)
+
+
+def test_the_longest_rollout_is_a_bounded_run():
+    with pytest.raises(ValueError, match=r"rollout.*\[0(\.0)?, 10000(\.0)?\]"):
+        op.solve("trap-u", "sa-apf-paper", rng=0, rollout=1e300)
+    res = op.solve("trap-u", "sa-apf-paper", rng=0, rollout=1e4)
+    assert res.success and res.extras["sim_steps"] < 3000
 
 
 def test_statistics_are_extras_not_metrics():
