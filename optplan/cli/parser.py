@@ -9,6 +9,7 @@ from optplan.cli.catalogue import cmd_list, cmd_show, cmd_show_solver
 from optplan.cli.common import PROG
 from optplan.cli.figures import cmd_animate, cmd_plot
 from optplan.cli.map_import import cmd_import_map
+from optplan.cli.ros_export import cmd_export_path
 from optplan.cli.solving import cmd_solve
 from optplan.cli.sweep import cmd_bench, cmd_export_arena, cmd_report
 
@@ -133,6 +134,23 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--max-frames", type=int, default=150, help="frame limit (default 150)")
     s.add_argument("--problem", help="problem name or .toml path (default: the result's)")
     s.set_defaults(func=cmd_animate)
+
+    s = sub.add_parser(
+        "export-path", help="a saved result's timed path as a ROS nav_msgs/Path (YAML/JSON)",
+        description="Write one robot's path of a result JSON ('optplan solve --json') as a "
+                    "nav_msgs/Path message: a header with frame_id and stamp, one PoseStamped "
+                    "per point with its time stamp and its heading as a quaternion. No ROS "
+                    "installation needed; 'ros2 topic pub /plan nav_msgs/msg/Path' reads the "
+                    "YAML.")
+    s.add_argument("result", help="result JSON written by 'optplan solve --json'")
+    s.add_argument("--robot", metavar="ID", help="robot id (default: the leader)")
+    s.add_argument("--frame-id", default="map", help="frame of every header (default map)")
+    s.add_argument("--start-time", type=float, default=0.0, metavar="S",
+                   help="stamp of t = 0, seconds (default 0)")
+    s.add_argument("--format", choices=["yaml", "json"],
+                   help="output format (default: json for an --out ending in .json, else yaml)")
+    s.add_argument("--out", metavar="FILE", help="file to write (default: stdout)")
+    s.set_defaults(func=cmd_export_path)
 
     s = sub.add_parser(
         "import-map", help="turn an occupancy map into a scenario TOML",

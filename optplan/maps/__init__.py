@@ -8,6 +8,11 @@ Readers
   (``trinary``, ``scale``, ``raw``), classified as ROS ``map_server`` does.
 * **bare images** (PNG, PGM, ...; :func:`read_image`) with a given ``resolution`` and
   ``origin`` and the same classification options.
+* **ROS messages** as plain dicts (:mod:`optplan.maps.ros_msgs`, no ROS needed): an
+  in-memory ``nav_msgs/OccupancyGrid`` (:func:`read_occupancy_grid`; ``data`` int8 -1/0..100
+  row-major from the origin cell, classified as ``map_server``'s ``raw`` mode), and out, a
+  result's timed path as ``nav_msgs/Path`` (:func:`path_msg`, ``optplan export-path``) and a
+  grid as ``nav_msgs/OccupancyGrid`` (:func:`occupancy_grid_msg`).
 * **MovingAI** ``.map`` grids (:func:`read_movingai`) and their ``.scen`` start/goal pairs
   (:func:`read_scen`: one :class:`~optplan.Problem` per line, a batch for ``bench``).
 
@@ -44,6 +49,14 @@ from optplan.maps.occupancy import ROS_DEFAULTS as ROS_DEFAULTS
 from optplan.maps.occupancy import classify as classify
 from optplan.maps.occupancy import read_grid, read_image, read_ros_yaml
 from optplan.maps.polygons import exact_union, grid_polygons
+from optplan.maps.ros_msgs import (
+    TimedPath,
+    occupancy_grid_msg,
+    path_msg,
+    read_occupancy_grid,
+    read_path_msg,
+    timed_path_msg,
+)
 from optplan.maps.scen import ScenEntry, read_scen, read_scen_entries, scen_octile_length
 from optplan.maps.toml_writer import to_toml, write_batch, write_toml
 
@@ -66,4 +79,10 @@ __all__ = [
     "to_toml",
     "write_toml",
     "write_batch",
+    "TimedPath",
+    "path_msg",
+    "timed_path_msg",
+    "read_path_msg",
+    "read_occupancy_grid",
+    "occupancy_grid_msg",
 ]
