@@ -114,7 +114,7 @@ def _formation_error(X: list[Any], m: TeamModel, N: int) -> Any:
     if len(X) < 2:
         return 0
     D = X[0][1:, :] - X[0][:-1, :]
-    eps = 0.05 * float(m.speed[0]) / N
+    eps = 1e-3 * float(m.speed[0]) / N
     H = _heading(ca.vertcat(D, D[-1, :]), eps)  # (N + 1, 2)
     hx, hy = H[:, 0], H[:, 1]
     err = 0
@@ -279,7 +279,7 @@ def _final_slots(X: list[Any], m: TeamModel) -> Any:
     if len(X) < 2:
         return ca.DM.zeros(1)
     h = X[0][-1, :] - X[0][-2, :]
-    h = h / ca.sqrt(h @ h.T + (0.05 * float(m.speed[0]) / (X[0].shape[0] - 1)) ** 2)
+    h = h / ca.sqrt(h @ h.T + (1e-3 * float(m.speed[0]) / (X[0].shape[0] - 1)) ** 2)
     rows = []
     for f in range(len(m.L)):
         c, s, L = np.cos(m.phi[f]), np.sin(m.phi[f]), float(m.L[f])

@@ -29,6 +29,8 @@ REPRESENTATIVE = {
     "hybrid-qp": "paper-hybrid",
     "leader-follower-paper": "paper-formation",
     "formation-qp": "paper-formation",
+    "formation-nlp": "formation-open-field",
+    "sipp": "paper-warehouse",
     "ipso-paper": "paper-env1",
     "ipso": "paper-env2",
     "mpso-paper": "paper-env1",
