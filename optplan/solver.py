@@ -66,6 +66,7 @@ from optplan.catalog import plugin_preset_files as plugin_preset_files
 from optplan.options import option
 from optplan.problem import Problem
 from optplan.result import Progress, Result, Status
+from optplan.team_grading import with_team_reference
 from optplan.time_grading import with_time_reference
 
 __all__ = [
@@ -365,6 +366,13 @@ def with_reference(metrics: dict[str, Any], problem: Problem, paths: dict[str, A
     return out
 
 
+def team_reference(problem: Problem, res: Result) -> Result:
+    """The team reference of ``reference="team"``: the ``formation-nlp`` preset warm-started
+    from ``res`` (:func:`optplan.team_grading.with_team_reference`)."""
+    backend: Any = get_solver("formation-nlp")  # optplan.formation.formation_nlp.FormationNLP
+    return backend.reference(problem, res)
+
+
 def time_reference(problem: Problem, robot_id: str) -> Any:
     """The reference in time of ``reference=True``: the ``sipp`` preset's earliest arrival of
     ``robot_id`` (:func:`optplan.time_grading.with_time_reference`)."""
@@ -384,7 +392,7 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
           init: dict[str, np.ndarray] | np.ndarray | None = None,
           callback: Callable[[Progress], Any] | None = None,
           time_limit: float | None = None,
-          reference: bool = False,
+          reference: bool | str = False,
           **overrides: Any) -> Result:
     """Solve ``problem`` with ``solver`` and grade the result with the shared validator.
 
@@ -414,7 +422,11 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         (:func:`optplan.time_grading.with_time_reference`): ``arrival_time``,
         ``schedule_arrival`` (the fastest timing of the plan's own path), ``time_reference``
         (the ``sipp`` preset's earliest arrival), ``time_lower_bound`` and the ratios of the
-        arrival to each; ``time_per_robot`` for a team.
+        arrival to each; ``time_per_robot`` for a team.  ``reference="team"`` also grades a
+        team plan against the joint trajectory NLP warm-started from it
+        (:func:`optplan.team_grading.with_team_reference`): ``arrival_ratio_to_team``,
+        ``formation_rmse_ratio_to_team``, ``separation_ratio_to_team`` and the reference's
+        own figures.
     **overrides
         Replace preset options (unknown names raise ``ValueError``).
 
@@ -430,6 +442,8 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
     gen, seed = make_rng(rng)
     if init is not None:
         init = check_init(prob, init)
+    if reference not in (True, False, "team"):
+        raise ValueError(f"reference must be True, False or 'team', got {reference!r}")
     if time_limit is not None and (isinstance(time_limit, bool) or not isinstance(
             time_limit, (int, float)) or not (0 < time_limit < math.inf)):
         raise ValueError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
@@ -460,6 +474,8 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         t1 = time.perf_counter()
         metrics = with_reference(metrics, prob, res.paths, reference_optimum(prob))
         metrics = with_time_reference(metrics, prob, res.paths, res.times, time_reference)
+        if reference == "team":
+            metrics = with_team_reference(metrics, prob, res, team_reference)
         t_ref = time.perf_counter() - t1
     out = dataclasses.replace(res, solver=backend.preset or backend.name, backend=backend.name,
                               seed=seed, metrics=metrics, status=status, message=message,

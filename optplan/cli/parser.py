@@ -52,6 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="stop after S seconds and return the best result so far")
     s.add_argument("--no-reference", action="store_true",
                    help="do not compute the certified optimum (no ratio to optimum)")
+    s.add_argument("--team-reference", action="store_true",
+                   help="also grade a team plan against the joint trajectory NLP warm-started "
+                        "from it (formation-nlp; a local optimum)")
     s.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override an option; VALUE is a TOML literal (repeatable)")
     s.add_argument("--json", metavar="FILE", help="save the Result as JSON")

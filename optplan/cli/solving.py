@@ -27,6 +27,21 @@ def _arrival_line(m: dict[str, Any]) -> list[str]:
     return lines
 
 
+def _team_lines(m: dict[str, Any]) -> list[str]:
+    """The grading against the team optimum (``reference="team"``)."""
+    if "team_reference_status" not in m:
+        return []
+    lines = [f"  team ref    {m['team_reference_status']}: {m.get('team_reference_message', '')}"]
+    rows = (("arrival", "arrival_ratio_to_team", "team_arrival_reference"),
+            ("formation rmse", "formation_rmse_ratio_to_team", "team_formation_rmse_reference"),
+            ("min separation", "separation_ratio_to_team", "team_min_separation_reference"))
+    for name, ratio, value in rows:
+        if m.get(ratio) is not None:
+            lines.append(f"    {name:<15} ratio to team optimum {_fmt(m[ratio])} "
+                         f"(reference {_fmt(m[value])})")
+    return lines
+
+
 def _length_lines(m: dict[str, Any]) -> list[str]:
     """The length (with its ratio to the certified optimum) and the arrival lines."""
     length = f"  length      {_fmt(m.get('length'))}"
@@ -62,6 +77,7 @@ def _result_lines(res: Any) -> list[str]:
     if "min_separation" in m:
         lines.append(f"  separation  min {_fmt(m['min_separation'], 3)} (safety "
                      f"{_fmt(m.get('safety_distance'), 3)})")
+    lines.extend(_team_lines(m))
     if res.times is not None and len(res.times):
         lines.append(f"  time to goal {_fmt(res.times[-1], 2)} (simulated)")
     lines.append(f"  effort      {res.n_iter} iterations, {res.n_eval} evaluations, "
@@ -76,8 +92,9 @@ def cmd_solve(args: argparse.Namespace, out: TextIO) -> int:
     from optplan.solver import solve
 
     overrides = parse_set(args.set)
+    reference: bool | str = "team" if args.team_reference else not args.no_reference
     res = solve(args.problem, args.solver, rng=args.seed, time_limit=args.time_limit,
-                reference=not args.no_reference, **overrides)
+                reference=reference, **overrides)
     for line in _result_lines(res):
         print(line, file=out)
     if args.json:

@@ -46,7 +46,8 @@ from optplan.problem import Problem
 from optplan.result import Result
 from optplan.solver import Backend, get_solver, solve
 
-__all__ = ["validate", "format_table", "format_time_table", "summarize", "main", "TIME_COLUMNS"]
+__all__ = ["validate", "format_table", "format_time_table", "format_team_table", "summarize",
+           "main", "TIME_COLUMNS", "TEAM_COLUMNS"]
 
 
 def _pct(a: float, b: float) -> float:
@@ -87,7 +88,8 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
         ``nlp_feasible``; on a problem with moving obstacles also the heuristic's grades in
         time (:data:`TIME_COLUMNS`, :mod:`optplan.time_grading`): its arrival, the fastest
         timing of its own path, the ``sipp`` reference, the certified lower bound and the
-        ratios of the arrival to them.
+        ratios of the arrival to them; on a problem with a formation the grades against the
+        team optimum (:data:`TEAM_COLUMNS`, :mod:`optplan.team_grading`).
     """
     prob = load_problem(problem)
     heur = get_solver(solver, **(solver_options or {}))
@@ -101,7 +103,9 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
     rows = []
     for seed in range(first_seed, first_seed + seeds):
         t0 = time.perf_counter()
-        h: Result = solve(prob, heur, rng=seed, reference=bool(prob.dynamic_obstacles))
+        mode: bool | str = ("team" if prob.formation is not None
+                            else bool(prob.dynamic_obstacles))
+        h: Result = solve(prob, heur, rng=seed, reference=mode)
         th = time.perf_counter() - t0
         t0 = time.perf_counter()
         n: Result = solve(prob, pol, rng=seed, init={rid: h.paths[rid]})
@@ -132,6 +136,7 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
             "heuristic_feasible": hf,
             "nlp_feasible": nf,
             **_time_columns(h),
+            **_team_columns(h),
         })
     return rows
 
@@ -140,6 +145,20 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
 TIME_COLUMNS = ("arrival_time", "schedule_arrival", "time_reference", "time_lower_bound",
                 "arrival_ratio_to_schedule", "arrival_ratio_to_reference",
                 "arrival_ratio_to_bound")
+
+
+#: The grading against the team optimum copied into a row (problems with a formation).
+TEAM_COLUMNS = ("team_arrival_reference", "arrival_ratio_to_team", "formation_rmse",
+                "team_formation_rmse_reference", "formation_rmse_ratio_to_team",
+                "min_separation", "team_min_separation_reference", "separation_ratio_to_team")
+
+
+def _team_columns(h: Result) -> dict[str, Any]:
+    """The heuristic's grades against the team optimum (:mod:`optplan.team_grading`)."""
+    if "team_reference_status" not in h.metrics:
+        return {}
+    return {k: (float("nan") if h.metrics.get(k) is None else float(h.metrics[k]))
+            for k in TEAM_COLUMNS}
 
 
 def _time_columns(h: Result) -> dict[str, Any]:
@@ -231,7 +250,26 @@ def format_table(rows: list[dict], title: str | None = None) -> str:
         f"{_f(s['median_nlp_gap_pct_optimal_class'], 4)} % after the NLP polish.")
     if rows and "arrival_time" in rows[0]:
         out += ["", *format_time_table(rows)]
+    if rows and "arrival_ratio_to_team" in rows[0]:
+        out += ["", *format_team_table(rows)]
     return "\n".join(out)
+
+
+def format_team_table(rows: list[dict]) -> list[str]:
+    """The team plan beside the team optimum (``formation-nlp`` warm-started from it)."""
+    out = ["| seed | arrival ratio | RMSE | RMSE (NLP) | ratio | min sep. | min sep. (NLP) "
+           "| ratio |", "|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    cols = ("arrival_ratio_to_team", "formation_rmse", "team_formation_rmse_reference",
+            "formation_rmse_ratio_to_team", "min_separation", "team_min_separation_reference",
+            "separation_ratio_to_team")
+    for r in rows:
+        out.append(f"| {r['seed']} | " + " | ".join(_f(r[k]) for k in cols) + " |")
+    out.append("| **median** | " + " | ".join(_f(_med(rows, k)) for k in cols) + " |")
+    out += ["", "Ratios of the team plan to the joint trajectory NLP warm-started from it (a "
+                "local optimum, never worse than the plan): arrival and formation RMSE >= 1 "
+                "measure what a local improvement gains; a separation ratio below 1 means the "
+                "NLP keeps the robots further apart."]
+    return out
 
 
 def format_time_table(rows: list[dict]) -> list[str]:

@@ -119,6 +119,17 @@ class FormationNLP(Backend):
                           wall_time=time.perf_counter() - t0)
         return self._judged(problem, res, warm, dict(info, iter_count=n_iter), t0)
 
+    def reference(self, problem: Problem, res: Result) -> Result:
+        """The team reference of a plan: the NLP warm-started from ``res`` (its result, or
+        ``res`` graded again when it is no synchronised team plan that arrives)."""
+        t0 = time.perf_counter()
+        why = _unsupported(problem)
+        warm = None if why else warm_from_result(problem, res)
+        if warm is None:
+            return self._give_up(problem, why or "the plan is no synchronised team plan whose "
+                                 "leader arrives: no team reference", t0)
+        return self.polish(problem, warm, t0)
+
     def _model(self, problem: Problem, warm: Warm) -> tuple[TeamModel, list[str]]:
         form = problem.formation
         assert form is not None
