@@ -22,6 +22,23 @@ Four families of malformed input, each case run in a worker process with a time 
   robot ids, strings, ...).
 * **result**: corrupted result JSON files (truncated, wrong types, shapes and lengths, ...),
   loaded with :meth:`optplan.Result.load` and drawn with ``optplan plot``.
+* **map**: ROS ``map_server`` YAML files (every key out of range or of the wrong type,
+  unknown and missing keys, bad YAML, non-UTF-8 bytes) with good and bad images (PGM
+  ``maxval 0`` / 70000, zero width, truncated PGM and PNG, garbage), bare images, MovingAI
+  ``.map`` files and in-memory ``nav_msgs/OccupancyGrid`` dicts (wrong ``data`` length or
+  values, resolution <= 0, a tilted origin, ...), read with :func:`optplan.maps.read_grid` /
+  :func:`~optplan.maps.read_occupancy_grid`; a rejected file is also given to
+  ``optplan import-map``.
+* **database**: results databases (intact, of another program, of schema version 99 or none,
+  failing SQLite's integrity check, text SQLite cannot decode, truncated, byte flips, a text
+  file, an empty file, a directory, a missing file, one locked by another connection) read
+  with every :mod:`optplan.benchdb` reader, opened with ``ResultsDB`` and given to
+  ``optplan report`` and ``optplan export-arena``.
+* **plugin**: plugin distributions (entry points ``optplan.backends`` / ``optplan.presets``)
+  whose package raises or exits when imported, with malformed entry points, missing modules,
+  classes or preset folders, broken preset files, beside a working plugin; each case in a
+  fresh Python process, which must still solve with ``visgraph``, run ``optplan list``, and
+  name the distribution in the warning or error about the broken part.
 
 Every case is classified:
 
@@ -40,10 +57,11 @@ Every case is classified:
 ==========================  ===========================================================
 
 Run ``python benchmarks/fuzz_inputs.py`` for the full run (>= 3,000 scenarios, >= 2,500 option
-values, >= 200 inits, >= 50 result files; ``--workers N``, ``--seed S``, ``--quick``) and the
-counts table; ``tests/tools/test_fuzz.py`` runs a bounded, seeded slice.  Known findings in files
-other engineers own (backends, ``solve``'s option and ``init`` checks) are listed in
-:data:`KNOWN_FINDINGS`: cases they explain are reported in their own column.
+values, >= 200 inits, >= 50 result files, >= 100 maps, >= 25 databases, >= 15 plugins;
+``--workers N``, ``--seed S``, ``--quick``, ``--family F``) and the counts table;
+``tests/tools/test_fuzz.py`` runs a bounded, seeded slice.  Known findings in files other
+engineers own (backends, ``solve``'s option and ``init`` checks, the solver's plugin loading)
+are listed in :data:`KNOWN_FINDINGS`: cases they explain are reported in their own column.
 """
 
 from __future__ import annotations
@@ -89,6 +107,8 @@ MEMORY_LIMIT = 6 * 2**30
 #: Longest acceptable error message (characters): longer ones dump the input.
 MAX_MESSAGE = 1200
 
+#: the families of inputs, in the order of the counts table
+FAMILIES = ("scenario", "option", "init", "result", "map", "database", "plugin")
 CATEGORIES = ("clear error", "accepted and solved", "crash", "hang", "unclear message",
               "silently accepted", "success disagrees")
 BAD = ("crash", "hang", "unclear message", "silently accepted", "success disagrees")
@@ -1255,7 +1275,8 @@ def independent_check(prob, paths: dict[str, Any]) -> tuple[bool, str]:
     the scenario's obstacles (polygons as written, circles as exact centre and radius), in
     coordinates relative to the centre of the bounds; not with optplan's geometry core.
 
-    A path is feasible when it starts at its start, stays in the bounds and keeps a distance
+    A path is feasible when it starts at its start, keeps its disc in the bounds (the centre
+    at least ``radius - eps`` from the edge: the bounds are a wall) and keeps a distance
     ``>= radius - eps`` from every static obstacle (known or temporary), ``eps = 1e-9 x`` the
     bounds diagonal; a point robot may touch but not enter (by more than ``eps``) a polygon.
     """
@@ -1283,7 +1304,8 @@ def independent_check(prob, paths: dict[str, Any]) -> tuple[bool, str]:
                 r.radius if r.radius > 0 else 1e-6 * diag)
             if math.hypot(*(p[-1] - (r.goal - c))) > tol + eps:
                 return False, f"{rid}: goal not reached"
-        hx, hy = (x1 - x0) / 2 + eps, (y1 - y0) / 2 + eps
+        # the bounds are a wall: the robot's disc stays inside them
+        hx, hy = (x1 - x0) / 2 - r.radius + eps, (y1 - y0) / 2 - r.radius + eps
         if np.any(np.abs(p[:, 0]) > hx) or np.any(np.abs(p[:, 1]) > hy):
             return False, f"{rid}: out of bounds"
         geom = LineString(p) if len(p) > 1 else Point(p[0])
@@ -1549,8 +1571,527 @@ def run_selftest(case: Case, tmp: Path) -> Outcome:
     return Outcome(case, "accepted and solved", "ok")
 
 
+# ======================================================================================
+# maps, results databases and plugins (files and messages the toolkit reads besides scenes)
+# ======================================================================================
+
+_GRID_NAME = "<fuzz-grid>"
+
+
+def _pgm(w: int = 4, h: int = 3, maxval: int = 255, body: bytes | None = None) -> bytes:
+    """A binary PGM (P5): a free map with one occupied cell, or ``body`` as its pixels."""
+    if body is None:
+        px = bytearray([254 if maxval >= 254 else maxval] * (w * h))
+        if px:
+            px[len(px) // 2] = 0
+        body = bytes(px)
+    return f"P5\n{w} {h}\n{maxval}\n".encode() + body
+
+
+def _png() -> bytes:
+    from PIL import Image
+
+    buf = io.BytesIO()
+    im = Image.new("L", (5, 4), 254)
+    im.putpixel((2, 1), 0)
+    im.save(buf, format="PNG")
+    return buf.getvalue()
+
+
+_ROS_YAML = {"image": "m.pgm", "resolution": 0.05, "origin": [0.0, 0.0, 0.0], "negate": 0,
+             "occupied_thresh": 0.65, "free_thresh": 0.196, "mode": "trinary"}
+
+
+def _yaml_text(d: dict[str, Any]) -> bytes:
+    """YAML of ``d``, each value in JSON's flow syntax (valid YAML)."""
+    return "".join(f"{k}: {json.dumps(v)}\n" for k, v in d.items()).encode()
+
+
+def _ros_variants() -> list[tuple[str, dict[str, Any] | bytes, tuple[str, ...], bool]]:
+    """(what, YAML keys or raw bytes, keys an error must name, must it be rejected)."""
+    out: list[tuple[str, dict[str, Any] | bytes, tuple[str, ...], bool]] = [
+        ("intact", {}, (), False), ("origin [x, y]", {"origin": [1.0, -2.0]}, (), False),
+        ("rotated origin", {"origin": [0.0, 0.0, 0.5]}, (), False),
+        ("resolution 5e-2 (YAML 1.2)", b"resolution: 5e-2\n", (), False)]
+    for key, bad in (("resolution", [0, -1, "abc", [1], None, True, 1e400]),
+                     ("origin", [[0], [0, 0, 0, 0], "a b", [None, 0], [1e400, 0], 3]),
+                     ("negate", [2, "yes", -1, 0.5]),
+                     ("occupied_thresh", [1.5, -0.1, "x", 1e400]),
+                     ("free_thresh", [0.9, -1, None]),
+                     ("mode", ["trinari", 3, ""]),
+                     ("image", ["missing.pgm", "", 5, None, "."])):
+        for v in bad:
+            out.append((f"{key} = {v!r}", {key: v}, (key,), True))
+    out += [("unknown key", {"negat": 1}, ("negat",), True),
+            ("no image", {"image": ...}, ("image",), True),
+            ("no resolution", {"resolution": ...}, ("resolution",), True),
+            ("no origin", {"origin": ...}, ("origin",), True),
+            ("YAML list", b"- 1\n- 2\n", ("<root>",), True),
+            ("YAML syntax", b"image: [m.pgm\n", ("invalid YAML",), True),
+            ("not UTF-8", b"\xff\xfeimage: m.pgm\n", ("cannot read file", "invalid YAML",
+                                                      "image", "not UTF-8"), True),
+            ("empty file", b"", ("<root>",), True)]
+    return out
+
+
+def _image_variants() -> list[tuple[str, bytes, bool]]:
+    """(what, the image the YAML names, must it be rejected)."""
+    png = _png()
+    return [("PGM maxval 0", _pgm(maxval=0), True), ("PGM maxval 70000", _pgm(maxval=70000), True),
+            ("PGM width 0", _pgm(w=0), True), ("PGM truncated", _pgm()[:-5], True),
+            ("PGM header only", b"P5\n4 3\n255\n", True), ("garbage", b"not an image" * 9, True),
+            ("empty image", b"", True), ("PNG truncated", png[: len(png) // 2], True),
+            ("PNG", png, False), ("16-bit PGM", _pgm(maxval=65535, body=b"\xff\xfe" * 12), False)]
+
+
+def _movingai_variants() -> list[tuple[str, bytes, tuple[str, ...], bool]]:
+    ok = "type octile\nheight 3\nwidth 4\nmap\n@@@@\n@..@\n@@@@\n"
+    keys = ("height", "width", "map", "type", "line", "not a MovingAI map")
+    return [("intact .map", ok.encode(), (), False),
+            ("height mismatch", ok.replace("height 3", "height 4").encode(), keys, True),
+            ("width mismatch", ok.replace("width 4", "width 5").encode(), keys, True),
+            ("unknown terrain", ok.replace("..", ".X").encode(), keys, True),
+            ("no map line", ok.replace("map\n", "").encode(), keys, True),
+            ("height 0", ok.replace("height 3", "height 0").encode(), keys, True),
+            ("height -3", ok.replace("height 3", "height -3").encode(), keys, True),
+            ("no header", b"@@@@\n@..@\n", keys, True), ("binary", b"\x00\xff" * 10, keys, True),
+            ("empty .map", b"", keys, True)]
+
+
+def _grid_msg_variants(rng: random.Random) -> list[tuple[str, Any, tuple[str, ...], bool]]:
+    """nav_msgs/OccupancyGrid dicts: (what, message, keys, must it be rejected)."""
+    def msg(**info: Any) -> dict[str, Any]:
+        base: dict[str, Any] = {
+            "resolution": 0.5, "width": 3, "height": 2,
+            "origin": {"position": {"x": 0.0, "y": 0.0, "z": 0.0},
+                       "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+        base.update(info)
+        return {"header": {"frame_id": "map"}, "info": base,
+                "data": [0, 100, -1, 0, 0, 50]}
+
+    out: list[tuple[str, Any, tuple[str, ...], bool]] = [("intact message", msg(), (), False)]
+    tilted = {"position": {"x": 0.0, "y": 0.0}, "orientation": {"x": 0.7, "y": 0.0, "z": 0.0,
+                                                                "w": 0.7}}
+    yawed = {"position": {"x": 1.0, "y": 2.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.4,
+                                                               "w": 0.9}}
+    out.append(("rotated about z", msg(origin=yawed), (), False))
+    for key, v in (("resolution", 0.0), ("resolution", -1.0), ("resolution", math.nan),
+                   ("resolution", "0.5"), ("width", 0), ("width", 2.5), ("height", True),
+                   ("height", -2), ("width", 2**40), ("origin", tilted), ("origin", [0, 0]),
+                   ("origin", {"position": {"x": 0.0}}), ("resoluton", 1.0)):
+        out.append((f"info.{key} = {_short(v)}", msg(**{key: v}), (f"info.{key}",), True))
+    for what, data, key in (("data short", [0] * 5, "data"), ("data long", [0] * 7, "data"),
+                            ("data 101", [0, 101, 0, 0, 0, 0], "data[1]"),
+                            ("data -2", [0, 0, -2, 0, 0, 0], "data[2]"),
+                            ("data 0.5", [0.5] * 6, "data[0]"),
+                            ("data nan", [math.nan] * 6, "data[0]"),
+                            ("data string", "abcdef", "data"), ("data dict", {"a": 1}, "data"),
+                            ("data nested", [[0, 0, 0], [0, 0, 0]], "data"),
+                            ("data None", None, "data")):
+        m = msg()
+        m["data"] = data
+        out.append((what, m, (key,), True))
+    for k in range(20):  # random values, some out of range
+        m = msg()
+        m["data"] = [rng.choice([-1, 0, 100, rng.randint(-130, 130)]) for _ in range(6)]
+        bad = any(not -1 <= v <= 100 for v in m["data"])
+        out.append((f"random data {k}", m, ("data",), bad))
+    out += [("root list", [1, 2], ("<root>",), True), ("no info", {"data": []}, ("info",), True),
+            ("no data", {"info": msg()["info"]}, ("data",), True)]
+    return out
+
+
+def map_cases(seed: int = 0) -> list[Case]:
+    """ROS map_server YAML + image, bare images, MovingAI maps and OccupancyGrid messages."""
+    rng = random.Random(seed)
+    out: list[Case] = []
+
+    def add(what: str, data: dict[str, Any], keys: tuple[str, ...], must: bool) -> None:
+        out.append(Case("map", f"map/{len(out) + 1:04d}/{what}", what, data, keys, must))
+
+    for what, edit, keys, must in _ros_variants():
+        if isinstance(edit, bytes):
+            text = edit if what != "resolution 5e-2 (YAML 1.2)" else \
+                _yaml_text({k: v for k, v in _ROS_YAML.items() if k != "resolution"}) + edit
+        else:
+            d = {k: v for k, v in {**_ROS_YAML, **edit}.items() if v is not ...}
+            text = _yaml_text(d)
+        add(f"ROS YAML {what}", {"files": {"m.yaml": text, "m.pgm": _pgm()}, "open": "m.yaml"},
+            keys, must)
+    for what, img, must in _image_variants():
+        name = "m.png" if "PNG" in what else "m.pgm"
+        add(f"ROS image {what}", {"files": {"m.yaml": _yaml_text({**_ROS_YAML, "image": name}),
+                                            name: img}, "open": "m.yaml"}, ("image",), must)
+        add(f"bare image {what}", {"files": {name: img}, "open": name, "resolution": 0.1},
+            ("image",), must)
+    for what, text, keys, must in _movingai_variants():
+        add(f"MovingAI {what}", {"files": {"m.map": text}, "open": "m.map"}, keys, must)
+    for what, msg, keys, must in _grid_msg_variants(rng):
+        add(f"OccupancyGrid {what}", {"msg": msg}, keys, must)
+    return out
+
+
+def run_map(case: Case, tmp: Path) -> Outcome:
+    from optplan.maps import read_grid, read_occupancy_grid
+
+    d = case.data
+    if "msg" in d:
+        try:
+            read_occupancy_grid(copy.deepcopy(d["msg"]), name=_GRID_NAME)
+        except Exception as e:  # noqa: BLE001
+            return Outcome(case, *_classify_error(e, case, _GRID_NAME))
+        return _accepted(case, "read")
+    for name, content in d["files"].items():
+        (tmp / name).write_bytes(content)
+    path = tmp / d["open"]
+    try:
+        read_grid(path, resolution=d.get("resolution"))
+    except Exception as e:  # noqa: BLE001
+        cat, det = _classify_error(e, case, str(path))
+        if cat == "clear error":
+            argv = ["import-map", str(path), "--radius", "0.01", "--start", "0.07,0.07",
+                    "--goal", "0.12,0.07"]
+            if d.get("resolution"):
+                argv += ["--resolution", str(d["resolution"])]
+            ok, why = _cli_ok(argv, case, str(path))
+            if not ok:
+                return Outcome(case, "unclear message", why)
+        return Outcome(case, cat, det)
+    return _accepted(case, "read")
+
+
+def _accepted(case: Case, how: str) -> Outcome:
+    if case.must_reject:
+        return Outcome(case, "silently accepted", how)
+    return Outcome(case, "accepted and solved", how)
+
+
+# -- results databases -----------------------------------------------------------------------
+
+
+def _db_bytes(tmp: Path, edit: Callable[[Any], None] | None = None, runs: int = 3) -> bytes:
+    """A small results database (made-up runs), optionally edited with SQL, as bytes."""
+    import sqlite3
+
+    from optplan import benchdb
+
+    path = tmp / f"db{random.random()}.sqlite"
+    with benchdb.ResultsDB(path) as db:
+        exp = db.begin_experiment(benchdb.experiment_info("fuzz"), planned=runs, skipped=0)
+        for k in range(runs):
+            row = {"problem": "open-field", "solver": "visgraph", "seed": k, "status": "optimal",
+                   "success": True, "length": 10.0 + k, "optimum": 10.0, "ratio": 1.0,
+                   "min_clearance": 1.0, "collisions": 0, "wall_time": 0.01, "n_iter": 1,
+                   "n_eval": 1, "message": "fuzz run " * 4, "backend": "visgraph",
+                   "options": "{}"}
+            db.add_run(exp, row, "{}", [(i, 5.0 - i, i, 0.1 * i) for i in range(5)], "w")
+        db.end_experiment(exp, "complete", runs)
+    if edit is not None:
+        con = sqlite3.connect(path)
+        edit(con)
+        con.commit()
+        con.close()
+    return path.read_bytes()
+
+
+def _corrupt(data: bytes, page: int, size: int = 4096) -> bytes:
+    b = bytearray(data)
+    b[page * size - 200: page * size - 50] = b"\xff" * 150
+    return bytes(b)
+
+
+def _root_page(table: str) -> Callable[[bytes, Path], int]:
+    def find(data: bytes, tmp: Path) -> int:
+        import sqlite3
+
+        p = tmp / "probe.sqlite"
+        p.write_bytes(data)
+        con = sqlite3.connect(p)
+        (root,) = con.execute("SELECT rootpage FROM sqlite_master WHERE name = ?",
+                              (table,)).fetchone()
+        con.close()
+        p.unlink()
+        return int(root)
+    return find
+
+
+def database_cases(seed: int = 0) -> list[Case]:
+    """Results databases: intact, another program's, another version, damaged, locked."""
+    rng = random.Random(seed)
+    tmp = Path(tempfile.mkdtemp(prefix="fuzz-db-"))
+    out: list[Case] = []
+
+    def add(what: str, content: bytes | None, keys: tuple[str, ...], must: bool,
+            kind: str = "file") -> None:
+        out.append(Case("database", f"database/{len(out) + 1:04d}/{what}", what,
+                        {"bytes": content, "kind": kind}, keys, must))
+
+    try:
+        good = _db_bytes(tmp)
+        add("intact", good, (), False)
+        add("no runs", _db_bytes(tmp, runs=0), ("holds no runs",), False)
+        for what, sql, keys in (
+                ("foreign runs table", "DROP TABLE progress", ("not an optplan results database",)),
+                ("runs without columns", "ALTER TABLE runs DROP COLUMN message",
+                 ("not an optplan results database",)),
+                ("schema version 99", "UPDATE meta SET value = '99'", ("meta.schema_version",)),
+                ("schema version text", "UPDATE meta SET value = 'x'", ("meta.schema_version",)),
+                ("no schema version", "DELETE FROM meta", ("not an optplan results database",)),
+                ("text not UTF-8", "UPDATE runs SET message = CAST(X'66ff' AS TEXT)",
+                 ("damaged",))):
+            # text SQLite cannot decode is found where it is read: the runs, not the progress
+            add(what, _db_bytes(tmp, lambda con, s=sql: con.execute(s)), keys,
+                "UTF-8" not in what)
+        add("progress page damaged", _corrupt(good, _root_page("progress")(good, tmp)),
+            ("integrity check", "damaged"), True)
+        add("runs index damaged", _corrupt(good, _root_page("sqlite_autoindex_runs_1")(good, tmp)),
+            ("integrity check", "damaged"), True)
+        other = tmp / "other.sqlite"
+        import sqlite3
+
+        con = sqlite3.connect(other)
+        con.execute("CREATE TABLE runs (x TEXT, y REAL)")
+        con.commit()
+        con.close()
+        add("another program's file", other.read_bytes(), ("not an optplan results database",),
+            True)
+        for frac in (0.1, 0.5, 0.9):
+            add(f"truncated {frac:g}", good[: int(len(good) * frac)],
+                ("not an optplan results database", "damaged", "integrity check"), True)
+        for k in range(12):
+            i = rng.randrange(100, len(good))
+            add(f"byte flip {k}", good[:i] + bytes([rng.randrange(256)]) + good[i + 1:],
+                ("not an optplan results database", "damaged", "integrity check",
+                 "meta.schema_version", "holds no runs"), False)
+        add("text file", b"hello, not a database\n" * 50, ("not an optplan results database",),
+            True)
+        add("empty file", b"", ("not an optplan results database", "holds no runs"), False)
+        add("locked", good, ("locked",), True, kind="locked")
+        add("directory", None, ("no such results database", "cannot open the results database"),
+            True, kind="dir")
+        # a missing file is a new database to ResultsDB (a sweep creates it), an error to readers
+        add("missing", None, ("no such results database",), False, kind="missing")
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return out
+
+
+def _db_calls(path: Path) -> list[tuple[str, Callable[[], Any]]]:
+    from optplan import benchdb
+
+    return [("read_runs", lambda: benchdb.read_runs(path)),
+            ("read_progress", lambda: benchdb.read_progress(path)),
+            ("read_experiments", lambda: benchdb.read_experiments(path)),
+            ("ResultsDB", lambda: benchdb.ResultsDB(path).close())]
+
+
+def run_database(case: Case, tmp: Path) -> Outcome:
+    import sqlite3
+
+    from optplan import benchdb
+
+    kind = case.data["kind"]
+    path = _prepare(case, tmp, ".sqlite") if kind != "locked" else tmp / "locked.sqlite"
+    holder = None
+    if kind == "locked":
+        path.write_bytes(case.data["bytes"])
+        holder = sqlite3.connect(path, isolation_level=None)
+        holder.execute("PRAGMA locking_mode = EXCLUSIVE")
+        holder.execute("BEGIN EXCLUSIVE")
+        benchdb.LOCK_TIMEOUT = 0.2
+    accepted, errors = [], []
+    try:
+        for argv in (["report", str(path), "--out", str(tmp / "report")],
+                     ["export-arena", str(path), str(tmp / "arena.db")]):
+            rc, err = _cli(argv)
+            lines = [ln for ln in err.splitlines() if ln.strip()]
+            if rc == 0:
+                accepted.append(argv[0])
+            elif rc != 2 or len(lines) != 1 or not lines[0].startswith("optplan: error: "):
+                return Outcome(case, "crash" if rc == 1 else "unclear message",
+                               f"CLI {argv[0]} exit {rc}: {err[-300:]!r}")
+            else:
+                ok, why = _message_ok(lines[0], case.keys, str(path))
+                if not ok:
+                    return Outcome(case, "unclear message", f"CLI {argv[0]}: {why}: {lines[0]}")
+                errors.append(f"{argv[0]}: {lines[0]}")
+        for name, call in _db_calls(path):
+            try:
+                call()
+                accepted.append(name)
+            except (ValueError, FileNotFoundError) as e:
+                ok, why = _message_ok(str(e), case.keys, str(path))
+                if not ok:
+                    return Outcome(case, "unclear message", f"{name}: {why}: {e}")
+                errors.append(f"{name}: {e}")
+            except Exception as e:  # noqa: BLE001
+                return Outcome(case, "crash", f"{name}: {type(e).__name__}: {e}")
+    finally:
+        if holder is not None:
+            holder.close()
+            benchdb.LOCK_TIMEOUT = 30.0
+    if case.must_reject and accepted:
+        return Outcome(case, "silently accepted", f"accepted by {', '.join(accepted)}")
+    if errors:
+        return Outcome(case, "clear error", errors[0][:300])
+    return Outcome(case, "accepted and solved", "read, reported and exported")
+
+
+# -- plugins ---------------------------------------------------------------------------------
+
+_PLUGIN_BACKEND = '''
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+
+from optplan.result import Status
+from optplan.solver import Backend
+
+
+@dataclass(frozen=True, kw_only=True)
+class Line(Backend):
+    """A straight line from start to goal."""
+
+    name: ClassVar[str] = "NAME"
+
+    def solve(self, problem, /, *, rng=None, init=None, callback=None):
+        paths = {r.id: np.array([r.start, r.goal]) for r in problem.robots}
+        return self.finish(problem, paths, claim=Status.solved, n_iter=1, n_eval=1)
+'''
+
+_PLUGIN_RUN = '''
+import contextlib, io, json, sys, warnings
+import optplan as op
+from optplan import cli
+
+out = {"use": []}
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    try:
+        out["visgraph"] = op.solve("open-field", "visgraph").status.value
+        out["n_solvers"] = len(op.list_solvers())
+    except BaseException as e:
+        out["broke"] = f"{type(e).__name__}: {e}"
+    for name in sys.argv[1:]:
+        try:
+            out["use"].append(["ok", op.solve("open-field", name).status.value])
+        except (ImportError, ValueError) as e:
+            out["use"].append(["error", f"{type(e).__name__}: {e}"])
+        except BaseException as e:
+            out["use"].append(["crash", f"{type(e).__name__}: {e}"])
+out["warnings"] = [f"{w.category.__name__}: {w.message}" for w in caught]
+err = io.StringIO()
+with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+    out["cli"] = cli.main(["list", "solvers"])
+out["cli_err"] = err.getvalue()
+print("FUZZ-RESULT " + json.dumps(out))
+'''
+
+
+def _plugin(dist: str, files: dict[str, str], backends: str = "",
+            presets: str = "") -> dict[str, Any]:
+    eps = (f"[optplan.backends]\n{backends}\n" if backends else "") + \
+          (f"[optplan.presets]\n{presets}\n" if presets else "")
+    return {"dist": dist, "files": files, "entry_points": eps}
+
+
+def plugin_cases() -> list[Case]:
+    """Plugin distributions that raise, are malformed or name what does not exist, beside the
+    toolkit's own solvers (which must keep working)."""
+    good = _PLUGIN_BACKEND.replace("NAME", "fzline")
+    variants: list[tuple[str, dict[str, Any], list[str], bool]] = [
+        ("working plugin", _plugin("fzgood", {"fzgood/__init__.py": "", "fzgood/b.py": good,
+                                              "fzgood/presets/fzline-fast.toml":
+                                              'backend = "fzline"\n'},
+                                   "fzline = fzgood.b:Line", "fzgood = fzgood.presets"),
+         ["fzline", "fzline-fast"], False),
+        ("namespace presets", _plugin("fzns", {"fzns/b.py": good.replace("fzline", "fzns"),
+                                               "fzns/presets/fzns-five.toml":
+                                               'backend = "fzns"\n'},
+                                      "fzns = fzns.b:Line", "fzns = fzns.presets"),
+         ["fzns-five"], False)]
+    for what, init in (("package raises", "raise RuntimeError('boom')"),
+                       ("package SyntaxError", "def (:"),
+                       ("package missing dependency", "import no_such_dependency_fz"),
+                       ("package exits", "raise SystemExit(3)")):
+        variants.append((what, _plugin("fzbad", {"fzbad/__init__.py": init, "fzbad/b.py": good,
+                                                 "fzbad/presets/fzbad-x.toml":
+                                                 'backend = "fzline"\n'},
+                                       "fzline = fzbad.b:Line", "fzbad = fzbad.presets"),
+                         ["fzline"], True))
+    for what, ep in (("no colon", "fzline = fzbad.b"), ("two colons", "fzline = fzbad.b:A:B"),
+                     ("empty class", "fzline = fzbad.b:"), ("missing class",
+                                                             "fzline = fzbad.b:Missing"),
+                     ("missing module", "fzline = fzbad.nothere:Line"),
+                     ("not a backend", "fzline = fzbad.b:np"), ("spaces", "fzline = fz bad:L")):
+        variants.append((f"entry point {what}", _plugin(
+            "fzbad", {"fzbad/__init__.py": "", "fzbad/b.py": good}, ep), ["fzline"], True))
+    for what, files, ep in (
+            ("presets missing", {}, "fzbad = fzbad.nothere"),
+            ("presets a path", {}, "fzbad = fzbad/presets"),
+            ("preset TOML broken", {"fzbad/presets/fzbad-x.toml": "backend = [\n"},
+             "fzbad = fzbad.presets"),
+            ("preset unknown backend", {"fzbad/presets/fzbad-x.toml": 'backend = "nope"\n'},
+             "fzbad = fzbad.presets"),
+            ("preset bad option", {"fzbad/presets/fzbad-x.toml":
+                                   'backend = "visgraph"\n[options]\nnope = 1\n'},
+             "fzbad = fzbad.presets")):
+        variants.append((what, _plugin("fzbad", {"fzbad/__init__.py": "", **files}, presets=ep),
+                         ["fzbad-x"], True))
+    return [Case("plugin", f"plugin/{k + 1:04d}/{what}", what, {"plugin": p, "use": use},
+                 (p["dist"], "fzbad-x", "fzline"), must)
+            for k, (what, p, use, must) in enumerate(variants)]
+
+
+def _install_plugin(root: Path, p: dict[str, Any]) -> None:
+    for rel, text in p["files"].items():
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(text)
+    info = root / f"{p['dist']}-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {p['dist']}\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(p["entry_points"])
+
+
+def _plugin_verdict(case: Case, out: dict[str, Any]) -> Outcome:
+    dist = case.data["plugin"]["dist"]
+    if "broke" in out or out.get("visgraph") != "optimal" or out.get("cli") != 0:
+        return Outcome(case, "crash", f"the toolkit broke: {out}")
+    crashes = [m for k, m in out["use"] if k == "crash"]
+    if crashes:
+        return Outcome(case, "crash", crashes[0])
+    errors = [m for k, m in out["use"] if k == "error"]
+    said = errors + out["warnings"]
+    if any(f"'{dist}'" not in m and "fzbad-x" not in m for m in errors):
+        return Outcome(case, "unclear message", f"does not name the distribution: {errors}")
+    if not case.must_reject:
+        if errors or out["warnings"]:
+            return Outcome(case, "unclear message", f"a working plugin complained: {said}")
+        return Outcome(case, "accepted and solved", f"used {case.data['use']}")
+    if len(errors) < len(out["use"]):
+        return Outcome(case, "silently accepted", f"a broken plugin was used: {out['use']}")
+    if not any(dist in w for w in out["warnings"] + errors):
+        return Outcome(case, "silently accepted", f"nothing names {dist!r}: {said}")
+    return Outcome(case, "clear error", errors[0][:300])
+
+
+def run_plugin(case: Case, tmp: Path) -> Outcome:
+    root = tmp / "site"
+    root.mkdir()
+    _install_plugin(root, case.data["plugin"])
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), str(ROOT)])}
+    proc = subprocess.run([sys.executable, "-c", _PLUGIN_RUN, *case.data["use"]], env=env,
+                          capture_output=True, text=True, cwd=tmp, timeout=HANG_S * 6)
+    line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("FUZZ-RESULT ")), None)
+    if line is None:
+        return Outcome(case, "crash", f"exit {proc.returncode}: {proc.stderr[-400:]!r}")
+    return _plugin_verdict(case, json.loads(line.removeprefix("FUZZ-RESULT ")))
+
+
 RUNNERS = {"scenario": run_scenario, "option": run_option, "init": run_init,
-           "result": run_result, "selftest": run_selftest}
+           "result": run_result, "selftest": run_selftest, "map": run_map,
+           "database": run_database, "plugin": run_plugin}
 
 
 def run_case(case: Case, tmp: Path) -> Outcome:
@@ -1608,8 +2149,8 @@ def _case_to_dict(c: Case) -> dict:
 
 def _cold_key(case: Case) -> str:
     """What a case's first use in a process compiles (numba, cvxpy, IPOPT, matplotlib)."""
-    return case.data.get("preset") or {"scenario": "visgraph", "result": "plot"}.get(
-        case.family, case.family)
+    return case.data.get("preset") or {"scenario": "visgraph", "result": "plot",
+                                       "database": "plot"}.get(case.family, case.family)
 
 
 def worker_main() -> None:
@@ -1791,6 +2332,29 @@ KNOWN_FINDINGS: dict[str, tuple[str, str, Callable[[Outcome], bool]]] = {
         lambda o: o.case.family == "option" and o.category == "hang"
         and isinstance(o.case.data.get("value"), int)
         and o.case.data.get("backend") in ("ipso", "pso", "mpso")),
+    "plugin-import-unnamed": (
+        "optplan/solver.py (_load_class)",
+        "a plugin backend whose module is missing, whose package imports a missing dependency "
+        "or whose class is missing raises an ImportError naming the backend and the entry "
+        "point but not the distribution, and no PluginWarning",
+        lambda o: o.case.family == "plugin" and o.category == "unclear message"
+        and o.case.what in ("package missing dependency", "entry point missing module",
+                            "entry point missing class")),
+    "plugin-not-a-backend": (
+        "optplan/solver.py (_load_class)",
+        "an entry point naming an object that is not a Backend class (a module) is loaded; "
+        "solving with it raises a bare TypeError ('must be called with a dataclass type')",
+        lambda o: o.case.family == "plugin" and o.case.what == "entry point not a backend"),
+    "plugin-system-exit": (
+        "optplan/solver.py (_load_class)",
+        "a plugin package that calls sys.exit() when imported ends the process (only "
+        "Exception is caught): every command that asks for its backend exits",
+        lambda o: o.case.family == "plugin" and o.case.what == "package exits"),
+    "plugin-preset-unknown-backend": (
+        "optplan/solver.py (preset resolution)",
+        "a plugin preset naming an unknown backend: 'unknown backend' names neither the "
+        "preset file nor the distribution",
+        lambda o: o.case.family == "plugin" and o.case.what == "preset unknown backend"),
 }
 
 
@@ -1811,7 +2375,8 @@ def known_finding(outcome: Outcome) -> str | None:
 
 def build_cases(seed: int = 0, n_scenarios: int = 3000, options: bool = True,
                 inits: bool = True, results: bool = True,
-                scenes: Iterable[str] | None = None) -> list[Case]:
+                scenes: Iterable[str] | None = None, maps: bool = True,
+                databases: bool = True, plugins: bool = True) -> list[Case]:
     cases = ScenarioFuzzer(seed).cases(n_scenarios, scenes)
     presets = preset_table() if (options or inits) else {}
     if options:
@@ -1820,6 +2385,12 @@ def build_cases(seed: int = 0, n_scenarios: int = 3000, options: bool = True,
         cases += init_cases(presets, seed)
     if results:
         cases += result_cases(seed)
+    if maps:
+        cases += map_cases(seed)
+    if databases:
+        cases += database_cases(seed)
+    if plugins:
+        cases += plugin_cases()
     return cases
 
 
@@ -1831,7 +2402,7 @@ def annotate(outcomes: list[Outcome]) -> list[Outcome]:
 
 
 def counts_table(outcomes: list[Outcome]) -> str:
-    fams = ["scenario", "option", "init", "result"]
+    fams = list(FAMILIES)
     head = ["family", "cases", *CATEGORIES, "known findings", "compared"]
     rows = []
     for fam in [*fams, "all"]:
@@ -1857,8 +2428,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--scenarios", type=int, default=3000)
     ap.add_argument("--workers", type=int, default=max(1, min(4, os.cpu_count() or 1)))
-    ap.add_argument("--family", action="append",
-                    choices=["scenario", "option", "init", "result"])
+    ap.add_argument("--family", action="append", choices=list(FAMILIES))
     ap.add_argument("--quick", action="store_true", help="300 scenarios, every family")
     ap.add_argument("--show", type=int, default=40, help="failures to list (default 40)")
     ap.add_argument("--json", help="write every outcome to this JSON file")
@@ -1867,11 +2437,12 @@ def main(argv: list[str] | None = None) -> int:
     if args.worker:
         worker_main()
         return 0
-    fam = set(args.family or ["scenario", "option", "init", "result"])
+    fam = set(args.family or FAMILIES)
     n_sc = 300 if args.quick else args.scenarios
     t0 = time.perf_counter()
     cases = build_cases(args.seed, n_sc if "scenario" in fam else 0, "option" in fam,
-                        "init" in fam, "result" in fam)
+                        "init" in fam, "result" in fam, maps="map" in fam,
+                        databases="database" in fam, plugins="plugin" in fam)
     print(f"{len(cases)} cases ({time.perf_counter() - t0:.1f} s to generate); "
           f"{args.workers} workers, hang limit {HANG_S:g} s", file=sys.stderr)
     last = [0.0]

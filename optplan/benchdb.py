@@ -165,6 +165,9 @@ def _db_error(path: Path, e: sqlite3.Error) -> ResultsDBError:
             f"sqlite3 shell) lets it go, or use another file")
     if isinstance(e, sqlite3.DatabaseError) and "not a database" in str(e):
         return ResultsDBError(f"{path}: not an optplan results database (not an SQLite file)")
+    if "unable to open" in str(e):
+        what = "a directory" if path.is_dir() else "no permission, or its folder is missing?"
+        return ResultsDBError(f"{path}: cannot open the results database ({what})")
     return ResultsDBError(f"{path}: the results database is damaged ({e}); restore a copy, or "
                           f"run the sweep again into a new file")
 

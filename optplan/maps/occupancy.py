@@ -161,6 +161,9 @@ def read_ros_yaml(path: str | Path) -> Grid:
         text = p.read_text(encoding="utf-8")
     except OSError as e:
         raise ProblemError(f"{p}: cannot read file ({e.strerror})") from None
+    except UnicodeDecodeError as e:
+        raise ProblemError(f"{p}: not UTF-8 text ({e.reason} at byte {e.start}): expected a "
+                           f"map_server YAML file") from None
     try:
         data = _yaml_load(text)
     except yaml.YAMLError as e:

@@ -170,6 +170,16 @@ def test_a_lock_during_a_sweep_stops_it_with_its_runs_kept(tmp_path, monkeypatch
     assert exp["runs_done"] == 2 and exp["outcome"] is None
 
 
+def test_a_directory_is_not_a_database(tmp_path, capsys):
+    path = tmp_path / "runs.sqlite"
+    path.mkdir()
+    with pytest.raises(benchdb.ResultsDBError, match=r"cannot open the results database \(a "
+                                                     r"directory\)"):
+        bench.run_grid(["open-field"], ["visgraph"], seeds=1, db=path)
+    assert cli.main(["report", str(path), "--out", str(tmp_path / "r")]) == 2
+    assert f"{path}: " in capsys.readouterr().err
+
+
 def test_each_stored_run_counts_itself(tmp_path):
     path = _small_db(tmp_path / "count.sqlite", runs=4, end=False)  # as a killed sweep leaves it
     (exp,) = benchdb.read_experiments(path)

@@ -1,7 +1,7 @@
 """Bad input never crashes, never hangs, never lies -- a bounded, seeded slice of the
 input fuzz of ``benchmarks/fuzz_inputs.py`` (the full run is ``python
 benchmarks/fuzz_inputs.py``: >= 3,000 scenarios, >= 2,500 option values, >= 200 inits, >= 50
-result files, and its counts table).
+result files, and its counts table), with every map, results-database and plugin case.
 
 Every case runs in a worker process with a time limit; the slice must show no crash, no hang, no
 unclear message, no silent acceptance of an out-of-range value and no success the independent
@@ -45,6 +45,7 @@ def _slice() -> list[fz.Case]:
     cases += pick + rng.sample(rest, N_OPTIONS - len(pick))
     cases += rng.sample(fz.init_cases(presets, SEED), N_INITS)
     cases += rng.sample(fz.result_cases(SEED, n_random=12), N_RESULTS)
+    cases += fz.map_cases(SEED) + fz.database_cases(SEED) + fz.plugin_cases()
     return cases
 
 
@@ -58,7 +59,7 @@ def _report(bad: list[fz.Outcome]) -> str:
                      f": {o.detail[:300]}" for o in bad)
 
 
-@pytest.mark.parametrize("family", ["scenario", "option", "init", "result"])
+@pytest.mark.parametrize("family", fz.FAMILIES)
 def test_slice_has_no_crash_hang_unclear_message_or_lie(outcomes, family):
     sel = [o for o in outcomes if o.case.family == family]
     assert sel, f"the slice has no {family} cases"
@@ -90,6 +91,8 @@ def test_full_run_sizes():
     assert len(fz.OptionFuzzer(0).cases(presets)) >= 2500
     assert len(fz.init_cases(presets)) >= 200
     assert len(fz.result_cases(0)) >= 50
+    assert len(fz.map_cases(0)) >= 100 and len(fz.database_cases(0)) >= 25
+    assert len(fz.plugin_cases()) >= 15
     assert len(fz.ScenarioFuzzer(0).cases(200, ["open-field", "trap-u"])) == 200
 
 

@@ -607,6 +607,13 @@ def test_yaml_errors(tmp_path, body, pattern):
         import_map(_yaml(tmp_path, body), radius=0.1, start=(1, 1), goal=(2, 2))
 
 
+def test_a_yaml_file_that_is_not_utf8_names_the_file(tmp_path):
+    y = tmp_path / "m.yaml"
+    y.write_bytes(b"\xff\xfeimage: m.png\n")
+    with pytest.raises(ProblemError, match=r"m\.yaml: not UTF-8 text .* at byte 0"):
+        read_ros_yaml(y)
+
+
 def test_yaml_numbers_in_exponent_notation_are_numbers(tmp_path):
     """``5e-2`` is a float to ROS (YAML 1.2) and to optplan, not the string PyYAML's YAML 1.1
     resolver makes of it (it was rejected: "resolution: expected a number, got '5e-2'")."""
