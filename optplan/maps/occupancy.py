@@ -147,6 +147,17 @@ def _yaml_load(text: str) -> Any:
     return yaml.load(text, Loader=Loader)  # noqa: S506 - a SafeLoader
 
 
+def _read_text(p: Path) -> str:
+    """The text of a map_server YAML file; an error naming it when unreadable or not UTF-8."""
+    try:
+        return p.read_text(encoding="utf-8")
+    except OSError as e:
+        raise ProblemError(f"{p}: cannot read file ({e.strerror})") from None
+    except UnicodeDecodeError as e:
+        raise ProblemError(f"{p}: not UTF-8 text ({e.reason} at byte {e.start}): expected a "
+                           f"map_server YAML file") from None
+
+
 def read_ros_yaml(path: str | Path) -> Grid:
     """Read a ROS ``map_server`` map (YAML + image) as a :class:`Grid`.
 
@@ -157,13 +168,7 @@ def read_ros_yaml(path: str | Path) -> Grid:
     import yaml
 
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as e:
-        raise ProblemError(f"{p}: cannot read file ({e.strerror})") from None
-    except UnicodeDecodeError as e:
-        raise ProblemError(f"{p}: not UTF-8 text ({e.reason} at byte {e.start}): expected a "
-                           f"map_server YAML file") from None
+    text = _read_text(p)
     try:
         data = _yaml_load(text)
     except yaml.YAMLError as e:
