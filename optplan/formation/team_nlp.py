@@ -130,26 +130,29 @@ def _formation_error(X: list[Any], m: TeamModel, N: int) -> Any:
 
 def _static(opti: Any, Xi: Any, x0: np.ndarray, pieces: Pieces, scale: float, prune: float
             ) -> int:
-    """The separating-hyperplane constraints of one robot; returns the number of pairs."""
+    """The separating-hyperplane constraints of one robot, all pairs in one block of rows;
+    returns the number of pairs."""
+    import casadi as ca
+
     path = x0 * scale
     mask = select_pairs(path, pieces, prune * scale)
     seg, piece = np.nonzero(mask)
-    if len(seg) == 0:
+    K = len(seg)
+    if K == 0:
         return 0
     a0, c0 = init_hyperplanes(path, pieces, seg, piece, pieces.clear)
-    A = opti.variable(len(seg), 2)
-    C = opti.variable(len(seg))
+    A = opti.variable(K, 2)
+    C = opti.variable(K)
     opti.set_initial(A, a0)
     opti.set_initial(C, c0 / scale)
-    for k, (i, j) in enumerate(zip(seg.tolist(), piece.tolist())):
-        V = pieces.verts[j] / scale
-        a, c = A[k, :].T, C[k]
-        opti.subject_to(V @ a <= c)
-        clear = float(pieces.clear[j]) / scale
-        opti.subject_to(Xi[i, :] @ a >= c + clear)
-        opti.subject_to(Xi[i + 1, :] @ a >= c + clear)
-        opti.subject_to(a.T @ a <= 1)
-    return len(seg)
+    V = np.vstack([pieces.verts[j] / scale for j in piece])
+    own = np.repeat(np.arange(K), [len(pieces.verts[j]) for j in piece]).tolist()
+    opti.subject_to(ca.sum2(V * A[own, :]) - C[own] <= 0)
+    clear = pieces.clear[piece] / scale
+    for P in (Xi[seg.tolist(), :], Xi[(seg + 1).tolist(), :]):
+        opti.subject_to(ca.sum2(P * A) - C >= clear)
+    opti.subject_to(ca.sum2(A * A) <= 1)
+    return K
 
 
 def _interp(name: str, mv: MoverTable, t_hi: float) -> tuple[Any, Any]:
@@ -175,15 +178,19 @@ def _interp(name: str, mv: MoverTable, t_hi: float) -> tuple[Any, Any]:
 
 
 def _separate(opti: Any, rel0: Any, rel1: Any, need: Any, guess: np.ndarray) -> None:
-    """A separating line for a relative motion that is linear on an interval: a unit-bounded
-    ``a`` with ``a . rel >= need`` at both ends, hence on the whole interval (``a . rel - need``
-    is affine along it, ``|a| <= 1``)."""
-    a = opti.variable(2)
-    n = float(np.hypot(*guess))
-    opti.set_initial(a, guess / n if n > 0 else np.array([1.0, 0.0]))
-    opti.subject_to(rel0 @ a >= need)
-    opti.subject_to(rel1 @ a >= need)
-    opti.subject_to(a.T @ a <= 1)
+    """Separating lines for relative motions that are linear on their intervals (one row
+    each of ``rel0``, ``rel1``: the relative positions at the interval's two ends): a
+    unit-bounded ``a`` per row with ``a . rel >= need`` at both ends, hence on the whole
+    interval (``a . rel - need`` is affine along it, ``|a| <= 1``)."""
+    import casadi as ca
+
+    A = opti.variable(guess.shape[0], 2)
+    n = np.hypot(guess[:, 0], guess[:, 1])
+    unit = np.where(n[:, None] > 0, guess / np.where(n > 0, n, 1.0)[:, None], [1.0, 0.0])
+    opti.set_initial(A, unit)
+    opti.subject_to(ca.sum2(rel0 * A) >= need)
+    opti.subject_to(ca.sum2(rel1 * A) >= need)
+    opti.subject_to(ca.sum2(A * A) <= 1)
 
 
 def _movers(opti: Any, X: list[Any], T: Any, m: TeamModel) -> int:
@@ -205,11 +212,14 @@ def _movers(opti: Any, X: list[Any], T: Any, m: TeamModel) -> int:
             rel0 = m.X0[i] - M0
             dist = np.hypot(rel0[:, 0], rel0[:, 1])
             reach = m.radius[i] + mv.radius + m.prune + 2.0 * (m.speed[i] + mv.speed) / N
+            ks = np.flatnonzero(np.minimum(dist[:-1], dist[1:]) <= reach * m.t_max)
+            if len(ks) == 0:
+                continue
             need = m.radius[i] + mv.radius + mv.speed * T / (2 * N)
-            for k in np.flatnonzero(np.minimum(dist[:-1], dist[1:]) <= reach * m.t_max):
-                _separate(opti, X[i][k, :] - M[k, :], X[i][k + 1, :] - M[k + 1, :], need,
-                          rel0[k] + rel0[k + 1])
-                count += 1
+            rel = X[i] - M
+            _separate(opti, rel[ks.tolist(), :], rel[(ks + 1).tolist(), :], need,
+                      rel0[ks] + rel0[ks + 1])
+            count += len(ks)
     return count
 
 
@@ -239,18 +249,18 @@ def solve_team_nlp(m: TeamModel, ipopt: dict[str, Any]) -> tuple[np.ndarray, flo
     for i in range(R):
         opti.set_initial(X[i], m.X0[i])
         opti.subject_to(X[i][0, :] == m.X0[i, 0][None, :])
-        D = X[i][1:, :] - X[i][:-1, :]
-        opti.subject_to(ca.sum2(D * D) <= (m.speed[i] * T / N) ** 2)
+        D = (X[i][1:, :] - X[i][:-1, :]) * (N / float(m.speed[i]))  # in units of one step
+        opti.subject_to(ca.sum2(D * D) <= T * T)
         n_pairs += _static(opti, X[i], m.X0[i], m.pieces[i], m.scale, m.prune)
     n_movers = _movers(opti, X, T, m)
     opti.subject_to(X[0][N, :] == m.goal[None, :])
     for i in range(R):
         for j in range(i + 1, R):
-            need = min(m.separation, 0.999999 * float(np.hypot(*(m.X0[i, 0] - m.X0[j, 0]))))
-            for k in range(N):
-                _separate(opti, X[i][k, :] - X[j][k, :], X[i][k + 1, :] - X[j][k + 1, :],
-                          need if k == 0 else m.separation,
-                          m.X0[i, k] + m.X0[i, k + 1] - m.X0[j, k] - m.X0[j, k + 1])
+            first = min(m.separation, 0.999999 * float(np.hypot(*(m.X0[i, 0] - m.X0[j, 0]))))
+            need = np.full(N, m.separation)
+            need[0] = first
+            E, E0 = X[i] - X[j], m.X0[i] - m.X0[j]
+            _separate(opti, E[:N, :], E[1:, :], need, E0[:-1] + E0[1:])
     opti.subject_to(_final_slots(X, m) <= 0)
     opti.minimize(T + m.w_formation * _formation_error(X, m, N))
     opti.solver("ipopt", {"expand": True, "print_time": False}, ipopt)
