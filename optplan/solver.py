@@ -94,6 +94,7 @@ BACKENDS: dict[str, str] = {
     "leader-follower": "optplan.formation.leader_follower:LeaderFollower",
     "formation-qp": "optplan.formation.formation_qp:FormationQP",
     "formation-nlp": "optplan.formation.formation_nlp:FormationNLP",
+    "orca": "optplan.formation.orca:ORCA",
     "hybrid": "optplan.hybrid.planner:Hybrid",
 }
 

@@ -33,6 +33,8 @@ CASES: dict[str, tuple[str, dict[str, Any]]] = {
                                                  "dt": 1.0}),
     "formation-qp": ("formation-open-field", {"path_solver": "visgraph", "max_steps": 150,
                                               "dt": 1.0, "gamma": 1.0}),
+    # both presets: orca-team needs a [formation]; orca moves the leader alone there
+    "orca": ("formation-open-field", {"max_steps": 150, "dt": 1.0, "time_horizon_obst": 1.0}),
 }
 
 #: A small scene whose optimum bends around obstacles (arcs): the second run of the

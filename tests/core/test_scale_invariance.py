@@ -30,6 +30,8 @@ REPRESENTATIVE = {
     "leader-follower-paper": "paper-formation",
     "formation-qp": "paper-formation",
     "formation-nlp": "formation-open-field",
+    "orca": "paper-warehouse",
+    "orca-team": "paper-formation",
     "sipp": "paper-warehouse",
     "ipso-paper": "paper-env1",
     "ipso": "paper-env2",
