@@ -50,7 +50,7 @@ from optplan.geometry.tangent_graph import problem_shortest_path
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Result, Status
 from optplan.sim import SimOutcome, SimState, simulate
-from optplan.solver import Backend, option
+from optplan.solver import Backend, make_rng, option
 from optplan.units import Each, Record, Unit
 
 __all__ = ["ORCA", "EXTRAS_UNITS"]
@@ -69,6 +69,10 @@ LOOKAHEAD = 40
 TRAIL_STRIDE = 5
 #: ... at most this many points back.
 TRAIL_POINTS = 60
+
+#: A robot whose velocity differed from its preferred one by more than this fraction of its
+#: max_speed on the last step was held back by ORCA (and gets the ``perturb`` jitter).
+HELD_FRACTION = 0.01
 
 #: A robot whose net displacement over ``stall_time`` is below this fraction of
 #: ``max_speed * stall_time`` has stalled.
@@ -116,8 +120,8 @@ class _OrcaRun:
     :func:`optplan.sim.simulate` for :class:`ORCA` (module docstring)."""
 
     def __init__(self, o: ORCA, problem: Problem, robots: list[Robot],
-                 subgoals: dict[str, np.ndarray]):
-        self.o, self.problem, self.robots = o, problem, robots
+                 subgoals: dict[str, np.ndarray], rng: np.random.Generator):
+        self.o, self.problem, self.robots, self.rng = o, problem, robots, rng
         self.ids = [r.id for r in robots]
         self.frame = LocalFrame.of(problem)
         u = self.frame.unit
@@ -136,6 +140,7 @@ class _OrcaRun:
         self.heading = self._first_heading()
         self.window = max(1, round(o.stall_time / o.dt)) if o.stall_time > 0 else 0
         self.track: list[np.ndarray] = []
+        self.last_pref = np.zeros((len(robots), 2))
         self.trail: list[np.ndarray] = []
         self.stalled = False
         self.hist = History()
@@ -174,11 +179,14 @@ class _OrcaRun:
             target, last = self.goals[i], True
         return _toward(p, target, speed, self.o.dt, last)
 
-    def preferred(self, P: np.ndarray) -> np.ndarray:
-        """Every robot's preferred velocity (local units), given their local positions."""
+    def preferred(self, P: np.ndarray, held: np.ndarray) -> np.ndarray:
+        """Every robot's preferred velocity (local units), given their local positions and
+        which robots ORCA held back on the last step (those get the ``perturb`` jitter)."""
         V = np.zeros_like(P)
         for i in self.goals:
             V[i] = self._goal_velocity(i, P[i])
+            if self.o.perturb > 0 and held[i] and np.any(V[i]):
+                V[i] += self._jitter(i)
         if self.slots is not None:
             vl = V[0]
             if np.hypot(*vl) > 1e-6 * self.vmax[0]:
@@ -191,6 +199,11 @@ class _OrcaRun:
                     target = self._trail_point(P[k], k, target)
                 V[k] = _toward(P[k], target, self.vmax[k], self.o.dt, True)
         return V
+
+    def _jitter(self, i: int) -> np.ndarray:
+        """A velocity uniform in the disc of radius ``perturb * max_speed`` (from ``rng``)."""
+        a, r = self.rng.uniform(0.0, 2.0 * np.pi), np.sqrt(self.rng.uniform())
+        return self.o.perturb * self.vmax[i] * r * np.array([np.cos(a), np.sin(a)])
 
     def _sees(self, p: np.ndarray, q: np.ndarray, i: int) -> bool:
         """Whether RVO2 sees ``q`` from ``p`` with robot ``i``'s radius (local points)."""
@@ -217,7 +230,9 @@ class _OrcaRun:
         fr, u, sim = self.frame, self.frame.unit, self.sim
         P = fr.local(state.positions)
         V = np.asarray(state.velocities, dtype=float) / u
-        pref = self.preferred(P)
+        held = np.hypot(*(V - self.last_pref).T) > HELD_FRACTION * self.vmax
+        pref = self.preferred(P, held)
+        self.last_pref = pref
         for i in range(len(P)):
             sim.set_agent_position(i, (float(P[i, 0]), float(P[i, 1])))
             sim.set_agent_velocity(i, (float(V[i, 0]), float(V[i, 1])))
@@ -298,6 +313,12 @@ class ORCA(Backend):
     speed_factor : float
         Preferred speed of a goal-seeking robot as a fraction of its ``max_speed`` (followers
         always may use their full speed to keep up).
+    perturb : float
+        A goal-seeking robot that ORCA held back on the last step (its velocity differed from
+        the preferred one by more than 1 % of its ``max_speed``) gets a random velocity uniform
+        in the disc of radius ``perturb * max_speed`` (from ``rng``) added to its preferred
+        velocity: it breaks the deadlocks of exactly symmetric agents (RVO2's own examples
+        perturb every agent); a robot in free space is never perturbed (0: never).
     dt : float
         Time step (s) of the simulation and of RVO2.
     max_steps : int
@@ -337,6 +358,7 @@ class ORCA(Backend):
     subgoals: str = option("none", choices=("none", "visgraph"))
     subgoal_reach: float = option(5.0, lo=0.0, scale=True)
     speed_factor: float = option(1.0, lo=0.0, hi=1.0, lo_open=True)
+    perturb: float = option(0.1, lo=0.0, hi=1.0)
     dt: float = option(0.2, lo=0.0, hi=60.0, lo_open=True)
     max_steps: int = option(3000, lo=1, hi=10_000_000)
     neighbor_dist: float = option(40.0, lo=0.0, lo_open=True, scale=True)
@@ -388,13 +410,14 @@ class ORCA(Backend):
     def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
               init: dict[str, np.ndarray] | None = None,
               callback: Callable[[Progress], Any] | None = None) -> Result:
-        """Simulate the robots with ORCA (module docstring); ``rng`` and ``init`` are unused
-        (ORCA is deterministic and plans no path to start from)."""
+        """Simulate the robots with ORCA (module docstring); ``rng`` draws the ``perturb``
+        jitter (nothing else is random); ``init`` is unused (ORCA plans no path to start
+        from)."""
         t0 = time.perf_counter()
         require_pyrvo()
         robots = self._robots(problem)
         subgoals, note = self._subgoals(problem, robots)
-        run = _OrcaRun(self, problem, robots, subgoals)
+        run = _OrcaRun(self, problem, robots, subgoals, make_rng(rng)[0])
         out = simulate(problem, run.policy, ids=run.ids, dt=self.dt, max_steps=self.max_steps,
                        done=run.done, callback=callback, progress_cost=run.cost)
         claim, msg = self._outcome(out, run)
