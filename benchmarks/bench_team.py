@@ -41,7 +41,17 @@ PLANNERS = ("hybrid-paper", "hybrid-qp", "leader-follower-paper", "formation-qp"
 
 
 def team_scene(seed: int) -> Problem:
-    """A wedge of three robots among random discs, two movers bouncing across its route."""
+    """A wedge of three robots among random discs, two movers bouncing across its route (the
+    first scene seed from ``100 seed`` whose obstacles leave the starts and the goal free)."""
+    for k in range(100 * seed, 100 * seed + 100):
+        try:
+            return _team_scene(k)
+        except op.ProblemError:
+            continue
+    raise RuntimeError(f"no valid team scene for seed {seed}")
+
+
+def _team_scene(seed: int) -> Problem:
     base = formation_scene(3, "wedge", spacing=12.0, distance=200.0, obstacles=6, seed=seed)
     rng = np.random.default_rng(1000 + seed)
     x0, y0, x1, y1 = base.bounds

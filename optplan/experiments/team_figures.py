@@ -18,6 +18,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -32,6 +33,11 @@ DEFAULT_OUT = Path("runs") / "team-figures"
 WEIGHTS = (0.0, 1.0, 10.0, 100.0, 1000.0, 10000.0)
 
 
+def _end(res: op.Result) -> float:
+    """The last time stamp of a timed plan."""
+    return float(np.asarray(res.times)[-1])
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Draw both figures into ``--out``."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -44,7 +50,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     fig, axes = plt.subplots(1, 2, figsize=(13, 6.5))
     for ax, res, title in ((axes[0], warm, "hybrid-qp"), (axes[1], nlp, "formation-nlp")):
         plot_result(res, problem=prob, ax=ax, legend="corner")
-        ax.set_title(f"{title}: end {res.times[-1]:.1f} s, formation RMSE "
+        ax.set_title(f"{title}: end {_end(res):.1f} s, formation RMSE "
                      f"{res.metrics['formation_rmse']:.2f}")
     fig.tight_layout()
     fig.savefig(args.out / "team-nlp-warehouse.png", dpi=100)
@@ -53,7 +59,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for w in WEIGHTS:
         r = op.get_solver("formation-nlp", w_formation=w).reference(  # type: ignore[attr-defined]
             prob, warm)
-        pts.append((w, float(r.times[-1]), float(r.metrics["formation_rmse"]),
+        pts.append((w, _end(r), float(r.metrics["formation_rmse"]),
                     bool(r.extras.get("kept_warm_start"))))
         print(f"w_formation {w:g}: end {pts[-1][1]:.2f} s, formation RMSE {pts[-1][2]:.3f}"
               f"{' (kept the warm start)' if pts[-1][3] else ''}")
@@ -62,7 +68,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for w, t, e, _ in pts:
         ax.annotate(f"w = {w:g}", (t, e), textcoords="offset points", xytext=(6, 4),
                     fontsize=8)
-    ax.plot([warm.times[-1]], [warm.metrics["formation_rmse"]], "s", color="C0",
+    ax.plot([_end(warm)], [warm.metrics["formation_rmse"]], "s", color="C0",
             label="warm start (hybrid-qp)")
     ax.set_xlabel("end of the plan (s): the leader at its goal, the followers at their slots")
     ax.set_ylabel("formation RMSE")
