@@ -1,7 +1,8 @@
 """Compiled loops of the exact collision engine (numba; the only implementation).
 
-Every function here is ``@njit(cache=True)``: compiled on first use (a few seconds once per
-machine; the machine code is cached in ``__pycache__``) and tested against shapely in
+Every function here is ``@compiled(signature)`` (:mod:`optplan.geometry.jit`): compiled once,
+with its one signature, when the module is imported (about 3 s of CPU once per machine; the
+machine code is cached on disk) and tested against shapely in
 ``tests/geometry/test_geometry.py``.  Why compiled: the engine answers many small queries (a swarm's
 fitness: tens of paths x a few segments x the obstacles near them, thousands of times per run);
 per-query numpy overhead, not arithmetic, would dominate, and early exits per (segment, item)
@@ -21,17 +22,20 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
-__all__ = ["pair", "pairs", "crossings", "free_pairs", "clearance"]
+from optplan.geometry.jit import B1, F1, F2, F3, I1, I2, b1, compiled, f8, i8, inlined
 
-_jit = numba.njit(cache=True, fastmath=False, nogil=True)
-#: small helpers of a hot loop: inlined into their caller by numba (no call per item)
-_jit_inline = numba.njit(cache=True, fastmath=False, nogil=True, inline="always")
+__all__ = ["pair", "crossings", "clearance"]
+
+#: argument types of the data layout (module docstring): pieces ``P, E, N`` and offsets
+#: ``C, CE``; circles ``IC, CR``; a segment ``ax, ay, dx, dy``
+_SEG = (f8, f8, f8, f8)
+_ITEMS = (F3, F3, F3, F2, F2, F2, F1)  # P, E, N, C, CE, IC, CR
+_GRID = (b1, f8, f8, f8, i8, i8, I1, I1, I1)  # use_grid, h, x0, y0, nx, ny, start, count, items
 
 
-@_jit
+@compiled(f8)
 def _clamp01(t):
     if t < 0.0:
         return 0.0
@@ -40,7 +44,7 @@ def _clamp01(t):
     return t
 
 
-@_jit
+@compiled(f8, f8, f8, f8, f8, f8)
 def _pt_seg2(qx, qy, px, py, ex, ey):
     """Squared distance from point q to segment p -> p + e."""
     ee = ex * ex + ey * ey
@@ -52,7 +56,7 @@ def _pt_seg2(qx, qy, px, py, ex, ey):
     return dx * dx + dy * dy
 
 
-@_jit
+@compiled(*_SEG, i8, F3, F2)
 def _clip(ax, ay, dx, dy, k, N, C):
     """Cyrus-Beck: parameter interval of A + tD, t in [0, 1], inside the half-planes
     ``N[k, j] . x <= C[k, j]``."""
@@ -78,7 +82,7 @@ def _clip(ax, ay, dx, dy, k, N, C):
     return t_in, t_out
 
 
-@_jit
+@compiled(*_SEG, f8, i8, i8, F2, F1, f8)
 def _pair_circle(ax, ay, dx, dy, dl, k, K, IC, CR, eps):
     """:func:`pair` for circle item ``k``: centre-to-segment distance minus the radius, and the
     chord length inside the circle shrunk by ``eps``."""
@@ -116,7 +120,7 @@ def _pair_circle(ax, ay, dx, dy, dl, k, K, IC, CR, eps):
     return dist, inside
 
 
-@_jit
+@compiled(*_SEG, i8, F3, F3)
 def _piece_distance(ax, ay, dx, dy, k, P, E):
     """Distance from segment ``A -> A + D`` to convex piece ``k`` when they do not meet: the
     smallest vertex-to-segment and endpoint-to-edge distance (disjoint convex sets)."""
@@ -140,7 +144,7 @@ def _piece_distance(ax, ay, dx, dy, k, P, E):
     return math.sqrt(d2)
 
 
-@_jit
+@compiled(*_SEG, i8, i8, *_ITEMS, f8)
 def pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps):
     """Exact ``(dist, inside)`` of segment ``A -> A + D`` and item ``k`` (module docstring)."""
     dl = math.sqrt(dx * dx + dy * dy)
@@ -156,7 +160,7 @@ def pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps):
     return _piece_distance(ax, ay, dx, dy, k, P, E), 0.0
 
 
-@_jit
+@compiled(*_SEG, i8, F3, F2, f8)
 def _apart(ax, ay, dx, dy, k, N, C, lim):
     """Both segment ends at least ``lim`` outside one edge line of piece ``k``: the segment is
     farther than ``lim`` from the piece (a separating axis), so the pair cannot collide."""
@@ -170,7 +174,7 @@ def _apart(ax, ay, dx, dy, k, N, C, lim):
     return False
 
 
-@_jit
+@compiled(*_SEG, i8, F2, F1, f8)
 def _near_item(ax, ay, dx, dy, k, IC, IR, lim):
     """The item's bounding circle comes within ``lim`` of the segment."""
     wx = IC[k, 0] - ax
@@ -186,7 +190,7 @@ def _near_item(ax, ay, dx, dy, k, IC, IR, lim):
     return fx * fx + fy * fy <= r * r
 
 
-@_jit
+@compiled(i8, F3, F2, F1, f8)
 def _item_boxes(K, P, IC, CR, lim):
     """Axis-aligned box of every item grown by ``lim``, rows ``x_lo, x_hi, y_lo, y_hi`` of a
     ``(4, n_items)`` array: a piece's vertices, a circle's centre +- radius."""
@@ -207,7 +211,7 @@ def _item_boxes(K, P, IC, CR, lim):
     return bb
 
 
-@_jit_inline
+@inlined
 def _box_mask(ax, ay, dx, dy, BB, mask):
     """``mask[k]``: the box ``BB[:, k]`` meets the segment's box (one branch-free pass over
     the items, which the compiler vectorises)."""
@@ -221,7 +225,7 @@ def _box_mask(ax, ay, dx, dy, BB, mask):
         mask[k] = (BB[0, k] <= hx) & (BB[1, k] >= lx) & (BB[2, k] <= hy) & (BB[3, k] >= ly)
 
 
-@_jit
+@compiled(*_SEG, i8, F2, F1, F2, B1, f8, *_GRID, I1, i8, I1)
 def _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx0, gy0, gnx,
                 gny, gstart, gcount, gitems, stamp, sid, out):
     """Items whose bounding circle is within ``lim`` of the segment, written to ``out``
@@ -277,7 +281,7 @@ def _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx
     return m
 
 
-@_jit
+@compiled(*_SEG, i8, I1, i8, i8, *_ITEMS, I1, f8, f8, f8, b1, I1, B1, F1, F1, I1)
 def _segment_items(ax, ay, dx, dy, s, cand, m, K, P, E, N, C, CE, IC, CR, OWN, r, eps, lim,
                    want_pen, o_stamp, o_close, o_in, o_pen, touched):
     """One segment of :func:`crossings` against its ``m`` candidate items: per obstacle met
@@ -308,7 +312,8 @@ def _segment_items(ax, ay, dx, dy, s, cand, m, K, P, E, N, C, CE, IC, CR, OWN, r
     return nt
 
 
-@_jit
+@compiled(F2, F2, i8, i8, F3, F3, F3, F2, F2, F2, F1, F1, I1, i8, f8, f8, b1, *_GRID,
+          I2)
 def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_pen,
               use_grid, gh, gx0, gy0, gnx, gny, gstart, gcount, gitems, hits):
     """Collision count (and penetration) per path for segments ``A[s] -> A[s] + D[s]``, ``S``
@@ -319,15 +324,22 @@ def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_p
     """
     n_seg = A.shape[0]
     P_n = n_seg // S if S > 0 else 0
-    count = np.zeros(P_n, np.int64)
-    pen = np.zeros(P_n)
+    # np.empty and loops, not np.zeros / np.full: each allocation routine is one more
+    # compilation; o_close, o_in, o_pen are set when an obstacle is first met (o_stamp)
+    count = np.empty(P_n, np.int64)
+    pen = np.empty(P_n)
+    for p in range(P_n):
+        count[p] = 0
+        pen[p] = 0.0
     n_items = IC.shape[0]
-    stamp = np.full(n_items, -1, np.int64)
+    stamp = np.empty(n_items, np.int64)
+    stamp[:] = -1
     cand = np.empty(n_items, np.int64)
-    o_stamp = np.full(n_obs, -1, np.int64)
-    o_close = np.zeros(n_obs, np.bool_)
-    o_in = np.zeros(n_obs)
-    o_pen = np.zeros(n_obs)
+    o_stamp = np.empty(n_obs, np.int64)
+    o_stamp[:] = -1
+    o_close = np.empty(n_obs, np.bool_)
+    o_in = np.empty(n_obs)
+    o_pen = np.empty(n_obs)
     touched = np.empty(n_items, np.int64)
     lim = r + 2.0 * eps
     BB = _item_boxes(K, P, IC, CR, lim)
@@ -355,110 +367,13 @@ def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_p
     return count, pen, n_hits
 
 
-@_jit
-def _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim):
-    """Item ``k`` may be within ``lim`` of the segment: its grown box meets the segment's box
-    ``(x0, x1, y0, y1)``, its bounding circle is near, no edge line separates them."""
-    if bb[0, k] > x1 or bb[1, k] < x0 or bb[2, k] > y1 or bb[3, k] < y0:
-        return False
-    if not _near_item(ax, ay, dx, dy, k, IC, IR, lim):
-        return False
-    return not (k < K and _apart(ax, ay, dx, dy, k, N, C, lim))
-
-
-@_jit
-def _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K, P, E, N, C,
-                   CE, IC, IR, CR, OWN, r, eps, lim, o_stamp, o_in, touched):
-    """One segment of :func:`free_pairs` (its box ``(x0, x1, y0, y1)``): the first item closer
-    than ``r - eps`` (the item ``last`` tried first), ``-2`` when only an obstacle's summed
-    ``inside`` exceeds ``eps``, ``-1`` when the segment is free."""
-    x0, x1, y0, y1 = box
-    nt = 0
-    for c in range(-1, m):
-        if c < 0:  # the last colliding item first (with a grid: if the segment lists it)
-            k = last
-            if k < 0 or (use_grid and stamp[k] != q):
-                continue
-        else:
-            k = cand[c]
-            if k == last:
-                continue
-        if not _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim):
-            continue
-        dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
-        if dist < r - eps:
-            return k
-        o = OWN[k]
-        if o_stamp[o] != q:
-            o_stamp[o] = q
-            o_in[o] = 0.0
-            touched[nt] = o
-            nt += 1
-        o_in[o] += inside
-    for c in range(nt):
-        if o_in[touched[c]] > eps:
-            return -2
-    return -1
-
-
-@_jit
-def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_grid, gh, gx0,
-               gy0, gnx, gny, gstart, gcount, gitems):
-    """Collision-free flags of the segments ``L[I[q]] -> L[J[q]]`` (local points): the
-    decision of :func:`crossings` (``count == 0``: no item with ``dist < r - eps`` and no
-    obstacle whose summed ``inside`` exceeds ``eps``), with the same screens and the same
-    :func:`pair`, answered with less work.
-
-    * A segment stops at its first colliding item (no count is needed).
-    * The item that stopped the previous segment is tried first (consecutive segments of a
-      roadmap share an end and are often stopped by the same obstacle).
-    * Before the bounding-circle screen, each item's axis-aligned box grown by ``r + 2 eps``
-      is compared with the segment's box (no division; an item outside it is farther than
-      ``r + 2 eps``, which the screens of :func:`crossings` skip as well).
-
-    Tested against shapely and against :func:`crossings` in ``tests/swarm/test_swarm.py`` (its
-    caller is :func:`optplan.swarm.core.pairs_free`).
-    """
-    n = I.shape[0]
-    free = np.ones(n, np.bool_)
-    n_items = IC.shape[0]
-    lim = r + 2.0 * eps
-    bb = _item_boxes(K, P, IC, CR, lim)
-    mask = np.empty(n_items, np.bool_)  # scratch of _candidates
-    stamp = np.full(n_items, -1, np.int64)
-    cand = np.arange(n_items)
-    o_stamp = np.full(n_obs, -1, np.int64)
-    o_in = np.zeros(n_obs)
-    touched = np.empty(n_items, np.int64)
-    last = -1
-    for q in range(n):
-        ax = L[I[q], 0]
-        ay = L[I[q], 1]
-        bx = L[J[q], 0]
-        by = L[J[q], 1]
-        dx = bx - ax
-        dy = by - ay
-        box = (min(ax, bx), max(ax, bx), min(ay, by), max(ay, by))
-        m = n_items
-        if use_grid:
-            m = _candidates(ax, ay, dx, dy, n_items, IC, IR, bb, mask, lim, use_grid, gh, gx0,
-                            gy0, gnx, gny, gstart, gcount, gitems, stamp, q, cand)
-        blocker = _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K,
-                                 P, E, N, C, CE, IC, IR, CR, OWN, r, eps, lim, o_stamp, o_in,
-                                 touched)
-        if blocker >= 0:
-            last = blocker
-        free[q] = blocker == -1
-    return free
-
-
-@_jit
+@compiled(F2, F2, i8, F3, F3, F3, F2, F2, F2, F1, F1, f8, f8)
 def clearance(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist):
     """Per segment the exact minimum of ``dist - inside / 2`` over all items (``inf`` with no
     item within ``max_dist``); bounding circles prune items that cannot beat the best bound."""
     n_seg = A.shape[0]
     n_items = IC.shape[0]
-    out = np.full(n_seg, math.inf)
+    out = np.empty(n_seg)  # every entry is set below
     cd = np.empty(n_items)
     for s in range(n_seg):
         ax = A[s, 0]
@@ -489,16 +404,3 @@ def clearance(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist):
                 best = v
         out[s] = best
     return out
-
-
-@_jit
-def pairs(SI, IT, A, D, K, P, E, N, C, CE, IC, CR, eps):
-    """:func:`pair` for explicit (segment ``SI[q]``, item ``IT[q]``) pairs."""
-    n = SI.shape[0]
-    dist = np.empty(n)
-    inside = np.empty(n)
-    for q in range(n):
-        s = SI[q]
-        dist[q], inside[q] = pair(A[s, 0], A[s, 1], D[s, 0], D[s, 1], IT[q], K, P, E, N, C,
-                                  CE, IC, CR, eps)
-    return dist, inside

@@ -10,19 +10,15 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from optplan.geometry.jit import B2, F1, F2, F3, I1, compiled, f8, i8, inlined
 from optplan.geometry.kernel import _clamp01
 
 __all__ = ["nearest"]
 
-_jit = numba.njit(cache=True, fastmath=False, nogil=True)
-#: small helpers of the loop: inlined into their caller by numba (no call per item)
-_jit_inline = numba.njit(cache=True, fastmath=False, nogil=True, inline="always")
 
-
-@_jit_inline
+@inlined
 def _near_circle(qx, qy, cx, cy, r):
     """Nearest boundary point of the circle (centre ``(cx, cy)``, radius ``r``) to q:
     (distance, 0 inside; x; y; q inside)."""
@@ -41,7 +37,7 @@ def _near_circle(qx, qy, cx, cy, r):
     return d, cx + ux * r, cy + uy * r, ins
 
 
-@_jit_inline
+@inlined
 def _in_piece(qx, qy, k, N, C):
     """Whether q is inside (or on) convex piece ``k``."""
     for j in range(4):
@@ -50,7 +46,7 @@ def _in_piece(qx, qy, k, N, C):
     return True
 
 
-@_jit_inline
+@inlined
 def _near_piece(qx, qy, k, P, E, B):
     """Nearest point to q on the boundary edges of piece ``k``: (distance, x, y); (inf, nan,
     nan) when the piece has no boundary edge.  The first edge wins a tie."""
@@ -78,7 +74,7 @@ def _near_piece(qx, qy, k, P, E, B):
     return best, bx, by
 
 
-@_jit
+@inlined
 def _finish_nearest(near, dist, inside, max_range):
     """Distance 0 for a point inside an obstacle; (inf, nan) beyond ``max_range``."""
     for i in range(dist.shape[0]):
@@ -91,14 +87,20 @@ def _finish_nearest(near, dist, inside, max_range):
                 near[i, o, 1] = np.nan
 
 
-@_jit
+@compiled(F2, i8, F3, F3, F3, F2, B2, F2, F1, F1, I1, i8, f8)
 def nearest(Q, K, P, E, N, C, B, IC, IR, CR, OWN, n_obs, max_range):
     """Nearest boundary point and exact distance (0 inside) per (point, obstacle); obstacles
     whose bounding circles are all farther than ``max_range`` are skipped (inf, nan)."""
     R = Q.shape[0]
-    near = np.full((R, n_obs, 2), np.nan)
-    dist = np.full((R, n_obs), math.inf)
-    inside = np.zeros((R, n_obs), np.bool_)
+    near = np.empty((R, n_obs, 2))  # np.empty and a loop: no np.full / np.zeros to compile
+    dist = np.empty((R, n_obs))
+    inside = np.empty((R, n_obs), np.bool_)
+    for i in range(R):
+        for o in range(n_obs):
+            near[i, o, 0] = np.nan
+            near[i, o, 1] = np.nan
+            dist[i, o] = math.inf
+            inside[i, o] = False
     n_items = IC.shape[0]
     for i in range(R):
         qx = Q[i, 0]

@@ -59,7 +59,7 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
-from optplan.geometry import kernel, nearest_kernel
+from optplan.geometry import kernel
 from optplan.geometry.frame import Frame
 from optplan.geometry.grid import item_grid
 from optplan.geometry.pieces import convex_pieces
@@ -323,8 +323,11 @@ class ObstacleSet:
         K, P, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
         A = np.ascontiguousarray(np.stack([np.real(a), np.imag(a)], axis=1), dtype=float)
         D = np.ascontiguousarray(np.stack([np.real(d), np.imag(d)], axis=1), dtype=float)
-        return kernel.pairs(np.asarray(si, np.int64), np.asarray(it, np.int64), A, D, K, P, E,
-                            N, C, CE, IC, CR, self.eps)
+        from optplan.geometry import pairs_kernel  # compiled on first use (its docstring)
+
+        return pairs_kernel.pairs(np.ascontiguousarray(si, np.int64),
+                                  np.ascontiguousarray(it, np.int64), A, D, K, P, E, N, C, CE,
+                                  IC, CR, self.eps)
 
     def _segments(self, paths) -> tuple[np.ndarray, np.ndarray, int, int]:
         """Local segment starts and vectors ``(n, 2)`` of a batch of polylines."""
@@ -392,16 +395,19 @@ class ObstacleSet:
         blocked the previous segment is tried first); the segments are given by point indices,
         so a roadmap tests its vertex pairs without gathering their end points.
         """
-        i = np.asarray(i, np.int64)
-        j = np.asarray(j, np.int64)
+        i = np.ascontiguousarray(i, np.int64)
+        j = np.ascontiguousarray(j, np.int64)
         if len(i) == 0:
             return np.zeros(0, dtype=bool)
         if self.n_items == 0:
             return np.ones(len(i), dtype=bool)
         K, P, E, N, C, CE, _, IC, IR, CR, OWN = self.arrays
         L = np.ascontiguousarray(self.frame.local(points))
-        return kernel.free_pairs(L, i, j, K, P, E, N, C, CE, IC, IR, CR, OWN, self.n_obstacles,
-                                 self.radius, self.eps, *self._grid_args())
+        from optplan.geometry import pairs_kernel  # compiled on first use (its docstring)
+
+        return pairs_kernel.free_pairs(L, i, j, K, P, E, N, C, CE, IC, IR, CR, OWN,
+                                       self.n_obstacles, self.radius, self.eps,
+                                       *self._grid_args())
 
     def clearance(self, paths, max_dist: float = math.inf) -> np.ndarray:
         """Per path, the exact minimum distance to any obstacle minus the radius ``r``.
@@ -447,6 +453,8 @@ class ObstacleSet:
         if self.n_items == 0 or R == 0:
             return np.full((R, n, 2), np.nan), np.full((R, n), math.inf)
         K, Pt, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
+        from optplan.geometry import nearest_kernel  # compiled on first use (its docstring)
+
         near, dist = nearest_kernel.nearest(np.ascontiguousarray(self.frame.local(pts)), K, Pt,
                                             E, N, C, B, IC, IR, CR, OWN, n, float(max_range))
         m = n - 1 if self.walled else n  # the wall alone is not an obstacle of the map

@@ -13,8 +13,9 @@ random numbers are drawn by the caller.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
+
+from optplan.geometry.jit import F1, F2, FA1, FA2, I2, b1, compiled, f8, i8, inlined
 
 __all__ = [
     "crossover",
@@ -25,11 +26,12 @@ __all__ = [
     "ga_children",
 ]
 
-#: Compiled helpers (numba; cached on disk after the first run, see docs/solvers/pso.md).
-_jit = numba.njit(cache=True, nogil=True)
+#: Compiled with one signature each (optplan.geometry.jit; cached on disk after the first run).
+#: Element loops, not array expressions, fancy indexing or slice assignments: those compile
+#: several times slower (broadcasting and its error messages) for the same arithmetic.
 
 
-@_jit
+@compiled(F2, F2, F2, F2, F1)
 def crossover(x1, x2, v1, v2, pc):
     """Eqs 25-28 for a batch of pairs: ``pc`` has one value per pair (shape ``(m,)``).
 
@@ -38,10 +40,19 @@ def crossover(x1, x2, v1, v2, pc):
         child_1 = p_c parent_1 + (1 - p_c) parent_2 = parent_2 + p_c (parent_1 - parent_2)
         child_2 = (1 - p_c) parent_1 + p_c parent_2 = parent_1 - p_c (parent_1 - parent_2)
     """
-    p = pc.reshape(-1, 1)
-    dx = (x1 - x2) * p
-    dv = (v1 - v2) * p
-    return x2 + dx, x1 - dx, v2 + dv, v1 - dv
+    m, D = x1.shape
+    c1x, c2x = np.empty((m, D)), np.empty((m, D))
+    c1v, c2v = np.empty((m, D)), np.empty((m, D))
+    for r in range(m):
+        p = pc[r]
+        for d in range(D):
+            dx = (x1[r, d] - x2[r, d]) * p
+            dv = (v1[r, d] - v2[r, d]) * p
+            c1x[r, d] = x2[r, d] + dx
+            c2x[r, d] = x1[r, d] - dx
+            c1v[r, d] = v2[r, d] + dv
+            c2v[r, d] = v1[r, d] - dv
+    return c1x, c2x, c1v, c2v
 
 
 def greedy_mutation(cost_child: np.ndarray, cost_mutant: np.ndarray) -> np.ndarray:
@@ -49,7 +60,7 @@ def greedy_mutation(cost_child: np.ndarray, cost_mutant: np.ndarray) -> np.ndarr
     return np.asarray(cost_mutant) < np.asarray(cost_child)
 
 
-@_jit
+@compiled(FA1, FA1, f8)
 def shared_fragment(xa, xb, tol2):
     """The fragment two particles exchange in the paper's crossover ("intercept the locally
     identical path information ... swapping each other"): waypoint indices ``[lo, hi)``.
@@ -77,8 +88,8 @@ def shared_fragment(xa, xb, tol2):
     return a + 1, b
 
 
-@_jit
-def ga_pairs(F, X, n_islands, n_select, tol2, swap=False):
+@compiled(F1, FA2, i8, i8, f8, b1)
+def ga_pairs(F, X, n_islands, n_select, tol2, swap):
     """Selection of eqs 25-28: per island (blocks of consecutive particles) its ``n_select``
     best particles by cost, in stable rank order, paired 1st-2nd, 3rd-4th, ...; a pair is kept
     when some corresponding waypoints are closer than ``sqrt(tol2)`` ("locally identical path
@@ -125,7 +136,7 @@ def ga_pairs(F, X, n_islands, n_select, tol2, swap=False):
     return pairs[:h], isl[:h], frag[:h]
 
 
-@_jit
+@compiled(F2, F2, F2, F2, I2)
 def swap_fragments(x1, x2, v1, v2, frag):
     """The paper's crossover text for a batch of pairs: child 1 is parent 1 with the fragment
     ``frag[r]`` (waypoints ``[lo, hi)``) of parent 2, child 2 the converse; velocities the
@@ -140,7 +151,17 @@ def swap_fragments(x1, x2, v1, v2, frag):
     return c1x, c2x, c1v, c2v
 
 
-@_jit
+@inlined
+def _rows(X, idx):
+    """``X[idx]`` (rows, as a new C array)."""
+    out = np.empty((idx.shape[0], X.shape[1]))
+    for r in range(idx.shape[0]):
+        for d in range(X.shape[1]):
+            out[r, d] = X[idx[r], d]
+    return out
+
+
+@compiled(FA2, F2, I2, F1, F2, F1, FA2, I2, b1)
 def ga_children(X, V, pairs, pc, noise, sigma, out, frag, swap):
     """Eqs 25-28 (``swap``: :func:`swap_fragments` of ``frag``; ``pc`` unused) and the
     mutation candidates of eq 29 for the ``h`` crossed pairs.
@@ -151,17 +172,22 @@ def ga_children(X, V, pairs, pc, noise, sigma, out, frag, swap):
     """
     h = pairs.shape[0]
     m = 2 * h
+    D = X.shape[1]
     a, b = pairs[:, 0], pairs[:, 1]
     if swap:
-        c1x, c2x, c1v, c2v = swap_fragments(X[a], X[b], V[a], V[b], frag)
+        c1x, c2x, c1v, c2v = swap_fragments(_rows(X, a), _rows(X, b), _rows(V, a),
+                                            _rows(V, b), frag)
     else:
-        c1x, c2x, c1v, c2v = crossover(X[a], X[b], V[a], V[b], pc)
-    out[m:m + h] = c1x
-    out[m + h:2 * m] = c2x
+        c1x, c2x, c1v, c2v = crossover(_rows(X, a), _rows(X, b), _rows(V, a), _rows(V, b),
+                                       pc)
+    cv = np.empty((m, D))
+    for r in range(h):
+        for d in range(D):
+            out[m + r, d] = c1x[r, d]
+            out[m + h + r, d] = c2x[r, d]
+            cv[r, d] = c1v[r, d]
+            cv[h + r, d] = c2v[r, d]
     for r in range(m):
-        out[r] = noise[r] * sigma + out[m + r]  # child + C_k
-    cv = np.empty((m, X.shape[1]))
-    cv[:h] = c1v
-    cv[h:] = c2v
+        for d in range(D):
+            out[r, d] = noise[r, d] * sigma[d] + out[m + r, d]  # child + C_k
     return cv
-

@@ -77,9 +77,9 @@ import math
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
-import numba
 import numpy as np
 
+from optplan.geometry.jit import F1, F2, F3, FA2, I1, I2, b1, compiled, f8, i8
 from optplan.solver import option
 from optplan.swarm.backend import SwarmBackend, SwarmState
 from optplan.swarm.core import PathBuffer, SwarmSpace, evaluate_paths
@@ -106,7 +106,6 @@ POSITION_MODES = ("paper", "step", "frame")
 ENDGAME_MODES = ("islands", "classes")
 CROSSOVER_MODES = ("blend", "swap")
 
-_jit = numba.njit(cache=True, nogil=True)
 _NO_DRAW = np.zeros(0)
 
 
@@ -153,7 +152,7 @@ def position_factor(k: float | np.ndarray, k_max: int) -> float | np.ndarray:
 
 
 
-@_jit
+@compiled(FA2, F2, F2, F2, I1, f8, f8, f8, F3, F1, f8, i8, F1, F1, FA2, F2)
 def move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal, out_X,
          out_V):
     """Eqs 22-24 for the whole swarm: ``V^{k+1}`` into ``out_V`` (eq 22 with ``eps = U[0]``,
@@ -187,7 +186,8 @@ def move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal
                     out_X[i, d] = (X[i, d] - foot) * R + foot + out_V[i, d]
 
 
-@_jit
+@compiled(FA2, F2, F2, F2, I1, f8, f8, f8, F3, F1, f8, i8, F1, F1, I2, F1, F2, F1, F1, F1, i8,
+          FA2, F2, I2, b1)
 def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal,
             pairs, pc, noise, sigma, lo, hi, bound_code, B, V_new, frag, swap):
     """The pre-evaluation part of one iteration, into the batch ``B``: GA children and
@@ -210,7 +210,7 @@ def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, g
     return cv, out, anyout
 
 
-@_jit
+@compiled(F1, I1, i8)
 def _worst_slots(F, isl, n_islands):
     """Slots of the worst particles: the r-th child of island i takes the r-th worst particle
     of island i (``isl`` sorted by island; one island: the worst of the whole swarm)."""
@@ -228,7 +228,7 @@ def _worst_slots(F, isl, n_islands):
     return slots
 
 
-@_jit
+@compiled(FA2, F2, F1, F1, I1, FA2, i8, F2, I1, F2, F1, i8)
 def absorb(X, V, cost, length, count, B, m, cv, isl, pbest, pbest_f, n_islands):
     """Memories after the evaluation of the batch ``B`` (swarm ``:P``, mutants, children),
     in place: the best scored row and the shortest collision-free row (their positions are
@@ -249,9 +249,11 @@ def absorb(X, V, cost, length, count, B, m, cv, isl, pbest, pbest_f, n_islands):
             j_feas = r
     feas_x = B[max(j_feas, 0)].copy()
     F = cost[:P].copy()
+    D = X.shape[1]
     for i in range(P):
         if F[i] < pbest_f[i]:
-            pbest[i] = X[i]
+            for d in range(D):  # element loops, not row assignments (module docstring)
+                pbest[i, d] = X[i, d]
             pbest_f[i] = F[i]
     kept = 0
     if m > 0:
@@ -262,16 +264,17 @@ def absorb(X, V, cost, length, count, B, m, cv, isl, pbest, pbest_f, n_islands):
             r = o[q]
             row = P + r if use_m[r] else P + m + r
             s = slots[q]
-            X[s] = B[row]  # the weakly adapted individuals die out
-            V[s] = cv[r]
+            for d in range(D):  # the weakly adapted individuals die out
+                X[s, d] = B[row, d]
+                V[s, d] = cv[r, d]
+                pbest[s, d] = B[row, d]
             F[s] = cost[row]
-            pbest[s] = B[row]
             pbest_f[s] = cost[row]
             kept += use_m[r]
     return F, kept, j_best, best_x, j_feas, feas_x
 
 
-@_jit
+@compiled(F1, i8)
 def island_bests(pbest_f, n_islands):
     """Index of each island's best personal best (islands = blocks of consecutive particles)."""
     m_i = pbest_f.shape[0] // n_islands

@@ -25,9 +25,9 @@ Initialisation (option ``init_mode``)
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from optplan.geometry.jit import F1, F2, FA2, I1, compiled, f8, i8
 from optplan.swarm.core import SwarmSpace
 
 __all__ = [
@@ -47,10 +47,7 @@ BOUNDS_MODES = ("reflect", "clip", "random")
 INIT_MODES = ("sorted", "uniform", "line", "roadmap")
 
 #: Compiled helpers (numba; cached on disk after the first run, see docs/solvers/pso.md).
-_jit = numba.njit(cache=True, nogil=True)
-
-
-@_jit
+@compiled(F2, FA2, F2, F2, I1, f8, f8, f8, F2, F2, F1, F2)
 def velocity_update(V, X, pbest, guides, leader, w, c1, c2, eps, eta, vmax, out):
     """Eq 1 (PSO) and eq 22 (IPSO) for the whole swarm, written into ``out`` (returned)::
 
@@ -73,7 +70,7 @@ def velocity_update(V, X, pbest, guides, leader, w, c1, c2, eps, eta, vmax, out)
     return out
 
 
-@_jit
+@compiled(FA2, F1, F1, i8)
 def bound_rows(X, lo, hi, code):
     """Bounds handling of the rows of ``X`` into ``[lo, hi]``, in place: ``code`` 1 =
     ``reflect``, 2 = ``clip``, 0 = ``random`` (nothing moves here: the caller re-draws the

@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from optplan.geometry.jit import F1, I1, compiled, f8, i8
 from optplan.swarm.core import SwarmSpace, pairs_free
 from optplan.swarm.refine import _flat, _pull
 from optplan.swarm.samples import roadmap_nodes
@@ -39,7 +40,7 @@ __all__ = ["CORNER_REACH", "YAO_SECTORS", "Roadmap", "build_roadmap", "roadmap_c
 _jit = numba.njit(cache=True, nogil=True)
 
 
-@_jit
+@compiled(F1, I1, i8, f8, i8)  # one signature: no literal-argument specialisations
 def _heap_push(hk, hv, size, key, val):
     """Push ``(key, val)`` onto the binary min-heap ``hk, hv`` of ``size`` items."""
     i = size
@@ -55,7 +56,7 @@ def _heap_push(hk, hv, size, key, val):
     return size + 1
 
 
-@_jit
+@compiled(F1, I1, i8)
 def _heap_pop(hk, hv, size):
     """Pop the smallest ``(key, val)``; returns it and the new size."""
     key, val = hk[0], hv[0]

@@ -375,7 +375,7 @@ def test_compiled_step_follows_eqs_22_to_29():
     F = rng.random(P)
     gbest = pbest[0]
     lo, hi = np.zeros(D), np.full(D, 10.0)
-    pairs, isl, frag = ga.ga_pairs(F, X, 1, 4, np.inf)
+    pairs, isl, frag = ga.ga_pairs(F, X, 1, 4, np.inf, False)
     order = np.argsort(F, kind="stable")[:4]
     np.testing.assert_array_equal(pairs, order.reshape(2, 2))  # rank-order pairs
     h = len(pairs)

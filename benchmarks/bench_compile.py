@@ -1,0 +1,145 @@
+"""First-run cost of the numba kernels: compile CPU seconds per kernel module with an empty
+cache, and the first- and second-solve CPU times of ``visgraph``, ``ipso``, ``sa-apf-paper``
+and ``hybrid-paper``.
+
+Each case runs in a fresh Python process whose ``NUMBA_CACHE_DIR`` is a new empty temporary
+directory, so every kernel it needs is compiled there (nothing is read from the package's
+``__pycache__`` or from the user cache).  The child measures CPU seconds
+(``time.process_time``: every thread of the process; the machine is shared, so wall times
+would measure the other users), in this order:
+
+* ``import``: ``import optplan`` and the kernel modules (the eagerly compiled kernels, those
+  with an explicit signature, are compiled here);
+* ``first solve``: the first ``op.solve(problem, solver, rng=0)`` (lazily compiled kernels
+  compile here);
+* ``second solve``: the same call again in the same process (no compilation);
+* ``warm import`` and ``warm first solve``: a second fresh process on the now filled cache (what
+  every later process pays: loading the cached machine code).
+
+Compile time per kernel module comes from numba's ``numba:compile`` events (CPU seconds
+between the start and the end of a dispatcher's compilation, minus the compilations nested in
+it), summed over the dispatchers of a module, over one process that imports optplan and runs
+the four solves (one empty cache).  The targets of issue 28 are printed beside the times:
+first ``ipso`` solve (import included) <= 10 s CPU, first ``visgraph`` solve <= 5 s CPU.
+
+Run: ``.venv/bin/python benchmarks/bench_compile.py [--cases visgraph ipso ...]
+[--json out.json]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+#: name -> (problem, solver): the cases of issue 28
+CASES = {
+    "visgraph": ("paper-env1", "visgraph"),
+    "ipso": ("paper-env1", "ipso"),
+    "sa-apf-paper": ("paper-warehouse", "sa-apf-paper"),
+    "hybrid-paper": ("paper-warehouse", "hybrid-paper"),
+}
+#: CPU-second targets of issue 28 (import + first solve in a fresh process, empty cache)
+TARGETS = {"visgraph": 5.0, "ipso": 10.0}
+
+
+def _child(cases: list[str]) -> dict:
+    """Run in the fresh process: import, then each case twice; CPU seconds and the compile
+    CPU per dispatcher."""
+    from numba.core import event
+
+    stack: list[list[float]] = []
+    per_fn: dict[str, float] = {}
+
+    class _Listener(event.Listener):
+        def on_start(self, ev):
+            stack.append([time.process_time(), 0.0])
+
+        def on_end(self, ev):
+            t0, nested = stack.pop()
+            took = time.process_time() - t0
+            if stack:
+                stack[-1][1] += took
+            disp = ev.data["dispatcher"]
+            name = f"{disp.py_func.__module__}:{disp.py_func.__qualname__}"
+            per_fn[name] = per_fn.get(name, 0.0) + took - nested
+
+    event.register("numba:compile", _Listener())
+    out: dict = {"per_fn": per_fn, "cases": {}}
+    t = time.process_time()
+    import optplan as op
+
+    out["import"] = time.process_time() - t
+    for case in cases:
+        problem, solver = CASES[case]
+        times = []
+        for _ in range(2):
+            t = time.process_time()
+            op.solve(problem, solver, rng=0)
+            times.append(time.process_time() - t)
+        out["cases"][case] = times
+    return out
+
+
+def run_child(cases: list[str], cache: str) -> dict:
+    """A fresh interpreter with ``NUMBA_CACHE_DIR=cache`` running :func:`_child`."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+    code = (f"import json, sys; sys.path.insert(0, {os.path.dirname(__file__)!r}); "
+            f"import bench_compile as b; print(json.dumps(b._child({cases!r})))")
+    p = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                       check=True)
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
+    ap.add_argument("--json", default=None, help="also write the measurements here")
+    args = ap.parse_args(argv)
+    print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    rows, record = [], {}
+    for case in args.cases:
+        with tempfile.TemporaryDirectory(prefix="optplan-numba-") as cache:
+            cold = run_child([case], cache)
+            warm = run_child([case], cache)
+        first = cold["import"] + cold["cases"][case][0]
+        target = TARGETS.get(case)
+        record[case] = {"cold": cold, "warm": warm}
+        rows.append(f"| {case} | {cold['import']:.2f} | {cold['cases'][case][0]:.2f} | "
+                    f"{first:.2f} | {f'<= {target:.0f}' if target else '-'} | "
+                    f"{cold['cases'][case][1]:.2f} | {warm['import']:.2f} | "
+                    f"{warm['cases'][case][0]:.2f} |")
+    print("\nCPU seconds per case, fresh process, empty NUMBA_CACHE_DIR (cold), then a second "
+          "process on that cache (warm):\n")
+    print("| case | import | first solve | import + first | target | second solve | "
+          "warm import | warm first solve |")
+    print("|---|---|---|---|---|---|---|---|")
+    print("\n".join(rows))
+    with tempfile.TemporaryDirectory(prefix="optplan-numba-") as cache:
+        allc = run_child(list(CASES), cache)
+    record["all"] = allc
+    mods: dict[str, float] = {}
+    for name, sec in allc["per_fn"].items():
+        mod = name.split(":")[0]
+        mods[mod] = mods.get(mod, 0.0) + sec
+    print("\nCompile CPU seconds per kernel module (numba:compile events, nested compilations "
+          "apart; one process running the four cases on an empty cache):\n")
+    print("| module | compile CPU s | dispatchers |")
+    print("|---|---|---|")
+    for mod, sec in sorted(mods.items(), key=lambda kv: -kv[1]):
+        n = sum(1 for k in allc["per_fn"] if k.split(":")[0] == mod)
+        print(f"| {mod} | {sec:.2f} | {n} |")
+    print(f"| total | {sum(mods.values()):.2f} | {len(allc['per_fn'])} |")
+    print(f"\nload average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(record, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,141 @@
+"""Compiled decisions and distances of many given segments at once (numba; the only
+implementation): :func:`free_pairs`, the collision-free flags of index pairs of points (the
+swarm's roadmap and string pulling), and :func:`pairs`, the exact ``(dist, inside)`` of explicit
+(segment, item) pairs (the NLP's pair distances).
+
+The loops of :mod:`optplan.geometry.kernel` (its data layout, screens and :func:`pair`), in a
+module of their own: only the planners that ask these questions import it (through
+:meth:`optplan.geometry.obstacles.ObstacleSet.pairs_free` and ``pair_geometry``), so a process
+that never does, e.g. one ``visgraph`` solve, never compiles them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import types
+
+from optplan.geometry.jit import F1, F2, F3, I1, b1, compiled, f8, i8
+from optplan.geometry.kernel import (
+    _GRID,
+    _ITEMS,
+    _SEG,
+    _apart,
+    _candidates,
+    _item_boxes,
+    _near_item,
+    pair,
+)
+
+__all__ = ["free_pairs", "pairs"]
+
+
+@compiled(*_SEG, f8, f8, f8, f8, i8, F2, i8, F3, F2, F2, F1, f8)
+def _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim):
+    """Item ``k`` may be within ``lim`` of the segment: its grown box meets the segment's box
+    ``(x0, x1, y0, y1)``, its bounding circle is near, no edge line separates them."""
+    if bb[0, k] > x1 or bb[1, k] < x0 or bb[2, k] > y1 or bb[3, k] < y0:
+        return False
+    if not _near_item(ax, ay, dx, dy, k, IC, IR, lim):
+        return False
+    return not (k < K and _apart(ax, ay, dx, dy, k, N, C, lim))
+
+
+@compiled(*_SEG, types.UniTuple(f8, 4), i8, i8, I1, i8, b1, I1, F2, i8, F3, F3, F3, F2, F2,
+          F2, F1, F1, I1, f8, f8, f8, I1, F1, I1)
+def _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K, P, E, N, C,
+                   CE, IC, IR, CR, OWN, r, eps, lim, o_stamp, o_in, touched):
+    """One segment of :func:`free_pairs` (its box ``(x0, x1, y0, y1)``): the first item closer
+    than ``r - eps`` (the item ``last`` tried first), ``-2`` when only an obstacle's summed
+    ``inside`` exceeds ``eps``, ``-1`` when the segment is free."""
+    x0, x1, y0, y1 = box
+    nt = 0
+    for c in range(-1, m):
+        if c < 0:  # the last colliding item first (with a grid: if the segment lists it)
+            k = last
+            if k < 0 or (use_grid and stamp[k] != q):
+                continue
+        else:
+            k = cand[c]
+            if k == last:
+                continue
+        if not _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim):
+            continue
+        dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
+        if dist < r - eps:
+            return k
+        o = OWN[k]
+        if o_stamp[o] != q:
+            o_stamp[o] = q
+            o_in[o] = 0.0
+            touched[nt] = o
+            nt += 1
+        o_in[o] += inside
+    for c in range(nt):
+        if o_in[touched[c]] > eps:
+            return -2
+    return -1
+
+
+@compiled(F2, I1, I1, i8, F3, F3, F3, F2, F2, F2, F1, F1, I1, i8, f8, f8, *_GRID)
+def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_grid, gh, gx0,
+               gy0, gnx, gny, gstart, gcount, gitems):
+    """Collision-free flags of the segments ``L[I[q]] -> L[J[q]]`` (local points): the
+    decision of :func:`crossings` (``count == 0``: no item with ``dist < r - eps`` and no
+    obstacle whose summed ``inside`` exceeds ``eps``), with the same screens and the same
+    :func:`pair`, answered with less work.
+
+    * A segment stops at its first colliding item (no count is needed).
+    * The item that stopped the previous segment is tried first (consecutive segments of a
+      roadmap share an end and are often stopped by the same obstacle).
+    * Before the bounding-circle screen, each item's axis-aligned box grown by ``r + 2 eps``
+      is compared with the segment's box (no division; an item outside it is farther than
+      ``r + 2 eps``, which the screens of :func:`crossings` skip as well).
+
+    Tested against shapely and against :func:`crossings` in ``tests/swarm/test_swarm.py`` (its
+    caller is :func:`optplan.swarm.core.pairs_free`).
+    """
+    n = I.shape[0]
+    free = np.ones(n, np.bool_)
+    n_items = IC.shape[0]
+    lim = r + 2.0 * eps
+    bb = _item_boxes(K, P, IC, CR, lim)
+    mask = np.empty(n_items, np.bool_)  # scratch of _candidates
+    stamp = np.full(n_items, -1, np.int64)
+    cand = np.arange(n_items)
+    o_stamp = np.full(n_obs, -1, np.int64)
+    o_in = np.zeros(n_obs)
+    touched = np.empty(n_items, np.int64)
+    last = -1
+    for q in range(n):
+        ax = L[I[q], 0]
+        ay = L[I[q], 1]
+        bx = L[J[q], 0]
+        by = L[J[q], 1]
+        dx = bx - ax
+        dy = by - ay
+        box = (min(ax, bx), max(ax, bx), min(ay, by), max(ay, by))
+        m = n_items
+        if use_grid:
+            m = _candidates(ax, ay, dx, dy, n_items, IC, IR, bb, mask, lim, use_grid, gh, gx0,
+                            gy0, gnx, gny, gstart, gcount, gitems, stamp, q, cand)
+        blocker = _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K,
+                                 P, E, N, C, CE, IC, IR, CR, OWN, r, eps, lim, o_stamp, o_in,
+                                 touched)
+        if blocker >= 0:
+            last = blocker
+        free[q] = blocker == -1
+    return free
+
+
+
+@compiled(I1, I1, F2, F2, i8, *_ITEMS, f8)
+def pairs(SI, IT, A, D, K, P, E, N, C, CE, IC, CR, eps):
+    """:func:`pair` for explicit (segment ``SI[q]``, item ``IT[q]``) pairs."""
+    n = SI.shape[0]
+    dist = np.empty(n)
+    inside = np.empty(n)
+    for q in range(n):
+        s = SI[q]
+        dist[q], inside[q] = pair(A[s, 0], A[s, 1], D[s, 0], D[s, 1], IT[q], K, P, E, N, C,
+                                  CE, IC, CR, eps)
+    return dist, inside

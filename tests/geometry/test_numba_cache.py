@@ -1,0 +1,64 @@
+"""A read-only installation still caches its compiled kernels (optplan.geometry.jit).
+
+A copy of the package whose directories cannot hold a ``__pycache__`` (a file of that name
+stands in each; this holds even for root, whom permission bits do not stop) is imported in
+two fresh processes with ``NUMBA_CACHE_DIR`` unset and ``XDG_CACHE_HOME`` pointing at an empty
+directory: the first compiles the geometry kernel and writes numba's user-wide cache there, the
+second loads every kernel from it and compiles nothing.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import stat
+import subprocess
+import sys
+from pathlib import Path
+
+PKG = Path(__file__).resolve().parents[2] / "optplan"
+
+CHILD = """
+import json
+from optplan.geometry import kernel
+stats = {n: getattr(kernel, n).stats for n in kernel.__all__}
+print(json.dumps({n: [sum(s.cache_hits.values()), sum(s.cache_misses.values())]
+                  for n, s in stats.items()}))
+"""
+
+
+def _read_only_copy(dst: Path) -> Path:
+    """The package's sources under ``dst`` with no writable ``__pycache__`` anywhere."""
+    pkg = dst / "optplan"
+    shutil.copytree(PKG, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    for d in [pkg, *(p for p in pkg.rglob("*") if p.is_dir())]:
+        (d / "__pycache__").write_text("not a directory\n")
+    for p in [pkg, *pkg.rglob("*")]:
+        p.chmod(p.stat().st_mode & ~(stat.S_IWUSR | stat.S_IWGRP | stat.S_IWOTH))
+    return pkg
+
+
+def _run(root: Path, cache_home: Path) -> dict:
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env.update(PYTHONPATH=str(root), XDG_CACHE_HOME=str(cache_home),
+               PYTHONDONTWRITEBYTECODE="1")
+    p = subprocess.run([sys.executable, "-c", CHILD], env=env, capture_output=True, text=True,
+                       cwd=root, check=True)
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
+def test_read_only_package_caches_in_the_user_cache_dir(tmp_path: Path) -> None:
+    pkg = _read_only_copy(tmp_path / "site")
+    try:
+        first = _run(tmp_path / "site", tmp_path / "cache")
+        written = sorted(p.name for p in (tmp_path / "cache" / "numba").rglob("kernel.*.nbi"))
+        second = _run(tmp_path / "site", tmp_path / "cache")
+    finally:
+        for p in [pkg, *pkg.rglob("*")]:
+            p.chmod(p.stat().st_mode | stat.S_IWUSR)
+    assert all(miss == 1 and hit == 0 for hit, miss in first.values()), first
+    assert any(n.startswith("kernel.crossings-") for n in written), written
+    assert all(hit == 1 and miss == 0 for hit, miss in second.values()), second
+    assert not any((d / "__pycache__").is_dir() for d in [pkg, *pkg.rglob("*")]
+                   if d.is_dir())
