@@ -39,6 +39,7 @@ from tests.exact.time_oracle import (
     grid_earliest_arrival,
     mover_max_speed,
 )
+from tests.geometry.time_scenes import scaled_mover
 
 R = 0.7
 
@@ -66,17 +67,7 @@ def scene(*movers, radius=0.2, speed=1.0, start=(1, 5), goal=(9, 5), obstacles=(
             o["radius"] *= scale
         return o
 
-    dyn = []
-    for m in movers:
-        m = dict(m)
-        m["waypoints"] = [pt(p) for p in m["waypoints"]]
-        if "times" in m:
-            m["times"] = [t * scale for t in m["times"]]
-        if "radius" in m:
-            m["radius"] *= scale
-        if "vertices" in m:
-            m["vertices"] = [[x * scale, y * scale] for x, y in m["vertices"]]
-        dyn.append(m)
+    dyn = [scaled_mover(m, pt, scale) for m in movers]
     x0, y0, x1, y1 = bounds
     return parse_problem({
         "name": "sipp-test", "bounds": [*pt((x0, y0)), *pt((x1, y1))],
