@@ -1,4 +1,4 @@
-"""Issue 30: the bounds are a wall, so the certified optimum exists wherever a path does.
+"""The bounds are a wall, so the certified optimum exists wherever a path does.
 
 A small version of ``benchmarks/bench_bounds.py``: a random MovingAI-type map *without* a
 border of obstacles (start/goal cells on its border rows and columns included) read through

@@ -424,7 +424,7 @@ def test_validate_rows_and_table() -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["paper-env1", "paper-env2"])
 def test_polishing_ipso_paper_closes_the_gap(name: str) -> None:
-    """Issue 4: never longer than the initial guess; median gap <= 0.1 % in the optimal class."""
+    """Never longer than the initial guess; median gap <= 0.1 % in the optimal class."""
     rows = validate(name, "ipso-paper", seeds=30)  # ~1 in 3 ipso-paper runs is in the class
     s = summarize(rows)
     for r in rows:

@@ -1,4 +1,4 @@
-"""The waypoint NLP's flat constraint vector (issue 18): one block of rows per kept
+"""The waypoint NLP's flat constraint vector: one block of rows per kept
 (segment, piece) pair, no empty slots padded to the busiest segment's count."""
 
 from __future__ import annotations
