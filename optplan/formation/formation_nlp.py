@@ -88,6 +88,16 @@ class FormationNLP(Backend):
     tol: float = option(1e-6, lo=1e-12, hi=1e-2)
     mu_strategy: str = option("adaptive", choices=("adaptive", "monotone"))
 
+    def check(self) -> None:
+        """``warm_start`` names a registered team planner other than this one."""
+        if self.warm_start in (self.name, self.preset or self.name):
+            raise ValueError(f"warm_start = {self.warm_start!r}: the NLP cannot start from "
+                             "itself (use a team planner such as 'hybrid-qp')")
+        try:
+            get_solver(self.warm_start)
+        except (ValueError, ImportError) as e:
+            raise ValueError(f"warm_start = {self.warm_start!r}: not a solver ({e})") from None
+
     def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
               init: dict[str, np.ndarray] | None = None,
               callback: Callable[[Progress], Any] | None = None) -> Result:

@@ -98,3 +98,7 @@ def test_bad_inputs_give_a_clear_status():
     assert res.metrics["static_collisions"] == 0 or res.status.value != "solved"
     with pytest.raises(ValueError, match="n_steps"):
         op.get_solver("formation-nlp", n_steps=1)
+    with pytest.raises(ValueError, match="warm_start = 'no-such-planner': not a solver"):
+        op.get_solver("formation-nlp", warm_start="no-such-planner")
+    with pytest.raises(ValueError, match="cannot start from itself"):
+        op.get_solver("formation-nlp", warm_start="formation-nlp")
