@@ -23,7 +23,7 @@ def _xy(text: str, flag: str) -> tuple[float, ...]:
 
 def cmd_import_map(args: argparse.Namespace, out: TextIO) -> int:
     from optplan.catalog import find_map
-    from optplan.maps import import_map, to_toml
+    from optplan.maps import MAX_CELLS, import_map, to_toml
 
     path = find_map(args.map)
     starts = [_xy(s, "--start") for s in args.start]
@@ -48,7 +48,9 @@ def cmd_import_map(args: argparse.Namespace, out: TextIO) -> int:
         negate=True if args.negate else None, mode=args.mode,
         occupied_thresh=args.occupied_thresh, free_thresh=args.free_thresh,
         unknown=args.unknown, grow=args.grow, simplify=args.simplify, join=args.join,
-        fill_unreachable=not args.keep_holes, name=args.name, info=info)
+        fill_unreachable=not args.keep_holes, name=args.name, info=info,
+        crop={"auto": "auto", "on": True, "off": False}[args.crop],
+        max_cells=MAX_CELLS if args.max_cells is None else args.max_cells)
     dt = time.perf_counter() - t0
     header = (f"Imported from {path} by 'optplan import-map' (grow {args.grow:g} cells, "
               f"simplify {args.simplify:g} cells, unknown = {args.unknown}).")
@@ -63,5 +65,11 @@ def cmd_import_map(args: argparse.Namespace, out: TextIO) -> int:
     print(f"{path}: {c['occupied']} occupied, {c['unknown']} unknown, {c['free']} free cells "
           f"-> {info['polygons']} polygons, {info['vertices']} vertices "
           f"({info['holes_filled']} unreachable holes filled) in {dt * 1e3:.0f} ms", file=out)
+    crop = info["crop"]
+    if crop["cropped"]:
+        (r0, r1), (c0, c1) = crop["rows"], crop["cols"]
+        print(f"cropped to the known cells: rows {r0}..{r1 - 1}, columns {c0}..{c1 - 1} of "
+              f"{crop['shape'][0]} x {crop['shape'][1]} ({crop['margin']:.0%} of the image was "
+              f"unknown margin); bounds {list(prob.bounds)}", file=out)
     print(f"wrote {dest} (try: {PROG} solve {dest} visgraph)", file=out)
     return 0

@@ -174,7 +174,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--max-speed", type=float, default=1.0, metavar="V",
                    help="speed limit of every robot (map units / s, default 1)")
     s.add_argument("--out", metavar="TOML", help="scenario file to write (default: stdout)")
-    s.add_argument("--name", help="scenario name (default: the map file's stem)")
+    s.add_argument("--name", help="scenario name (default: the map file's stem; for map.yaml "
+                                  "its directory's name)")
     s.add_argument("--resolution", type=float, metavar="RES",
                    help="cell size of a bare image or MovingAI map (map units per cell)")
     s.add_argument("--origin", metavar="X,Y[,YAW]",
@@ -197,5 +198,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="growth corners: round (Euclidean, default) or mitre (square)")
     s.add_argument("--keep-holes", action="store_true",
                    help="keep free holes no start or goal lies in (default: fill them)")
+    s.add_argument("--crop", choices=["auto", "on", "off"], default="auto",
+                   help="crop the map to its known cells (default auto: when the unknown "
+                        "margin outside them is more than 25 %% of the image and --unknown "
+                        "is occupied)")
+    s.add_argument("--max-cells", type=int, metavar="N",
+                   help="largest map read, in cells (default 67108864 = 8192 x 8192)")
     s.set_defaults(func=cmd_import_map)
     return p

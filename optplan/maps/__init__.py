@@ -39,9 +39,10 @@ rows covers ``origin + R(yaw) @ resolution * ([col, col + 1] x [H - 1 - row, H -
 
 from __future__ import annotations
 
-from optplan.maps.grid import FREE, OCCUPIED, UNKNOWN, Grid
+from optplan.maps.grid import FREE, MAX_CELLS, OCCUPIED, UNKNOWN, Grid
+from optplan.maps.importer import CROP_MARGIN as CROP_MARGIN
 from optplan.maps.importer import ROUND_REL as ROUND_REL
-from optplan.maps.importer import import_map
+from optplan.maps.importer import import_map, scene_name
 from optplan.maps.movingai import MOVINGAI_BLOCKED as MOVINGAI_BLOCKED
 from optplan.maps.movingai import MOVINGAI_PASSABLE as MOVINGAI_PASSABLE
 from optplan.maps.movingai import read_movingai
@@ -64,6 +65,7 @@ __all__ = [
     "FREE",
     "OCCUPIED",
     "UNKNOWN",
+    "MAX_CELLS",
     "Grid",
     "ScenEntry",
     "read_grid",
@@ -76,6 +78,7 @@ __all__ = [
     "exact_union",
     "grid_polygons",
     "import_map",
+    "scene_name",
     "to_toml",
     "write_toml",
     "write_batch",

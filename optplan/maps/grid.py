@@ -18,6 +18,12 @@ from optplan.problem import ProblemError
 #: Cell states of a :class:`Grid`.
 FREE, OCCUPIED, UNKNOWN = 0, 1, 2
 
+#: The largest map the readers accept, in cells (pixels of an image): 8192 x 8192.  A size
+#: above it is an error before anything of that size is allocated or decoded (the readers'
+#: ``max_cells=`` raises it); decoding works in float64 channels, about 1.6 GB for an RGB
+#: image of this size.
+MAX_CELLS = 8192 * 8192
+
 
 def _err(where: Any, key: str, msg: str) -> ProblemError:
     return ProblemError(f"{where}: {key}: {msg}")
@@ -117,6 +123,16 @@ class Grid:
         """Exact union of the cell squares of ``mask`` (default: occupied or unknown), world."""
         m = self.obstacle_mask() if mask is None else np.asarray(mask, dtype=bool)
         return self.to_world(exact_union(m))
+
+
+def _check_cells(where: Any, key: str, height: int, width: int, max_cells: int,
+                 what: str = "") -> None:
+    """A map of ``height x width`` cells is at most ``max_cells`` (checked before allocating);
+    ``what`` starts the message (``"image 'x.png': "``)."""
+    if height * width > max_cells:
+        raise _err(where, key, f"{what}{width} x {height} = {width * height:,} cells, more "
+                               f"than the limit of {max_cells:,} (max_cells; {MAX_CELLS:,} = "
+                               "8192 x 8192 by default): too large to read safely")
 
 
 def _check_unknown(unknown: str, where: Any) -> None:

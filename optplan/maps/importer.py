@@ -3,6 +3,7 @@ import's record."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 from collections.abc import Iterable, Sequence
@@ -13,7 +14,16 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon, box
 
-from optplan.maps.grid import FREE, OCCUPIED, UNKNOWN, Grid, _check_unknown, _err, _number
+from optplan.maps.grid import (
+    FREE,
+    MAX_CELLS,
+    OCCUPIED,
+    UNKNOWN,
+    Grid,
+    _check_unknown,
+    _err,
+    _number,
+)
 from optplan.maps.occupancy import read_grid
 from optplan.maps.polygons import _polys, grid_polygons
 from optplan.problem import Problem, parse_problem, ring_points
@@ -22,14 +32,80 @@ from optplan.problem import Problem, parse_problem, ring_points
 #: (decimal digits; far below the geometric tolerance ``1e-9 x`` the bounds diagonal).
 ROUND_REL = 1e-12
 
+#: ``crop="auto"`` crops a map whose cells outside the bounding box of its known (free or
+#: occupied) cells, all unknown, are more than this share of the image.
+CROP_MARGIN = 0.25
+
+#: File stems that say nothing of the map (``map_saver`` writes ``map.yaml`` and ``map.pgm``):
+#: the scene is named after the nearest directory that says more.
+_GENERIC_STEMS = frozenset({"map", "maps", "image", "occupancy", "grid"})
+
+
+def _digits(grid: Grid) -> int:
+    """Decimal digits of ``ROUND_REL x`` the map size."""
+    size = max(grid.width, grid.height) * grid.resolution
+    return max(0, -math.floor(math.log10(ROUND_REL * size)))
+
 
 def _world(grid: Grid, q: Polygon) -> Polygon:
     """A polygon in cell units in world coordinates, rounded to ``ROUND_REL x`` the map size
     (``20.025`` rather than ``20.025000000000006`` in the written scenario)."""
-    size = max(grid.width, grid.height) * grid.resolution
-    digits = max(0, -math.floor(math.log10(ROUND_REL * size)))
+    digits = _digits(grid)
     w = grid.to_world(q)
     return shapely.transform(w, lambda xy: np.round(xy, digits))
+
+
+def _clean(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9_.-]+", "-", text).strip("-.")
+
+
+def scene_name(path: str | Path) -> str:
+    """The default name of a scene imported from ``path``: the file's stem, or, when the stem
+    says nothing of the map (``map.yaml`` as ``map_saver`` writes it, ``image``, ``grid``...),
+    the name of the nearest directory above it that does (``turtlebot3_world/map.yaml`` ->
+    ``turtlebot3_world``); characters other than letters, digits, ``_ . -`` become ``-``."""
+    p = Path(path)
+    stem = _clean(p.stem)
+    if stem and stem.lower() not in _GENERIC_STEMS:
+        return stem
+    for part in reversed(p.absolute().parent.parts):
+        d = _clean(part)
+        if d and d.lower() not in _GENERIC_STEMS:
+            return d
+    return stem or "map"
+
+
+def _crop(where: str, grid: Grid, crop: Any, unknown: str) -> tuple[Grid, dict[str, Any]]:
+    """The grid cropped to the bounding box of its known cells (``crop=True``; ``"auto"``:
+    when the unknown margin outside it is more than ``CROP_MARGIN`` of the image and unknown
+    cells are obstacles) and what was measured."""
+    if crop not in ("auto", True, False):
+        raise _err(where, "crop", f"expected 'auto', True or False, got {crop!r}")
+    known = grid.cells != UNKNOWN
+    rows, cols = np.flatnonzero(known.any(axis=1)), np.flatnonzero(known.any(axis=0))
+    if not len(rows):
+        return grid, {"cropped": False, "margin": 1.0}
+    r0, r1, c0, c1 = int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1
+    margin = 1.0 - (r1 - r0) * (c1 - c0) / (grid.height * grid.width)
+    info: dict[str, Any] = {"cropped": False, "margin": margin, "rows": [r0, r1],
+                            "cols": [c0, c1], "shape": [grid.height, grid.width]}
+    auto_no = crop == "auto" and (unknown == "free" or margin <= CROP_MARGIN)
+    if crop is False or auto_no or margin == 0.0:
+        return grid, info
+    x, y = np.round(grid.cell_to_world([c0, grid.height - r1])[0], _digits(grid))
+    cut = dataclasses.replace(grid, cells=grid.cells[r0:r1, c0:c1].copy(),
+                              origin=(float(x), float(y), grid.origin[2]))
+    info["cropped"] = True
+    return cut, info
+
+
+def _check_ends_inside(where: str, grid: Grid, starts: np.ndarray, goals: np.ndarray) -> None:
+    """Every start and goal lies in the cropped grid (only fails with ``unknown="free"``)."""
+    for k in range(len(starts)):
+        for key, q in (("start", starts[k]), ("goal", goals[k])):
+            if grid.cell_of(q) is None:
+                raise _err(where, f"robots[{k}].{key}", f"{q.tolist()} lies outside the known "
+                           f"part of the map {list(grid.bounds)}; pass crop=False")
 
 
 def _fill_unreachable(polys: list[Polygon], points: np.ndarray) -> tuple[list[Polygon], int]:
@@ -56,8 +132,6 @@ def _fill_unreachable(polys: list[Polygon], points: np.ndarray) -> tuple[list[Po
                     break
         out = [q for i, q in enumerate(out) if i not in drop]
     return out, filled
-
-
 
 
 def _polygon_table(q: Polygon, name: str) -> dict[str, Any]:
@@ -176,7 +250,8 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
                description: str | None = None, source: str | None = None,
                tags: Iterable[str] = ("map",), goal_tolerance: float | None = None,
                dynamic_obstacles: Sequence[dict] = (), sensing_range: float | None = None,
-               grid: Grid | None = None, info: dict | None = None) -> Problem:
+               grid: Grid | None = None, info: dict | None = None, crop: Any = "auto",
+               max_cells: int = MAX_CELLS) -> Problem:
     """Import an occupancy map as a validated :class:`~optplan.Problem`.
 
     Parameters
@@ -205,13 +280,27 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
         Fill the holes of obstacles that contain no start or goal (free regions no robot can
         reach: closed rooms, voids in walls) and drop the obstacles inside them.  Still
         conservative; fewer vertices.
-    name, description, source, tags, goal_tolerance, sensing_range, dynamic_obstacles
+    name : str, optional
+        The scenario's name; default :func:`scene_name` of ``path`` (the file's stem, or its
+        directory's name for a ``map.yaml``).
+    description, source, tags, goal_tolerance, sensing_range, dynamic_obstacles
         Scenario keys (``dynamic_obstacles``: tables as in the TOML format).
+    crop : ``"auto"`` (default), True or False
+        Crop the map (its cells and the scenario's bounds) to the bounding box of its known
+        (free or occupied) cells.  ``"auto"`` crops when the unknown cells outside that box
+        are more than ``CROP_MARGIN`` (25 %) of the image and unknown cells are obstacles
+        (``unknown="occupied"``: the margin is then an obstacle the bounds replace; with
+        ``unknown="free"`` it is free space, and only ``crop=True`` drops it).
+    max_cells : int
+        The largest map read, in cells (:data:`~optplan.maps.grid.MAX_CELLS`, 8192 x 8192),
+        checked before the image is decoded or the grid allocated.
     grid : Grid, optional
         An already read grid (``path`` then only names the source in messages).
     info : dict, optional
         Receives ``components``, ``polygons``, ``vertices``, ``holes_filled``, ``fallbacks``,
-        ``tolerance_min`` and ``cells`` (occupied, unknown, free counts).
+        ``tolerance_min``, ``cells`` (occupied, unknown, free counts, of the cropped map)
+        and ``crop`` (``cropped``, ``margin``: the share of the image outside the known
+        cells' box, ``rows``, ``cols``: that box, ``shape``: the image's rows and columns).
 
     Raises
     ------
@@ -226,25 +315,29 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
         extra = {"negate": negate, "occupied_thresh": occupied_thresh,
                  "free_thresh": free_thresh, "mode": mode}
         extra = {k: v for k, v in extra.items() if v is not None}
-        grid = read_grid(p, resolution=resolution, origin=origin, **extra)
+        grid = read_grid(p, resolution=resolution, origin=origin, max_cells=max_cells, **extra)
     r = _check_vector_args(where, grow, simplify, join, radius)
     starts, goals, ids = _robot_ends(where, start, goal, robot_id)
+    _check_ends_free(where, grid, grid.obstacle_mask(unknown), starts, goals)
+    full = (grid.width, grid.height)
+    grid, crop_info = _crop(where, grid, crop, unknown)
+    _check_ends_inside(where, grid, starts, goals)
     mask = grid.obstacle_mask(unknown)
-    _check_ends_free(where, grid, mask, starts, goals)
     stats: dict[str, Any] = {}
     polys = [_world(grid, q) for q in grid_polygons(mask, grow=grow, simplify=simplify,
                                                      join=join, stats=stats)]
     holes_filled = 0
     if fill_unreachable:
         polys, holes_filled = _fill_unreachable(polys, np.vstack([starts, goals]))
-    stem = re.sub(r"[^A-Za-z0-9_.-]+", "-", p.stem) or "map"
+    stem = scene_name(p)
     name = name or stem
     obstacles = _map_obstacles(grid, polys, stem, unknown)
     res = grid.resolution
+    cut = f", cropped from {full[0]} x {full[1]}" if crop_info["cropped"] else ""
     data: dict[str, Any] = {
         "name": name,
         "description": description or f"imported from {p.name} ({grid.width} x "
-                                      f"{grid.height} cells of {res:g})",
+                                      f"{grid.height} cells of {res:g}{cut})",
         "source": source or f"optplan.maps.import_map({p.name!r}, grow={grow:g} cells, "
                             f"simplify={simplify:g} cells, unknown={unknown!r})",
         "tags": list(tags),
@@ -256,5 +349,5 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
     _optional_keys(data, goal_tolerance, dynamic_obstacles, sensing_range)
     prob = parse_problem(data, where)
     if info is not None:
-        info.update(_import_info(grid, stats, polys, holes_filled, obstacles))
+        info.update(_import_info(grid, stats, polys, holes_filled, obstacles), crop=crop_info)
     return prob

@@ -5,13 +5,24 @@ from __future__ import annotations
 
 import difflib
 import re
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from optplan.maps.grid import FREE, OCCUPIED, UNKNOWN, Grid, _err, _number, _origin
+from optplan.maps.grid import (
+    FREE,
+    MAX_CELLS,
+    OCCUPIED,
+    UNKNOWN,
+    Grid,
+    _check_cells,
+    _err,
+    _number,
+    _origin,
+)
 from optplan.maps.movingai import read_movingai
 from optplan.problem import ProblemError
 
@@ -23,12 +34,16 @@ _IMAGE_SUFFIXES = (".png", ".pgm", ".ppm", ".pbm", ".pnm", ".bmp", ".tif", ".tif
                    ".jpg", ".jpeg")
 
 
-def _read_pixels(path: Path, where: Any, key: str) -> tuple[np.ndarray, np.ndarray | None]:
-    """Colour channels ``(H, W, n)`` on the 0..255 scale and the alpha channel (or None)."""
-    from PIL import Image, UnidentifiedImageError
+def _open_image(path: Path, where: Any, key: str, max_cells: int) -> tuple[Any, str]:
+    """The decoded image (grey, RGB(A) or 16-bit) and its mode; its size, read from the header,
+    checked against ``max_cells`` before anything is decoded."""
+    from PIL import Image
 
-    try:
+    with warnings.catch_warnings():  # the pixel limit below is lower than Pillow's warning's
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)
         with Image.open(path) as src:
+            w, h = src.size
+            _check_cells(where, key, h, w, max_cells, f"image {str(path)!r}: ")
             src.load()
             im: Image.Image = src
             mode = im.mode
@@ -36,8 +51,18 @@ def _read_pixels(path: Path, where: Any, key: str) -> tuple[np.ndarray, np.ndarr
                 im = im.convert("RGBA" if "transparency" in im.info else "RGB")
             elif mode in ("1", "CMYK", "YCbCr", "LAB", "HSV"):
                 im = im.convert("L" if mode == "1" else "RGB")
-            mode = im.mode
-            arr = np.asarray(im)
+            return np.asarray(im), im.mode
+
+
+def _read_pixels(path: Path, where: Any, key: str, max_cells: int = MAX_CELLS
+                 ) -> tuple[np.ndarray, np.ndarray | None]:
+    """Colour channels ``(H, W, n)`` on the 0..255 scale and the alpha channel (or None)."""
+    from PIL import Image, UnidentifiedImageError
+
+    try:
+        arr, mode = _open_image(path, where, key, max_cells)
+    except ProblemError:
+        raise
     except FileNotFoundError:
         raise _err(where, key, f"no such image file {str(path)!r}") from None
     except (UnidentifiedImageError, OSError, ValueError, SyntaxError,
@@ -116,17 +141,18 @@ def _thresholds(where: Any, occupied_thresh: Any, free_thresh: Any, mode: Any,
 
 def read_image(path: str | Path, *, resolution: float, origin: Sequence[float] = (0.0, 0.0),
                negate: bool = False, occupied_thresh: float = 0.65, free_thresh: float = 0.196,
-               mode: str = "trinary") -> Grid:
+               mode: str = "trinary", max_cells: int = MAX_CELLS) -> Grid:
     """Read a bare image (PNG, PGM, ...) as a :class:`Grid` (ROS ``map_server`` classification,
     :func:`classify`).  ``resolution``: cell side in map units; ``origin``: ``(x, y[, yaw])`` of
-    the lower-left corner."""
+    the lower-left corner; an image of more than ``max_cells`` pixels is an error before it is
+    decoded."""
     p = Path(path)
     res = _number(resolution, p, "resolution", positive=True)
     org = _origin(list(origin), p)
     occ, free, mode, neg = _thresholds(p, occupied_thresh, free_thresh, mode, negate)
     if not p.is_file():
         raise _err(p, "image", "no such file")
-    colour, alpha = _read_pixels(p, p, "image")
+    colour, alpha = _read_pixels(p, p, "image", max_cells)
     cells = classify(colour, alpha, negate=neg, occupied_thresh=occ, free_thresh=free, mode=mode)
     return Grid(cells, res, org, str(p))
 
@@ -158,12 +184,13 @@ def _read_text(p: Path) -> str:
                            f"map_server YAML file") from None
 
 
-def read_ros_yaml(path: str | Path) -> Grid:
+def read_ros_yaml(path: str | Path, *, max_cells: int = MAX_CELLS) -> Grid:
     """Read a ROS ``map_server`` map (YAML + image) as a :class:`Grid`.
 
     Required keys: ``image``, ``resolution``, ``origin``; optional ``negate`` (0),
     ``occupied_thresh`` (0.65), ``free_thresh`` (0.196), ``mode`` (``trinary``).  Unknown keys
-    are rejected with a suggestion.
+    are rejected with a suggestion.  An image of more than ``max_cells`` pixels is an error
+    before it is decoded.
     """
     import yaml
 
@@ -198,15 +225,17 @@ def read_ros_yaml(path: str | Path) -> Grid:
         ip = p.parent / ip
     if not ip.is_file():
         raise _err(p, "image", f"no such file {str(ip)!r}")
-    colour, alpha = _read_pixels(ip, p, "image")
+    colour, alpha = _read_pixels(ip, p, "image", max_cells)
     cells = classify(colour, alpha, negate=neg, occupied_thresh=occ, free_thresh=free, mode=mode)
     return Grid(cells, res, org, str(p))
 
 
 def read_grid(path: str | Path, *, resolution: float | None = None,
-              origin: Sequence[float] | None = None, **classify_opts: Any) -> Grid:
+              origin: Sequence[float] | None = None, max_cells: int = MAX_CELLS,
+              **classify_opts: Any) -> Grid:
     """Read any supported map by its suffix: ``.yaml``/``.yml`` (ROS), ``.map`` (MovingAI) or
-    an image (``resolution`` required; ``origin`` default ``(0, 0)``)."""
+    an image (``resolution`` required; ``origin`` default ``(0, 0)``); at most ``max_cells``
+    cells (:data:`~optplan.maps.grid.MAX_CELLS` by default), checked before decoding."""
     p = Path(path)
     suf = p.suffix.lower()
     if not p.exists():
@@ -215,18 +244,20 @@ def read_grid(path: str | Path, *, resolution: float | None = None,
         for k, v in (("resolution", resolution), ("origin", origin), *classify_opts.items()):
             if v is not None:
                 raise _err(p, k, "given by the YAML file; do not pass it for a ROS map")
-        return read_ros_yaml(p)
+        return read_ros_yaml(p, max_cells=max_cells)
     if suf == ".map":
         if classify_opts:
             raise _err(p, next(iter(classify_opts)), "not an option of MovingAI maps")
         return read_movingai(p, resolution=1.0 if resolution is None else resolution,
-                             origin=(0.0, 0.0) if origin is None else origin)
+                             origin=(0.0, 0.0) if origin is None else origin,
+                             max_cells=max_cells)
     if suf in _IMAGE_SUFFIXES:
         if resolution is None:
             raise _err(p, "resolution", "required for a bare image (map units per cell, e.g. "
                                         "--resolution 0.05)")
         opts = {k: v for k, v in classify_opts.items() if v is not None}
         return read_image(p, resolution=resolution,
-                          origin=(0.0, 0.0) if origin is None else origin, **opts)
+                          origin=(0.0, 0.0) if origin is None else origin,
+                          max_cells=max_cells, **opts)
     raise ProblemError(f"{p}: unknown map format {suf or '(no suffix)'!r} (expected .yaml/.yml, "
                        f".map or an image: {', '.join(_IMAGE_SUFFIXES)})")

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -34,30 +35,67 @@ class ScenEntry:
 
 def read_scen_entries(path: str | Path) -> list[ScenEntry]:
     """Parse a MovingAI ``.scen`` file (``version 1`` header, tab-separated lines
-    ``bucket map width height start_x start_y goal_x goal_y optimal_length``)."""
+    ``bucket map width height start_x start_y goal_x goal_y optimal_length``).
+
+    Blank lines (anywhere) and white space around the fields are ignored.  A line is an
+    error naming the file and the line when it has not 9 fields, a field is not a number, the
+    map size is not positive, a start or goal cell lies outside the line's ``width x height``
+    map, or the optimal length is ``nan``, infinite or negative.
+    """
     p = Path(path)
     try:
         lines = p.read_text(encoding="utf-8").splitlines()
     except OSError as e:
         raise ProblemError(f"{p}: cannot read file ({e.strerror})") from None
+    except UnicodeDecodeError as e:
+        raise ProblemError(f"{p}: not UTF-8 text ({e.reason} at byte {e.start}): expected a "
+                           "MovingAI .scen file") from None
     out = []
+    first = True
     for k, ln in enumerate(lines, start=1):
-        if not ln.strip() or (k == 1 and ln.split()[0].lower() == "version"):
+        if not ln.strip():
             continue
-        parts = ln.split("\t") if "\t" in ln else ln.split()
-        parts = [t.strip() for t in parts if t.strip() != ""]
-        if len(parts) != 9:
-            raise _err(p, f"line {k}", f"expected 9 fields (bucket map width height start_x "
-                                       f"start_y goal_x goal_y optimal_length), got {len(parts)}")
-        try:
-            b, w, h, sx, sy, gx, gy = (int(parts[i]) for i in (0, 2, 3, 4, 5, 6, 7))
-            opt = float(parts[8])
-        except ValueError:
-            raise _err(p, f"line {k}", f"non-numeric field in {ln!r}") from None
-        out.append(ScenEntry(b, parts[1], w, h, (sx, sy), (gx, gy), opt, k))
+        if first and ln.split()[0].lower() == "version":
+            first = False
+            continue
+        first = False
+        out.append(_scen_line(p, k, ln))
     if not out:
         raise _err(p, "<file>", "no scenario lines")
     return out
+
+
+def _scen_line(p: Path, k: int, ln: str) -> ScenEntry:
+    """One line of a ``.scen`` file, checked (see :func:`read_scen_entries`)."""
+    parts = ln.split("\t") if "\t" in ln else ln.split()
+    parts = [t.strip() for t in parts if t.strip() != ""]
+    if len(parts) != 9:
+        raise _err(p, f"line {k}", f"expected 9 fields (bucket map width height start_x "
+                                   f"start_y goal_x goal_y optimal_length), got {len(parts)}")
+    try:
+        b, w, h, sx, sy, gx, gy = (int(parts[i]) for i in (0, 2, 3, 4, 5, 6, 7))
+        opt = float(parts[8])
+    except ValueError:
+        raise _err(p, f"line {k}", f"non-numeric field in {ln.strip()[:80]!r}") from None
+    if w < 1 or h < 1:
+        raise _err(p, f"line {k}", f"map size {w} x {h}: expected positive integers")
+    for what, (x, y) in (("start", (sx, sy)), ("goal", (gx, gy))):
+        if not (0 <= x < w and 0 <= y < h):
+            raise _err(p, f"line {k}", f"{what} cell ({x}, {y}) lies outside the {w} x {h} map")
+    if not (math.isfinite(opt) and opt >= 0):
+        raise _err(p, f"line {k}", f"optimal length {parts[8]!r}: expected a finite number "
+                                   ">= 0")
+    return ScenEntry(b, parts[1], w, h, (sx, sy), (gx, gy), opt, k)
+
+
+def _check_one_map(p: Path, entries: list[ScenEntry]) -> None:
+    """Every line names the map the first line names (compared by file name)."""
+    name = Path(entries[0].map).name
+    for e in entries:
+        if Path(e.map).name != name:
+            raise _err(p, f"line {e.line}", f"names the map {e.map!r}, line {entries[0].line} "
+                                            f"names {entries[0].map!r}: one .scen file is for "
+                                            "one map")
 
 
 _OCTILE_RE = re.compile(r"octile length ([0-9.eE+-]+)")
@@ -88,7 +126,9 @@ def read_scen(path: str | Path, *, map_path: str | Path | None = None, radius: f
     field, looked up next to the ``.scen`` file (as written, then by its base name).
     """
     p = Path(path)
-    entries = _select(read_scen_entries(p), buckets, limit)
+    every = read_scen_entries(p)
+    _check_one_map(p, every)
+    entries = _select(every, buckets, limit)
     if not entries:
         return []
     if map_path is None:
