@@ -9,13 +9,17 @@ seeded random obstacles of every kind the kernels handle (benchmarks and kernel 
 :func:`swap_scene` is two independently planned robots swapping ends of an empty field.
 :func:`corridor_scene` draws seeded maps of a family that is hard for global planners to get
 into the right corridor (homotopy class): walls with narrow doors, warehouse shelf rows and U
-traps (``optplan.swarm.ipso``'s tail benchmark).
+traps (``optplan.swarm.ipso``'s tail benchmark).  :func:`movingai_benchmark` writes seeded
+MovingAI-format grid maps (random, room, maze, street) and their ``.scen`` queries
+(:mod:`optplan.maps.movingai_gen`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import shapely
@@ -23,8 +27,11 @@ from shapely.geometry import Polygon
 
 from optplan.problem import Follower, Formation, Obstacle, Problem, Robot, parse_problem
 
+if TYPE_CHECKING:
+    from optplan.maps.movingai_gen import GeneratedMap
+
 __all__ = ["formation_offsets", "formation_scene", "jitter_phases", "random_obstacles",
-           "swap_scene", "corridor_scene", "CORRIDOR_KINDS"]
+           "swap_scene", "corridor_scene", "CORRIDOR_KINDS", "movingai_benchmark"]
 
 SHAPES = ("line", "wedge", "grid")
 
@@ -349,3 +356,34 @@ def corridor_scene(kind: str, seed: int = 0, *, side: float = 500.0,
         if math.isfinite(problem_shortest_path(prob, prob.robots[0]).length):
             return prob
     raise RuntimeError(f"corridor_scene({kind!r}, {seed}): no connected map in 100 draws")
+
+
+def movingai_benchmark(kind: str, size: int, out: str | Path, *, rng: np.random.Generator,
+                       queries: int = 100, density: float = 0.2, name: str | None = None
+                       ) -> GeneratedMap:
+    """A seeded MovingAI benchmark map and its ``.scen``, written into ``out``:
+    :func:`optplan.maps.movingai_gen.generate_benchmark` (imported on first use: its A* is
+    compiled code).
+
+    Parameters
+    ----------
+    kind : ``"random"``, ``"room"``, ``"maze"`` or ``"street"``
+        The map family.
+    size : int
+        Cells per side (8 to 2048).
+    out : path
+        The directory.
+    rng : numpy.random.Generator
+        Every random choice.
+    queries, density, name
+        Lines of the ``.scen``, the blocked share of a random map, the files' stem.
+
+    Returns
+    -------
+    optplan.maps.movingai_gen.GeneratedMap
+        The paths written, the size, the blocked share, the queries and their buckets.
+    """
+    from optplan.maps.movingai_gen import generate_benchmark
+
+    return generate_benchmark(kind, size, out, rng=rng, queries=queries, density=density,
+                              name=name)

@@ -8,6 +8,7 @@ import re
 from optplan.cli.catalogue import cmd_list, cmd_show, cmd_show_solver
 from optplan.cli.common import PROG
 from optplan.cli.figures import cmd_animate, cmd_plot
+from optplan.cli.map_gen import cmd_gen_map
 from optplan.cli.map_import import cmd_import_map
 from optplan.cli.ros_export import cmd_export_path
 from optplan.cli.solving import cmd_solve
@@ -205,4 +206,21 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--max-cells", type=int, metavar="N",
                    help="largest map read, in cells (default 67108864 = 8192 x 8192)")
     s.set_defaults(func=cmd_import_map)
+
+    s = sub.add_parser(
+        "gen-map", help="write a seeded MovingAI benchmark map (.map) and its queries (.scen)",
+        description="Generate a MovingAI-format map of a family (random, room, maze, street) "
+                    "and a .scen of start/goal pairs between mutually reachable free cells, "
+                    "with octile optimal lengths (A*, 8-connected, no corner cutting).")
+    s.add_argument("kind", choices=["random", "room", "maze", "street"], help="map family")
+    s.add_argument("size", type=int, help="cells per side (8..2048; 32..1024 typical)")
+    s.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
+    s.add_argument("--out", required=True, metavar="DIR", help="directory to write into")
+    s.add_argument("--queries", type=int, default=100, metavar="N",
+                   help="lines of the .scen (default 100)")
+    s.add_argument("--density", type=float, default=0.2, metavar="D",
+                   help="random maps: blocked share, 0..0.4 (default 0.2)")
+    s.add_argument("--name", help="file stem (default <kind>-<size>-<size>[-<density %%>]"
+                                  "-seed<S>)")
+    s.set_defaults(func=cmd_gen_map)
     return p
