@@ -60,8 +60,8 @@ Run ``python benchmarks/fuzz_inputs.py`` for the full run (>= 3,000 scenarios, >
 values, >= 200 inits, >= 50 result files, >= 100 maps, >= 25 databases, >= 15 plugins;
 ``--workers N``, ``--seed S``, ``--quick``, ``--family F``) and the counts table;
 ``tests/tools/test_fuzz.py`` runs a bounded, seeded slice.  Known findings in files other
-engineers own (backends, ``solve``'s option and ``init`` checks, the solver's plugin loading)
-are listed in :data:`KNOWN_FINDINGS`: cases they explain are reported in their own column.
+engineers own (backends, ``solve``'s option and ``init`` checks) are listed in
+:data:`KNOWN_FINDINGS`: cases they explain are reported in their own column.
 """
 
 from __future__ import annotations
@@ -2014,7 +2014,10 @@ def plugin_cases() -> list[Case]:
     for what, init in (("package raises", "raise RuntimeError('boom')"),
                        ("package SyntaxError", "def (:"),
                        ("package missing dependency", "import no_such_dependency_fz"),
-                       ("package exits", "raise SystemExit(3)")):
+                       ("package exits", "raise SystemExit(3)"),
+                       ("package calls sys.exit()", "import sys\nsys.exit()"),
+                       ("package raises a BaseException", "class Stop(BaseException):\n"
+                                                          "    pass\nraise Stop('stop')")):
         variants.append((what, _plugin("fzbad", {"fzbad/__init__.py": init, "fzbad/b.py": good,
                                                  "fzbad/presets/fzbad-x.toml":
                                                  'backend = "fzline"\n'},
@@ -2054,6 +2057,19 @@ def _install_plugin(root: Path, p: dict[str, Any]) -> None:
     (info / "entry_points.txt").write_text(p["entry_points"])
 
 
+def _unclear(dist: str, errors: list[str], warned: list[str]) -> str | None:
+    """Why the errors about the plugin distribution ``dist`` are unclear (None when they are
+    clear): one names neither the distribution nor the preset, or one naming the distribution
+    was not also reported as a ``PluginWarning`` with the same text (``"ImportError: text"``,
+    ``"PluginWarning: text"``)."""
+    if any(f"'{dist}'" not in m and "fzbad-x" not in m for m in errors):
+        return f"does not name the distribution: {errors}"
+    texts = {w.removeprefix("PluginWarning: ") for w in warned}
+    unwarned = [m for m in errors if f"distribution '{dist}'" in m
+                and m.split(": ", 1)[-1] not in texts]
+    return f"not reported as a PluginWarning: {unwarned}" if unwarned else None
+
+
 def _plugin_verdict(case: Case, out: dict[str, Any]) -> Outcome:
     dist = case.data["plugin"]["dist"]
     if "broke" in out or out.get("visgraph") != "optimal" or out.get("cli") != 0:
@@ -2063,8 +2079,9 @@ def _plugin_verdict(case: Case, out: dict[str, Any]) -> Outcome:
         return Outcome(case, "crash", crashes[0])
     errors = [m for k, m in out["use"] if k == "error"]
     said = errors + out["warnings"]
-    if any(f"'{dist}'" not in m and "fzbad-x" not in m for m in errors):
-        return Outcome(case, "unclear message", f"does not name the distribution: {errors}")
+    unclear = _unclear(dist, errors, out["warnings"])
+    if unclear:
+        return Outcome(case, "unclear message", unclear)
     if not case.must_reject:
         if errors or out["warnings"]:
             return Outcome(case, "unclear message", f"a working plugin complained: {said}")
@@ -2332,29 +2349,6 @@ KNOWN_FINDINGS: dict[str, tuple[str, str, Callable[[Outcome], bool]]] = {
         lambda o: o.case.family == "option" and o.category == "hang"
         and isinstance(o.case.data.get("value"), int)
         and o.case.data.get("backend") in ("ipso", "pso", "mpso")),
-    "plugin-import-unnamed": (
-        "optplan/solver.py (_load_class)",
-        "a plugin backend whose module is missing, whose package imports a missing dependency "
-        "or whose class is missing raises an ImportError naming the backend and the entry "
-        "point but not the distribution, and no PluginWarning",
-        lambda o: o.case.family == "plugin" and o.category == "unclear message"
-        and o.case.what in ("package missing dependency", "entry point missing module",
-                            "entry point missing class")),
-    "plugin-not-a-backend": (
-        "optplan/solver.py (_load_class)",
-        "an entry point naming an object that is not a Backend class (a module) is loaded; "
-        "solving with it raises a bare TypeError ('must be called with a dataclass type')",
-        lambda o: o.case.family == "plugin" and o.case.what == "entry point not a backend"),
-    "plugin-system-exit": (
-        "optplan/solver.py (_load_class)",
-        "a plugin package that calls sys.exit() when imported ends the process (only "
-        "Exception is caught): every command that asks for its backend exits",
-        lambda o: o.case.family == "plugin" and o.case.what == "package exits"),
-    "plugin-preset-unknown-backend": (
-        "optplan/solver.py (preset resolution)",
-        "a plugin preset naming an unknown backend: 'unknown backend' names neither the "
-        "preset file nor the distribution",
-        lambda o: o.case.family == "plugin" and o.case.what == "preset unknown backend"),
 }
 
 

@@ -11,10 +11,14 @@ next to the package (editable installs), and the copy shipped inside the wheel
 Plugin distributions add backends (entry-point group ``optplan.backends``, ``line =
 "toyplug.planner:Line"``) and preset folders (``optplan.presets``, ``toyplug =
 "toyplug.presets"``: a package, regular or namespace, whose folder holds ``*.toml`` presets).
-A plugin cannot break the toolkit: an entry point that is malformed, or a plugin package that
-raises when imported, is reported once per process as a :class:`PluginWarning` naming the
-distribution, the entry point and the error; everything else keeps working.  Asking for the
-broken backend by name raises an error with the same text (:func:`broken_backend`).
+A plugin cannot break the toolkit: an entry point that is malformed or names what is not a
+:class:`~optplan.backend.Backend` subclass, a module, class or dependency that is missing, a
+plugin package that raises when imported (``sys.exit()`` and any other ``BaseException``
+included; ``KeyboardInterrupt`` is never caught) and a plugin preset that cannot be read or
+names an unknown backend are each reported once per process as a :class:`PluginWarning`
+naming the distribution, the entry point and the error; everything else keeps working.
+Asking for the broken backend or preset by name raises an error with the same text
+(:func:`broken_backend`).
 """
 
 from __future__ import annotations
@@ -34,7 +38,8 @@ from optplan.problem import Problem, ProblemError, read_problem
 __all__ = ["catalog_dir", "problem_files", "preset_files", "load_problem", "list_problems",
            "read_preset", "map_files", "find_map", "BACKEND_GROUP", "PRESET_GROUP",
            "PluginWarning", "check_entry", "discover_backends", "plugin_preset_files",
-           "broken_backend"]
+           "broken_backend", "interrupted", "plugin_origin", "preset_origin", "load_failed",
+           "preset_failed"]
 
 #: Suffixes of the shipped occupancy maps in ``problems/maps/`` (:func:`map_files`).
 MAP_SUFFIXES = (".yaml", ".yml", ".map")
@@ -305,7 +310,27 @@ def check_entry(value: str, what: str = "backend") -> str | None:
 
 
 def _error(e: BaseException) -> str:
-    return f"{type(e).__name__}: {' '.join(str(e).split())}"[:300]
+    text = " ".join(str(e).split())
+    return (f"{type(e).__name__}: {text}" if text else type(e).__name__)[:300]
+
+
+def interrupted(e: BaseException) -> bool:
+    """Whether ``e`` is (or a group holding) a ``KeyboardInterrupt``, which is never caught.
+
+    Parameters
+    ----------
+    e : BaseException
+        An exception a plugin raised.
+
+    Returns
+    -------
+    bool
+        True for ``KeyboardInterrupt`` and exception groups containing one; False for
+        everything else a plugin may raise (``SystemExit`` included).
+    """
+    if isinstance(e, BaseExceptionGroup):
+        return e.subgroup(KeyboardInterrupt) is not None
+    return isinstance(e, KeyboardInterrupt)
 
 
 def discover_backends(backends: dict[str, str]) -> list[str]:
@@ -340,14 +365,42 @@ def broken_backend(name: str) -> str | None:
     return _state["broken"].get(name)
 
 
-def import_failed(name: str, entry: str, e: BaseException) -> str:
-    """Record and report that importing the backend ``name`` (``entry``) raised ``e``; return
-    the message (the caller raises it as an :class:`ImportError`)."""
-    who = _state.get("plugin_backends", {}).get(name, f"backend {name!r} = {entry!r}")
-    msg = f"{who}: importing it raised {_error(e)}"
+def plugin_origin(name: str) -> str | None:
+    """How messages name the plugin entry point of the backend ``name`` (None when the backend
+    is not a plugin's: shipped or added with ``register``)."""
+    origin: str | None = _state.get("plugin_backends", {}).get(name)
+    return origin
+
+
+def load_failed(name: str, entry: str, why: str) -> str:
+    """Record and report that the backend ``name`` (``entry``) cannot be loaded.
+
+    Parameters
+    ----------
+    name : str
+        The backend name.
+    entry : str
+        Its ``module:Class`` entry.
+    why : str
+        What went wrong (``importing it raised ...``).
+
+    Returns
+    -------
+    str
+        The message, naming the distribution and the entry point of a plugin backend (the
+        caller raises it as an :class:`ImportError`).
+    """
+    who = plugin_origin(name) or f"backend {name!r} = {entry!r}"
+    msg = f"{who}: {why}"
     _state["broken"][name] = msg
     report(msg)
     return msg
+
+
+def import_failed(name: str, entry: str, e: BaseException) -> str:
+    """Record and report that importing the backend ``name`` (``entry``) raised ``e``; return
+    the message (the caller raises it as an :class:`ImportError`)."""
+    return load_failed(name, entry, f"importing it raised {_error(e)}")
 
 
 def _preset_dirs(ep: EntryPoint) -> list[Path]:
@@ -368,19 +421,55 @@ def _preset_dirs(ep: EntryPoint) -> list[Path]:
 def plugin_preset_files() -> dict[str, Path]:
     """Presets shipped by plugin distributions: file stem -> path (the first one found wins).
 
-    A preset package that cannot be found or raises when imported is reported (once) and
-    skipped.
+    A preset package that cannot be found or raises when imported (``SystemExit`` included,
+    ``KeyboardInterrupt`` never caught) is reported (once) and skipped.
     """
     if "presets" not in _state:
         out: dict[str, Path] = {}
+        origin: dict[Path, str] = {}
         for ep in entry_points(group=PRESET_GROUP):
             try:
                 dirs = _preset_dirs(ep)
-            except Exception as e:  # noqa: BLE001 - a plugin must not break optplan
+            except BaseException as e:  # noqa: BLE001 - a plugin must not break optplan
+                if interrupted(e):
+                    raise
                 report(f"{describe(ep)}: presets skipped: {_error(e)}")
                 continue
             for d in dirs:
                 for f in sorted(d.glob("*.toml")):
-                    out.setdefault(f.stem, f)
-        _state["presets"] = out
+                    if f.stem not in out:
+                        out[f.stem] = f
+                        origin[f] = describe(ep)
+        _state["presets"], _state["preset_origin"] = out, origin
     return dict(_state["presets"])
+
+
+def preset_origin(path: Path) -> str | None:
+    """How messages name the plugin entry point that ships the preset file ``path`` (None for
+    a shipped preset or a file given by path)."""
+    plugin_preset_files()
+    origin: str | None = _state["preset_origin"].get(Path(path))
+    return origin
+
+
+def preset_failed(path: Path, e: Exception) -> str:
+    """Report (once) that the plugin preset ``path`` cannot be used because of ``e``.
+
+    Parameters
+    ----------
+    path : Path
+        A preset file shipped by a plugin (:func:`plugin_preset_files`).
+    e : Exception
+        Why it cannot be used (a ``ValueError`` naming the file).
+
+    Returns
+    -------
+    str
+        The message, naming the distribution, the entry point, the file and the error (the
+        caller raises it as a ``ValueError``).
+    """
+    text = " ".join(str(e).split())
+    where = "" if str(path) in text else f"{path}: "
+    msg = f"{preset_origin(path) or path}: {where}{text}"
+    report(msg)
+    return msg

@@ -31,9 +31,11 @@ Plugins: an installed distribution declares backends in the entry-point group
 ``*.toml`` files).  They are discovered lazily, the first time the registry is used, in every
 process (so they also work in the CLI and in ``optplan bench`` worker processes).  A backend
 added with :func:`register` exists in the calling process, and :mod:`optplan.bench` passes it on
-to its workers; another process (the CLI) does not know it.  A plugin that is malformed or
-raises when imported is reported once (:class:`optplan.catalog.PluginWarning`) and leaves
-everything else working.
+to its workers; another process (the CLI) does not know it.  A plugin that is malformed, is
+missing a module, class or dependency, names what is not a :class:`Backend` subclass, raises
+(or exits) when imported, or ships a preset naming an unknown backend is reported once
+(:class:`optplan.catalog.PluginWarning`) and leaves everything else working; asking for it by
+name raises ``ImportError`` (a backend) or ``ValueError`` (a preset) with the same text.
 """
 
 from __future__ import annotations
@@ -44,6 +46,7 @@ import importlib
 import importlib.util
 import math
 import time
+import types
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, cast
@@ -58,8 +61,13 @@ from optplan.catalog import (
     check_entry,
     discover_backends,
     import_failed,
+    interrupted,
+    load_failed,
     load_problem,
+    plugin_origin,
+    preset_failed,
     preset_files,
+    preset_origin,
     read_preset,
 )
 from optplan.catalog import plugin_preset_files as plugin_preset_files
@@ -134,16 +142,28 @@ def register(name: str, entry_point: str) -> None:
 
 
 def _available(name: str) -> bool:
-    """Whether the module of backend ``name`` exists (without importing the module itself; a
-    plugin package that raises when imported is reported and counts as absent)."""
+    """Whether the module of backend ``name`` exists (without importing the module itself).
+
+    A plugin backend whose module cannot be found, or whose package raises (or exits) when
+    imported, is reported (:func:`optplan.catalog.import_failed`) and counts as absent; a
+    shipped backend whose module is not present is simply absent.
+    """
+    if broken_backend(name):
+        return False
     entry = BACKENDS[name]
+    mod = entry.split(":")[0]
+    plugin = plugin_origin(name) is not None
     try:
-        return importlib.util.find_spec(entry.split(":")[0]) is not None
-    except ModuleNotFoundError:
+        found = importlib.util.find_spec(mod) is not None
+        if plugin and not found:
+            raise ModuleNotFoundError(f"No module named {mod!r}", name=mod)
+    except BaseException as e:  # noqa: BLE001 - a plugin's package raised when imported
+        if interrupted(e):
+            raise
+        if plugin or not isinstance(e, ModuleNotFoundError):
+            import_failed(name, entry, e)
         return False
-    except Exception as e:  # noqa: BLE001 - a plugin's package raised when imported
-        import_failed(name, entry, e)
-        return False
+    return found
 
 
 def list_backends() -> list[str]:
@@ -152,13 +172,54 @@ def list_backends() -> list[str]:
     return [n for n in BACKENDS if _available(n)]
 
 
+def _unknown_backend(name: str) -> str:
+    close = difflib.get_close_matches(name, list(BACKENDS), n=3)
+    hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+    return f"unknown backend {name!r}{hint} (backends: {', '.join(BACKENDS)})"
+
+
+def _preset_data(path: Path) -> dict[str, Any]:
+    """Read the preset ``path`` and check that its backend is registered.
+
+    Parameters
+    ----------
+    path : Path
+        A preset file (shipped, a plugin's or given by path).
+
+    Returns
+    -------
+    dict
+        :func:`optplan.catalog.read_preset`'s table.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the key; for a plugin's preset also the distribution and the entry
+        point (and reported once as a :class:`~optplan.catalog.PluginWarning`).
+    """
+    try:
+        data = read_preset(path)
+        backend = data["backend"]
+        if backend not in BACKENDS and not broken_backend(backend):
+            raise ValueError(f"{path}: backend: {_unknown_backend(backend)}")
+    except ValueError as e:
+        if preset_origin(path) is None:
+            raise
+        raise ValueError(preset_failed(path, e)) from None
+    return data
+
+
 def list_solvers(backends: bool = False) -> list[str]:
-    """Preset names whose backend is present (and bare backend names with ``backends=True``)."""
+    """Preset names whose backend is present (and bare backend names with ``backends=True``).
+
+    A plugin preset that cannot be read or names an unknown backend is reported once and not
+    listed.
+    """
     _discover()
     out = []
     for name, path in all_preset_files().items():
         try:
-            b = read_preset(path)["backend"]
+            b = _preset_data(path)["backend"]
         except ValueError:
             continue
         if b in BACKENDS and _available(b):
@@ -168,31 +229,62 @@ def list_solvers(backends: bool = False) -> list[str]:
     return out
 
 
+class _BadEntry(ImportError):
+    """An entry point whose module has no such attribute, or whose object is not a
+    :class:`Backend` subclass."""
+
+
+def _import_class(entry: str) -> type[Backend]:
+    """Import the ``module:Class`` ``entry`` and check that it is a :class:`Backend` subclass.
+
+    Raises
+    ------
+    _BadEntry
+        No such attribute, or not a ``Backend`` subclass.
+    BaseException
+        Whatever importing the module raised.
+    """
+    mod, cls = entry.split(":")
+    module = importlib.import_module(mod)
+    if not hasattr(module, cls):
+        raise _BadEntry(f"module {mod!r} has no {cls!r}")
+    obj = getattr(module, cls)
+    if not (isinstance(obj, type) and issubclass(obj, Backend)):
+        what = (f"the module {obj.__name__!r}" if isinstance(obj, types.ModuleType)
+                else f"the class {obj.__qualname__!r}" if isinstance(obj, type)
+                else f"an object of type {type(obj).__name__!r}")
+        raise _BadEntry(f"{cls!r} is {what}, not a subclass of optplan.Backend")
+    return obj
+
+
+def _load_error(name: str, entry: str, e: BaseException) -> Exception:
+    """The error to raise when loading the backend ``name`` (``entry``) raised ``e``: an
+    ``ImportError`` naming the plugin distribution and the entry point (reported once), or for
+    a backend that is not a plugin's, one naming the missing package."""
+    if plugin_origin(name) is None and isinstance(e, ModuleNotFoundError) and e.name:
+        if e.name.split(".")[0] != "optplan":
+            return ImportError(f"backend {name!r} needs the package {e.name!r}: pip install "
+                               f"{e.name}")
+        return ValueError(f"backend {name!r} is registered but not implemented in this build")
+    if isinstance(e, _BadEntry):
+        return ImportError(load_failed(name, entry, str(e)))
+    return ImportError(import_failed(name, entry, e))
+
+
 def _load_class(name: str) -> type[Backend]:
     _discover()
+    broken = broken_backend(name)
+    if broken:
+        raise ImportError(broken)
     if name not in BACKENDS:
-        close = difflib.get_close_matches(name, list(BACKENDS), n=3)
-        hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
-        broken = broken_backend(name)
-        if broken:
-            raise ImportError(broken)
-        raise ValueError(f"unknown backend {name!r}{hint} (backends: {', '.join(BACKENDS)})")
-    mod, cls = BACKENDS[name].split(":")
+        raise ValueError(_unknown_backend(name))
+    entry = BACKENDS[name]
     try:
-        module = importlib.import_module(mod)
-    except ModuleNotFoundError as e:
-        if e.name and e.name.split(".")[0] != "optplan":
-            raise ImportError(
-                f"backend {name!r} needs the package {e.name!r}: pip install {e.name}"
-            ) from e
-        raise ValueError(f"backend {name!r} is registered but not implemented in this build") from e
-    except Exception as e:  # noqa: BLE001 - a plugin's module raised when imported
-        raise ImportError(import_failed(name, BACKENDS[name], e)) from e
-    try:
-        return getattr(module, cls)
-    except AttributeError:
-        raise ImportError(f"backend {name!r}: module {mod!r} has no {cls!r} (registered as "
-                          f"{BACKENDS[name]!r})") from None
+        return _import_class(entry)
+    except BaseException as e:  # noqa: BLE001 - a plugin's module raised (or exited)
+        if interrupted(e):
+            raise
+        raise _load_error(name, entry, e) from e
 
 
 def _check_names(cls: type[Backend], options: dict[str, Any], where: str) -> None:
@@ -233,12 +325,12 @@ def get_solver(spec: str | Path | Backend, **overrides: Any) -> Backend:
     if s.endswith(".toml"):
         if not path.is_file():
             raise ValueError(f"{s}: no such preset file")
-        data, where, preset = read_preset(path), str(path), path.stem
+        data, where, preset = _preset_data(path), str(path), path.stem
     else:
         _discover()
         presets = all_preset_files()
         if s in presets:
-            data, where, preset = read_preset(presets[s]), str(presets[s]), s
+            data, where, preset = _preset_data(presets[s]), str(presets[s]), s
         elif s in BACKENDS:
             data, where, preset = {"backend": s, "options": {}}, f"backend {s}", None
         else:

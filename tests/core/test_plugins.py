@@ -3,6 +3,7 @@ bench worker processes (entry-point groups ``optplan.backends`` and ``optplan.pr
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import subprocess
@@ -210,3 +211,161 @@ def test_register_rejects_a_malformed_entry_point() -> None:
 
     with pytest.raises(ValueError, match=r"expected 'package.module:Class', got 'a:b:c'"):
         op.register("abc", "a:b:c")
+
+
+@pytest.fixture(scope="module")
+def failing_path(tmp_path_factory) -> Path:
+    """Beside the working toy plugin: plugins whose package calls ``sys.exit()`` or whose module
+    raises a ``BaseException`` subclass when imported, a missing dependency, module or class,
+    entry points naming what is not a ``Backend`` subclass, a preset naming an unknown backend."""
+    root = tmp_path_factory.mktemp("failing")
+    toyplug(root)
+    make_dist(root, "exitplug", {
+        "exitplug/__init__.py": "import sys\nsys.exit(3)\n",
+        "exitplug/planner.py": "",
+        "exitplug/presets/exit-fast.toml": 'backend = "exit"\n',
+    }, """\
+        [optplan.backends]
+        exit = exitplug.planner:Exit
+
+        [optplan.presets]
+        exitplug = exitplug.presets
+        """)
+    make_dist(root, "baseplug", {
+        "baseplug/__init__.py": "",
+        "baseplug/planner.py": "class Stop(BaseException):\n    pass\n\n\n"
+                               "raise Stop('stop in the planner')\n",
+    }, "[optplan.backends]\nhalt = baseplug.planner:Halt\n")
+    make_dist(root, "depplug", {
+        "depplug/__init__.py": "",
+        "depplug/planner.py": "import no_such_dependency_xyz\n",
+    }, "[optplan.backends]\nneedy = depplug.planner:Needy\n")
+    make_dist(root, "ghostplug", {
+        "ghostplug/__init__.py": "",
+        "ghostplug/planner.py": "import os\n\nX = 1\n\n\nclass Plain:\n    pass\n",
+    }, """\
+        [optplan.backends]
+        ghost = ghostplug.nothere:Ghost
+        noclass = ghostplug.planner:Missing
+        amodule = ghostplug.planner:os
+        aclass = ghostplug.planner:Plain
+        anint = ghostplug.planner:X
+        """)
+    make_dist(root, "presetplug", {"presetplug/presets/nope-fast.toml": 'backend = "nope"\n'},
+              "[optplan.presets]\npresetplug = presetplug.presets\n")
+    return root
+
+
+FAILING = {  # name -> (error type, the distribution, what the message says after the entry point)
+    "exit": ("ImportError", "exitplug", "importing it raised SystemExit: 3"),
+    "halt": ("ImportError", "baseplug", "importing it raised Stop: stop in the planner"),
+    "needy": ("ImportError", "depplug", "importing it raised ModuleNotFoundError: No module "
+              "named 'no_such_dependency_xyz'"),
+    "ghost": ("ImportError", "ghostplug", "importing it raised ModuleNotFoundError: No module "
+              "named 'ghostplug.nothere'"),
+    "noclass": ("ImportError", "ghostplug", "module 'ghostplug.planner' has no 'Missing'"),
+    "amodule": ("ImportError", "ghostplug", "'os' is the module 'os', not a subclass of "
+                "optplan.Backend"),
+    "aclass": ("ImportError", "ghostplug", "'Plain' is the class 'Plain', not a subclass of "
+               "optplan.Backend"),
+    "anint": ("ImportError", "ghostplug", "'X' is an object of type 'int', not a subclass of "
+              "optplan.Backend"),
+    "nope-fast": ("ValueError", "presetplug", "nope-fast.toml: backend: unknown backend 'nope'"),
+}
+
+
+def test_a_plugin_that_exits_or_misses_a_part_is_reported_once_and_breaks_nothing(
+        failing_path: Path) -> None:
+    code = textwrap.dedent("""
+        import json, sys, warnings
+        import optplan as op
+        from optplan.catalog import PluginWarning
+        out = {"errors": {}}
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            out["visgraph"] = op.solve("open-field", "visgraph").status.value
+            out["line-five"] = op.solve("open-field", "line-five").status.value
+            out["solvers"] = op.list_solvers(backends=True)
+            op.list_solvers(backends=True)
+            for name in sys.argv[1:] + sys.argv[1:]:
+                try:
+                    op.solve("open-field", name)
+                except (ImportError, ValueError) as e:
+                    out["errors"].setdefault(name, []).append([type(e).__name__, str(e)])
+            out["after"] = op.list_solvers(backends=True)
+        out["warnings"] = [[w.category.__name__, str(w.message)] for w in caught]
+        print(json.dumps(out))
+    """)
+    out = _run(failing_path, "-c", code, *FAILING, "exit-fast")
+    assert out.returncode == 0, out.stderr
+    got = json.loads(out.stdout.splitlines()[-1])
+    assert got["visgraph"] == "optimal" and got["line-five"] == "solved"
+    assert "line" in got["solvers"] and "line-five" in got["solvers"]
+    # found without importing the modules: a package that exits, a missing module or preset
+    # backend is not listed; a module that fails when imported is listed until it is used
+    assert not set(got["solvers"]) & {"exit", "ghost", "nope-fast", "exit-fast"}
+    assert "line" in got["after"] and not set(got["after"]) & {*FAILING, "exit-fast"}
+    assert {c for c, _ in got["warnings"]} == {"PluginWarning"}
+    warned = [m for _, m in got["warnings"]]
+    assert len(warned) == len(set(warned)), warned  # each problem once
+    assert not any("toyplug" in w for w in warned)
+    for name, (kind, dist, says) in FAILING.items():
+        first, again = got["errors"][name]
+        assert first == again, (name, first, again)  # the same error every time
+        assert first[0] == kind, (name, first)
+        assert first[1].startswith(f"plugin distribution {dist!r} (entry point "), first
+        assert says in first[1], (name, first)
+        assert first[1] in warned, (name, first, warned)  # the warning has the same text
+    # the package that exits also loses its presets, reported once
+    assert got["errors"]["exit-fast"][0][1].startswith("unknown solver 'exit-fast'")
+    assert sum("'exitplug'" in w and "presets skipped: SystemExit: 3" in w for w in warned) == 1
+    assert len(warned) == len(FAILING) + 1
+
+
+def test_a_plugin_that_exits_leaves_the_cli_working(failing_path: Path) -> None:
+    out = _run(failing_path, "-m", "optplan", "list", "solvers")
+    assert out.returncode == 0, out.stderr
+    assert "line-five" in out.stdout and "visgraph" in out.stdout
+    assert "optplan: warning: PluginWarning: plugin distribution 'exitplug'" in out.stderr
+    assert "presets skipped: SystemExit: 3" in out.stderr
+    out = _run(failing_path, "-m", "optplan", "solve", "open-field", "exit")
+    assert out.returncode == 2, out.stderr
+    assert out.stderr.startswith("optplan: error: plugin distribution 'exitplug' (entry point "
+                                 "exit = exitplug.planner:Exit in optplan.backends): importing "
+                                 "it raised SystemExit: 3"), out.stderr
+    out = _run(failing_path, "-m", "optplan", "solve", "open-field", "nope-fast")
+    assert out.returncode == 2, out.stderr
+    assert out.stderr.startswith("optplan: error: plugin distribution 'presetplug'"), out.stderr
+    assert "nope-fast.toml: backend: unknown backend 'nope'" in out.stderr
+
+
+def test_a_keyboard_interrupt_in_a_plugin_is_never_swallowed(tmp_path: Path) -> None:
+    make_dist(tmp_path, "intplug", {
+        "intplug/__init__.py": "raise KeyboardInterrupt\n",
+        "intplug/presets/int-fast.toml": 'backend = "visgraph"\n',
+    }, "[optplan.presets]\nintplug = intplug.presets\n")
+    code = textwrap.dedent("""
+        import optplan as op
+        for _ in range(2):
+            try:
+                op.list_solvers()
+            except KeyboardInterrupt:
+                print("interrupted")
+    """)
+    out = _run(tmp_path, "-c", code)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.split() == ["interrupted", "interrupted"]
+    assert "PluginWarning" not in out.stderr
+    out = _run(tmp_path, "-m", "optplan", "list", "solvers")
+    assert out.returncode == 130, out.stderr
+    assert "optplan: interrupted" in out.stderr
+
+
+def test_interrupted_sees_a_keyboard_interrupt_in_a_group() -> None:
+    from optplan.catalog import interrupted
+
+    assert interrupted(KeyboardInterrupt())
+    assert interrupted(BaseExceptionGroup("g", [ValueError(), KeyboardInterrupt()]))
+    assert not interrupted(SystemExit(3))
+    assert not interrupted(BaseExceptionGroup("g", [SystemExit(3)]))
+    assert not interrupted(RuntimeError("boom"))
