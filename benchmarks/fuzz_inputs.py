@@ -977,12 +977,14 @@ def _owner_all(d: dict) -> tuple[str, ...]:
 # ======================================================================================
 
 #: The scene a preset's accepted options and inits are solved on.
-FORMATION_BACKENDS = ("leader-follower", "formation-qp")
+FORMATION_BACKENDS = ("leader-follower", "formation-qp", "formation-nlp", "hybrid")
 
 
-def option_scene(backend: str) -> str:
-    return "formation-open-field" if backend in FORMATION_BACKENDS or backend == "hybrid" \
-        else "trap-u"
+def option_scene(backend: str, opts: dict[str, Any] | None = None) -> str:
+    """A team scene for a team planner (a formation backend, or ``orca`` with ``team``),
+    else a single-robot trap."""
+    team = backend in FORMATION_BACKENDS or bool((opts or {}).get("team"))
+    return "formation-open-field" if team else "trap-u"
 
 
 @functools.lru_cache(maxsize=1)
@@ -1042,7 +1044,7 @@ class OptionFuzzer:
                                     f"{opt} = {_short(value)}",
                                     {"preset": name, "backend": backend, "option": opt,
                                      "value": value, "via": via,
-                                     "scene": option_scene(backend)},
+                                     "scene": option_scene(backend, opts)},
                                     (opt,), must))
         return out
 
@@ -1080,8 +1082,8 @@ def init_cases(presets: dict[str, tuple[str, dict]] | None = None, seed: int = 0
     rng = random.Random(seed)
     out = []
     n = 0
-    for name, (backend, _) in presets.items():
-        scene = option_scene(backend)
+    for name, (backend, opts) in presets.items():
+        scene = option_scene(backend, opts)
         sd = catalogue()[scene]
         lead = sd.get("formation", {}).get("leader") or sd["robots"][0]["id"]
         r0 = next(r for r in sd["robots"] if r["id"] == lead)

@@ -147,7 +147,7 @@ def _static(opti: Any, Xi: Any, x0: np.ndarray, pieces: Pieces, scale: float, pr
     opti.set_initial(C, c0 / scale)
     V = np.vstack([pieces.verts[j] / scale for j in piece])
     own = np.repeat(np.arange(K), [len(pieces.verts[j]) for j in piece]).tolist()
-    opti.subject_to(ca.sum2(V * A[own, :]) - C[own] <= 0)
+    opti.subject_to(ca.sum2(V * A[own, :]) - ca.reshape(C[own], len(own), 1) <= 0)
     clear = pieces.clear[piece] / scale
     for P in (Xi[seg.tolist(), :], Xi[(seg + 1).tolist(), :]):
         opti.subject_to(ca.sum2(P * A) - C >= clear)
