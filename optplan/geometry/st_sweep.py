@@ -147,13 +147,28 @@ def _overlap(plane: _Plane, i: np.ndarray, j: np.ndarray, s: np.ndarray) -> np.n
     return np.where(np.isnan(f), np.inf, f)
 
 
+def _overlapping(dom: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The index pairs ``(a, b)``, ``a != b`` once each, of the intervals ``dom`` ``(n, 2)``
+    that overlap: sorted by start, each interval meets the ones that start before it ends
+    (memory grows with the overlapping pairs, not with ``n^2``)."""
+    order = np.argsort(dom[:, 0], kind="stable")
+    starts = dom[order, 0]
+    ends = np.searchsorted(starts, dom[order, 1], side="left")  # first start at/after the end
+    counts = np.maximum(ends - np.arange(len(order)) - 1, 0)
+    a = np.repeat(np.arange(len(order)), counts)
+    first = np.repeat(np.arange(len(order)) + 1 - np.concatenate([[0], np.cumsum(counts)[:-1]]),
+                      counts)
+    b = first + np.arange(len(a))
+    return order[a], order[b]
+
+
 def _pair_events(plane: _Plane, keep: np.ndarray) -> np.ndarray:
     """Arc lengths where two regions begin or cease to overlap (convex ``f``: golden-section
     minimum, then bisection on each side)."""
     if len(keep) < 2:
         return np.zeros(0)
     dom, tmin, tmax = plane.dom[keep], plane.tmin[keep], plane.tmax[keep]
-    a, b = np.triu_indices(len(keep), 1)
+    a, b = _overlapping(dom)
     lo = np.maximum(dom[a, 0], dom[b, 0])
     hi = np.minimum(dom[a, 1], dom[b, 1])
     ok = (lo < hi) & (np.maximum(tmin[a], tmin[b]) < np.minimum(tmax[a], tmax[b]))
