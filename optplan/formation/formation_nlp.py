@@ -26,7 +26,7 @@ from optplan.formation.team_nlp import MoverTable, TeamModel, solve_team_nlp
 from optplan.geometry.motion import mover_track, positions_at
 from optplan.geometry.time_bounds import arrival_time
 from optplan.problem import Problem
-from optplan.result import History, Progress, Result, Status
+from optplan.result import History, Progress, Result, Status, notify
 from optplan.solver import Backend, get_solver, option
 from optplan.units import Record, Unit
 
@@ -108,21 +108,30 @@ class FormationNLP(Backend):
         if init is not None:
             warm = _warm_from_paths(problem, init)
         else:
-            res = get_solver(self.warm_start).solve(problem, rng=rng)
+            res = get_solver(self.warm_start).solve(problem, rng=rng, callback=callback)
             warm = warm_from_result(problem, res)
         if warm is None:
             return self._give_up(problem, f"the warm start ({self.warm_start}) gives no "
                                  "synchronised team plan that reaches the goal", t0)
-        return self.polish(problem, warm, t0)
+        return self.polish(problem, warm, t0, callback=callback)
 
-    def polish(self, problem: Problem, warm: Warm, t0: float | None = None) -> Result:
-        """Solve the NLP from ``warm`` and grade it (the kept warm start when it is better)."""
+    def polish(self, problem: Problem, warm: Warm, t0: float | None = None, *,
+               callback: Callable[[Progress], Any] | None = None) -> Result:
+        """Solve the NLP from ``warm`` and grade it (the kept warm start when it is better).
+
+        ``callback`` receives IPOPT's iterations as :class:`~optplan.result.Progress`
+        (``info["objective"]``); raising ``StopIteration`` stops IPOPT at its last iterate,
+        which is then judged like any other (the warm start is kept when it is better).
+        """
         t0 = time.perf_counter() if t0 is None else t0
         model, ids = self._model(problem, warm)
         ipopt = {"max_iter": int(self.max_iter), "tol": float(self.tol), "print_level": 0,
                  "sb": "yes", "mu_strategy": self.mu_strategy,
                  "constr_viol_tol": float(self.tol)}
-        X, T, info = solve_team_nlp(model, ipopt)
+        prog = _IpoptProgress(callback, t0, warm.T0)
+        X, T, info = solve_team_nlp(model, ipopt, prog if callback is not None else None)
+        if prog.raised:
+            raise prog.raised[0]
         frame = problem.frame
         paths = {rid: frame.world(X[k] * model.scale) for k, rid in enumerate(ids)}
         times = np.linspace(0.0, T * warm.T0, self.n_steps + 1)
@@ -271,3 +280,24 @@ def _movers(problem: Problem, T0: float, horizon: float, scale: float) -> list[M
         out.append(MoverTable(tk / T0, problem.frame.local(pk) / scale, rad / scale,
                               speed * T0 / scale))
     return out
+
+
+class _IpoptProgress:
+    """IPOPT's iterations of the team NLP as :class:`Progress` to the caller's callback; True
+    (stop IPOPT) when it raises ``StopIteration``.  Any other exception is kept in ``raised``
+    (CasADi would swallow it) and re-raised after IPOPT returns."""
+
+    def __init__(self, callback: Callable[[Progress], Any] | None, t0: float, warm_arrival: float):
+        self.callback, self.t0, self.warm_arrival = callback, t0, warm_arrival
+        self.it = 0
+        self.raised: list[BaseException] = []
+
+    def __call__(self, f: float) -> bool:
+        self.it += 1
+        try:
+            return notify(self.callback, Progress(
+                iteration=self.it, best_cost=self.warm_arrival, n_eval=self.it,
+                elapsed=time.perf_counter() - self.t0, info={"objective": f}))
+        except BaseException as e:  # noqa: BLE001 - re-raised after IPOPT returns
+            self.raised.append(e)
+            return True

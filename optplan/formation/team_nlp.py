@@ -36,11 +36,13 @@ Cost
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from optplan.exact.nlp_model import IterCallback
 from optplan.exact.nlp_pieces import Pieces, init_hyperplanes, select_pairs
 
 __all__ = ["TeamModel", "MoverTable", "solve_team_nlp"]
@@ -223,8 +225,13 @@ def _movers(opti: Any, X: list[Any], T: Any, m: TeamModel) -> int:
     return count
 
 
-def solve_team_nlp(m: TeamModel, ipopt: dict[str, Any]) -> tuple[np.ndarray, float, dict]:
+def solve_team_nlp(m: TeamModel, ipopt: dict[str, Any],
+                   stop: Callable[[float], bool] | None = None
+                   ) -> tuple[np.ndarray, float, dict]:
     """Solve the team NLP from its warm start.
+
+    ``stop`` (optional) is called with the objective after every IPOPT iteration; IPOPT
+    stops (``User_Requested_Stop``, its last iterate returned) when it returns True.
 
     Returns
     -------
@@ -263,7 +270,12 @@ def solve_team_nlp(m: TeamModel, ipopt: dict[str, Any]) -> tuple[np.ndarray, flo
             _separate(opti, E[:N, :], E[1:, :], need, E0[:-1] + E0[1:])
     opti.subject_to(_final_slots(X, m) <= 0)
     opti.minimize(T + m.w_formation * _formation_error(X, m, N))
-    opti.solver("ipopt", {"expand": True, "print_time": False}, ipopt)
+    plugin: dict[str, Any] = {"expand": True, "print_time": False}
+    if stop is not None:
+        cb = IterCallback.make(opti.nx, opti.ng, opti.np)
+        cb.target = stop
+        plugin["iteration_callback"] = cb
+    opti.solver("ipopt", plugin, ipopt)
     try:
         sol = opti.solve()
         stats = sol.stats()

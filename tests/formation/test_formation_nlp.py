@@ -102,3 +102,30 @@ def test_bad_inputs_give_a_clear_status():
         op.get_solver("formation-nlp", warm_start="no-such-planner")
     with pytest.raises(ValueError, match="cannot start from itself"):
         op.get_solver("formation-nlp", warm_start="formation-nlp")
+
+
+def test_callback_stops_ipopt_and_keeps_a_valid_plan():
+    """A callback that asks to stop ends IPOPT at once (it used to run to convergence past
+    ``time_limit``); the judged result stays a valid team plan."""
+    seen = []
+
+    def stop_after_three(p):
+        if "objective" in p.info:
+            seen.append(p.iteration)
+            if p.iteration >= 3:
+                raise StopIteration
+
+    res = op.solve("formation-open-field", "formation-nlp", rng=0, callback=stop_after_three)
+    assert seen == [1, 2, 3]
+    assert res.stop_reason == "callback"
+    assert "User_Requested_Stop" in res.message
+    assert res.status is op.Status.solved and res.metrics["feasible"]
+
+
+def test_an_exception_of_the_callback_inside_ipopt_propagates():
+    def boom(p):
+        if "objective" in p.info:
+            raise KeyError("boom")
+
+    with pytest.raises(KeyError, match="boom"):
+        op.solve("formation-open-field", "formation-nlp", rng=0, callback=boom)
