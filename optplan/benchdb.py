@@ -36,7 +36,11 @@ Schema (version :data:`SCHEMA_VERSION`; ``docs/benchmarks.md`` has the same tabl
     ``time_limit`` stopped itself at the limit, ``hard_limit`` stopped by the harness),
     ``message``, ``backend``, ``options`` (JSON: the effective backend options), ``config``
     (JSON: the sweep's overrides and time limit for this solver; a resume must match it),
-    ``worker`` (host:pid or Dask worker address), ``finished`` (ISO 8601, UTC).
+    ``worker`` (host:pid or Dask worker address), ``finished`` (ISO 8601, UTC); for a
+    problem read from a MovingAI ``.scen`` line: ``scen`` (the file's name), ``bucket``,
+    ``scen_line``, ``octile_optimum`` (the file's optimal length) and ``octile_ratio``
+    (length / octile_optimum), NULL otherwise (a file written before these five columns
+    existed reads them as NULL, and gets them when a sweep writes to it).
     NaN is stored as NULL; an infinite clearance (no obstacle) as ``Inf``.
 
 ``progress``: the convergence trace of each run
@@ -126,6 +130,11 @@ CREATE TABLE IF NOT EXISTS runs (
     config         TEXT NOT NULL,
     worker         TEXT,
     finished       TEXT,
+    scen           TEXT,
+    bucket         INTEGER,
+    scen_line      INTEGER,
+    octile_optimum REAL,
+    octile_ratio   REAL,
     UNIQUE (problem, solver, seed)
 );
 CREATE TABLE IF NOT EXISTS progress (
@@ -141,9 +150,15 @@ CREATE INDEX IF NOT EXISTS progress_run ON progress(run_id);
 #: columns of ``runs`` that come from a tidy row (:data:`optplan.bench.COLUMNS`)
 _ROW_COLS = ("problem", "solver", "seed", "status", "success", "length", "optimum", "ratio",
              "min_clearance", "collisions", "wall_time", "reference_time", "n_iter", "n_eval",
-             "stop_reason", "message", "backend", "options")
-_FLOATS = ("length", "optimum", "ratio", "min_clearance", "wall_time", "reference_time")
+             "stop_reason", "message", "backend", "options", "scen", "bucket", "scen_line",
+             "octile_optimum", "octile_ratio")
+_FLOATS = ("length", "optimum", "ratio", "min_clearance", "wall_time", "reference_time",
+           "octile_optimum", "octile_ratio")
 _INTS = ("seed", "collisions", "n_iter", "n_eval")
+#: columns of ``runs`` added after the first files were written (the ``.scen`` columns): a
+#: file without them is read as if they were NULL, and gets them when a sweep writes to it
+_ADDED = {"scen": "TEXT", "bucket": "INTEGER", "scen_line": "INTEGER", "octile_optimum": "REAL",
+          "octile_ratio": "REAL"}
 
 
 class ResultsDBError(ValueError):
@@ -206,7 +221,8 @@ def _check_layout(path: Path, tables: Mapping[str, Sequence[str]]) -> None:
             have = ", ".join(tables) or "none"
             raise ResultsDBError(f"{path}: not an optplan results database: no table {table!r} "
                                  f"(it has: {have}; optplan's tables: {ours})")
-        missing = [c for c in cols if c not in tables[table]]
+        missing = [c for c in cols if c not in tables[table]
+                   and not (table == "runs" and c in _ADDED)]
         if missing:
             raise ResultsDBError(
                 f"{path}: not an optplan results database: table {table!r} has no column "
@@ -396,6 +412,11 @@ class ResultsDB:
                 self.con.execute("INSERT OR IGNORE INTO meta VALUES ('schema_version', ?)",
                                  (str(SCHEMA_VERSION),))
             _check_file(self.path, self.con)  # another process may have made it meanwhile
+        have = _tables(self.con)["runs"]
+        with self.con:
+            for c, sql in _ADDED.items():
+                if c not in have:
+                    self.con.execute(f"ALTER TABLE runs ADD COLUMN {c} {sql}")
 
     # -- writing ---------------------------------------------------------------------
     def begin_experiment(self, info: Mapping[str, Any], planned: int, skipped: int) -> int:
@@ -459,7 +480,9 @@ class ResultsDB:
         """Every run as a tidy row (NULL -> nan, success -> bool), in insertion order."""
         extra = ", id, config, worker, finished" if with_ids else ""
         with _guarded(self.path):
-            cur = self.con.execute(f"SELECT {', '.join(_ROW_COLS)}{extra} FROM runs ORDER BY id")
+            have = _tables(self.con)["runs"]
+            cols = ", ".join(c if c in have else f"NULL AS {c}" for c in _ROW_COLS)
+            cur = self.con.execute(f"SELECT {cols}{extra} FROM runs ORDER BY id")
             names = [d[0] for d in cur.description]
             recs = cur.fetchall()
         out = []
@@ -470,7 +493,7 @@ class ResultsDB:
             r["success"] = bool(r["success"])
             for c in _INTS:
                 r[c] = 0 if r[c] is None else int(r[c])
-            for c in ("stop_reason", "message", "backend", "options"):
+            for c in ("stop_reason", "message", "backend", "options", "scen"):
                 r[c] = r[c] or ""
             out.append(r)
         return out

@@ -414,12 +414,94 @@ def _experiments_table(exps: Sequence[Mapping[str, Any]]) -> str:
     return "\n".join(out)
 
 
+def _groups(rows: Sequence[Mapping[str, Any]]
+            ) -> list[tuple[str, list[Mapping[str, Any]], bool]]:
+    """The report's sections: (title, rows, is a ``.scen`` file), one per problem that is not
+    a ``.scen`` line and one per ``.scen`` file (its lines together), in first-appearance
+    order."""
+    out: dict[tuple[str, bool], list[Mapping[str, Any]]] = {}
+    for r in rows:
+        is_scen = r.get("bucket") is not None
+        out.setdefault((str(r["scen"]) if is_scen else str(r["problem"]), is_scen),
+                       []).append(r)
+    return [(k[0], v, k[1]) for k, v in out.items()]
+
+
+def _save(figs: Mapping[str, Any], outdir: Path, slug: str, title: str, dpi: int) -> str:
+    """Save the figures as ``<slug>-<name>.png``: their ``<img>`` tags in a grid."""
+    imgs = []
+    for name, fig in figs.items():
+        fn = f"{slug}-{name}.png"
+        fig.savefig(outdir / fn, dpi=dpi, bbox_inches="tight")
+        imgs.append(f'<img src="{html.escape(fn)}" alt="{html.escape(title)}: {name}">')
+    return '\n<div class="grid">' + "\n".join(imgs) + "</div>"
+
+
+def _problem_section(p: str, prow: Sequence[Mapping[str, Any]], progress: Mapping[int, Mapping],
+                     colour_of: Mapping[str, str], outdir: Path, slug: str, dpi: int) -> str:
+    """The section of one problem: its summary table and four figures."""
+    from optplan.bench import summarise
+
+    solvers = list(dict.fromkeys(r["solver"] for r in prow))
+    colours = [colour_of[s] for s in solvers]
+    figs = {"outcome": _plot_outcome(prow, solvers),
+            "quality": _plot_quality(prow, solvers, colours),
+            "time": _plot_time(prow, solvers, colours),
+            "convergence": _plot_convergence(prow, progress, solvers, colours)}
+    opts = _finite([r["optimum"] for r in prow])
+    opt_txt = (f"certified optimum {float(np.median(opts)):.4f}" if len(opts)
+               else "no certified optimum")
+    return (f'<h2 id="{html.escape(slug)}">{html.escape(p)}</h2>\n'
+            f'<p class="note">{len(prow)} runs, {len(solvers)} solver(s); {opt_txt}.</p>\n'
+            + _summary_table(summarise(prow)) + _save(figs, outdir, slug, p, dpi))
+
+
+def _bucket_table(summary: Sequence[Mapping[str, Any]]) -> str:
+    """The HTML table of :func:`optplan.bench.buckets.summarise_buckets`."""
+    head = ["bucket", "solver", "lines", "runs", "success", "collided",
+            "length / Euclidean optimum: median, worst", "length / octile optimum: median, "
+            "worst", "time median, ms"]
+    out = ["<table><tr>" + "".join(f"<th>{h}</th>" for h in head) + "</tr>"]
+    for s in summary:
+        cells = [str(s["bucket"]), html.escape(str(s["solver"])), str(s["lines"]),
+                 str(s["runs"]), f"{100 * s['success']:.0f} % ({s['n_success']})",
+                 f"{100 * s['collided']:.0f} %",
+                 f"{_f(s['ratio_median'], 4)}, {_f(s['ratio_worst'], 4)}",
+                 f"{_f(s['octile_ratio_median'], 4)}, {_f(s['octile_ratio_worst'], 4)}",
+                 _f(s["time_median"], 1, 1e3)]
+        out.append("<tr>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    return "\n".join(out) + "</table>"
+
+
+def _scen_section(scen: str, prow: Sequence[Mapping[str, Any]], colour_of: Mapping[str, str],
+                  outdir: Path, slug: str, dpi: int) -> str:
+    """The section of one ``.scen`` file: both ratios per bucket (figure and table), then the
+    outcome, quality and time figures over all its lines."""
+    from optplan.bench.buckets import plot_buckets, summarise_buckets
+
+    solvers = list(dict.fromkeys(r["solver"] for r in prow))
+    colours = [colour_of[s] for s in solvers]
+    figs = {"buckets": plot_buckets(prow, colour_of, title=scen),
+            "outcome": _plot_outcome(prow, solvers),
+            "quality": _plot_quality(prow, solvers, colours),
+            "time": _plot_time(prow, solvers, colours)}
+    lines = len({r["problem"] for r in prow})
+    return (f'<h2 id="{html.escape(slug)}">{html.escape(scen)}</h2>\n'
+            f'<p class="note">{len(prow)} runs on {lines} line(s) of the MovingAI scenario '
+            f'file, {len(solvers)} solver(s). Per bucket: the success share, and the length '
+            f'over the certified Euclidean disc-robot optimum and over the file\'s octile '
+            f'(8-connected grid) optimum, over the successful runs.</p>\n'
+            + _bucket_table(summarise_buckets(prow)) + _save(figs, outdir, slug, scen, dpi))
+
+
 def write_report(db: str | Path, out: str | Path = "report", dpi: int = 100) -> Path:
-    """Write ``out/index.html`` and its PNGs (four per problem) from a results database.
+    """Write ``out/index.html`` and its PNGs from a results database: four per problem (one
+    section each), and for the lines of a MovingAI ``.scen`` file one section per file with
+    the per-bucket figure of both ratios (:func:`optplan.bench.buckets.plot_buckets`), its
+    table, and the outcome, quality and time figures over its lines.
 
     Returns the path of ``index.html``.
     """
-    from optplan.bench import summarise
     from optplan.benchdb import read_experiments, read_progress, read_runs
 
     t0 = time.perf_counter()
@@ -432,35 +514,21 @@ def write_report(db: str | Path, out: str | Path = "report", dpi: int = 100) -> 
     outdir.mkdir(parents=True, exist_ok=True)
     solvers_all = list(dict.fromkeys(r["solver"] for r in rows))
     colour_of = {s: _SOLVER_COLOURS[i % len(_SOLVER_COLOURS)] for i, s in enumerate(solvers_all)}
+    groups = _groups(rows)
     problems = list(dict.fromkeys(r["problem"] for r in rows))
-    sections, used = [], set()
-    for p in problems:
-        prow = [r for r in rows if r["problem"] == p]
-        solvers = list(dict.fromkeys(r["solver"] for r in prow))
-        colours = [colour_of[s] for s in solvers]
-        slug = _slug(p)
+    sections, used, toc_items = [], set(), []
+    for title, prow, is_scen in groups:
+        slug = _slug(title)
         while slug in used:
             slug += "_"
         used.add(slug)
-        figs = {"outcome": _plot_outcome(prow, solvers),
-                "quality": _plot_quality(prow, solvers, colours),
-                "time": _plot_time(prow, solvers, colours),
-                "convergence": _plot_convergence(prow, progress, solvers, colours)}
-        imgs = []
-        for name, fig in figs.items():
-            fn = f"{slug}-{name}.png"
-            fig.savefig(outdir / fn, dpi=dpi, bbox_inches="tight")
-            imgs.append(f'<img src="{html.escape(fn)}" alt="{html.escape(p)}: {name}">')
-        opts = _finite([r["optimum"] for r in prow])
-        opt_txt = (f"certified optimum {float(np.median(opts)):.4f}" if len(opts)
-                   else "no certified optimum")
-        sections.append(
-            f'<h2 id="{html.escape(slug)}">{html.escape(p)}</h2>\n'
-            f'<p class="note">{len(prow)} runs, {len(solvers)} solver(s); {opt_txt}.</p>\n'
-            + _summary_table(summarise(prow)) + '\n<div class="grid">' + "\n".join(imgs)
-            + "</div>")
-    toc = " · ".join(f'<a href="#{html.escape(_slug(p))}">{html.escape(p)}</a>'
-                     for p in problems)
+        toc_items.append(f'<a href="#{html.escape(slug)}">{html.escape(title)}</a>')
+        if is_scen:
+            sections.append(_scen_section(title, prow, colour_of, outdir, slug, dpi))
+        else:
+            sections.append(_problem_section(title, prow, progress, colour_of, outdir, slug,
+                                             dpi))
+    toc = " · ".join(toc_items)
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
 <title>optplan report: {html.escape(Path(db).name)}</title>

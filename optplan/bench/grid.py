@@ -22,10 +22,13 @@ from optplan.bench.rows import (
     _overrides_for,
     _seed_list,
 )
+from optplan.bench.scen import scen_columns, with_scen
 
 
 def _check_inputs(problems: Sequence[str], solvers: Sequence[str],
-                  overrides: Overrides | None) -> None:
+                  overrides: Overrides | None) -> dict[str, dict[str, Any]]:
+    """Load every problem and make every solver (errors raise here, before anything runs);
+    the ``.scen`` columns of each problem (:func:`optplan.bench.scen.scen_columns`)."""
     from optplan.catalog import load_problem
     from optplan.solver import get_solver
 
@@ -33,10 +36,10 @@ def _check_inputs(problems: Sequence[str], solvers: Sequence[str],
         raise ValueError("no problems given")
     if not solvers:
         raise ValueError("no solvers given")
-    for p in problems:
-        load_problem(p)
+    scen = {p: scen_columns(load_problem(p)) for p in problems}
     for s in solvers:
         get_solver(s, **_overrides_for(overrides, s))
+    return scen
 
 
 def _config(options: Mapping[str, Any], time_limit: float | None) -> str:
@@ -215,7 +218,7 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
     solvers = [str(s) for s in solvers]
     seed_list = _seed_list(seeds)
     use_dask = _check_grid_args(workers, time_limit, time_grace, scheduler, dask_local)
-    _check_inputs(problems, solvers, overrides)
+    scen = _check_inputs(problems, solvers, overrides)
     if use_dask:
         _import_dask()
     options = {s: _overrides_for(overrides, s) for s in solvers}
@@ -230,7 +233,7 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
         spec = _db_spec(problems, solvers, seed_list, overrides, time_limit,
                         _engine_name(scheduler, dask_local, workers))
         store, exp_id, todo = _open_db(db, tasks, configs, rows, spec, command_line)
-    record = _Recorder(rows, tasks, configs, store, exp_id, progress, len(todo))
+    record = _Recorder(rows, tasks, configs, store, exp_id, progress, len(todo), scen)
     outcome = "error"
     try:
         if todo:
@@ -244,7 +247,7 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
     finally:
         if store is not None:
             _end_experiment(store, exp_id, outcome, record.n_done)
-    return [r for r in rows if r is not None]
+    return [with_scen(r, scen[r["problem"]]) for r in rows if r is not None]
 
 
 def _end_experiment(store: Any, exp_id: int, outcome: str, done: int) -> None:
@@ -262,17 +265,19 @@ def _end_experiment(store: Any, exp_id: int, outcome: str, done: int) -> None:
 
 
 class _Recorder:
-    """``record(i, row, trace, worker)``: a finished run into ``rows``, the database and the
-    progress callback."""
+    """``record(i, row, trace, worker)``: a finished run, with the ``.scen`` columns of its
+    problem, into ``rows``, the database and the progress callback."""
 
     def __init__(self, rows: list[dict[str, Any] | None], tasks: Sequence[Task],
                  configs: Mapping[str, str], store: Any, exp_id: int,
-                 progress: Callable[[int, int, dict[str, Any]], Any] | None, n_todo: int):
-        self.rows, self.tasks, self.configs = rows, tasks, configs
+                 progress: Callable[[int, int, dict[str, Any]], Any] | None, n_todo: int,
+                 scen: Mapping[str, dict[str, Any]]):
+        self.rows, self.tasks, self.configs, self.scen = rows, tasks, configs, scen
         self.store, self.exp_id, self.progress, self.n_todo = store, exp_id, progress, n_todo
         self.n_done = 0
 
     def __call__(self, i: int, row: dict[str, Any], trace: Trace, worker: str) -> None:
+        row = with_scen(row, self.scen[self.tasks[i][0]])
         self.rows[i] = row
         if self.store is not None:
             self.store.add_run(self.exp_id, row, self.configs[self.tasks[i][1]], trace, worker)

@@ -14,7 +14,13 @@ import numpy as np
 #: Columns of a tidy row, in order.
 COLUMNS = ("problem", "solver", "seed", "status", "success", "length", "ratio", "collisions",
            "min_clearance", "wall_time", "n_iter", "n_eval", "message", "optimum",
-           "reference_time", "stop_reason", "backend", "options")
+           "reference_time", "stop_reason", "backend", "options", "scen", "bucket", "scen_line",
+           "octile_optimum", "octile_ratio")
+
+#: the ``.scen`` columns of a row whose problem is not a ``.scen`` line
+#: (:func:`optplan.bench.scen.with_scen` fills them in)
+_NO_SCEN_ROW = {"scen": "", "bucket": None, "scen_line": None, "octile_optimum": float("nan"),
+                "octile_ratio": float("nan")}
 
 Overrides = Mapping[str, Mapping[str, Any]]
 #: (problem, solver, seed, options, time limit)
@@ -93,6 +99,7 @@ def row_from_result(res: Any, problem: str, solver: str, seed: int) -> dict[str,
         "stop_reason": getattr(res, "stop_reason", "") or "",
         "backend": res.backend,
         "options": _json(res.options),
+        **_NO_SCEN_ROW,
     }
 
 
@@ -103,7 +110,7 @@ def _bare_row(problem: str, solver: str, seed: int, status: str, msg: str,
             "success": False, "length": nan, "ratio": nan, "collisions": -1,
             "min_clearance": nan, "wall_time": wall_time, "n_iter": 0, "n_eval": 0,
             "message": msg, "optimum": nan, "reference_time": nan, "stop_reason": stop_reason,
-            "backend": "", "options": ""}
+            "backend": "", "options": "", **_NO_SCEN_ROW}
 
 
 def _error_row(problem: str, solver: str, seed: int, msg: str) -> dict[str, Any]:

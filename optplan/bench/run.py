@@ -73,9 +73,18 @@ def run_one(problem: str, solver: str, seed: int,
     """Solve one (problem, solver, seed) cell and return its tidy row (never raises).
 
     The run solves a fresh copy of the problem (no cache from earlier runs); ``time_limit`` is
-    passed to :func:`optplan.solve` (no hard limit here: see :func:`run_grid`).
+    passed to :func:`optplan.solve` (no hard limit here: see :func:`run_grid`).  A problem
+    read from a ``.scen`` line gets its ``.scen`` columns (:func:`optplan.bench.scen.with_scen`).
     """
-    return _execute(problem, solver, seed, overrides, time_limit)[0]
+    from optplan.bench.scen import NO_SCEN, scen_columns, with_scen
+    from optplan.catalog import load_problem
+
+    row = _execute(problem, solver, seed, overrides, time_limit)[0]
+    try:
+        cols = scen_columns(load_problem(problem))
+    except Exception:  # noqa: BLE001 - the row already says why the problem did not load
+        cols = dict(NO_SCEN)
+    return with_scen(row, cols)
 
 
 class _HardTimeout(BaseException):

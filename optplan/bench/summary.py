@@ -144,13 +144,16 @@ def write_csv(rows: Sequence[Mapping[str, Any]], path: str | Path) -> Path:
 def read_csv(path: str | Path) -> list[dict[str, Any]]:
     """Read rows written by :func:`write_csv` back (numbers as float/int, success as bool)."""
     ints = {"seed", "collisions", "n_iter", "n_eval"}
-    floats = {"length", "ratio", "min_clearance", "wall_time", "optimum", "reference_time"}
+    floats = {"length", "ratio", "min_clearance", "wall_time", "optimum", "reference_time",
+              "octile_optimum", "octile_ratio"}
     out = []
     with Path(path).open(newline="", encoding="utf-8") as fh:
         for r in csv.DictReader(fh):
             row: dict[str, Any] = dict(r)
             for k in ints & row.keys():
                 row[k] = int(row[k]) if row[k] not in ("", None) else 0
+            for k in {"bucket", "scen_line"} & row.keys():  # empty: not a .scen line
+                row[k] = int(row[k]) if row[k] not in ("", None) else None
             for k in floats & row.keys():
                 row[k] = _num(row[k])
             if "success" in row:
@@ -190,7 +193,9 @@ ARENA_RUN_COLUMNS = (
     ("iterations", "INTEGER", "n_iter"), ("evaluations", "INTEGER", "n_eval"),
     ("certified_optimum", "REAL", "optimum"), ("ratio_to_optimum", "REAL", "ratio"),
     ("collisions", "INTEGER", "collisions"), ("reference_time", "REAL", "reference_time"),
-    ("seed", "INTEGER", "seed"))
+    ("seed", "INTEGER", "seed"), ("octile_optimum", "REAL", "octile_optimum"),
+    ("octile_ratio", "REAL", "octile_ratio"), ("scen_bucket", "INTEGER", "bucket"),
+    ("scen_line", "INTEGER", "scen_line"))
 
 #: the ``status`` enum: optplan's statuses, then the harness's outcomes
 ARENA_STATUS = ("optimal", "solved", "approximate", "infeasible", "failed", "error",
@@ -217,7 +222,7 @@ def _arena_run(row: Mapping[str, Any]) -> list[Any]:
         elif sql == "BOOLEAN":
             out.append(int(bool(row.get(key))))
         elif sql == "INTEGER":
-            out.append(int(row[key]))
+            out.append(None if row.get(key) is None else int(row[key]))
         else:
             out.append(_arena_real(row.get(key)))
     return out
@@ -273,7 +278,8 @@ def export_arena(db: str | Path, out: str | Path) -> dict[str, int]:
     ``memory`` (NULL: not measured), ``solved``, ``approximate solution``, ``solution
     length``, ``solution clearance``, ``status``) and optplan's (``iterations``,
     ``evaluations``, ``certified optimum``, ``ratio to optimum``, ``collisions`` (the
-    validator's, in continuous time), ``reference time``, ``seed``), and the convergence
+    validator's, in continuous time), ``reference time``, ``seed``, and for a ``.scen`` line
+    ``octile optimum``, ``octile ratio``, ``scen bucket``, ``scen line``), and the convergence
     traces in ``progress`` (``time``, ``best cost``, ``iterations``, ``evaluations``).
     NaN and infinite values are NULL, as OMPL stores them.
 

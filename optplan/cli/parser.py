@@ -73,6 +73,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--radius", type=float, default=None, metavar="R",
                    help="robot radius of the problems read from .scen files (map units; "
                         "default 0: point robots)")
+    s.add_argument("--buckets", metavar="SPEC",
+                   help="the buckets of the .scen files to run, e.g. 0-5,9 (ranges inclusive; "
+                        "default: every bucket)")
     s.add_argument("--solvers", help="comma-separated solver names, or 'all' (every preset)")
     s.add_argument("--seeds", type=int, default=10, help="seeds 0..N-1 (default 10)")
     s.add_argument("--workers", type=int, default=1, help="processes (default 1: inline)")

@@ -46,17 +46,23 @@ def _expand_scen(problems: list[str], args: argparse.Namespace) -> list[str]:
     """MovingAI ``.scen`` entries of ``--problems`` as one scenario TOML per line, written
     under ``<--out>/problems/`` (:func:`optplan.bench.expand_scen`)."""
     from optplan.bench import expand_scen
+    from optplan.bench.scen import parse_buckets
 
     has_scen = any(p.lower().endswith(".scen") for p in problems)
-    if args.radius is not None and not has_scen:
-        raise CLIError("--radius is the robot radius of .scen problems; --problems has no "
-                       ".scen file")
+    for flag, v, what in (("--radius", args.radius, "the robot radius"),
+                          ("--buckets", args.buckets, "the bucket selection")):
+        if v is not None and not has_scen:
+            raise CLIError(f"{flag} is {what} of .scen problems; --problems has no .scen file")
     if not has_scen:
         return problems
     radius = 0.0 if args.radius is None else args.radius
     if not (math.isfinite(radius) and radius >= 0):
         raise CLIError(f"--radius must be a finite number >= 0, got {radius:g}")
-    return expand_scen(problems, Path(args.out) / "problems", radius=radius)
+    try:
+        buckets = None if args.buckets is None else parse_buckets(args.buckets, "--buckets")
+    except ValueError as e:
+        raise CLIError(str(e)) from None
+    return expand_scen(problems, Path(args.out) / "problems", radius=radius, buckets=buckets)
 
 
 def _bench_problems(args: argparse.Namespace) -> list[str]:
@@ -103,7 +109,11 @@ def _summary_head(args: argparse.Namespace, problems: list[str], solvers: list[s
                   engine: str, wall: float, overrides: dict | None) -> str:
     """The head of ``summary.md``: what ran, on what, how long, and how to read the table."""
     limit = f"; time limit {args.time_limit:g} s per run" if args.time_limit else ""
-    head = (f"# optplan bench\n\nproblems: {', '.join(problems)}; solvers: "
+    named = ", ".join(problems)
+    if any(p.lower().endswith(".scen") for p in _split_list(args.problems)):
+        named = (f"{args.problems} ({len(problems)} problems, each .scen line one"
+                 + (f" of the buckets {args.buckets}" if args.buckets else "") + ")")
+    head = (f"# optplan bench\n\nproblems: {named}; solvers: "
             f"{', '.join(solvers)}; seeds 0..{args.seeds - 1} (common to every solver); "
             f"{engine}{limit}; total wall time {wall:.1f} s"
             + (f"; database {args.db}" if args.db else "") + ".\n"
@@ -127,10 +137,29 @@ def _print_failures(rows: list[dict], out: TextIO) -> None:
               file=out)
 
 
+def _tables(rows: list[dict]) -> tuple[str, str]:
+    """The tables of a sweep: (printed, written to ``summary.md``).  Without ``.scen`` lines
+    both are the table per problem and solver; with them, the printed one has the other
+    problems' rows and the table per ``.scen`` file, bucket and solver
+    (:func:`optplan.bench.buckets.summarise_buckets`), ``summary.md`` also every line's."""
+    from optplan.bench import summarise, to_markdown
+    from optplan.bench.buckets import buckets_markdown, has_buckets, summarise_buckets
+
+    table = to_markdown(summarise(rows))
+    if not has_buckets(rows):
+        return table, table
+    per_bucket = ("Per bucket (the .scen lines; ratios over the successful runs: to the "
+                  "certified Euclidean optimum and to the file's octile optimum):\n\n"
+                  + buckets_markdown(summarise_buckets(rows)))
+    others = [r for r in rows if r.get("bucket") is None]
+    printed = (to_markdown(summarise(others)) + "\n\n" if others else "") + per_bucket
+    return printed, per_bucket + "\n\nPer problem:\n\n" + table
+
+
 def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
     import shlex
 
-    from optplan.bench import run_grid, summarise, to_markdown, write_csv
+    from optplan.bench import run_grid, write_csv
 
     problems = _bench_problems(args)
     solvers = _bench_solvers(args)
@@ -149,14 +178,13 @@ def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
         print(f"\n{PROG}: interrupted{kept}", file=sys.stderr)
         return 130
     wall = time.perf_counter() - t0
-    summary = summarise(rows)
-    table = to_markdown(summary)
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
     write_csv(rows, outdir / "results.csv")
     head = _summary_head(args, problems, solvers, engine, wall, overrides)
-    (outdir / "summary.md").write_text(head + table + "\n", encoding="utf-8")
-    print(table, file=out)
+    printed, written = _tables(rows)
+    (outdir / "summary.md").write_text(head + written + "\n", encoding="utf-8")
+    print(printed, file=out)
     _print_failures(rows, out)
     written = f"{outdir / 'results.csv'} and {outdir / 'summary.md'}"
     if args.db:
