@@ -125,8 +125,8 @@ def plot_buckets(rows: Sequence[Mapping[str, Any]], colours: Mapping[str, str] |
                  title: str = "") -> Any:
     """One figure of a ``.scen`` sweep per bucket: three panels side by side, the success
     share, the median length / certified Euclidean optimum and the median length / octile
-    optimum (both over the successful runs), each solver a line over the buckets (a bucket
-    where it never succeeded is a gap in the ratio panels).
+    optimum (both over the successful runs; log scale when a median is above 3), each solver a
+    line over the buckets (a bucket where it never succeeded is a gap in the ratio panels).
 
     Parameters
     ----------
@@ -143,7 +143,12 @@ def plot_buckets(rows: Sequence[Mapping[str, Any]], colours: Mapping[str, str] |
         On the Agg canvas (:func:`optplan.plot.new_figure`); each panel's line of a solver is
         labelled with the solver's name, its data the buckets and the panel's values.
     """
-    from matplotlib.ticker import MaxNLocator
+    from matplotlib.ticker import (
+        FormatStrFormatter,
+        LogLocator,
+        MaxNLocator,
+        NullFormatter,
+    )
 
     from optplan.plot import new_figure
 
@@ -160,10 +165,18 @@ def plot_buckets(rows: Sequence[Mapping[str, Any]], colours: Mapping[str, str] |
             ax.plot(buckets, y, marker="o", ms=3.5, lw=1.3, label=solver, **kw)
         if key != "success":
             ax.axhline(1.0, color="#444444", lw=0.8, ls="--")
+            top = max((_num(s[key]) for s in summary if math.isfinite(_num(s[key]))),
+                      default=1.0)
+            if top > 3.0:  # a few long detours would flatten the rest
+                ax.set_yscale("log")
+                ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+                ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+                ax.yaxis.set_minor_formatter(NullFormatter())
         ax.set_xlabel("bucket (difficulty: octile length / 4)")
         ax.set_ylabel(label)
         ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-        ax.ticklabel_format(axis="y", useOffset=False)
+        if ax.get_yscale() == "linear":
+            ax.ticklabel_format(axis="y", useOffset=False)
         ax.grid(alpha=0.3)
     axes[0].set_ylim(-0.03, 1.03)
     fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center",
