@@ -24,7 +24,7 @@ SOLVERS = ["visgraph", "apf"]
 
 @pytest.fixture(scope="module")
 def scen(tmp_path_factory) -> Path:
-    """A seeded 16 x 16 random map and 10 lines over buckets 0..4."""
+    """A seeded 16 x 16 random map and 10 lines over buckets 1..4."""
     d = tmp_path_factory.mktemp("maps")
     return generate_benchmark("random", 16, d, rng=np.random.default_rng(3), queries=10).scen_path
 
@@ -247,3 +247,13 @@ def test_the_report_has_one_section_per_scen_with_the_bucket_figure(swept, tmp_p
     assert "open-field-convergence.png" in pngs
     assert not any(".toml" in p or "-seed3-" in p for p in pngs)  # no section per line
     assert "length / octile optimum: median, worst" in page
+
+
+def test_run_one_gives_a_scen_line_its_columns(scen: Path, tmp_path: Path) -> None:
+    path = bench.expand_scen([str(scen)], tmp_path, buckets=[3])[0]
+    row = bench.run_one(path, "visgraph", 0)
+    e = _entries(scen)[row["scen_line"]]
+    assert row["bucket"] == e.bucket == 3 and row["scen"] == scen.name
+    assert row["octile_ratio"] == pytest.approx(row["length"] / e.optimal_length)
+    missing = bench.run_one(str(tmp_path / "gone.toml"), "visgraph", 0)
+    assert missing["status"] == "error" and missing["bucket"] is None
