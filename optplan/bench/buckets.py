@@ -143,13 +143,6 @@ def plot_buckets(rows: Sequence[Mapping[str, Any]], colours: Mapping[str, str] |
         On the Agg canvas (:func:`optplan.plot.new_figure`); each panel's line of a solver is
         labelled with the solver's name, its data the buckets and the panel's values.
     """
-    from matplotlib.ticker import (
-        FormatStrFormatter,
-        LogLocator,
-        MaxNLocator,
-        NullFormatter,
-    )
-
     from optplan.plot import new_figure
 
     summary = summarise_buckets(rows)
@@ -163,24 +156,30 @@ def plot_buckets(rows: Sequence[Mapping[str, Any]], colours: Mapping[str, str] |
             y = [_num(mine.get(b, math.nan)) for b in buckets]
             kw = {"color": colours[solver]} if colours and solver in colours else {}
             ax.plot(buckets, y, marker="o", ms=3.5, lw=1.3, label=solver, **kw)
-        if key != "success":
-            ax.axhline(1.0, color="#444444", lw=0.8, ls="--")
-            top = max((_num(s[key]) for s in summary if math.isfinite(_num(s[key]))),
-                      default=1.0)
-            if top > 3.0:  # a few long detours would flatten the rest
-                ax.set_yscale("log")
-                ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-                ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
-                ax.yaxis.set_minor_formatter(NullFormatter())
-        ax.set_xlabel("bucket (difficulty: octile length / 4)")
-        ax.set_ylabel(label)
-        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
-        if ax.get_yscale() == "linear":
-            ax.ticklabel_format(axis="y", useOffset=False)
-        ax.grid(alpha=0.3)
+        _style_panel(ax, key, label, [_num(s[key]) for s in summary])
     axes[0].set_ylim(-0.03, 1.03)
     fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center",
                ncols=min(len(solvers), 6), fontsize=8, frameon=False)
     if title:
         fig.suptitle(title, fontsize=11)
     return fig
+
+
+def _style_panel(ax: Any, key: str, label: str, values: Sequence[float]) -> None:
+    """Labels, integer bucket ticks and grid of a panel; for a ratio panel the line at 1 and a
+    log scale when a value is above 3 (a few long detours would flatten the rest)."""
+    from matplotlib.ticker import FormatStrFormatter, LogLocator, MaxNLocator, NullFormatter
+
+    if key != "success":
+        ax.axhline(1.0, color="#444444", lw=0.8, ls="--")
+        if max((v for v in values if math.isfinite(v)), default=1.0) > 3.0:
+            ax.set_yscale("log")
+            ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+            ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+            ax.yaxis.set_minor_formatter(NullFormatter())
+    if ax.get_yscale() == "linear":
+        ax.ticklabel_format(axis="y", useOffset=False)
+    ax.set_xlabel("bucket (difficulty: octile length / 4)")
+    ax.set_ylabel(label)
+    ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+    ax.grid(alpha=0.3)
