@@ -3,11 +3,16 @@ the compiled kernels.
 
 Every compiled function of optplan (the geometry kernels, the swarm's steps, roadmap and
 refinement loops) is declared with ``@compiled(arg types...)``: one explicit signature, so
-numba compiles it exactly once, when its module is imported (eagerly), and caches the machine
-code on disk.  A call with other argument types is converted to the declared ones where that
-is safe (an ``int`` for a ``float64``, a contiguous array for an ``A``-layout one) and is an
-error otherwise; it never compiles a second specialisation (an ``int`` option value, a
-literal constant in a call, a strided view instead of a contiguous array each used to).
+numba compiles it exactly once, and caches the machine code on disk.  It is compiled lazily:
+on its first call (from Python, or when a compiled caller is compiled), not when its module is
+imported, so a process compiles (or loads from the cache) only the kernels it runs: a
+``visgraph`` solve never compiles the swarm's steps, an ``ipso`` solve never compiles the
+clearance kernel.  Whatever the argument types of that first call, the declared signature is
+what is compiled (:class:`OneSignature`); a call with other argument types is converted to the
+declared ones where that is safe (an ``int`` for a ``float64``, a contiguous array for an
+``A``-layout one) and is an error otherwise; it never compiles a second specialisation (an
+``int`` option value, a literal constant in a call, a strided view instead of a contiguous
+array each used to).
 
 Where the cache lives (numba's rules, see docs/benchmarks.md "First run and the numba
 cache"): ``NUMBA_CACHE_DIR`` when set; else ``__pycache__`` next to the module when that
@@ -28,14 +33,18 @@ into its polylines).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from typing import Any
 
 import numba
+import numpy as np
 from numba import types
+from numba.core.compiler_lock import global_compiler_lock
+from numba.core.registry import CPUDispatcher
 
-__all__ = ["compiled", "inlined", "f8", "i8", "b1", "F1", "F2", "F3", "I1", "I2", "B1", "B2", "FA1",
-           "FA2", "IA1", "IA2"]
+__all__ = ["compiled", "inlined", "OneSignature", "argsort_stable", "f8", "i8", "b1", "F1", "F2",
+           "F3", "I1", "I2", "B1", "B2", "FA1", "FA2", "IA1", "IA2"]
 
 f8 = types.float64
 i8 = types.int64
@@ -53,9 +62,55 @@ IA1 = types.Array(i8, 1, "A")
 IA2 = types.Array(i8, 2, "A")
 
 
+class OneSignature(CPUDispatcher):
+    """A numba dispatcher that compiles one declared signature, lazily.
+
+    Until its first call it can compile; the first compilation request, whatever argument
+    types it names (a Python call's, or a compiled caller's when that caller is typed),
+    compiles (or loads from the disk cache) the declared signature instead, and compilation
+    is then disabled: later calls are converted to that signature or rejected, exactly as
+    for ``numba.njit([signature])``, which compiles the same signature at import.
+    """
+
+    _declared: tuple[Any, ...] | None = None
+
+    def compile(self, sig: Any) -> Any:
+        """Compile the declared signature (whatever ``sig`` is) and disable compilation.
+
+        Parameters
+        ----------
+        sig : numba signature or tuple of types
+            The types of the call that asked; ignored once a signature is declared.
+
+        Returns
+        -------
+        object
+            The entry point of the declared signature's machine code.
+        """
+        if self._declared is None:
+            return super().compile(sig)
+        disp: Any = self  # numba's attributes are untyped
+        with global_compiler_lock:
+            if not disp._can_compile:  # compiled meanwhile: the declared overload exists
+                return disp.overloads[self._declared].entry_point
+            entry = super().compile(self._declared)
+            self.disable_compile()
+            return entry
+
+    def _compile_for_args(self, *_args: Any) -> Any:
+        """First call from Python: compile the declared signature, then dispatch the call
+        as for an eagerly compiled dispatcher (converted to the declared types, or a
+        ``TypeError``): numba calls what this returns with the call's arguments."""
+        disp: Any = self
+        disp._compilation_chain_init_hook()
+        self.compile(self._declared)
+        return self
+
+
 def compiled(*argtypes: Any) -> Callable[[Callable[..., Any]], Any]:
-    """Decorator: ``numba.njit`` with the one signature ``argtypes`` (return type inferred),
-    compiled when the module is imported, cached on disk, without the GIL, no fastmath.
+    """Decorator: a numba function with the one signature ``argtypes`` (return type
+    inferred), compiled on its first call (:class:`OneSignature`), cached on disk, without
+    the GIL, no fastmath.
 
     Parameters
     ----------
@@ -68,7 +123,16 @@ def compiled(*argtypes: Any) -> Callable[[Callable[..., Any]], Any]:
         The decorator; the decorated function is a numba dispatcher that accepts only
         ``argtypes`` (or arguments safely converted to them).
     """
-    return numba.njit([tuple(argtypes)], cache=True, nogil=True, fastmath=False)
+    sig = tuple(argtypes)
+
+    def wrap(fn: Callable[..., Any]) -> Any:
+        disp = OneSignature(py_func=fn, locals={}, targetoptions={
+            "nopython": True, "nogil": True, "fastmath": False, "boundscheck": None})
+        disp.enable_caching()
+        disp._declared = sig
+        return disp
+
+    return wrap
 
 
 def inlined(fn: Callable[..., Any]) -> Any:
@@ -87,3 +151,50 @@ def inlined(fn: Callable[..., Any]) -> Any:
         Callable from compiled code (and, compiled then, from Python: the tests do).
     """
     return numba.njit(inline="always", nogil=True, fastmath=False)(fn)
+
+
+@compiled(types.Array(f8, 1, "A"))
+def argsort_stable(keys):  # pragma: no cover - compiled
+    """``np.argsort(keys, kind="stable")`` for compiled code: ascending, ties in index order,
+    NaN last (numpy's and numba's order); a bottom-up merge sort.
+
+    A stable sort's order is unique, so this returns exactly what numba's
+    ``np.argsort(kind="mergesort")`` returns; compiling that one costs about 1.3 s of CPU (its
+    merge routines, per key type), this one about a tenth of it.
+
+    Parameters
+    ----------
+    keys : ndarray of float64, shape (n,)
+        The keys (any layout).
+
+    Returns
+    -------
+    ndarray of int64, shape (n,)
+        The permutation that sorts ``keys``.
+    """
+    n = keys.shape[0]
+    a = np.arange(n)
+    b = np.empty(n, np.int64)
+    width = 1
+    while width < n:
+        for lo in range(0, n, 2 * width):
+            mid = min(lo + width, n)
+            hi = min(lo + 2 * width, n)
+            i, j = lo, mid
+            for k in range(lo, hi):
+                if i < mid and j < hi:
+                    x, y = keys[a[i]], keys[a[j]]
+                    # take from the right only when it is strictly smaller (stable);
+                    # NaN is larger than everything but NaN
+                    take_right = y < x or (math.isnan(x) and not math.isnan(y))
+                else:
+                    take_right = i >= mid
+                if take_right:
+                    b[k] = a[j]
+                    j += 1
+                else:
+                    b[k] = a[i]
+                    i += 1
+        a, b = b, a
+        width *= 2
+    return a

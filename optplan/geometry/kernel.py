@@ -1,8 +1,8 @@
 """Compiled loops of the exact collision engine (numba; the only implementation).
 
 Every function here is ``@compiled(signature)`` (:mod:`optplan.geometry.jit`): compiled once,
-with its one signature, when the module is imported (about 3 s of CPU once per machine; the
-machine code is cached on disk) and tested against shapely in
+with its one signature, on its first call (about 3 s of CPU for the whole module, once per
+machine; the machine code is cached on disk) and tested against shapely in
 ``tests/geometry/test_geometry.py``.  Why compiled: the engine answers many small queries (a swarm's
 fitness: tens of paths x a few segments x the obstacles near them, thousands of times per run);
 per-query numpy overhead, not arithmetic, would dominate, and early exits per (segment, item)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.jit import F1, F2, FA1, FA2, I2, b1, compiled, f8, i8, inlined
+from optplan.geometry.jit import F1, F2, FA1, FA2, I2, argsort_stable, b1, compiled, f8, i8, inlined
 
 __all__ = [
     "crossover",
@@ -108,7 +108,7 @@ def ga_pairs(F, X, n_islands, n_select, tol2, swap):
     frag = np.zeros((n_islands * half, 2), np.int64)
     h = 0
     for i in range(n_islands):
-        order = np.argsort(F[i * m_i:(i + 1) * m_i], kind="mergesort") + i * m_i
+        order = argsort_stable(F[i * m_i:(i + 1) * m_i]) + i * m_i
         for r in range(half):
             a = order[2 * r]
             b = order[2 * r + 1]

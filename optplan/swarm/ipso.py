@@ -79,7 +79,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.geometry.jit import F1, F2, F3, FA2, I1, I2, b1, compiled, f8, i8
+from optplan.geometry.jit import F1, F2, F3, FA2, I1, I2, argsort_stable, b1, compiled, f8, i8
 from optplan.solver import option
 from optplan.swarm.backend import SwarmBackend, SwarmState
 from optplan.swarm.core import PathBuffer, SwarmSpace, evaluate_paths
@@ -219,7 +219,7 @@ def _worst_slots(F, isl, n_islands):
     slots = np.empty(isl.shape[0], np.int64)
     q = 0
     for i in range(n_islands):
-        order = np.argsort(F[i * m_i:(i + 1) * m_i], kind="mergesort")[::-1]
+        order = argsort_stable(F[i * m_i:(i + 1) * m_i])[::-1]
         r = 0
         while q < isl.shape[0] and isl[q] == i:
             slots[q] = order[min(r, m_i - 1)] + i * m_i
@@ -258,7 +258,13 @@ def absorb(X, V, cost, length, count, B, m, cv, isl, pbest, pbest_f, n_islands):
     kept = 0
     if m > 0:
         use_m = cost[P:P + m] < cost[P + m:P + 2 * m]  # eq 29, greedy
-        o = np.argsort(isl, kind="mergesort")
+        o = np.empty(isl.shape[0], np.int64)  # the pairs by island, stable (counting sort)
+        q = 0
+        for i in range(n_islands):
+            for r in range(isl.shape[0]):
+                if isl[r] == i:
+                    o[q] = r
+                    q += 1
         slots = _worst_slots(F, isl[o], n_islands)
         for q in range(m):
             r = o[q]

@@ -20,6 +20,7 @@ import math
 import numba
 import numpy as np
 
+from optplan.geometry.jit import argsort_stable
 from optplan.swarm.core import SwarmSpace, pairs_free, segment_free
 
 __all__ = ["CUT_FRACTIONS", "CUT_STAGES", "shortcut", "tighten"]
@@ -148,13 +149,16 @@ def _apply_cuts(pts, off, ids, rows, cut, P, Q, next_id, settled_prev, settled_n
         new_off[p] = q
         for v in range(off[p], off[p + 1]):
             r = which[v]
-            if r < 0:
-                new_pts[q] = pts[v]
+            if r < 0:  # element copies: no row assignment (numba's error text)
+                new_pts[q, 0] = pts[v, 0]
+                new_pts[q, 1] = pts[v, 1]
                 new_ids[q] = ids[v]
                 q += 1
             else:
-                new_pts[q] = P[r]
-                new_pts[q + 1] = Q[r]
+                new_pts[q, 0] = P[r, 0]
+                new_pts[q, 1] = P[r, 1]
+                new_pts[q + 1, 0] = Q[r, 0]
+                new_pts[q + 1, 1] = Q[r, 1]
                 new_ids[q] = next_id
                 new_ids[q + 1] = next_id + 1
                 next_id += 2
@@ -215,7 +219,9 @@ def _cut_table(pts, rows, f, thr):
                 gain[r, s * F + t] = g
                 if g > thr[r]:
                     n_above[r] += 1
-        order[r] = np.argsort(-gain[r], kind="mergesort")
+        o = argsort_stable(-gain[r])
+        for k in range(F * F):  # element loop: no slice assignment (numba's error text)
+            order[r, k] = o[k]
     return P, Q, gain, order, n_above
 
 

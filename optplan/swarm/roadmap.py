@@ -16,8 +16,9 @@ Sparse roadmap
     string-pulled.
 
 The nodes are sampled in :mod:`optplan.swarm.samples`, the signatures are
-:mod:`optplan.swarm.signatures`; the graph loops (candidate edges, CSR form, Dijkstra, the
-label-setting class search) are compiled with numba.
+:mod:`optplan.swarm.signatures`; the graph loops (the corner candidate edges, Dijkstra, the
+label-setting class search) are compiled with numba, the rest (neighbour and Yao edges, CSR
+form) is vectorised numpy.
 """
 
 from __future__ import annotations
@@ -197,7 +198,7 @@ def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 
     class search returns the same walks; it only skips the collision tests of long corner pairs
     far from the start-goal line.
 
-    The candidate edges come from compiled loops (:func:`_base_edges`, :func:`_corner_edges`),
+    The candidate edges come from :func:`_base_edges` (numpy) and :func:`_corner_edges` (compiled),
     and each group is tested in one call of the collision kernel (two calls in all)."""
     nodes, corner = roadmap_nodes(space, n_samples, rng, boundary, medial)
     n = len(nodes)
@@ -233,7 +234,7 @@ def _tested_edges(space: SwarmSpace, nodes: np.ndarray, corner: np.ndarray, k: i
         if math.isfinite(U):
             bound = slack * U * (1.0 + 1e-9)
     i, j, ok, todo = _corner_edges(nodes, bi, bj, corner, okb, CORNER_REACH * space.diag,
-                                   bound)
+                                   bound, *_endpoint_distances(nodes))
     ok[todo] = pairs_free(nodes, i[todo], j[todo], space)
     return i, j, ok
 
@@ -253,96 +254,53 @@ CORNER_REACH = 0.3
 YAO_SECTORS = 8
 
 
-@_jit
-def _sector(dx, dy, sectors):
-    """The Yao sector of the direction ``(dx, dy)``: octant 0-7 counter-clockwise from +x (a
-    half-open 45 degree cone each), times ``sectors / 8``.  Written with selects instead of
-    branches (the same octants as nested ``if``s; it runs once per pair of roadmap nodes)."""
+def _sector(dx, dy, sectors: int):
+    """The Yao sector of the directions ``(dx, dy)`` (scalars or arrays): octant 0-7
+    counter-clockwise from +x (a half-open 45 degree cone each), times ``sectors / 8``.
+    Written with selects instead of branches (the same octants as nested ``if``s)."""
     neg = dy < 0.0  # the lower half is the upper half turned by 180 degrees
-    u = -dx if neg else dx
-    v = -dy if neg else dy
-    o = (np.int64(2) + np.int64(v <= -u)) if u <= 0.0 else np.int64(v >= u)
-    return (o + np.int64(4) * np.int64(neg)) * sectors // 8
+    u = np.where(neg, -dx, dx)
+    v = np.where(neg, -dy, dy)
+    o = np.where(u <= 0.0, 2 + (v <= -u).astype(np.int64), (v >= u).astype(np.int64))
+    return (o + 4 * np.asarray(neg, np.int64)) * sectors // 8
 
 
-@_jit
-def _base_edges(nodes, nb, nb2, sectors):
+def _base_edges(nodes: np.ndarray, nb: np.ndarray, nb2: np.ndarray,
+                sectors: int) -> tuple[np.ndarray, np.ndarray]:
     """The neighbour and Yao edges of :func:`build_roadmap`: each node to its nearest nodes
     ``nb`` (a row per node; ``nb2``: more for nodes 0 and 1, start and goal) and to its
     nearest node in each of ``sectors`` equal angular sectors (a Yao graph: connected, and it
     bridges a dense cluster and a sparse region, which the k nearest neighbours of the
-    cluster's nodes do not).  Returns those pairs ``i < j`` in lexicographic order."""
-    n = nodes.shape[0]
-    M = np.zeros((n, n), np.bool_)
-    _mark_rows(M, nb)
-    _mark_rows(M, nb2)
-    X = nodes[:, 0].copy()
-    Y = nodes[:, 1].copy()
-    d2 = np.empty(n)
-    sec = np.empty(n, np.int64)
-    best = np.empty(sectors)
-    arg = np.empty(sectors, np.int64)
-    for i in range(n):
-        xi = X[i]
-        yi = Y[i]
-        for j in range(n):
-            dx = X[j] - xi
-            dy = Y[j] - yi
-            d2[j] = dx * dx + dy * dy
-            sec[j] = _sector(dx, dy, sectors)
-        best[:] = np.inf
-        arg[:] = -1
-        for j in range(n):
-            if j != i and d2[j] < best[sec[j]]:
-                best[sec[j]] = d2[j]
-                arg[sec[j]] = j
-        for s in range(sectors):
-            if arg[s] >= 0:
-                M[min(i, arg[s]), max(i, arg[s])] = True
-    return _mask_pairs(M)
+    cluster's nodes do not; the lowest index on ties).  Returns those pairs ``i < j`` in
+    lexicographic order.  Vectorised numpy (it runs once per roadmap)."""
+    n = len(nodes)
+    M = np.zeros((n, n), bool)
+    for rows in (nb, nb2):
+        i = np.repeat(np.arange(len(rows)), rows.shape[1])
+        j = rows.ravel()
+        keep = i != j
+        M[np.minimum(i, j)[keep], np.maximum(i, j)[keep]] = True
+    X, Y = nodes[:, 0], nodes[:, 1]
+    dx = X[None, :] - X[:, None]
+    dy = Y[None, :] - Y[:, None]
+    d2 = dx * dx + dy * dy
+    np.fill_diagonal(d2, np.inf)  # not the node itself
+    sec = _sector(dx, dy, sectors)
+    rows = np.arange(n)
+    for s in range(sectors):
+        ds = np.where(sec == s, d2, np.inf)
+        arg = np.argmin(ds, axis=1)  # the first of the nearest
+        hit = ds[rows, arg] < np.inf
+        a, b = rows[hit], arg[hit]
+        M[np.minimum(a, b), np.maximum(a, b)] = True
+    bi, bj = np.nonzero(np.triu(M, 1))
+    return bi.astype(np.int64), bj.astype(np.int64)
 
 
-@_jit
-def _mark_rows(M, nb):
-    """Mark the pairs (node ``i``, ``nb[i, q]``) in the upper triangle of ``M`` (not ``i``
-    itself)."""
-    for i in range(nb.shape[0]):
-        for q in range(nb.shape[1]):
-            j = nb[i, q]
-            if j != i:
-                M[min(i, j), max(i, j)] = True
-
-
-@_jit
-def _mask_pairs(M):
-    """The marked pairs ``a < b`` of ``M`` in lexicographic order."""
-    n = M.shape[0]
-    cnt = 0
-    for a in range(n):
-        for b in range(a + 1, n):
-            cnt += M[a, b]
-    bi = np.empty(cnt, np.int64)
-    bj = np.empty(cnt, np.int64)
-    q = 0
-    for a in range(n):
-        for b in range(a + 1, n):
-            if M[a, b]:
-                bi[q] = a
-                bj[q] = b
-                q += 1
-    return bi, bj
-
-
-@_jit
-def _endpoint_distances(nodes):
+def _endpoint_distances(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distance of every node to the start (node 0) and to the goal (node 1)."""
-    n = nodes.shape[0]
-    ds = np.empty(n)
-    dg = np.empty(n)
-    for v in range(n):
-        ds[v] = math.hypot(nodes[v, 0] - nodes[0, 0], nodes[v, 1] - nodes[0, 1])
-        dg[v] = math.hypot(nodes[v, 0] - nodes[1, 0], nodes[v, 1] - nodes[1, 1])
-    return ds, dg
+    return (np.hypot(nodes[:, 0] - nodes[0, 0], nodes[:, 1] - nodes[0, 1]),
+            np.hypot(nodes[:, 0] - nodes[1, 0], nodes[:, 1] - nodes[1, 1]))
 
 
 @_jit
@@ -359,15 +317,14 @@ def _corner_pair(nodes, a, b, r2, ds, dg, bound):
 
 
 @_jit
-def _corner_edges(nodes, bi, bj, corner, okb, reach, bound):
+def _corner_edges(nodes, bi, bj, corner, okb, reach, bound, ds, dg):
     """All candidate pairs ``a < b`` in lexicographic order: the base edges ``(bi, bj)``
     (lexicographic, collision-free flags ``okb``) and the pairs of ``corner`` nodes at most
     ``reach`` apart whose start-goal detour ``|s - a| + |a - b| + |b - g|`` (the shorter
     orientation) is at most ``bound``, merged row by row (a pair that is both is a base edge).
     Returns the pairs, their flags (the base flags, False for a corner pair) and the mask of
-    the corner pairs (to be tested)."""
+    the corner pairs (to be tested); ``ds``, ``dg``: :func:`_endpoint_distances`."""
     n = nodes.shape[0]
-    ds, dg = _endpoint_distances(nodes)
     r2 = reach * reach
     cidx = np.flatnonzero(corner)
     nc = cidx.shape[0]
@@ -407,43 +364,24 @@ def _corner_edges(nodes, bi, bj, corner, okb, reach, bound):
     return I[:q], J[:q], ok[:q], todo[:q]
 
 
-@_jit
-def _edge_lengths(nodes, i, j):
+def _edge_lengths(nodes: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
     """Length of each edge ``nodes[i[e]] -> nodes[j[e]]``."""
-    out = np.empty(i.shape[0])
-    for e in range(i.shape[0]):
-        out[e] = math.hypot(nodes[i[e], 0] - nodes[j[e], 0], nodes[i[e], 1] - nodes[j[e], 1])
-    return out
+    return np.hypot(nodes[i, 0] - nodes[j, 0], nodes[i, 1] - nodes[j, 1])
 
 
-@_jit
-def _csr(n, i, j, w):
+def _csr(n: int, i: np.ndarray, j: np.ndarray,
+         w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Both directions of the undirected edges ``(i, j)`` (lengths ``w``) in CSR form, the
-    edges of a node in the order of ``concat(i, j)`` (a stable sort by source)."""
-    m = i.shape[0]
+    edges of a node in the order of ``concat(i, j)`` (a stable sort by source); and the slot
+    of each directed edge of ``concat(i, j)``."""
+    src = np.concatenate((i, j)).astype(np.int64)
+    order = np.argsort(src, kind="stable")
     indptr = np.zeros(n + 1, np.int64)
-    for e in range(m):
-        indptr[i[e] + 1] += 1
-        indptr[j[e] + 1] += 1
-    for v in range(n):
-        indptr[v + 1] += indptr[v]
-    fill = indptr[:-1].copy()
-    target = np.empty(2 * m, np.int64)
-    weight = np.empty(2 * m)
-    pos = np.empty(2 * m, np.int64)  # the slot of each directed edge of concat(i, j)
-    for e in range(m):
-        q = fill[i[e]]
-        fill[i[e]] += 1
-        target[q] = j[e]
-        weight[q] = w[e]
-        pos[e] = q
-    for e in range(m):
-        q = fill[j[e]]
-        fill[j[e]] += 1
-        target[q] = i[e]
-        weight[q] = w[e]
-        pos[m + e] = q
-    return indptr, target, weight, pos
+    indptr[1:] = np.cumsum(np.bincount(src, minlength=n))
+    pos = np.empty(len(src), np.int64)
+    pos[order] = np.arange(len(src))
+    return (indptr, np.concatenate((j, i)).astype(np.int64)[order],
+            np.concatenate((w, w))[order], pos)
 
 
 def _roadmap_csr(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, Z: np.ndarray,

@@ -125,6 +125,7 @@ VULTURE_USED = {
     "signum": "a signal handler's signature (bench.run)",
     "exc": "a context manager's __exit__ signature (benchdb)",
     "_negative_number_matcher": "argparse reads it (cli.parser)",
+    "_compile_for_args": "numba's dispatcher calls it on a first call (geometry.jit)",
     **dict.fromkeys(("get_n_in", "get_n_out", "get_name_in", "get_name_out",
                      "get_sparsity_in", "eval"),
                     "casadi.Callback methods, called by CasADi (exact.nlp_model)"),
