@@ -114,18 +114,23 @@ def _check_unit(name: str, unit: Unit, a: Any, b: Any) -> None:
         f"{name} ({unit.value}): {b.ravel()[:4]}, expected {a.ravel()[:4]}")
 
 
+#: options of the presets too slow as they are here (the same extras, fewer NLP steps)
+FAST_OPTIONS = {"formation-nlp": {"n_steps": 30}}
+
+
 @pytest.mark.parametrize("solver", op.list_solvers())
 def test_every_extra_declares_its_unit(solver: str, monkeypatch: pytest.MonkeyPatch) -> None:
     runs = _spy_simulate(monkeypatch)
     backend = op.get_solver(solver)
+    fast = FAST_OPTIONS.get(solver, {})
     # a callback: the hybrid maps its stages' Progress.info back by their declared units too
     base = op.solve(_scene(1.0, (0.0, 0.0)), backend, rng=0, reference=False,
-                    callback=lambda p: None)
+                    callback=lambda p: None, **fast)
     if not runs:
         pytest.skip(f"{solver} does not step in time")
     spec = getattr(backend, "extras_units", None)
     assert isinstance(spec, Record), f"{solver}: a time-stepping backend declares extras_units"
-    moved = op.solve(_scene(SCALE, SHIFT), backend, rng=0, reference=False)
+    moved = op.solve(_scene(SCALE, SHIFT), backend, rng=0, reference=False, **fast)
     assert moved.status == base.status
     a = {n: (u, v) for n, u, v in leaves(base.extras, spec)}
     b = {n: (u, v) for n, u, v in leaves(moved.extras, spec)}
