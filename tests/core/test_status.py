@@ -240,10 +240,11 @@ def test_nlp_callback_errors_propagate_without_a_dump(capfd) -> None:
 def test_progress_elapsed_is_wall_time_and_sim_time_is_separate() -> None:
     seen = []
     t0 = time.perf_counter()
-    op.solve("paper-apf-env1", "sa-apf-paper", rng=0, callback=seen.append)
+    res = op.solve("paper-apf-env1", "sa-apf-paper", rng=0, callback=seen.append)
     wall = time.perf_counter() - t0
     assert seen and all(p.elapsed <= wall + 1e-6 for p in seen)
-    assert seen[-1].sim_time is not None and seen[-1].sim_time > wall  # simulated seconds
+    # simulated seconds: the clock of the trajectory, whatever the machine's speed
+    assert seen[-1].sim_time == pytest.approx(float(res.times[-1]))
     assert all(b.elapsed >= a.elapsed for a, b in zip(seen, seen[1:]))
     swarm = []
     op.solve("paper-env1", "ipso", rng=0, callback=swarm.append)

@@ -183,10 +183,11 @@ def test_ctrl_c_keeps_finished_runs_and_a_rerun_completes_the_rest(tmp_path):
                             cwd=tmp_path,
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
-        t_end = time.monotonic() + 90
+        # not a speed bound: only a hung sweep (no run in 10 min, whatever the load) fails here
+        t_end = time.monotonic() + 600
         while _count(db) < 6:
             assert proc.poll() is None, proc.communicate()
-            assert time.monotonic() < t_end, "no run finished"
+            assert time.monotonic() < t_end, "the sweep hung: no run in 10 min"
             time.sleep(0.05)
         proc.send_signal(signal.SIGINT)
         # how fast it stops is a benchmark figure (bench_sweep.py), not a test bound; the
@@ -262,7 +263,8 @@ def _check_limited(rows, sleeps, how):
         if r["seed"] in sleeps:
             assert r["status"] == "time_limit" and r["stop_reason"] == "hard_limit"
             assert not r["success"] and how in r["message"]
-            assert 0.5 <= r["wall_time"] < 5.0
+            # recorded at the limit + grace, and cut: not after the backend's 20 s sleep
+            assert 0.5 <= r["wall_time"] < 20.0
         else:
             assert r["status"] == "solved" and r["stop_reason"] == ""
 
