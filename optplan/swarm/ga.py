@@ -174,12 +174,11 @@ def ga_children(X, V, pairs, pc, noise, sigma, out, frag, swap):
     m = 2 * h
     D = X.shape[1]
     a, b = pairs[:, 0], pairs[:, 1]
+    x1, x2, v1, v2 = _rows(X, a), _rows(X, b), _rows(V, a), _rows(V, b)  # 4 inlined copies
     if swap:
-        c1x, c2x, c1v, c2v = swap_fragments(_rows(X, a), _rows(X, b), _rows(V, a),
-                                            _rows(V, b), frag)
+        c1x, c2x, c1v, c2v = swap_fragments(x1, x2, v1, v2, frag)
     else:
-        c1x, c2x, c1v, c2v = crossover(_rows(X, a), _rows(X, b), _rows(V, a), _rows(V, b),
-                                       pc)
+        c1x, c2x, c1v, c2v = crossover(x1, x2, v1, v2, pc)
     cv = np.empty((m, D))
     for r in range(h):
         for d in range(D):

@@ -280,14 +280,12 @@ def absorb(X, V, cost, length, count, B, m, cv, isl, pbest, pbest_f, n_islands):
     return F, kept, j_best, best_x, j_feas, feas_x
 
 
-@compiled(F1, i8)
-def island_bests(pbest_f, n_islands):
-    """Index of each island's best personal best (islands = blocks of consecutive particles)."""
-    m_i = pbest_f.shape[0] // n_islands
-    out = np.empty(n_islands, np.int64)
-    for i in range(n_islands):
-        out[i] = np.argmin(pbest_f[i * m_i:(i + 1) * m_i]) + i * m_i
-    return out
+def island_bests(pbest_f: np.ndarray, n_islands: int) -> np.ndarray:
+    """Index of each island's best personal best (islands = blocks of consecutive particles;
+    the first on ties)."""
+    m_i = len(pbest_f) // n_islands
+    return (pbest_f[:n_islands * m_i].reshape(n_islands, m_i).argmin(axis=1)
+            + m_i * np.arange(n_islands, dtype=np.int64))
 
 
 

@@ -50,27 +50,20 @@ def _flat(paths: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(np.concatenate([np.asarray(p, float) for p in paths])), off
 
 
-@_jit
-def _pairs(off, window):
+def _pairs(off: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
     """Global index pairs ``(i, j)``, ``i < j`` in the same path and at most ``window`` apart
-    (0: every pair)."""
-    n = 0
-    for p in range(off.shape[0] - 1):
-        m = off[p + 1] - off[p]
-        for i in range(m):
-            n += min(m - 1 - i, window) if window > 0 else m - 1 - i
-    I = np.empty(n, np.int64)
-    J = np.empty(n, np.int64)
-    q = 0
-    for p in range(off.shape[0] - 1):
-        o, m = off[p], off[p + 1] - off[p]
-        for i in range(m):
-            top = m if window <= 0 else min(m, i + window + 1)
-            for j in range(i + 1, top):
-                I[q] = o + i
-                J[q] = o + j
-                q += 1
-    return I, J
+    (0: every pair), sorted by ``i`` then ``j``."""
+    if window <= 0:
+        tri = [np.triu_indices(int(off[p + 1] - off[p]), 1) for p in range(len(off) - 1)]
+        I = np.concatenate([i + off[p] for p, (i, _) in enumerate(tri)] + [np.zeros(0, int)])
+        J = np.concatenate([j + off[p] for p, (_, j) in enumerate(tri)] + [np.zeros(0, int)])
+        return I.astype(np.int64), J.astype(np.int64)
+    n = np.diff(off)
+    end = np.repeat(off[1:], n)  # one past the last vertex of each vertex's path
+    I = np.repeat(np.arange(off[-1], dtype=np.int64), window)
+    J = I + np.tile(np.arange(1, window + 1, dtype=np.int64), int(off[-1]))
+    keep = J < np.repeat(end, window)
+    return I[keep], J[keep]
 
 
 @_jit
@@ -106,65 +99,40 @@ def _pull(pts: np.ndarray, off: np.ndarray, space: SwarmSpace, window: int,
     return pts[keep], new_off, (ids[keep] if ids is not None else None), len(I)
 
 
-@_jit
-def _dirty_rows(off, ids, settled_prev, settled_next, active):
+def _dirty_rows(off: np.ndarray, ids: np.ndarray, settled_prev: np.ndarray,
+                settled_next: np.ndarray, active: np.ndarray) -> np.ndarray:
     """Interior vertices of the active paths not known to admit no cut with their current
-    neighbours (global indices)."""
-    out = np.empty(off[-1], np.int64)
-    n = 0
-    for p in range(off.shape[0] - 1):
-        if not active[p]:
-            continue
-        for v in range(off[p] + 1, off[p + 1] - 1):
-            x = ids[v]
-            if settled_prev[x] != ids[v - 1] or settled_next[x] != ids[v + 1]:
-                out[n] = v
-                n += 1
-    return out[:n]
+    neighbours (global indices, ascending)."""
+    path = np.repeat(np.arange(len(off) - 1), np.diff(off))
+    v = np.arange(off[-1], dtype=np.int64)
+    v = v[(v > off[path]) & (v < off[path + 1] - 1) & active[path]]
+    x = ids[v]
+    return v[(settled_prev[x] != ids[v - 1]) | (settled_next[x] != ids[v + 1])]
 
 
-@_jit
-def _apply_cuts(pts, off, ids, rows, cut, P, Q, next_id, settled_prev, settled_next):
-    """Replace every cut vertex ``rows[r]`` by its two cut points ``P[r], Q[r]`` (new ids from
-    ``next_id``); a tested vertex without a cut is recorded as settled with its neighbours.
-    Returns the new points, offsets, ids and the next free id."""
-    n_cut = 0
-    for r in range(rows.shape[0]):
-        if cut[r]:
-            n_cut += 1
-        else:
-            v = rows[r]
-            settled_prev[ids[v]] = ids[v - 1]
-            settled_next[ids[v]] = ids[v + 1]
-    N = pts.shape[0]
-    new_pts = np.empty((N + n_cut, 2))
-    new_ids = np.empty(N + n_cut, np.int64)
-    new_off = np.zeros_like(off)
-    which = np.full(N, -1, np.int64)
-    for r in range(rows.shape[0]):
-        if cut[r]:
-            which[rows[r]] = r
-    q = 0
-    for p in range(off.shape[0] - 1):
-        new_off[p] = q
-        for v in range(off[p], off[p + 1]):
-            r = which[v]
-            if r < 0:  # element copies: no row assignment (numba's error text)
-                new_pts[q, 0] = pts[v, 0]
-                new_pts[q, 1] = pts[v, 1]
-                new_ids[q] = ids[v]
-                q += 1
-            else:
-                new_pts[q, 0] = P[r, 0]
-                new_pts[q, 1] = P[r, 1]
-                new_pts[q + 1, 0] = Q[r, 0]
-                new_pts[q + 1, 1] = Q[r, 1]
-                new_ids[q] = next_id
-                new_ids[q + 1] = next_id + 1
-                next_id += 2
-                q += 2
-    new_off[-1] = q
-    return new_pts, new_off, new_ids, next_id
+def _apply_cuts(pts: np.ndarray, off: np.ndarray, ids: np.ndarray, rows: np.ndarray,
+                cut: np.ndarray, P: np.ndarray, Q: np.ndarray, next_id: int,
+                settled_prev: np.ndarray, settled_next: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Replace every cut vertex ``rows[r]`` (ascending) by its two cut points ``P[r], Q[r]``
+    (new ids from ``next_id``, in vertex order); a tested vertex without a cut is recorded
+    as settled with its neighbours.  Returns the new points, offsets, ids and the next free id."""
+    v = rows[~cut]
+    settled_prev[ids[v]] = ids[v - 1]
+    settled_next[ids[v]] = ids[v + 1]
+    cv = rows[cut]  # the cut vertices, ascending (rows are: :func:`_dirty_rows`)
+    rep = np.ones(len(pts), np.int64)
+    rep[cv] = 2
+    start = np.zeros(len(pts) + 1, np.int64)
+    start[1:] = np.cumsum(rep)
+    new_pts = np.repeat(pts, rep, axis=0)
+    new_ids = np.repeat(ids, rep)
+    s = start[cv]
+    new_pts[s] = P[cut]
+    new_pts[s + 1] = Q[cut]
+    new_ids[s] = next_id + 2 * np.arange(len(cv), dtype=np.int64)
+    new_ids[s + 1] = new_ids[s] + 1
+    return new_pts, start[off], new_ids, next_id + 2 * len(cv)
 
 
 @_jit
@@ -255,14 +223,15 @@ def _stage_segments(P, Q, order, n_above, found, lo, hi):
     return A, B, who, rank
 
 
-@_jit
-def _stage_pick(order, who, rank, free, found, choice):
-    """Per vertex the first free cut of the stage (in rank order: the largest gain)."""
-    for q in range(who.shape[0]):
-        r = who[q]
-        if free[q] and not found[r]:
-            found[r] = True
-            choice[r] = order[r, rank[q]]
+def _stage_pick(order: np.ndarray, who: np.ndarray, rank: np.ndarray, free: np.ndarray,
+                found: np.ndarray, choice: np.ndarray) -> None:
+    """Per vertex the first free cut of the stage (in rank order: the largest gain), in
+    place in ``found`` and ``choice`` (the stage's cuts are sorted by vertex, then rank)."""
+    q = np.flatnonzero(free & ~found[who])
+    w = who[q]
+    q = q[np.concatenate(([True], w[1:] != w[:-1]))[:len(q)]]  # the first of each vertex
+    found[who[q]] = True
+    choice[who[q]] = order[who[q], rank[q]]
 
 
 def _best_cuts(pts: np.ndarray, rows: np.ndarray, f: np.ndarray, thr: np.ndarray,

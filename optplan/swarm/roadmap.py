@@ -16,9 +16,8 @@ Sparse roadmap
     string-pulled.
 
 The nodes are sampled in :mod:`optplan.swarm.samples`, the signatures are
-:mod:`optplan.swarm.signatures`; the graph loops (the corner candidate edges, Dijkstra, the
-label-setting class search) are compiled with numba, the rest (neighbour and Yao edges, CSR
-form) is vectorised numpy.
+:mod:`optplan.swarm.signatures`; the graph loops (Dijkstra, the label-setting class search) are
+compiled with numba, the rest (candidate edges, CSR form) is vectorised numpy.
 """
 
 from __future__ import annotations
@@ -198,7 +197,7 @@ def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 
     class search returns the same walks; it only skips the collision tests of long corner pairs
     far from the start-goal line.
 
-    The candidate edges come from :func:`_base_edges` (numpy) and :func:`_corner_edges` (compiled),
+    The candidate edges come from :func:`_base_edges` and :func:`_corner_edges`,
     and each group is tested in one call of the collision kernel (two calls in all)."""
     nodes, corner = roadmap_nodes(space, n_samples, rng, boundary, medial)
     n = len(nodes)
@@ -233,8 +232,9 @@ def _tested_edges(space: SwarmSpace, nodes: np.ndarray, corner: np.ndarray, k: i
         U = _walk_length(nodes, bi[okb], bj[okb])
         if math.isfinite(U):
             bound = slack * U * (1.0 + 1e-9)
-    i, j, ok, todo = _corner_edges(nodes, bi, bj, corner, okb, CORNER_REACH * space.diag,
-                                   bound, *_endpoint_distances(nodes))
+    reach = CORNER_REACH * space.diag
+    i, j, ok, todo = _corner_edges(nodes, bi, bj, corner, np.flatnonzero(corner), okb,
+                                   reach * reach, bound, *_endpoint_distances(nodes))
     ok[todo] = pairs_free(nodes, i[todo], j[todo], space)
     return i, j, ok
 
@@ -254,45 +254,63 @@ CORNER_REACH = 0.3
 YAO_SECTORS = 8
 
 
-def _sector(dx, dy, sectors: int):
-    """The Yao sector of the directions ``(dx, dy)`` (scalars or arrays): octant 0-7
-    counter-clockwise from +x (a half-open 45 degree cone each), times ``sectors / 8``.
-    Written with selects instead of branches (the same octants as nested ``if``s)."""
+@_jit
+def _sector(dx, dy, sectors):
+    """The Yao sector of the direction ``(dx, dy)``: octant 0-7 counter-clockwise from +x (a
+    half-open 45 degree cone each), times ``sectors / 8``.  Written with selects instead of
+    branches (the same octants as nested ``if``s; it runs once per pair of roadmap nodes)."""
     neg = dy < 0.0  # the lower half is the upper half turned by 180 degrees
-    u = np.where(neg, -dx, dx)
-    v = np.where(neg, -dy, dy)
-    o = np.where(u <= 0.0, 2 + (v <= -u).astype(np.int64), (v >= u).astype(np.int64))
-    return (o + 4 * np.asarray(neg, np.int64)) * sectors // 8
+    u = -dx if neg else dx
+    v = -dy if neg else dy
+    o = (np.int64(2) + np.int64(v <= -u)) if u <= 0.0 else np.int64(v >= u)
+    return (o + np.int64(4) * np.int64(neg)) * sectors // 8
+
+
+@_jit
+def _yao_nearest(nodes, sectors):
+    """Per node its nearest other node in each of ``sectors`` equal angular sectors
+    (:func:`_sector`; the lowest index on ties), ``-1`` for an empty sector: ``(n,
+    sectors)``."""
+    n = nodes.shape[0]
+    X = nodes[:, 0].copy()
+    Y = nodes[:, 1].copy()
+    d2 = np.empty(n)
+    sec = np.empty(n, np.int64)
+    best = np.empty(sectors)
+    arg = np.empty((n, sectors), np.int64)
+    for i in range(n):
+        xi = X[i]
+        yi = Y[i]
+        for j in range(n):
+            dx = X[j] - xi
+            dy = Y[j] - yi
+            d2[j] = dx * dx + dy * dy
+            sec[j] = _sector(dx, dy, sectors)
+        best[:] = np.inf
+        arg[i, :] = -1
+        for j in range(n):
+            if j != i and d2[j] < best[sec[j]]:
+                best[sec[j]] = d2[j]
+                arg[i, sec[j]] = j
+    return arg
 
 
 def _base_edges(nodes: np.ndarray, nb: np.ndarray, nb2: np.ndarray,
                 sectors: int) -> tuple[np.ndarray, np.ndarray]:
     """The neighbour and Yao edges of :func:`build_roadmap`: each node to its nearest nodes
     ``nb`` (a row per node; ``nb2``: more for nodes 0 and 1, start and goal) and to its
-    nearest node in each of ``sectors`` equal angular sectors (a Yao graph: connected, and it
-    bridges a dense cluster and a sparse region, which the k nearest neighbours of the
-    cluster's nodes do not; the lowest index on ties).  Returns those pairs ``i < j`` in
-    lexicographic order.  Vectorised numpy (it runs once per roadmap)."""
+    nearest node in each of ``sectors`` equal angular sectors (:func:`_yao_nearest`; a Yao
+    graph: connected, and it bridges a dense cluster and a sparse region, which the k nearest
+    neighbours of the cluster's nodes do not).  Returns those pairs ``i < j`` in
+    lexicographic order."""
     n = len(nodes)
     M = np.zeros((n, n), bool)
-    for rows in (nb, nb2):
+    yao = _yao_nearest(nodes, sectors)
+    for rows in (nb, nb2, yao):
         i = np.repeat(np.arange(len(rows)), rows.shape[1])
         j = rows.ravel()
-        keep = i != j
+        keep = (i != j) & (j >= 0)
         M[np.minimum(i, j)[keep], np.maximum(i, j)[keep]] = True
-    X, Y = nodes[:, 0], nodes[:, 1]
-    dx = X[None, :] - X[:, None]
-    dy = Y[None, :] - Y[:, None]
-    d2 = dx * dx + dy * dy
-    np.fill_diagonal(d2, np.inf)  # not the node itself
-    sec = _sector(dx, dy, sectors)
-    rows = np.arange(n)
-    for s in range(sectors):
-        ds = np.where(sec == s, d2, np.inf)
-        arg = np.argmin(ds, axis=1)  # the first of the nearest
-        hit = ds[rows, arg] < np.inf
-        a, b = rows[hit], arg[hit]
-        M[np.minimum(a, b), np.maximum(a, b)] = True
     bi, bj = np.nonzero(np.triu(M, 1))
     return bi.astype(np.int64), bj.astype(np.int64)
 
@@ -304,29 +322,15 @@ def _endpoint_distances(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 @_jit
-def _corner_pair(nodes, a, b, r2, ds, dg, bound):
-    """Whether the corner pair ``(a, b)`` is a candidate of :func:`_corner_edges`: at most
-    ``sqrt(r2)`` apart, with a start-goal detour ``|s - a| + |a - b| + |b - g|`` (the shorter
-    orientation; ``ds``, ``dg``: :func:`_endpoint_distances`) of at most ``bound``."""
-    dx = nodes[a, 0] - nodes[b, 0]
-    dy = nodes[a, 1] - nodes[b, 1]
-    if dx * dx + dy * dy > r2:
-        return False
-    via = math.hypot(dx, dy) + min(ds[a] + dg[b], ds[b] + dg[a])
-    return via <= bound
-
-
-@_jit
-def _corner_edges(nodes, bi, bj, corner, okb, reach, bound, ds, dg):
+def _corner_edges(nodes, bi, bj, corner, cidx, okb, r2, bound, ds, dg):
     """All candidate pairs ``a < b`` in lexicographic order: the base edges ``(bi, bj)``
-    (lexicographic, collision-free flags ``okb``) and the pairs of ``corner`` nodes at most
-    ``reach`` apart whose start-goal detour ``|s - a| + |a - b| + |b - g|`` (the shorter
-    orientation) is at most ``bound``, merged row by row (a pair that is both is a base edge).
-    Returns the pairs, their flags (the base flags, False for a corner pair) and the mask of
-    the corner pairs (to be tested); ``ds``, ``dg``: :func:`_endpoint_distances`."""
+    (lexicographic, collision-free flags ``okb``) and the pairs of ``corner`` nodes (``cidx``:
+    their indices, ascending) at most ``sqrt(r2)`` apart whose start-goal detour ``|s - a| +
+    |a - b| + |b - g|`` (the shorter orientation; ``ds``, ``dg``:
+    :func:`_endpoint_distances`) is at most ``bound``, merged row by row (a pair that is both
+    is a base edge).  Returns the pairs, their flags (the base flags, False for a corner
+    pair) and the mask of the corner pairs (to be tested)."""
     n = nodes.shape[0]
-    r2 = reach * reach
-    cidx = np.flatnonzero(corner)
     nc = cidx.shape[0]
     nbase = bi.shape[0]
     cap = nbase + nc * (nc - 1) // 2
@@ -356,7 +360,11 @@ def _corner_edges(nodes, bi, bj, corner, okb, reach, bound, ds, dg):
                     c += 1
                 continue
             c += 1
-            if _corner_pair(nodes, a, b_corn, r2, ds, dg, bound):
+            dx = nodes[a, 0] - nodes[b_corn, 0]
+            dy = nodes[a, 1] - nodes[b_corn, 1]
+            if dx * dx + dy * dy > r2:
+                continue
+            if math.hypot(dx, dy) + min(ds[a] + dg[b_corn], ds[b_corn] + dg[a]) <= bound:
                 I[q] = a
                 J[q] = b_corn
                 todo[q] = True
