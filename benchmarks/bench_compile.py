@@ -8,9 +8,9 @@ directory, so every kernel it needs is compiled there (nothing is read from the 
 (``time.process_time``: every thread of the process; the machine is shared, so wall times
 would measure the other users), in this order:
 
-* ``import``: ``import optplan`` and the kernel modules (the eagerly compiled kernels, those
-  with an explicit signature, are compiled here);
-* ``first solve``: the first ``op.solve(problem, solver, rng=0)`` (lazily compiled kernels
+* ``import``: ``import optplan`` (no kernel compiles here: each compiles, with its one
+  signature, on its first call, :mod:`optplan.geometry.jit`);
+* ``first solve``: the first ``op.solve(problem, solver, rng=0)`` (the kernels it calls
   compile here);
 * ``second solve``: the same call again in the same process (no compilation);
 * ``warm import`` and ``warm first solve``: a second fresh process on the now filled cache (what
@@ -22,8 +22,11 @@ it), summed over the dispatchers of a module, over one process that imports optp
 the four solves (one empty cache).  The targets of issue 28 are printed beside the times:
 first ``ipso`` solve (import included) <= 10 s CPU, first ``visgraph`` solve <= 5 s CPU.
 
+``--numba-opt N`` runs the children with ``NUMBA_OPT=N`` (numba's LLVM optimisation level,
+process-wide; default 3) to see how much of the compile time is LLVM's optimisation.
+
 Run: ``.venv/bin/python benchmarks/bench_compile.py [--cases visgraph ipso ...]
-[--json out.json]``.
+[--numba-opt 0] [--json out.json]``.
 """
 
 from __future__ import annotations
@@ -85,9 +88,12 @@ def _child(cases: list[str]) -> dict:
     return out
 
 
-def run_child(cases: list[str], cache: str) -> dict:
-    """A fresh interpreter with ``NUMBA_CACHE_DIR=cache`` running :func:`_child`."""
+def run_child(cases: list[str], cache: str, opt: int | None = None) -> dict:
+    """A fresh interpreter with ``NUMBA_CACHE_DIR=cache`` (and ``NUMBA_OPT=opt``) running
+    :func:`_child`."""
     env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+    if opt is not None:
+        env["NUMBA_OPT"] = str(opt)
     code = (f"import json, sys; sys.path.insert(0, {os.path.dirname(__file__)!r}); "
             f"import bench_compile as b; print(json.dumps(b._child({cases!r})))")
     p = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
@@ -98,14 +104,18 @@ def run_child(cases: list[str], cache: str) -> dict:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", nargs="*", default=list(CASES), choices=list(CASES))
+    ap.add_argument("--numba-opt", type=int, default=None, choices=range(4),
+                    help="NUMBA_OPT of the children (default: numba's, 3)")
+    ap.add_argument("--modules", action=argparse.BooleanOptionalAction, default=True,
+                    help="also the per-module table (one more process, all cases)")
     ap.add_argument("--json", default=None, help="also write the measurements here")
     args = ap.parse_args(argv)
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     rows, record = [], {}
     for case in args.cases:
         with tempfile.TemporaryDirectory(prefix="optplan-numba-") as cache:
-            cold = run_child([case], cache)
-            warm = run_child([case], cache)
+            cold = run_child([case], cache, args.numba_opt)
+            warm = run_child([case], cache, args.numba_opt)
         first = cold["import"] + cold["cases"][case][0]
         target = TARGETS.get(case)
         record[case] = {"cold": cold, "warm": warm}
@@ -119,8 +129,19 @@ def main(argv: list[str] | None = None) -> int:
           "warm import | warm first solve |")
     print("|---|---|---|---|---|---|---|---|")
     print("\n".join(rows))
+    if args.modules:
+        _module_table(record, args.numba_opt)
+    print(f"\nload average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(record, f, indent=1)
+    return 0
+
+
+def _module_table(record: dict, opt: int | None) -> None:
+    """Print the compile CPU per kernel module (one process, the four cases, empty cache)."""
     with tempfile.TemporaryDirectory(prefix="optplan-numba-") as cache:
-        allc = run_child(list(CASES), cache)
+        allc = run_child(list(CASES), cache, opt)
     record["all"] = allc
     mods: dict[str, float] = {}
     for name, sec in allc["per_fn"].items():
@@ -134,11 +155,6 @@ def main(argv: list[str] | None = None) -> int:
         n = sum(1 for k in allc["per_fn"] if k.split(":")[0] == mod)
         print(f"| {mod} | {sec:.2f} | {n} |")
     print(f"| total | {sum(mods.values()):.2f} | {len(allc['per_fn'])} |")
-    print(f"\nload average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
-    if args.json:
-        with open(args.json, "w") as f:
-            json.dump(record, f, indent=1)
-    return 0
 
 
 if __name__ == "__main__":
