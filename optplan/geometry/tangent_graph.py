@@ -9,7 +9,7 @@ vertices), a circle of radius ``R`` grows to ``R + r``.  A shortest path of the 
 straight segments tangent to these arcs and arcs along them (Lozano-Pérez & Wesley 1979 for points;
 Chew 1985; Liu & Arimoto 1992, the *tangent graph*).  Reflex vertices never touch a shortest path.
 
-Construction used here (no graph is stored; edges are generated when a node is expanded):
+Construction (edges are generated when a node is expanded, and kept by a :class:`TangentGraph`):
 
 * **Circles**: radius ``r`` at every convex vertex of every polygon ring (holes included), with
   its *normal cone* (the directions between the outward normals of the two edges); radius
@@ -27,24 +27,24 @@ Construction used here (no graph is stored; edges are generated when a node is e
 * **Exact checks**: every tangent segment is tested with the exact segment predicate of
   :class:`~optplan.geometry.ObstacleSet`; every arc with an exact arc-to-segment / arc-to-circle
   distance against the items near its circle.
-* **Search**: A* (Euclidean heuristic, consistent) with lazy edge evaluation: the successors of
-  an expanded node are generated in one vectorised step, sorted by ``f = g + h`` and consumed in
-  order, and an edge is checked only when it is the cheapest open candidate.  An arrival on a
-  circle is dominated (not expanded) when an earlier expanded arrival on the same circle and
-  sense reaches it along a free arc at no greater cost.
+* **Search**: A* (Euclidean heuristic, consistent) with lazy edges: the successors of an
+  expanded node, sorted by ``f = g + h``, are checked only when the cheapest open candidate.
+  An arrival is dominated (not expanded) when an earlier expanded arrival on the same circle
+  and sense reaches it along a free arc at no greater cost.
+* **Build once, query many**: the successors of a circle and sense (the tangents that pass
+  both cones) and the status of their segments do not depend on the query: a
+  :class:`TangentGraph` keeps them (up to a memory bound) for the later queries on the map.
 
 The length is exact up to round-off (segments plus arcs ``rho * angle``).  The returned polyline
 replaces each arc by a *circumscribed* polyline (vertices outside the circle, every chord tangent
 to it), so it stays ``>= r`` from the obstacle; its length is slightly larger and is reported
-apart.  Memory grows with the number of candidates generated, never with ``n^2`` dense arrays.
+apart.
 
 Bounds: the bounds are a wall of the obstacle set (:func:`~optplan.geometry.obstacles.bounds_wall`),
-merged with every obstacle that touches them into one solid.  Its convex vertices (where a wall
-drawn to the edge meets it, for instance) are circles like any other, the bounds' own corners
-are reflex and never touched, and no tangent can leave the bounds.  The search is therefore
-complete and exact on a walled set: the path it returns is the shortest path inside the bounds
-(certified), and when it finds none, no path exists (a proof of infeasibility).  On a set
-built with ``walls=False`` the bounds are ignored and ``info["certified"]`` is False.
+merged with every obstacle that touches them into one solid (its convex vertices are circles
+like any other; the bounds' corners are reflex).  The search is complete and exact on a walled
+set: its path is the shortest inside the bounds (certified), and none found proves that no path
+exists.  On a set built with ``walls=False`` ``info["certified"]`` is False.
 """
 
 from __future__ import annotations
@@ -57,14 +57,15 @@ from typing import Any
 
 import numpy as np
 
+from optplan.geometry.arc_lines import arc_polyline, rebuild_polyline
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, ArcChecker, Circles, circles_of
 from optplan.geometry.obstacles import ObstacleSet
 
-__all__ = ["TangentPath", "shortest_path", "problem_shortest_path", "arc_polyline"]
+__all__ = ["TangentPath", "TangentGraph", "tangent_graph", "shortest_path",
+           "problem_shortest_path", "arc_polyline"]
 
-# --------------------------------------------------------------------------------------
-# the search
-# --------------------------------------------------------------------------------------
+#: Default memory bound of the successors a :class:`TangentGraph` stores (bytes).
+MAX_GRAPH_BYTES = 256 * 2**20
 
 
 @dataclass(frozen=True)
@@ -94,18 +95,36 @@ class _Stream:
     """Sorted successor candidates of one expanded node."""
 
     __slots__ = ("node", "f", "g", "j", "sj", "pi", "pj", "th_d", "th_a", "sweep", "ok", "pos",
-                 "checked")
+                 "checked", "edges", "eidx")
 
-    def __init__(self, node, f, g, j, sj, pi, pj, th_d, th_a, sweep):
+    def __init__(self, node, f, g, j, sj, pi, pj, th_d, th_a, sweep, edges=None, eidx=None):
         order = np.argsort(f, kind="stable")
         self.node = node
         self.f, self.g, self.j, self.sj = f[order], g[order], j[order], sj[order]
-        self.pi, self.pj, self.th_d, self.sweep = pi[order], pj[order], th_d[order], \
-            sweep[order]
-        self.th_a = th_a[order]
+        self.pi, self.pj, self.th_d, self.th_a = pi[order], pj[order], th_d[order], th_a[order]
+        self.sweep = sweep[order]
         self.ok = np.zeros(len(order), np.int8)  # 0 unknown, 1 free, -1 blocked
         self.pos = 0
         self.checked = 0
+        # the query-independent edges the candidates come from (index -1: the goal)
+        self.edges: _Edges | None = edges
+        self.eidx = None if eidx is None else eidx[order]
+
+
+class _Edges:
+    """The query-independent successors of circle ``i`` in sense ``si``: the tangents to the
+    other circles (both senses) that pass both cones, with their segment status (``ok``: 0
+    unknown, 1 free, -1 blocked; filled in by the searches); ``pi`` is None for a point."""
+
+    __slots__ = ("j", "sj", "seg", "pi", "pj", "th_d", "th_a", "od", "ok")
+
+    def __init__(self, j, sj, seg, pi, pj, th_d, th_a, od):
+        self.j, self.sj, self.seg, self.pi, self.pj, self.th_d = j, sj, seg, pi, pj, th_d
+        self.th_a, self.od, self.ok = th_a, od, np.zeros(len(j), np.int8)
+
+    @property
+    def nbytes(self) -> int:
+        return sum(getattr(getattr(self, k), "nbytes", 0) for k in self.__slots__)
 
 
 class _Search:
@@ -115,12 +134,14 @@ class _Search:
     of an expanded node form one :class:`_Stream` sorted by ``f``, consumed lazily.
     """
 
-    def __init__(self, oset: ObstacleSet, C: Circles, zs: complex, zg: complex, info: dict):
+    def __init__(self, oset: ObstacleSet, C: Circles, zs: complex, zg: complex, info: dict,
+                 graph: TangentGraph | None = None):
         self.oset, self.C, self.zs, self.zg = oset, C, zs, zg
         self.fr = oset.frame
         self.eps = self.fr.eps
         self.info = info
-        self.arcs = ArcChecker(oset, C)
+        self.graph = graph
+        self.arcs = ArcChecker(oset, C) if graph is None else graph.arcs
         self.box = self.fr.local_bounds
         self.n = C.n
         self.cen, self.rho, self.lo, self.width, self.full = (C.center, C.rho, C.lo, C.width,
@@ -141,19 +162,21 @@ class _Search:
         ok = full[k] | (off <= width[k] + ANGLE_TOL)
         return np.where(ok, np.minimum(off, np.where(full[k], off, width[k])), np.nan)
 
-    def _candidates(self, i: int, si: int, ci: complex, ri: float):
+    def _candidates(self, i: int, si: int, ci: complex, ri: float, circles: bool = True,
+                    goal: bool = True):
         """Tangents from circle ``i`` (sense ``si``; ``i < 0``: the start point) to every
-        other circle with both senses and to the goal.
+        other circle with both senses (``circles``) and to the goal (``goal``).
 
         Returns ``jj, sj, dd, delta, nl, pj, th_arr`` (target circle, its sense, centre
         distance, radius difference, tangent normal, arrival point and angle) for the
         geometrically possible tangents (``|c_j - c_i| > |delta|``).
         """
-        n = self.n
-        jj = np.concatenate([np.repeat(self.all_j, 2), [-2]])
-        sj = np.concatenate([np.tile(self.senses, n), [1]])
-        cj = np.concatenate([np.repeat(self.cen, 2), [self.zg]])
-        rj = np.concatenate([np.repeat(self.rho, 2), [0.0]])
+        n = self.n if circles else 0
+        g = 1 if goal else 0
+        jj = np.concatenate([np.repeat(self.all_j[:n], 2), np.full(g, -2, np.int64)])
+        sj = np.concatenate([np.tile(self.senses, n), np.ones(g, np.int64)])
+        cj = np.concatenate([np.repeat(self.cen[:n], 2), [self.zg] * g])
+        rj = np.concatenate([np.repeat(self.rho[:n], 2), [0.0] * g])
         if i >= 0:
             keep = jj != i
             jj, sj, cj, rj = jj[keep], sj[keep], cj[keep], rj[keep]
@@ -178,15 +201,35 @@ class _Search:
         th_d = np.angle(-si * nl)
         # departure point in the cone of circle i and the arc from th_a to th_d inside it
         od = self.cone_off(np.full(len(th_d), i), th_d)
-        if self.full[i]:
-            sweep = np.mod((th_d - th_a) * si, TWO_PI)
-            sweep = np.where(sweep > TWO_PI - ANGLE_TOL, 0.0, sweep)
-        else:
-            oa = float(self.cone_off(np.array([i]), np.array([th_a]))[0])
-            sweep = (od - oa) * si
-            sweep = np.where((sweep < 0) & (sweep > -ANGLE_TOL), 0.0, sweep)
+        sweep = self._sweep(i, si, th_a, th_d, od)
         ok = np.isfinite(od) & (sweep >= 0)
         return pi, th_d, sweep, ok
+
+    def _sweep(self, i: int, si: int, th_a: float, th_d, od):
+        """Arc swept on circle ``i`` (sense ``si``) from the arrival angle ``th_a`` to the
+        departure angles ``th_d`` (cone offsets ``od``); negative or nan: not in the cone."""
+        if self.full[i]:
+            sweep = np.mod((th_d - th_a) * si, TWO_PI)
+            return np.where(sweep > TWO_PI - ANGLE_TOL, 0.0, sweep)
+        oa = float(self.cone_off(np.array([i]), np.array([th_a]))[0])
+        sweep = (od - oa) * si
+        return np.where((sweep < 0) & (sweep > -ANGLE_TOL), 0.0, sweep)
+
+    def edges(self, i: int, si: int) -> _Edges:
+        """The query-independent successors of circle ``i`` in sense ``si`` (module
+        :class:`_Edges`): the tangents to the other circles, filtered by both cones."""
+        ci, ri = self.cen[i], float(self.rho[i])
+        jj, sj, dd, delta, nl, pj, th_arr = self._candidates(i, si, ci, ri, goal=False)
+        th_d = np.angle(-si * nl)
+        od = self.cone_off(np.full(len(th_d), i), th_d)
+        ok = np.isfinite(od)
+        if len(jj):
+            ok &= np.isfinite(self.cone_off(jj, th_arr))
+        sel = np.flatnonzero(ok)
+        seg = np.sqrt(np.maximum(dd[sel] ** 2 - delta[sel] ** 2, 0.0))
+        pi = (ci - si * ri * nl[sel]) if ri > 0 else None
+        return _Edges(jj[sel].astype(np.int32), sj[sel].astype(np.int8), seg, pi, pj[sel],
+                      th_d[sel], th_arr[sel], od[sel])
 
     def expand(self, node_id: int) -> None:
         """Generate the successors of node ``node_id`` as a new stream."""
@@ -196,14 +239,27 @@ class _Search:
             ci, ri = self.zs, 0.0
         else:
             ci, ri = self.cen[i], self.rho[i]
-        jj, sj, dd, delta, nl, pj, th_arr = self._candidates(i, si, ci, ri)
+        circles = i < 0 or self.graph is None
+        jj, sj, dd, delta, nl, pj, th_arr = self._candidates(i, si, ci, ri, circles=circles)
         pi, th_d, sweep, ok = self._departures(i, si, th_a, ci, ri, nl)
         # arrival point in the cone of circle j (the goal has none)
         isg = jj < 0
         kj = np.where(isg, 0, jj)
-        if self.n:
+        if self.n and circles:
             ok &= isg | np.isfinite(self.cone_off(kj, th_arr))
         seg = np.sqrt(np.maximum(dd * dd - delta * delta, 0.0))
+        edges = eidx = None
+        if not circles:  # the circles' tangents from the graph, the goal's from above
+            assert self.graph is not None
+            edges = self.graph.edges_of(self, i, si)
+            sw = self._sweep(i, si, th_a, edges.th_d, edges.od)
+            pie = edges.pi if edges.pi is not None else np.full(len(edges.j), ci)
+            jj, sj = np.concatenate([edges.j, jj]), np.concatenate([edges.sj, sj])
+            seg, pi = np.concatenate([edges.seg, seg]), np.concatenate([pie, pi])
+            pj, th_d = np.concatenate([edges.pj, pj]), np.concatenate([edges.th_d, th_d])
+            th_arr, sweep = np.concatenate([edges.th_a, th_arr]), np.concatenate([sw, sweep])
+            ok = np.concatenate([sw >= 0, ok])
+            eidx = np.concatenate([np.arange(len(edges.j)), np.full(len(isg), -1)])
         g = g0 + ri * sweep + seg
         f = g + np.abs(pj - self.zg)
         sel = np.flatnonzero(ok)
@@ -211,7 +267,7 @@ class _Search:
         if sel.size == 0:
             return
         st = _Stream(node_id, f[sel], g[sel], jj[sel], sj[sel], pi[sel], pj[sel], th_d[sel],
-                     th_arr[sel], sweep[sel])
+                     th_arr[sel], sweep[sel], edges, None if eidx is None else eidx[sel])
         self.streams.append(st)
         heapq.heappush(self.heap, (float(st.f[0]), len(self.streams) - 1))
 
@@ -222,9 +278,7 @@ class _Search:
             idx = np.arange(k, b)
             idx = idx[st.ok[idx] == 0]
             self.info["n_checked"] += len(idx)
-            pi_w = self.fr.world(np.stack([st.pi[idx].real, st.pi[idx].imag], axis=1))
-            pj_w = self.fr.world(np.stack([st.pj[idx].real, st.pj[idx].imag], axis=1))
-            free = self.oset.segment_free(pi_w, pj_w)
+            free = self._segments_free(st, idx)
             i, si, th_a = self.nodes[st.node][:3]
             if i >= 0 and self.rho[i] > 0:
                 m = free & (st.sweep[idx] > 0)
@@ -234,6 +288,26 @@ class _Search:
             st.ok[idx] = np.where(free, 1, -1)
             st.checked += len(idx)
         return st.ok[k] == 1
+
+    def _segments_free(self, st: _Stream, idx: np.ndarray) -> np.ndarray:
+        """Exact segment tests of candidates ``idx`` of ``st``; the status of a graph edge
+        tested by an earlier search is reused, a new one is stored."""
+        known = np.zeros(len(idx), np.int8)
+        if st.edges is not None and st.eidx is not None:
+            e = st.eidx[idx]
+            known[e >= 0] = st.edges.ok[e[e >= 0]]
+        todo = idx[known == 0]
+        pi_w = self.fr.world(np.stack([st.pi[todo].real, st.pi[todo].imag], axis=1))
+        pj_w = self.fr.world(np.stack([st.pj[todo].real, st.pj[todo].imag], axis=1))
+        tested = self.oset.segment_free(pi_w, pj_w)
+        if self.graph is not None:
+            self.graph.stats["segment_tests"] += len(todo)
+        if st.edges is not None and st.eidx is not None:
+            e = st.eidx[todo]
+            st.edges.ok[e[e >= 0]] = np.where(tested[e >= 0], 1, -1)
+        free = known == 1
+        free[known == 0] = tested
+        return free
 
     def dominated(self, j: int, sj: int, th: float, g: float) -> bool:
         """Whether an expanded arrival on circle ``j`` (sense ``sj``) reaches angle ``th``
@@ -327,6 +401,80 @@ class _Search:
         return np.array(pts), wps
 
 
+class TangentGraph:
+    """The tangent graph of one static map and radius: build once, query many.
+
+    Keeps the circles, the exact arc tests and, per circle and sense, the query-independent
+    successors (:class:`_Edges`) with the status of every segment tested so far: a query
+    reuses what earlier ones computed, only the start, the goal and the A* itself are per
+    query.  Successors are made when a search first expands a circle (all: :meth:`build`).
+    A query is the search of :func:`shortest_path` (same lengths and ``info`` counts).
+
+    Parameters
+    ----------
+    oset : ObstacleSet
+        Static obstacles and radius.
+    circles : Circles, optional
+        Precomputed :func:`circles_of`.
+    max_bytes : int
+        Successors are stored while they hold less memory than this (default
+        :data:`MAX_GRAPH_BYTES`); beyond it they are made anew when a search needs them.
+
+    Attributes
+    ----------
+    stats : dict
+        ``queries``, ``nodes`` (circle-sense pairs whose successors are stored), ``edges``
+        (stored successors), ``segment_tests`` (exact segment tests run).
+    """
+
+    def __init__(self, oset: ObstacleSet, circles: Circles | None = None,
+                 max_bytes: int = MAX_GRAPH_BYTES):
+        self.oset = oset
+        self.circles = circles_of(oset) if circles is None else circles
+        self.arcs = ArcChecker(oset, self.circles)
+        self.max_bytes = int(max_bytes)
+        self.nbytes = 0  # memory held by the stored successors
+        self._edges: dict[tuple[int, int], _Edges] = {}
+        self.stats = {"queries": 0, "nodes": 0, "edges": 0, "segment_tests": 0}
+
+    def edges_of(self, search: _Search, i: int, si: int) -> _Edges:
+        """The successors of circle ``i`` in sense ``si`` (made on first use; stored while
+        the stored ones hold less than ``max_bytes``)."""
+        e = self._edges.get((i, si))
+        if e is None:
+            e = search.edges(i, si)
+            if 0 < self.max_bytes and self.nbytes + e.nbytes <= self.max_bytes:
+                self._edges[(i, si)] = e
+                self.nbytes += e.nbytes
+                self.stats["nodes"] += 1
+                self.stats["edges"] += len(e.j)
+        return e
+
+    def build(self) -> TangentGraph:
+        """Make the successors of every circle and sense now (not only when a search
+        reaches them); returns ``self``."""
+        search = _Search(self.oset, self.circles, 0j, 0j, {}, self)
+        for i in range(self.circles.n):
+            for si in (1, -1):
+                self.edges_of(search, i, si)
+        return self
+
+    def shortest_path(self, start, goal, *, arc_step: float = math.pi / 36,
+                      stop: Callable[[], bool] | None = None) -> TangentPath:
+        """:func:`shortest_path` from ``start`` to ``goal`` (world) on this graph."""
+        self.stats["queries"] += 1
+        return shortest_path(self.oset, start, goal, graph=self, arc_step=arc_step, stop=stop)
+
+
+def tangent_graph(oset: ObstacleSet) -> TangentGraph:
+    """The :class:`TangentGraph` of ``oset``, made once and kept with it (every query on the
+    same obstacle set, also through :func:`problem_shortest_path`, shares it)."""
+    g = oset._cache.get("tangent_graph")
+    if g is None:
+        g = oset._cache["tangent_graph"] = TangentGraph(oset)
+    return g
+
+
 class _Stopped(Exception):
     """The ``stop`` callback of :func:`shortest_path` ended the search."""
 
@@ -344,7 +492,8 @@ def _endpoint_problem(oset: ObstacleSet, start, goal) -> str | None:
 
 def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = None,
                   arc_step: float = math.pi / 36,
-                  stop: Callable[[], bool] | None = None) -> TangentPath:
+                  stop: Callable[[], bool] | None = None,
+                  graph: TangentGraph | None = None) -> TangentPath:
     """Arc-exact shortest path of a disc of radius ``oset.radius`` from ``start`` to ``goal``.
 
     Parameters
@@ -355,6 +504,10 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
         World coordinates.
     circles : Circles, optional
         Precomputed :func:`circles_of` (reused across queries).
+    graph : TangentGraph, optional
+        The map's graph (:func:`tangent_graph`): its circles and stored successors are
+        reused, and what this search computes is stored for later queries.  Default: a
+        one-off search (``circles`` or :func:`circles_of`), nothing stored.
     arc_step : float
         Largest angle (rad) spanned by one chord of the circumscribed arc polylines.
     stop : callable, optional
@@ -369,7 +522,10 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
     s_loc = fr.local(np.asarray(start, float))
     g_loc = fr.local(np.asarray(goal, float))
     zs, zg = complex(s_loc[0], s_loc[1]), complex(g_loc[0], g_loc[1])
-    C = circles_of(oset) if circles is None else circles
+    if graph is not None:
+        C = graph.circles
+    else:
+        C = circles_of(oset) if circles is None else circles
     info: dict[str, Any] = {"n_circles": C.n, "n_expanded": 0, "n_generated": 0, "n_checked": 0,
             "certified": False}
     why = _endpoint_problem(oset, start, goal)
@@ -380,7 +536,7 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
         info["certified"] = bool(oset.walled)
         poly = np.vstack([np.asarray(start, float), np.asarray(goal, float)])
         return TangentPath(0.0, poly, [], info)
-    search = _Search(oset, C, zs, zg, info)
+    search = _Search(oset, C, zs, zg, info, graph)
     try:
         goal_node = search.run(stop)
     except _Stopped:
@@ -400,22 +556,8 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
     return TangentPath(length, poly, wps, info)
 
 
-def arc_polyline(c: complex, rho: float, theta0: float, sweep: float,
-                 step: float = math.pi / 36) -> np.ndarray:
-    """Circumscribed polyline of the arc of circle ``(c, rho)`` from angle ``theta0`` over the
-    signed angle ``sweep``: the two arc ends on the circle, inner vertices at radius
-    ``rho / cos(delta / 2)`` so that every chord is tangent to the circle (complex array)."""
-    m = max(1, int(math.ceil(abs(sweep) / step)))
-    dl = sweep / m
-    ang = theta0 + (np.arange(m) + 0.5) * dl
-    inner = c + rho / math.cos(dl / 2) * np.exp(1j * ang)
-    return np.concatenate([[c + rho * np.exp(1j * theta0)], inner,
-                           [c + rho * np.exp(1j * (theta0 + sweep))]])
-
-
 class _Uncached(Exception):
     """A search stopped by its ``stop`` callback: its partial result is not cached."""
-
     def __init__(self, result: TangentPath):
         super().__init__("stopped")
         self.result = result
@@ -433,7 +575,8 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
 
     def build() -> TangentPath:
         oset = problem.obstacle_set(robot.radius, known_only=known_only)
-        res = shortest_path(oset, robot.start, robot.goal, arc_step=arc_step, stop=stop)
+        res = tangent_graph(oset).shortest_path(robot.start, robot.goal, arc_step=arc_step,
+                                                stop=stop)
         if res.info.get("stopped"):
             raise _Uncached(res)  # a later call without a stop must finish the search
         if res.polyline is not None:
@@ -444,7 +587,9 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
                 if oset.crossings(res.polyline[None]).count[0] == 0:
                     break
                 step /= 4
-                res = _rebuild_polyline(res, problem.frame, robot, step)
+                res = TangentPath(res.length, rebuild_polyline(res.waypoints, problem.frame,
+                                                               robot, step),
+                                  res.waypoints, res.info)
         return res
 
     try:
@@ -452,18 +597,3 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
                             build)
     except _Uncached as e:
         return e.result
-
-
-def _rebuild_polyline(res: TangentPath, frame, robot, step: float) -> TangentPath:
-    """``res`` with its arcs re-drawn with chords of at most ``step`` radians."""
-    pts = [complex(*frame.local(robot.start))]
-    for c, rho, th, sweep, s in res.waypoints:
-        arc = arc_polyline(c, rho, th, sweep * s, step)
-        pts.extend(arc if rho > 0 else arc[:1])
-    pts.append(complex(*frame.local(robot.goal)))
-    z = np.array(pts)
-    poly = frame.world(np.stack([z.real, z.imag], axis=1))
-    keep = np.r_[True, np.any(np.diff(poly, axis=0) != 0, axis=1)]
-    poly = poly[keep]
-    poly[0], poly[-1] = robot.start, robot.goal
-    return TangentPath(res.length, poly, res.waypoints, res.info)

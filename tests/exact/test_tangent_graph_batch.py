@@ -1,0 +1,83 @@
+"""Build once, query many: a map's ``TangentGraph`` answers a batch of queries exactly like one
+search per query.
+
+The queries are the lines of a small generated MovingAI map (``optplan.generators``' street and
+room maps, 32 x 32) read through ``optplan.maps.read_scen``; every length from the shared graph
+must equal the one-off :func:`shortest_path` on the same obstacle set and the ``visgraph``
+preset's certified optimum, for a point and for a disc robot, with the counts of ``info``
+unchanged; the graph must store successors and reuse segment tests across queries, and a graph
+that may store nothing (``max_bytes=0``) must give the same answers.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import optplan as op
+from optplan.geometry.tangent_graph import TangentGraph, shortest_path, tangent_graph
+from optplan.maps import read_scen
+from optplan.maps.movingai_gen import generate_benchmark
+
+
+@pytest.fixture(scope="module", params=["street", "room"])
+def scen(request, tmp_path_factory):
+    out = tmp_path_factory.mktemp(request.param)
+    gen = generate_benchmark(request.param, 32, out, rng=np.random.default_rng(7), queries=12)
+    return gen.scen_path
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.2])
+def test_batch_equals_one_search_per_query(scen, radius):
+    probs = read_scen(scen, radius=radius)
+    assert len(probs) == 12
+    oset = probs[0].obstacle_set(radius)
+    graph = TangentGraph(oset)
+    checked = 0
+    for p in probs:
+        r = p.robots[0]
+        one = shortest_path(oset, r.start, r.goal)
+        many = graph.shortest_path(r.start, r.goal)
+        assert many.length == one.length
+        assert many.info == one.info
+        np.testing.assert_array_equal(many.polyline, one.polyline)
+        checked += one.info["n_checked"]
+    assert graph.stats["queries"] == 12
+    assert graph.stats["nodes"] > 0 and graph.nbytes > 0
+    # segment statuses found by one query are reused by the next ones
+    assert graph.stats["segment_tests"] < checked
+
+
+def test_solve_shares_the_graph_and_gives_the_optimum(scen):
+    probs = read_scen(scen)
+    oset = probs[0].obstacle_set(0.0)
+    assert all(p.obstacle_set(0.0) is oset for p in probs)  # read_scen shares the set
+    graph = tangent_graph(oset)
+    assert tangent_graph(oset) is graph
+    for p in probs:
+        res = op.solve(p, "visgraph")
+        r = p.robots[0]
+        assert res.status == "optimal"
+        assert res.metrics["optimum"] == shortest_path(oset, r.start, r.goal).length
+    assert graph.stats["queries"] == len(probs)
+
+
+def test_memory_bound_keeps_the_answers(scen):
+    probs = read_scen(scen)
+    oset = probs[0].obstacle_set(0.0)
+    bounded = TangentGraph(oset, max_bytes=0)
+    for p in probs:
+        r = p.robots[0]
+        assert bounded.shortest_path(r.start, r.goal).length == \
+            shortest_path(oset, r.start, r.goal).length
+    assert bounded.nbytes == 0 and bounded.stats["nodes"] == 0
+
+
+def test_eager_build_stores_every_circle():
+    prob = op.catalog.load_problem("paper-env1")
+    r = prob.robots[0]
+    oset = prob.obstacle_set(r.radius)
+    graph = TangentGraph(oset).build()
+    assert graph.stats["nodes"] == 2 * graph.circles.n
+    assert graph.shortest_path(r.start, r.goal).length == \
+        shortest_path(oset, r.start, r.goal).length
