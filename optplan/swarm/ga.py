@@ -7,15 +7,16 @@ the fragment swap of the paper's text (:func:`shared_fragment`, :func:`swap_frag
 ``crossover = "swap"``).  Mutation (eq 29): each child's candidate ``child + C_k``
 (:func:`ga_children`); the better of the two is kept (:func:`greedy_mutation`; the compiled
 iteration does it in :func:`optplan.swarm.ipso.absorb`).  The reading of each equation is
-explained in :mod:`optplan.swarm.ipso`.  Compiled with numba (the only implementation); the
-random numbers are drawn by the caller.
+explained in :mod:`optplan.swarm.ipso`.  The loops are compiled with numba (the only
+implementation; :func:`ga_children` is numpy around the one crossover a run uses, so the other
+is never compiled); the random numbers are drawn by the caller.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.jit import F1, F2, FA1, FA2, I2, argsort_stable, b1, compiled, f8, i8, inlined
+from optplan.geometry.jit import F1, F2, FA1, FA2, I2, argsort_stable, b1, compiled, f8, i8
 
 __all__ = [
     "crossover",
@@ -151,42 +152,26 @@ def swap_fragments(x1, x2, v1, v2, frag):
     return c1x, c2x, c1v, c2v
 
 
-@inlined
-def _rows(X, idx):
-    """``X[idx]`` (rows, as a new C array)."""
-    out = np.empty((idx.shape[0], X.shape[1]))
-    for r in range(idx.shape[0]):
-        for d in range(X.shape[1]):
-            out[r, d] = X[idx[r], d]
-    return out
-
-
-@compiled(FA2, F2, I2, F1, F2, F1, FA2, I2, b1)
-def ga_children(X, V, pairs, pc, noise, sigma, out, frag, swap):
+def ga_children(X: np.ndarray, V: np.ndarray, pairs: np.ndarray, pc: np.ndarray,
+                noise: np.ndarray, sigma: np.ndarray, out: np.ndarray, frag: np.ndarray,
+                swap: bool) -> np.ndarray:
     """Eqs 25-28 (``swap``: :func:`swap_fragments` of ``frag``; ``pc`` unused) and the
     mutation candidates of eq 29 for the ``h`` crossed pairs.
 
     Children go to ``out[m:2m]`` (first children of every pair, then second children,
     ``m = 2h``) and the mutants ``child + C_k`` with ``C_k = noise * sigma`` to ``out[:m]``;
-    returns the children's velocities ``(m, D)`` (eqs 27-28).
+    returns the children's velocities ``(m, D)`` (eqs 27-28).  Numpy around the one compiled
+    crossover the preset uses (the other is never compiled).
     """
-    h = pairs.shape[0]
+    h = len(pairs)
     m = 2 * h
-    D = X.shape[1]
     a, b = pairs[:, 0], pairs[:, 1]
-    x1, x2, v1, v2 = _rows(X, a), _rows(X, b), _rows(V, a), _rows(V, b)  # 4 inlined copies
+    x1, x2, v1, v2 = X[a], X[b], V[a], V[b]
     if swap:
         c1x, c2x, c1v, c2v = swap_fragments(x1, x2, v1, v2, frag)
     else:
         c1x, c2x, c1v, c2v = crossover(x1, x2, v1, v2, pc)
-    cv = np.empty((m, D))
-    for r in range(h):
-        for d in range(D):
-            out[m + r, d] = c1x[r, d]
-            out[m + h + r, d] = c2x[r, d]
-            cv[r, d] = c1v[r, d]
-            cv[h + r, d] = c2v[r, d]
-    for r in range(m):
-        for d in range(D):
-            out[r, d] = noise[r, d] * sigma[d] + out[m + r, d]  # child + C_k
-    return cv
+    out[m:m + h] = c1x
+    out[m + h:2 * m] = c2x
+    out[:m] = noise * sigma + out[m:2 * m]  # child + C_k
+    return np.concatenate((c1v, c2v))

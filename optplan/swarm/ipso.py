@@ -59,12 +59,12 @@ Per iteration (update from the paper's ``k`` to ``k + 1``; our 1-based iteration
 5. Fitness: eqs 30-33, see :mod:`optplan.swarm.core`.
 
 Implementation: the per-iteration steps (the GA operators of :mod:`optplan.swarm.ga`,
-:func:`~optplan.swarm.ga.ga_pairs` and :func:`~optplan.swarm.ga.ga_children`, and
-:func:`move`, :func:`advance`, :func:`absorb`) are compiled with numba (the only
-implementation); every random number is drawn in Python from the run's generator, in this
-order per iteration: ``p_c`` (one per crossed pair, ``"blend"`` only), the mutation noise
-``(children, D)``, then ``eps, eta, R`` as one ``(3, P, D)`` draw (and, with
-``bounds_mode = "random"``, the re-draws of the bounds handling).
+:func:`~optplan.swarm.ga.ga_pairs` and the crossover of
+:func:`~optplan.swarm.ga.ga_children`, and :func:`move`, :func:`advance`, :func:`absorb`) are
+compiled with numba (the only implementation); every random number is drawn in Python from the
+run's generator, in this order per iteration: ``p_c`` (one per crossed pair, ``"blend"``
+only), the mutation noise ``(children, D)``, then ``eps, eta, R`` as one ``(3, P, D)`` draw
+(and, with ``bounds_mode = "random"``, the re-draws of the bounds handling).
 
 Beyond the paper (options, all off in ``ipso-paper``): islands, roadmap seeding with
 several homotopy classes (``init_mode = "roadmap"``, ``corridors``) and the end-game
@@ -79,7 +79,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.geometry.jit import F1, F2, F3, FA2, I1, I2, argsort_stable, b1, compiled, f8, i8
+from optplan.geometry.jit import F1, F2, F3, FA2, I1, argsort_stable, compiled, f8, i8
 from optplan.solver import option
 from optplan.swarm.backend import SwarmBackend, SwarmState
 from optplan.swarm.core import PathBuffer, SwarmSpace, evaluate_paths
@@ -186,19 +186,16 @@ def move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal
                     out_X[i, d] = (X[i, d] - foot) * R + foot + out_V[i, d]
 
 
-@compiled(FA2, F2, F2, F2, I1, f8, f8, f8, F3, F1, f8, i8, F1, F1, I2, F1, F2, F1, F1, F1, i8,
-          FA2, F2, I2, b1)
-def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal,
-            pairs, pc, noise, sigma, lo, hi, bound_code, B, V_new, frag, swap):
-    """The pre-evaluation part of one iteration, into the batch ``B``: GA children and
-    mutants (:func:`ga_children`, rows ``P .. P + 2m``), the move (:func:`move`, rows
-    ``:P`` and ``V_new``), then bounds handling of swarm and mutants (``bound_code``: see
-    :func:`optplan.swarm.operators.bound_rows`; velocities of reflected coordinates reversed,
-    of clipped ones zeroed).  Returns the children's velocities and the out-of-bounds mask
-    (for ``random`` mode, whose re-draws the caller makes)."""
+@compiled(FA2, F2, F2, F2, I1, f8, f8, f8, F3, F1, f8, i8, F1, F1, i8, F1, F1, i8, FA2, F2)
+def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal, m, lo, hi,
+            bound_code, B, V_new):
+    """The pre-evaluation part of one iteration after the GA (:func:`ga_children` wrote the
+    ``m`` mutants and children to rows ``P .. P + 2m`` of the batch ``B``): the move
+    (:func:`move`, rows ``:P`` and ``V_new``), then bounds handling of swarm and mutants
+    (``bound_code``: see :func:`optplan.swarm.operators.bound_rows`; velocities of reflected
+    coordinates reversed, of clipped ones zeroed).  Returns the out-of-bounds mask (for
+    ``random`` mode, whose re-draws the caller makes) and whether any coordinate is out."""
     P = X.shape[0]
-    m = 2 * pairs.shape[0]
-    cv = ga_children(X, V, pairs, pc, noise, sigma, B[P:], frag, swap)
     move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal, B[:P],
          V_new)
     out, anyout = bound_rows(B[:P + m], lo, hi, bound_code)
@@ -207,7 +204,7 @@ def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, g
             for d in range(V_new.shape[1]):
                 if out[i, d]:
                     V_new[i, d] = -V_new[i, d] if bound_code == 1 else 0.0
-    return cv, out, anyout
+    return out, anyout
 
 
 @compiled(F1, I1, i8)
@@ -470,10 +467,11 @@ corridors
         guides = st.pbest[run.island_idx] if run.n_islands > 1 else st.gbest[None]
         V = np.empty_like(st.V)
         # crossover, mutants, move, bounds (eqs 22-29 up to the evaluation)
-        cv, out, anyout = advance(
+        cv = ga_children(st.X, st.V, pairs, pc, noise, run.mut_sigma * psi, B[P:], frag, swap)
+        out, anyout = advance(
             st.X, st.V, st.pbest, guides, run.leader, w, self.c1, self.c2, U, run.vmax, psi,
-            run.position_code, space.start, space.goal, pairs, pc, noise, run.mut_sigma * psi,
-            space.lo, space.hi, BOUND_CODES[self.bounds_mode], B, V, frag, swap)
+            run.position_code, space.start, space.goal, m, space.lo, space.hi,
+            BOUND_CODES[self.bounds_mode], B, V)
         if anyout and self.bounds_mode == "random":
             redraw_out(B[:P + m], out, space.lo, space.hi, rng)
         main = P + 2 * m

@@ -193,34 +193,19 @@ def _cut_table(pts, rows, f, thr):
     return P, Q, gain, order, n_above
 
 
-@_jit
-def _stage_segments(P, Q, order, n_above, found, lo, hi):
+def _stage_segments(P: np.ndarray, Q: np.ndarray, order: np.ndarray, n_above: np.ndarray,
+                    found: np.ndarray, lo: int, hi: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The cuts of ranks ``lo .. hi - 1`` (among those above the threshold) of the vertices
-    without a free cut yet: their segments ``p -> q``, vertex and rank."""
-    R = order.shape[0]
+    without a free cut yet: their segments ``p -> q``, vertex and rank (by vertex, then
+    rank)."""
     F = P.shape[1]
-    n = 0
-    for r in range(R):
-        if not found[r]:
-            n += max(0, min(hi, n_above[r]) - lo)
-    A = np.empty((n, 2))
-    B = np.empty((n, 2))
-    who = np.empty(n, np.int64)
-    rank = np.empty(n, np.int64)
-    q = 0
-    for r in range(R):
-        if found[r]:
-            continue
-        for k in range(lo, min(hi, n_above[r])):
-            c = order[r, k]
-            A[q, 0] = P[r, c // F, 0]
-            A[q, 1] = P[r, c // F, 1]
-            B[q, 0] = Q[r, c % F, 0]
-            B[q, 1] = Q[r, c % F, 1]
-            who[q] = r
-            rank[q] = k
-            q += 1
-    return A, B, who, rank
+    cnt = np.where(found, 0, np.maximum(0, np.minimum(hi, n_above) - lo))
+    who = np.repeat(np.arange(len(cnt), dtype=np.int64), cnt)
+    first = np.cumsum(cnt) - cnt  # each vertex's first entry
+    rank = lo + np.arange(len(who), dtype=np.int64) - np.repeat(first, cnt)
+    c = order[who, rank]
+    return P[who, c // F], Q[who, c % F], who, rank
 
 
 def _stage_pick(order: np.ndarray, who: np.ndarray, rank: np.ndarray, free: np.ndarray,

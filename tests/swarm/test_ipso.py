@@ -384,9 +384,9 @@ def test_compiled_step_follows_eqs_22_to_29():
     vmax, sigma = np.full(D, 2.0), np.full(D, 0.3)
     B = np.zeros((P + 2 * 2 * h, D))
     Vn = np.empty_like(V)
-    cv, out, anyout = ip.advance(X, V, pbest, gbest[None], np.zeros(P, np.int64), w, c1, c2, U,
-                                 vmax, psi, 0, np.zeros(2), np.ones(2), pairs, pc, noise,
-                                 sigma, lo, hi, 1, B, Vn, frag, False)
+    cv = ga.ga_children(X, V, pairs, pc, noise, sigma, B[P:], frag, False)
+    out, anyout = ip.advance(X, V, pbest, gbest[None], np.zeros(P, np.int64), w, c1, c2, U,
+                             vmax, psi, 0, np.zeros(2), np.ones(2), 2 * h, lo, hi, 1, B, Vn)
     # eqs 25-28
     a, b = X[pairs[:, 0]], X[pairs[:, 1]]
     p = pc[:, None]
