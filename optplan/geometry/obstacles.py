@@ -433,6 +433,17 @@ class ObstacleSet:
         c = self.clearance(np.stack([pts, pts], axis=1)) + self.radius
         return np.maximum(c, 0.0)
 
+    def ends_problem(self, start, goal) -> str | None:
+        """Why ``start`` or ``goal`` (world) cannot be the centre of the robot's disc (closer
+        than the radius to an obstacle), or None."""
+        r = self.radius
+        for key, p in (("start", start), ("goal", goal)):
+            c = float(self.point_distances(np.asarray(p, float)[None])[0])
+            if c < r - self.eps:
+                return (f"{key} {np.asarray(p).tolist()} lies within {r:g} of an "
+                        f"obstacle (distance {c:.6g})")
+        return None
+
     def nearest(self, points, max_range: float = math.inf) -> tuple[np.ndarray, np.ndarray]:
         """Nearest boundary point and distance for every (point, obstacle) pair.
 

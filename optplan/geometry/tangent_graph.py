@@ -140,8 +140,8 @@ class _Search:
         self.fr = oset.frame
         self.eps = self.fr.eps
         self.info = info
-        self.graph = graph
-        self.arcs = ArcChecker(oset, C) if graph is None else graph.arcs
+        self.graph = TangentGraph(oset, C) if graph is None else graph  # None: a one-off
+        self.arcs = self.graph.arcs
         self.box = self.fr.local_bounds
         self.n = C.n
         self.cen, self.rho, self.lo, self.width, self.full = (C.center, C.rho, C.lo, C.width,
@@ -153,6 +153,7 @@ class _Search:
         self.streams: list[_Stream] = []
         self.all_j = np.arange(self.n)
         self.senses = np.array([1, -1])
+        self._pairs: tuple | None = None  # every circle in both senses (:meth:`edges`)
 
     def cone_off(self, k, th):
         """Offset of angle ``th`` from the cone start of circle(s) ``k``, or nan outside."""
@@ -217,19 +218,31 @@ class _Search:
 
     def edges(self, i: int, si: int) -> _Edges:
         """The query-independent successors of circle ``i`` in sense ``si`` (module
-        :class:`_Edges`): the tangents to the other circles, filtered by both cones."""
+        :class:`_Edges`): the tangents of :meth:`_candidates` to the other circles that pass
+        both cones (the departure cone tested first, on fewer candidates; same values)."""
+        if self._pairs is None:
+            self._pairs = (np.repeat(self.all_j, 2), np.tile(self.senses, self.n),
+                           np.repeat(self.cen, 2), np.repeat(self.rho, 2))
+        jj, sj, cj, rj = self._pairs
         ci, ri = self.cen[i], float(self.rho[i])
-        jj, sj, dd, delta, nl, pj, th_arr = self._candidates(i, si, ci, ri, goal=False)
+        D = cj - ci
+        dd = np.abs(D)
+        delta = sj * rj - si * ri
+        idx = np.flatnonzero((jj != i) & (dd > np.abs(delta) + self.eps * 1e-3))
+        nl = np.exp(1j * (np.angle(D[idx]) + np.arccos(np.clip(delta[idx] / dd[idx], -1.0,
+                                                                 1.0))))
         th_d = np.angle(-si * nl)
         od = self.cone_off(np.full(len(th_d), i), th_d)
-        ok = np.isfinite(od)
-        if len(jj):
-            ok &= np.isfinite(self.cone_off(jj, th_arr))
-        sel = np.flatnonzero(ok)
-        seg = np.sqrt(np.maximum(dd[sel] ** 2 - delta[sel] ** 2, 0.0))
-        pi = (ci - si * ri * nl[sel]) if ri > 0 else None
-        return _Edges(jj[sel].astype(np.int32), sj[sel].astype(np.int8), seg, pi, pj[sel],
-                      th_d[sel], th_arr[sel], od[sel])
+        k = np.flatnonzero(np.isfinite(od))
+        idx, nl, th_d, od = idx[k], nl[k], th_d[k], od[k]
+        pj = cj[idx] - sj[idx] * rj[idx] * nl
+        th_arr = np.angle(-sj[idx] * nl)
+        k = np.flatnonzero(np.isfinite(self.cone_off(jj[idx], th_arr)))
+        idx = idx[k]
+        seg = np.sqrt(np.maximum(dd[idx] ** 2 - delta[idx] ** 2, 0.0))
+        pi = (ci - si * ri * nl[k]) if ri > 0 else None
+        return _Edges(jj[idx].astype(np.int32), sj[idx].astype(np.int8), seg, pi, pj[k],
+                      th_d[k], th_arr[k], od[k])
 
     def expand(self, node_id: int) -> None:
         """Generate the successors of node ``node_id`` as a new stream."""
@@ -239,18 +252,15 @@ class _Search:
             ci, ri = self.zs, 0.0
         else:
             ci, ri = self.cen[i], self.rho[i]
-        circles = i < 0 or self.graph is None
-        jj, sj, dd, delta, nl, pj, th_arr = self._candidates(i, si, ci, ri, circles=circles)
+        start = i < 0
+        jj, sj, dd, delta, nl, pj, th_arr = self._candidates(i, si, ci, ri, circles=start)
         pi, th_d, sweep, ok = self._departures(i, si, th_a, ci, ri, nl)
-        # arrival point in the cone of circle j (the goal has none)
-        isg = jj < 0
-        kj = np.where(isg, 0, jj)
-        if self.n and circles:
-            ok &= isg | np.isfinite(self.cone_off(kj, th_arr))
+        if start and self.n:  # arrival point in the cone of circle j (the goal has none)
+            isg = jj < 0
+            ok &= isg | np.isfinite(self.cone_off(np.where(isg, 0, jj), th_arr))
         seg = np.sqrt(np.maximum(dd * dd - delta * delta, 0.0))
         edges = eidx = None
-        if not circles:  # the circles' tangents from the graph, the goal's from above
-            assert self.graph is not None
+        if not start:  # the circles' tangents from the graph, the goal's from above
             edges = self.graph.edges_of(self, i, si)
             sw = self._sweep(i, si, th_a, edges.th_d, edges.od)
             pie = edges.pi if edges.pi is not None else np.full(len(edges.j), ci)
@@ -259,7 +269,7 @@ class _Search:
             pj, th_d = np.concatenate([edges.pj, pj]), np.concatenate([edges.th_d, th_d])
             th_arr, sweep = np.concatenate([edges.th_a, th_arr]), np.concatenate([sw, sweep])
             ok = np.concatenate([sw >= 0, ok])
-            eidx = np.concatenate([np.arange(len(edges.j)), np.full(len(isg), -1)])
+            eidx = np.concatenate([np.arange(len(edges.j)), np.full(len(dd), -1)])
         g = g0 + ri * sweep + seg
         f = g + np.abs(pj - self.zg)
         sel = np.flatnonzero(ok)
@@ -300,8 +310,7 @@ class _Search:
         pi_w = self.fr.world(np.stack([st.pi[todo].real, st.pi[todo].imag], axis=1))
         pj_w = self.fr.world(np.stack([st.pj[todo].real, st.pj[todo].imag], axis=1))
         tested = self.oset.segment_free(pi_w, pj_w)
-        if self.graph is not None:
-            self.graph.stats["segment_tests"] += len(todo)
+        self.graph.stats["segment_tests"] += len(todo)
         if st.edges is not None and st.eidx is not None:
             e = st.eidx[todo]
             st.edges.ok[e[e >= 0]] = np.where(tested[e >= 0], 1, -1)
@@ -479,17 +488,6 @@ class _Stopped(Exception):
     """The ``stop`` callback of :func:`shortest_path` ended the search."""
 
 
-def _endpoint_problem(oset: ObstacleSet, start, goal) -> str | None:
-    """Why start or goal cannot be a centre of the disc (too close to an obstacle), or None."""
-    r, eps = oset.radius, oset.frame.eps
-    for key, p in (("start", start), ("goal", goal)):
-        c = float(oset.point_distances(np.asarray(p, float)[None])[0])
-        if c < r - eps:
-            return (f"{key} {np.asarray(p).tolist()} lies within {r:g} of an "
-                    f"obstacle (distance {c:.6g})")
-    return None
-
-
 def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = None,
                   arc_step: float = math.pi / 36,
                   stop: Callable[[], bool] | None = None,
@@ -507,7 +505,7 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
     graph : TangentGraph, optional
         The map's graph (:func:`tangent_graph`): its circles and stored successors are
         reused, and what this search computes is stored for later queries.  Default: a
-        one-off search (``circles`` or :func:`circles_of`), nothing stored.
+        graph of this search only (on ``circles`` or :func:`circles_of`).
     arc_step : float
         Largest angle (rad) spanned by one chord of the circumscribed arc polylines.
     stop : callable, optional
@@ -522,13 +520,11 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
     s_loc = fr.local(np.asarray(start, float))
     g_loc = fr.local(np.asarray(goal, float))
     zs, zg = complex(s_loc[0], s_loc[1]), complex(g_loc[0], g_loc[1])
-    if graph is not None:
-        C = graph.circles
-    else:
-        C = circles_of(oset) if circles is None else circles
+    graph = TangentGraph(oset, circles) if graph is None else graph
+    C = graph.circles
     info: dict[str, Any] = {"n_circles": C.n, "n_expanded": 0, "n_generated": 0, "n_checked": 0,
             "certified": False}
-    why = _endpoint_problem(oset, start, goal)
+    why = oset.ends_problem(start, goal)
     if why is not None:
         info["reason"] = why
         return TangentPath(math.inf, None, [], info)
