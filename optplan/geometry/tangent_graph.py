@@ -272,8 +272,10 @@ class _Search:
             eidx = np.concatenate([np.arange(len(edges.j)), np.full(len(dd), -1)])
         g = g0 + ri * sweep + seg
         f = g + np.abs(pj - self.zg)
+        self.info["n_generated"] += int(np.count_nonzero(ok))
+        if edges is not None:  # a segment an earlier search found blocked is never a step
+            ok[:len(edges.j)] &= edges.ok != -1
         sel = np.flatnonzero(ok)
-        self.info["n_generated"] += int(sel.size)
         if sel.size == 0:
             return
         st = _Stream(node_id, f[sel], g[sel], jj[sel], sj[sel], pi[sel], pj[sel], th_d[sel],
@@ -417,7 +419,8 @@ class TangentGraph:
     successors (:class:`_Edges`) with the status of every segment tested so far: a query
     reuses what earlier ones computed, only the start, the goal and the A* itself are per
     query.  Successors are made when a search first expands a circle (all: :meth:`build`).
-    A query is the search of :func:`shortest_path` (same lengths and ``info`` counts).
+    A query is the search of :func:`shortest_path` (same path and length; segments found
+    blocked before are skipped, so ``info["n_checked"]`` may be lower).
 
     Parameters
     ----------

@@ -4,9 +4,9 @@ search per query.
 The queries are the lines of a small generated MovingAI map (``optplan.generators``' street and
 room maps, 32 x 32) read through ``optplan.maps.read_scen``; every length from the shared graph
 must equal the one-off :func:`shortest_path` on the same obstacle set and the ``visgraph``
-preset's certified optimum, for a point and for a disc robot, with the counts of ``info``
-unchanged; the graph must store successors and reuse segment tests across queries, and a graph
-that may store nothing (``max_bytes=0``) must give the same answers.
+preset's certified optimum, for a point and for a disc robot, with the same counts in ``info``
+(fewer segment checks); the graph must store successors and reuse segment tests across
+queries, and a graph that may store nothing (``max_bytes=0``) must give the same answers.
 """
 
 from __future__ import annotations
@@ -39,7 +39,10 @@ def test_batch_equals_one_search_per_query(scen, radius):
         one = shortest_path(oset, r.start, r.goal)
         many = graph.shortest_path(r.start, r.goal)
         assert many.length == one.length
-        assert many.info == one.info
+        # the same search; segments found blocked by earlier queries are not checked again
+        assert {k: v for k, v in many.info.items() if k != "n_checked"} == \
+            {k: v for k, v in one.info.items() if k != "n_checked"}
+        assert many.info["n_checked"] <= one.info["n_checked"]
         np.testing.assert_array_equal(many.polyline, one.polyline)
         checked += one.info["n_checked"]
     assert graph.stats["queries"] == 12
