@@ -82,7 +82,7 @@ def _clip(ax, ay, dx, dy, k, N, C):
     return t_in, t_out
 
 
-@compiled(*_SEG, f8, i8, i8, F2, F1, f8)
+@inlined  # one call site (pair)
 def _pair_circle(ax, ay, dx, dy, dl, k, K, IC, CR, eps):
     """:func:`pair` for circle item ``k``: centre-to-segment distance minus the radius, and the
     chord length inside the circle shrunk by ``eps``."""
@@ -120,7 +120,7 @@ def _pair_circle(ax, ay, dx, dy, dl, k, K, IC, CR, eps):
     return dist, inside
 
 
-@compiled(*_SEG, i8, F3, F3)
+@inlined  # one call site (pair)
 def _piece_distance(ax, ay, dx, dy, k, P, E):
     """Distance from segment ``A -> A + D`` to convex piece ``k`` when they do not meet: the
     smallest vertex-to-segment and endpoint-to-edge distance (disjoint convex sets)."""
@@ -281,7 +281,7 @@ def _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx
     return m
 
 
-@compiled(*_SEG, i8, I1, i8, i8, *_ITEMS, I1, f8, f8, f8, b1, I1, B1, F1, F1, I1)
+@inlined  # one call site (crossings)
 def _segment_items(ax, ay, dx, dy, s, cand, m, K, P, E, N, C, CE, IC, CR, OWN, r, eps, lim,
                    want_pen, o_stamp, o_close, o_in, o_pen, touched):
     """One segment of :func:`crossings` against its ``m`` candidate items: per obstacle met

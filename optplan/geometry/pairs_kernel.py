@@ -12,13 +12,11 @@ that never does, e.g. one ``visgraph`` solve, never compiles them.
 from __future__ import annotations
 
 import numpy as np
-from numba import types
 
-from optplan.geometry.jit import F1, F2, F3, I1, b1, compiled, f8, i8
+from optplan.geometry.jit import F1, F2, F3, I1, compiled, f8, i8, inlined
 from optplan.geometry.kernel import (
     _GRID,
     _ITEMS,
-    _SEG,
     _apart,
     _candidates,
     _item_boxes,
@@ -29,7 +27,7 @@ from optplan.geometry.kernel import (
 __all__ = ["free_pairs", "pairs"]
 
 
-@compiled(*_SEG, f8, f8, f8, f8, i8, F2, i8, F3, F2, F2, F1, f8)
+@inlined  # one call site (_first_blocker)
 def _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim):
     """Item ``k`` may be within ``lim`` of the segment: its grown box meets the segment's box
     ``(x0, x1, y0, y1)``, its bounding circle is near, no edge line separates them."""
@@ -40,8 +38,7 @@ def _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim)
     return not (k < K and _apart(ax, ay, dx, dy, k, N, C, lim))
 
 
-@compiled(*_SEG, types.UniTuple(f8, 4), i8, i8, I1, i8, b1, I1, F2, i8, F3, F3, F3, F2, F2,
-          F2, F1, F1, I1, f8, f8, f8, I1, F1, I1)
+@inlined  # one call site (free_pairs)
 def _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K, P, E, N, C,
                    CE, IC, IR, CR, OWN, r, eps, lim, o_stamp, o_in, touched):
     """One segment of :func:`free_pairs` (its box ``(x0, x1, y0, y1)``): the first item closer

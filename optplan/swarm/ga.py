@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.jit import F1, F2, FA1, FA2, I2, argsort_stable, b1, compiled, f8, i8
+from optplan.geometry.jit import F1, F2, FA2, I2, argsort_stable, b1, compiled, f8, i8, inlined
 
 __all__ = [
     "crossover",
@@ -61,7 +61,7 @@ def greedy_mutation(cost_child: np.ndarray, cost_mutant: np.ndarray) -> np.ndarr
     return np.asarray(cost_mutant) < np.asarray(cost_child)
 
 
-@compiled(FA1, FA1, f8)
+@inlined  # one call site (ga_pairs)
 def shared_fragment(xa, xb, tol2):
     """The fragment two particles exchange in the paper's crossover ("intercept the locally
     identical path information ... swapping each other"): waypoint indices ``[lo, hi)``.

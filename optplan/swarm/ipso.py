@@ -79,7 +79,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.geometry.jit import F1, F2, F3, FA2, I1, argsort_stable, compiled, f8, i8
+from optplan.geometry.jit import F1, F2, F3, FA2, I1, argsort_stable, compiled, f8, i8, inlined
 from optplan.solver import option
 from optplan.swarm.backend import SwarmBackend, SwarmState
 from optplan.swarm.core import PathBuffer, SwarmSpace, evaluate_paths
@@ -152,7 +152,7 @@ def position_factor(k: float | np.ndarray, k_max: int) -> float | np.ndarray:
 
 
 
-@compiled(FA2, F2, F2, F2, I1, f8, f8, f8, F3, F1, f8, i8, F1, F1, FA2, F2)
+@inlined  # one call site (advance)
 def move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal, out_X,
          out_V):
     """Eqs 22-24 for the whole swarm: ``V^{k+1}`` into ``out_V`` (eq 22 with ``eps = U[0]``,
@@ -207,7 +207,7 @@ def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, g
     return out, anyout
 
 
-@compiled(F1, I1, i8)
+@inlined  # one call site (absorb)
 def _worst_slots(F, isl, n_islands):
     """Slots of the worst particles: the r-th child of island i takes the r-th worst particle
     of island i (``isl`` sorted by island; one island: the worst of the whole swarm)."""

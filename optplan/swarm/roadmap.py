@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from optplan.geometry.jit import F1, I1, compiled, f8, i8
+from optplan.geometry.jit import F1, I1, compiled, f8, i8, inlined
 from optplan.swarm.core import SwarmSpace, pairs_free
 from optplan.swarm.refine import _flat, _pull
 from optplan.swarm.samples import roadmap_nodes
@@ -254,7 +254,7 @@ CORNER_REACH = 0.3
 YAO_SECTORS = 8
 
 
-@_jit
+@inlined  # one call site (_yao_nearest)
 def _sector(dx, dy, sectors):
     """The Yao sector of the direction ``(dx, dy)``: octant 0-7 counter-clockwise from +x (a
     half-open 45 degree cone each), times ``sectors / 8``.  Written with selects instead of
