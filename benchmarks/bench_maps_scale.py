@@ -1,0 +1,218 @@
+"""The exact graph at benchmark scale: import, graph build and a batch of queries on one map.
+
+For each map kind and size (``--kinds``, ``--sizes``) a MovingAI map and its ``.scen``
+(``--queries`` lines, seed ``--seed``) are generated with
+``optplan.maps.movingai_gen.generate_benchmark`` in a temporary directory, then:
+
+* **import**: ``optplan.maps.read_scen`` (the ``.map`` read, its obstacle cells turned into
+  conservative polygons, one validated problem per line sharing one obstacle set);
+* **build**: the exact obstacle set of a point robot (radius 0) and its
+  :class:`~optplan.geometry.tangent_graph.TangentGraph` (the circles; the successors of a
+  circle are made when a query first expands it and kept for the later queries);
+* **queries**: every ``.scen`` line answered on that one graph, each with a budget of
+  ``--budget`` seconds of wall time (a query stopped by it counts as unfinished; its time is
+  the budget, so the median and the worst are lower bounds when some are unfinished);
+* **memory**: the peak resident set size of the process (``resource.getrusage``), and the
+  bytes the graph stores.
+
+Beside it, ``extremitypathfinder`` (a point-robot visibility-graph library, optional: the
+``bench`` extra) on the same polygons: the free space of the imported obstacles inside the
+bounds (shapely), one environment per connected part of it, ``prepare`` (its graph) timed as
+its build, and the same queries; every length must agree with optplan's to 1e-9 relative
+(disagreements are counted and listed, a shorter extremitypathfinder length with the length of
+its path inside the obstacles, measured with shapely).  Maps with more than
+``--epf-max-vertices`` polygon vertices are skipped for it (its build grows with the square of
+the vertices).
+
+Times are wall seconds (CPU seconds, ``time.process_time``, in brackets) on a machine shared
+with other jobs.  ``python benchmarks/bench_maps_scale.py --sizes 1024 --queries 1000`` is the
+issue's scale (1024 x 1024 street and room maps); see ``docs/solvers/visgraph.md``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import resource
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import shapely
+from shapely.geometry import box
+from shapely.geometry.polygon import orient
+
+from optplan.geometry import obstacle_set
+from optplan.geometry.tangent_graph import TangentGraph
+from optplan.maps import read_scen
+from optplan.maps.movingai_gen import generate_benchmark
+
+#: Relative agreement required between optplan's and extremitypathfinder's lengths.
+REL = 1e-9
+
+
+def _rss_mib() -> float:
+    """Peak resident set size of this process so far (MiB; Linux reports KiB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+
+
+class _Clock:
+    """Wall and CPU seconds of a block."""
+
+    def __enter__(self) -> _Clock:
+        self.w, self.c = time.perf_counter(), time.process_time()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.wall = time.perf_counter() - self.w
+        self.cpu = time.process_time() - self.c
+
+
+def _vertices(problem) -> int:
+    return sum(len(shapely.get_coordinates(o.geometry)) - 1 - len(o.geometry.interiors)
+               for o in problem.obstacles)
+
+
+def run_optplan(scen: Path, budget: float) -> dict:
+    """Import, build and the queries of one ``.scen`` on one :class:`TangentGraph`."""
+    with _Clock() as ti:
+        probs = read_scen(scen)
+    p0 = probs[0]
+    with _Clock() as tb:
+        oset = obstacle_set(p0.obstacles, 0.0, p0.frame)
+        graph = TangentGraph(oset)
+    times, cpus, lengths, unfinished = [], [], [], 0
+    for p in probs:
+        r = p.robots[0]
+        t0 = time.perf_counter()
+        with _Clock() as tq:
+            res = graph.shortest_path(r.start, r.goal,
+                                      stop=lambda t0=t0: time.perf_counter() - t0 > budget)
+        stopped = bool(res.info.get("stopped"))
+        unfinished += stopped
+        times.append(budget if stopped else tq.wall)
+        cpus.append(tq.cpu)
+        lengths.append(math.nan if stopped else res.length)
+    return {"problems": probs, "vertices": _vertices(p0), "circles": graph.circles.n,
+            "import": (ti.wall, ti.cpu), "build": (tb.wall, tb.cpu), "times": times,
+            "cpus": cpus, "lengths": lengths, "unfinished": unfinished,
+            "graph_mib": graph.nbytes / 2**20, "rss": _rss_mib()}
+
+
+def _free_parts(problem) -> list:
+    """The free space inside the bounds (shapely), one polygon per connected part."""
+    blocked = shapely.union_all([o.geometry for o in problem.obstacles])
+    free = box(*problem.bounds).difference(blocked)
+    return [orient(q, 1.0) for q in getattr(free, "geoms", [free]) if q.area > 0]
+
+
+def run_epf(probs: list) -> dict | None:
+    """extremitypathfinder on the free space of ``probs[0]``'s obstacles, the same queries."""
+    try:
+        from extremitypathfinder import PolygonEnvironment
+    except ImportError:
+        return None
+    parts = _free_parts(probs[0])
+    envs: dict[int, object] = {}
+    with _Clock() as tb:
+        for k, q in enumerate(parts):
+            env = PolygonEnvironment()
+            holes = [np.asarray(h.coords)[:-1] for h in q.interiors]  # clockwise (orient)
+            env.store(np.asarray(q.exterior.coords)[:-1], holes)  # store also prepares
+            envs[k] = env
+    times, lengths, paths = [], [], []
+    for p in probs:
+        r = p.robots[0]
+        s = shapely.points(r.start)
+        k = next((k for k, q in enumerate(parts) if q.covers(s)), None)
+        path, length = None, None
+        with _Clock() as tq:
+            if k is not None:
+                path, length = envs[k].find_shortest_path(tuple(r.start), tuple(r.goal))
+        times.append(tq.wall)
+        lengths.append(math.inf if length is None else float(length))
+        paths.append(path)
+    return {"build": (tb.wall, tb.cpu), "times": times, "lengths": lengths, "paths": paths,
+            "rss": _rss_mib()}
+
+
+def _through_obstacles(path, blocked) -> float:
+    """Length of ``path`` inside the interior of ``blocked`` (shapely; 0 along a boundary)."""
+    if not path or len(path) < 2:
+        return 0.0
+    line = shapely.LineString(path)
+    return float(line.intersection(blocked).length
+                 - line.intersection(blocked.boundary).length)
+
+
+def _fmt(pair: tuple[float, float]) -> str:
+    return f"{pair[0]:.2f} ({pair[1]:.2f})"
+
+
+def _ms(xs: list[float]) -> str:
+    return f"{1e3 * statistics.median(xs):.1f} / {1e3 * max(xs):.0f}"
+
+
+def _agreement(ours: list[float], epf: dict, problem) -> tuple[int, int, list[str]]:
+    """Compared queries, disagreements (> REL relative) and a note per disagreement: a
+    shorter extremitypathfinder path is measured against the obstacles (shapely)."""
+    blocked = shapely.union_all([o.geometry for o in problem.obstacles])
+    n, bad, notes = 0, 0, []
+    for k, (a, b) in enumerate(zip(ours, epf["lengths"])):
+        if math.isnan(a):
+            continue
+        n += 1
+        if a == b or (math.isfinite(a) and abs(a - b) <= REL * max(abs(a), 1.0)):
+            continue
+        bad += 1
+        why = (f"its path runs {_through_obstacles(epf['paths'][k], blocked):.3f} inside "
+               "obstacles" if b < a else "longer")
+        notes.append(f"line {k + 1}: optplan {a:.9f}, extremitypathfinder {b:.9f} ({why})")
+    return n, bad, notes
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--kinds", default="street,room")
+    ap.add_argument("--sizes", default="64,128")
+    ap.add_argument("--queries", type=int, default=200)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--budget", type=float, default=10.0, help="seconds per query")
+    ap.add_argument("--epf-max-vertices", type=int, default=3000)
+    ap.add_argument("--show", type=int, default=3, help="disagreements listed per map")
+    args = ap.parse_args(argv)
+    print("exact tangent graph at scale: point robot, one TangentGraph per map, "
+          f"{args.queries} .scen queries per map, seed {args.seed}, query budget "
+          f"{args.budget:g} s; wall s (CPU s); query ms: median / worst; shared 2-core machine")
+    print()
+    print("| map | vertices | circles | import s | build s | query ms | unfinished | graph MiB "
+          "| peak RSS MiB | extremitypathfinder build s | its query ms | lengths agree |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---|")
+    notes: list[str] = []
+    for kind in args.kinds.split(","):
+        for size in (int(s) for s in args.sizes.split(",")):
+            with tempfile.TemporaryDirectory() as d:
+                gen = generate_benchmark(kind, size, d, rng=np.random.default_rng(args.seed),
+                                         queries=args.queries)
+                ours = run_optplan(gen.scen_path, args.budget)
+                epf = (run_epf(ours["problems"])
+                       if ours["vertices"] <= args.epf_max_vertices else None)
+            if epf is None:
+                e_build = e_q = agree = "skipped"
+            else:
+                n, bad, bad_notes = _agreement(ours["lengths"], epf, ours["problems"][0])
+                e_build, e_q = _fmt(epf["build"]), _ms(epf["times"])
+                agree = f"{n - bad} of {n}"
+                notes += [f"{kind}-{size} {x}" for x in bad_notes[:args.show]]
+            print(f"| {kind}-{size} | {ours['vertices']} | {ours['circles']} | "
+                  f"{_fmt(ours['import'])} | {_fmt(ours['build'])} | {_ms(ours['times'])} | "
+                  f"{ours['unfinished']} | {ours['graph_mib']:.0f} | {ours['rss']:.0f} | "
+                  f"{e_build} | {e_q} | {agree} |", flush=True)
+    for line in notes:
+        print("disagreement:", line)
+
+
+if __name__ == "__main__":
+    main()
