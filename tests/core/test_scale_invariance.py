@@ -25,8 +25,10 @@ REL_TOL = 0.01
 REPRESENTATIVE = {
     "apf-paper": "trap-saddle",
     "sa-apf-paper": "trap-u",
+    "sa-apf": "warehouse-grid",
     "hybrid-paper": "paper-hybrid",
     "hybrid-qp": "paper-hybrid",
+    "hybrid-guided": "paper-hybrid",
     "leader-follower-paper": "paper-formation",
     "formation-qp": "paper-formation",
     "formation-nlp": "formation-open-field",
