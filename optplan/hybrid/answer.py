@@ -90,7 +90,8 @@ def _outcome(opts: RunOptions, glob: GlobalStage, policy: HybridPolicy,
         claim = Status.approximate
         msg = {"collision": f"collision: {out.collision}",
                "budget": f"step budget ({opts.max_steps}) exhausted",
-               "gave_up": "; ".join(policy.gave_up) or "local planner gave up",
+               "gave_up": (f"collision: {policy.guard.collision}" if policy.guard.collision
+                           else "; ".join(policy.gave_up) or "local planner gave up"),
                "callback": "stopped by callback"}.get(out.reason, out.reason)
     notes = list(glob.messages)
     if (policy.k_arrived is not None and policy.fctrl is not None and out.reason == "done"

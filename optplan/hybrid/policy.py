@@ -19,6 +19,7 @@ import numpy as np
 from optplan.hybrid.tracker import Driver, SubgoalTracker
 from optplan.interfaces import FollowerController
 from optplan.potential.backend import RobotsAsObstacles
+from optplan.potential.swept import StepGuard
 from optplan.problem import Formation, Problem, Robot
 from optplan.sim import ObstacleField, SimState
 
@@ -60,6 +61,9 @@ class HybridPolicy:
         self.sense_others = len(drivers) > 1 and bool(getattr(planner, "sense_robots", True))
         self._d_idx = np.array([d.index for d in drivers], dtype=int)
         self._d_rad = np.array([d.robot.radius for d in drivers], dtype=float)
+        # every robot's straight step is tested exactly before it is taken (the simulator
+        # tests end points only): a step through a thin obstacle ends the run as a collision
+        self.guard = StepGuard(problem, [problem.robot(i) for i in team.ids])
 
     def __call__(self, state: SimState) -> np.ndarray | None:
         u = np.zeros((len(self.team.ids), 2))
@@ -72,6 +76,9 @@ class HybridPolicy:
             u[d.index] = v
         if self.fctrl is not None and not self._followers(u, state):
             return None
+        if self.o.stop_on_collision and self.guard.check(state.positions, u, state.dt,
+                                                         state.t):
+            return None  # a step would cross a static obstacle: stop before it
         return u
 
     def _drive(self, d: Driver, state: SimState) -> np.ndarray | None:

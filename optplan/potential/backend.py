@@ -22,6 +22,7 @@ from optplan.geometry.polyline import path_lengths
 from optplan.options import option
 from optplan.potential.controller import STATS_UNITS, APFController, Trace
 from optplan.potential.field import FieldParams
+from optplan.potential.swept import StepGuard
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status
 from optplan.sim import ObstacleField, SimState, disc_nearest, simulate
@@ -96,9 +97,10 @@ class _TeamPolicy:
     ends when every robot is at its goal or stopped."""
 
     def __init__(self, ctrls: list[APFController], goals: np.ndarray, tols: np.ndarray,
-                 radii: np.ndarray, sense_robots: bool):
+                 radii: np.ndarray, sense_robots: bool, guard: StepGuard):
         self.ctrls, self.goals, self.tols, self.radii = ctrls, goals, tols, radii
         self.sense_robots = sense_robots
+        self.guard = guard
         self.stopped = np.zeros(len(ctrls), bool)
 
     def at_goal(self, pos: np.ndarray) -> np.ndarray:
@@ -129,6 +131,8 @@ class _TeamPolicy:
                 out[i] = v
         if np.all(self.stopped | reached) and np.any(self.stopped):
             return None
+        if self.guard.check(state.positions, out, state.dt, state.t, ~(reached | self.stopped)):
+            return None  # a step would cross a static obstacle: the run ends in a collision
         return out
 
     def cost(self, state: SimState) -> float:
@@ -147,7 +151,8 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
     dt = backend.dt
     fld = ObstacleField(problem)
     radii = np.array([r.radius for r in robots], dtype=float)
-    policy = _TeamPolicy(ctrls, goals, tols, radii, backend.sense_robots and len(robots) > 1)
+    policy = _TeamPolicy(ctrls, goals, tols, radii, backend.sense_robots and len(robots) > 1,
+                         StepGuard(problem, robots))
     try:
         out = simulate(problem, policy, ids=ids, dt=dt, max_steps=backend.max_steps,
                        done=policy.done, field_=fld, callback=callback,
@@ -159,12 +164,14 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
                               wall_time=time.perf_counter() - t_start)
     paths = out.paths()
     reached = policy.at_goal(out.positions[-1])
-    claim, msg = _local_outcome(out, bool(np.all(reached)), ids, ctrls, backend.max_steps)
+    claim, msg = _local_outcome(out, bool(np.all(reached)), ids, ctrls, backend.max_steps,
+                                policy.guard.collision)
     lead = problem.leader.id if problem.leader.id in paths else ids[0]
     li = ids.index(lead)
     t_goal = _time_to_goal(out, li, goals[li], tols[li]) if reached[li] else float("nan")
     unit = problem.length_scale
     extras = _local_extras(out, ids, ctrls, unit)
+    extras["collision"] = policy.guard.collision or out.collision
     # the backend's own measures of the leader's trajectory (the validator's are the metrics)
     extras.update(time_to_goal=t_goal, oscillation_index=oscillation_index(paths[lead], unit))
     return backend.finish(problem, paths, claim=claim, times=out.times,
@@ -201,8 +208,11 @@ def _local_extras(out: Any, ids: list[str], ctrls: list[APFController],
 
 
 def _local_outcome(out: Any, reached: bool, ids: list[str], ctrls: list[APFController],
-                   max_steps: int) -> tuple[Status, str]:
-    """The claimed status and the message of a finished local-planner simulation."""
+                   max_steps: int, swept: str = "") -> tuple[Status, str]:
+    """The claimed status and the message of a finished local-planner simulation
+    (``swept``: the step the :class:`~optplan.potential.swept.StepGuard` refused)."""
+    if swept:
+        return Status.failed, f"collision: {swept}"
     if out.reason == "collision":
         return Status.failed, f"collision: {out.collision}"
     if out.reason == "done" and reached:
@@ -278,6 +288,16 @@ class PotentialFieldBackend(Backend):
         Beyond the paper: with several planned robots (no formation), each senses the others
         as disc obstacles at their current positions (:class:`RobotsAsObstacles`); without
         it they drive through each other.  No effect with one planned robot.
+    safe_step : bool
+        Beyond the paper (``False`` in the ``-paper`` presets): a step whose straight segment
+        is not free (exact test) is replaced by its slide along the nearest obstacle or its
+        clip to the bounds, halved until free
+        (:meth:`~optplan.potential.controller.APFController.free_step`), so the robot never
+        enters an obstacle.
+    guide : {"none", "visgraph"}
+        Beyond the paper (``"none"`` in the ``-paper`` presets): ``"visgraph"`` drives the
+        field toward the farthest visible vertex of the exact shortest path on the known map
+        (:mod:`optplan.potential.guide`).
     """
 
     k: float = option(15.0, lo=0.0, lo_open=True)
@@ -294,6 +314,8 @@ class PotentialFieldBackend(Backend):
     detect_eq38: bool = option(True)
     evade_factor: float = option(0.0, lo=0.0, hi=100.0)
     sense_robots: bool = option(True)
+    safe_step: bool = option(False)
+    guide: str = option("none", choices=("none", "visgraph"))
 
     #: The units of the controllers' ``stats`` (:class:`~optplan.interfaces.LocalPlanner`).
     stats_units: ClassVar[Record] = STATS_UNITS

@@ -37,6 +37,8 @@ import numpy as np
 
 from optplan.canonical import format_point
 from optplan.potential.field import FieldParams, evaluate_field
+from optplan.potential.guide import Guide
+from optplan.potential.swept import free_steps
 from optplan.problem import Problem, Robot
 from optplan.sim import ObstacleField, SimState
 from optplan.units import Each, Record, Unit
@@ -60,6 +62,10 @@ class ControllerOptions(Protocol):
     def stall_ratio(self) -> float: ...
     @property
     def detect_eq38(self) -> bool: ...
+    @property
+    def safe_step(self) -> bool: ...
+    @property
+    def guide(self) -> str: ...
 
 
 class _APFOptions(ControllerOptions, Protocol):
@@ -73,6 +79,7 @@ STATS_UNITS = Record({
     "local_minima_detected": Unit.DIMENSIONLESS, "distinct_minima": Unit.DIMENSIONLESS,
     "escapes": Unit.DIMENSIONLESS, "sa_steps": Unit.DIMENSIONLESS, "steps": Unit.DIMENSIONLESS,
     "evasions": Unit.DIMENSIONLESS, "detections": Each(Unit.DIMENSIONLESS),
+    "guide_replans": Unit.DIMENSIONLESS,
     "gave_up": Unit.TEXT})
 
 
@@ -84,6 +91,11 @@ class Trace:
     potential: list = field(default_factory=list)
     temperature: list = field(default_factory=list)
     mode: list = field(default_factory=list)
+
+    def drop_last(self) -> None:
+        """Forget the last row (a step recorded twice: once per mode)."""
+        for col in (self.force, self.potential, self.temperature, self.mode):
+            col.pop()
 
 
 class APFController:
@@ -103,6 +115,13 @@ class APFController:
         self.rng = rng
         self.params = params
         self.goal = np.asarray(robot.goal if robot.goal is not None else robot.start, float)
+        self.final_goal = self.goal.copy()  # the field's goal is a sub-goal when guided
+        self.guide: Guide | None = None
+        self._known: np.ndarray | None = None  # static obstacles on the known map (guide)
+        self.mode = "apf"
+        x0, y0, x1, y1 = problem.bounds
+        inset = robot.radius + 16 * problem.frame.eps
+        self._box = (np.array([x0 + inset, y0 + inset]), np.array([x1 - inset, y1 - inset]))
         self.stats: dict[str, Any] = {  # units: STATS_UNITS
             "local_minima_detected": 0, "distinct_minima": 0, "escapes": 0, "sa_steps": 0,
             "steps": 0,
@@ -121,6 +140,8 @@ class APFController:
     def reset(self, goal: np.ndarray) -> None:
         """Set a new (sub-)goal; clears the trap memory (positions, minima, SA state)."""
         self.goal = np.asarray(goal, dtype=float).reshape(2)
+        self.final_goal = self.goal.copy()
+        self.guide = None
         self._hist.clear()
         self.minima.clear()
         self._trap_since = None
@@ -140,6 +161,11 @@ class APFController:
         self.stats["steps"] += 1
         if self.gave_up:
             return None
+        if self.b.guide == "visgraph" and self.mode == "apf":
+            if self.guide is None:
+                self.guide = Guide(self.problem, self.robot, x, self.final_goal)
+            self.goal = self.guide.subgoal(x, l_step)
+            self.stats["guide_replans"] = self.guide.replans
         step = self._step(state, x, l_step, dt)
         if step is None:
             self.gave_up = True
@@ -152,11 +178,59 @@ class APFController:
         if ev is None:
             ev = evaluate_field(x[None], self.goal, fld, t, self.params)
         F = ev["F"][0]
-        nf = float(np.hypot(*F))
         dg = float(np.hypot(*(self.goal - x)))
+        if self.guide is not None and self.guide.visible and not self._unknown_near(fld, ev):
+            F = self.goal - x  # guided: the segment to the sub-goal is free on the known map
+        nf = float(np.hypot(*F))
         if nf < 1e-300 or not math.isfinite(nf):
             return np.zeros(2), ev
-        return F / nf * min(l_step, dg), ev
+        step = F / nf * min(l_step, dg)
+        if self.b.safe_step:
+            step = self.free_step(x, step, fld, ev)
+        return step, ev
+
+    def _unknown_near(self, fld: ObstacleField, ev: dict) -> bool:
+        """A sensed obstacle the known map does not have (temporary, moving, another robot)
+        is within the influence distance."""
+        known = self._known_mask(fld)
+        d = ev["dist"][0]
+        near = d <= self.params.rho_0 + self.robot.radius
+        return bool(np.any(near[len(known):]) or np.any(near[:len(known)] & ~known))
+
+    def _known_mask(self, fld: ObstacleField) -> np.ndarray:
+        if self._known is None or len(self._known) != fld.n_static:
+            src = getattr(fld, "base", fld)  # RobotsAsObstacles wraps the scene's field
+            self._known = np.array([o.known for o in src.static], bool)
+        return self._known
+
+    def free_step(self, x: np.ndarray, step: np.ndarray, fld: ObstacleField, ev: dict
+                  ) -> np.ndarray:
+        """Option ``safe_step``: the step, or the first free one of its variants.
+
+        Variants, in this order, each at lengths ``|step| * 2^-k`` (k = 0..4): the step; the
+        step slid along the nearest sensed static obstacle (its component toward the obstacle
+        removed, rescaled to ``|step|``); the step clipped to the bounds.  Each is decided by
+        the exact segment test (:func:`~optplan.potential.swept.free_steps`); none free: no
+        move (the stall test then sees it).
+        """
+        L = float(np.hypot(*step))
+        if L <= 0 or free_steps(self.problem, self.robot, x, (x + step)[None])[0]:
+            return step
+        cands = [step]
+        d = ev["dist"][0, :fld.n_static]
+        if len(d) and np.isfinite(d).any():
+            v = x - ev["near"][0, int(np.argmin(d))]
+            nv = float(np.hypot(*v))
+            if nv > 0:
+                nh = v / nv
+                slide = step - min(0.0, float(step @ nh)) * nh
+                ls = float(np.hypot(*slide))
+                if ls > 1e-9 * L:
+                    cands.append(slide * (L / ls))
+        cands.append(np.clip(x + step, *self._box) - x)
+        C = np.array([c * 0.5 ** k for k in range(5) for c in cands])
+        ok = np.flatnonzero(free_steps(self.problem, self.robot, x, x + C))
+        return C[ok[0]] if len(ok) else np.zeros(2)
 
     def evade(self, x: np.ndarray, ev: dict, fld: ObstacleField, l_step: float
               ) -> np.ndarray | None:

@@ -56,6 +56,7 @@ from optplan.options import option
 from optplan.potential.backend import PotentialFieldBackend
 from optplan.potential.controller import APFController
 from optplan.potential.field import FieldParams, evaluate_field
+from optplan.potential.swept import free_steps
 from optplan.problem import Problem, Robot
 from optplan.sim import ObstacleField, SimState
 
@@ -117,7 +118,10 @@ class SAAPFController(APFController):
         _, dist = fld.nearest(pts.reshape(-1, 2), t, max_range=self.params.sense_range)
         cl = (dist.min(axis=1) if dist.shape[1] else np.full(len(pts.reshape(-1, 2)), np.inf))
         cl = cl.reshape(len(cands), S) - self.robot.radius
-        return cl.min(axis=1) >= self.margin
+        # the samples keep the margin from sensed (also moving) obstacles; the exact test
+        # decides the static ones: a segment crossing a corner between two samples, or a
+        # point robot inside an obstacle (distance 0 >= margin 0), is not clear
+        return (cl.min(axis=1) >= self.margin) & free_steps(self.problem, self.robot, x, cands)
 
     def escaped(self, x: np.ndarray, t: float, fld: ObstacleField, l_step: float) -> bool:
         """Escape test: a greedy APF roll-out from ``x`` stays away from every known minimum."""
@@ -188,7 +192,8 @@ class SAAPFController(APFController):
             else:
                 step = d / dist * min(l_step, dist)
                 cl = evaluate_field((x + step)[None], self.goal, fld, t, self.params)
-                if cl["clearance"][0] >= self.margin:
+                if (cl["clearance"][0] >= self.margin
+                        and free_steps(self.problem, self.robot, x, (x + step)[None])[0]):
                     return step
                 self.target = None  # something (a moving obstacle) is in the way
         if self.escape_steps >= self.sb.sa_budget:
@@ -228,6 +233,7 @@ class SAAPFController(APFController):
         xm = self._centroid(x)
         self._note_minimum(xm, reason, l_step)
         self._start_sa(x)
+        self.trace.drop_last()  # this step is an SA step: _sa_step records it (one row a step)
         return self._sa_step(state, x, l_step, ev)
 
 
