@@ -79,6 +79,34 @@ def table(rows: dict[str, list[dict]]) -> list[str]:
     return out
 
 
+def summarize(files: list[str]) -> None:
+    """Two compact tables from printed runs (several processes' outputs): per map and
+    solver, "successes/lines (collisions)" and "median ratio, median time"."""
+    res: dict[str, dict[str, list[str]]] = {}
+    head = ""
+    for f in files:
+        for ln in Path(f).read_text().splitlines():
+            if ln.startswith("## ") and "x" in ln and "all maps" not in ln:
+                head = ln[3:].split(" (")[0]
+                res.setdefault(head, {})
+            elif ln.startswith("| ") and head and not ln.startswith("| solver"):
+                cells = [c.strip() for c in ln.strip("|").split("|")]
+                res[head][cells[0]] = cells[1:]
+    solvers = [s for s in ["visgraph", *SOLVERS[1:]] if any(s in r for r in res.values())]
+    top = "| map | " + " | ".join(solvers) + " |\n|---|" + "---|" * len(solvers)
+    print("Success (validator-accepted) of the lines, in brackets those with a collision:\n")
+    print(top)
+    for m, r in res.items():
+        print(f"| {m} | " + " | ".join(
+            f"{r[s][0]} ({r[s][1].split('/')[0]})" if s in r else "" for s in solvers) + " |")
+    print("\nMedian (worst) ratio to the certified optimum over the successes; median CPU "
+          "seconds per line:\n")
+    print(top)
+    for m, r in res.items():
+        print(f"| {m} | " + " | ".join(
+            f"{r[s][2]} ({r[s][3]}); {r[s][4]} s" if s in r else "" for s in solvers) + " |")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="32 and 64 cells, 5/3 lines")
@@ -86,8 +114,19 @@ def main() -> None:
     ap.add_argument("--families", nargs="*", choices=sorted(FAMILIES), help="map families")
     ap.add_argument("--solvers", nargs="*", help=f"presets (default {' '.join(SOLVERS)})")
     ap.add_argument("--seed", type=int, default=0, help="map seed (default 0)")
+    ap.add_argument("--lines", type=int, nargs="*",
+                    help="lines per map, one number per size (default 20 10 5 3)")
+    ap.add_argument("--summarize", nargs="*", metavar="FILE",
+                    help="print the compact tables of earlier runs' printed output and exit")
     a = ap.parse_args()
+    if a.summarize:
+        summarize(a.summarize)
+        return
     qn = QUICK_QUERIES if a.quick else QUERIES
+    if a.lines:
+        if not a.sizes or len(a.lines) != len(a.sizes):
+            ap.error("--lines needs --sizes and one number per size")
+        qn = dict(zip(a.sizes, a.lines, strict=True))
     sizes = a.sizes or sorted(qn)
     families = a.families or list(FAMILIES)
     solvers = [s for s in (a.solvers or SOLVERS) if s != "visgraph"]
