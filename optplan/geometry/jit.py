@@ -20,10 +20,12 @@ directory is writable; else numba's user-wide cache directory (``~/.cache/numba`
 ``$XDG_CACHE_HOME/numba`` when set).  A read-only installation therefore compiles once per
 user, not once per process.
 
-A small helper with one call site is ``@inlined`` instead: numba inlines it into its caller's
-IR, so it costs no compilation of its own (a compiled function costs about 0.1 s of CPU to
-compile however small it is).  A helper with several callers, or a large one, is
-``@compiled``: inlining it would compile its body once per call site.
+A helper with one call site (in compiled code) is ``@inlined`` instead: numba inlines it into
+its caller's IR, so it costs no compilation of its own (a compiled function costs 0.1-0.3 s of
+CPU to compile, its own machine code and Python wrapper, however small it is, and its code is
+compiled again into each caller's module).  A helper with several callers is ``@compiled``:
+inlining it would compile its body once per call site.  Loops that run once per solve or per
+refinement round are vectorised numpy instead (docs/benchmarks.md "First run").
 
 Type names: ``f8`` float64, ``i8`` int64, ``b1`` boolean; ``F1``, ``F2``, ``F3`` C-contiguous
 float64 arrays of 1, 2, 3 dimensions, ``I1``, ``I2`` int64 ones, ``B1``, ``B2`` boolean ones;
