@@ -20,7 +20,6 @@ import math
 import numba
 import numpy as np
 
-from optplan.geometry.jit import argsort_stable
 from optplan.swarm.core import SwarmSpace, pairs_free, segment_free
 
 __all__ = ["CUT_FRACTIONS", "CUT_STAGES", "shortcut", "tighten"]
@@ -153,43 +152,26 @@ CUT_FRACTIONS = 0.5 ** np.arange(1, 11)
 CUT_STAGES = (8, 24)
 
 
-@_jit
-def _cut_table(pts, rows, f, thr):
+def _cut_table(pts: np.ndarray, rows: np.ndarray, f: np.ndarray, thr: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The corner cuts of :func:`tighten` for the vertices ``rows``: the cut points
     ``P[r, s] = v + f[s] (a - v)``, ``Q[r, t] = v + f[t] (b - v)``, the length gain of each
     cut ``(s, t)`` (flat index ``s F + t``), the cuts in order of decreasing gain (ties: the
-    lower index first) and per vertex how many gain more than ``thr[r]``."""
-    R = rows.shape[0]
-    F = f.shape[0]
-    P = np.empty((R, F, 2))
-    Q = np.empty((R, F, 2))
-    gain = np.empty((R, F * F))
-    order = np.empty((R, F * F), np.int64)
-    n_above = np.zeros(R, np.int64)
-    dp = np.empty(F)
-    dq = np.empty(F)
-    for r in range(R):
-        v = rows[r]
-        vx, vy = pts[v, 0], pts[v, 1]
-        ax, ay = pts[v - 1, 0] - vx, pts[v - 1, 1] - vy
-        bx, by = pts[v + 1, 0] - vx, pts[v + 1, 1] - vy
-        for s in range(F):
-            P[r, s, 0] = vx + f[s] * ax
-            P[r, s, 1] = vy + f[s] * ay
-            Q[r, s, 0] = vx + f[s] * bx
-            Q[r, s, 1] = vy + f[s] * by
-            dp[s] = math.hypot(P[r, s, 0] - vx, P[r, s, 1] - vy)
-            dq[s] = math.hypot(Q[r, s, 0] - vx, Q[r, s, 1] - vy)
-        for s in range(F):
-            for t in range(F):
-                g = (dp[s] + dq[t]) - math.hypot(Q[r, t, 0] - P[r, s, 0],
-                                                 Q[r, t, 1] - P[r, s, 1])
-                gain[r, s * F + t] = g
-                if g > thr[r]:
-                    n_above[r] += 1
-        o = argsort_stable(-gain[r])
-        for k in range(F * F):  # element loop: no slice assignment (numba's error text)
-            order[r, k] = o[k]
+    lower index first) and per vertex how many gain more than ``thr[r]``.  Vectorised numpy
+    (once per round)."""
+    R, F = len(rows), len(f)
+    v = pts[rows]
+    a = pts[rows - 1] - v
+    b = pts[rows + 1] - v
+    P = v[:, None, :] + f[None, :, None] * a[:, None, :]
+    Q = v[:, None, :] + f[None, :, None] * b[:, None, :]
+    dp = np.hypot(P[:, :, 0] - v[:, None, 0], P[:, :, 1] - v[:, None, 1])
+    dq = np.hypot(Q[:, :, 0] - v[:, None, 0], Q[:, :, 1] - v[:, None, 1])
+    gain = ((dp[:, :, None] + dq[:, None, :])
+            - np.hypot(Q[:, None, :, 0] - P[:, :, None, 0],
+                       Q[:, None, :, 1] - P[:, :, None, 1])).reshape(R, F * F)
+    n_above = (gain > thr[:, None]).sum(axis=1).astype(np.int64)
+    order = np.argsort(-gain, axis=1, kind="stable")
     return P, Q, gain, order, n_above
 
 
