@@ -31,10 +31,13 @@ import numpy as np
 from optplan.geometry.tangent_graph import tangent_graph
 from optplan.problem import Problem, Robot
 
-__all__ = ["Guide", "LOOKAHEAD", "REPLAN_EVERY"]
+__all__ = ["Guide", "LOOKAHEAD", "REPLAN_EVERY", "GUIDE_MARGIN"]
 
 #: Vertices ahead of the current one tested for visibility each step.
 LOOKAHEAD = 24
+#: Clearance (x length_scale) the guide path keeps beyond the robot radius when the start
+#: and goal allow it (else it is planned for the radius itself).
+GUIDE_MARGIN = 1e-4
 #: Fewest calls between two plans of the path (a lost robot re-plans from where it is).
 REPLAN_EVERY = 10
 
@@ -49,7 +52,12 @@ class Guide:
     def __init__(self, problem: Problem, robot: Robot, x: np.ndarray, goal: np.ndarray):
         self.goal = np.asarray(goal, dtype=float)
         self.visible = False
-        self.oset = problem.obstacle_set(robot.radius, known_only=True)
+        # the path keeps a margin from the obstacles where it can (the exact tests decide
+        # with a tolerance; a path that grazes them may not survive a change of frame)
+        margin = GUIDE_MARGIN * problem.length_scale
+        self.oset = problem.obstacle_set(robot.radius + margin, known_only=True)
+        if tangent_graph(self.oset).shortest_path(x, self.goal).polyline is None:
+            self.oset = problem.obstacle_set(robot.radius, known_only=True)
         self.path: np.ndarray | None = None
         self.i = 1
         self.replans = -1
