@@ -75,6 +75,7 @@ def _dispatch(argv: list[str], out: TextIO) -> int:
     if args.command is None:
         parser.print_help(out)
         return 0
+    args.argv = list(argv)  # the command line as given (main(argv) from Python too)
     return args.func(args, out)
 
 

@@ -171,7 +171,7 @@ def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
         rows = run_grid(problems, solvers, args.seeds, workers=args.workers,
                         overrides=overrides, progress=bar, time_limit=args.time_limit,
                         db=args.db, scheduler=args.scheduler, dask_local=args.dask_local,
-                        command_line=shlex.join([PROG, *sys.argv[1:]]))
+                        command_line=shlex.join([PROG, *getattr(args, "argv", sys.argv[1:])]))
     except KeyboardInterrupt:
         kept = (f"; every finished run is in {args.db}: run the same command again to resume"
                 if args.db else " (no --db: nothing was kept)")
