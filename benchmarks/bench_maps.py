@@ -86,9 +86,10 @@ def summarize(files: list[str]) -> None:
     head = ""
     for f in files:
         for ln in Path(f).read_text().splitlines():
-            if ln.startswith("## ") and "x" in ln and "all maps" not in ln:
-                head = ln[3:].split(" (")[0]
-                res.setdefault(head, {})
+            if ln.startswith("## "):  # a map's section, or the totals (not summarised)
+                head = "" if ln.startswith("## all maps") else ln[3:].split(" (")[0]
+                if head:
+                    res.setdefault(head, {})
             elif ln.startswith("| ") and head and not ln.startswith("| solver"):
                 cells = [c.strip() for c in ln.strip("|").split("|")]
                 res[head][cells[0]] = cells[1:]
