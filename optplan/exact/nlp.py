@@ -140,7 +140,7 @@ __all__ = ["WaypointNLP", "SEGMENT_BUCKET"]
 SEGMENT_BUCKET = 8
 
 
-class _IterProgress:
+class IterProgress:
     """IPOPT's iterations as :class:`~optplan.result.Progress` to the caller's callback.
 
     Called with the objective every IPOPT iteration; returns True (stop IPOPT) when the
@@ -287,7 +287,7 @@ class WaypointNLP(Backend):
         return out.path, claim, msg
 
     def _plan_robot(self, problem: Problem, robot: Robot, init: dict[str, np.ndarray] | None,
-                    known_only: bool, margin: float, prog: _IterProgress,
+                    known_only: bool, margin: float, prog: IterProgress,
                     report: bool, infos: dict[str, Any]
                     ) -> tuple[np.ndarray, Status, str, NLPOutcome | None]:
         """One robot's (path, claim, message, NLP outcome or None when no NLP was solved);
@@ -340,7 +340,7 @@ class WaypointNLP(Backend):
         claims: list[Status] = []
         extras: dict[str, Any] = {"ipopt": {}}
         hist = History()
-        prog = _IterProgress(callback, t0)
+        prog = IterProgress(callback, t0)
         for robot in problem.planned_robots:
             path, claim, msg, out = self._plan_robot(problem, robot, init, known_only, margin,
                                                      prog, callback is not None,

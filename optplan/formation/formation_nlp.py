@@ -21,12 +21,13 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan.exact.nlp import IterProgress
 from optplan.exact.nlp_pieces import SAFETY_REL, obstacle_pieces
 from optplan.formation.team_nlp import MoverTable, TeamModel, solve_team_nlp
 from optplan.geometry.motion import mover_track, positions_at
 from optplan.geometry.time_bounds import arrival_time
 from optplan.problem import Problem
-from optplan.result import History, Progress, Result, Status, notify
+from optplan.result import History, Progress, Result, Status
 from optplan.solver import Backend, get_solver, option
 from optplan.units import Record, Unit
 
@@ -128,7 +129,8 @@ class FormationNLP(Backend):
         ipopt = {"max_iter": int(self.max_iter), "tol": float(self.tol), "print_level": 0,
                  "sb": "yes", "mu_strategy": self.mu_strategy,
                  "constr_viol_tol": float(self.tol)}
-        prog = _IpoptProgress(callback, t0, warm.T0)
+        prog = IterProgress(callback, t0)
+        prog.best = warm.T0  # the arrival to beat
         X, T, info = solve_team_nlp(model, ipopt, prog if callback is not None else None)
         if prog.raised:
             raise prog.raised[0]
@@ -281,23 +283,3 @@ def _movers(problem: Problem, T0: float, horizon: float, scale: float) -> list[M
                               speed * T0 / scale))
     return out
 
-
-class _IpoptProgress:
-    """IPOPT's iterations of the team NLP as :class:`Progress` to the caller's callback; True
-    (stop IPOPT) when it raises ``StopIteration``.  Any other exception is kept in ``raised``
-    (CasADi would swallow it) and re-raised after IPOPT returns."""
-
-    def __init__(self, callback: Callable[[Progress], Any] | None, t0: float, warm_arrival: float):
-        self.callback, self.t0, self.warm_arrival = callback, t0, warm_arrival
-        self.it = 0
-        self.raised: list[BaseException] = []
-
-    def __call__(self, f: float) -> bool:
-        self.it += 1
-        try:
-            return notify(self.callback, Progress(
-                iteration=self.it, best_cost=self.warm_arrival, n_eval=self.it,
-                elapsed=time.perf_counter() - self.t0, info={"objective": f}))
-        except BaseException as e:  # noqa: BLE001 - re-raised after IPOPT returns
-            self.raised.append(e)
-            return True
