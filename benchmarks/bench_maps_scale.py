@@ -45,7 +45,7 @@ from shapely.geometry import box
 from shapely.geometry.polygon import orient
 
 from optplan.geometry import obstacle_set
-from optplan.geometry.tangent_graph import TangentGraph
+from optplan.geometry.tangent_graph import MAX_GRAPH_BYTES, TangentGraph
 from optplan.maps import read_scen
 from optplan.maps.movingai_gen import generate_benchmark
 
@@ -75,14 +75,19 @@ def _vertices(problem) -> int:
                for o in problem.obstacles)
 
 
-def run_optplan(scen: Path, budget: float) -> dict:
-    """Import, build and the queries of one ``.scen`` on one :class:`TangentGraph`."""
+def run_optplan(scen: Path, budget: float, sightlines: bool | None = None,
+                full: bool = False) -> dict:
+    """Import, build and the queries of one ``.scen`` on one :class:`TangentGraph`
+    (``sightlines``: its option; ``full``: :meth:`TangentGraph.build` before the queries)."""
     with _Clock() as ti:
         probs = read_scen(scen)
     p0 = probs[0]
     with _Clock() as tb:
         oset = obstacle_set(p0.obstacles, 0.0, p0.frame)
-        graph = TangentGraph(oset)
+        graph = TangentGraph(oset, sightlines=sightlines,
+                             max_bytes=2**30 if full else MAX_GRAPH_BYTES)
+        if full:
+            graph.build()
     times, cpus, lengths, unfinished = [], [], [], 0
     for p in probs:
         r = p.robots[0]
@@ -182,8 +187,16 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--budget", type=float, default=10.0, help="seconds per query")
     ap.add_argument("--epf-max-vertices", type=int, default=3000)
     ap.add_argument("--show", type=int, default=3, help="disagreements listed per map")
+    ap.add_argument("--sightlines", choices=("auto", "on", "off"), default="auto",
+                    help="TangentGraph(sightlines=): auto (from SIGHTLINES_MIN circles), "
+                         "on or off")
+    ap.add_argument("--build", action="store_true",
+                    help="make the whole graph (TangentGraph.build, up to 1 GiB of edges) "
+                         "before the queries; its time is the build time")
     args = ap.parse_args(argv)
-    print("exact tangent graph at scale: point robot, one TangentGraph per map, "
+    sight = {"auto": None, "on": True, "off": False}[args.sightlines]
+    print("exact tangent graph at scale: point robot, one TangentGraph per map "
+          f"(sightlines {args.sightlines}{', whole graph built first' if args.build else ''}), "
           f"{args.queries} .scen queries per map, seed {args.seed}, query budget "
           f"{args.budget:g} s; wall s (CPU s); query ms: median / worst; shared 2-core machine")
     print()
@@ -196,7 +209,7 @@ def main(argv: list[str] | None = None) -> None:
             with tempfile.TemporaryDirectory() as d:
                 gen = generate_benchmark(kind, size, d, rng=np.random.default_rng(args.seed),
                                          queries=args.queries)
-                ours = run_optplan(gen.scen_path, args.budget)
+                ours = run_optplan(gen.scen_path, args.budget, sight, args.build)
                 epf = (run_epf(ours["problems"])
                        if ours["vertices"] <= args.epf_max_vertices else None)
             if epf is None:

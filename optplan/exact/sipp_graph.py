@@ -37,12 +37,14 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
+from optplan.geometry.arc_lines import arc_polyline
 from optplan.geometry.circles import circles_of
 from optplan.geometry.contact_times import shape_pieces
 from optplan.geometry.motion import mover_pieces
 from optplan.geometry.obstacles import ObstacleSet
 from optplan.geometry.st_regions import merge_open, path_regions, region_extremes, sections
-from optplan.geometry.tangent_graph import _Search, arc_polyline
+from optplan.geometry.tangent_graph import TangentGraph
+from optplan.geometry.tangent_search import TangentSearch
 from optplan.geometry.time_bounds import parked_contact_times
 
 if TYPE_CHECKING:
@@ -417,7 +419,8 @@ class Roadmap:
         self.zs, self.zg = complex(s_loc[0], s_loc[1]), complex(g_loc[0], g_loc[1])
         self.start_xy, self.goal_xy = np.asarray(start, float), np.asarray(goal, float)
         self.info: dict[str, Any] = {"n_expanded": 0, "n_generated": 0, "n_checked": 0}
-        self.graph = _Search(oset, circles_of(oset), self.zs, self.zg, self.info)
+        self.graph = TangentSearch(oset, (C := circles_of(oset)), self.zs, self.zg, self.info,
+                                   TangentGraph(oset, C))
         self.vertices: list[Vertex] = []
         self.index: dict[tuple, int] = {}
         self.chains: dict[int, Chains] = {}

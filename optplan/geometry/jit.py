@@ -27,6 +27,9 @@ compiled again into each caller's module).  A helper with several callers is ``@
 inlining it would compile its body once per call site.  Loops that run once per solve or per
 refinement round are vectorised numpy instead (docs/benchmarks.md "First run").
 
+Shared compiled utilities: :func:`argsort_stable` and the binary min-heap :func:`heap_push` /
+:func:`heap_pop` (the swarm roadmap's searches, the sight-line flood).
+
 Type names: ``f8`` float64, ``i8`` int64, ``b1`` boolean; ``F1``, ``F2``, ``F3`` C-contiguous
 float64 arrays of 1, 2, 3 dimensions, ``I1``, ``I2`` int64 ones, ``B1``, ``B2`` boolean ones;
 ``FA1``, ``FA2`` float64 arrays of any layout (strided views: the swarm's particles are a view
@@ -45,8 +48,8 @@ from numba import types
 from numba.core.compiler_lock import global_compiler_lock
 from numba.core.registry import CPUDispatcher
 
-__all__ = ["compiled", "inlined", "OneSignature", "argsort_stable", "f8", "i8", "b1", "F1", "F2",
-           "F3", "I1", "I2", "B1", "B2", "FA1", "FA2", "IA1", "IA2"]
+__all__ = ["compiled", "inlined", "OneSignature", "argsort_stable", "heap_push", "heap_pop",
+           "f8", "i8", "b1", "F1", "F2", "F3", "I1", "I2", "B1", "B2", "FA1", "FA2", "IA1", "IA2"]
 
 f8 = types.float64
 i8 = types.int64
@@ -200,3 +203,41 @@ def argsort_stable(keys):  # pragma: no cover - compiled
         a, b = b, a
         width *= 2
     return a
+
+
+@compiled(F1, I1, i8, f8, i8)  # one signature: no literal-argument specialisations
+def heap_push(hk, hv, size, key, val):
+    """Push ``(key, val)`` onto the binary min-heap ``hk, hv`` of ``size`` items (compiled
+    code: the roadmap's searches, the sight-line flood); returns the new size."""
+    i = size
+    hk[i] = key
+    hv[i] = val
+    while i > 0:
+        up = (i - 1) >> 1
+        if hk[up] <= hk[i]:
+            break
+        hk[up], hk[i] = hk[i], hk[up]
+        hv[up], hv[i] = hv[i], hv[up]
+        i = up
+    return size + 1
+
+
+@compiled(F1, I1, i8)
+def heap_pop(hk, hv, size):
+    """Pop the smallest ``(key, val)``; returns it and the new size."""
+    key, val = hk[0], hv[0]
+    size -= 1
+    hk[0], hv[0] = hk[size], hv[size]
+    i = 0
+    while True:
+        c = 2 * i + 1
+        if c >= size:
+            break
+        if c + 1 < size and hk[c + 1] < hk[c]:
+            c += 1
+        if hk[i] <= hk[c]:
+            break
+        hk[c], hk[i] = hk[i], hk[c]
+        hv[c], hv[i] = hv[i], hv[c]
+        i = c
+    return key, val, size

@@ -576,3 +576,18 @@ def _edge_table(pieces: list, bflags: list, eps: float) -> tuple:
                    (V[..., 1] * (np.arange(PIECE_EDGES) < nv[:, None])).sum(1) / nv], axis=1)
     reach = np.max(np.hypot(V[..., 0] - pc[:, :1], V[..., 1] - pc[:, 1:]), axis=1)
     return V, table, boundary, pc, reach
+
+
+def solid_edges(oset: ObstacleSet) -> np.ndarray:
+    """The boundary edges of the solids of ``oset`` (local frame), ``(m, 4)``: ``x1, y1, x2,
+    y2``, each once (internal diagonals of the convex decomposition and the repeated edge of
+    a padded triangle left out)."""
+    p, e = oset.table[0], oset.table[1]
+    keep = oset.boundary & (np.abs(e) > 0)
+    a, b = p[keep], (p + e)[keep]
+    seg = np.stack([a.real, a.imag, b.real, b.imag], axis=1)
+    # an edge listed twice (the padded triangles) or in both directions once
+    key = np.where((seg[:, :1] < seg[:, 2:3]) | ((seg[:, :1] == seg[:, 2:3])
+                                                 & (seg[:, 1:2] <= seg[:, 3:4])),
+                   seg, seg[:, [2, 3, 0, 1]])
+    return np.ascontiguousarray(np.unique(key, axis=0))

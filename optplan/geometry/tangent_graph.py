@@ -49,7 +49,6 @@ exists.  On a set built with ``walls=False`` ``info["certified"]`` is False.
 
 from __future__ import annotations
 
-import heapq
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -58,14 +57,23 @@ from typing import Any
 import numpy as np
 
 from optplan.geometry.arc_lines import arc_polyline, rebuild_polyline
-from optplan.geometry.circles import ANGLE_TOL, TWO_PI, ArcChecker, Circles, circles_of
-from optplan.geometry.obstacles import ObstacleSet
+from optplan.geometry.circles import ArcChecker, Circles, circles_of
+from optplan.geometry.obstacles import ObstacleSet, solid_edges
+from optplan.geometry.sightlines import Sightlines
+from optplan.geometry.tangent_edges import Edges, edges_of_one, group_edges, tangent_edges
+from optplan.geometry.tangent_search import Stopped, TangentSearch
 
 __all__ = ["TangentPath", "TangentGraph", "tangent_graph", "shortest_path",
            "problem_shortest_path", "arc_polyline"]
 
 #: Default memory bound of the successors a :class:`TangentGraph` stores (bytes).
 MAX_GRAPH_BYTES = 256 * 2**20
+#: Circles from which a :class:`TangentGraph` filters its tangents by sight lines by default
+#: (below it, every circle is a candidate: ``O(n)`` per expansion is cheap there, and the
+#: flood's kernel, about 2 s of CPU to compile once, is not needed).
+SIGHTLINES_MIN = 1000
+#: Circle-sense pairs whose successors :meth:`TangentGraph.build` makes in one batch.
+BUILD_CHUNK = 4096
 
 
 @dataclass(frozen=True)
@@ -91,336 +99,17 @@ class TangentPath:
     info: dict
 
 
-class _Stream:
-    """Sorted successor candidates of one expanded node."""
-
-    __slots__ = ("node", "f", "g", "j", "sj", "pi", "pj", "th_d", "th_a", "sweep", "ok", "pos",
-                 "checked", "edges", "eidx")
-
-    def __init__(self, node, f, g, j, sj, pi, pj, th_d, th_a, sweep, edges=None, eidx=None):
-        order = np.argsort(f, kind="stable")
-        self.node = node
-        self.f, self.g, self.j, self.sj = f[order], g[order], j[order], sj[order]
-        self.pi, self.pj, self.th_d, self.th_a = pi[order], pj[order], th_d[order], th_a[order]
-        self.sweep = sweep[order]
-        self.ok = np.zeros(len(order), np.int8)  # 0 unknown, 1 free, -1 blocked
-        self.pos = 0
-        self.checked = 0
-        # the query-independent edges the candidates come from (index -1: the goal)
-        self.edges: _Edges | None = edges
-        self.eidx = None if eidx is None else eidx[order]
-
-
-class _Edges:
-    """The query-independent successors of circle ``i`` in sense ``si``: the tangents to the
-    other circles (both senses) that pass both cones, with their segment status (``ok``: 0
-    unknown, 1 free, -1 blocked; filled in by the searches); ``pi`` is None for a point."""
-
-    __slots__ = ("j", "sj", "seg", "pi", "pj", "th_d", "th_a", "od", "ok")
-
-    def __init__(self, j, sj, seg, pi, pj, th_d, th_a, od):
-        self.j, self.sj, self.seg, self.pi, self.pj, self.th_d = j, sj, seg, pi, pj, th_d
-        self.th_a, self.od, self.ok = th_a, od, np.zeros(len(j), np.int8)
-
-    @property
-    def nbytes(self) -> int:
-        return sum(getattr(getattr(self, k), "nbytes", 0) for k in self.__slots__)
-
-
-class _Search:
-    """State of one A* search over the tangent graph (see :func:`shortest_path`).
-
-    Nodes are arrival states ``(circle, sense, arrival angle, g, pred, seg)``; the successors
-    of an expanded node form one :class:`_Stream` sorted by ``f``, consumed lazily.
-    """
-
-    def __init__(self, oset: ObstacleSet, C: Circles, zs: complex, zg: complex, info: dict,
-                 graph: TangentGraph | None = None):
-        self.oset, self.C, self.zs, self.zg = oset, C, zs, zg
-        self.fr = oset.frame
-        self.eps = self.fr.eps
-        self.info = info
-        self.graph = TangentGraph(oset, C) if graph is None else graph  # None: a one-off
-        self.arcs = self.graph.arcs
-        self.box = self.fr.local_bounds
-        self.n = C.n
-        self.cen, self.rho, self.lo, self.width, self.full = (C.center, C.rho, C.lo, C.width,
-                                                              C.full)
-        self.nodes: list[tuple] = []
-        self.closed: set = set()
-        self.expanded: dict = {}  # (circle, sense) -> list of (theta, g)
-        self.heap: list = []
-        self.streams: list[_Stream] = []
-        self.all_j = np.arange(self.n)
-        self.senses = np.array([1, -1])
-        self._pairs: tuple | None = None  # every circle in both senses (:meth:`edges`)
-
-    def cone_off(self, k, th):
-        """Offset of angle ``th`` from the cone start of circle(s) ``k``, or nan outside."""
-        full, width = self.full, self.width
-        off = np.mod(th - self.lo[k], TWO_PI)
-        off = np.where(off > TWO_PI - ANGLE_TOL, 0.0, off)  # just below lo: on the boundary
-        ok = full[k] | (off <= width[k] + ANGLE_TOL)
-        return np.where(ok, np.minimum(off, np.where(full[k], off, width[k])), np.nan)
-
-    def _candidates(self, i: int, si: int, ci: complex, ri: float, circles: bool = True,
-                    goal: bool = True):
-        """Tangents from circle ``i`` (sense ``si``; ``i < 0``: the start point) to every
-        other circle with both senses (``circles``) and to the goal (``goal``).
-
-        Returns ``jj, sj, dd, delta, nl, pj, th_arr`` (target circle, its sense, centre
-        distance, radius difference, tangent normal, arrival point and angle) for the
-        geometrically possible tangents (``|c_j - c_i| > |delta|``).
-        """
-        n = self.n if circles else 0
-        g = 1 if goal else 0
-        jj = np.concatenate([np.repeat(self.all_j[:n], 2), np.full(g, -2, np.int64)])
-        sj = np.concatenate([np.tile(self.senses, n), np.ones(g, np.int64)])
-        cj = np.concatenate([np.repeat(self.cen[:n], 2), [self.zg] * g])
-        rj = np.concatenate([np.repeat(self.rho[:n], 2), [0.0] * g])
-        if i >= 0:
-            keep = jj != i
-            jj, sj, cj, rj = jj[keep], sj[keep], cj[keep], rj[keep]
-        D = cj - ci
-        dd = np.abs(D)
-        delta = sj * rj - (si * ri if i >= 0 else 0.0)
-        ok = dd > np.abs(delta) + self.eps * 1e-3
-        jj, sj, cj, rj, D, dd, delta = (x[ok] for x in (jj, sj, cj, rj, D, dd, delta))
-        beta = np.angle(D) + np.arccos(np.clip(delta / dd, -1.0, 1.0))
-        nl = np.exp(1j * beta)
-        pj = cj - sj * rj * nl
-        th_arr = np.angle(-sj * nl)
-        return jj, sj, dd, delta, nl, pj, th_arr
-
-    def _departures(self, i: int, si: int, th_a: float, ci: complex, ri: float, nl):
-        """Departure points on circle ``i``, their angles, the arc swept from the arrival
-        angle ``th_a`` and whether that arc stays in the cone: ``pi, th_d, sweep, ok``."""
-        m = len(nl)
-        if i < 0:
-            return np.full(m, ci), np.zeros(m), np.zeros(m), np.ones(m, bool)
-        pi = ci - si * ri * nl
-        th_d = np.angle(-si * nl)
-        # departure point in the cone of circle i and the arc from th_a to th_d inside it
-        od = self.cone_off(np.full(len(th_d), i), th_d)
-        sweep = self._sweep(i, si, th_a, th_d, od)
-        ok = np.isfinite(od) & (sweep >= 0)
-        return pi, th_d, sweep, ok
-
-    def _sweep(self, i: int, si: int, th_a: float, th_d, od):
-        """Arc swept on circle ``i`` (sense ``si``) from the arrival angle ``th_a`` to the
-        departure angles ``th_d`` (cone offsets ``od``); negative or nan: not in the cone."""
-        if self.full[i]:
-            sweep = np.mod((th_d - th_a) * si, TWO_PI)
-            return np.where(sweep > TWO_PI - ANGLE_TOL, 0.0, sweep)
-        oa = float(self.cone_off(np.array([i]), np.array([th_a]))[0])
-        sweep = (od - oa) * si
-        return np.where((sweep < 0) & (sweep > -ANGLE_TOL), 0.0, sweep)
-
-    def edges(self, i: int, si: int) -> _Edges:
-        """The query-independent successors of circle ``i`` in sense ``si`` (module
-        :class:`_Edges`): the tangents of :meth:`_candidates` to the other circles that pass
-        both cones (the departure cone tested first, on fewer candidates; same values)."""
-        if self._pairs is None:
-            self._pairs = (np.repeat(self.all_j, 2), np.tile(self.senses, self.n),
-                           np.repeat(self.cen, 2), np.repeat(self.rho, 2))
-        jj, sj, cj, rj = self._pairs
-        ci, ri = self.cen[i], float(self.rho[i])
-        D = cj - ci
-        dd = np.abs(D)
-        delta = sj * rj - si * ri
-        idx = np.flatnonzero((jj != i) & (dd > np.abs(delta) + self.eps * 1e-3))
-        nl = np.exp(1j * (np.angle(D[idx]) + np.arccos(np.clip(delta[idx] / dd[idx], -1.0,
-                                                                 1.0))))
-        th_d = np.angle(-si * nl)
-        od = self.cone_off(np.full(len(th_d), i), th_d)
-        k = np.flatnonzero(np.isfinite(od))
-        idx, nl, th_d, od = idx[k], nl[k], th_d[k], od[k]
-        pj = cj[idx] - sj[idx] * rj[idx] * nl
-        th_arr = np.angle(-sj[idx] * nl)
-        k = np.flatnonzero(np.isfinite(self.cone_off(jj[idx], th_arr)))
-        idx = idx[k]
-        seg = np.sqrt(np.maximum(dd[idx] ** 2 - delta[idx] ** 2, 0.0))
-        pi = (ci - si * ri * nl[k]) if ri > 0 else None
-        return _Edges(jj[idx].astype(np.int32), sj[idx].astype(np.int8), seg, pi, pj[k],
-                      th_d[k], th_arr[k], od[k])
-
-    def expand(self, node_id: int) -> None:
-        """Generate the successors of node ``node_id`` as a new stream."""
-        i, si, th_a, g0 = self.nodes[node_id][:4]
-        self.info["n_expanded"] += 1
-        if i < 0:  # the start: a point
-            ci, ri = self.zs, 0.0
-        else:
-            ci, ri = self.cen[i], self.rho[i]
-        start = i < 0
-        jj, sj, dd, delta, nl, pj, th_arr = self._candidates(i, si, ci, ri, circles=start)
-        pi, th_d, sweep, ok = self._departures(i, si, th_a, ci, ri, nl)
-        if start and self.n:  # arrival point in the cone of circle j (the goal has none)
-            isg = jj < 0
-            ok &= isg | np.isfinite(self.cone_off(np.where(isg, 0, jj), th_arr))
-        seg = np.sqrt(np.maximum(dd * dd - delta * delta, 0.0))
-        edges = eidx = None
-        if not start:  # the circles' tangents from the graph, the goal's from above
-            edges = self.graph.edges_of(self, i, si)
-            sw = self._sweep(i, si, th_a, edges.th_d, edges.od)
-            pie = edges.pi if edges.pi is not None else np.full(len(edges.j), ci)
-            jj, sj = np.concatenate([edges.j, jj]), np.concatenate([edges.sj, sj])
-            seg, pi = np.concatenate([edges.seg, seg]), np.concatenate([pie, pi])
-            pj, th_d = np.concatenate([edges.pj, pj]), np.concatenate([edges.th_d, th_d])
-            th_arr, sweep = np.concatenate([edges.th_a, th_arr]), np.concatenate([sw, sweep])
-            ok = np.concatenate([sw >= 0, ok])
-            eidx = np.concatenate([np.arange(len(edges.j)), np.full(len(dd), -1)])
-        g = g0 + ri * sweep + seg
-        f = g + np.abs(pj - self.zg)
-        self.info["n_generated"] += int(np.count_nonzero(ok))
-        if edges is not None:  # a segment an earlier search found blocked is never a step
-            ok[:len(edges.j)] &= edges.ok != -1
-        sel = np.flatnonzero(ok)
-        if sel.size == 0:
-            return
-        st = _Stream(node_id, f[sel], g[sel], jj[sel], sj[sel], pi[sel], pj[sel], th_d[sel],
-                     th_arr[sel], sweep[sel], edges, None if eidx is None else eidx[sel])
-        self.streams.append(st)
-        heapq.heappush(self.heap, (float(st.f[0]), len(self.streams) - 1))
-
-    def check(self, st: _Stream, k: int) -> bool:
-        """Exact checks of candidate ``k`` of ``st`` (and a batch after it)."""
-        if st.ok[k] == 0:
-            b = min(len(st.f), k + max(8, st.checked))
-            idx = np.arange(k, b)
-            idx = idx[st.ok[idx] == 0]
-            self.info["n_checked"] += len(idx)
-            free = self._segments_free(st, idx)
-            i, si, th_a = self.nodes[st.node][:3]
-            if i >= 0 and self.rho[i] > 0:
-                m = free & (st.sweep[idx] > 0)
-                if m.any():
-                    free[m] = self.arcs.free(i, np.full(int(m.sum()), th_a),
-                                             st.sweep[idx][m], si)
-            st.ok[idx] = np.where(free, 1, -1)
-            st.checked += len(idx)
-        return st.ok[k] == 1
-
-    def _segments_free(self, st: _Stream, idx: np.ndarray) -> np.ndarray:
-        """Exact segment tests of candidates ``idx`` of ``st``; the status of a graph edge
-        tested by an earlier search is reused, a new one is stored."""
-        known = np.zeros(len(idx), np.int8)
-        if st.edges is not None and st.eidx is not None:
-            e = st.eidx[idx]
-            known[e >= 0] = st.edges.ok[e[e >= 0]]
-        todo = idx[known == 0]
-        pi_w = self.fr.world(np.stack([st.pi[todo].real, st.pi[todo].imag], axis=1))
-        pj_w = self.fr.world(np.stack([st.pj[todo].real, st.pj[todo].imag], axis=1))
-        tested = self.oset.segment_free(pi_w, pj_w)
-        self.graph.stats["segment_tests"] += len(todo)
-        if st.edges is not None and st.eidx is not None:
-            e = st.eidx[todo]
-            st.edges.ok[e[e >= 0]] = np.where(tested[e >= 0], 1, -1)
-        free = known == 1
-        free[known == 0] = tested
-        return free
-
-    def dominated(self, j: int, sj: int, th: float, g: float) -> bool:
-        """Whether an expanded arrival on circle ``j`` (sense ``sj``) reaches angle ``th``
-        along a free arc at cost <= ``g``."""
-        lst = self.expanded.get((j, sj))
-        if not lst:
-            return False
-        rho = self.rho
-        th_e = np.array([x[0] for x in lst])
-        g_e = np.array([x[1] for x in lst])
-        if self.full[j]:
-            sw = np.mod((th - th_e) * sj, TWO_PI)
-        else:
-            o_new = self.cone_off(np.array([j]), np.array([th]))[0]
-            o_e = self.cone_off(np.full(len(th_e), j), th_e)
-            sw = (o_new - o_e) * sj
-        cand = (sw >= 0) & (g_e + rho[j] * sw <= g + 1e-12 * max(1.0, g))
-        if not cand.any():
-            return False
-        if rho[j] == 0:
-            return True
-        idx = np.flatnonzero(cand)
-        return bool(self.arcs.free(j, th_e[idx], sw[idx], sj).any())
-
-    def _stopped(self, stop: Callable[[], bool] | None) -> bool:
-        """Poll ``stop`` every 64 expansions."""
-        n_exp = self.info["n_expanded"]
-        return stop is not None and n_exp % 64 == 0 and bool(n_exp) and bool(stop())
-
-    def _pop(self) -> tuple[_Stream, int]:
-        """The cheapest open candidate: (stream, index); its stream's next one goes back."""
-        _, sid = heapq.heappop(self.heap)
-        st = self.streams[sid]
-        k = st.pos
-        st.pos += 1
-        if st.pos < len(st.f):
-            heapq.heappush(self.heap, (float(st.f[st.pos]), sid))
-        return st, k
-
-    def run(self, stop: Callable[[], bool] | None) -> int | None:
-        """A* from the start; the goal's node index, None when unreachable.  Raises
-        :class:`_Stopped` when ``stop`` asks."""
-        self.nodes.append((-1, 1, 0.0, 0.0, -1, None))
-        self.expand(0)
-        while self.heap:
-            if self._stopped(stop):
-                raise _Stopped
-            st, k = self._pop()
-            j, sj = int(st.j[k]), int(st.sj[k])
-            i, si = self.nodes[st.node][:2]
-            key = (i, si, j, sj) if j >= 0 else (i, si, -2, 0)
-            if key in self.closed or not self.check(st, k):
-                continue
-            self.closed.add(key)
-            g = float(st.g[k])
-            # arrival angle: direction from the centre to the tangent point (for a point
-            # circle the direction it would have for an infinitesimal radius)
-            th = float(st.th_a[k])
-            self.nodes.append((j, sj, th, g, st.node, (st.pi[k], st.pj[k], float(st.th_d[k]),
-                                                       float(st.sweep[k]))))
-            if j < 0:
-                return len(self.nodes) - 1
-            if self.dominated(j, sj, th, g):
-                continue
-            self.expanded.setdefault((j, sj), []).append((th, g))
-            self.expand(len(self.nodes) - 1)
-        return None
-
-    def polyline(self, goal_node: int, arc_step: float):
-        """Local-frame points of the path ending at ``goal_node`` (arcs as circumscribed
-        polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``."""
-        chain = []
-        k = goal_node
-        while k > 0:
-            chain.append(self.nodes[k])
-            k = self.nodes[k][4]
-        chain.reverse()
-        cen, rho = self.cen, self.rho
-        pts = [self.zs]
-        wps = []
-        for idx, nd in enumerate(chain):
-            pi_, pj_, th_d, sweep = nd[5]
-            if idx > 0:
-                prev = chain[idx - 1]
-                i, si, th_a = prev[0], prev[1], prev[2]
-                if rho[i] > 0 and sweep > 0:
-                    pts.extend(arc_polyline(cen[i], rho[i], th_a, sweep * si, arc_step)[1:-1])
-                wps.append((cen[i], float(rho[i]), th_a, sweep, si))
-                pts.append(pi_)
-            pts.append(pj_)
-        return np.array(pts), wps
-
-
 class TangentGraph:
     """The tangent graph of one static map and radius: build once, query many.
 
-    Keeps the circles, the exact arc tests and, per circle and sense, the query-independent
-    successors (:class:`_Edges`) with the status of every segment tested so far: a query
-    reuses what earlier ones computed, only the start, the goal and the A* itself are per
-    query.  Successors are made when a search first expands a circle (all: :meth:`build`).
-    A query is the search of :func:`shortest_path` (same path and length; segments found
-    blocked before are skipped, so ``info["n_checked"]`` may be lower).
+    Keeps the circles, the exact arc tests, the candidate sight lines
+    (:mod:`~optplan.geometry.sightlines`) and, per circle and sense, the query-independent
+    successors (:class:`~optplan.geometry.tangent_edges.Edges`) with the status of every
+    segment tested so far: a query reuses what earlier ones computed, only the start, the
+    goal and the A* itself are per query.  Successors are made when a search first expands
+    a circle, or all at once, their segments tested in one batch, by :meth:`build`.  A query
+    is the search of :func:`shortest_path` (same path and length; segments found blocked
+    before are skipped, so ``info["n_checked"]`` may be lower).
 
     Parameters
     ----------
@@ -431,6 +120,12 @@ class TangentGraph:
     max_bytes : int
         Successors are stored while they hold less memory than this (default
         :data:`MAX_GRAPH_BYTES`); beyond it they are made anew when a search needs them.
+    sightlines : bool or None
+        Tangents only towards the circles the flood of :mod:`~optplan.geometry.sightlines`
+        lists (True), or towards every circle (False: each expansion costs ``O(n)``, no
+        kernel to compile).  ``None`` (default) uses them from :data:`SIGHTLINES_MIN`
+        circles on.  Both give the same edges, paths and lengths
+        (``tests/geometry/test_sightlines.py``).
 
     Attributes
     ----------
@@ -440,36 +135,138 @@ class TangentGraph:
     """
 
     def __init__(self, oset: ObstacleSet, circles: Circles | None = None,
-                 max_bytes: int = MAX_GRAPH_BYTES):
+                 max_bytes: int = MAX_GRAPH_BYTES, sightlines: bool | None = None):
         self.oset = oset
         self.circles = circles_of(oset) if circles is None else circles
+        self.use_sightlines = (self.circles.n >= SIGHTLINES_MIN if sightlines is None
+                               else bool(sightlines))
         self.arcs = ArcChecker(oset, self.circles)
         self.max_bytes = int(max_bytes)
         self.nbytes = 0  # memory held by the stored successors
-        self._edges: dict[tuple[int, int], _Edges] = {}
+        self._edges: dict[tuple[int, int], Edges] = {}
+        self._visible: dict[int, np.ndarray] = {}
+        self._sight: Sightlines | None = None
         self.stats = {"queries": 0, "nodes": 0, "edges": 0, "segment_tests": 0}
 
-    def edges_of(self, search: _Search, i: int, si: int) -> _Edges:
+    @property
+    def sightlines(self) -> Sightlines:
+        """The candidate sight lines to the polygon-vertex circles (made on first use)."""
+        if self._sight is None:
+            C = self.circles
+            self._pts = np.flatnonzero(~C.full)  # vertex circles: the flood's centres
+            self._full = np.flatnonzero(C.full)  # circle obstacles: always candidates
+            z = C.center[self._pts]
+            xy = np.stack([z.real, z.imag], 1)
+            self._sight = Sightlines(solid_edges(self.oset), xy, xy, self.oset.eps,
+                                     self.oset.frame.local_bounds)
+        return self._sight
+
+    def _windows(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Directions (start, width) in which circles ``idx`` may see a tangent's other
+        circle: for a point (``rho = 0``) the normal cone turned by a quarter turn either
+        way (a tangent leaves perpendicular to the normal of its departure point), all
+        directions otherwise (an inner tangent of two discs leaves at any angle)."""
+        C = self.circles
+        pt = C.rho[idx] == 0.0
+        lo = np.where(pt, C.lo[idx] - 0.5 * math.pi - 1e-7, 0.0)
+        wd = np.where(pt & ~C.full[idx], C.width[idx] + math.pi + 2e-7, 4 * math.pi)
+        return lo, wd
+
+    def _with_full(self, found: np.ndarray) -> np.ndarray:
+        return np.sort(np.concatenate([self._pts[found], self._full]))
+
+    def visible(self, i: int) -> np.ndarray:
+        """Indices of the circles whose tangents from circle ``i`` may be free (a superset
+        of those that are: :mod:`optplan.geometry.sightlines`), made on first use."""
+        v = self._visible.get(i)
+        if v is None:
+            if self.circles.full[i] or not self.use_sightlines:
+                v = np.arange(self.circles.n)
+            else:
+                lo, wd = self._windows(np.array([i]))
+                z = self.circles.center[i]
+                v = self._with_full(self.sightlines.candidates([[z.real, z.imag]], lo,
+                                                               wd)[0])
+            self._visible[i] = v
+        return v
+
+    def visible_from(self, z: complex) -> np.ndarray:
+        """Indices of the circles a tangent from the point ``z`` (local) may reach."""
+        if not self.use_sightlines:
+            return np.arange(self.circles.n)
+        found = self.sightlines.candidates([[z.real, z.imag]], 0.0, 4 * math.pi)[0]
+        return self._with_full(found)
+
+    def edges_of(self, i: int, si: int) -> Edges:
         """The successors of circle ``i`` in sense ``si`` (made on first use; stored while
         the stored ones hold less than ``max_bytes``)."""
         e = self._edges.get((i, si))
         if e is None:
-            e = search.edges(i, si)
-            if 0 < self.max_bytes and self.nbytes + e.nbytes <= self.max_bytes:
-                self._edges[(i, si)] = e
-                self.nbytes += e.nbytes
-                self.stats["nodes"] += 1
-                self.stats["edges"] += len(e.j)
+            e = edges_of_one(self.circles, i, si, self.visible(i), self.oset.eps)
+            self._store(i, si, e)
         return e
 
+    def _store(self, i: int, si: int, e: Edges) -> None:
+        if 0 < self.max_bytes and self.nbytes + e.nbytes <= self.max_bytes:
+            self._edges[(i, si)] = e
+            self.nbytes += e.nbytes
+            self.stats["nodes"] += 1
+            self.stats["edges"] += len(e.j)
+
     def build(self) -> TangentGraph:
-        """Make the successors of every circle and sense now (not only when a search
-        reaches them); returns ``self``."""
-        search = _Search(self.oset, self.circles, 0j, 0j, {}, self)
-        for i in range(self.circles.n):
-            for si in (1, -1):
-                self.edges_of(search, i, si)
+        """Make the successors of every circle and sense now, with their segments tested
+        (the blocked ones dropped), not only when a search reaches them; returns ``self``.
+
+        One flood of :mod:`~optplan.geometry.sightlines` per circle, the tangents of all
+        circles in one vectorised pass, the segments in one batch of
+        :meth:`~optplan.geometry.obstacles.ObstacleSet.pairs_free`."""
+        C = self.circles
+        todo = np.array([i for i in range(C.n) if i not in self._visible and not C.full[i]],
+                        np.int64)
+        if len(todo) and self.use_sightlines:  # one flood per circle, in one call
+            lo, wd = self._windows(todo)
+            z = C.center[todo]
+            found = self.sightlines.candidates(np.stack([z.real, z.imag], 1), lo, wd)
+            for i, f in zip(todo, found):
+                self._visible[int(i)] = self._with_full(f)
+        nodes = [(i, si) for i in range(C.n) for si in (1, -1) if (i, si) not in self._edges]
+        for k in range(0, len(nodes), BUILD_CHUNK):  # chunks: bounded temporary memory
+            self._build_nodes(nodes[k:k + BUILD_CHUNK])
         return self
+
+    def _build_nodes(self, nodes: list[tuple[int, int]]) -> None:
+        """The successors of ``nodes`` (circle, sense), their segments tested, stored."""
+        C = self.circles
+        src = np.array([i for i, _ in nodes])
+        vis = [self.visible(int(i)) for i in src]
+        cnt = np.array([2 * len(v) for v in vis])
+        J = np.repeat(np.concatenate(vis), 2)
+        t = tangent_edges(C, np.repeat(src, cnt), np.repeat([s for _, s in nodes], cnt), J,
+                          np.tile(np.array([1, -1]), len(J) // 2), self.oset.eps)
+        made = group_edges(C, t, nodes)
+        self._test_segments(list(made.values()))
+        for (i, si), e in made.items():
+            e.keep(e.ok == 1)
+            self._store(i, si, e)
+
+    def _test_segments(self, made: list[Edges]) -> None:
+        """Exact tests of the untested segments of ``made``, in one batch."""
+        todo = [(e, np.flatnonzero(e.ok == 0)) for e in made]
+        todo = [(e, t) for e, t in todo if len(t)]
+        if not todo:
+            return
+        a = np.concatenate([e.pi[t] if e.pi is not None
+                            else np.full(len(t), self.circles.center[e.i]) for e, t in todo])
+        b = np.concatenate([e.pj[t] for e, t in todo])
+        pts = self.oset.frame.world(np.stack([np.r_[a.real, b.real], np.r_[a.imag, b.imag]],
+                                             axis=1))
+        n = len(a)
+        free = self.oset.pairs_free(pts, np.arange(n), np.arange(n, 2 * n))
+        self.stats["segment_tests"] += n
+        at = 0
+        for e, t in todo:
+            e.ok[t] = np.where(free[at:at + len(t)], 1, -1)
+            at += len(t)
 
     def shortest_path(self, start, goal, *, arc_step: float = math.pi / 36,
                       stop: Callable[[], bool] | None = None) -> TangentPath:
@@ -485,10 +282,6 @@ def tangent_graph(oset: ObstacleSet) -> TangentGraph:
     if g is None:
         g = oset._cache["tangent_graph"] = TangentGraph(oset)
     return g
-
-
-class _Stopped(Exception):
-    """The ``stop`` callback of :func:`shortest_path` ended the search."""
 
 
 def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = None,
@@ -535,10 +328,10 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
         info["certified"] = bool(oset.walled)
         poly = np.vstack([np.asarray(start, float), np.asarray(goal, float)])
         return TangentPath(0.0, poly, [], info)
-    search = _Search(oset, C, zs, zg, info, graph)
+    search = TangentSearch(oset, C, zs, zg, info, graph)
     try:
         goal_node = search.run(stop)
-    except _Stopped:
+    except Stopped:
         info["reason"] = "stopped before the search finished"
         info["stopped"] = True
         return TangentPath(math.inf, None, [], info)

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
-from optplan.geometry.jit import F1, I1, compiled, f8, i8, inlined
+from optplan.geometry.jit import heap_pop, heap_push, inlined
 from optplan.swarm.core import SwarmSpace, pairs_free
 from optplan.swarm.refine import _flat, _pull
 from optplan.swarm.samples import roadmap_nodes
@@ -38,43 +38,6 @@ __all__ = ["CORNER_REACH", "YAO_SECTORS", "Roadmap", "build_roadmap", "roadmap_c
 
 #: Compiled helpers (numba; cached on disk after the first run, see docs/solvers/pso.md).
 _jit = numba.njit(cache=True, nogil=True)
-
-
-@compiled(F1, I1, i8, f8, i8)  # one signature: no literal-argument specialisations
-def _heap_push(hk, hv, size, key, val):
-    """Push ``(key, val)`` onto the binary min-heap ``hk, hv`` of ``size`` items."""
-    i = size
-    hk[i] = key
-    hv[i] = val
-    while i > 0:
-        up = (i - 1) >> 1
-        if hk[up] <= hk[i]:
-            break
-        hk[up], hk[i] = hk[i], hk[up]
-        hv[up], hv[i] = hv[i], hv[up]
-        i = up
-    return size + 1
-
-
-@compiled(F1, I1, i8)
-def _heap_pop(hk, hv, size):
-    """Pop the smallest ``(key, val)``; returns it and the new size."""
-    key, val = hk[0], hv[0]
-    size -= 1
-    hk[0], hv[0] = hk[size], hv[size]
-    i = 0
-    while True:
-        c = 2 * i + 1
-        if c >= size:
-            break
-        if c + 1 < size and hk[c + 1] < hk[c]:
-            c += 1
-        if hk[i] <= hk[c]:
-            break
-        hk[c], hk[i] = hk[i], hk[c]
-        hv[c], hv[i] = hv[i], hv[c]
-        i = c
-    return key, val, size
 
 
 @_jit
@@ -116,10 +79,10 @@ def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node, slack
     shash = np.empty((n, k_node), np.int64)
     goals = np.empty(k_goal, np.int64)
     n_goal = 0
-    size = _heap_push(hk, hv, 0, heur[src], 0)
+    size = heap_push(hk, hv, 0, heur[src], 0)
     bound = np.inf
     while size > 0 and n_goal < k_goal:
-        f, lab, size = _heap_pop(hk, hv, size)
+        f, lab, size = heap_pop(hk, hv, size)
         if f > bound:
             break
         v = lab_node[lab]
@@ -149,7 +112,7 @@ def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node, slack
             lab_hash[n_lab] = hu
             lab_par[n_lab] = lab
             lab_g[n_lab] = g
-            size = _heap_push(hk, hv, size, g + heur[u], n_lab)
+            size = heap_push(hk, hv, size, g + heur[u], n_lab)
             n_lab += 1
     return goals[:n_goal], lab_node[:n_lab], lab_par[:n_lab]
 
@@ -415,9 +378,9 @@ def _dijkstra(indptr, target, weight, src):
     hk = np.empty(cap)
     hv = np.empty(cap, np.int64)
     dist[src] = 0.0
-    size = _heap_push(hk, hv, 0, 0.0, src)
+    size = heap_push(hk, hv, 0, 0.0, src)
     while size > 0:
-        d, v, size = _heap_pop(hk, hv, size)
+        d, v, size = heap_pop(hk, hv, size)
         if done[v]:
             continue
         done[v] = True
@@ -426,7 +389,7 @@ def _dijkstra(indptr, target, weight, src):
             nd = d + weight[e]
             if nd < dist[u]:
                 dist[u] = nd
-                size = _heap_push(hk, hv, size, nd, u)
+                size = heap_push(hk, hv, size, nd, u)
     return dist
 
 

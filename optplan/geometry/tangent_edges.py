@@ -1,0 +1,116 @@
+r"""The query-independent edges of the tangent graph: common tangents that pass both cones.
+
+Travelling around circle ``i`` with sense ``s_i`` (+1 counter-clockwise) and leaving towards
+circle ``j`` reached with sense ``s_j``, the unique common tangent has left normal
+``n = exp(i beta)``, ``beta = arg(c_j - c_i) + arccos(delta / d)``, with
+``delta = s_j rho_j - s_i rho_i`` and ``d = |c_j - c_i| > |delta|``; its tangent points are
+``c - s rho n`` and its length ``sqrt(d^2 - delta^2)``.  A tangent point on a vertex circle
+must lie in the vertex's normal cone (the directions between the outward normals of its two
+edges), else the path would cut into an offset edge: :func:`tangent_edges` keeps the tangents
+whose departure and arrival points both pass (the bitangent filter of the reduced visibility
+graph).  :class:`Edges` holds those of one circle and sense, with the status of their
+segments.  The search that uses them is :mod:`optplan.geometry.tangent_search`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
+
+__all__ = ["Edges", "cone_off", "tangent_edges", "group_edges"]
+
+
+def cone_off(C: Circles, k, th):
+    """Offset of angle(s) ``th`` from the cone start of circle(s) ``k``, nan outside the
+    cone (``ANGLE_TOL`` of slack at both ends)."""
+    off = np.mod(th - C.lo[k], TWO_PI)
+    off = np.where(off > TWO_PI - ANGLE_TOL, 0.0, off)  # just below lo: on the boundary
+    full = C.full[k]
+    width = C.width[k]
+    ok = full | (off <= width + ANGLE_TOL)
+    return np.where(ok, np.minimum(off, np.where(full, off, width)), np.nan)
+
+
+class Edges:
+    """The query-independent successors of circle ``i`` in sense ``si``: the tangents to
+    other circles (both senses) that pass both cones, with their segment status (``ok``: 0
+    unknown, 1 free, -1 blocked; filled in by the searches); ``pi`` is None for a point."""
+
+    __slots__ = ("i", "j", "sj", "seg", "pi", "pj", "th_d", "th_a", "od", "ok")
+
+    def __init__(self, i, j, sj, seg, pi, pj, th_d, th_a, od):
+        self.i, self.j, self.sj, self.seg, self.pi, self.pj = i, j, sj, seg, pi, pj
+        self.th_d, self.th_a, self.od, self.ok = th_d, th_a, od, np.zeros(len(j), np.int8)
+
+    def keep(self, mask: np.ndarray) -> None:
+        """Keep only the successors where ``mask`` is True."""
+        for k in ("j", "sj", "seg", "pi", "pj", "th_d", "th_a", "od", "ok"):
+            v = getattr(self, k)
+            if v is not None:
+                setattr(self, k, v[mask])
+
+    @property
+    def nbytes(self) -> int:
+        return sum(getattr(getattr(self, k), "nbytes", 0) for k in self.__slots__)
+
+
+def tangent_edges(C: Circles, I, SI, J, SJ, eps: float) -> dict[str, np.ndarray]:
+    """The tangents from circles ``I`` (senses ``SI``) to circles ``J`` (senses ``SJ``) that
+    exist (``|c_j - c_i| > |delta|``, ``i != j``) and pass both cones (the departure cone
+    tested first, on more candidates).
+
+    Returns
+    -------
+    dict
+        Arrays over the kept tangents: ``i, si, j, sj`` (as given), ``seg`` (length), ``pi``,
+        ``pj`` (departure and arrival points, local complex), ``th_d``, ``th_a`` (their angles
+        on their circles) and ``od`` (the departure's cone offset).
+    """
+    I, SI, J, SJ = (np.asarray(x) for x in (I, SI, J, SJ))
+    ci, ri, cj, rj = C.center[I], C.rho[I], C.center[J], C.rho[J]
+    D = cj - ci
+    dd = np.abs(D)
+    delta = SJ * rj - SI * ri
+    k = np.flatnonzero((J != I) & (dd > np.abs(delta) + eps * 1e-3))
+    nl = np.exp(1j * (np.angle(D[k]) + np.arccos(np.clip(delta[k] / dd[k], -1.0, 1.0))))
+    th_d = np.angle(-SI[k] * nl)
+    od = cone_off(C, I[k], th_d)
+    m = np.flatnonzero(np.isfinite(od))
+    k, nl, th_d, od = k[m], nl[m], th_d[m], od[m]
+    th_a = np.angle(-SJ[k] * nl)
+    m = np.flatnonzero(np.isfinite(cone_off(C, J[k], th_a)))
+    k, nl = k[m], nl[m]
+    return {"i": I[k], "si": SI[k], "j": J[k], "sj": SJ[k],
+            "seg": np.sqrt(np.maximum(dd[k] ** 2 - delta[k] ** 2, 0.0)),
+            "pi": ci[k] - SI[k] * ri[k] * nl, "pj": cj[k] - SJ[k] * rj[k] * nl,
+            "th_d": th_d[m], "th_a": th_a[m], "od": od[m]}
+
+
+def _edges(t: dict[str, np.ndarray], sl: slice, i: int, point: bool) -> Edges:
+    return Edges(i, t["j"][sl].astype(np.int32), t["sj"][sl].astype(np.int8), t["seg"][sl],
+                 None if point else t["pi"][sl], t["pj"][sl], t["th_d"][sl], t["th_a"][sl],
+                 t["od"][sl])
+
+
+def group_edges(C: Circles, t: dict[str, np.ndarray], nodes) -> dict[tuple[int, int], Edges]:
+    """:class:`Edges` per ``(circle, sense)`` of ``nodes`` from the tangents ``t`` of
+    :func:`tangent_edges` (a node without tangents gets an empty one)."""
+    key = 2 * t["i"] + (t["si"] < 0)
+    order = np.argsort(key, kind="stable")
+    t = {k: v[order] for k, v in t.items()}
+    key = key[order]
+    out = {}
+    for i, si in nodes:
+        kk = 2 * i + (si < 0)
+        a, b = np.searchsorted(key, [kk, kk + 1])
+        out[(i, si)] = _edges(t, slice(a, b), i, bool(C.rho[i] == 0))
+    return out
+
+
+def edges_of_one(C: Circles, i: int, si: int, vis: np.ndarray, eps: float) -> Edges:
+    """The :class:`Edges` of circle ``i`` in sense ``si`` towards the circles ``vis``."""
+    n = len(vis)
+    t = tangent_edges(C, np.full(2 * n, i), np.full(2 * n, si), np.repeat(vis, 2),
+                      np.tile(np.array([1, -1]), n), eps)
+    return _edges(t, slice(None), i, bool(C.rho[i] == 0))

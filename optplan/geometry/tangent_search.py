@@ -1,0 +1,311 @@
+r"""The A* of the tangent graph: one search from a start to a goal over the graph's edges.
+
+Nodes are arrival states ``(circle, sense, arrival angle, g, pred, seg)``; the successors of
+an expanded node (the query-independent :class:`~optplan.geometry.tangent_edges.Edges` of its
+circle and sense, kept by the :class:`~optplan.geometry.tangent_graph.TangentGraph`, plus the
+tangent to the goal) form one :class:`Stream` sorted by ``f = g + h`` (Euclidean ``h``,
+consistent) and are checked lazily: only when the cheapest open candidate (exact segment test
+of :class:`~optplan.geometry.obstacles.ObstacleSet`, exact arc test of
+:class:`~optplan.geometry.circles.ArcChecker`).  An arrival is dominated (not expanded) when
+an earlier expanded arrival on the same circle and sense reaches it along a free arc at no
+greater cost.  The mathematics is in :mod:`optplan.geometry.tangent_graph`.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from optplan.geometry.arc_lines import arc_polyline
+from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
+from optplan.geometry.obstacles import ObstacleSet
+from optplan.geometry.tangent_edges import Edges, cone_off
+
+if TYPE_CHECKING:
+    from optplan.geometry.tangent_graph import TangentGraph
+
+__all__ = ["Stream", "TangentSearch", "Stopped"]
+
+
+class Stopped(Exception):
+    """The ``stop`` callback of a search ended it."""
+
+
+class Stream:
+    """Sorted successor candidates of one expanded node."""
+
+    __slots__ = ("node", "f", "g", "j", "sj", "pi", "pj", "th_d", "th_a", "sweep", "ok", "pos",
+                 "checked", "edges", "eidx")
+
+    def __init__(self, node, f, g, j, sj, pi, pj, th_d, th_a, sweep, edges=None, eidx=None):
+        order = np.argsort(f, kind="stable")
+        self.node = node
+        self.f, self.g, self.j, self.sj = f[order], g[order], j[order], sj[order]
+        self.pi, self.pj, self.th_d, self.th_a = pi[order], pj[order], th_d[order], th_a[order]
+        self.sweep = sweep[order]
+        self.ok = np.zeros(len(order), np.int8)  # 0 unknown, 1 free, -1 blocked
+        self.pos = 0
+        self.checked = 0
+        # the query-independent edges the candidates come from (index -1: the goal)
+        self.edges: Edges | None = edges
+        self.eidx = None if eidx is None else eidx[order]
+
+
+class TangentSearch:
+    """State of one A* search over the tangent graph (see :func:`shortest_path`).
+
+    Nodes are arrival states ``(circle, sense, arrival angle, g, pred, seg)``; the successors
+    of an expanded node form one :class:`Stream` sorted by ``f``, consumed lazily.
+    """
+
+    def __init__(self, oset: ObstacleSet, C: Circles, zs: complex, zg: complex, info: dict,
+                 graph: TangentGraph):
+        self.oset, self.C, self.zs, self.zg = oset, C, zs, zg
+        self.fr = oset.frame
+        self.eps = self.fr.eps
+        self.info = info
+        self.graph = graph
+        self.arcs = self.graph.arcs
+        self.box = self.fr.local_bounds
+        self.n = C.n
+        self.cen, self.rho, self.lo, self.width, self.full = (C.center, C.rho, C.lo, C.width,
+                                                              C.full)
+        self.nodes: list[tuple] = []
+        self.closed: set = set()
+        self.expanded: dict = {}  # (circle, sense) -> list of (theta, g)
+        self.heap: list = []
+        self.streams: list[Stream] = []
+        self.all_j = np.arange(self.n)
+        self.senses = np.array([1, -1])
+
+    def cone_off(self, k, th):
+        """Offset of angle ``th`` from the cone start of circle(s) ``k``, or nan outside
+        (:func:`~optplan.geometry.tangent_edges.cone_off`)."""
+        return cone_off(self.C, k, th)
+
+    def _candidates(self, i: int, si: int, ci: complex, ri: float, circles: bool = True,
+                    goal: bool = True):
+        """Tangents from circle ``i`` (sense ``si``; ``i < 0``: the start point) to every
+        other circle with both senses (``circles``) and to the goal (``goal``).
+
+        Returns ``jj, sj, dd, delta, nl, pj, th_arr`` (target circle, its sense, centre
+        distance, radius difference, tangent normal, arrival point and angle) for the
+        geometrically possible tangents (``|c_j - c_i| > |delta|``).
+        """
+        if not circles:
+            idx = self.all_j[:0]
+        else:  # the circles it may see (a superset: :mod:`optplan.geometry.sightlines`)
+            idx = self.graph.visible(i) if i >= 0 else self.graph.visible_from(ci)
+        n = len(idx)
+        g = 1 if goal else 0
+        jj = np.concatenate([np.repeat(idx, 2), np.full(g, -2, np.int64)])
+        sj = np.concatenate([np.tile(self.senses, n), np.ones(g, np.int64)])
+        cj = np.concatenate([np.repeat(self.cen[idx], 2), [self.zg] * g])
+        rj = np.concatenate([np.repeat(self.rho[idx], 2), [0.0] * g])
+        if i >= 0:
+            keep = jj != i
+            jj, sj, cj, rj = jj[keep], sj[keep], cj[keep], rj[keep]
+        D = cj - ci
+        dd = np.abs(D)
+        delta = sj * rj - (si * ri if i >= 0 else 0.0)
+        ok = dd > np.abs(delta) + self.eps * 1e-3
+        jj, sj, cj, rj, D, dd, delta = (x[ok] for x in (jj, sj, cj, rj, D, dd, delta))
+        beta = np.angle(D) + np.arccos(np.clip(delta / dd, -1.0, 1.0))
+        nl = np.exp(1j * beta)
+        pj = cj - sj * rj * nl
+        th_arr = np.angle(-sj * nl)
+        return jj, sj, dd, delta, nl, pj, th_arr
+
+    def _departures(self, i: int, si: int, th_a: float, ci: complex, ri: float, nl):
+        """Departure points on circle ``i``, their angles, the arc swept from the arrival
+        angle ``th_a`` and whether that arc stays in the cone: ``pi, th_d, sweep, ok``."""
+        m = len(nl)
+        if i < 0:
+            return np.full(m, ci), np.zeros(m), np.zeros(m), np.ones(m, bool)
+        pi = ci - si * ri * nl
+        th_d = np.angle(-si * nl)
+        # departure point in the cone of circle i and the arc from th_a to th_d inside it
+        od = self.cone_off(np.full(len(th_d), i), th_d)
+        sweep = self._sweep(i, si, th_a, th_d, od)
+        ok = np.isfinite(od) & (sweep >= 0)
+        return pi, th_d, sweep, ok
+
+    def _sweep(self, i: int, si: int, th_a: float, th_d, od):
+        """Arc swept on circle ``i`` (sense ``si``) from the arrival angle ``th_a`` to the
+        departure angles ``th_d`` (cone offsets ``od``); negative or nan: not in the cone."""
+        if self.full[i]:
+            sweep = np.mod((th_d - th_a) * si, TWO_PI)
+            return np.where(sweep > TWO_PI - ANGLE_TOL, 0.0, sweep)
+        oa = float(self.cone_off(np.array([i]), np.array([th_a]))[0])
+        sweep = (od - oa) * si
+        return np.where((sweep < 0) & (sweep > -ANGLE_TOL), 0.0, sweep)
+
+    def expand(self, node_id: int) -> None:
+        """Generate the successors of node ``node_id`` as a new stream."""
+        i, si, th_a, g0 = self.nodes[node_id][:4]
+        self.info["n_expanded"] += 1
+        if i < 0:  # the start: a point
+            ci, ri = self.zs, 0.0
+        else:
+            ci, ri = self.cen[i], self.rho[i]
+        start = i < 0
+        jj, sj, dd, delta, nl, pj, th_arr = self._candidates(i, si, ci, ri, circles=start)
+        pi, th_d, sweep, ok = self._departures(i, si, th_a, ci, ri, nl)
+        if start and self.n:  # arrival point in the cone of circle j (the goal has none)
+            isg = jj < 0
+            ok &= isg | np.isfinite(self.cone_off(np.where(isg, 0, jj), th_arr))
+        seg = np.sqrt(np.maximum(dd * dd - delta * delta, 0.0))
+        edges = eidx = None
+        if not start:  # the circles' tangents from the graph, the goal's from above
+            edges = self.graph.edges_of(i, si)
+            sw = self._sweep(i, si, th_a, edges.th_d, edges.od)
+            pie = edges.pi if edges.pi is not None else np.full(len(edges.j), ci)
+            jj, sj = np.concatenate([edges.j, jj]), np.concatenate([edges.sj, sj])
+            seg, pi = np.concatenate([edges.seg, seg]), np.concatenate([pie, pi])
+            pj, th_d = np.concatenate([edges.pj, pj]), np.concatenate([edges.th_d, th_d])
+            th_arr, sweep = np.concatenate([edges.th_a, th_arr]), np.concatenate([sw, sweep])
+            ok = np.concatenate([sw >= 0, ok])
+            eidx = np.concatenate([np.arange(len(edges.j)), np.full(len(dd), -1)])
+        g = g0 + ri * sweep + seg
+        f = g + np.abs(pj - self.zg)
+        self.info["n_generated"] += int(np.count_nonzero(ok))
+        if edges is not None:  # a segment an earlier search found blocked is never a step
+            ok[:len(edges.j)] &= edges.ok != -1
+        sel = np.flatnonzero(ok)
+        if sel.size == 0:
+            return
+        st = Stream(node_id, f[sel], g[sel], jj[sel], sj[sel], pi[sel], pj[sel], th_d[sel],
+                     th_arr[sel], sweep[sel], edges, None if eidx is None else eidx[sel])
+        self.streams.append(st)
+        heapq.heappush(self.heap, (float(st.f[0]), len(self.streams) - 1))
+
+    def check(self, st: Stream, k: int) -> bool:
+        """Exact checks of candidate ``k`` of ``st`` (and a batch after it)."""
+        if st.ok[k] == 0:
+            b = min(len(st.f), k + max(8, st.checked))
+            idx = np.arange(k, b)
+            idx = idx[st.ok[idx] == 0]
+            self.info["n_checked"] += len(idx)
+            free = self._segments_free(st, idx)
+            i, si, th_a = self.nodes[st.node][:3]
+            if i >= 0 and self.rho[i] > 0:
+                m = free & (st.sweep[idx] > 0)
+                if m.any():
+                    free[m] = self.arcs.free(i, np.full(int(m.sum()), th_a),
+                                             st.sweep[idx][m], si)
+            st.ok[idx] = np.where(free, 1, -1)
+            st.checked += len(idx)
+        return st.ok[k] == 1
+
+    def _segments_free(self, st: Stream, idx: np.ndarray) -> np.ndarray:
+        """Exact segment tests of candidates ``idx`` of ``st``; the status of a graph edge
+        tested by an earlier search is reused, a new one is stored."""
+        known = np.zeros(len(idx), np.int8)
+        if st.edges is not None and st.eidx is not None:
+            e = st.eidx[idx]
+            known[e >= 0] = st.edges.ok[e[e >= 0]]
+        todo = idx[known == 0]
+        pi_w = self.fr.world(np.stack([st.pi[todo].real, st.pi[todo].imag], axis=1))
+        pj_w = self.fr.world(np.stack([st.pj[todo].real, st.pj[todo].imag], axis=1))
+        tested = self.oset.segment_free(pi_w, pj_w)
+        self.graph.stats["segment_tests"] += len(todo)
+        if st.edges is not None and st.eidx is not None:
+            e = st.eidx[todo]
+            st.edges.ok[e[e >= 0]] = np.where(tested[e >= 0], 1, -1)
+        free = known == 1
+        free[known == 0] = tested
+        return free
+
+    def dominated(self, j: int, sj: int, th: float, g: float) -> bool:
+        """Whether an expanded arrival on circle ``j`` (sense ``sj``) reaches angle ``th``
+        along a free arc at cost <= ``g``."""
+        lst = self.expanded.get((j, sj))
+        if not lst:
+            return False
+        rho = self.rho
+        th_e = np.array([x[0] for x in lst])
+        g_e = np.array([x[1] for x in lst])
+        if self.full[j]:
+            sw = np.mod((th - th_e) * sj, TWO_PI)
+        else:
+            o_new = self.cone_off(np.array([j]), np.array([th]))[0]
+            o_e = self.cone_off(np.full(len(th_e), j), th_e)
+            sw = (o_new - o_e) * sj
+        cand = (sw >= 0) & (g_e + rho[j] * sw <= g + 1e-12 * max(1.0, g))
+        if not cand.any():
+            return False
+        if rho[j] == 0:
+            return True
+        idx = np.flatnonzero(cand)
+        return bool(self.arcs.free(j, th_e[idx], sw[idx], sj).any())
+
+    def _stopped(self, stop: Callable[[], bool] | None) -> bool:
+        """Poll ``stop`` every 64 expansions."""
+        n_exp = self.info["n_expanded"]
+        return stop is not None and n_exp % 64 == 0 and bool(n_exp) and bool(stop())
+
+    def _pop(self) -> tuple[Stream, int]:
+        """The cheapest open candidate: (stream, index); its stream's next one goes back."""
+        _, sid = heapq.heappop(self.heap)
+        st = self.streams[sid]
+        k = st.pos
+        st.pos += 1
+        if st.pos < len(st.f):
+            heapq.heappush(self.heap, (float(st.f[st.pos]), sid))
+        return st, k
+
+    def run(self, stop: Callable[[], bool] | None) -> int | None:
+        """A* from the start; the goal's node index, None when unreachable.  Raises
+        :class:`Stopped` when ``stop`` asks."""
+        self.nodes.append((-1, 1, 0.0, 0.0, -1, None))
+        self.expand(0)
+        while self.heap:
+            if self._stopped(stop):
+                raise Stopped
+            st, k = self._pop()
+            j, sj = int(st.j[k]), int(st.sj[k])
+            i, si = self.nodes[st.node][:2]
+            key = (i, si, j, sj) if j >= 0 else (i, si, -2, 0)
+            if key in self.closed or not self.check(st, k):
+                continue
+            self.closed.add(key)
+            g = float(st.g[k])
+            # arrival angle: direction from the centre to the tangent point (for a point
+            # circle the direction it would have for an infinitesimal radius)
+            th = float(st.th_a[k])
+            self.nodes.append((j, sj, th, g, st.node, (st.pi[k], st.pj[k], float(st.th_d[k]),
+                                                       float(st.sweep[k]))))
+            if j < 0:
+                return len(self.nodes) - 1
+            if self.dominated(j, sj, th, g):
+                continue
+            self.expanded.setdefault((j, sj), []).append((th, g))
+            self.expand(len(self.nodes) - 1)
+        return None
+
+    def polyline(self, goal_node: int, arc_step: float):
+        """Local-frame points of the path ending at ``goal_node`` (arcs as circumscribed
+        polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``."""
+        chain = []
+        k = goal_node
+        while k > 0:
+            chain.append(self.nodes[k])
+            k = self.nodes[k][4]
+        chain.reverse()
+        cen, rho = self.cen, self.rho
+        pts = [self.zs]
+        wps = []
+        for idx, nd in enumerate(chain):
+            pi_, pj_, th_d, sweep = nd[5]
+            if idx > 0:
+                prev = chain[idx - 1]
+                i, si, th_a = prev[0], prev[1], prev[2]
+                if rho[i] > 0 and sweep > 0:
+                    pts.extend(arc_polyline(cen[i], rho[i], th_a, sweep * si, arc_step)[1:-1])
+                wps.append((cen[i], float(rho[i]), th_a, sweep, si))
+                pts.append(pi_)
+            pts.append(pj_)
+        return np.array(pts), wps
