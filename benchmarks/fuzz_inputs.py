@@ -1,7 +1,10 @@
 """Fuzz optplan's input validation (issue 14): bad input never crashes, never hangs, never lies.
 
 Four families of malformed input, each case run in a worker process with a time limit
-(:data:`HANG_S`: a case still running then is killed and counted as a hang) and a memory limit
+(:data:`HANG_S` seconds of CPU, the worker's and its children's, or :data:`HANG_WALL` times
+that of wall time for a case that waits without computing: a case still running then is
+killed and counted as a hang; CPU time, so that a machine shared with other jobs does not
+turn a slow case into a hang) and a memory limit
 (:data:`MEMORY_LIMIT`):
 
 * **scenario**: mutations of the catalogue's TOML scenes (``problems/*.toml``): deleted keys,
@@ -48,7 +51,7 @@ Every case is classified:
                             one) and the key or option
 ``accepted and solved``     accepted (and solved / loaded) without trouble
 ``crash``                   any other exception (or a dead worker)
-``hang``                    still running after :data:`HANG_S` seconds
+``hang``                    still running after :data:`HANG_S` CPU seconds
 ``unclear message``         an optplan error naming neither the file nor the key, a raw
                             ``UnicodeDecodeError`` / ``JSONDecodeError`` / numpy message, or
                             a CLI error that is not one line with exit status 2
@@ -94,8 +97,11 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 PROBLEMS = ROOT / "problems"
 
-#: A case still running after this many seconds is a hang (its worker is killed).
+#: A case still running after this many CPU seconds (its worker's and the worker's children's;
+#: wall seconds where ``/proc`` is missing) is a hang (its worker is killed).
 HANG_S = 10.0
+#: ... or after ``HANG_WALL`` times as many wall seconds (a case blocked without computing).
+HANG_WALL = 20.0
 #: ``time_limit`` given to every solve of an accepted input (seconds).
 SOLVE_TIME_LIMIT = 2.0
 #: Extra time a case gets when it is the first of its preset (or family) in a worker process:
@@ -1560,8 +1566,13 @@ def run_result(case: Case, tmp: Path) -> Outcome:
 
 
 def run_selftest(case: Case, tmp: Path) -> Outcome:
-    """Harness self-test cases: sleep (a hang), raise (a crash or an error message)."""
+    """Harness self-test cases: spin (a hang that computes), sleep (a hang that waits),
+    raise (a crash or an error message)."""
     d = case.data
+    if "spin" in d:
+        t_end = time.process_time() + d["spin"]
+        while time.process_time() < t_end:
+            pass
     if "sleep" in d:
         time.sleep(d["sleep"])
     if "raise" in d:
@@ -2101,7 +2112,8 @@ def run_plugin(case: Case, tmp: Path) -> Outcome:
     _install_plugin(root, case.data["plugin"])
     env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), str(ROOT)])}
     proc = subprocess.run([sys.executable, "-c", _PLUGIN_RUN, *case.data["use"]], env=env,
-                          capture_output=True, text=True, cwd=tmp, timeout=HANG_S * 6)
+                          capture_output=True, text=True, cwd=tmp,
+                          timeout=HANG_S * HANG_WALL)
     line = next((ln for ln in proc.stdout.splitlines() if ln.startswith("FUZZ-RESULT ")), None)
     if line is None:
         return Outcome(case, "crash", f"exit {proc.returncode}: {proc.stderr[-400:]!r}")
@@ -2227,13 +2239,22 @@ class _Worker:
                                      cwd=str(ROOT))
         self.case: Case | None = None
         self.t0 = 0.0
+        self.cpu0: float | None = None
         self.ready = False
         self.running = False  # the case's clock runs
         self.budget = HANG_S
 
     def start_case(self, case: Case) -> None:
         self.case, self.t0, self.running = case, time.monotonic(), False
+        self.cpu0 = _tree_cpu(self.proc.pid)
         _send(self.proc.stdin, _case_to_dict(case))
+
+    def used(self, now: float) -> tuple[float, float]:
+        """``(CPU seconds, wall seconds)`` of the current case (CPU: wall where ``/proc``
+        is missing)."""
+        wall = now - self.t0
+        cpu = _tree_cpu(self.proc.pid)
+        return (wall if cpu is None or self.cpu0 is None else cpu - self.cpu0), wall
 
     def kill(self) -> None:
         try:
@@ -2279,16 +2300,17 @@ def _on_message(w: _Worker, msg: dict | None, tally: _Tally, hang_s: float) -> b
 
 
 def _check_hangs(pool: list[_Worker], tally: _Tally, hang_s: float, startup_s: float,
-                 log_dir: Path, born: dict) -> None:
+                 log_dir: Path, born: dict, hang_wall: float = HANG_WALL) -> None:
     """A case over its budget is a hang (its worker is replaced); a worker that never
     started is an error of the fuzz setup."""
     now = time.monotonic()
     for w in list(pool):
         over = w.budget if w.running else startup_s
-        if w.case is not None and now - w.t0 > over:
+        cpu, wall = w.used(now) if w.case is not None else (0.0, 0.0)
+        if w.case is not None and (cpu > over or wall > hang_wall * over):
             cold = " (including a cold start)" if over > hang_s else ""
-            tally.record(Outcome(w.case, "hang", f"still running after {over:g} s{cold}",
-                                 now - w.t0))
+            tally.record(Outcome(w.case, "hang", f"still running after {over:g} s{cold} "
+                                 f"({cpu:.1f} CPU s, {wall:.1f} wall s)", wall))
             w.case = None
             _replace(pool, w, log_dir, born)
         elif not w.ready and now - born[id(w)] > startup_s:
@@ -2296,11 +2318,39 @@ def _check_hangs(pool: list[_Worker], tally: _Tally, hang_s: float, startup_s: f
                                f"(log: {log_dir})")
 
 
+def _tree_cpu(pid: int) -> float | None:
+    """CPU seconds used so far by process ``pid`` and its descendants (``/proc``: Linux;
+    None elsewhere or when ``pid`` is gone)."""
+    try:
+        stats = {}
+        for d in os.listdir("/proc"):
+            if d.isdigit():
+                try:
+                    with open(f"/proc/{d}/stat") as f:
+                        rest = f.read().rpartition(")")[2].split()
+                except OSError:
+                    continue
+                # fields after the name: state, ppid, ..., utime (12th), stime, cutime, cstime
+                stats[int(d)] = (int(rest[1]), sum(int(x) for x in rest[11:15]))
+    except OSError:
+        return None
+    if pid not in stats:
+        return None
+    total, todo = 0, [pid]
+    while todo:
+        p = todo.pop()
+        total += stats[p][1]
+        todo += [c for c, (pp, _) in stats.items() if pp == p]
+    return total / os.sysconf("SC_CLK_TCK")
+
+
 def run_cases(cases: list[Case], workers: int = 2, hang_s: float = HANG_S,
               progress: Callable[[int, int, Outcome], None] | None = None,
-              log_dir: Path | None = None, startup_s: float = 120.0) -> list[Outcome]:
+              log_dir: Path | None = None, startup_s: float = 120.0,
+              hang_wall: float = HANG_WALL) -> list[Outcome]:
     """Run every case in ``workers`` worker processes; a case running longer than
-    ``hang_s`` is a hang (its worker is killed and replaced)."""
+    ``hang_s`` CPU seconds (or ``hang_wall`` times that of wall time) is a hang (its worker
+    is killed and replaced)."""
     log_dir = Path(log_dir or tempfile.mkdtemp(prefix="optplan-fuzz-logs-"))
     log_dir.mkdir(parents=True, exist_ok=True)
     todo = list(reversed(cases))
@@ -2322,7 +2372,7 @@ def run_cases(cases: list[Case], workers: int = 2, hang_s: float = HANG_S,
                     msg = None
                 if _on_message(w, msg, tally, hang_s):
                     _replace(pool, w, log_dir, born)
-            _check_hangs(pool, tally, hang_s, startup_s, log_dir, born)
+            _check_hangs(pool, tally, hang_s, startup_s, log_dir, born, hang_wall)
     finally:
         for w in pool:
             w.kill()

@@ -102,6 +102,7 @@ def test_full_run_sizes():
 def test_harness_classifies_hangs_crashes_and_messages():
     mk = fz.Case
     cases = [
+        mk("selftest", "selftest/spin", "spin", {"spin": 30.0}),
         mk("selftest", "selftest/sleep", "sleep", {"sleep": 30.0}),
         mk("selftest", "selftest/crash", "crash", {"raise": "TypeError"}),
         mk("selftest", "selftest/clear", "clear", {"raise": "ValueError",
@@ -112,8 +113,10 @@ def test_harness_classifies_hangs_crashes_and_messages():
            ("robots[0].goal",)),
         mk("selftest", "selftest/ok", "ok", {}),
     ]
-    got = {o.case.what: o.category for o in fz.run_cases(cases, workers=1, hang_s=3.0)}
-    assert got == {"sleep": "hang", "crash": "crash", "clear": "clear error",
+    # a hang is 3 s of CPU (a computing case), or 2 x 3 s of wall time (a waiting one)
+    got = {o.case.what: o.category
+           for o in fz.run_cases(cases, workers=1, hang_s=3.0, hang_wall=2.0)}
+    assert got == {"spin": "hang", "sleep": "hang", "crash": "crash", "clear": "clear error",
                    "unclear": "unclear message", "ok": "accepted and solved"}
 
 
