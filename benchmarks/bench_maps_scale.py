@@ -10,8 +10,10 @@ For each map kind and size (``--kinds``, ``--sizes``) a MovingAI map and its ``.
   :class:`~optplan.geometry.tangent_graph.TangentGraph` (the circles; the successors of a
   circle are made when a query first expands it and kept for the later queries);
 * **queries**: every ``.scen`` line answered on that one graph, each with a budget of
-  ``--budget`` seconds of wall time (a query stopped by it counts as unfinished; its time is
-  the budget, so the median and the worst are lower bounds when some are unfinished);
+  ``--budget`` CPU seconds (a query stopped by it counts as unfinished; its time is the
+  budget, so the median and the worst are lower bounds when some are unfinished); query times
+  are CPU milliseconds (``time.process_time``: the machine is shared, wall times would
+  measure the other jobs);
 * **memory**: the peak resident set size of the process (``resource.getrusage``), and the
   bytes the graph stores.
 
@@ -24,8 +26,11 @@ its path inside the obstacles, measured with shapely).  Maps with more than
 ``--epf-max-vertices`` polygon vertices are skipped for it (its build grows with the square of
 the vertices).
 
-Times are wall seconds (CPU seconds, ``time.process_time``, in brackets) on a machine shared
-with other jobs.  ``python benchmarks/bench_maps_scale.py --sizes 1024 --queries 1000`` is the
+Import and build times are wall seconds (CPU seconds, ``time.process_time``, in brackets),
+query times CPU milliseconds, on a machine shared with other jobs.  ``--sightlines on|off``
+sets :class:`TangentGraph`'s option (default: from ``SIGHTLINES_MIN`` circles on);
+``--build`` makes the whole graph first (:meth:`TangentGraph.build`: its time is the build).
+``python benchmarks/bench_maps_scale.py --sizes 1024 --queries 1000`` is the
 issue's scale (1024 x 1024 street and room maps); see ``docs/solvers/visgraph.md``.
 """
 
@@ -91,13 +96,13 @@ def run_optplan(scen: Path, budget: float, sightlines: bool | None = None,
     times, cpus, lengths, unfinished = [], [], [], 0
     for p in probs:
         r = p.robots[0]
-        t0 = time.perf_counter()
+        c0 = time.process_time()
         with _Clock() as tq:
             res = graph.shortest_path(r.start, r.goal,
-                                      stop=lambda t0=t0: time.perf_counter() - t0 > budget)
+                                      stop=lambda c0=c0: time.process_time() - c0 > budget)
         stopped = bool(res.info.get("stopped"))
         unfinished += stopped
-        times.append(budget if stopped else tq.wall)
+        times.append(budget if stopped else tq.cpu)
         cpus.append(tq.cpu)
         lengths.append(math.nan if stopped else res.length)
     return {"problems": probs, "vertices": _vertices(p0), "circles": graph.circles.n,
@@ -184,7 +189,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--sizes", default="64,128")
     ap.add_argument("--queries", type=int, default=200)
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--budget", type=float, default=10.0, help="seconds per query")
+    ap.add_argument("--budget", type=float, default=10.0, help="CPU seconds per query")
     ap.add_argument("--epf-max-vertices", type=int, default=3000)
     ap.add_argument("--show", type=int, default=3, help="disagreements listed per map")
     ap.add_argument("--sightlines", choices=("auto", "on", "off"), default="auto",
@@ -198,7 +203,8 @@ def main(argv: list[str] | None = None) -> None:
     print("exact tangent graph at scale: point robot, one TangentGraph per map "
           f"(sightlines {args.sightlines}{', whole graph built first' if args.build else ''}), "
           f"{args.queries} .scen queries per map, seed {args.seed}, query budget "
-          f"{args.budget:g} s; wall s (CPU s); query ms: median / worst; shared 2-core machine")
+          f"{args.budget:g} CPU s; wall s (CPU s); query CPU ms: median / worst; shared 2-core "
+          "machine")
     print()
     print("| map | vertices | circles | import s | build s | query ms | unfinished | graph MiB "
           "| peak RSS MiB | extremitypathfinder build s | its query ms | lengths agree |")

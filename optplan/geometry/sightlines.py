@@ -366,10 +366,11 @@ class Sightlines:
                               np.asarray(extent, float).reshape(2, 2)])
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         span = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-12))
-        # about two centres and edges per bucket, at most 2048 buckets a side
-        per = max(1.0, (len(self.centres) + len(self.edges)) / 2.0)
-        h = max(span / 2048.0, math.sqrt(max((hi[0] - lo[0]) * (hi[1] - lo[1]), span * span
-                                             * 1e-6) / per))
+        # about one centre or edge per bucket (fewer candidates than coarser buckets, as fast on
+        # the 1024 x 1024 street map of benchmarks/bench_maps_scale.py), 32 to 2048 a side
+        per = max(1.0, float(len(self.centres) + len(self.edges)))
+        h = math.sqrt(max((hi[0] - lo[0]) * (hi[1] - lo[1]), span * span * 1e-6) / per)
+        h = min(max(h, span / 2048.0), span / 32.0)
         self.x0, self.y0, self.h = float(lo[0]) - 1e-9 * span, float(lo[1]) - 1e-9 * span, h
         self.nx = int((hi[0] - self.x0) // h) + 1
         self.ny = int((hi[1] - self.y0) // h) + 1
