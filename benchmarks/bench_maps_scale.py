@@ -93,7 +93,7 @@ def run_optplan(scen: Path, budget: float, sightlines: bool | None = None,
                              max_bytes=2**30 if full else MAX_GRAPH_BYTES)
         if full:
             graph.build()
-    times, cpus, lengths, unfinished = [], [], [], 0
+    times, cpus, lengths, unfinished, expanded = [], [], [], 0, []
     for p in probs:
         r = p.robots[0]
         c0 = time.process_time()
@@ -105,7 +105,9 @@ def run_optplan(scen: Path, budget: float, sightlines: bool | None = None,
         times.append(budget if stopped else tq.cpu)
         cpus.append(tq.cpu)
         lengths.append(math.nan if stopped else res.length)
+        expanded.append(res.info["n_expanded"])
     return {"problems": probs, "vertices": _vertices(p0), "circles": graph.circles.n,
+            "expanded": expanded, "stats": dict(graph.stats),
             "import": (ti.wall, ti.cpu), "build": (tb.wall, tb.cpu), "times": times,
             "cpus": cpus, "lengths": lengths, "unfinished": unfinished,
             "graph_mib": graph.nbytes / 2**20, "rss": _rss_mib()}
@@ -210,6 +212,7 @@ def main(argv: list[str] | None = None) -> None:
           "| peak RSS MiB | extremitypathfinder build s | its query ms | lengths agree |")
     print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---|")
     notes: list[str] = []
+    work: list[str] = []  # the search's and the graph's counts per map
     for kind in args.kinds.split(","):
         for size in (int(s) for s in args.sizes.split(",")):
             with tempfile.TemporaryDirectory() as d:
@@ -229,6 +232,13 @@ def main(argv: list[str] | None = None) -> None:
                   f"{_fmt(ours['import'])} | {_fmt(ours['build'])} | {_ms(ours['times'])} | "
                   f"{ours['unfinished']} | {ours['graph_mib']:.0f} | {ours['rss']:.0f} | "
                   f"{e_build} | {e_q} | {agree} |", flush=True)
+            st, ex = ours["stats"], ours["expanded"]
+            work.append(f"{kind}-{size}: expanded arrivals per query median "
+                        f"{statistics.median(ex):.0f}, worst {max(ex)} (unfinished queries: "
+                        f"up to the budget); stored edges {st['edges']}, exact segment tests "
+                        f"{st['segment_tests']}")
+    for line in work:
+        print(line)
     for line in notes:
         print("disagreement:", line)
 
