@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-__all__ = ["GRID_FROM", "item_grid"]
+__all__ = ["GRID_FROM", "item_grid", "box_cells", "cell_lists"]
 
 #: Number of items (outside the wall's solid) from which the grid replaces the all-pairs screen.
 GRID_FROM = 48
@@ -63,14 +63,32 @@ def item_grid(centers: np.ndarray, reach: np.ndarray, V: np.ndarray, in_wall: np
     i1 = np.clip(np.floor((bhi[:, 0] - lo[0]) / h), 0, nx - 1).astype(np.int64)
     j0 = np.clip(np.floor((blo[:, 1] - lo[1]) / h), 0, ny - 1).astype(np.int64)
     j1 = np.clip(np.floor((bhi[:, 1] - lo[1]) / h), 0, ny - 1).astype(np.int64)
-    cells, items = [], []
-    for k in range(n_items):
-        ii, jj = np.meshgrid(np.arange(i0[k], i1[k] + 1), np.arange(j0[k], j1[k] + 1))
-        cells.append((ii * ny + jj).ravel())
-        items.append(np.full(ii.size, k, np.int64))
-    cells_a, items_a = np.concatenate(cells), np.concatenate(items)
-    order = np.argsort(cells_a, kind="stable")
-    count = np.bincount(cells_a, minlength=nx * ny)
+    ii, jj, kk = box_cells(i0, i1, j0, j1)
+    start, count, items = cell_lists(ii * ny + jj, kk, nx * ny)
     return {"h": h, "x0": float(lo[0]), "y0": float(lo[1]), "nx": nx, "ny": ny,
-            "items": items_a[order], "count": count, "reach": radius + 4 * eps,
-            "start": np.concatenate([[0], np.cumsum(count)[:-1]]).astype(np.int64)}
+            "items": items, "count": count, "reach": radius + 4 * eps, "start": start[:-1]}
+
+
+def box_cells(i0: np.ndarray, i1: np.ndarray, j0: np.ndarray, j1: np.ndarray
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every cell of every box: item ``k`` covers the cells ``i0[k]..i1[k]`` x
+    ``j0[k]..j1[k]`` (inclusive integer indices).  Returns the cells' ``i``, ``j`` and the item
+    of each, items in order."""
+    w = (i1 - i0 + 1).astype(np.int64)
+    cnt = w * (j1 - j0 + 1)
+    kk = np.repeat(np.arange(len(cnt)), cnt)
+    off = np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
+    wk = w[kk]
+    return i0[kk] + off % wk, j0[kk] + off // wk, kk
+
+
+def cell_lists(cell: np.ndarray, items: np.ndarray, n_cells: int
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """CSR lists of ``items`` by ``cell`` index: ``start`` (``n_cells + 1`` offsets),
+    ``count`` per cell, and the items sorted by cell (stable: in their given order within a
+    cell)."""
+    order = np.argsort(cell, kind="stable")
+    count = np.bincount(cell, minlength=n_cells)
+    start = np.zeros(n_cells + 1, np.int64)
+    np.cumsum(count, out=start[1:])
+    return start, count, np.ascontiguousarray(items[order], np.int64)

@@ -46,6 +46,7 @@ import math
 
 import numpy as np
 
+from optplan.geometry.grid import box_cells, cell_lists
 from optplan.geometry.jit import F1, F2, I1, compiled, f8, heap_pop, heap_push, i8, inlined
 
 __all__ = ["Sightlines", "visible_candidates", "KAPPA"]
@@ -326,14 +327,6 @@ def visible_candidates(S, LO, WID, CX, EP, x0, y0, h, nx, ny, cstart, citems, es
     return counts, flat
 
 
-def _csr(buckets: np.ndarray, items: np.ndarray, n_b: int) -> tuple[np.ndarray, np.ndarray]:
-    """CSR lists (start offsets, items) of ``items`` per bucket index ``buckets``."""
-    order = np.argsort(buckets, kind="stable")
-    start = np.zeros(n_b + 1, np.int64)
-    np.cumsum(np.bincount(buckets, minlength=n_b), out=start[1:])
-    return start, np.ascontiguousarray(items[order], np.int64)
-
-
 class Sightlines:
     """The bucket grid of one obstacle set's boundary edges and a set of centres, and the
     candidate query of :func:`visible_candidates` over it.
@@ -375,28 +368,20 @@ class Sightlines:
         self.nx = int((hi[0] - self.x0) // h) + 1
         self.ny = int((hi[1] - self.y0) // h) + 1
         nb = self.nx * self.ny
-        cb = self._bucket(self.centres)
-        self.cstart, self.citems = _csr(cb, np.arange(len(self.centres)), nb)
+        bx, by = self._index(self.centres[:, 0], self.centres[:, 1])
+        self.cstart, _, self.citems = cell_lists(by * self.nx + bx,
+                                                 np.arange(len(self.centres)), nb)
         # an edge in every bucket of its bounding box
         e = self.edges
         bx0, by0 = self._index(np.minimum(e[:, 0], e[:, 2]), np.minimum(e[:, 1], e[:, 3]))
         bx1, by1 = self._index(np.maximum(e[:, 0], e[:, 2]), np.maximum(e[:, 1], e[:, 3]))
-        nxs, nys = bx1 - bx0 + 1, by1 - by0 + 1
-        cnt = nxs * nys
-        eid = np.repeat(np.arange(len(e)), cnt)
-        off = np.arange(int(cnt.sum())) - np.repeat(np.cumsum(cnt) - cnt, cnt)
-        ex = np.repeat(bx0, cnt) + off % np.repeat(nxs, cnt)
-        ey = np.repeat(by0, cnt) + off // np.repeat(nxs, cnt)
-        self.estart, self.eitems = _csr(ey * self.nx + ex, eid, nb)
+        ex, ey, eid = box_cells(bx0, bx1, by0, by1)
+        self.estart, _, self.eitems = cell_lists(ey * self.nx + ex, eid, nb)
 
     def _index(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         bx = np.clip(np.floor((x - self.x0) / self.h), 0, self.nx - 1).astype(np.int64)
         by = np.clip(np.floor((y - self.y0) / self.h), 0, self.ny - 1).astype(np.int64)
         return bx, by
-
-    def _bucket(self, p: np.ndarray) -> np.ndarray:
-        bx, by = self._index(p[:, 0], p[:, 1])
-        return by * self.nx + bx
 
     def candidates(self, sources, lo, width) -> list[np.ndarray]:
         """Per source (local ``(k, 2)``), the indices of the centres it may see in the window
