@@ -233,6 +233,59 @@ def _append(out, n, j):
     return out
 
 
+@inlined
+def _visible_in(b, q, sx, sy, lo, tiny, CX, cstart, citems, cstamp, olo, ohi, no, out, n_out):
+    """Append the centres of bucket ``b`` whose direction is open (once per source ``q``);
+    returns ``(out, new count)``."""
+    for c in range(cstart[b], cstart[b + 1]):
+        j = citems[c]
+        if cstamp[j] == q:
+            continue
+        dist = math.hypot(CX[j, 0] - sx, CX[j, 1] - sy)
+        if dist > tiny and not _in_open(
+                olo, ohi, no, _wrap(math.atan2(CX[j, 1] - sy, CX[j, 0] - sx) - lo),
+                SLACK + math.asin(min(1.0, tiny / dist))):
+            continue
+        cstamp[j] = q
+        out = _append(out, n_out, j)
+        n_out += 1
+    return out, n_out
+
+
+@inlined
+def _add_shadows(b, q, sx, sy, lo, tiny, EP, estart, eitems, estamp, pd, pa, pb, np_):
+    """Add the shadows of the edges of bucket ``b`` (once per source ``q``) to the pending
+    list; returns its new length."""
+    for c in range(estart[b], estart[b + 1]):
+        e = eitems[c]
+        if estamp[e] == q:
+            continue
+        estamp[e] = q
+        dmax, a0, width = _shadow(EP, e, sx, sy, tiny)
+        if width > 0.0:
+            pd[np_] = dmax
+            pa[np_] = _wrap(a0 - lo)
+            pb[np_] = pa[np_] + width
+            np_ += 1
+    return np_
+
+
+@inlined
+def _push_open(b, q, sx, sy, lo, x0, y0, h, nx, ny, bstamp, hk, hv, nh, olo, ohi, no):
+    """Push the neighbours of bucket ``b`` whose directions are still open (once per source
+    ``q``); returns the heap's new size."""
+    for nb in range(9):
+        qx = b % nx + nb % 3 - 1
+        qy = b // nx + nb // 3 - 1
+        if qx < 0 or qy < 0 or qx >= nx or qy >= ny or bstamp[qy * nx + qx] == q:
+            continue
+        dn = _bucket_dist(sx, sy, x0, y0, h, qx, qy)
+        if _bucket_open(sx, sy, lo, x0, y0, h, qx, qy, dn, olo, ohi, no):
+            bstamp[qy * nx + qx] = q
+            nh = heap_push(hk, hv, nh, dn, qy * nx + qx)
+    return nh
+
+
 @compiled(F2, F1, F1, F2, F2, f8, f8, f8, i8, i8, I1, I1, I1, I1, f8)
 def visible_candidates(S, LO, WID, CX, EP, x0, y0, h, nx, ny, cstart, citems, estart, eitems,
                        eps):  # pragma: no cover - compiled
@@ -288,39 +341,14 @@ def visible_candidates(S, LO, WID, CX, EP, x0, y0, h, nx, ny, cstart, citems, es
             np_, no = _apply_shadows(pd, pa, pb, np_, dmin, olo, ohi, no)
             if no == 0:
                 break
-            for c in range(cstart[b], cstart[b + 1]):  # the candidates in this bucket
-                j = citems[c]
-                if cstamp[j] == q:
-                    continue
-                dist = math.hypot(CX[j, 0] - sx, CX[j, 1] - sy)
-                if dist > tiny and not _in_open(
-                        olo, ohi, no, _wrap(math.atan2(CX[j, 1] - sy, CX[j, 0] - sx) - lo),
-                        SLACK + math.asin(min(1.0, tiny / dist))):
-                    continue
-                cstamp[j] = q
-                out = _append(out, n_out, j)
-                n_out += 1
-                counts[q] += 1
-            for c in range(estart[b], estart[b + 1]):  # this bucket's edges: their shadows
-                e = eitems[c]
-                if estamp[e] == q:
-                    continue
-                estamp[e] = q
-                dmax, a0, width = _shadow(EP, e, sx, sy, tiny)
-                if width > 0.0:
-                    pd[np_] = dmax
-                    pa[np_] = _wrap(a0 - lo)
-                    pb[np_] = pa[np_] + width
-                    np_ += 1
-            for nb in range(9):  # the neighbours whose directions are still open
-                qx = b % nx + nb % 3 - 1
-                qy = b // nx + nb // 3 - 1
-                if qx < 0 or qy < 0 or qx >= nx or qy >= ny or bstamp[qy * nx + qx] == q:
-                    continue
-                dn = _bucket_dist(sx, sy, x0, y0, h, qx, qy)
-                if _bucket_open(sx, sy, lo, x0, y0, h, qx, qy, dn, olo, ohi, no):
-                    bstamp[qy * nx + qx] = q
-                    nh = heap_push(hk, hv, nh, dn, qy * nx + qx)
+            out, n_new = _visible_in(b, q, sx, sy, lo, tiny, CX, cstart, citems, cstamp, olo,
+                                     ohi, no, out, n_out)
+            counts[q] += n_new - n_out
+            n_out = n_new
+            np_ = _add_shadows(b, q, sx, sy, lo, tiny, EP, estart, eitems, estamp, pd, pa, pb,
+                               np_)
+            nh = _push_open(b, q, sx, sy, lo, x0, y0, h, nx, ny, bstamp, hk, hv, nh, olo, ohi,
+                            no)
     flat = np.empty(n_out, np.int64)
     for t in range(n_out):
         flat[t] = out[t]

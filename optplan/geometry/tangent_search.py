@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import heapq
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import Any
 
 import numpy as np
 
@@ -23,9 +23,6 @@ from optplan.geometry.arc_lines import arc_polyline
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
 from optplan.geometry.obstacles import ObstacleSet
 from optplan.geometry.tangent_edges import Edges, cone_off
-
-if TYPE_CHECKING:
-    from optplan.geometry.tangent_graph import TangentGraph
 
 __all__ = ["Stream", "TangentSearch", "Stopped"]
 
@@ -55,14 +52,25 @@ class Stream:
 
 
 class TangentSearch:
-    """State of one A* search over the tangent graph (see :func:`shortest_path`).
+    """State of one A* search over the tangent graph
+    (:func:`optplan.geometry.tangent_graph.shortest_path`).
 
     Nodes are arrival states ``(circle, sense, arrival angle, g, pred, seg)``; the successors
     of an expanded node form one :class:`Stream` sorted by ``f``, consumed lazily.
+
+    Parameters
+    ----------
+    oset, C : the obstacle set and its circles; zs, zg : start and goal (local, complex);
+    info : dict
+        Counters, filled in (``n_expanded``, ``n_generated``, ``n_checked``).
+    graph : TangentGraph
+        The map's :class:`~optplan.geometry.tangent_graph.TangentGraph` (its ``edges_of``,
+        ``visible``, ``visible_from``, ``arcs`` and ``stats``; typed loosely here, since that
+        module imports this one).
     """
 
     def __init__(self, oset: ObstacleSet, C: Circles, zs: complex, zg: complex, info: dict,
-                 graph: TangentGraph):
+                 graph: Any):
         self.oset, self.C, self.zs, self.zg = oset, C, zs, zg
         self.fr = oset.frame
         self.eps = self.fr.eps
