@@ -72,8 +72,9 @@ MAX_GRAPH_BYTES = 256 * 2**20
 #: (below it, every circle is a candidate: ``O(n)`` per expansion is cheap there, and the
 #: flood's kernel, about 2 s of CPU to compile once, is not needed).
 SIGHTLINES_MIN = 1000
-#: Circle-sense pairs whose successors :meth:`TangentGraph.build` makes in one batch.
-BUILD_CHUNK = 4096
+#: Candidate tangents :meth:`TangentGraph.build` computes in one batch (bounds its temporary
+#: memory to a few hundred MB).
+BUILD_PAIRS = 2_000_000
 
 
 @dataclass(frozen=True)
@@ -140,6 +141,7 @@ class TangentGraph:
         self.circles = circles_of(oset) if circles is None else circles
         self.use_sightlines = (self.circles.n >= SIGHTLINES_MIN if sightlines is None
                                else bool(sightlines))
+        self._all = np.arange(self.circles.n)
         self.arcs = ArcChecker(oset, self.circles)
         self.max_bytes = int(max_bytes)
         self.nbytes = 0  # memory held by the stored successors
@@ -178,22 +180,20 @@ class TangentGraph:
     def visible(self, i: int) -> np.ndarray:
         """Indices of the circles whose tangents from circle ``i`` may be free (a superset
         of those that are: :mod:`optplan.geometry.sightlines`), made on first use."""
+        if self.circles.full[i] or not self.use_sightlines:
+            return self._all  # every circle: one shared array, not a copy per circle
         v = self._visible.get(i)
         if v is None:
-            if self.circles.full[i] or not self.use_sightlines:
-                v = np.arange(self.circles.n)
-            else:
-                lo, wd = self._windows(np.array([i]))
-                z = self.circles.center[i]
-                v = self._with_full(self.sightlines.candidates([[z.real, z.imag]], lo,
-                                                               wd)[0])
+            lo, wd = self._windows(np.array([i]))
+            z = self.circles.center[i]
+            v = self._with_full(self.sightlines.candidates([[z.real, z.imag]], lo, wd)[0])
             self._visible[i] = v
         return v
 
     def visible_from(self, z: complex) -> np.ndarray:
         """Indices of the circles a tangent from the point ``z`` (local) may reach."""
         if not self.use_sightlines:
-            return np.arange(self.circles.n)
+            return self._all
         found = self.sightlines.candidates([[z.real, z.imag]], 0.0, 4 * math.pi)[0]
         return self._with_full(found)
 
@@ -230,8 +230,16 @@ class TangentGraph:
             for i, f in zip(todo, found):
                 self._visible[int(i)] = self._with_full(f)
         nodes = [(i, si) for i in range(C.n) for si in (1, -1) if (i, si) not in self._edges]
-        for k in range(0, len(nodes), BUILD_CHUNK):  # chunks: bounded temporary memory
-            self._build_nodes(nodes[k:k + BUILD_CHUNK])
+        batch: list[tuple[int, int]] = []
+        pairs = 0
+        for node in nodes:  # batches of at most BUILD_PAIRS candidates: bounded memory
+            batch.append(node)
+            pairs += 2 * len(self.visible(node[0]))
+            if pairs >= BUILD_PAIRS:
+                self._build_nodes(batch)
+                batch, pairs = [], 0
+        if batch:
+            self._build_nodes(batch)
         return self
 
     def _build_nodes(self, nodes: list[tuple[int, int]]) -> None:
