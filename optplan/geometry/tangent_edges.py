@@ -18,7 +18,8 @@ import numpy as np
 
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
 
-__all__ = ["Edges", "cone_off", "tangent_edges", "group_edges"]
+__all__ = ["Edges", "cone_off", "tangent_exists", "tangent_normal", "tangent_edges",
+           "group_edges"]
 
 
 def cone_off(C: Circles, k, th):
@@ -30,6 +31,18 @@ def cone_off(C: Circles, k, th):
     width = C.width[k]
     ok = full | (off <= width + ANGLE_TOL)
     return np.where(ok, np.minimum(off, np.where(full, off, width)), np.nan)
+
+
+def tangent_exists(dd, delta, eps: float):
+    """The common tangent exists: centre distance ``dd`` beyond ``|delta|`` (with
+    ``1e-3 eps`` of slack)."""
+    return dd > np.abs(delta) + eps * 1e-3
+
+
+def tangent_normal(D, dd, delta):
+    """Left normal ``n = exp(i beta)`` of the common tangent, ``beta = arg(D) +
+    arccos(delta / d)`` (``D = c_j - c_i``, ``dd = |D|``; module docstring)."""
+    return np.exp(1j * (np.angle(D) + np.arccos(np.clip(delta / dd, -1.0, 1.0))))
 
 
 class Edges:
@@ -72,8 +85,8 @@ def tangent_edges(C: Circles, I, SI, J, SJ, eps: float) -> dict[str, np.ndarray]
     D = cj - ci
     dd = np.abs(D)
     delta = SJ * rj - SI * ri
-    k = np.flatnonzero((J != I) & (dd > np.abs(delta) + eps * 1e-3))
-    nl = np.exp(1j * (np.angle(D[k]) + np.arccos(np.clip(delta[k] / dd[k], -1.0, 1.0))))
+    k = np.flatnonzero((J != I) & tangent_exists(dd, delta, eps))
+    nl = tangent_normal(D[k], dd[k], delta[k])
     th_d = np.angle(-SI[k] * nl)
     od = cone_off(C, I[k], th_d)
     m = np.flatnonzero(np.isfinite(od))

@@ -22,7 +22,7 @@ import numpy as np
 from optplan.geometry.arc_lines import arc_polyline
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
 from optplan.geometry.obstacles import ObstacleSet
-from optplan.geometry.tangent_edges import Edges, cone_off
+from optplan.geometry.tangent_edges import Edges, cone_off, tangent_exists, tangent_normal
 
 __all__ = ["Stream", "TangentSearch", "Stopped"]
 
@@ -119,10 +119,9 @@ class TangentSearch:
         D = cj - ci
         dd = np.abs(D)
         delta = sj * rj - (si * ri if i >= 0 else 0.0)
-        ok = dd > np.abs(delta) + self.eps * 1e-3
+        ok = tangent_exists(dd, delta, self.eps)
         jj, sj, cj, rj, D, dd, delta = (x[ok] for x in (jj, sj, cj, rj, D, dd, delta))
-        beta = np.angle(D) + np.arccos(np.clip(delta / dd, -1.0, 1.0))
-        nl = np.exp(1j * beta)
+        nl = tangent_normal(D, dd, delta)
         pj = cj - sj * rj * nl
         th_arr = np.angle(-sj * nl)
         return jj, sj, dd, delta, nl, pj, th_arr
