@@ -12,10 +12,12 @@ A segment from the source ``s`` to a centre ``w`` that crosses a boundary edge `
 at an interior point of ``e`` enters the solid there and is blocked.  Seen from ``s``, ``e``
 covers an angular interval (its *shadow*), and every ray in it meets ``e`` at a distance of at
 most ``dmax(e) = max(|p_1 - s|, |p_2 - s|)``; so a centre ``w`` with ``|w - s| > dmax(e)``
-whose direction lies in the shadow is not visible.  The shadow is shrunk at each end by
-``asin(kappa eps / |p - s|)`` (``kappa = 4``): a segment passing within a few ``eps`` of an
-edge's end (grazing a convex corner, running along a wall, crossing the pinch between two
-solids) is never excluded, since the exact predicate may accept it.
+whose direction lies in the shadow is not visible.  The shadow is shrunk by
+``asin(kappa eps / |p - s|)`` (``kappa = 4``) at an end that is a convex corner of its solid,
+and by a slack of ``1e-9`` rad at any other end: a segment passing within a few ``eps`` of a
+convex corner (grazing it, running along a wall, crossing the pinch between two solids) is
+never excluded, since the exact predicate may accept it, while a segment through a reflex or
+straight vertex enters the solid.
 
 *Flood.*  The plane is cut into square buckets listing the centres and edges that meet them.
 Buckets are visited best-first by their distance ``dmin`` from ``s`` (a heap), starting from
