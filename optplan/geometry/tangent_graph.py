@@ -57,9 +57,11 @@ from typing import Any
 import numpy as np
 
 from optplan.geometry.arc_lines import arc_polyline, rebuild_polyline
+from optplan.geometry.chain_search import ChainSearch
 from optplan.geometry.circles import ArcChecker, Circles, circles_of
 from optplan.geometry.obstacles import ObstacleSet, solid_edges
 from optplan.geometry.sightlines import Sightlines
+from optplan.geometry.tangent_chains import ChainGraph, chains_of
 from optplan.geometry.tangent_edges import Edges, edges_of_one, group_edges, tangent_edges
 from optplan.geometry.tangent_search import Stopped, TangentSearch
 
@@ -148,6 +150,8 @@ class TangentGraph:
         self._edges: dict[tuple[int, int], Edges] = {}
         self._visible: dict[int, np.ndarray] = {}
         self._sight: Sightlines | None = None
+        self.chains: ChainGraph | None = None
+        self._work: dict = {}
         self.stats = {"queries": 0, "nodes": 0, "edges": 0, "segment_tests": 0}
 
     @property
@@ -214,12 +218,20 @@ class TangentGraph:
             self.stats["edges"] += len(e.j)
 
     def build(self) -> TangentGraph:
-        """Make the successors of every circle and sense now, with their segments tested
-        (the blocked ones dropped), not only when a search reaches them; returns ``self``.
+        """Make the whole graph now, not only what the searches reach, and search it with
+        compiled code from now on; returns ``self``.
 
-        One flood of :mod:`~optplan.geometry.sightlines` per circle, the tangents of all
-        circles in one vectorised pass, the segments in one batch of
-        :meth:`~optplan.geometry.obstacles.ObstacleSet.pairs_free`."""
+        The successors of every circle and sense, their segments tested (the blocked ones
+        dropped): one flood of :mod:`~optplan.geometry.sightlines` per circle, the tangents
+        of all circles in one vectorised pass, the segments in batches of
+        :meth:`~optplan.geometry.obstacles.ObstacleSet.pairs_free`.  Then the free tangents
+        become the explicit graph of :mod:`~optplan.geometry.tangent_chains` (``chains``;
+        the per-circle successors and sight lines are then dropped) and every later query
+        is the compiled A* of :mod:`~optplan.geometry.chain_search` (same lengths).  When
+        the successors do not fit in ``max_bytes`` the graph stays lazy (``chains`` None).
+        """
+        if self.chains is not None:
+            return self
         C = self.circles
         todo = np.array([i for i in range(C.n) if i not in self._visible and not C.full[i]],
                         np.int64)
@@ -229,6 +241,10 @@ class TangentGraph:
             found = self.sightlines.candidates(np.stack([z.real, z.imag], 1), lo, wd)
             for i, f in zip(todo, found):
                 self._visible[int(i)] = self._with_full(f)
+        known = list(self._edges.values())  # made by earlier searches: test what is left
+        self._test_segments(known)
+        for e in known:
+            e.keep(e.ok == 1)
         nodes = [(i, si) for i in range(C.n) for si in (1, -1) if (i, si) not in self._edges]
         batch: list[tuple[int, int]] = []
         pairs = 0
@@ -240,6 +256,9 @@ class TangentGraph:
                 batch, pairs = [], 0
         if batch:
             self._build_nodes(batch)
+        if len(self._edges) == 2 * C.n:  # all stored: the explicit graph
+            self.chains = chains_of(C, self._edges, self.arcs)
+            self._edges, self._visible, self.nbytes = {}, {}, self.chains.nbytes
         return self
 
     def _build_nodes(self, nodes: list[tuple[int, int]]) -> None:
@@ -336,18 +355,21 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
         info["certified"] = bool(oset.walled)
         poly = np.vstack([np.asarray(start, float), np.asarray(goal, float)])
         return TangentPath(0.0, poly, [], info)
-    search = TangentSearch(oset, C, zs, zg, info, graph)
+    search: TangentSearch | ChainSearch
+    if graph.chains is not None:
+        search = ChainSearch(graph, graph.chains, graph._work, zs, zg, info)
+    else:
+        search = TangentSearch(oset, C, zs, zg, info, graph)
     try:
-        goal_node = search.run(stop)
+        length = search.length(stop)
     except Stopped:
         info["reason"] = "stopped before the search finished"
         info["stopped"] = True
         return TangentPath(math.inf, None, [], info)
-    if goal_node is None:
+    if not math.isfinite(length):
         info["reason"] = "the goal is not reachable from the start"
         return TangentPath(math.inf, None, [], info)
-    length = float(search.nodes[goal_node][3])
-    z, wps = search.polyline(goal_node, arc_step)
+    z, wps = search.polyline(arc_step)
     poly = fr.world(np.stack([z.real, z.imag], axis=1))
     keep = np.r_[True, np.any(np.diff(poly, axis=0) != 0, axis=1)]
     poly = poly[keep]

@@ -14,6 +14,7 @@ greater cost.  The mathematics is in :mod:`optplan.geometry.tangent_graph`.
 from __future__ import annotations
 
 import heapq
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -293,11 +294,16 @@ class TangentSearch:
             self.expand(len(self.nodes) - 1)
         return None
 
-    def polyline(self, goal_node: int, arc_step: float):
-        """Local-frame points of the path ending at ``goal_node`` (arcs as circumscribed
+    def length(self, stop: Callable[[], bool] | None) -> float:
+        """:meth:`run`; the length of the path found (``inf`` when none)."""
+        self.goal_node = self.run(stop)
+        return math.inf if self.goal_node is None else float(self.nodes[self.goal_node][3])
+
+    def polyline(self, arc_step: float):
+        """Local-frame points of the path found by :meth:`length` (arcs as circumscribed
         polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``."""
         chain = []
-        k = goal_node
+        k = self.goal_node
         while k > 0:
             chain.append(self.nodes[k])
             k = self.nodes[k][4]

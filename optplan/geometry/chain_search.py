@@ -1,0 +1,355 @@
+r"""Compiled A* over a built tangent graph (:mod:`optplan.geometry.tangent_chains`).
+
+A query adds to the static graph of :class:`~optplan.geometry.tangent_chains.ChainGraph` its own
+nodes: the start ``S``, the goal ``G``, the arrival point ``A_k`` of every tangent from the
+start to a circle and the departure point ``D_m`` of every tangent from a circle to the goal
+(tangents from the circles the start or the goal may see,
+:meth:`~optplan.geometry.tangent_graph.TangentGraph.visible_from`, that pass the circle's
+cone, their segments tested exactly), and its edges: ``S -> A_k`` and ``D_m -> G`` (the
+tangents), ``S -> G`` (the straight line), ``A_k`` to the next node of its chain, the node
+before ``D_m`` on its chain to ``D_m``, and ``A_k -> D_m`` when no chain node lies between
+them (each arc tested exactly).  :func:`chain_astar` then runs A* (Euclidean heuristic,
+consistent: a tangent is a straight segment and an arc is no shorter than its chord) over
+static and query edges, in compiled code, pausing every ``chunk`` expansions so that a
+``stop`` callback can end it.
+
+The result is the length of the shortest path of the tangent graph, as
+:class:`~optplan.geometry.tangent_search.TangentSearch` finds it on the same graph
+(``tests/geometry/test_chain_search.py`` compares the two on maps with point robots, disc
+robots and circle obstacles).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from optplan.geometry.arc_lines import arc_polyline
+from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
+from optplan.geometry.jit import F1, I1, compiled, f8, heap_pop, heap_push, i8
+from optplan.geometry.tangent_chains import ChainGraph, _arcs_free, chain_key
+from optplan.geometry.tangent_edges import cone_off, tangent_exists, tangent_normal
+from optplan.geometry.tangent_search import Stopped
+
+__all__ = ["chain_astar", "ChainSearch"]
+
+#: Expansions between two polls of a search's ``stop`` callback.
+CHUNK = 1 << 16
+
+
+@compiled(I1, F1, I1, F1, F1, F1, I1, I1, F1, i8, i8, f8, f8, F1, I1, I1, i8, F1, I1, I1, i8)
+def chain_astar(tgt, tcost, nxt, ncost, px, py, vsrc, vdst, vcost, s_node, g_node, gx, gy,
+                dist, pred, stamp, q, hk, hv, state, chunk):  # pragma: no cover - compiled
+    """A* from ``s_node`` to ``g_node`` over the static edges (node ``x`` to ``tgt[x]`` of
+    length ``tcost[x]``, to ``nxt[x]`` of length ``ncost[x]``; ``-1``: none) and the query
+    edges ``vsrc -> vdst`` (sorted by ``vsrc``) of lengths ``vcost``; nodes from
+    ``len(tgt)`` on are the query's.
+
+    ``dist``, ``pred``, ``stamp`` are the per-node work arrays, valid where ``stamp == q``
+    (open) or ``-q`` (closed); ``hk, hv`` the heap, ``state = [size, expanded, pushed]``.
+    Runs at most ``chunk`` expansions; returns 0 when the goal is closed (its distance in
+    ``dist[g_node]``), 1 when the heap is empty (no path), 2 when paused (call again with
+    the same arrays to go on).
+    """
+    size = state[0]
+    n_static = tgt.shape[0]
+    nv = vsrc.shape[0]
+    for _ in range(chunk):
+        if size == 0:
+            state[0] = size
+            return 1
+        f, x, size = heap_pop(hk, hv, size)
+        if stamp[x] == -q:
+            continue
+        stamp[x] = -q
+        state[1] += 1
+        if x == g_node:
+            state[0] = size
+            return 0
+        g0 = dist[x]
+        for k in range(2):
+            if k == 0:  # the tangent of a departure
+                if x >= n_static or tgt[x] < 0:
+                    continue
+                y, c = tgt[x], tcost[x]
+            else:  # the next node of its chain
+                if x >= n_static or nxt[x] < 0:
+                    continue
+                y, c = nxt[x], ncost[x]
+            ng = g0 + c
+            if stamp[y] == -q or (stamp[y] == q and ng >= dist[y]):
+                continue
+            stamp[y] = q
+            dist[y] = ng
+            pred[y] = x
+            size = heap_push(hk, hv, size, ng + math.hypot(px[y] - gx, py[y] - gy), y)
+            state[2] += 1
+        a = np.searchsorted(vsrc, x)
+        while a < nv and vsrc[a] == x:  # the query's edges
+            y, ng = vdst[a], g0 + vcost[a]
+            a += 1
+            if stamp[y] == -q or (stamp[y] == q and ng >= dist[y]):
+                continue
+            stamp[y] = q
+            dist[y] = ng
+            pred[y] = x
+            size = heap_push(hk, hv, size, ng + math.hypot(px[y] - gx, py[y] - gy), y)
+            state[2] += 1
+    state[0] = size
+    return 2
+
+
+def _find(ch: ChainGraph, u: np.ndarray, sk: np.ndarray) -> np.ndarray:
+    """Per item: the first node of chain ``u`` whose sort key is above ``sk`` (a vectorised
+    binary search within each chain; ``uptr[u + 1]`` when none)."""
+    lo = ch.uptr[u].copy()
+    hi = ch.uptr[u + 1].copy()
+    while True:
+        act = lo < hi
+        if not act.any():
+            return lo
+        mid = (lo + hi) // 2
+        above = np.zeros(len(lo), bool)
+        above[act] = ch.sort_key[mid[act]] > sk[act]
+        hi = np.where(act & above, mid, hi)
+        lo = np.where(act & ~above, mid + 1, lo)
+
+
+class ChainSearch:
+    """One query on :class:`~optplan.geometry.tangent_chains.ChainGraph`: its own nodes and
+    edges (module docstring), the compiled A*, the path.
+
+    Parameters
+    ----------
+    graph : TangentGraph
+        The built graph (its ``oset``, ``circles``, ``arcs``, ``visible_from`` and ``stats``).
+    chains : ChainGraph
+        Its chains.
+    work : dict
+        The graph's work arrays, shared by its queries (grown here when too small).
+    zs, zg : complex
+        Start and goal (local frame).
+    info : dict
+        Counters, filled in (``n_expanded``, ``n_generated``, ``n_checked``).
+    """
+
+    def __init__(self, graph: Any, chains: ChainGraph, work: dict, zs: complex, zg: complex,
+                 info: dict):
+        self.graph, self.ch, self.work, self.zs, self.zg, self.info = (graph, chains, work,
+                                                                        zs, zg, info)
+        self.C: Circles = graph.circles
+        self.oset = graph.oset
+
+    def _tangents(self, z: complex, to_goal: bool) -> dict[str, np.ndarray]:
+        """Tangents between the point ``z`` and the circles it may see, both senses, whose
+        tangent point is in the circle's cone: circle, sense, point, angle, key, length."""
+        C = self.C
+        idx = self.graph.visible_from(z)
+        c = np.repeat(idx, 2)
+        s = np.tile(np.array([1, -1]), len(idx))
+        rho = C.rho[c]
+        # from z to circle c reached with sense s, or from circle c left with sense s to z
+        D = (z - C.center[c]) if to_goal else (C.center[c] - z)
+        delta = -s * rho if to_goal else s * rho
+        dd = np.abs(D)
+        k = np.flatnonzero(tangent_exists(dd, delta, self.oset.eps))
+        c, s, rho, D, dd, delta = c[k], s[k], rho[k], D[k], dd[k], delta[k]
+        nl = tangent_normal(D, dd, delta)
+        th = np.angle(-s * nl)
+        off = cone_off(C, c, th)
+        k = np.flatnonzero(np.isfinite(off))
+        c, s = c[k], s[k]
+        return {"c": c, "s": s, "p": C.center[c] - s * rho[k] * nl[k], "th": th[k],
+                "key": chain_key(C, c, s, off[k]),
+                "seg": np.sqrt(np.maximum(dd[k] ** 2 - delta[k] ** 2, 0.0))}
+
+    def _free(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Exact tests of the segments ``a[k] -> b[k]`` (local complex)."""
+        fr = self.oset.frame
+        pa = fr.world(np.stack([a.real, a.imag], axis=1))
+        pb = fr.world(np.stack([b.real, b.imag], axis=1))
+        self.info["n_checked"] += len(a)
+        self.graph.stats["segment_tests"] += len(a)
+        return self.oset.segment_free(pa, pb)
+
+    def _query_graph(self) -> None:
+        """The query's nodes and edges (module docstring)."""
+        ch, C, zs, zg = self.ch, self.C, self.zs, self.zg
+        A, D = self._tangents(zs, False), self._tangents(zg, True)
+        nA, nD = len(A["c"]), len(D["c"])
+        free = self._free(np.concatenate([[zs], np.full(nA, zs), D["p"]]),
+                          np.concatenate([[zg], A["p"], np.full(nD, zg)]))
+        A = {k: v[free[1:1 + nA]] for k, v in A.items()}
+        D = {k: v[free[1 + nA:]] for k, v in D.items()}
+        self.A, self.D = A, D
+        K, M = len(A["c"]), len(D["c"])
+        N0 = 2 * ch.n_edges
+        S, G = N0, N0 + 1
+        a_id, d_id = N0 + 2 + np.arange(K), N0 + 2 + K + np.arange(M)
+        src, dst, cost = [np.full(K, S)], [a_id], [A["seg"]]
+        if free[0]:
+            src.append(np.array([S]))
+            dst.append(np.array([G]))
+            cost.append(np.array([abs(zg - zs)]))
+        src.append(d_id)
+        dst.append(np.full(M, G))
+        cost.append(D["seg"])
+        # arcs: A_k to the next node of its chain, the node before D_m to D_m, A_k to D_m
+        uA, uD = 2 * A["c"] + (A["s"] < 0), 2 * D["c"] + (D["s"] < 0)
+        pA, pD = _find(ch, uA, A["key"] - ANGLE_TOL), _find(ch, uD, D["key"])
+        arcs = [self._after(a_id, A, uA, pA), self._before(d_id, D, uD, pD),
+                self._between(a_id, d_id, A, D, uA, uD, pA, pD)]
+        circ, th, sw, sense, s2, d2 = (np.concatenate([x[k] for x in arcs]) for k in range(6))
+        ok, n_arc = _arcs_free(self.graph.arcs, C, circ, th, sw, sense)
+        self.info["n_checked"] += n_arc
+        src.append(s2[ok])
+        dst.append(d2[ok])
+        cost.append(C.rho[circ[ok]] * sw[ok])
+        vs, vd, vc = (np.concatenate(x) for x in (src, dst, cost))
+        order = np.argsort(vs, kind="stable")
+        self.vsrc, self.vdst, self.vcost = vs[order], vd[order], vc[order]
+        self.vsweep = {(int(a), int(b)): float(w) for a, b, w in zip(s2[ok], d2[ok], sw[ok])}
+        self.S, self.G, self.K, self.M = S, G, K, M
+        self.vpoint = np.concatenate([[zs, zg], A["p"], D["p"]])
+
+    def _after(self, a_id, A, uA, pA):
+        """Arcs from each start arrival to the next node of its chain."""
+        ch, C = self.ch, self.C
+        lo, hi = ch.uptr[uA], ch.uptr[uA + 1]
+        full = C.full[A["c"]] & (hi > lo)
+        has = (pA < hi) | full
+        nd = np.where(pA < hi, pA, lo)[has]
+        wrap = (pA >= hi)[has]
+        sw = np.maximum(ch.key[nd] + np.where(wrap, TWO_PI, 0.0) - A["key"][has], 0.0)
+        return A["c"][has], A["th"][has], sw, A["s"][has], a_id[has], nd
+
+    def _before(self, d_id, D, uD, pD):
+        """Arcs from the node before each goal departure on its chain to it."""
+        ch, C = self.ch, self.C
+        lo, hi = ch.uptr[uD], ch.uptr[uD + 1]
+        full = C.full[D["c"]] & (hi > lo)
+        has = (pD > lo) | full
+        nd = np.where(pD > lo, pD - 1, hi - 1)[has]
+        wrap = (pD <= lo)[has]
+        sw = np.maximum(D["key"][has] + np.where(wrap, TWO_PI, 0.0) - ch.key[nd], 0.0)
+        return D["c"][has], ch.theta[nd], sw, D["s"][has], nd, d_id[has]
+
+    def _between(self, a_id, d_id, A, D, uA, uD, pA, pD):
+        """Arcs from a start arrival to a goal departure with no chain node between."""
+        ch = self.ch
+        gap: dict[tuple[int, int], list[int]] = {}
+        for m, key in enumerate(zip(uD.tolist(), pD.tolist())):
+            gap.setdefault(key, []).append(m)
+        ks, ms = [], []
+        for k, key in enumerate(zip(uA.tolist(), pA.tolist())):
+            for m in gap.get(key, ()):
+                ks.append(k)
+                ms.append(m)
+        k, m = np.array(ks, np.int64), np.array(ms, np.int64)
+        d = D["key"][m] - A["key"][k]
+        empty = ch.uptr[uA[k] + 1] == ch.uptr[uA[k]]
+        full = self.C.full[A["c"][k]]
+        sw = np.where(d > -ANGLE_TOL, np.maximum(d, 0.0), np.where(full & empty, d + TWO_PI,
+                                                                   -1.0))
+        ok = sw >= 0
+        k, m, sw = k[ok], m[ok], sw[ok]
+        return A["c"][k], A["th"][k], sw, A["s"][k], a_id[k], d_id[m]
+
+    def _arrays(self, n_nodes: int, n_push: int) -> dict:
+        """The work arrays, grown to ``n_nodes`` nodes and ``n_push`` heap entries."""
+        w = self.work
+        if len(w.get("dist", ())) < n_nodes:
+            n_nodes += n_nodes // 8  # room for the next queries' own nodes
+            w["dist"] = np.zeros(n_nodes)
+            w["pred"] = np.zeros(n_nodes, np.int64)
+            w["stamp"] = np.zeros(n_nodes, np.int64)
+            w["q"] = 0
+            pt = np.zeros(n_nodes, complex)
+            pt[:len(self.ch.point)] = self.ch.point
+            w["px"], w["py"] = pt.real.copy(), pt.imag.copy()
+        if len(w.get("hk", ())) < n_push:
+            n_push += n_push // 8
+            w["hk"], w["hv"] = np.zeros(n_push), np.zeros(n_push, np.int64)
+        return w
+
+    def length(self, stop: Callable[[], bool] | None) -> float:
+        """The length of the shortest path (``inf`` when none); raises
+        :class:`~optplan.geometry.tangent_search.Stopped` when ``stop`` asks."""
+        self._query_graph()
+        ch = self.ch
+        N0 = 2 * ch.n_edges
+        nv = len(self.vpoint)
+        w = self._arrays(N0 + nv, 3 * ch.n_edges + len(self.vsrc) + 2)
+        w["px"][N0:N0 + nv], w["py"][N0:N0 + nv] = self.vpoint.real, self.vpoint.imag
+        w["q"] += 1
+        q = w["q"]
+        dist, pred, stamp, hk, hv = w["dist"], w["pred"], w["stamp"], w["hk"], w["hv"]
+        stamp[self.S], dist[self.S], pred[self.S] = q, 0.0, -1
+        gx, gy = self.zg.real, self.zg.imag
+        state = np.zeros(3, np.int64)
+        state[0] = heap_push(hk, hv, 0, abs(self.zg - self.zs), self.S)
+        while True:
+            code = chain_astar(ch.tgt, ch.tcost, ch.nxt, ch.ncost, w["px"], w["py"],
+                               self.vsrc, self.vdst, self.vcost, self.S, self.G, gx, gy, dist,
+                               pred, stamp, q, hk, hv, state, CHUNK)
+            if code != 2:
+                break
+            if stop is not None and stop():
+                raise Stopped
+        self.info["n_expanded"] += int(state[1])
+        self.info["n_generated"] += int(state[2])
+        self.q = q
+        return float(dist[self.G]) if code == 0 else math.inf
+
+    def _node(self, x: int) -> tuple[int, int, float, complex, float]:
+        """Circle (``-1`` for S, G), sense, angle, point and key of node ``x``."""
+        ch, N0 = self.ch, 2 * self.ch.n_edges
+        if x < N0:
+            return (int(ch.circle[x]), int(ch.sense[x]), float(ch.theta[x]), ch.point[x],
+                    float(ch.key[x]))
+        if x in (self.S, self.G):
+            return -1, 1, 0.0, self.vpoint[x - N0], 0.0
+        k = x - N0 - 2
+        T, k = (self.A, k) if k < self.K else (self.D, k - self.K)
+        return (int(T["c"][k]), int(T["s"][k]), float(T["th"][k]), T["p"][k],
+                float(T["key"][k]))
+
+    def _sweep(self, x: int, y: int) -> float:
+        """Angle swept along the arc from node ``x`` to node ``y`` of the same circle."""
+        if (x, y) in self.vsweep:
+            return self.vsweep[(x, y)]
+        return float(self.ch.sweep[x])
+
+    def polyline(self, arc_step: float) -> tuple[np.ndarray, list]:
+        """Local-frame points of the path found by :meth:`length` (arcs as circumscribed
+        polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``, as
+        :meth:`~optplan.geometry.tangent_search.TangentSearch.polyline` gives them."""
+        pred = self.work["pred"]
+        path = [self.G]
+        while path[-1] != self.S:
+            path.append(int(pred[path[-1]]))
+        path.reverse()
+        tgt, C = self.ch.tgt, self.C
+        N0 = len(tgt)
+        pts, wps = [self.zs], []
+        run: list = []  # (circle, sense, arrival angle, sweep) on the current circle
+        for x, y in zip(path[:-1], path[1:]):
+            tangent = x == self.S or y == self.G or (x < N0 and tgt[x] == y)
+            if not tangent:
+                run[3] += self._sweep(x, y)
+                continue
+            cx, _, _, px, _ = self._node(x)
+            if run:
+                i, si, th_a, sw = run
+                if C.rho[i] > 0 and sw > 0:
+                    pts.extend(arc_polyline(C.center[i], C.rho[i], th_a, sw * si,
+                                            arc_step)[1:-1])
+                wps.append((C.center[i], float(C.rho[i]), th_a, sw, si))
+                pts.append(px)
+            cy, sy, thy, py, _ = self._node(y)
+            pts.append(py)
+            run = [cy, sy, thy, 0.0] if cy >= 0 else []
+        return np.array(pts), wps

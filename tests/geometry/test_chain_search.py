@@ -1,0 +1,158 @@
+"""The compiled search over a built tangent graph (``optplan.geometry.chain_search``).
+
+Oracle: the lazy A* of ``optplan.geometry.tangent_search`` on the same map, an independent
+search over a different graph (arrival states expanded into sorted successor streams,
+dominance by arcs, no chains): every length must agree, and both must find no path together.
+Maps: random cell maps (shared edges, pinch points, staircases), maps with rotated rectangles
+and circle obstacles (arcs that go round), generated MovingAI maps; a point robot and disc
+robots.  Also: a graph queried lazily before it is built, the ``stop`` callback between two
+chunks of the compiled loop, an enclosed goal, and translation of the whole map.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry.polygon import orient
+
+from optplan.geometry import Frame, obstacle_set
+from optplan.geometry import chain_search as cs
+from optplan.geometry.tangent_graph import TangentGraph
+from optplan.maps import read_scen
+from optplan.maps.movingai_gen import generate_benchmark
+from optplan.problem import Obstacle
+
+BOUNDS = (0.0, 0.0, 100.0, 100.0)
+
+
+def _poly(g) -> Obstacle:
+    return Obstacle("polygon", orient(g, 1.0), name="p")
+
+
+def _map(kind: str, rng: np.random.Generator) -> list[Obstacle]:
+    """Cells of a random grid; with ``mixed`` also rotated rectangles and circles."""
+    n = 10 if kind == "cells" else 6
+    occ = rng.random((n, n)) < rng.uniform(0.2, 0.4)
+    h = 90.0 / n
+    obs = [_poly(shapely.box(5 + h * i, 5 + h * j, 5 + h * (i + 1), 5 + h * (j + 1)))
+           for i, j in zip(*np.nonzero(occ))]
+    if kind == "mixed":
+        for _ in range(3):
+            c = rng.uniform(15, 85, 2)
+            box = shapely.affinity.rotate(shapely.box(*(c - [6, 1.5]), *(c + [6, 1.5])),
+                                          float(rng.uniform(0, 180)))
+            obs.append(_poly(box))
+        for _ in range(4):
+            obs.append(Obstacle("circle", None, name="c", center=rng.uniform(15, 85, 2),
+                                radius=float(rng.uniform(1, 5))))
+    return obs
+
+
+def _queries(oset, rng: np.random.Generator, n: int) -> np.ndarray:
+    x0, y0, x1, y1 = oset.frame.bounds
+    pts = rng.uniform([x0, y0], [x1, y1], (8 * n, 2))
+    pts = pts[oset.point_distances(pts) > oset.radius + 0.05]
+    return pts[: 2 * (len(pts) // 2)][: 2 * n].reshape(-1, 2, 2)
+
+
+def _agree(oset, queries, built: TangentGraph | None = None) -> int:
+    """Every query: the built graph's length is the lazy search's; returns the paths found."""
+    built = TangentGraph(oset).build() if built is None else built
+    assert built.chains is not None
+    lazy = TangentGraph(oset)
+    found = 0
+    for s, g in queries:
+        a, b = built.shortest_path(s, g), lazy.shortest_path(s, g)
+        assert math.isfinite(a.length) == math.isfinite(b.length)
+        if math.isfinite(b.length):
+            found += 1
+            assert a.length == pytest.approx(b.length, rel=1e-10, abs=1e-12)
+            assert np.allclose(a.polyline[[0, -1]], [s, g])
+            seg = np.hypot(*np.diff(a.polyline, axis=0).T).sum()
+            assert seg >= a.length * (1 - 1e-12)
+            if not built.circles.rho.any():  # no arcs: the polyline is the path
+                assert seg == pytest.approx(a.length, rel=1e-12)
+                assert oset.crossings(a.polyline[None]).count[0] == 0
+    return found
+
+
+@pytest.mark.parametrize("kind,seed", [("cells", s) for s in range(3)]
+                         + [("mixed", s) for s in range(3)])
+@pytest.mark.parametrize("radius", [0.0, 0.6])
+def test_built_graph_answers_like_the_lazy_search(kind, seed, radius):
+    rng = np.random.default_rng(seed)
+    oset = obstacle_set(_map(kind, rng), radius, Frame.from_bounds(BOUNDS))
+    assert _agree(oset, _queries(oset, rng, 25)) >= 10
+
+
+@pytest.mark.parametrize("family", ["random", "maze", "room", "street"])
+@pytest.mark.parametrize("radius", [0.0, 0.25])
+def test_generated_maps(family, radius, tmp_path):
+    gen = generate_benchmark(family, 32, tmp_path, rng=np.random.default_rng(4), queries=20)
+    probs = read_scen(gen.scen_path, radius=radius)
+    oset = probs[0].obstacle_set(radius)
+    qs = np.array([[p.robots[0].start, p.robots[0].goal] for p in probs])
+    assert _agree(oset, qs) == len(qs)
+
+
+def test_a_graph_queried_before_it_is_built(tmp_path):
+    """Successors made (and segments found blocked) by lazy searches are kept, the rest
+    made: the built graph's tangents are the free ones, whatever was there before."""
+    rng = np.random.default_rng(2)
+    oset = obstacle_set(_map("mixed", rng), 0.3, Frame.from_bounds(BOUNDS))
+    qs = _queries(oset, rng, 20)
+    g = TangentGraph(oset)
+    for s, t in qs[:5]:
+        g.shortest_path(s, t)
+    assert g._edges and any((e.ok != 1).any() for e in g._edges.values())
+    g.build()
+    fresh = TangentGraph(oset).build()
+
+    def tangents(ch):
+        d = np.flatnonzero(ch.tgt >= 0)
+        a = ch.tgt[d]
+        return sorted(zip(ch.circle[d], ch.sense[d], ch.circle[a], ch.sense[a]))
+
+    assert tangents(g.chains) == tangents(fresh.chains)
+    _agree(oset, qs, built=g)
+
+
+def test_stop_between_chunks(monkeypatch):
+    rng = np.random.default_rng(0)
+    oset = obstacle_set(_map("cells", rng), 0.0, Frame.from_bounds(BOUNDS))
+    g = TangentGraph(oset).build()
+    s, t = (1.0, 1.0), (99.0, 99.0)
+    want = g.shortest_path(s, t).length
+    monkeypatch.setattr(cs, "CHUNK", 1)
+    calls = []
+    res = g.shortest_path(s, t, stop=lambda: calls.append(1) or True)
+    assert res.info["stopped"] and res.length == math.inf and len(calls) == 1
+    assert g.shortest_path(s, t, stop=lambda: False).length == want
+
+
+def test_an_enclosed_goal_is_unreachable():
+    ring = shapely.box(40, 40, 60, 60).difference(shapely.box(45, 45, 55, 55))
+    oset = obstacle_set([_poly(ring)], 0.0, Frame.from_bounds(BOUNDS))
+    g = TangentGraph(oset).build()
+    res = g.shortest_path((10.0, 10.0), (50.0, 50.0))
+    assert res.length == math.inf and "not reachable" in res.info["reason"]
+    assert g.shortest_path((10.0, 10.0), (90.0, 20.0)).length == pytest.approx(math.hypot(80, 10))
+
+
+def test_translation_changes_no_length():
+    rng = np.random.default_rng(7)
+    obs = _map("mixed", rng)
+    shift = np.array([1e4, -3e3])
+    moved = [Obstacle("polygon", shapely.affinity.translate(o.geometry, *shift), name="p")
+             if o.kind == "polygon" else
+             Obstacle("circle", None, name="c", center=o.center + shift, radius=o.radius)
+             for o in obs]
+    a = obstacle_set(obs, 0.4, Frame.from_bounds(BOUNDS))
+    b = obstacle_set(moved, 0.4, Frame.from_bounds((1e4, -3e3, 1e4 + 100.0, -2.9e3)))
+    ga, gb = TangentGraph(a).build(), TangentGraph(b).build()
+    for s, t in _queries(a, rng, 15):
+        la, lb = ga.shortest_path(s, t).length, gb.shortest_path(s + shift, t + shift).length
+        assert la == pytest.approx(lb, rel=1e-9) or la == lb == math.inf
