@@ -30,7 +30,13 @@ import numpy as np
 from optplan.geometry.arc_lines import arc_polyline
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
 from optplan.geometry.jit import F1, I1, compiled, f8, heap_pop, heap_push, i8
-from optplan.geometry.tangent_chains import ChainGraph, _arcs_free, chain_key
+from optplan.geometry.tangent_chains import (
+    ChainGraph,
+    _arcs_free,
+    chain_key,
+    entry_of,
+    first_above,
+)
 from optplan.geometry.tangent_edges import cone_off, tangent_exists, tangent_normal
 from optplan.geometry.tangent_search import Stopped
 
@@ -102,20 +108,28 @@ def chain_astar(tgt, tcost, nxt, ncost, px, py, vsrc, vdst, vcost, s_node, g_nod
     return 2
 
 
-def _find(ch: ChainGraph, u: np.ndarray, sk: np.ndarray) -> np.ndarray:
-    """Per item: the first node of chain ``u`` whose sort key is above ``sk`` (a vectorised
-    binary search within each chain; ``uptr[u + 1]`` when none)."""
-    lo = ch.uptr[u].copy()
-    hi = ch.uptr[u + 1].copy()
-    while True:
-        act = lo < hi
-        if not act.any():
-            return lo
-        mid = (lo + hi) // 2
-        above = np.zeros(len(lo), bool)
-        above[act] = ch.sort_key[mid[act]] > sk[act]
-        hi = np.where(act & above, mid, hi)
-        lo = np.where(act & ~above, mid + 1, lo)
+def _gap_pairs(group: np.ndarray, order: np.ndarray, a_key: np.ndarray, G: int, C: Circles,
+               uptr: np.ndarray, D: dict, uD: np.ndarray, pD: np.ndarray):
+    """Arrivals (sorted by gap: ``group``, ``order``; keys ``a_key``; ``G`` the group base)
+    that reach a goal departure of ``D`` along the arc without passing a departure:
+    (arrival, departure index m, sweep).  Same gap and not behind it; or, on a circle
+    obstacle, after the chain's last departure and the goal's before its first (round)."""
+    lo, hi = uptr[uD], uptr[uD + 1]
+    wrap = C.full[D["c"]] & (pD == lo) & (hi > lo)
+    gk = np.concatenate([uD * G + pD, (uD * G + hi)[wrap]])
+    ms = np.concatenate([np.arange(len(uD)), np.flatnonzero(wrap)])
+    a = np.searchsorted(group, gk, "left")
+    cnt = np.searchsorted(group, gk, "right") - a
+    m = np.repeat(ms, cnt)
+    first = np.repeat(a - np.cumsum(cnt) + cnt, cnt)
+    x = order[first + np.arange(len(m))]
+    d = D["key"][m] - a_key[x]
+    full, empty = C.full[D["c"][m]], (hi == lo)[m]
+    rnd = np.repeat(np.r_[np.zeros(len(uD), bool), np.ones(int(wrap.sum()), bool)], cnt)
+    sw = np.where(rnd | ((d <= -ANGLE_TOL) & full & empty), d + TWO_PI,
+                  np.where(d > -ANGLE_TOL, np.maximum(d, 0.0), -1.0))
+    ok = sw >= 0
+    return x[ok], m[ok], sw[ok]
 
 
 class ChainSearch:
@@ -186,7 +200,7 @@ class ChainSearch:
         D = {k: v[free[1 + nA:]] for k, v in D.items()}
         self.A, self.D = A, D
         K, M = len(A["c"]), len(D["c"])
-        N0 = 2 * ch.n_edges
+        N0 = ch.n_edges
         S, G = N0, N0 + 1
         a_id, d_id = N0 + 2 + np.arange(K), N0 + 2 + K + np.arange(M)
         src, dst, cost = [np.full(K, S)], [a_id], [A["seg"]]
@@ -197,37 +211,40 @@ class ChainSearch:
         src.append(d_id)
         dst.append(np.full(M, G))
         cost.append(D["seg"])
-        # arcs: A_k to the next node of its chain, the node before D_m to D_m, A_k to D_m
+        # arcs: from each start arrival to its entry, from the departure before each goal
+        # departure to it, from the arrivals in its gap (tangents' and the start's) to it
         uA, uD = 2 * A["c"] + (A["s"] < 0), 2 * D["c"] + (D["s"] < 0)
-        pA, pD = _find(ch, uA, A["key"] - ANGLE_TOL), _find(ch, uD, D["key"])
-        arcs = [self._after(a_id, A, uA, pA), self._before(d_id, D, uD, pD),
-                self._between(a_id, d_id, A, D, uA, uD, pA, pD)]
-        circ, th, sw, sense, s2, d2 = (np.concatenate([x[k] for x in arcs]) for k in range(6))
+        pA = first_above(ch.uptr, ch.key, uA, A["key"] - ANGLE_TOL)
+        pD = first_above(ch.uptr, ch.key, uD, D["key"])
+        entry, sw_e = entry_of(C, ch.uptr, ch.key, A["c"], uA, A["key"], pA)
+        k = np.flatnonzero(entry >= 0)
+        arcs = [(A["c"][k], A["th"][k], sw_e[k], A["s"][k], a_id[k], entry[k],
+                 np.zeros(len(k)))]
+        arcs.append(self._before(d_id, D, uD, pD))
+        G1 = ch.n_edges + 1
+        x, m, sw = _gap_pairs(ch.a_group, ch.a_order, ch.a_key, G1, C, ch.uptr, D, uD, pD)
+        arcs.append((ch.a_circle[x], ch.a_theta[x], sw, ch.a_sense[x], x, d_id[m], ch.seg[x]))
+        grp = uA * G1 + pA
+        order = np.argsort(grp, kind="stable")
+        x, m, sw = _gap_pairs(grp[order], order, A["key"], G1, C, ch.uptr, D, uD, pD)
+        arcs.append((A["c"][x], A["th"][x], sw, A["s"][x], a_id[x], d_id[m],
+                     np.zeros(len(x))))
+        circ, th, sw, sense, s2, d2, base = (np.concatenate([a[i] for a in arcs])
+                                             for i in range(7))
         ok, n_arc = _arcs_free(self.graph.arcs, C, circ, th, sw, sense)
         self.info["n_checked"] += n_arc
         src.append(s2[ok])
         dst.append(d2[ok])
-        cost.append(C.rho[circ[ok]] * sw[ok])
-        vs, vd, vc = (np.concatenate(x) for x in (src, dst, cost))
+        cost.append(base[ok] + C.rho[circ[ok]] * sw[ok])
+        vs, vd, vc = (np.concatenate(v) for v in (src, dst, cost))
         order = np.argsort(vs, kind="stable")
         self.vsrc, self.vdst, self.vcost = vs[order], vd[order], vc[order]
         self.vsweep = {(int(a), int(b)): float(w) for a, b, w in zip(s2[ok], d2[ok], sw[ok])}
         self.S, self.G, self.K, self.M = S, G, K, M
         self.vpoint = np.concatenate([[zs, zg], A["p"], D["p"]])
 
-    def _after(self, a_id, A, uA, pA):
-        """Arcs from each start arrival to the next node of its chain."""
-        ch, C = self.ch, self.C
-        lo, hi = ch.uptr[uA], ch.uptr[uA + 1]
-        full = C.full[A["c"]] & (hi > lo)
-        has = (pA < hi) | full
-        nd = np.where(pA < hi, pA, lo)[has]
-        wrap = (pA >= hi)[has]
-        sw = np.maximum(ch.key[nd] + np.where(wrap, TWO_PI, 0.0) - A["key"][has], 0.0)
-        return A["c"][has], A["th"][has], sw, A["s"][has], a_id[has], nd
-
     def _before(self, d_id, D, uD, pD):
-        """Arcs from the node before each goal departure on its chain to it."""
+        """Arcs from the departure before each goal departure on its chain to it."""
         ch, C = self.ch, self.C
         lo, hi = ch.uptr[uD], ch.uptr[uD + 1]
         full = C.full[D["c"]] & (hi > lo)
@@ -235,28 +252,8 @@ class ChainSearch:
         nd = np.where(pD > lo, pD - 1, hi - 1)[has]
         wrap = (pD <= lo)[has]
         sw = np.maximum(D["key"][has] + np.where(wrap, TWO_PI, 0.0) - ch.key[nd], 0.0)
-        return D["c"][has], ch.theta[nd], sw, D["s"][has], nd, d_id[has]
-
-    def _between(self, a_id, d_id, A, D, uA, uD, pA, pD):
-        """Arcs from a start arrival to a goal departure with no chain node between."""
-        ch = self.ch
-        gap: dict[tuple[int, int], list[int]] = {}
-        for m, key in enumerate(zip(uD.tolist(), pD.tolist())):
-            gap.setdefault(key, []).append(m)
-        ks, ms = [], []
-        for k, key in enumerate(zip(uA.tolist(), pA.tolist())):
-            for m in gap.get(key, ()):
-                ks.append(k)
-                ms.append(m)
-        k, m = np.array(ks, np.int64), np.array(ms, np.int64)
-        d = D["key"][m] - A["key"][k]
-        empty = ch.uptr[uA[k] + 1] == ch.uptr[uA[k]]
-        full = self.C.full[A["c"][k]]
-        sw = np.where(d > -ANGLE_TOL, np.maximum(d, 0.0), np.where(full & empty, d + TWO_PI,
-                                                                   -1.0))
-        ok = sw >= 0
-        k, m, sw = k[ok], m[ok], sw[ok]
-        return A["c"][k], A["th"][k], sw, A["s"][k], a_id[k], d_id[m]
+        return (D["c"][has], ch.theta[nd], sw, D["s"][has], nd, d_id[has],
+                np.zeros(len(nd)))
 
     def _arrays(self, n_nodes: int, n_push: int) -> dict:
         """The work arrays, grown to ``n_nodes`` nodes and ``n_push`` heap entries."""
@@ -280,9 +277,9 @@ class ChainSearch:
         :class:`~optplan.geometry.tangent_search.Stopped` when ``stop`` asks."""
         self._query_graph()
         ch = self.ch
-        N0 = 2 * ch.n_edges
+        N0 = ch.n_edges
         nv = len(self.vpoint)
-        w = self._arrays(N0 + nv, 3 * ch.n_edges + len(self.vsrc) + 2)
+        w = self._arrays(N0 + nv, 2 * ch.n_edges + len(self.vsrc) + 2)
         w["px"][N0:N0 + nv], w["py"][N0:N0 + nv] = self.vpoint.real, self.vpoint.imag
         w["q"] += 1
         q = w["q"]
@@ -304,25 +301,6 @@ class ChainSearch:
         self.q = q
         return float(dist[self.G]) if code == 0 else math.inf
 
-    def _node(self, x: int) -> tuple[int, int, float, complex, float]:
-        """Circle (``-1`` for S, G), sense, angle, point and key of node ``x``."""
-        ch, N0 = self.ch, 2 * self.ch.n_edges
-        if x < N0:
-            return (int(ch.circle[x]), int(ch.sense[x]), float(ch.theta[x]), ch.point[x],
-                    float(ch.key[x]))
-        if x in (self.S, self.G):
-            return -1, 1, 0.0, self.vpoint[x - N0], 0.0
-        k = x - N0 - 2
-        T, k = (self.A, k) if k < self.K else (self.D, k - self.K)
-        return (int(T["c"][k]), int(T["s"][k]), float(T["th"][k]), T["p"][k],
-                float(T["key"][k]))
-
-    def _sweep(self, x: int, y: int) -> float:
-        """Angle swept along the arc from node ``x`` to node ``y`` of the same circle."""
-        if (x, y) in self.vsweep:
-            return self.vsweep[(x, y)]
-        return float(self.ch.sweep[x])
-
     def polyline(self, arc_step: float) -> tuple[np.ndarray, list]:
         """Local-frame points of the path found by :meth:`length` (arcs as circumscribed
         polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``, as
@@ -332,24 +310,38 @@ class ChainSearch:
         while path[-1] != self.S:
             path.append(int(pred[path[-1]]))
         path.reverse()
-        tgt, C = self.ch.tgt, self.C
-        N0 = len(tgt)
-        pts, wps = [self.zs], []
-        run: list = []  # (circle, sense, arrival angle, sweep) on the current circle
+        ch, C, N0 = self.ch, self.C, self.ch.n_edges
+        A, D = self.A, self.D
+        legs: list = []  # tangents (departure point, arrival point)
+        visits: list = []  # per circle visited: [circle, sense, arrival angle, sweep]
         for x, y in zip(path[:-1], path[1:]):
-            tangent = x == self.S or y == self.G or (x < N0 and tgt[x] == y)
-            if not tangent:
-                run[3] += self._sweep(x, y)
-                continue
-            cx, _, _, px, _ = self._node(x)
-            if run:
-                i, si, th_a, sw = run
+            if x == self.S:
+                k = y - N0 - 2
+                legs.append((self.zs, self.zg if y == self.G else A["p"][k]))
+                if y != self.G:
+                    visits.append([int(A["c"][k]), int(A["s"][k]), float(A["th"][k]), 0.0])
+            elif y == self.G:
+                legs.append((D["p"][x - N0 - 2 - self.K], self.zg))
+            elif x >= N0:  # a start arrival: along its circle
+                visits[-1][3] += self.vsweep[(x, y)]
+            else:
+                cy = int(ch.circle[y]) if y < N0 else int(D["c"][y - N0 - 2 - self.K])
+                sw = self.vsweep.get((x, y)) if y >= N0 else None
+                if cy == ch.circle[x]:  # along the chain
+                    visits[-1][3] += float(ch.sweep[x]) if sw is None else sw
+                else:  # the tangent, then along the arrival's circle
+                    legs.append((ch.point[x], ch.a_point[x]))
+                    visits.append([int(ch.a_circle[x]), int(ch.a_sense[x]),
+                                   float(ch.a_theta[x]),
+                                   float(ch.a_sweep[x]) if sw is None else sw])
+        pts, wps = [self.zs], []
+        for k, (p_dep, p_arr) in enumerate(legs):
+            if k > 0:
+                i, si, th_a, sw = visits[k - 1]
                 if C.rho[i] > 0 and sw > 0:
                     pts.extend(arc_polyline(C.center[i], C.rho[i], th_a, sw * si,
                                             arc_step)[1:-1])
                 wps.append((C.center[i], float(C.rho[i]), th_a, sw, si))
-                pts.append(px)
-            cy, sy, thy, py, _ = self._node(y)
-            pts.append(py)
-            run = [cy, sy, thy, 0.0] if cy >= 0 else []
+                pts.append(p_dep)
+            pts.append(p_arr)
         return np.array(pts), wps

@@ -4,23 +4,26 @@ After :meth:`~optplan.geometry.tangent_graph.TangentGraph.build` every free tang
 is known.  :class:`ChainGraph` turns them into a graph whose shortest paths are the map's shortest
 paths, searched by the compiled A* of :mod:`optplan.geometry.chain_search`:
 
-* **Nodes**: the two end points of every free tangent (``E`` of them): its departure (on
-  circle ``i`` with sense ``s_i``) and its arrival (on circle ``j`` with sense ``s_j``),
-  numbered chain by chain so that a chain's nodes are neighbours in memory.
-* **Tangent edges**: a departure to its arrival, of the tangent's length.
-* **Chain edges**: on each circle and sense, the nodes sorted by their position along the
+* **Nodes**: the departure points of the free tangents (``E`` of them, on circle ``i`` with
+  sense ``s_i``), numbered chain by chain so that a chain's nodes are neighbours in memory.
+* **Chains**: on each circle and sense, the departures sorted by their position along the
   travel direction (the cone offset, counted in the sense of travel; all the way round and
-  back to the first for a circle obstacle); each node leads to the next one, along the arc
+  back to the first for a circle obstacle); each leads to the next one, along the arc
   between them, of length ``rho * sweep``, when the exact arc test
-  (:class:`~optplan.geometry.circles.ArcChecker`) finds that arc free.  A path that arrives
-  at angle ``a`` and leaves at angle ``d`` of the same circle follows the chain from ``a`` to
-  ``d``: the arc ``a -> d`` is free exactly when each of its pieces is.
+  (:class:`~optplan.geometry.circles.ArcChecker`) finds that arc free.
+* **Tangent edges**: a departure leads to the *entry* of its tangent's arrival point: the
+  first departure of the arrival's chain at or after it, of length ``seg + rho * sweep``
+  (the tangent, then the arc to the entry, tested exactly).  Arrival points are not nodes:
+  from an arrival a path can only go on along its circle, and the first place where it can
+  leave is the entry.
 
+A path that arrives at angle ``a`` and leaves at angle ``d`` of the same circle goes to the
+entry of ``a`` and along the chain to ``d``: the arc ``a -> d`` is free exactly when each of
+its pieces is, so no path is lost and every edge is the exact length of a free piece of path.
 The tangent search's rules carry over: a departure up to ``ANGLE_TOL`` behind an arrival
-counts as reached with no sweep (the arrival sorts ``ANGLE_TOL`` earlier than its angle), and
-an arrival never continues to a departure behind it, so a path through a vertex stays on the
-side of its cone (the bitangent condition).  For a point robot (``rho = 0``) the chain edges
-cost nothing and need no arc test.
+counts as reached with no sweep, and an arrival never continues to a departure behind it, so
+a path through a vertex stays on the side of its cone (the bitangent condition).  For a point
+robot (``rho = 0``) the arcs cost nothing and need no test.
 
 A query adds its start, goal and their tangents to this graph
 (:mod:`optplan.geometry.chain_search`); the arrays here do not change.
@@ -36,7 +39,7 @@ import numpy as np
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
 from optplan.geometry.tangent_edges import cone_off
 
-__all__ = ["ChainGraph", "chain_key", "chains_of"]
+__all__ = ["ChainGraph", "chain_key", "chains_of", "entry_of", "first_above"]
 
 
 def chain_key(C: Circles, c: np.ndarray, s: np.ndarray, off: np.ndarray) -> np.ndarray:
@@ -49,6 +52,22 @@ def chain_key(C: Circles, c: np.ndarray, s: np.ndarray, off: np.ndarray) -> np.n
     return np.where(full & (key > TWO_PI - ANGLE_TOL), 0.0, key)
 
 
+def first_above(uptr: np.ndarray, key: np.ndarray, u: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Per item: the first node of chain ``u`` (nodes ``uptr[u] .. uptr[u + 1] - 1``, keys
+    ascending) whose key is above ``x``, ``uptr[u + 1]`` when none (a vectorised binary
+    search within each chain)."""
+    lo = uptr[u].copy()
+    hi = uptr[u + 1].copy()
+    while True:
+        act = np.flatnonzero(lo < hi)
+        if len(act) == 0:
+            return lo
+        mid = (lo[act] + hi[act]) // 2
+        above = key[mid] > x[act]
+        hi[act[above]] = mid[above]
+        lo[act[~above]] = mid[~above] + 1
+
+
 @dataclass(frozen=True)
 class ChainGraph:
     """The explicit graph of a built :class:`~optplan.geometry.tangent_graph.TangentGraph`.
@@ -56,31 +75,34 @@ class ChainGraph:
     Attributes
     ----------
     n_edges : int
-        ``E``, the free tangents; their ``2E`` end points are the nodes, numbered in chain
-        order (chain ``u = 2 circle + (sense < 0)`` is nodes ``uptr[u] .. uptr[u + 1] - 1``,
-        sorted by position).
-    tgt, tcost : ndarrays ``(2E,)``
-        A departure's arrival (``-1`` for an arrival) and the tangent's length.
-    circle, sense : ndarrays ``(2E,)``
-        The node's circle and sense of travel.
-    theta, key : ndarrays ``(2E,)``
-        The node's angle on its circle and its position along the travel direction
-        (:func:`chain_key`).
-    point : complex ndarray ``(2E,)``
-        The node's point (local frame).
-    nxt, sweep, ncost : ndarrays ``(2E,)``
-        The next node of its chain (``-1``: none, or the arc to it is blocked), the angle the
-        arc to it sweeps and its length.
-    sort_key, uptr : ndarrays
-        The nodes' sort keys (the key, ``ANGLE_TOL`` earlier for an arrival; ascending
-        within a chain) and the chains' first nodes.
+        ``E``, the free tangents.  Node ``x`` (``0 <= x < E``) is the departure point of
+        tangent ``x``; nodes are numbered chain by chain (chain ``u = 2 circle + (sense < 0)``
+        is nodes ``uptr[u] .. uptr[u + 1] - 1``, sorted by key).
+    circle, sense, theta, key, point : ndarrays ``(E,)``
+        The departure's circle, sense of travel, angle on its circle, position along the
+        travel direction (:func:`chain_key`) and point (local frame).
+    nxt, sweep, ncost : ndarrays ``(E,)``
+        The next departure of its chain (``-1``: none, or the arc to it is blocked), the
+        angle that arc sweeps and its length.
+    a_circle, a_sense, a_theta, a_key, a_point : ndarrays ``(E,)``
+        The arrival point of tangent ``x`` (same attributes).
+    seg : ndarray ``(E,)``
+        Tangent lengths.
+    a_pos : ndarray ``(E,)``
+        The arrival's *entry*: the first departure of its chain at or after it (``ANGLE_TOL``
+        of slack), ``uptr[u + 1]`` when none; ``a_sweep`` the arc to it.
+    tgt, tcost : ndarrays ``(E,)``
+        The edge of tangent ``x``: to its arrival's entry (``-1``: none, or that arc is
+        blocked), of length ``seg + rho * a_sweep``.
+    a_order, a_group : ndarrays ``(E,)``
+        The arrivals sorted by the gap between departures they lie in (``a_group`` =
+        ``u (E + 1) + a_pos``, ascending): the arrivals that reach a goal's departure
+        without passing a departure (:mod:`~optplan.geometry.chain_search`).
     arc_tests : int
         Exact arc tests run to make the chains.
     """
 
     n_edges: int
-    tgt: np.ndarray
-    tcost: np.ndarray
     circle: np.ndarray
     sense: np.ndarray
     theta: np.ndarray
@@ -89,8 +111,19 @@ class ChainGraph:
     nxt: np.ndarray
     sweep: np.ndarray
     ncost: np.ndarray
-    sort_key: np.ndarray
     uptr: np.ndarray
+    a_circle: np.ndarray
+    a_sense: np.ndarray
+    a_theta: np.ndarray
+    a_key: np.ndarray
+    a_point: np.ndarray
+    seg: np.ndarray
+    a_pos: np.ndarray
+    a_sweep: np.ndarray
+    tgt: np.ndarray
+    tcost: np.ndarray
+    a_order: np.ndarray
+    a_group: np.ndarray
     arc_tests: int
 
     @property
@@ -143,47 +176,55 @@ def _arcs_free(arcs: Any, C: Circles, src: np.ndarray, th: np.ndarray, sweep: np
 
 
 def chains_of(C: Circles, edges: dict, arcs: Any) -> ChainGraph:
-    """:class:`ChainGraph` of the free tangents ``edges`` (``(circle, sense) -> Edges``, every
-    one free) on circles ``C``; ``arcs`` the graph's
+    """:class:`ChainGraph` of the free tangents ``edges`` (``(circle, sense) -> Edges``,
+    every one free) on circles ``C``; ``arcs`` the graph's
     :class:`~optplan.geometry.circles.ArcChecker`."""
     t = _tangents(C, edges)
     E = len(t["j"])
-    circle = np.concatenate([t["i"], t["j"]])
-    sense = np.concatenate([t["si"], t["sj"]])
-    off = np.concatenate([t["od"], cone_off(C, t["j"], t["th_a"])])
-    key = chain_key(C, circle, sense, off)
-    arrival = np.r_[np.zeros(E, bool), np.ones(E, bool)]
-    sort_key = key - ANGLE_TOL * arrival
-    u = 2 * circle + (sense < 0)
-    order = np.lexsort((~arrival, sort_key, u))
-    us = u[order]
-    uptr = np.searchsorted(us, np.arange(2 * C.n + 1))
-    nxt = np.full(2 * E, -1, np.int64)
-    sweep = np.zeros(2 * E)
-    same = np.flatnonzero(us[:-1] == us[1:])
-    a, b = order[same], order[same + 1]
-    nxt[a] = b
-    sweep[a] = np.maximum(key[b] - key[a], 0.0)
-    # a circle obstacle's chain goes round: its last node leads to its first
+    key = chain_key(C, t["i"], t["si"], t["od"])
+    u = 2 * t["i"] + (t["si"] < 0)
+    order = np.lexsort((key, u))  # departures by chain and position
+    t = {k: v[order] for k, v in t.items()}
+    key, u = key[order], u[order]
+    uptr = np.searchsorted(u, np.arange(2 * C.n + 1))
+    nxt = np.full(E, -1, np.int64)
+    sweep = np.zeros(E)
+    same = np.flatnonzero(u[:-1] == u[1:])
+    nxt[same] = same + 1
+    sweep[same] = np.maximum(key[same + 1] - key[same], 0.0)
+    # a circle obstacle's chain goes round: its last departure leads to its first
     lo, hi = uptr[:-1], uptr[1:]
     ring = np.flatnonzero((hi - lo >= 2) & C.full[np.arange(2 * C.n) // 2])
-    a, b = order[hi[ring] - 1], order[lo[ring]]
-    nxt[a] = b
-    sweep[a] = key[b] + TWO_PI - key[a]
+    nxt[hi[ring] - 1] = lo[ring]
+    sweep[hi[ring] - 1] = key[lo[ring]] + TWO_PI - key[hi[ring] - 1]
     has = np.flatnonzero(nxt >= 0)
-    theta = np.concatenate([t["th_d"], t["th_a"]])
-    free, n_arc = _arcs_free(arcs, C, circle[has], theta[has], sweep[has], sense[has])
+    free, n_arc = _arcs_free(arcs, C, t["i"][has], t["th_d"][has], sweep[has], t["si"][has])
     nxt[has[~free]] = -1
-    # number the nodes in chain order (a chain's nodes are neighbours in memory)
-    rank = np.empty(2 * E, np.int64)
-    rank[order] = np.arange(2 * E)
-    tgt = np.full(2 * E, -1, np.int64)
-    tgt[rank[:E]] = rank[E:]
-    tcost = np.zeros(2 * E)
-    tcost[rank[:E]] = t["seg"]
-    nx = nxt[order]
-    nx[nx >= 0] = rank[nx[nx >= 0]]
-    point = np.concatenate([t["pi"], t["pj"]])
-    return ChainGraph(E, tgt, tcost, circle[order], sense[order], theta[order], key[order],
-                      point[order], nx, sweep[order], (C.rho[circle] * sweep)[order],
-                      sort_key[order], uptr, n_arc)
+    # arrivals: the entry (first departure at or after), the arc to it
+    a_key = chain_key(C, t["j"], t["sj"], cone_off(C, t["j"], t["th_a"]))
+    au = 2 * t["j"] + (t["sj"] < 0)
+    a_pos = first_above(uptr, key, au, a_key - ANGLE_TOL)
+    entry, a_sweep = entry_of(C, uptr, key, t["j"], au, a_key, a_pos)
+    has = np.flatnonzero(entry >= 0)
+    free, n_entry = _arcs_free(arcs, C, t["j"][has], t["th_a"][has], a_sweep[has],
+                               t["sj"][has])
+    entry[has[~free]] = -1
+    a_group = au * (E + 1) + a_pos
+    a_order = np.argsort(a_group, kind="stable")
+    return ChainGraph(E, t["i"], t["si"], t["th_d"], key, t["pi"], nxt, sweep,
+                      C.rho[t["i"]] * sweep, uptr, t["j"], t["sj"], t["th_a"], a_key, t["pj"],
+                      t["seg"], a_pos, a_sweep, entry, t["seg"] + C.rho[t["j"]] * a_sweep,
+                      a_order, a_group[a_order], n_arc + n_entry)
+
+
+def entry_of(C: Circles, uptr: np.ndarray, key: np.ndarray, c: np.ndarray, u: np.ndarray,
+             k: np.ndarray, pos: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Entries of points at keys ``k`` on circles ``c`` (chains ``u``; ``pos`` from
+    :func:`first_above` with ``k - ANGLE_TOL``): the first departure at or after each
+    (round to the chain's first on a circle obstacle; ``-1``: none) and the angle swept."""
+    lo, hi = uptr[u], uptr[u + 1]
+    wrap = (pos >= hi) & C.full[c] & (hi > lo)
+    entry = np.where(pos < hi, pos, np.where(wrap, lo, -1))
+    e = np.maximum(entry, 0)
+    sw = key[e] + np.where(wrap, TWO_PI, 0.0) - k if len(key) else np.zeros(len(k))
+    return entry, np.where(entry >= 0, np.maximum(sw, 0.0), 0.0)

@@ -182,10 +182,8 @@ def test_build_stores_the_free_tangents_and_answers_like_the_lazy_graph(radius, 
     built = TangentGraph(oset, sightlines=True).build()
     free = _free_tangents(TangentGraph(oset, sightlines=False), every=True)
     ch = built.chains
-    d = np.flatnonzero(ch.tgt >= 0)
-    a = ch.tgt[d]
-    stored = set(zip(ch.circle[d].tolist(), ch.sense[d].tolist(), ch.circle[a].tolist(),
-                     ch.sense[a].tolist()))
+    stored = set(zip(ch.circle.tolist(), ch.sense.tolist(), ch.a_circle.tolist(),
+                     ch.a_sense.tolist()))
     assert stored == free and ch.n_edges == len(free)
     for p in probs:
         r = p.robots[0]
