@@ -29,7 +29,7 @@ import numpy as np
 
 from optplan.geometry.arc_lines import arc_polyline
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
-from optplan.geometry.jit import F1, I1, compiled, f8, heap_pop, heap_push, i8
+from optplan.geometry.jit import F1, F2, I1, compiled, f8, heap_pop, heap_push, i8
 from optplan.geometry.tangent_chains import (
     ChainGraph,
     _arcs_free,
@@ -46,19 +46,38 @@ __all__ = ["chain_astar", "ChainSearch"]
 CHUNK = 1 << 16
 
 
-@compiled(I1, F1, I1, F1, F1, F1, I1, I1, F1, i8, i8, f8, f8, F1, I1, I1, i8, F1, I1, I1, i8)
-def chain_astar(tgt, tcost, nxt, ncost, px, py, vsrc, vdst, vcost, s_node, g_node, gx, gy,
-                dist, pred, stamp, q, hk, hv, state, chunk):  # pragma: no cover - compiled
+@compiled(F2, f8, F1, I1, i8, f8, f8, i8, i8, f8)
+def _relax(nt, q, hk, hv, size, gx, gy, x, y, ng):  # pragma: no cover - compiled
+    """Relax the edge ``x -> y`` to ``g = ng``: open ``y`` (push it with
+    ``f = g + |y - goal|``) unless it is closed or open at no greater ``g``; the heap's
+    new size."""
+    st = nt[y, 3]
+    if st == -q or (st == q and ng >= nt[y, 0]):
+        return size
+    nt[y, 3] = q
+    nt[y, 0] = ng
+    nt[y, 4] = x
+    return heap_push(hk, hv, size, ng + math.hypot(nt[y, 1] - gx, nt[y, 2] - gy), y)
+
+
+@compiled(I1, F1, I1, F1, F2, I1, I1, F1, i8, i8, f8, f8, f8, F1, I1, I1, i8)
+def chain_astar(tgt, tcost, nxt, ncost, nt, vsrc, vdst, vcost, s_node, g_node, gx, gy, q,
+                hk, hv, state, chunk):  # pragma: no cover - compiled
     """A* from ``s_node`` to ``g_node`` over the static edges (node ``x`` to ``tgt[x]`` of
     length ``tcost[x]``, to ``nxt[x]`` of length ``ncost[x]``; ``-1``: none) and the query
     edges ``vsrc -> vdst`` (sorted by ``vsrc``) of lengths ``vcost``; nodes from
     ``len(tgt)`` on are the query's.
 
-    ``dist``, ``pred``, ``stamp`` are the per-node work arrays, valid where ``stamp == q``
-    (open) or ``-q`` (closed); ``hk, hv`` the heap, ``state = [size, expanded, pushed]``.
-    Runs at most ``chunk`` expansions; returns 0 when the goal is closed (its distance in
-    ``dist[g_node]``), 1 when the heap is empty (no path), 2 when paused (call again with
-    the same arrays to go on).
+    A closed node's chain successor at the same point and no cost (every chain of a point
+    robot) is closed at once, with the same ``g``: its ``f`` is the minimum too (a
+    consistent heuristic pops nothing cheaper before it), so the heap never holds it.
+
+    ``nt`` is the node table, one row per node (what one relaxation reads is one cache
+    line): ``g``, ``x``, ``y`` (its point), stamp (``q``: open, ``-q``: closed, anything
+    else: not seen in this query), predecessor.  ``hk, hv`` are the heap,
+    ``state = [size, expanded, pushed]``.  Runs at most ``chunk`` pops; returns 0 when the
+    goal is closed (its ``g`` in ``nt[g_node, 0]``), 1 when the heap is empty (no path), 2
+    when paused (call again with the same arrays to go on).
     """
     size = state[0]
     n_static = tgt.shape[0]
@@ -68,42 +87,35 @@ def chain_astar(tgt, tcost, nxt, ncost, px, py, vsrc, vdst, vcost, s_node, g_nod
             state[0] = size
             return 1
         f, x, size = heap_pop(hk, hv, size)
-        if stamp[x] == -q:
+        if nt[x, 3] == -q:
             continue
-        stamp[x] = -q
-        state[1] += 1
-        if x == g_node:
-            state[0] = size
-            return 0
-        g0 = dist[x]
-        for k in range(2):
-            if k == 0:  # the tangent of a departure
-                if x >= n_static or tgt[x] < 0:
+        while True:  # x, then its chain's nodes at the same point and no cost
+            nt[x, 3] = -q
+            state[1] += 1
+            if x == g_node:
+                state[0] = size
+                return 0
+            g0 = nt[x, 0]
+            before = size
+            a = np.searchsorted(vsrc, x)
+            while a < nv and vsrc[a] == x:  # the query's edges
+                size = _relax(nt, q, hk, hv, size, gx, gy, x, vdst[a], g0 + vcost[a])
+                a += 1
+            y = -1
+            if x < n_static:
+                if tgt[x] >= 0:  # the tangent
+                    size = _relax(nt, q, hk, hv, size, gx, gy, x, tgt[x], g0 + tcost[x])
+                y = nxt[x]
+            if y >= 0 and nt[y, 3] != -q:
+                if ncost[x] == 0.0 and nt[y, 1] == nt[x, 1] and nt[y, 2] == nt[x, 2]:
+                    nt[y, 0] = g0
+                    nt[y, 4] = x
+                    state[2] += size - before
+                    x = y
                     continue
-                y, c = tgt[x], tcost[x]
-            else:  # the next node of its chain
-                if x >= n_static or nxt[x] < 0:
-                    continue
-                y, c = nxt[x], ncost[x]
-            ng = g0 + c
-            if stamp[y] == -q or (stamp[y] == q and ng >= dist[y]):
-                continue
-            stamp[y] = q
-            dist[y] = ng
-            pred[y] = x
-            size = heap_push(hk, hv, size, ng + math.hypot(px[y] - gx, py[y] - gy), y)
-            state[2] += 1
-        a = np.searchsorted(vsrc, x)
-        while a < nv and vsrc[a] == x:  # the query's edges
-            y, ng = vdst[a], g0 + vcost[a]
-            a += 1
-            if stamp[y] == -q or (stamp[y] == q and ng >= dist[y]):
-                continue
-            stamp[y] = q
-            dist[y] = ng
-            pred[y] = x
-            size = heap_push(hk, hv, size, ng + math.hypot(px[y] - gx, py[y] - gy), y)
-            state[2] += 1
+                size = _relax(nt, q, hk, hv, size, gx, gy, x, y, g0 + ncost[x])
+            state[2] += size - before
+            break
     state[0] = size
     return 2
 
@@ -258,15 +270,12 @@ class ChainSearch:
     def _arrays(self, n_nodes: int, n_push: int) -> dict:
         """The work arrays, grown to ``n_nodes`` nodes and ``n_push`` heap entries."""
         w = self.work
-        if len(w.get("dist", ())) < n_nodes:
+        if len(w.get("nt", ())) < n_nodes:
             n_nodes += n_nodes // 8  # room for the next queries' own nodes
-            w["dist"] = np.zeros(n_nodes)
-            w["pred"] = np.zeros(n_nodes, np.int64)
-            w["stamp"] = np.zeros(n_nodes, np.int64)
-            w["q"] = 0
-            pt = np.zeros(n_nodes, complex)
-            pt[:len(self.ch.point)] = self.ch.point
-            w["px"], w["py"] = pt.real.copy(), pt.imag.copy()
+            nt = np.zeros((n_nodes, 5))
+            nt[:len(self.ch.point), 1] = self.ch.point.real
+            nt[:len(self.ch.point), 2] = self.ch.point.imag
+            w["nt"], w["q"] = nt, 0.0
         if len(w.get("hk", ())) < n_push:
             n_push += n_push // 8
             w["hk"], w["hv"] = np.zeros(n_push), np.zeros(n_push, np.int64)
@@ -280,18 +289,18 @@ class ChainSearch:
         N0 = ch.n_edges
         nv = len(self.vpoint)
         w = self._arrays(N0 + nv, 2 * ch.n_edges + len(self.vsrc) + 2)
-        w["px"][N0:N0 + nv], w["py"][N0:N0 + nv] = self.vpoint.real, self.vpoint.imag
-        w["q"] += 1
+        nt, hk, hv = w["nt"], w["hk"], w["hv"]
+        nt[N0:N0 + nv, 1], nt[N0:N0 + nv, 2] = self.vpoint.real, self.vpoint.imag
+        w["q"] += 1.0
         q = w["q"]
-        dist, pred, stamp, hk, hv = w["dist"], w["pred"], w["stamp"], w["hk"], w["hv"]
-        stamp[self.S], dist[self.S], pred[self.S] = q, 0.0, -1
+        nt[self.S, 0], nt[self.S, 3], nt[self.S, 4] = 0.0, q, -1.0
         gx, gy = self.zg.real, self.zg.imag
         state = np.zeros(3, np.int64)
         state[0] = heap_push(hk, hv, 0, abs(self.zg - self.zs), self.S)
         while True:
-            code = chain_astar(ch.tgt, ch.tcost, ch.nxt, ch.ncost, w["px"], w["py"],
-                               self.vsrc, self.vdst, self.vcost, self.S, self.G, gx, gy, dist,
-                               pred, stamp, q, hk, hv, state, CHUNK)
+            code = chain_astar(ch.tgt, ch.tcost, ch.nxt, ch.ncost, nt,
+                               self.vsrc, self.vdst, self.vcost, self.S, self.G, gx, gy, q,
+                               hk, hv, state, CHUNK)
             if code != 2:
                 break
             if stop is not None and stop():
@@ -299,13 +308,13 @@ class ChainSearch:
         self.info["n_expanded"] += int(state[1])
         self.info["n_generated"] += int(state[2])
         self.q = q
-        return float(dist[self.G]) if code == 0 else math.inf
+        return float(nt[self.G, 0]) if code == 0 else math.inf
 
     def polyline(self, arc_step: float) -> tuple[np.ndarray, list]:
         """Local-frame points of the path found by :meth:`length` (arcs as circumscribed
         polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``, as
         :meth:`~optplan.geometry.tangent_search.TangentSearch.polyline` gives them."""
-        pred = self.work["pred"]
+        pred = self.work["nt"][:, 4]
         path = [self.G]
         while path[-1] != self.S:
             path.append(int(pred[path[-1]]))
