@@ -39,7 +39,8 @@ import numpy as np
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
 from optplan.geometry.tangent_edges import cone_off
 
-__all__ = ["ChainGraph", "chain_key", "chains_of", "entry_of", "first_above"]
+__all__ = ["ChainGraph", "chain_key", "chains_of", "entry_of", "first_above",
+           "stored_tangents"]
 
 
 def chain_key(C: Circles, c: np.ndarray, s: np.ndarray, off: np.ndarray) -> np.ndarray:
@@ -133,8 +134,10 @@ class ChainGraph:
                    if isinstance(getattr(self, k), np.ndarray))
 
 
-def _tangents(C: Circles, edges: dict) -> dict[str, np.ndarray]:
-    """The stored tangents of every circle and sense, concatenated."""
+def stored_tangents(C: Circles, edges: dict) -> dict[str, np.ndarray]:
+    """The tangents of :class:`~optplan.geometry.tangent_edges.Edges` (``(circle, sense) ->
+    Edges``), concatenated as :func:`~optplan.geometry.tangent_edges.tangent_edges` gives
+    them."""
     items = [(i, si, e) for (i, si), e in edges.items() if len(e.j)]
     if not items:
         z = np.zeros(0)
@@ -175,11 +178,10 @@ def _arcs_free(arcs: Any, C: Circles, src: np.ndarray, th: np.ndarray, sweep: np
     return free, len(todo)
 
 
-def chains_of(C: Circles, edges: dict, arcs: Any) -> ChainGraph:
-    """:class:`ChainGraph` of the free tangents ``edges`` (``(circle, sense) -> Edges``,
-    every one free) on circles ``C``; ``arcs`` the graph's
-    :class:`~optplan.geometry.circles.ArcChecker`."""
-    t = _tangents(C, edges)
+def chains_of(C: Circles, t: dict[str, np.ndarray], arcs: Any) -> ChainGraph:
+    """:class:`ChainGraph` of the free tangents ``t`` (arrays as
+    :func:`~optplan.geometry.tangent_edges.tangent_edges` gives them, every one free) on
+    circles ``C``; ``arcs`` the graph's :class:`~optplan.geometry.circles.ArcChecker`."""
     E = len(t["j"])
     key = chain_key(C, t["i"], t["si"], t["od"])
     u = 2 * t["i"] + (t["si"] < 0)

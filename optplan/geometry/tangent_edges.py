@@ -18,8 +18,7 @@ import numpy as np
 
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
 
-__all__ = ["Edges", "cone_off", "tangent_exists", "tangent_normal", "tangent_edges",
-           "group_edges"]
+__all__ = ["Edges", "cone_off", "tangent_exists", "tangent_normal", "tangent_edges"]
 
 
 def cone_off(C: Circles, k, th):
@@ -104,21 +103,6 @@ def _edges(t: dict[str, np.ndarray], sl: slice, i: int, point: bool) -> Edges:
     return Edges(i, t["j"][sl].astype(np.int32), t["sj"][sl].astype(np.int8), t["seg"][sl],
                  None if point else t["pi"][sl], t["pj"][sl], t["th_d"][sl], t["th_a"][sl],
                  t["od"][sl])
-
-
-def group_edges(C: Circles, t: dict[str, np.ndarray], nodes) -> dict[tuple[int, int], Edges]:
-    """:class:`Edges` per ``(circle, sense)`` of ``nodes`` from the tangents ``t`` of
-    :func:`tangent_edges` (a node without tangents gets an empty one)."""
-    key = 2 * t["i"] + (t["si"] < 0)
-    order = np.argsort(key, kind="stable")
-    t = {k: v[order] for k, v in t.items()}
-    key = key[order]
-    out = {}
-    for i, si in nodes:
-        kk = 2 * i + (si < 0)
-        a, b = np.searchsorted(key, [kk, kk + 1])
-        out[(i, si)] = _edges(t, slice(a, b), i, bool(C.rho[i] == 0))
-    return out
 
 
 def edges_of_one(C: Circles, i: int, si: int, vis: np.ndarray, eps: float) -> Edges:

@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -61,8 +62,8 @@ from optplan.geometry.chain_search import ChainSearch
 from optplan.geometry.circles import ArcChecker, Circles, circles_of
 from optplan.geometry.obstacles import ObstacleSet, solid_edges
 from optplan.geometry.sightlines import Sightlines
-from optplan.geometry.tangent_chains import ChainGraph, chains_of
-from optplan.geometry.tangent_edges import Edges, edges_of_one, group_edges, tangent_edges
+from optplan.geometry.tangent_chains import ChainGraph, chains_of, stored_tangents
+from optplan.geometry.tangent_edges import Edges, edges_of_one, tangent_edges
 from optplan.geometry.tangent_search import Stopped, TangentSearch
 
 __all__ = ["TangentPath", "TangentGraph", "tangent_graph", "shortest_path",
@@ -74,9 +75,9 @@ MAX_GRAPH_BYTES = 256 * 2**20
 #: (below it, every circle is a candidate: ``O(n)`` per expansion is cheap there, and the
 #: flood's kernel, about 2 s of CPU to compile once, is not needed).
 SIGHTLINES_MIN = 1000
-#: Candidate tangents :meth:`TangentGraph.build` computes in one batch (bounds its temporary
-#: memory to a few hundred MB).
-BUILD_PAIRS = 2_000_000
+#: Candidate tangents :meth:`TangentGraph.build` computes in one batch (two batches at a
+#: time: bounds its temporary memory to a few hundred MB).
+BUILD_PAIRS = 1_000_000
 
 
 @dataclass(frozen=True)
@@ -221,24 +222,32 @@ class TangentGraph:
         """Make the whole graph now, not only what the searches reach, and search it with
         compiled code from now on; returns ``self``.
 
-        The successors of every circle and sense, their segments tested (the blocked ones
-        dropped): one flood of :mod:`~optplan.geometry.sightlines` per circle, the tangents
-        of all circles in one vectorised pass, the segments in batches of
-        :meth:`~optplan.geometry.obstacles.ObstacleSet.pairs_free`.  Then the free tangents
-        become the explicit graph of :mod:`~optplan.geometry.tangent_chains` (``chains``;
-        the per-circle successors and sight lines are then dropped) and every later query
-        is the compiled A* of :mod:`~optplan.geometry.chain_search` (same lengths).  When
-        the successors do not fit in ``max_bytes`` the graph stays lazy (``chains`` None).
+        Every free tangent: one flood of :mod:`~optplan.geometry.sightlines` per circle (the
+        sources split between two threads: the flood runs without the GIL), the tangents
+        of all circles in vectorised batches (at most :data:`BUILD_PAIRS` candidates each,
+        two at a time in two threads), their segments tested in one call of
+        :meth:`~optplan.geometry.obstacles.ObstacleSet.pairs_free` per batch, the blocked
+        ones dropped; the successors earlier searches made are kept (their untested
+        segments tested).  The free tangents become the explicit graph of
+        :mod:`~optplan.geometry.tangent_chains` (``chains``), and every later query is the
+        compiled A* of :mod:`~optplan.geometry.chain_search` (same lengths).  ``max_bytes``
+        bounds what lazy searches store, not this.
         """
         if self.chains is not None:
             return self
         C = self.circles
         todo = np.array([i for i in range(C.n) if i not in self._visible and not C.full[i]],
                         np.int64)
-        if len(todo) and self.use_sightlines:  # one flood per circle, in one call
+        if len(todo) and self.use_sightlines:
             lo, wd = self._windows(todo)
             z = C.center[todo]
-            found = self.sightlines.candidates(np.stack([z.real, z.imag], 1), lo, wd)
+            xy = np.stack([z.real, z.imag], 1)
+            cut = len(todo) // 2
+            sight = self.sightlines
+            with ThreadPoolExecutor(2) as pool:
+                halves = pool.map(lambda k: sight.candidates(xy[k], lo[k], wd[k]),
+                                  [slice(0, cut), slice(cut, None)])
+                found = [f for h in halves for f in h]
             for i, f in zip(todo, found):
                 self._visible[int(i)] = self._with_full(f)
         known = list(self._edges.values())  # made by earlier searches: test what is left
@@ -246,35 +255,46 @@ class TangentGraph:
         for e in known:
             e.keep(e.ok == 1)
         nodes = [(i, si) for i in range(C.n) for si in (1, -1) if (i, si) not in self._edges]
-        batch: list[tuple[int, int]] = []
+        batches: list[list[tuple[int, int]]] = [[]]
         pairs = 0
         for node in nodes:  # batches of at most BUILD_PAIRS candidates: bounded memory
-            batch.append(node)
+            batches[-1].append(node)
             pairs += 2 * len(self.visible(node[0]))
             if pairs >= BUILD_PAIRS:
-                self._build_nodes(batch)
-                batch, pairs = [], 0
-        if batch:
-            self._build_nodes(batch)
-        if len(self._edges) == 2 * C.n:  # all stored: the explicit graph
-            self.chains = chains_of(C, self._edges, self.arcs)
-            self._edges, self._visible, self.nbytes = {}, {}, self.chains.nbytes
+                batches.append([])
+                pairs = 0
+        self.oset.pairs_free(np.zeros((1, 2)), [0], [0])  # its arrays made before the threads
+        with ThreadPoolExecutor(2) as pool:  # two batches at a time
+            made = list(pool.map(self._free_tangents, [b for b in batches if b]))
+        parts = [stored_tangents(C, self._edges), *(t for t, _ in made)]
+        self.stats["segment_tests"] += sum(n for _, n in made)
+        t = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        self.stats["nodes"] = 2 * C.n
+        self.stats["edges"] = len(t["j"])
+        self.chains = chains_of(C, t, self.arcs)
+        self._edges, self._visible, self.nbytes = {}, {}, self.chains.nbytes
         return self
 
-    def _build_nodes(self, nodes: list[tuple[int, int]]) -> None:
-        """The successors of ``nodes`` (circle, sense), their segments tested, stored."""
-        C = self.circles
+    def _free_tangents(self, nodes: list[tuple[int, int]]) -> tuple[dict[str, np.ndarray], int]:
+        """The free tangents of ``nodes`` (circle, sense) towards their sight lines
+        (:func:`~optplan.geometry.tangent_edges.tangent_edges`, segments tested) and the
+        number of segments tested (counted by the caller: this runs in a thread)."""
         src = np.array([i for i, _ in nodes])
         vis = [self.visible(int(i)) for i in src]
         cnt = np.array([2 * len(v) for v in vis])
         J = np.repeat(np.concatenate(vis), 2)
-        t = tangent_edges(C, np.repeat(src, cnt), np.repeat([s for _, s in nodes], cnt), J,
+        t = tangent_edges(self.circles, np.repeat(src, cnt),
+                          np.repeat([s for _, s in nodes], cnt), J,
                           np.tile(np.array([1, -1]), len(J) // 2), self.oset.eps)
-        made = group_edges(C, t, nodes)
-        self._test_segments(list(made.values()))
-        for (i, si), e in made.items():
-            e.keep(e.ok == 1)
-            self._store(i, si, e)
+        free = self._segments_free(t["pi"], t["pj"])
+        return {k: v[free] for k, v in t.items()}, len(free)
+
+    def _segments_free(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """Exact tests of the segments ``a[k] -> b[k]`` (local complex), in one batch."""
+        pts = self.oset.frame.world(np.stack([np.r_[a.real, b.real], np.r_[a.imag, b.imag]],
+                                             axis=1))
+        n = len(a)
+        return self.oset.pairs_free(pts, np.arange(n), np.arange(n, 2 * n))
 
     def _test_segments(self, made: list[Edges]) -> None:
         """Exact tests of the untested segments of ``made``, in one batch."""
@@ -285,11 +305,8 @@ class TangentGraph:
         a = np.concatenate([e.pi[t] if e.pi is not None
                             else np.full(len(t), self.circles.center[e.i]) for e, t in todo])
         b = np.concatenate([e.pj[t] for e, t in todo])
-        pts = self.oset.frame.world(np.stack([np.r_[a.real, b.real], np.r_[a.imag, b.imag]],
-                                             axis=1))
-        n = len(a)
-        free = self.oset.pairs_free(pts, np.arange(n), np.arange(n, 2 * n))
-        self.stats["segment_tests"] += n
+        free = self._segments_free(a, b)
+        self.stats["segment_tests"] += len(free)
         at = 0
         for e, t in todo:
             e.ok[t] = np.where(free[at:at + len(t)], 1, -1)
