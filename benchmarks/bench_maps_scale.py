@@ -29,7 +29,9 @@ the vertices).
 Import and build times are wall seconds (CPU seconds, ``time.process_time``, in brackets),
 query times CPU milliseconds, on a machine shared with other jobs.  ``--sightlines on|off``
 sets :class:`TangentGraph`'s option (default: from ``SIGHTLINES_MIN`` circles on);
-``--build`` makes the whole graph first (:meth:`TangentGraph.build`: its time is the build).
+``--build`` makes the whole graph first (:meth:`TangentGraph.build`: its time is the build;
+the queries are then the compiled search of ``optplan/geometry/chain_search.py``, whose
+expanded nodes are departure points, not arrivals).
 ``python benchmarks/bench_maps_scale.py --sizes 1024 --queries 1000`` is the
 issue's scale (1024 x 1024 street and room maps); see ``docs/solvers/visgraph.md``.
 """
@@ -198,8 +200,8 @@ def main(argv: list[str] | None = None) -> None:
                     help="TangentGraph(sightlines=): auto (from SIGHTLINES_MIN circles), "
                          "on or off")
     ap.add_argument("--build", action="store_true",
-                    help="make the whole graph (TangentGraph.build, up to 1 GiB of edges) "
-                         "before the queries; its time is the build time")
+                    help="make the whole graph (TangentGraph.build) before the queries, "
+                         "which then run the compiled search; its time is the build time")
     args = ap.parse_args(argv)
     sight = {"auto": None, "on": True, "off": False}[args.sightlines]
     print("exact tangent graph at scale: point robot, one TangentGraph per map "
@@ -233,7 +235,8 @@ def main(argv: list[str] | None = None) -> None:
                   f"{ours['unfinished']} | {ours['graph_mib']:.0f} | {ours['rss']:.0f} | "
                   f"{e_build} | {e_q} | {agree} |", flush=True)
             st, ex = ours["stats"], ours["expanded"]
-            work.append(f"{kind}-{size}: expanded arrivals per query median "
+            work.append(f"{kind}-{size}: expanded {'nodes' if args.build else 'arrivals'} "
+                        "per query median "
                         f"{statistics.median(ex):.0f}, worst {max(ex)} (unfinished queries: "
                         f"up to the budget); stored edges {st['edges']}, exact segment tests "
                         f"{st['segment_tests']}")

@@ -142,7 +142,8 @@ def read_scen(path: str | Path, *, map_path: str | Path | None = None, radius: f
     stem = re.sub(r"(\.map)?\.scen$", "", p.name) or p.stem
     out: list[Problem] = []
     template: Problem | None = None
-    for e in entries:
+    clear: np.ndarray | None = None  # per entry: start and goal surely free
+    for k, e in enumerate(entries):
         _check_entry(p, e, grid, mask, map_path)
         s = grid.cell_centre(e.start[1], e.start[0])
         g = grid.cell_centre(e.goal[1], e.goal[0])
@@ -161,10 +162,22 @@ def read_scen(path: str | Path, *, map_path: str | Path | None = None, radius: f
             }
             template = parse_problem(data, where)
             out.append(template)
+            clear = _surely_free(template, grid, entries)
             continue
         # ... the others share its validated obstacles and exact engine (same checks)
-        out.append(_like(template, where, s, g, keys))
+        out.append(_like(template, where, s, g, keys, bool(clear is not None and clear[k])))
     return out
+
+
+def _surely_free(template: Problem, grid: Grid, entries: list[ScenEntry]) -> np.ndarray:
+    """Per entry, whether its start and goal are both farther than ``radius + eps`` from
+    every obstacle (one exact distance query for all of them): such ends pass
+    :meth:`Problem.blocking_obstacle`, which :func:`_like` then need not call (it decides
+    the others, exactly as for the first line)."""
+    pts = np.array([grid.cell_centre(y, x) for e in entries for (x, y) in (e.start, e.goal)])
+    r = template.robots[0].radius
+    d = template.obstacle_set(r).point_distances(pts).reshape(-1, 2)
+    return (d > r + template.frame.eps).all(axis=1)
 
 
 def _select(entries: list[ScenEntry], buckets: Iterable[int] | None,
@@ -214,10 +227,11 @@ def _entry_keys(p: Path, stem: str, e: ScenEntry, res: float) -> dict[str, Any]:
 
 
 def _like(template: Problem, where: str, s: np.ndarray, g: np.ndarray,
-          keys: dict[str, Any]) -> Problem:
-    """A copy of the first problem with another start and goal (checked free), sharing its
+          keys: dict[str, Any], clear: bool = False) -> Problem:
+    """A copy of the first problem with another start and goal (checked free, unless
+    ``clear``: both known farther than the radius from every obstacle), sharing its
     validated obstacles and exact engine."""
-    for k, q in (("start", s), ("goal", g)):
+    for k, q in () if clear else (("start", s), ("goal", g)):
         hit = template.blocking_obstacle(q, template.robots[0].radius)
         if hit is not None:
             raise _err(where, f"robots[0].{k}", f"{q.tolist()} lies inside obstacle "

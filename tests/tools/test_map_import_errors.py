@@ -242,6 +242,20 @@ def test_scen_line_errors(movingai, line, pattern):
         read_scen(bad)
 
 
+def test_scen_line_whose_disc_overlaps_an_obstacle(tmp_path):
+    """A later line (checked after one distance query for all lines) whose start cell is
+    free but too close to a wall for the robot's disc: that line is named."""
+    (tmp_path / "hall.map").write_text("type octile\nheight 5\nwidth 7\nmap\n@@@@@@@\n"
+                                       "@.....@\n@.....@\n@.....@\n@@@@@@@\n", encoding="ascii")
+    scen = tmp_path / "hall.scen"
+    scen.write_text("version 1\n0\thall.map\t7\t5\t3\t2\t4\t2\t1\n"
+                    "0\thall.map\t7\t5\t1\t1\t3\t2\t2.4\n", encoding="utf-8")
+    assert len(read_scen(scen, radius=0.2)) == 2
+    with pytest.raises(ProblemError, match=r"hall\.scen:3: robots\[0\]\.start: .* inflated "
+                                           r"by the robot radius 0\.45"):
+        read_scen(scen, radius=0.45)
+
+
 def test_scen_cell_outside_the_map_file(movingai):
     """A line consistent in itself, for a bigger map than the file: the line is named."""
     bad = movingai / "big.scen"
