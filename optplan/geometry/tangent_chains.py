@@ -181,12 +181,14 @@ def _arcs_free(arcs: Any, C: Circles, src: np.ndarray, th: np.ndarray, sweep: np
 def chains_of(C: Circles, t: dict[str, np.ndarray], arcs: Any) -> ChainGraph:
     """:class:`ChainGraph` of the free tangents ``t`` (arrays as
     :func:`~optplan.geometry.tangent_edges.tangent_edges` gives them, every one free) on
-    circles ``C``; ``arcs`` the graph's :class:`~optplan.geometry.circles.ArcChecker`."""
+    circles ``C``; ``arcs`` the graph's :class:`~optplan.geometry.circles.ArcChecker`.
+    ``t``'s arrays are replaced (sorted) in place, so that the unsorted ones are freed."""
     E = len(t["j"])
     key = chain_key(C, t["i"], t["si"], t["od"])
     u = 2 * t["i"] + (t["si"] < 0)
     order = np.lexsort((key, u))  # departures by chain and position
-    t = {k: v[order] for k, v in t.items()}
+    for k in list(t):
+        t[k] = t[k][order]
     key, u = key[order], u[order]
     uptr = np.searchsorted(u, np.arange(2 * C.n + 1))
     nxt = np.full(E, -1, np.int64)

@@ -77,7 +77,7 @@ MAX_GRAPH_BYTES = 256 * 2**20
 SIGHTLINES_MIN = 1000
 #: Candidate tangents :meth:`TangentGraph.build` computes in one batch (two batches at a
 #: time: bounds its temporary memory to a few hundred MB).
-BUILD_PAIRS = 1_000_000
+BUILD_PAIRS = 500_000
 
 
 @dataclass(frozen=True)
@@ -268,11 +268,14 @@ class TangentGraph:
             made = list(pool.map(self._free_tangents, [b for b in batches if b]))
         parts = [stored_tangents(C, self._edges), *(t for t, _ in made)]
         self.stats["segment_tests"] += sum(n for _, n in made)
-        t = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        self._edges, self._visible = {}, {}  # no longer needed: memory for the chains
+        del made
+        t = {k: np.concatenate([p.pop(k) for p in parts]) for k in list(parts[0])}
+        del parts
         self.stats["nodes"] = 2 * C.n
         self.stats["edges"] = len(t["j"])
         self.chains = chains_of(C, t, self.arcs)
-        self._edges, self._visible, self.nbytes = {}, {}, self.chains.nbytes
+        self.nbytes = self.chains.nbytes
         return self
 
     def _free_tangents(self, nodes: list[tuple[int, int]]) -> tuple[dict[str, np.ndarray], int]:
