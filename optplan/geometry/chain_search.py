@@ -60,12 +60,12 @@ def _relax(nt, q, hk, hv, size, gx, gy, x, y, ng):  # pragma: no cover - compile
     return heap_push(hk, hv, size, ng + math.hypot(nt[y, 1] - gx, nt[y, 2] - gy), y)
 
 
-@compiled(I1, F1, I1, F1, F2, I1, I1, F1, i8, i8, f8, f8, f8, F1, I1, I1, i8)
-def chain_astar(tgt, tcost, nxt, ncost, nt, vsrc, vdst, vcost, s_node, g_node, gx, gy, q,
-                hk, hv, state, chunk):  # pragma: no cover - compiled
-    """A* from ``s_node`` to ``g_node`` over the static edges (node ``x`` to ``tgt[x]`` of
-    length ``tcost[x]``, to ``nxt[x]`` of length ``ncost[x]``; ``-1``: none) and the query
-    edges ``vsrc -> vdst`` (sorted by ``vsrc``) of lengths ``vcost``; nodes from
+@compiled(I1, F1, I1, F1, F2, I1, I1, F1, i8, f8, f8, f8, F1, I1, I1, i8)
+def chain_astar(tgt, tcost, nxt, ncost, nt, vsrc, vdst, vcost, g_node, gx, gy, q, hk, hv,
+                state, chunk):  # pragma: no cover - compiled
+    """A* to ``g_node`` (from the nodes on the heap: the start) over the static edges (node
+    ``x`` to ``tgt[x]`` of length ``tcost[x]``, to ``nxt[x]`` of length ``ncost[x]``; ``-1``:
+    none) and the query edges ``vsrc -> vdst`` (sorted by ``vsrc``) of lengths ``vcost``; nodes from
     ``len(tgt)`` on are the query's.
 
     A closed node's chain successor at the same point and no cost (every chain of a point
@@ -299,8 +299,8 @@ class ChainSearch:
         state[0] = heap_push(hk, hv, 0, abs(self.zg - self.zs), self.S)
         while True:
             code = chain_astar(ch.tgt, ch.tcost, ch.nxt, ch.ncost, nt,
-                               self.vsrc, self.vdst, self.vcost, self.S, self.G, gx, gy, q,
-                               hk, hv, state, CHUNK)
+                               self.vsrc, self.vdst, self.vcost, self.G, gx, gy, q, hk, hv,
+                               state, CHUNK)
             if code != 2:
                 break
             if stop is not None and stop():
@@ -310,19 +310,17 @@ class ChainSearch:
         self.q = q
         return float(nt[self.G, 0]) if code == 0 else math.inf
 
-    def polyline(self, arc_step: float) -> tuple[np.ndarray, list]:
-        """Local-frame points of the path found by :meth:`length` (arcs as circumscribed
-        polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``, as
-        :meth:`~optplan.geometry.tangent_search.TangentSearch.polyline` gives them."""
+    def _legs(self) -> tuple[list, list]:
+        """The path found by :meth:`length` as its tangents (departure point, arrival point)
+        and, between them, the circles it follows ``[circle, sense, arrival angle, sweep]``."""
         pred = self.work["nt"][:, 4]
         path = [self.G]
         while path[-1] != self.S:
             path.append(int(pred[path[-1]]))
         path.reverse()
-        ch, C, N0 = self.ch, self.C, self.ch.n_edges
-        A, D = self.A, self.D
-        legs: list = []  # tangents (departure point, arrival point)
-        visits: list = []  # per circle visited: [circle, sense, arrival angle, sweep]
+        ch, N0, A, D = self.ch, self.ch.n_edges, self.A, self.D
+        legs: list = []
+        visits: list = []
         for x, y in zip(path[:-1], path[1:]):
             if x == self.S:
                 k = y - N0 - 2
@@ -333,16 +331,21 @@ class ChainSearch:
                 legs.append((D["p"][x - N0 - 2 - self.K], self.zg))
             elif x >= N0:  # a start arrival: along its circle
                 visits[-1][3] += self.vsweep[(x, y)]
-            else:
-                cy = int(ch.circle[y]) if y < N0 else int(D["c"][y - N0 - 2 - self.K])
-                sw = self.vsweep.get((x, y)) if y >= N0 else None
-                if cy == ch.circle[x]:  # along the chain
-                    visits[-1][3] += float(ch.sweep[x]) if sw is None else sw
-                else:  # the tangent, then along the arrival's circle
-                    legs.append((ch.point[x], ch.a_point[x]))
-                    visits.append([int(ch.a_circle[x]), int(ch.a_sense[x]),
-                                   float(ch.a_theta[x]),
-                                   float(ch.a_sweep[x]) if sw is None else sw])
+            elif (int(ch.circle[y]) if y < N0 else int(D["c"][y - N0 - 2 - self.K])) == \
+                    ch.circle[x]:  # along the chain
+                visits[-1][3] += self.vsweep.get((x, y), float(ch.sweep[x]))
+            else:  # the tangent, then along the arrival's circle
+                legs.append((ch.point[x], ch.a_point[x]))
+                visits.append([int(ch.a_circle[x]), int(ch.a_sense[x]), float(ch.a_theta[x]),
+                               self.vsweep.get((x, y), float(ch.a_sweep[x]))])
+        return legs, visits
+
+    def polyline(self, arc_step: float) -> tuple[np.ndarray, list]:
+        """Local-frame points of the path found by :meth:`length` (arcs as circumscribed
+        polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``, as
+        :meth:`~optplan.geometry.tangent_search.TangentSearch.polyline` gives them."""
+        C = self.C
+        legs, visits = self._legs()
         pts, wps = [self.zs], []
         for k, (p_dep, p_arr) in enumerate(legs):
             if k > 0:

@@ -138,26 +138,18 @@ def stored_tangents(C: Circles, edges: dict) -> dict[str, np.ndarray]:
     """The tangents of :class:`~optplan.geometry.tangent_edges.Edges` (``(circle, sense) ->
     Edges``), concatenated as :func:`~optplan.geometry.tangent_edges.tangent_edges` gives
     them."""
-    items = [(i, si, e) for (i, si), e in edges.items() if len(e.j)]
-    if not items:
-        z = np.zeros(0)
-        return {"i": z.astype(np.int64), "si": z.astype(np.int64), "j": z.astype(np.int64),
-                "sj": z.astype(np.int64), "seg": z, "pi": z.astype(complex),
-                "pj": z.astype(complex), "th_d": z, "th_a": z, "od": z}
-    cnt = np.array([len(e.j) for _, _, e in items])
-    return {
-        "i": np.repeat([i for i, _, _ in items], cnt),
-        "si": np.repeat([si for _, si, _ in items], cnt),
-        "j": np.concatenate([e.j for _, _, e in items]).astype(np.int64),
-        "sj": np.concatenate([e.sj for _, _, e in items]).astype(np.int64),
-        "seg": np.concatenate([e.seg for _, _, e in items]),
-        "pi": np.concatenate([e.pi if e.pi is not None else np.full(len(e.j), C.center[i])
-                              for i, _, e in items]),
-        "pj": np.concatenate([e.pj for _, _, e in items]),
-        "th_d": np.concatenate([e.th_d for _, _, e in items]),
-        "th_a": np.concatenate([e.th_a for _, _, e in items]),
-        "od": np.concatenate([e.od for _, _, e in items]),
-    }
+    items = [(i, si, e) for (i, si), e in edges.items()]
+    cnt = np.array([len(e.j) for _, _, e in items], np.int64)
+    out = {"i": np.repeat(np.array([i for i, _, _ in items], np.int64), cnt),
+           "si": np.repeat(np.array([si for _, si, _ in items], np.int64), cnt),
+           "pi": np.concatenate([np.zeros(0, complex)]
+                                + [e.pi if e.pi is not None else np.full(len(e.j), C.center[i])
+                                   for i, _, e in items])}
+    for k, dtype in (("j", np.int64), ("sj", np.int64), ("seg", float), ("pj", complex),
+                     ("th_d", float), ("th_a", float), ("od", float)):
+        out[k] = np.concatenate([np.zeros(0, dtype)]
+                                + [getattr(e, k) for _, _, e in items]).astype(dtype)
+    return out
 
 
 def _arcs_free(arcs: Any, C: Circles, src: np.ndarray, th: np.ndarray, sweep: np.ndarray,

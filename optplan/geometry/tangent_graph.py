@@ -135,7 +135,8 @@ class TangentGraph:
     ----------
     stats : dict
         ``queries``, ``nodes`` (circle-sense pairs whose successors are stored), ``edges``
-        (stored successors), ``segment_tests`` (exact segment tests run).
+        (stored successors), ``segment_tests`` (exact segment tests run); after
+        :meth:`build`, ``arc_tests`` (exact arc tests of its chains).
     """
 
     def __init__(self, oset: ObstacleSet, circles: Circles | None = None,
@@ -236,36 +237,15 @@ class TangentGraph:
         if self.chains is not None:
             return self
         C = self.circles
-        todo = np.array([i for i in range(C.n) if i not in self._visible and not C.full[i]],
-                        np.int64)
-        if len(todo) and self.use_sightlines:
-            lo, wd = self._windows(todo)
-            z = C.center[todo]
-            xy = np.stack([z.real, z.imag], 1)
-            cut = len(todo) // 2
-            sight = self.sightlines
-            with ThreadPoolExecutor(2) as pool:
-                halves = pool.map(lambda k: sight.candidates(xy[k], lo[k], wd[k]),
-                                  [slice(0, cut), slice(cut, None)])
-                found = [f for h in halves for f in h]
-            for i, f in zip(todo, found):
-                self._visible[int(i)] = self._with_full(f)
+        self._flood_all()
         known = list(self._edges.values())  # made by earlier searches: test what is left
         self._test_segments(known)
         for e in known:
             e.keep(e.ok == 1)
-        nodes = [(i, si) for i in range(C.n) for si in (1, -1) if (i, si) not in self._edges]
-        batches: list[list[tuple[int, int]]] = [[]]
-        pairs = 0
-        for node in nodes:  # batches of at most BUILD_PAIRS candidates: bounded memory
-            batches[-1].append(node)
-            pairs += 2 * len(self.visible(node[0]))
-            if pairs >= BUILD_PAIRS:
-                batches.append([])
-                pairs = 0
+        batches = self._batches()
         self.oset.pairs_free(np.zeros((1, 2)), [0], [0])  # its arrays made before the threads
         with ThreadPoolExecutor(2) as pool:  # two batches at a time
-            made = list(pool.map(self._free_tangents, [b for b in batches if b]))
+            made = list(pool.map(self._free_tangents, batches))
         parts = [stored_tangents(C, self._edges), *(t for t, _ in made)]
         self.stats["segment_tests"] += sum(n for _, n in made)
         self._edges, self._visible = {}, {}  # no longer needed: memory for the chains
@@ -276,7 +256,43 @@ class TangentGraph:
         self.stats["edges"] = len(t["j"])
         self.chains = chains_of(C, t, self.arcs)
         self.nbytes = self.chains.nbytes
+        self.stats["arc_tests"] = self.chains.arc_tests
         return self
+
+    def _flood_all(self) -> None:
+        """The sight lines of every vertex circle not flooded yet (two threads)."""
+        C = self.circles
+        todo = np.array([i for i in range(C.n) if i not in self._visible and not C.full[i]],
+                        np.int64)
+        if len(todo) == 0 or not self.use_sightlines:
+            return
+        lo, wd = self._windows(todo)
+        z = C.center[todo]
+        xy = np.stack([z.real, z.imag], 1)
+        cut = len(todo) // 2
+        sight = self.sightlines
+        with ThreadPoolExecutor(2) as pool:
+            halves = pool.map(lambda k: sight.candidates(xy[k], lo[k], wd[k]),
+                              [slice(0, cut), slice(cut, None)])
+            found = [f for h in halves for f in h]
+        for i, f in zip(todo, found):
+            self._visible[int(i)] = self._with_full(f)
+
+    def _batches(self) -> list[list[tuple[int, int]]]:
+        """The circles and senses without successors yet, in batches of at most
+        :data:`BUILD_PAIRS` candidate tangents (bounded memory)."""
+        C = self.circles
+        batches: list[list[tuple[int, int]]] = [[]]
+        pairs = 0
+        for node in ((i, si) for i in range(C.n) for si in (1, -1)):
+            if node in self._edges:
+                continue
+            batches[-1].append(node)
+            pairs += 2 * len(self.visible(node[0]))
+            if pairs >= BUILD_PAIRS:
+                batches.append([])
+                pairs = 0
+        return [b for b in batches if b]
 
     def _free_tangents(self, nodes: list[tuple[int, int]]) -> tuple[dict[str, np.ndarray], int]:
         """The free tangents of ``nodes`` (circle, sense) towards their sight lines

@@ -303,7 +303,7 @@ class TangentSearch:
         """Local-frame points of the path found by :meth:`length` (arcs as circumscribed
         polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``."""
         chain = []
-        k = self.goal_node
+        k = self.goal_node if self.goal_node is not None else 0
         while k > 0:
             chain.append(self.nodes[k])
             k = self.nodes[k][4]
