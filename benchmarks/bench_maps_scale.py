@@ -32,8 +32,10 @@ sets :class:`TangentGraph`'s option (default: from ``SIGHTLINES_MIN`` circles on
 ``--build`` makes the whole graph first (:meth:`TangentGraph.build`: its time is the build;
 the queries are then the compiled search of ``optplan/geometry/chain_search.py``, whose
 expanded nodes are departure points, not arrivals).
-``python benchmarks/bench_maps_scale.py --sizes 1024 --queries 1000`` is the
-issue's scale (1024 x 1024 street and room maps); see ``docs/solvers/visgraph.md``.
+``python benchmarks/bench_maps_scale.py --sizes 1024 --queries 1000 --build
+--epf-max-vertices 0`` is the issue's scale (1024 x 1024 street and room maps, the graph built
+once, extremitypathfinder skipped: its build grows with the square of the vertices); see
+``docs/solvers/visgraph.md``.
 """
 
 from __future__ import annotations
