@@ -154,3 +154,20 @@ def test_translation_changes_no_length():
     for s, t in _queries(a, rng, 15):
         la, lb = ga.shortest_path(s, t).length, gb.shortest_path(s + shift, t + shift).length
         assert la == pytest.approx(lb, rel=1e-9) or la == lb == math.inf
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.5])
+def test_ends_on_vertices_and_on_the_walls(radius):
+    """Starts and goals at obstacle corners (a point robot may touch them), on a disc
+    robot's offset of a corner, and against the bounds: the lengths agree."""
+    rng = np.random.default_rng(3)
+    obs = _map("cells", rng)
+    oset = obstacle_set(obs, radius, Frame.from_bounds(BOUNDS))
+    corners = np.array([c for o in obs for c in o.geometry.exterior.coords[:-1]])
+    if radius > 0:  # a corner's offset along its diagonal, just clear of the obstacle
+        corners = corners + radius * 1.0001 * np.sign(corners - 50.0)
+    ends = np.vstack([corners[rng.choice(len(corners), 12, replace=False)],
+                      [[radius, 50.0], [100.0 - radius, 37.0], [20.0, radius]]])
+    ends = ends[oset.point_distances(ends) >= radius - 1e-9]
+    qs = np.array([[a, b] for a, b in zip(ends[:-1], ends[1:])])
+    assert _agree(oset, qs) >= 5
