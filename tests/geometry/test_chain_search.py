@@ -171,3 +171,28 @@ def test_ends_on_vertices_and_on_the_walls(radius):
     ends = ends[oset.point_distances(ends) >= radius - 1e-9]
     qs = np.array([[a, b] for a, b in zip(ends[:-1], ends[1:])])
     assert _agree(oset, qs) >= 5
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_the_paths_are_the_lazy_search_paths(seed):
+    """Where the shortest path is unique (real-valued maps with circle obstacles, a disc
+    robot) the built graph returns the lazy search's path: the same waypoints (circles,
+    arrival angles, sweeps, senses) and the same polyline, which ``problem_shortest_path``
+    rebuilds from them."""
+    rng = np.random.default_rng(seed)
+    oset = obstacle_set(_map("mixed", rng), 0.6, Frame.from_bounds(BOUNDS))
+    built, lazy = TangentGraph(oset).build(), TangentGraph(oset)
+    n = 0
+    for s, g in _queries(oset, rng, 20):
+        a, b = built.shortest_path(s, g), lazy.shortest_path(s, g)
+        if b.polyline is None:
+            continue
+        n += 1
+        assert len(a.waypoints) == len(b.waypoints)
+        for wa, wb in zip(a.waypoints, b.waypoints):
+            assert wa[0] == wb[0] and wa[1] == wb[1] and wa[4] == wb[4]
+            assert wa[2] == pytest.approx(wb[2], abs=1e-9)
+            assert wa[3] == pytest.approx(wb[3], abs=1e-9)
+        assert a.polyline.shape == b.polyline.shape
+        assert np.allclose(a.polyline, b.polyline, rtol=0, atol=1e-9)
+    assert n >= 10
