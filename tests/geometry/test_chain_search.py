@@ -196,3 +196,13 @@ def test_the_paths_are_the_lazy_search_paths(seed):
         assert a.polyline.shape == b.polyline.shape
         assert np.allclose(a.polyline, b.polyline, rtol=0, atol=1e-9)
     assert n >= 10
+
+
+def test_a_map_without_obstacles():
+    """No circles, no tangents: the straight line, or the reason an end is not allowed."""
+    oset = obstacle_set([], 0.5, Frame.from_bounds((0.0, 0.0, 10.0, 10.0)))
+    g = TangentGraph(oset).build()
+    assert g.circles.n == 0 and g.chains.n_edges == 0
+    assert g.shortest_path((1.0, 1.0), (9.0, 9.0)).length == pytest.approx(8 * math.sqrt(2))
+    res = g.shortest_path((0.2, 1.0), (9.0, 9.0))
+    assert res.length == math.inf and "within 0.5" in res.info["reason"]
