@@ -53,12 +53,21 @@ class VisGraph(Backend):
         that replaces each arc of the exact path.  Smaller: a returned polyline closer to the
         exact length.  Default ``pi / 36`` (5 degrees; the polyline is at most ~0.03 % longer
         than the arcs it replaces).
+    graph : str
+        ``"lazy"`` (default): the map's tangent graph grows as searches reach it, searched by
+        the lazy A* (nothing to build: a single query on a large map is fastest).
+        ``"built"``: the whole graph of the map is made before the first query
+        (:meth:`~optplan.geometry.tangent_graph.TangentGraph.build`) and every query runs the
+        compiled search over it: for many queries on one map (the problems of one ``.scen``
+        share their obstacle set, so the graph is built once).  Same lengths; the build is
+        not interrupted by a time limit.
     """
 
     name: ClassVar[str] = "visgraph"
     certifies: ClassVar[bool] = True
     see_temporary: bool = option(False)
     arc_step: float = option(math.pi / 36, lo=1e-4, hi=math.pi / 2)
+    graph: str = option("lazy", choices=("lazy", "built"))
 
     def solve(self, problem, /, *, rng=None, init=None, callback=None):
         t0 = time.perf_counter()
@@ -77,7 +86,8 @@ class VisGraph(Backend):
                                                  info={"robot": r.id, "phase": "search"}))
 
             res = problem_shortest_path(problem, r, known_only, float(self.arc_step),
-                                        stop=poll if callback is not None else None)
+                                        stop=poll if callback is not None else None,
+                                        build=self.graph == "built")
             if res.info.get("stopped"):
                 stopped = True
                 status = Status.approximate

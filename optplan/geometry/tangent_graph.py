@@ -423,18 +423,23 @@ class _Uncached(Exception):
 
 def problem_shortest_path(problem, robot, known_only: bool = True,
                           arc_step: float = math.pi / 36,
-                          stop: Callable[[], bool] | None = None) -> TangentPath:
+                          stop: Callable[[], bool] | None = None,
+                          build: bool = False) -> TangentPath:
     """:func:`shortest_path` of ``robot`` on ``problem``'s static map, cached per problem.
 
     ``known_only``: plan on the known obstacles only (the map a global planner sees).  The
     obstacle set is walled (the bounds are a wall), so a path found is the certified shortest
-    path inside the bounds and none found proves that no path exists.
+    path inside the bounds and none found proves that no path exists.  ``build``: make the
+    whole graph of the obstacle set first (:meth:`TangentGraph.build`, once per obstacle
+    set; ``stop`` is polled by the search, not the build) and search it compiled.
     """
 
-    def build() -> TangentPath:
+    def plan() -> TangentPath:
         oset = problem.obstacle_set(robot.radius, known_only=known_only)
-        res = tangent_graph(oset).shortest_path(robot.start, robot.goal, arc_step=arc_step,
-                                                stop=stop)
+        graph = tangent_graph(oset)
+        if build:
+            graph.build()
+        res = graph.shortest_path(robot.start, robot.goal, arc_step=arc_step, stop=stop)
         if res.info.get("stopped"):
             raise _Uncached(res)  # a later call without a stop must finish the search
         if res.polyline is not None:
@@ -451,7 +456,7 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
         return res
 
     try:
-        return problem.memo(("tangent_path", robot.id, bool(known_only), float(arc_step)),
-                            build)
+        return problem.memo(("tangent_path", robot.id, bool(known_only), float(arc_step),
+                             bool(build)), plan)
     except _Uncached as e:
         return e.result

@@ -6,7 +6,8 @@ room maps, 32 x 32) read through ``optplan.maps.read_scen``; every length from t
 must equal the one-off :func:`shortest_path` on the same obstacle set and the ``visgraph``
 preset's certified optimum, for a point and for a disc robot, with the same counts in ``info``
 (fewer segment checks); the graph must store successors and reuse segment tests across
-queries, and a graph that may store nothing (``max_bytes=0``) must give the same answers.
+queries, and a graph that may store nothing (``max_bytes=0``) must give the same answers;
+``visgraph`` with ``graph = "built"`` builds the shared graph once and gives the same optima.
 """
 
 from __future__ import annotations
@@ -63,6 +64,29 @@ def test_solve_shares_the_graph_and_gives_the_optimum(scen):
         assert res.status == "optimal"
         assert res.metrics["optimum"] == shortest_path(oset, r.start, r.goal).length
     assert graph.stats["queries"] == len(probs)
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.2])
+def test_solve_with_the_built_graph(scen, radius):
+    """``visgraph`` with ``graph = "built"``: the map's graph is built by the first solve
+    and reused by the others (the problems of a ``.scen`` share it); the optima are the
+    lazy search's."""
+    probs = read_scen(scen, radius=radius)
+    oset = probs[0].obstacle_set(radius)
+    graph = tangent_graph(oset)
+    assert graph.chains is None
+    chains = None
+    for p in probs:
+        res = op.solve(p, "visgraph", graph="built")
+        r = p.robots[0]
+        assert res.status == "optimal"
+        assert res.metrics["optimum"] == pytest.approx(
+            shortest_path(oset, r.start, r.goal).length, rel=1e-12)
+        chains = graph.chains if chains is None else chains
+        assert graph.chains is chains  # built once
+    assert op.get_solver("visgraph", graph="built").options()["graph"] == "built"
+    with pytest.raises(ValueError, match="graph"):
+        op.get_solver("visgraph", graph="eager")
 
 
 def test_memory_bound_keeps_the_answers(scen):
