@@ -32,7 +32,7 @@ from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
 from optplan.geometry.jit import F1, F2, I1, compiled, f8, heap_pop, heap_push, i8
 from optplan.geometry.tangent_chains import (
     ChainGraph,
-    _arcs_free,
+    arcs_free,
     chain_key,
     entry_of,
     first_above,
@@ -243,7 +243,7 @@ class ChainSearch:
                      np.zeros(len(x))))
         circ, th, sw, sense, s2, d2, base = (np.concatenate([a[i] for a in arcs])
                                              for i in range(7))
-        ok, n_arc = _arcs_free(self.graph.arcs, C, circ, th, sw, sense)
+        ok, n_arc = arcs_free(self.graph.arcs, C, circ, th, sw, sense)
         self.info["n_checked"] += n_arc
         src.append(s2[ok])
         dst.append(d2[ok])

@@ -39,7 +39,7 @@ import numpy as np
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
 from optplan.geometry.tangent_edges import cone_off
 
-__all__ = ["ChainGraph", "chain_key", "chains_of", "entry_of", "first_above",
+__all__ = ["ChainGraph", "arcs_free", "chain_key", "chains_of", "entry_of", "first_above",
            "stored_tangents"]
 
 
@@ -152,7 +152,7 @@ def stored_tangents(C: Circles, edges: dict) -> dict[str, np.ndarray]:
     return out
 
 
-def _arcs_free(arcs: Any, C: Circles, src: np.ndarray, th: np.ndarray, sweep: np.ndarray,
+def arcs_free(arcs: Any, C: Circles, src: np.ndarray, th: np.ndarray, sweep: np.ndarray,
                sense: np.ndarray) -> tuple[np.ndarray, int]:
     """Exact tests of the arcs on circles ``src`` from ``th`` over ``sweep`` in ``sense``
     (only those with ``rho > 0`` and ``sweep > 0`` are tested); (free, tests run)."""
@@ -194,7 +194,7 @@ def chains_of(C: Circles, t: dict[str, np.ndarray], arcs: Any) -> ChainGraph:
     nxt[hi[ring] - 1] = lo[ring]
     sweep[hi[ring] - 1] = key[lo[ring]] + TWO_PI - key[hi[ring] - 1]
     has = np.flatnonzero(nxt >= 0)
-    free, n_arc = _arcs_free(arcs, C, t["i"][has], t["th_d"][has], sweep[has], t["si"][has])
+    free, n_arc = arcs_free(arcs, C, t["i"][has], t["th_d"][has], sweep[has], t["si"][has])
     nxt[has[~free]] = -1
     # arrivals: the entry (first departure at or after), the arc to it
     a_key = chain_key(C, t["j"], t["sj"], cone_off(C, t["j"], t["th_a"]))
@@ -202,7 +202,7 @@ def chains_of(C: Circles, t: dict[str, np.ndarray], arcs: Any) -> ChainGraph:
     a_pos = first_above(uptr, key, au, a_key - ANGLE_TOL)
     entry, a_sweep = entry_of(C, uptr, key, t["j"], au, a_key, a_pos)
     has = np.flatnonzero(entry >= 0)
-    free, n_entry = _arcs_free(arcs, C, t["j"][has], t["th_a"][has], a_sweep[has],
+    free, n_entry = arcs_free(arcs, C, t["j"][has], t["th_a"][has], a_sweep[has],
                                t["sj"][has])
     entry[has[~free]] = -1
     a_group = au * (E + 1) + a_pos
