@@ -16,7 +16,6 @@ import math
 import numpy as np
 import pytest
 import shapely
-from shapely.geometry.polygon import orient
 
 from optplan.geometry import Frame, obstacle_set
 from optplan.geometry import chain_search as cs
@@ -24,31 +23,15 @@ from optplan.geometry.tangent_graph import TangentGraph
 from optplan.maps import read_scen
 from optplan.maps.movingai_gen import generate_benchmark
 from optplan.problem import Obstacle
+from tests.geometry.test_sightlines import _cells, _mixed, _poly
 
 BOUNDS = (0.0, 0.0, 100.0, 100.0)
 
 
-def _poly(g) -> Obstacle:
-    return Obstacle("polygon", orient(g, 1.0), name="p")
-
-
 def _map(kind: str, rng: np.random.Generator) -> list[Obstacle]:
-    """Cells of a random grid; with ``mixed`` also rotated rectangles and circles."""
-    n = 10 if kind == "cells" else 6
-    occ = rng.random((n, n)) < rng.uniform(0.2, 0.4)
-    h = 90.0 / n
-    obs = [_poly(shapely.box(5 + h * i, 5 + h * j, 5 + h * (i + 1), 5 + h * (j + 1)))
-           for i, j in zip(*np.nonzero(occ))]
-    if kind == "mixed":
-        for _ in range(3):
-            c = rng.uniform(15, 85, 2)
-            box = shapely.affinity.rotate(shapely.box(*(c - [6, 1.5]), *(c + [6, 1.5])),
-                                          float(rng.uniform(0, 180)))
-            obs.append(_poly(box))
-        for _ in range(4):
-            obs.append(Obstacle("circle", None, name="c", center=rng.uniform(15, 85, 2),
-                                radius=float(rng.uniform(1, 5))))
-    return obs
+    """Cells of a random grid (shared edges, pinch points, staircases); with ``mixed``
+    fewer cells, rotated rectangles and circle obstacles (the sight-line tests' maps)."""
+    return _cells(rng) if kind == "cells" else _mixed(rng)
 
 
 def _queries(oset, rng: np.random.Generator, n: int) -> np.ndarray:
