@@ -252,7 +252,7 @@ class ChainSearch:
         order = np.argsort(vs, kind="stable")
         self.vsrc, self.vdst, self.vcost = vs[order], vd[order], vc[order]
         self.vsweep = {(int(a), int(b)): float(w) for a, b, w in zip(s2[ok], d2[ok], sw[ok])}
-        self.S, self.G, self.K, self.M = S, G, K, M
+        self.S, self.G, self.K = S, G, K
         self.vpoint = np.concatenate([[zs, zg], A["p"], D["p"]])
 
     def _before(self, d_id, D, uD, pD):
