@@ -5,10 +5,12 @@ For each map kind and size (``--kinds``, ``--sizes``) a MovingAI map and its ``.
 ``optplan.maps.movingai_gen.generate_benchmark`` in a temporary directory, then:
 
 * **import**: ``optplan.maps.read_scen`` (the ``.map`` read, its obstacle cells turned into
-  conservative polygons, one validated problem per line sharing one obstacle set);
-* **build**: the exact obstacle set of a point robot (radius 0) and its
-  :class:`~optplan.geometry.tangent_graph.TangentGraph` (the circles; the successors of a
-  circle are made when a query first expands it and kept for the later queries);
+  conservative polygons, one validated problem per line sharing one obstacle set: the exact
+  collision engine of a point robot, made once by the import to check the lines' ends and
+  cached on the problems, as every solver and the validator use it);
+* **build**: the :class:`~optplan.geometry.tangent_graph.TangentGraph` of that obstacle set
+  (the circles; with ``--build`` the whole graph, else the successors of a circle are made
+  when a query first expands it and kept for the later queries);
 * **queries**: every ``.scen`` line answered on that one graph, each with a budget of
   ``--budget`` CPU seconds (a query stopped by it counts as unfinished; its time is the
   budget, so the median and the worst are lower bounds when some are unfinished); query times
@@ -53,7 +55,6 @@ import shapely
 from shapely.geometry import box
 from shapely.geometry.polygon import orient
 
-from optplan.geometry import obstacle_set
 from optplan.geometry.tangent_graph import MAX_GRAPH_BYTES, TangentGraph
 from optplan.maps import read_scen
 from optplan.maps.movingai_gen import generate_benchmark
@@ -92,7 +93,7 @@ def run_optplan(scen: Path, budget: float, sightlines: bool | None = None,
         probs = read_scen(scen)
     p0 = probs[0]
     with _Clock() as tb:
-        oset = obstacle_set(p0.obstacles, 0.0, p0.frame)
+        oset = p0.obstacle_set(p0.robots[0].radius)  # made by the import (cached)
         graph = TangentGraph(oset, sightlines=sightlines,
                              max_bytes=2**30 if full else MAX_GRAPH_BYTES)
         if full:
@@ -242,6 +243,9 @@ def main(argv: list[str] | None = None) -> None:
                         f"{statistics.median(ex):.0f}, worst {max(ex)} (unfinished queries: "
                         f"up to the budget); stored edges {st['edges']}, exact segment tests "
                         f"{st['segment_tests']}")
+            if "build_wall_s" in st:
+                work.append(f"{kind}-{size}: build wall s: " + ", ".join(
+                    f"{k} {v:.2f}" for k, v in st["build_wall_s"].items()))
     for line in work:
         print(line)
     for line in notes:

@@ -28,7 +28,7 @@ inlining it would compile its body once per call site.  Loops that run once per 
 refinement round are vectorised numpy instead (docs/benchmarks.md "First run").
 
 Shared compiled utilities: :func:`argsort_stable` and the binary min-heap :func:`heap_push` /
-:func:`heap_pop` (the swarm roadmap's searches, the sight-line flood).
+:func:`heap_pop` (the swarm roadmap's searches, the compiled A* of the built tangent graph).
 
 Type names: ``f8`` float64, ``i8`` int64, ``b1`` boolean; ``F1``, ``F2``, ``F3`` C-contiguous
 float64 arrays of 1, 2, 3 dimensions, ``I1``, ``I2`` int64 ones, ``B1``, ``B2`` boolean ones;
@@ -208,7 +208,7 @@ def argsort_stable(keys):  # pragma: no cover - compiled
 @compiled(F1, I1, i8, f8, i8)  # one signature: no literal-argument specialisations
 def heap_push(hk, hv, size, key, val):
     """Push ``(key, val)`` onto the binary min-heap ``hk, hv`` of ``size`` items (compiled
-    code: the roadmap's searches, the sight-line flood); returns the new size."""
+    code: the roadmap's searches, the built tangent graph's A*); returns the new size."""
     i = size
     hk[i] = key
     hv[i] = val

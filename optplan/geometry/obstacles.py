@@ -579,15 +579,12 @@ def _edge_table(pieces: list, bflags: list, eps: float) -> tuple:
 
 
 def solid_edges(oset: ObstacleSet) -> np.ndarray:
-    """The boundary edges of the solids of ``oset`` (local frame), ``(m, 4)``: ``x1, y1, x2,
-    y2``, each once (internal diagonals of the convex decomposition and the repeated edge of
-    a padded triangle left out)."""
-    p, e = oset.table[0], oset.table[1]
-    keep = oset.boundary & (np.abs(e) > 0)
-    a, b = p[keep], (p + e)[keep]
-    seg = np.stack([a.real, a.imag, b.real, b.imag], axis=1)
-    # an edge listed twice (the padded triangles) or in both directions once
-    key = np.where((seg[:, :1] < seg[:, 2:3]) | ((seg[:, :1] == seg[:, 2:3])
-                                                 & (seg[:, 1:2] <= seg[:, 3:4])),
-                   seg, seg[:, [2, 3, 0, 1]])
-    return np.ascontiguousarray(np.unique(key, axis=0))
+    """The boundary edges of the polygon solids of ``oset`` (local frame), ``(m, 4)``: ``x1,
+    y1, x2, y2``, every edge of every ring (exterior and holes) of the solids' polygons once,
+    so the rings close (the constrained edges of :mod:`~optplan.geometry.sightlines`)."""
+    rings = [np.asarray(r.coords) for _, g in oset.shapes if not isinstance(g, tuple)
+             for p in getattr(g, "geoms", [g]) for r in (p.exterior, *p.interiors)]
+    if not rings:
+        return np.zeros((0, 4))
+    seg = np.concatenate([np.concatenate([r[:-1], r[1:]], axis=1) for r in rings])
+    return np.ascontiguousarray(seg[(seg[:, 0] != seg[:, 2]) | (seg[:, 1] != seg[:, 3])])

@@ -8,369 +8,100 @@ centres visible from it, in time that grows with the visible region rather than 
 
 Mathematics
 -----------
-A segment from the source ``s`` to a centre ``w`` that crosses a boundary edge ``e`` of a solid
-at an interior point of ``e`` enters the solid there and is blocked.  Seen from ``s``, ``e``
-covers an angular interval (its *shadow*), and every ray in it meets ``e`` at a distance of at
-most ``dmax(e) = max(|p_1 - s|, |p_2 - s|)``; so a centre ``w`` with ``|w - s| > dmax(e)``
-whose direction lies in the shadow is not visible.  The shadow is shrunk by
-``asin(kappa eps / |p - s|)`` (``kappa = 4``) at an end that is a convex corner of its solid,
-and by a slack of ``1e-9`` rad at any other end: a segment passing within a few ``eps`` of a
-convex corner (grazing it, running along a wall, crossing the pinch between two solids) is
-never excluded, since the exact predicate may accept it, while a segment through a reflex or
-straight vertex enters the solid.
+*Triangulation.*  The solids' boundary edges, the centres and the corners of a box around
+them are triangulated with those edges as constraints (a constrained Delaunay triangulation,
+Shewchuk's Triangle through the ``triangle`` package: no vertex added when no two edges
+cross).  A triangle is free space or inside a solid: crossing a constrained edge changes
+which, and the triangles at the box are free, so one breadth-first pass over the triangles'
+components labels them all.
 
-*Flood.*  The plane is cut into square buckets listing the centres and edges that meet them.
-Buckets are visited best-first by their distance ``dmin`` from ``s`` (a heap), starting from
-the source's bucket and spreading to the eight neighbours whose angular extent still meets the
-*open set* (the window minus the shadows applied so far).  When a bucket is visited, every
-shadow of an edge with ``dmax < dmin`` is applied first (all points of the bucket lie beyond
-such an edge), then each centre in the bucket whose direction is in the open set is a
-candidate, and the bucket's edges add their shadows to the pending list.  A visible centre is
-always found: the buckets along its sight line form a chain of neighbours whose directions
-stay open.  The open set is a sorted list of disjoint intervals of angles measured from the
-window's start; when it would outgrow its capacity a shadow is skipped (more candidates, never
-fewer).
+*Triangular expansion* (Bungiu, Hemmer, Hershberger, Huang and Kröller, "Efficient
+computation of visibility polygons", 2014).  From a source ``s`` the visible region is
+followed triangle by triangle: a *view* is a triangle entered through an edge with the
+interval ``[L, R]`` of the directions of the rays from ``s`` that cross it.  With ``c`` the
+triangle's third vertex at direction ``theta_c``, ``c`` is seen when ``theta_c`` is in
+``[L, R]``, and the rays go on through the two other edges, ``[L, min(R, theta_c)]`` and
+``[max(L, theta_c), R]``; a constrained edge stops them.  The first views are the triangles
+at the source (the free triangles at its vertex when it is one, else the triangle holding
+it, found by a walk), intersected with the window.  The work per source grows with the
+triangles its visible region crosses, not with the map.
+
+*Tolerances.*  A segment that passes within a few ``eps`` of a convex corner (grazing it,
+running along a wall) may be free for the exact predicate although it crosses a boundary edge
+near its end: where an interval is cut at a convex corner whose other edge in the triangle is
+constrained, the cut is moved outwards by ``asin(kappa eps / |c - s|)`` (``kappa = 4``), and
+every cut by ``1e-9`` rad; the seen test has the same slack.  A ray through a *pinch* (a
+vertex where solids touch at a point: four or more constrained edges) goes on into the free
+triangles at that vertex whose corner holds its direction: a point robot may pass there.
 
 The candidates are a *superset*: each is still tested with the exact predicates of
 :class:`~optplan.geometry.obstacles.ObstacleSet` by its user.  Circle obstacles cast no shadow
 here (their tangents are never filtered: :mod:`~optplan.geometry.tangent_graph`).
 
-Why by hand: the flood is the one output-sensitive visibility query the exact graph needs, and
-neither shapely nor scipy offers visibility from a point (a visibility polygon per source from
-a constrained triangulation would cost seconds per map to set up).  Compiled with numba
-(:mod:`optplan.geometry.jit`); tested against the all-pairs exact segment tests in
-``tests/geometry/test_sightlines.py``.
+Why by hand: neither shapely nor scipy offers visibility from a point; the triangulation is
+Triangle's (its ``p`` switch: the constrained triangulation of the edges, ``c``: of their
+convex hull), the expansion is compiled with numba
+(:mod:`optplan.geometry.triangular_expansion`) and tested against the all-pairs exact segment
+tests in ``tests/geometry/test_sightlines.py``.
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
+import triangle
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import breadth_first_order, connected_components
 
-from optplan.geometry.grid import box_cells, cell_lists
-from optplan.geometry.jit import F1, F2, I1, compiled, f8, heap_pop, heap_push, i8, inlined
+from optplan.geometry.triangular_expansion import KAPPA, expand_views, locate
 
-__all__ = ["Sightlines", "visible_candidates", "KAPPA"]
-
-TWO_PI = 2.0 * math.pi
-#: Shrink of a shadow at an edge's end, in units of ``eps`` at the end's distance.
-KAPPA = 4.0
-#: Intervals the open set may hold (a shadow that would exceed it is skipped).
-OPEN_CAP = 512
-#: Angular slack (rad) of the bucket and candidate tests.
-SLACK = 1e-9
+__all__ = ["Sightlines", "KAPPA"]
 
 
-@inlined
-def _wrap(a):
-    """``a`` mod ``2 pi`` in ``[0, 2 pi)``."""
-    a -= TWO_PI * math.floor(a / TWO_PI)
-    if a >= TWO_PI or a < 0.0:
-        a = 0.0
-    return a
+def _csr(keys: np.ndarray, items: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR lists of ``items`` by ``keys`` in ``0 .. n - 1`` (stable)."""
+    order = np.argsort(keys, kind="stable")
+    start = np.zeros(n + 1, np.int64)
+    np.cumsum(np.bincount(keys, minlength=n), out=start[1:])
+    return start, np.ascontiguousarray(items[order], dtype=np.int64)
 
 
-@inlined
-def _first_hi(ohi, no, a):
-    """Index of the first open interval whose end is ``>= a`` (``no`` if none): the
-    intervals are sorted and disjoint, so their ends increase."""
-    lo = 0
-    hi = no
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if ohi[mid] < a:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo
-
-
-@inlined
-def _meets(olo, ohi, no, a, b):
-    """The relative interval ``[a, b]`` (``0 <= a < 2 pi``, ``b`` may pass ``2 pi``) meets
-    the open set."""
-    if no == 0:
-        return False
-    k = _first_hi(ohi, no, a)
-    if k < no and olo[k] <= b:
-        return True
-    return b > TWO_PI and olo[0] <= b - TWO_PI
-
-
-@inlined
-def _cut(olo, ohi, no, a, b):
-    """Remove ``[a, b]`` (``b <= 2 pi``) from the open set (in place); the new count, or
-    ``-1`` (unchanged) when the result would exceed the capacity."""
-    k0 = _first_hi(ohi, no, a)
-    k1 = k0
-    while k1 < no and olo[k1] < b:
-        k1 += 1
-    if k0 >= k1:
-        return no
-    left = olo[k0] < a
-    right = ohi[k1 - 1] > b
-    keep = int(left) + int(right)
-    m = no - (k1 - k0) + keep
-    if m > olo.shape[0]:
-        return -1
-    rlo = b
-    rhi = ohi[k1 - 1]
-    shift = keep - (k1 - k0)
-    if shift < 0:
-        for t in range(k1, no):
-            olo[t + shift] = olo[t]
-            ohi[t + shift] = ohi[t]
-    elif shift > 0:
-        for t in range(no - 1, k1 - 1, -1):
-            olo[t + shift] = olo[t]
-            ohi[t + shift] = ohi[t]
-    w = k0
-    if left:
-        ohi[w] = a  # olo[w] is the old start
-        w += 1
-    if right:
-        olo[w] = rlo
-        ohi[w] = rhi
-    return m
-
-
-@inlined
-def _bucket_dist(sx, sy, x0, y0, h, bx, by):
-    """Distance from ``(sx, sy)`` to bucket ``(bx, by)``."""
-    dx = max(x0 + bx * h - sx, 0.0, sx - (x0 + (bx + 1) * h))
-    dy = max(y0 + by * h - sy, 0.0, sy - (y0 + (by + 1) * h))
-    return math.hypot(dx, dy)
-
-
-@inlined
-def _bucket_open(sx, sy, lo, x0, y0, h, bx, by, dmin, olo, ohi, no):
-    """The angular extent of bucket ``(bx, by)`` seen from the source meets the open set."""
-    if dmin <= 0.0:
-        return True
-    cx = x0 + (bx + 0.5) * h - sx
-    cy = y0 + (by + 0.5) * h - sy
-    ac = math.atan2(cy, cx)
-    mn = math.pi
-    mx = -math.pi
-    for q in range(4):
-        px = x0 + (bx + (q & 1)) * h - sx
-        py = y0 + (by + (q >> 1)) * h - sy
-        d = math.atan2(cx * py - cy * px, cx * px + cy * py)
-        mn = min(mn, d)
-        mx = max(mx, d)
-    a = _wrap(ac + mn - lo - SLACK)
-    return _meets(olo, ohi, no, a, a + (mx - mn) + 2.0 * SLACK)
-
-
-@inlined
-def _apply_shadows(pd, pa, pb, np_, dmin, olo, ohi, no):
-    """Cut the pending shadows of the edges nearer than ``dmin`` out of the open set;
-    returns ``(pending count, open count)``."""
-    t = 0
-    while t < np_:
-        if pd[t] >= dmin:
-            t += 1
-            continue
-        a0 = pa[t]
-        a1 = pb[t]
-        np_ -= 1
-        pd[t] = pd[np_]
-        pa[t] = pa[np_]
-        pb[t] = pb[np_]
-        if a1 > TWO_PI:  # wraps: two pieces
-            r = _cut(olo, ohi, no, a0, TWO_PI)
-            if r >= 0:
-                no = r
-            a0 = 0.0
-            a1 = a1 - TWO_PI
-        r = _cut(olo, ohi, no, a0, a1)
-        if r >= 0:
-            no = r
-    return np_, no
-
-
-@inlined
-def _in_open(olo, ohi, no, a, tol):
-    """Direction ``a`` (relative, in ``[0, 2 pi)``) within ``tol`` of the open set."""
-    a0 = a - tol
-    if a0 < 0.0:  # [a0, a0 + 2 tol] taken round: _meets handles an end past 2 pi
-        a0 += TWO_PI
-    return _meets(olo, ohi, no, a0, a0 + 2.0 * tol)
-
-
-@inlined
-def _shadow(EP, e, sx, sy, tiny):
-    """Shadow of edge ``e`` seen from ``(sx, sy)``: ``(dmax, start angle, width)``, width
-    ``<= 0`` when it casts none (an edge at the source, or seen edge-on)."""
-    ux = EP[e, 0] - sx
-    uy = EP[e, 1] - sy
-    vx = EP[e, 2] - sx
-    vy = EP[e, 3] - sy
-    d1 = math.hypot(ux, uy)
-    d2 = math.hypot(vx, vy)
-    if d1 <= tiny or d2 <= tiny:
-        return 0.0, 0.0, -1.0
-    sw = math.atan2(ux * vy - uy * vx, ux * vx + uy * vy)
-    if sw < 0.0:  # from the second end, counter-clockwise
-        ux, uy, d1, d2, sw = vx, vy, d2, d1, -sw
-        f1, f2 = EP[e, 5], EP[e, 4]
-    else:
-        f1, f2 = EP[e, 4], EP[e, 5]
-    s1 = f1 * math.asin(min(1.0, tiny / d1)) + SLACK
-    s2 = f2 * math.asin(min(1.0, tiny / d2)) + SLACK
-    return max(d1, d2), math.atan2(uy, ux) + s1, sw - s1 - s2
-
-
-@inlined
-def _append(out, n, j):
-    """``out`` with ``j`` at index ``n`` (grown twofold when full; element copies, no slice
-    assignment, whose shape check would compile numba's string routines)."""
-    if n >= out.shape[0]:
-        grown = np.empty(2 * out.shape[0], np.int64)
-        for t in range(n):
-            grown[t] = out[t]
-        out = grown
-    out[n] = j
-    return out
-
-
-@inlined
-def _visible_in(b, q, sx, sy, lo, tiny, CX, cstart, citems, cstamp, olo, ohi, no, out, n_out):
-    """Append the centres of bucket ``b`` whose direction is open (once per source ``q``);
-    returns ``(out, new count)``."""
-    for c in range(cstart[b], cstart[b + 1]):
-        j = citems[c]
-        if cstamp[j] == q:
-            continue
-        dist = math.hypot(CX[j, 0] - sx, CX[j, 1] - sy)
-        if dist > tiny and not _in_open(
-                olo, ohi, no, _wrap(math.atan2(CX[j, 1] - sy, CX[j, 0] - sx) - lo),
-                SLACK + math.asin(min(1.0, tiny / dist))):
-            continue
-        cstamp[j] = q
-        out = _append(out, n_out, j)
-        n_out += 1
-    return out, n_out
-
-
-@inlined
-def _add_shadows(b, q, sx, sy, lo, tiny, EP, estart, eitems, estamp, pd, pa, pb, np_):
-    """Add the shadows of the edges of bucket ``b`` (once per source ``q``) to the pending
-    list; returns its new length."""
-    for c in range(estart[b], estart[b + 1]):
-        e = eitems[c]
-        if estamp[e] == q:
-            continue
-        estamp[e] = q
-        dmax, a0, width = _shadow(EP, e, sx, sy, tiny)
-        if width > 0.0:
-            pd[np_] = dmax
-            pa[np_] = _wrap(a0 - lo)
-            pb[np_] = pa[np_] + width
-            np_ += 1
-    return np_
-
-
-@inlined
-def _push_open(b, q, sx, sy, lo, x0, y0, h, nx, ny, bstamp, hk, hv, nh, olo, ohi, no):
-    """Push the neighbours of bucket ``b`` whose directions are still open (once per source
-    ``q``); returns the heap's new size."""
-    for nb in range(9):
-        qx = b % nx + nb % 3 - 1
-        qy = b // nx + nb // 3 - 1
-        if qx < 0 or qy < 0 or qx >= nx or qy >= ny or bstamp[qy * nx + qx] == q:
-            continue
-        dn = _bucket_dist(sx, sy, x0, y0, h, qx, qy)
-        if _bucket_open(sx, sy, lo, x0, y0, h, qx, qy, dn, olo, ohi, no):
-            bstamp[qy * nx + qx] = q
-            nh = heap_push(hk, hv, nh, dn, qy * nx + qx)
-    return nh
-
-
-@compiled(F2, F1, F1, F2, F2, f8, f8, f8, i8, i8, I1, I1, I1, I1, f8)
-def visible_candidates(S, LO, WID, CX, EP, x0, y0, h, nx, ny, cstart, citems, estart, eitems,
-                       eps):  # pragma: no cover - compiled
-    """Candidate visible centres per source (module docstring).
-
-    Parameters
-    ----------
-    S : (k, 2) sources; LO, WID : (k,) window start and width (rad, ``WID >= 2 pi``: all
-        directions); CX : (n, 2) centres; EP : (m, 6) edges ``x1, y1, x2, y2`` and whether
-        each end is a convex corner (1.0) or not (0.0);
-    x0, y0, h, nx, ny : the bucket grid; cstart, citems, estart, eitems : CSR lists of the
-        centres and edges per bucket (``bucket = by * nx + bx``); eps : tolerance.
-
-    Returns
-    -------
-    counts : (k,) int64
-        Candidates per source.
-    flat : int64 array
-        The candidates of source 0, then of source 1, ...
-    """
-    n_b = nx * ny
-    m = EP.shape[0]
-    bstamp = np.full(n_b, -1, np.int64)
-    cstamp = np.full(CX.shape[0], -1, np.int64)
-    estamp = np.full(m, -1, np.int64)
-    hk = np.empty(n_b)
-    hv = np.empty(n_b, np.int64)
-    pd = np.empty(m)
-    pa = np.empty(m)
-    pb = np.empty(m)
-    olo = np.empty(OPEN_CAP)
-    ohi = np.empty(OPEN_CAP)
-    counts = np.zeros(S.shape[0], np.int64)
-    out = np.empty(max(16, 16 * S.shape[0]), np.int64)
-    n_out = 0
-    tiny = KAPPA * eps
-    for q in range(S.shape[0]):
-        sx = S[q, 0]
-        sy = S[q, 1]
-        lo = LO[q]
-        no = 1
-        olo[0] = 0.0
-        ohi[0] = min(WID[q], TWO_PI)
-        np_ = 0
-        b = (min(max(int(math.floor((sy - y0) / h)), 0), ny - 1) * nx
-             + min(max(int(math.floor((sx - x0) / h)), 0), nx - 1))
-        hk[0] = 0.0  # the heap holds the source's bucket
-        hv[0] = b
-        nh = 1
-        bstamp[b] = q
-        while nh > 0 and no > 0:
-            dmin, b, nh = heap_pop(hk, hv, nh)
-            np_, no = _apply_shadows(pd, pa, pb, np_, dmin, olo, ohi, no)
-            if no == 0:
-                break
-            out, n_new = _visible_in(b, q, sx, sy, lo, tiny, CX, cstart, citems, cstamp, olo,
-                                     ohi, no, out, n_out)
-            counts[q] += n_new - n_out
-            n_out = n_new
-            np_ = _add_shadows(b, q, sx, sy, lo, tiny, EP, estart, eitems, estamp, pd, pa, pb,
-                               np_)
-            nh = _push_open(b, q, sx, sy, lo, x0, y0, h, nx, ny, bstamp, hk, hv, nh, olo, ohi,
-                            no)
-    flat = np.empty(n_out, np.int64)
-    for t in range(n_out):
-        flat[t] = out[t]
-    return counts, flat
+def _free_triangles(T: np.ndarray, NB: np.ndarray, CON: np.ndarray, seed: int) -> np.ndarray:
+    """Free space or solid per triangle: components joined by unconstrained edges, labelled
+    by the parity of their breadth-first depth from the component of triangle ``seed``
+    (crossing a constrained edge changes free to solid and back)."""
+    nt = len(T)
+    t = np.repeat(np.arange(nt), 3)
+    nb, con = NB.ravel(), CON.ravel()
+    ok = nb >= 0
+    same = coo_matrix((np.ones(int((ok & ~con).sum())), (t[ok & ~con], nb[ok & ~con])),
+                      shape=(nt, nt))
+    ncomp, comp = connected_components(same, directed=False)
+    cross = ok & con
+    pairs = coo_matrix((np.ones(int(cross.sum())), (comp[t[cross]], comp[nb[cross]])),
+                       shape=(ncomp, ncomp))
+    order, pred = breadth_first_order(pairs, comp[seed], directed=False)
+    depth = np.zeros(ncomp, np.int64)
+    for c in order[1:]:
+        depth[c] = depth[pred[c]] + 1
+    return depth[comp] % 2 == 0
 
 
 class Sightlines:
-    """The bucket grid of one obstacle set's boundary edges and a set of centres, and the
-    candidate query of :func:`visible_candidates` over it.
+    """The constrained triangulation of one obstacle set's boundary edges and a set of
+    centres, and the candidate query of :func:`~optplan.geometry.triangular_expansion.expand_views`
+    over it.
 
     Parameters
     ----------
     edges : (m, 4) array
-        Boundary edges ``x1, y1, x2, y2`` of the solids (local frame).
+        Boundary edges ``x1, y1, x2, y2`` of the solids (local frame); two edges meet at
+        most at their ends (the solids are disjoint but for pinch points).
     centres : (n, 2) array
         The points to find (local frame).
     corners : (c, 2) array
-        The convex vertices of the solids (local frame): a shadow is shrunk at an edge's end
-        only there (a segment can pass a convex corner, but not a reflex or straight vertex
-        of a solid without entering it).
+        The convex vertices of the solids (local frame): a cut is widened at a vertex only
+        there (a segment can pass a convex corner, but not a reflex or straight vertex of a
+        solid without entering it).
     eps : float
         The obstacle set's tolerance.
     extent : tuple
@@ -380,51 +111,72 @@ class Sightlines:
     def __init__(self, edges: np.ndarray, centres: np.ndarray, corners: np.ndarray,
                  eps: float, extent: tuple[float, float, float, float]):
         e4 = np.asarray(edges, float).reshape(-1, 4)
-        cz = np.asarray(corners, float).reshape(-1, 2) @ np.array([1.0, 1j])
-        flags = [np.isin(e4[:, k] + 1j * e4[:, k + 1], cz).astype(float) for k in (0, 2)]
-        self.edges = np.ascontiguousarray(np.column_stack([e4, *flags]))
         self.centres = np.ascontiguousarray(np.asarray(centres, float).reshape(-1, 2))
         self.eps = float(eps)
+        n_c, m = len(self.centres), len(e4)
         pts = np.concatenate([self.centres, e4[:, :2], e4[:, 2:],
                               np.asarray(extent, float).reshape(2, 2)])
         lo, hi = pts.min(axis=0), pts.max(axis=0)
-        span = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-12))
-        # about one centre or edge per bucket (fewer candidates than coarser buckets, as fast on
-        # the 1024 x 1024 street map of benchmarks/bench_maps_scale.py), 32 to 2048 a side
-        per = max(1.0, float(len(self.centres) + len(self.edges)))
-        h = math.sqrt(max((hi[0] - lo[0]) * (hi[1] - lo[1]), span * span * 1e-6) / per)
-        h = min(max(h, span / 2048.0), span / 32.0)
-        self.x0, self.y0, self.h = float(lo[0]) - 1e-9 * span, float(lo[1]) - 1e-9 * span, h
-        self.nx = int((hi[0] - self.x0) // h) + 1
-        self.ny = int((hi[1] - self.y0) // h) + 1
-        nb = self.nx * self.ny
-        bx, by = self._index(self.centres[:, 0], self.centres[:, 1])
-        self.cstart, _, self.citems = cell_lists(by * self.nx + bx,
-                                                 np.arange(len(self.centres)), nb)
-        # an edge in every bucket of its bounding box
-        e = self.edges
-        bx0, by0 = self._index(np.minimum(e[:, 0], e[:, 2]), np.minimum(e[:, 1], e[:, 3]))
-        bx1, by1 = self._index(np.maximum(e[:, 0], e[:, 2]), np.maximum(e[:, 1], e[:, 3]))
-        ex, ey, eid = box_cells(bx0, bx1, by0, by1)
-        self.estart, _, self.eitems = cell_lists(ey * self.nx + ex, eid, nb)
+        pad = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-12))
+        box = np.array([[lo[0] - pad, lo[1] - pad], [hi[0] + pad, lo[1] - pad],
+                        [hi[0] + pad, hi[1] + pad], [lo[0] - pad, hi[1] + pad]])
+        z = np.concatenate([pts[:n_c + 2 * m], box]) @ np.array([1.0, 1j])
+        self._keys, inv = np.unique(z, return_inverse=True)
+        bv = inv[-4:]
+        segs = np.concatenate([np.stack([inv[n_c:n_c + m], inv[n_c + m:n_c + 2 * m]], 1),
+                               np.stack([bv, np.roll(bv, -1)], 1)])
+        out = triangle.triangulate({"vertices": np.stack([self._keys.real, self._keys.imag], 1),
+                                    "segments": segs}, "pcnQ")
+        self.VX = np.ascontiguousarray(out["vertices"], float)
+        self.T = np.ascontiguousarray(out["triangles"], np.int64)
+        self.NB = np.ascontiguousarray(out["neighbors"], np.int64)
+        nv, nt = len(self.VX), len(self.T)
+        # the edge opposite corner k is (T[k+1], T[k+2]); its index in the neighbour
+        back = np.where(self.NB[:, :, None] >= 0, self.NB[np.maximum(self.NB, 0)], -2)
+        self.NK = np.ascontiguousarray(
+            np.argmax(back == np.arange(nt)[:, None, None], axis=2), np.int64)
+        a, b = self.T[:, [1, 2, 0]], self.T[:, [2, 0, 1]]
+        s = np.asarray(out["segments"], np.int64)
+        con_keys = np.minimum(s[:, 0], s[:, 1]) * nv + np.maximum(s[:, 0], s[:, 1])
+        self.CON = np.ascontiguousarray(np.isin(np.minimum(a, b) * nv + np.maximum(a, b),
+                                                con_keys))
+        seed = int(np.flatnonzero((self.T == bv[0]).any(axis=1))[0])
+        self.FREE = np.ascontiguousarray(_free_triangles(self.T, self.NB, self.CON, seed))
+        self.CONV = np.zeros(nv, bool)
+        self.CONV[self._vertex_ids(np.asarray(corners, float).reshape(-1, 2))[0]] = True
+        inner = s[~np.isin(s, bv).any(axis=1)]  # not the box's edges
+        self.PINCH = np.bincount(inner.ravel(), minlength=nv) >= 4
+        self.vstart, self.vtri = _csr(self.T.ravel(), np.arange(3 * nt), nv)
+        self.cstart, self.citems = _csr(inv[:n_c], np.arange(n_c), nv)
 
-    def _index(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        bx = np.clip(np.floor((x - self.x0) / self.h), 0, self.nx - 1).astype(np.int64)
-        by = np.clip(np.floor((y - self.y0) / self.h), 0, self.ny - 1).astype(np.int64)
-        return bx, by
+    def _vertex_ids(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The vertices at the points ``xy`` (exactly), and which points are vertices."""
+        z = xy @ np.array([1.0, 1j])
+        k = np.minimum(np.searchsorted(self._keys, z), max(len(self._keys) - 1, 0))
+        hit = self._keys[k] == z
+        return k[hit], hit
 
     def candidates(self, sources, lo, width) -> list[np.ndarray]:
         """Per source (local ``(k, 2)``), the indices of the centres it may see in the window
         ``lo .. lo + width`` (rad, counter-clockwise; ``width >= 2 pi``: all directions)."""
+        counts, flat = self.candidates_flat(sources, lo, width)
+        return np.split(flat, np.cumsum(counts)[:-1]) if len(counts) else []
+
+    def candidates_flat(self, sources, lo, width) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`candidates` as ``(counts, flat)``: how many per source, and those of
+        source 0, then of source 1, ..."""
         S = np.ascontiguousarray(np.asarray(sources, float).reshape(-1, 2))
         k = len(S)
         LO = np.broadcast_to(np.asarray(lo, float), (k,)).copy()
         W = np.broadcast_to(np.asarray(width, float), (k,)).copy()
-        if k == 0:
-            return []
-        if len(self.centres) == 0:
-            return [np.zeros(0, np.int64) for _ in range(k)]
-        counts, flat = visible_candidates(S, LO, W, self.centres, self.edges, self.x0,
-                                          self.y0, self.h, self.nx, self.ny, self.cstart,
-                                          self.citems, self.estart, self.eitems, self.eps)
-        return np.split(flat, np.cumsum(counts)[:-1])
+        if k == 0 or len(self.centres) == 0:
+            return np.zeros(k, np.int64), np.zeros(0, np.int64)
+        SV = np.full(k, -1, np.int64)
+        ids, hit = self._vertex_ids(S)
+        SV[hit] = ids
+        ST = np.full(k, -1, np.int64)
+        for q in np.flatnonzero(~hit):
+            ST[q] = locate(self.VX, self.T, self.NB, S[q, 0], S[q, 1], 0, 4 * len(self.T) + 8)
+        return expand_views(S, SV, ST, LO, W, self.VX, self.T, self.NB, self.NK, self.CON,
+                            self.FREE, self.CONV, self.PINCH, self.vstart, self.vtri,
+                            self.cstart, self.citems, self.eps)

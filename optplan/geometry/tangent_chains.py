@@ -39,8 +39,7 @@ import numpy as np
 from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
 from optplan.geometry.tangent_edges import cone_off
 
-__all__ = ["ChainGraph", "arcs_free", "chain_key", "chains_of", "entry_of", "first_above",
-           "stored_tangents"]
+__all__ = ["ChainGraph", "arcs_free", "chain_key", "chains_of", "entry_of", "first_above"]
 
 
 def chain_key(C: Circles, c: np.ndarray, s: np.ndarray, off: np.ndarray) -> np.ndarray:
@@ -132,24 +131,6 @@ class ChainGraph:
         """Memory held by the arrays (bytes)."""
         return sum(getattr(self, k).nbytes for k in self.__dataclass_fields__
                    if isinstance(getattr(self, k), np.ndarray))
-
-
-def stored_tangents(C: Circles, edges: dict) -> dict[str, np.ndarray]:
-    """The tangents of :class:`~optplan.geometry.tangent_edges.Edges` (``(circle, sense) ->
-    Edges``), concatenated as :func:`~optplan.geometry.tangent_edges.tangent_edges` gives
-    them."""
-    items = [(i, si, e) for (i, si), e in edges.items()]
-    cnt = np.array([len(e.j) for _, _, e in items], np.int64)
-    out = {"i": np.repeat(np.array([i for i, _, _ in items], np.int64), cnt),
-           "si": np.repeat(np.array([si for _, si, _ in items], np.int64), cnt),
-           "pi": np.concatenate([np.zeros(0, complex)]
-                                + [e.pi if e.pi is not None else np.full(len(e.j), C.center[i])
-                                   for i, _, e in items])}
-    for k, dtype in (("j", np.int64), ("sj", np.int64), ("seg", float), ("pj", complex),
-                     ("th_d", float), ("th_a", float), ("od", float)):
-        out[k] = np.concatenate([np.zeros(0, dtype)]
-                                + [getattr(e, k) for _, _, e in items]).astype(dtype)
-    return out
 
 
 def arcs_free(arcs: Any, C: Circles, src: np.ndarray, th: np.ndarray, sweep: np.ndarray,

@@ -50,6 +50,7 @@ exists.  On a set built with ``walls=False`` ``info["certified"]`` is False.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -62,8 +63,8 @@ from optplan.geometry.chain_search import ChainSearch
 from optplan.geometry.circles import ArcChecker, Circles, circles_of
 from optplan.geometry.obstacles import ObstacleSet, solid_edges
 from optplan.geometry.sightlines import Sightlines
-from optplan.geometry.tangent_chains import ChainGraph, chains_of, stored_tangents
-from optplan.geometry.tangent_edges import Edges, edges_of_one, tangent_edges
+from optplan.geometry.tangent_chains import ChainGraph, chains_of
+from optplan.geometry.tangent_edges import Edges, cone_off, edges_of_one, tangent_edges
 from optplan.geometry.tangent_search import Stopped, TangentSearch
 
 __all__ = ["TangentPath", "TangentGraph", "tangent_graph", "shortest_path",
@@ -73,7 +74,7 @@ __all__ = ["TangentPath", "TangentGraph", "tangent_graph", "shortest_path",
 MAX_GRAPH_BYTES = 256 * 2**20
 #: Circles from which a :class:`TangentGraph` filters its tangents by sight lines by default
 #: (below it, every circle is a candidate: ``O(n)`` per expansion is cheap there, and the
-#: flood's kernel, about 2 s of CPU to compile once, is not needed).
+#: expansion kernel, about 7 s of CPU to compile once, is not needed).
 SIGHTLINES_MIN = 1000
 #: Candidate tangents :meth:`TangentGraph.build` computes in one batch (two batches at a
 #: time: bounds its temporary memory to a few hundred MB).
@@ -125,7 +126,7 @@ class TangentGraph:
         Successors are stored while they hold less memory than this (default
         :data:`MAX_GRAPH_BYTES`); beyond it they are made anew when a search needs them.
     sightlines : bool or None
-        Tangents only towards the circles the flood of :mod:`~optplan.geometry.sightlines`
+        Tangents only towards the circles the sight lines of :mod:`~optplan.geometry.sightlines`
         lists (True), or towards every circle (False: each expansion costs ``O(n)``, no
         kernel to compile).  ``None`` (default) uses them from :data:`SIGHTLINES_MIN`
         circles on.  Both give the same edges, paths and lengths
@@ -154,14 +155,14 @@ class TangentGraph:
         self._sight: Sightlines | None = None
         self.chains: ChainGraph | None = None
         self._work: dict = {}
-        self.stats = {"queries": 0, "nodes": 0, "edges": 0, "segment_tests": 0}
+        self.stats: dict[str, Any] = {"queries": 0, "nodes": 0, "edges": 0, "segment_tests": 0}
 
     @property
     def sightlines(self) -> Sightlines:
         """The candidate sight lines to the polygon-vertex circles (made on first use)."""
         if self._sight is None:
             C = self.circles
-            self._pts = np.flatnonzero(~C.full)  # vertex circles: the flood's centres
+            self._pts = np.flatnonzero(~C.full)  # vertex circles: the centres to find
             self._full = np.flatnonzero(C.full)  # circle obstacles: always candidates
             z = C.center[self._pts]
             xy = np.stack([z.real, z.imag], 1)
@@ -169,19 +170,46 @@ class TangentGraph:
                                      self.oset.frame.local_bounds)
         return self._sight
 
-    def _windows(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Directions (start, width) in which circles ``idx`` may see a tangent's other
-        circle: for a point (``rho = 0``) the normal cone turned by a quarter turn either
-        way (a tangent leaves perpendicular to the normal of its departure point), all
-        directions otherwise (an inner tangent of two discs leaves at any angle)."""
+    def _windows(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Directions in which circles ``idx`` may see a tangent's other circle, as windows
+        ``(owner, start, width)`` (``owner``: the position in ``idx``).  A point (``rho =
+        0``) leaves perpendicular to a normal of its cone: in sense ``s`` the tangent's
+        direction is the departure's normal turned by ``s`` quarter turns, so two windows,
+        the cone turned by a quarter turn either way (``1e-7`` rad of slack); any other
+        circle one window of all directions (an inner tangent of two discs leaves at any
+        angle)."""
         C = self.circles
-        pt = C.rho[idx] == 0.0
-        lo = np.where(pt, C.lo[idx] - 0.5 * math.pi - 1e-7, 0.0)
-        wd = np.where(pt & ~C.full[idx], C.width[idx] + math.pi + 2e-7, 4 * math.pi)
-        return lo, wd
+        pt = (C.rho[idx] == 0.0) & ~C.full[idx]
+        own = np.concatenate([np.arange(len(idx)), np.flatnonzero(pt)])
+        k = idx[own]
+        two = np.r_[pt, np.ones(int(pt.sum()), bool)]
+        turn = np.where(np.arange(len(own)) < len(idx), -0.5, 0.5) * math.pi
+        lo = np.where(two, C.lo[k] + turn - 1e-7, 0.0)
+        wd = np.where(two, C.width[k] + 2e-7, 4 * math.pi)
+        return own, lo, wd
 
     def _with_full(self, found: np.ndarray) -> np.ndarray:
         return np.sort(np.concatenate([self._pts[found], self._full]))
+
+    def _seen(self, idx: np.ndarray) -> list[np.ndarray]:
+        """Per circle of ``idx``, the circles it may see (:meth:`visible`), sorted; the
+        sources split between two threads (the expansion runs without the GIL)."""
+        own, lo, wd = self._windows(idx)
+        z = self.circles.center[idx[own]]
+        xy = np.stack([z.real, z.imag], 1)
+        cut = len(own) // 2
+        sight = self.sightlines
+        with ThreadPoolExecutor(2) as pool:
+            halves = list(pool.map(lambda k: sight.candidates_flat(xy[k], lo[k], wd[k]),
+                                   [slice(0, cut), slice(cut, None)]))
+        counts = np.concatenate([c for c, _ in halves])
+        n, m = self.circles.n, len(self._full)
+        flat = np.concatenate([self._pts[f] for _, f in halves]
+                              + [np.tile(self._full, len(idx))])
+        key = np.sort(np.r_[np.repeat(own, counts), np.repeat(np.arange(len(idx)), m)] * n
+                      + flat)
+        key = key[np.r_[True, key[1:] != key[:-1]][:len(key)]]
+        return np.split(key % n, np.searchsorted(key // n, np.arange(1, len(idx))))
 
     def visible(self, i: int) -> np.ndarray:
         """Indices of the circles whose tangents from circle ``i`` may be free (a superset
@@ -190,9 +218,7 @@ class TangentGraph:
             return self._all  # every circle: one shared array, not a copy per circle
         v = self._visible.get(i)
         if v is None:
-            lo, wd = self._windows(np.array([i]))
-            z = self.circles.center[i]
-            v = self._with_full(self.sightlines.candidates([[z.real, z.imag]], lo, wd)[0])
+            v = self._seen(np.array([i]))[0]
             self._visible[i] = v
         return v
 
@@ -223,90 +249,90 @@ class TangentGraph:
         """Make the whole graph now, not only what the searches reach, and search it with
         compiled code from now on; returns ``self``.
 
-        Every free tangent: one flood of :mod:`~optplan.geometry.sightlines` per circle (the
-        sources split between two threads: the flood runs without the GIL), the tangents
-        of all circles in vectorised batches (at most :data:`BUILD_PAIRS` candidates each,
-        two at a time in two threads), their segments tested in one call of
-        :meth:`~optplan.geometry.obstacles.ObstacleSet.pairs_free` per batch, the blocked
-        ones dropped; the successors earlier searches made are kept (their untested
-        segments tested).  The free tangents become the explicit graph of
-        :mod:`~optplan.geometry.tangent_chains` (``chains``), and every later query is the
-        compiled A* of :mod:`~optplan.geometry.chain_search` (same lengths).  ``max_bytes``
-        bounds what lazy searches store, not this.
+        Every free tangent: the sight lines of every circle (:mod:`~optplan.geometry.sightlines`,
+        the sources split between two threads: the expansion runs without the GIL), the
+        circle pairs one of which may see the other, each pair once, the tangents of the four
+        sense pairs of each in vectorised batches (at most :data:`BUILD_PAIRS` each, two at a
+        time in two threads), their segments tested in one call of
+        :meth:`~optplan.geometry.obstacles.ObstacleSet.pairs_free` per batch (a segment that
+        several sense pairs share, as all four of two points do, tested once), the blocked
+        ones dropped and each free tangent stored in both directions (travelled backwards, a
+        tangent leaves ``j`` in sense ``-s_j`` and reaches ``i`` in sense ``-s_i``).  The free
+        tangents become the explicit graph of :mod:`~optplan.geometry.tangent_chains`
+        (``chains``), and every later query is the compiled A* of
+        :mod:`~optplan.geometry.chain_search` (same lengths).  What earlier lazy searches
+        stored is dropped; ``max_bytes`` bounds what lazy searches store, not this.
         """
         if self.chains is not None:
             return self
         C = self.circles
-        self._flood_all()
-        known = list(self._edges.values())  # made by earlier searches: test what is left
-        self._test_segments(known)
-        for e in known:
-            e.keep(e.ok == 1)
+        t0 = time.perf_counter()
+        self._sight_all()
+        t1 = time.perf_counter()
         batches = self._batches()
+        self._edges = {}
         self.oset.pairs_free(np.zeros((1, 2)), [0], [0])  # its arrays made before the threads
         with ThreadPoolExecutor(2) as pool:  # two batches at a time
             made = list(pool.map(self._free_tangents, batches))
-        parts = [stored_tangents(C, self._edges), *(t for t, _ in made)]
         self.stats["segment_tests"] += sum(n for _, n in made)
-        self._edges, self._visible = {}, {}  # no longer needed: memory for the chains
+        self._visible = {}  # no longer needed: memory for the chains
+        parts = [t for t, _ in made] or [self._free_tangents(np.zeros((0, 2), np.int64))[0]]
         del made
         t = {k: np.concatenate([p.pop(k) for p in parts]) for k in list(parts[0])}
         del parts
         self.stats["nodes"] = 2 * C.n
         self.stats["edges"] = len(t["j"])
+        t2 = time.perf_counter()
         self.chains = chains_of(C, t, self.arcs)
+        self.stats["build_wall_s"] = {"sightlines": t1 - t0, "tangents": t2 - t1,
+                                      "chains": time.perf_counter() - t2}
         self.nbytes = self.chains.nbytes
         self.stats["arc_tests"] = self.chains.arc_tests
         return self
 
-    def _flood_all(self) -> None:
-        """The sight lines of every vertex circle not flooded yet (two threads)."""
+    def _sight_all(self) -> None:
+        """The sight lines of every vertex circle not found yet."""
         C = self.circles
         todo = np.array([i for i in range(C.n) if i not in self._visible and not C.full[i]],
                         np.int64)
         if len(todo) == 0 or not self.use_sightlines:
             return
-        lo, wd = self._windows(todo)
-        z = C.center[todo]
-        xy = np.stack([z.real, z.imag], 1)
-        cut = len(todo) // 2
-        sight = self.sightlines
-        with ThreadPoolExecutor(2) as pool:
-            halves = pool.map(lambda k: sight.candidates(xy[k], lo[k], wd[k]),
-                              [slice(0, cut), slice(cut, None)])
-            found = [f for h in halves for f in h]
-        for i, f in zip(todo, found):
-            self._visible[int(i)] = self._with_full(f)
+        for i, v in zip(todo, self._seen(todo)):
+            self._visible[int(i)] = v
 
-    def _batches(self) -> list[list[tuple[int, int]]]:
-        """The circles and senses without successors yet, in batches of at most
-        :data:`BUILD_PAIRS` candidate tangents (bounded memory)."""
-        C = self.circles
-        batches: list[list[tuple[int, int]]] = [[]]
-        pairs = 0
-        for node in ((i, si) for i in range(C.n) for si in (1, -1)):
-            if node in self._edges:
-                continue
-            batches[-1].append(node)
-            pairs += 2 * len(self.visible(node[0]))
-            if pairs >= BUILD_PAIRS:
-                batches.append([])
-                pairs = 0
-        return [b for b in batches if b]
+    def _batches(self) -> list[np.ndarray]:
+        """The circle pairs ``(a, b)``, ``a < b``, one of which may see the other (each
+        once), in batches of at most :data:`BUILD_PAIRS` / 4 (bounded memory)."""
+        n = self.circles.n
+        vis = [self.visible(i) for i in range(n)]
+        src = np.repeat(np.arange(n), [len(v) for v in vis])
+        dst = np.concatenate([np.zeros(0, np.int64)] + vis)
+        key = np.sort(np.minimum(src, dst) * n + np.maximum(src, dst))
+        key = key[np.r_[True, key[1:] != key[:-1]][:len(key)] & (key // n != key % n)]
+        pairs = np.stack([key // n, key % n], axis=1)
+        step = max(1, BUILD_PAIRS // 4)
+        return [pairs[k:k + step] for k in range(0, len(pairs), step)]
 
-    def _free_tangents(self, nodes: list[tuple[int, int]]) -> tuple[dict[str, np.ndarray], int]:
-        """The free tangents of ``nodes`` (circle, sense) towards their sight lines
-        (:func:`~optplan.geometry.tangent_edges.tangent_edges`, segments tested) and the
-        number of segments tested (counted by the caller: this runs in a thread)."""
-        src = np.array([i for i, _ in nodes])
-        vis = [self.visible(int(i)) for i in src]
-        cnt = np.array([2 * len(v) for v in vis])
-        J = np.repeat(np.concatenate(vis), 2)
-        t = tangent_edges(self.circles, np.repeat(src, cnt),
-                          np.repeat([s for _, s in nodes], cnt), J,
-                          np.tile(np.array([1, -1]), len(J) // 2), self.oset.eps)
-        free = self._segments_free(t["pi"], t["pj"])
-        return {k: v[free] for k, v in t.items()}, len(free)
+    def _free_tangents(self, pairs: np.ndarray) -> tuple[dict[str, np.ndarray], int]:
+        """The free tangents between the circles of ``pairs`` in both directions
+        (:func:`~optplan.geometry.tangent_edges.tangent_edges` for the four sense pairs, the
+        segments tested) and the number of segments tested (counted by the caller: this runs
+        in a thread)."""
+        sense = np.array([1, 1, -1, -1]), np.array([1, -1, 1, -1])
+        t = tangent_edges(self.circles, np.repeat(pairs[:, 0], 4),
+                          np.tile(sense[0], len(pairs)), np.repeat(pairs[:, 1], 4),
+                          np.tile(sense[1], len(pairs)), self.oset.eps)
+        # rows of one pair are adjacent: test a segment once where they share it
+        new = np.ones(len(t["i"]), bool)
+        new[1:] = ((t["i"][1:] != t["i"][:-1]) | (t["j"][1:] != t["j"][:-1])
+                   | (t["pi"][1:] != t["pi"][:-1]) | (t["pj"][1:] != t["pj"][:-1]))
+        first = np.flatnonzero(new)
+        free = self._segments_free(t["pi"][first], t["pj"][first])[np.cumsum(new) - 1]
+        t = {k: v[free] for k, v in t.items()}
+        back = {"i": t["j"], "si": -t["sj"], "j": t["i"], "sj": -t["si"], "seg": t["seg"],
+                "pi": t["pj"], "pj": t["pi"], "th_d": t["th_a"], "th_a": t["th_d"],
+                "od": cone_off(self.circles, t["j"], t["th_a"])}
+        return {k: np.concatenate([t[k], back[k]]) for k in t}, len(first)
 
     def _segments_free(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
         """Exact tests of the segments ``a[k] -> b[k]`` (local complex), in one batch."""
@@ -314,22 +340,6 @@ class TangentGraph:
                                              axis=1))
         n = len(a)
         return self.oset.pairs_free(pts, np.arange(n), np.arange(n, 2 * n))
-
-    def _test_segments(self, made: list[Edges]) -> None:
-        """Exact tests of the untested segments of ``made``, in one batch."""
-        todo = [(e, np.flatnonzero(e.ok == 0)) for e in made]
-        todo = [(e, t) for e, t in todo if len(t)]
-        if not todo:
-            return
-        a = np.concatenate([e.pi[t] if e.pi is not None
-                            else np.full(len(t), self.circles.center[e.i]) for e, t in todo])
-        b = np.concatenate([e.pj[t] for e, t in todo])
-        free = self._segments_free(a, b)
-        self.stats["segment_tests"] += len(free)
-        at = 0
-        for e, t in todo:
-            e.ok[t] = np.where(free[at:at + len(t)], 1, -1)
-            at += len(t)
 
     def shortest_path(self, start, goal, *, arc_step: float = math.pi / 36,
                       stop: Callable[[], bool] | None = None) -> TangentPath:

@@ -1,7 +1,7 @@
 """Candidate sight lines (``optplan.geometry.sightlines``) never lose a free tangent.
 
-The flood lists, per source, a superset of the circles it sees; the tangent graph keeps only
-the tangents to those.  Oracle: the same tangents computed towards *every* circle and tested
+The triangular expansion lists, per source, a superset of the circles it sees; the tangent
+graph keeps only the tangents to those.  Oracle: the same tangents computed towards *every* circle and tested
 with the exact segment predicate (``ObstacleSet.segment_free``): the free ones must be the
 same sets, edge for edge, on grid maps (touching cells, pinch points, long walls of many
 pieces, staircases), maps with circle obstacles, for a point and a disc robot.  From points:
@@ -59,7 +59,7 @@ def _mixed(rng: np.random.Generator) -> list[Obstacle]:
 
 
 def _free_tangents(graph: TangentGraph, every: bool) -> set:
-    """The free tangents of every circle and sense: towards the flood's candidates, or
+    """The free tangents of every circle and sense: towards the candidates, or
     (``every``) towards every circle."""
     C, oset = graph.circles, graph.oset
     keys, a, b = [], [], []
@@ -90,7 +90,7 @@ def test_no_free_tangent_is_lost(kind, seed, radius):
     ours = _free_tangents(g, every=False)
     assert ours == _free_tangents(g, every=True)
     assert ours  # the maps have free tangents
-    if kind == "cells":  # and the flood does filter on the maps of many cells
+    if kind == "cells":  # and the sight lines do filter on the maps of many cells
         n_cand = sum(len(g.visible(i)) for i in range(g.circles.n))
         assert n_cand < 0.8 * g.circles.n ** 2
 
@@ -162,6 +162,48 @@ def test_a_square_hides_what_is_behind_it():
     assert {(40.0, 40.0), (40.0, 60.0)} <= seen
     assert not {(60.0, 40.0), (60.0, 60.0), (80.0, 45.0), (80.0, 55.0)} & seen
     assert (80.0, 80.0) in seen
+
+
+def test_a_point_sees_through_a_pinch_and_along_a_wall():
+    # squares touching at (50, 50): the line from (40, 60) through the pinch reaches the
+    # corner (70, 30) of a third square (a point robot passes a pinch); the line along the
+    # top of the wall y = 20 reaches its far corner (60, 20) from (10, 20)
+    sq = [shapely.box(40, 40, 50, 50), shapely.box(50, 50, 60, 60), shapely.box(70, 20, 80, 30),
+          shapely.box(20, 10, 60, 20)]
+    oset = obstacle_set([_poly(g) for g in sq], 0.0, Frame.from_bounds(BOUNDS))
+    g = TangentGraph(oset, sightlines=True)
+    fr = oset.frame
+    C = fr.world(np.stack([g.circles.center.real, g.circles.center.imag], 1))
+    for src, dst in [((40.0, 60.0), (70.0, 30.0)), ((10.0, 20.0), (60.0, 20.0))]:
+        z = fr.local(np.array(src))
+        seen = {tuple(np.round(C[k], 6)) for k in g.visible_from(complex(z[0], z[1]))}
+        assert dst in seen
+        assert oset.segment_free(np.array([src]), np.array([dst]))[0]
+    # a point beside the pinch, off its diagonal, does not see the hidden corner
+    z = fr.local(np.array([40.0, 62.0]))
+    seen = {tuple(np.round(C[k], 6)) for k in g.visible_from(complex(z[0], z[1]))}
+    assert (70.0, 30.0) not in seen
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_triangles_are_free_exactly_outside_the_solids(seed):
+    # oracle: shapely, each triangle's centroid inside a polygon solid (the bounds wall
+    # included) or not
+    rng = np.random.default_rng(seed)
+    oset = obstacle_set(_mixed(rng), 0.0, Frame.from_bounds(BOUNDS))
+    sl = TangentGraph(oset, sightlines=True).sightlines
+    assert len(sl.VX) == len(sl._keys)  # no vertex added: no two edges cross
+    cen = sl.VX[sl.T].mean(axis=1)
+    solids = shapely.union_all([g for _, g in oset.shapes if not isinstance(g, tuple)])
+    inside = shapely.contains_xy(solids, cen[:, 0], cen[:, 1])
+    assert inside.any() and not inside.all()
+    assert (sl.FREE == ~inside).all()
+    # counter-clockwise triangles, neighbours across the edge opposite each corner
+    a, b, c = (sl.VX[sl.T[:, k]] for k in range(3))
+    assert ((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0] > 0).all()
+    t, k = np.nonzero(sl.NB >= 0)
+    nb, nk = sl.NB[t, k], sl.NK[t, k]
+    assert (sl.NB[nb, nk] == t).all() and (sl.CON[nb, nk] == sl.CON[t, k]).all()
 
 
 def test_sightlines_of_nothing():

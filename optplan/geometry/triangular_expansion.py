@@ -1,0 +1,334 @@
+r"""Triangular expansion: the vertices a point may see, over a constrained triangulation.
+
+The compiled kernel of :mod:`optplan.geometry.sightlines` (its module docstring has the
+mathematics and the tolerances).  The free space is a constrained triangulation whose
+constrained edges are the solids' boundary edges; a *view* is a triangle entered through one
+of its edges with an interval ``[L, R]`` of directions (radians, unwrapped in the frame of the
+source's window) of the rays from the source ``s`` that cross that edge.  With ``A`` and ``B``
+the entry edge's ends (``A`` first counter-clockwise as seen from ``s``) and ``c`` the third
+vertex at direction ``theta_c``:
+
+* ``c`` is seen when ``L - SLACK <= theta_c <= R + SLACK``;
+* the rays continue through the edge ``(A, c)`` with ``[L, min(R, theta_c + w)]`` and through
+  ``(c, B)`` with ``[max(L, theta_c - w), R]``, an edge that is constrained stopping them;
+  ``w = SLACK`` plus, where ``c`` is a convex corner and the sibling edge is constrained,
+  ``asin(kappa eps / |c - s|)``: a ray that grazes a convex corner within the tolerance goes
+  on (it may be free for the exact predicate);
+* a ray through a *pinch* vertex (where solids touch at a point) goes on into the free
+  triangles at that vertex whose corner contains its direction (a point robot may pass).
+
+Every direction is measured as ``mid + wrap(atan2(p - s) - lo - mid)`` from the interval's
+middle ``mid``: the point lies beyond the entry edge, so within half a turn of any direction
+of the interval, and the result is in the interval's unwrapped frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from optplan.geometry.jit import B1, B2, F1, F2, I1, I2, compiled, f8, i8, inlined
+
+__all__ = ["expand_views", "locate", "KAPPA", "SLACK"]
+
+TWO_PI = 2.0 * math.pi
+#: Widening at a grazed convex corner, in units of ``eps`` at the corner's distance.
+KAPPA = 4.0
+#: Angular slack (rad) of every interval end and of the seen test.
+SLACK = 1e-9
+
+
+@inlined
+def _rel(px, py, sx, sy, lo, mid):
+    """Direction of ``p`` from ``s`` in the unwrapped frame of an interval around ``mid``."""
+    d = math.atan2(py - sy, px - sx) - lo - mid
+    d -= TWO_PI * math.floor((d + math.pi) / TWO_PI)
+    return mid + d
+
+
+@compiled(F2, i8, f8, f8, f8, B1)
+def _widen(VX, v, sx, sy, tiny, CONV):  # pragma: no cover - compiled
+    """Widening of an interval end at vertex ``v`` whose sibling edge is constrained."""
+    if not CONV[v]:
+        return SLACK
+    d = math.hypot(VX[v, 0] - sx, VX[v, 1] - sy)
+    if d <= tiny:
+        return math.pi
+    return SLACK + math.asin(tiny / d)
+
+
+@compiled(I1, i8)
+def _grown_i(a, need):  # pragma: no cover - compiled
+    """``a`` copied into an array of at least ``need`` (and twice its) items."""
+    b = np.empty(max(need, 2 * a.shape[0]), np.int64)
+    for k in range(a.shape[0]):
+        b[k] = a[k]
+    return b
+
+
+@compiled(F2, i8)
+def _grown_f(a, need):  # pragma: no cover - compiled
+    """``a`` copied into an array of at least ``need`` (and twice its) rows."""
+    b = np.empty((max(need, 2 * a.shape[0]), a.shape[1]))
+    for k in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            b[k, j] = a[k, j]
+    return b
+
+
+@compiled(F2, i8, f8, f8, f8, f8)
+def _push(stk, n, t, k, L, R):  # pragma: no cover - compiled
+    """Push the view ``(t, k, L, R)``: triangle ``t`` entered through its edge opposite
+    corner ``k`` (``k >= 3``: at its vertex ``k - 3``); the stack grows when full."""
+    if n >= stk.shape[0]:
+        stk = _grown_f(stk, n + 1)
+    stk[n, 0] = t
+    stk[n, 1] = k
+    stk[n, 2] = L
+    stk[n, 3] = R
+    return stk, n + 1
+
+
+@compiled(F2, I2, B2, B1, B1, I1, I1, i8, f8, f8, f8, f8, F2, i8)
+def _jump(VX, T, CON, FREE, CONV, vstart, vtri, v, th, sx, sy, tiny, stk,
+          n_st):  # pragma: no cover - compiled
+    """The rays through the pinch vertex ``v`` (direction ``th``) go on into the free
+    triangles at ``v`` whose corner holds their direction: a view of each entered at ``v``
+    (``k = 3 + corner``) is pushed."""
+    w = _widen(VX, v, sx, sy, tiny, CONV)
+    dx = VX[v, 0] - sx
+    dy = VX[v, 1] - sy
+    dn = math.hypot(dx, dy)
+    for rr in range(vstart[v], vstart[v + 1]):
+        t = vtri[rr] // 3
+        kk = vtri[rr] % 3
+        if not FREE[t]:
+            continue
+        p = T[t, (kk + 1) % 3]
+        r = T[t, (kk + 2) % 3]
+        px = VX[p, 0] - VX[v, 0]
+        py = VX[p, 1] - VX[v, 1]
+        rx = VX[r, 0] - VX[v, 0]
+        ry = VX[r, 1] - VX[v, 1]
+        if (px * dy - py * dx < -w * math.hypot(px, py) * dn
+                or dx * ry - dy * rx < -w * math.hypot(rx, ry) * dn):
+            continue  # the corner does not hold the direction
+        stk, n_st = _push(stk, n_st, t, 3 + kk, th - w, th + w)
+    return stk, n_st
+
+
+@compiled(F2, I2, B2, B1, B1, B1, I1, I1, I1, I1, I1, I1, i8, i8, f8, f8, f8, f8, I1, i8, F2,
+          i8)
+def _visit(VX, T, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q, v, th,
+           sx, sy, tiny, out, n_out, stk, n_st):  # pragma: no cover - compiled
+    """Vertex ``v`` (direction ``th``) is seen from source ``q``: its centres not seen yet
+    are appended to ``out``, and at a pinch (the first time) the rays through it go on
+    (:func:`_jump`); returns ``out``, its length, the stack and its size."""
+    for t in range(cstart[v], cstart[v + 1]):
+        c = citems[t]
+        if cstamp[c] != q:
+            cstamp[c] = q
+            if n_out >= out.shape[0]:
+                out = _grown_i(out, n_out + 1)
+            out[n_out] = c
+            n_out += 1
+    if PINCH[v] and pst[v] != q:
+        pst[v] = q
+        stk, n_st = _jump(VX, T, CON, FREE, CONV, vstart, vtri, v, th, sx, sy, tiny, stk, n_st)
+    return out, n_out, stk, n_st
+
+
+@inlined
+def _split(VX, T, NB, NK, CON, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st):
+    """Push the views beyond the two other edges of triangle ``t`` entered opposite ``k``:
+    ``(A, c)`` with ``[L, min(R, tc + w)]``, ``(c, B)`` with ``[max(L, tc - w), R]``
+    (module docstring); returns the stack and its size."""
+    if n_st + 2 > stk.shape[0]:
+        stk = _grown_f(stk, n_st + 2)
+    e1 = (k + 1) % 3  # the edge (A, c), opposite B
+    e2 = (k + 2) % 3  # the edge (c, B), opposite A
+    if not CON[t, e1] and NB[t, e1] >= 0:
+        R1 = min(R, tc + (_widen(VX, c, sx, sy, tiny, CONV) if CON[t, e2] else SLACK))
+        if L < R1:
+            stk[n_st, 0] = NB[t, e1]
+            stk[n_st, 1] = NK[t, e1]
+            stk[n_st, 2] = L
+            stk[n_st, 3] = R1
+            n_st += 1
+    if not CON[t, e2] and NB[t, e2] >= 0:
+        L2 = max(L, tc - (_widen(VX, c, sx, sy, tiny, CONV) if CON[t, e1] else SLACK))
+        if L2 < R:
+            stk[n_st, 0] = NB[t, e2]
+            stk[n_st, 1] = NK[t, e2]
+            stk[n_st, 2] = L2
+            stk[n_st, 3] = R
+            n_st += 1
+    return stk, n_st
+
+
+@inlined
+def _expand(VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst,
+            q, sx, sy, lo, tiny, stk, n_st, out, n_out):
+    """Run the views on the stack for source ``q`` (module docstring); returns ``out``,
+    its length and the stack (grown)."""
+    while n_st > 0:
+        n_st -= 1
+        t = int(stk[n_st, 0])
+        k = int(stk[n_st, 1])
+        L = stk[n_st, 2]
+        R = stk[n_st, 3]
+        mid = 0.5 * (L + R)
+        if k >= 3:  # entered at a pinch vertex: its two other vertices, the edge beyond
+            for j in range(1, 3):
+                v = T[t, (k - 3 + j) % 3]
+                th = _rel(VX[v, 0], VX[v, 1], sx, sy, lo, mid)
+                if L - SLACK <= th <= R + SLACK:
+                    out, n_out, stk, n_st = _visit(VX, T, CON, FREE, CONV, PINCH, vstart, vtri,
+                                                   cstart, citems, cstamp, pst, q, v, th, sx,
+                                                   sy, tiny, out, n_out, stk, n_st)
+            if not CON[t, k - 3] and NB[t, k - 3] >= 0:
+                stk, n_st = _push(stk, n_st, NB[t, k - 3], NK[t, k - 3], L, R)
+            continue
+        c = T[t, k]
+        tc = _rel(VX[c, 0], VX[c, 1], sx, sy, lo, mid)
+        if L - SLACK <= tc <= R + SLACK:
+            out, n_out, stk, n_st = _visit(VX, T, CON, FREE, CONV, PINCH, vstart, vtri, cstart,
+                                           citems, cstamp, pst, q, c, tc, sx, sy, tiny, out,
+                                           n_out, stk, n_st)
+        stk, n_st = _split(VX, T, NB, NK, CON, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st)
+    return out, n_out, stk
+
+
+@compiled(F2, I2, I2, f8, f8, i8, i8)
+def locate(VX, T, NB, x, y, t0, maxit):  # pragma: no cover - compiled
+    """The triangle holding ``(x, y)`` (its boundary included), by a remembering walk from
+    triangle ``t0`` (never straight back; the edge tried first turns with the step, so the
+    walk ends on any triangulation); -1 when the point is outside the triangulation or the
+    walk exceeds ``maxit`` steps."""
+    t = t0
+    prev = -1
+    for it in range(maxit):
+        moved = False
+        for j in range(3):
+            k = (it + j) % 3
+            p = T[t, (k + 1) % 3]
+            r = T[t, (k + 2) % 3]
+            o = ((VX[r, 0] - VX[p, 0]) * (y - VX[p, 1])
+                 - (VX[r, 1] - VX[p, 1]) * (x - VX[p, 0]))
+            if o < 0.0 and NB[t, k] != prev:
+                prev = t
+                t = NB[t, k]
+                moved = True
+                break
+        if not moved:
+            return t
+        if t < 0:
+            return -1
+    return -1
+
+
+@inlined
+def _passable(VX, CON, FREE, t, kk, a, b, sx, sy, tiny, vertex):
+    """A first view may leave its triangle across the edge ``(a, b)`` opposite ``kk``: it
+    is not constrained, or the source is no vertex and lies within ``tiny`` of it (or in a
+    triangle inside a solid)."""
+    if not CON[t, kk]:
+        return True
+    if vertex:
+        return False
+    ex = VX[b, 0] - VX[a, 0]
+    ey = VX[b, 1] - VX[a, 1]
+    return (abs(ex * (sy - VX[a, 1]) - ey * (sx - VX[a, 0])) / math.hypot(ex, ey) <= tiny
+            or not FREE[t])
+
+
+@inlined
+def _root(VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q,
+          sx, sy, lo, wd, tiny, t, kk, vertex, stk, n_st, out, n_out):
+    """The first view beyond the edge opposite corner ``kk`` of triangle ``t`` (the source
+    at that corner, or inside ``t``), cut to the window ``[0, wd]`` (every turn of it); its
+    ends are seen."""
+    a = T[t, (kk + 1) % 3]
+    b = T[t, (kk + 2) % 3]
+    ta = math.atan2(VX[a, 1] - sy, VX[a, 0] - sx) - lo
+    ta -= TWO_PI * math.floor(ta / TWO_PI)
+    tb = _rel(VX[b, 0], VX[b, 1], sx, sy, lo, ta + 0.5 * math.pi)
+    if tb < ta:  # the source on the edge: half a turn
+        tb = ta + math.pi
+    wa = _widen(VX, a, sx, sy, tiny, CONV) if CON[t, (kk + 2) % 3] else SLACK
+    wb = _widen(VX, b, sx, sy, tiny, CONV) if CON[t, (kk + 1) % 3] else SLACK
+    go = _passable(VX, CON, FREE, t, kk, a, b, sx, sy, tiny, vertex) and NB[t, kk] >= 0
+    for sh in range(-1, 2) if wd < TWO_PI else range(0, 1):
+        L = ta - wa + sh * TWO_PI
+        R = tb + wb + sh * TWO_PI
+        if wd < TWO_PI:
+            L = max(L, -SLACK)
+            R = min(R, wd + SLACK)
+        for v, th in ((a, ta + sh * TWO_PI), (b, tb + sh * TWO_PI)):
+            if L - SLACK <= th <= R + SLACK:
+                out, n_out, stk, n_st = _visit(VX, T, CON, FREE, CONV, PINCH, vstart, vtri,
+                                               cstart, citems, cstamp, pst, q, v, th, sx, sy,
+                                               tiny, out, n_out, stk, n_st)
+        if go and L < R:
+            stk, n_st = _push(stk, n_st, NB[t, kk], NK[t, kk], L, R)
+    return out, n_out, stk, n_st
+
+
+@compiled(F2, I1, I1, F1, F1, F2, I2, I2, I2, B2, B1, B1, B1, I1, I1, I1, I1, f8)
+def expand_views(S, SV, ST, LO, WID, VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri,
+                 cstart, citems, eps):  # pragma: no cover - compiled
+    """Candidate visible centres per source by triangular expansion (module docstring).
+
+    Parameters
+    ----------
+    S : (k, 2) sources; SV : (k,) the vertex each source is (-1: none); ST : (k,) the
+        triangle holding it when it is no vertex (-1: not found: every centre is then a
+        candidate); LO, WID : (k,) window start and width (rad, ``>= 2 pi``: all directions);
+    VX : (nv, 2) vertices; T : (nt, 3) counter-clockwise triangles; NB, NK : (nt, 3) the
+        neighbour across the edge opposite each corner (-1: none) and that edge's index in
+        it; CON : (nt, 3) that edge is constrained; FREE : (nt,) the triangle is free space;
+    CONV, PINCH : (nv,) the vertex is a convex corner of a solid / where solids touch;
+    vstart, vtri : CSR of the triangles at each vertex (``vtri = 3 t + corner``);
+    cstart, citems : CSR of the centres at each vertex; eps : tolerance.
+
+    Returns
+    -------
+    counts : (k,) int64
+        Candidates per source.
+    flat : int64 array
+        The candidates of source 0, then of source 1, ...
+    """
+    n_c = citems.shape[0]
+    cstamp = np.full(n_c, -1, np.int64)
+    pst = np.full(VX.shape[0], -1, np.int64)
+    stk = np.empty((1024, 4))
+    counts = np.zeros(S.shape[0], np.int64)
+    out = np.empty(max(16, 16 * S.shape[0]), np.int64)
+    n_out = 0
+    tiny = KAPPA * eps
+    for q in range(S.shape[0]):
+        n0 = n_out
+        sx = S[q, 0]
+        sy = S[q, 1]
+        if SV[q] < 0 and ST[q] < 0:  # not located: every centre
+            if n_out + n_c > out.shape[0]:
+                out = _grown_i(out, n_out + n_c)
+            for c in range(n_c):
+                out[n_out + c] = c
+            n_out += n_c
+        else:
+            n_st = 0
+            roots = range(vstart[SV[q]], vstart[SV[q] + 1]) if SV[q] >= 0 else range(3)
+            for rr in roots:
+                t = vtri[rr] // 3 if SV[q] >= 0 else ST[q]
+                if SV[q] < 0 or FREE[t]:
+                    out, n_out, stk, n_st = _root(
+                        VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems,
+                        cstamp, pst, q, sx, sy, LO[q], WID[q], tiny, t,
+                        vtri[rr] % 3 if SV[q] >= 0 else rr, SV[q] >= 0, stk, n_st, out, n_out)
+            out, n_out, stk = _expand(VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri,
+                                      cstart, citems, cstamp, pst, q, sx, sy, LO[q], tiny, stk,
+                                      n_st, out, n_out)
+        counts[q] = n_out - n0
+    return counts, out[:n_out].copy()
