@@ -191,9 +191,10 @@ class TangentGraph:
     def _with_full(self, found: np.ndarray) -> np.ndarray:
         return np.sort(np.concatenate([self._pts[found], self._full]))
 
-    def _seen(self, idx: np.ndarray) -> list[np.ndarray]:
-        """Per circle of ``idx``, the circles it may see (:meth:`visible`), sorted; the
-        sources split between two threads (the expansion runs without the GIL)."""
+    def _seen_keys(self, idx: np.ndarray) -> np.ndarray:
+        """The circles that circles ``idx`` may see (:meth:`visible`) as sorted keys ``i n +
+        j``, each once; the sources split between two threads (the expansion runs without
+        the GIL)."""
         own, lo, wd = self._windows(idx)
         z = self.circles.center[idx[own]]
         xy = np.stack([z.real, z.imag], 1)
@@ -206,10 +207,8 @@ class TangentGraph:
         n, m = self.circles.n, len(self._full)
         flat = np.concatenate([self._pts[f] for _, f in halves]
                               + [np.tile(self._full, len(idx))])
-        key = np.sort(np.r_[np.repeat(own, counts), np.repeat(np.arange(len(idx)), m)] * n
-                      + flat)
-        key = key[np.r_[True, key[1:] != key[:-1]][:len(key)]]
-        return np.split(key % n, np.searchsorted(key // n, np.arange(1, len(idx))))
+        key = np.sort(np.r_[np.repeat(idx[own], counts), np.repeat(idx, m)] * n + flat)
+        return key[np.r_[True, key[1:] != key[:-1]][:len(key)]]
 
     def visible(self, i: int) -> np.ndarray:
         """Indices of the circles whose tangents from circle ``i`` may be free (a superset
@@ -218,7 +217,7 @@ class TangentGraph:
             return self._all  # every circle: one shared array, not a copy per circle
         v = self._visible.get(i)
         if v is None:
-            v = self._seen(np.array([i]))[0]
+            v = self._seen_keys(np.array([i])) % self.circles.n
             self._visible[i] = v
         return v
 
@@ -267,9 +266,10 @@ class TangentGraph:
             return self
         C = self.circles
         t0 = time.perf_counter()
-        self._sight_all()
+        keys = self._all_keys()
         t1 = time.perf_counter()
-        batches = self._batches()
+        batches = self._batches(keys)
+        del keys
         self._edges = {}
         self.oset.pairs_free(np.zeros((1, 2)), [0], [0])  # its arrays made before the threads
         with ThreadPoolExecutor(2) as pool:  # two batches at a time
@@ -290,28 +290,31 @@ class TangentGraph:
         self.stats["arc_tests"] = self.chains.arc_tests
         return self
 
-    def _sight_all(self) -> None:
-        """The sight lines of every vertex circle not found yet."""
+    def _all_keys(self) -> np.ndarray:
+        """Every circle's :meth:`visible` circles as keys ``i n + j`` (circle obstacles see
+        every circle)."""
         C = self.circles
-        todo = np.array([i for i in range(C.n) if i not in self._visible and not C.full[i]],
-                        np.int64)
-        if len(todo) == 0 or not self.use_sightlines:
-            return
-        for i, v in zip(todo, self._seen(todo)):
-            self._visible[int(i)] = v
+        n = C.n
+        full = np.flatnonzero(C.full)
+        every = np.repeat(full, n) * n + np.tile(np.arange(n), len(full))
+        if not self.use_sightlines:
+            return np.arange(n * n)
+        return np.concatenate([self._seen_keys(np.flatnonzero(~C.full)), every])
 
-    def _batches(self) -> list[np.ndarray]:
-        """The circle pairs ``(a, b)``, ``a < b``, one of which may see the other (each
-        once), in batches of at most :data:`BUILD_PAIRS` / 4 (bounded memory)."""
+    def _batches(self, keys: np.ndarray) -> list[np.ndarray]:
+        """The circle pairs ``(a, b)``, ``a < b``, each of which may see the other (a free
+        tangent leaves ``a`` in a direction of its window and ``b`` in the opposite one, in
+        a window of ``b``; ``keys``: who may see whom, ``i n + j``, each once), in an even
+        number of batches (two threads) of at most :data:`BUILD_PAIRS` / 4 (bounded
+        memory)."""
         n = self.circles.n
-        vis = [self.visible(i) for i in range(n)]
-        src = np.repeat(np.arange(n), [len(v) for v in vis])
-        dst = np.concatenate([np.zeros(0, np.int64)] + vis)
-        key = np.sort(np.minimum(src, dst) * n + np.maximum(src, dst))
-        key = key[np.r_[True, key[1:] != key[:-1]][:len(key)] & (key // n != key % n)]
+        a, b = keys // n, keys % n
+        key = np.sort(np.minimum(a, b) * n + np.maximum(a, b))
+        both = np.flatnonzero(key[1:] == key[:-1])  # listed from both ends
+        key = key[both[key[both] // n != key[both] % n]]
         pairs = np.stack([key // n, key % n], axis=1)
-        step = max(1, BUILD_PAIRS // 4)
-        return [pairs[k:k + step] for k in range(0, len(pairs), step)]
+        parts = 2 * -(-len(pairs) // (2 * max(1, BUILD_PAIRS // 4)))
+        return [p for p in np.array_split(pairs, max(parts, 2)) if len(p)]
 
     def _free_tangents(self, pairs: np.ndarray) -> tuple[dict[str, np.ndarray], int]:
         """The free tangents between the circles of ``pairs`` in both directions

@@ -83,11 +83,7 @@ def _push(stk, n, t, k, L, R):  # pragma: no cover - compiled
     corner ``k`` (``k >= 3``: at its vertex ``k - 3``); the stack grows when full."""
     if n >= stk.shape[0]:
         stk = _grown_f(stk, n + 1)
-    stk[n, 0] = t
-    stk[n, 1] = k
-    stk[n, 2] = L
-    stk[n, 3] = R
-    return stk, n + 1
+    return stk, _put(stk, n, t, k, L, R)
 
 
 @compiled(F2, I2, B2, B1, B1, I1, I1, i8, f8, f8, f8, f8, F2, i8)
@@ -140,6 +136,16 @@ def _visit(VX, T, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, 
 
 
 @inlined
+def _put(stk, n, t, k, L, R):
+    """Write the view ``(t, k, L, R)`` at row ``n`` (room made by the caller)."""
+    stk[n, 0] = t
+    stk[n, 1] = k
+    stk[n, 2] = L
+    stk[n, 3] = R
+    return n + 1
+
+
+@inlined
 def _split(VX, T, NB, NK, CON, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st):
     """Push the views beyond the two other edges of triangle ``t`` entered opposite ``k``:
     ``(A, c)`` with ``[L, min(R, tc + w)]``, ``(c, B)`` with ``[max(L, tc - w), R]``
@@ -151,19 +157,11 @@ def _split(VX, T, NB, NK, CON, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st)
     if not CON[t, e1] and NB[t, e1] >= 0:
         R1 = min(R, tc + (_widen(VX, c, sx, sy, tiny, CONV) if CON[t, e2] else SLACK))
         if L < R1:
-            stk[n_st, 0] = NB[t, e1]
-            stk[n_st, 1] = NK[t, e1]
-            stk[n_st, 2] = L
-            stk[n_st, 3] = R1
-            n_st += 1
+            n_st = _put(stk, n_st, NB[t, e1], NK[t, e1], L, R1)
     if not CON[t, e2] and NB[t, e2] >= 0:
         L2 = max(L, tc - (_widen(VX, c, sx, sy, tiny, CONV) if CON[t, e1] else SLACK))
         if L2 < R:
-            stk[n_st, 0] = NB[t, e2]
-            stk[n_st, 1] = NK[t, e2]
-            stk[n_st, 2] = L2
-            stk[n_st, 3] = R
-            n_st += 1
+            n_st = _put(stk, n_st, NB[t, e2], NK[t, e2], L2, R)
     return stk, n_st
 
 
