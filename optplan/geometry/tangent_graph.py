@@ -74,7 +74,7 @@ __all__ = ["TangentPath", "TangentGraph", "tangent_graph", "shortest_path",
 MAX_GRAPH_BYTES = 256 * 2**20
 #: Circles from which a :class:`TangentGraph` filters its tangents by sight lines by default
 #: (below it, every circle is a candidate: ``O(n)`` per expansion is cheap there, and the
-#: expansion kernel, about 7 s of CPU to compile once, is not needed).
+#: expansion kernels, several seconds of CPU to compile once, are not needed).
 SIGHTLINES_MIN = 1000
 #: Candidate tangents :meth:`TangentGraph.build` computes in one batch (two batches at a
 #: time: bounds its temporary memory to a few hundred MB).
@@ -200,9 +200,14 @@ class TangentGraph:
         xy = np.stack([z.real, z.imag], 1)
         cut = len(own) // 2
         sight = self.sightlines
-        with ThreadPoolExecutor(2) as pool:
-            halves = list(pool.map(lambda k: sight.candidates_flat(xy[k], lo[k], wd[k]),
-                                   [slice(0, cut), slice(cut, None)]))
+        def run(k: slice) -> tuple[np.ndarray, np.ndarray]:
+            return sight.candidates_flat(xy[k], lo[k], wd[k])
+
+        if cut < 64:  # a few sources (a lazy search's circle): no threads
+            halves = [run(slice(None))]
+        else:
+            with ThreadPoolExecutor(2) as pool:
+                halves = list(pool.map(run, [slice(0, cut), slice(cut, None)]))
         counts = np.concatenate([c for c, _ in halves])
         n, m = self.circles.n, len(self._full)
         flat = np.concatenate([self._pts[f] for _, f in halves]
@@ -266,6 +271,9 @@ class TangentGraph:
             return self
         C = self.circles
         t0 = time.perf_counter()
+        if self.use_sightlines:
+            self.sightlines  # noqa: B018 - the triangulation, timed on its own
+        tt = time.perf_counter()
         keys = self._all_keys()
         t1 = time.perf_counter()
         batches = self._batches(keys)
@@ -284,7 +292,8 @@ class TangentGraph:
         self.stats["edges"] = len(t["j"])
         t2 = time.perf_counter()
         self.chains = chains_of(C, t, self.arcs)
-        self.stats["build_wall_s"] = {"sightlines": t1 - t0, "tangents": t2 - t1,
+        self.stats["build_wall_s"] = {"triangulation": tt - t0, "sightlines": t1 - tt,
+                                      "tangents": t2 - t1,
                                       "chains": time.perf_counter() - t2}
         self.nbytes = self.chains.nbytes
         self.stats["arc_tests"] = self.chains.arc_tests
