@@ -52,7 +52,7 @@ import triangle
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
-from optplan.geometry.triangular_expansion import KAPPA, expand_views, locate
+from optplan.geometry.triangular_expansion import KAPPA, expand_views, locate, pack_triangles
 
 __all__ = ["Sightlines", "KAPPA"]
 
@@ -147,6 +147,7 @@ class Sightlines:
         inner = s[~np.isin(s, bv).any(axis=1)]  # not the box's edges
         self.PINCH = np.bincount(inner.ravel(), minlength=nv) >= 4
         self.vstart, self.vtri = _csr(self.T.ravel(), np.arange(3 * nt), nv)
+        self.TR = pack_triangles(self.T, self.NB, self.NK, self.CON, self.FREE)
         self.cstart, self.citems = _csr(inv[:n_c], np.arange(n_c), nv)
 
     def _vertex_ids(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -176,7 +177,6 @@ class Sightlines:
         SV[hit] = ids
         ST = np.full(k, -1, np.int64)
         for q in np.flatnonzero(~hit):
-            ST[q] = locate(self.VX, self.T, self.NB, S[q, 0], S[q, 1], 0, 4 * len(self.T) + 8)
-        return expand_views(S, SV, ST, LO, W, self.VX, self.T, self.NB, self.NK, self.CON,
-                            self.FREE, self.CONV, self.PINCH, self.vstart, self.vtri,
-                            self.cstart, self.citems, self.eps)
+            ST[q] = locate(self.VX, self.TR, S[q, 0], S[q, 1], 0, 4 * len(self.T) + 8)
+        return expand_views(S, SV, ST, LO, W, self.VX, self.TR, self.CONV, self.PINCH,
+                            self.vstart, self.vtri, self.cstart, self.citems, self.eps)

@@ -28,15 +28,43 @@ import math
 
 import numpy as np
 
-from optplan.geometry.jit import B1, B2, F1, F2, I1, I2, compiled, f8, i8, inlined
+from optplan.geometry.jit import B1, F1, F2, I1, I2, compiled, f8, i8, inlined
 
-__all__ = ["expand_views", "locate", "KAPPA", "SLACK"]
+__all__ = ["expand_views", "locate", "pack_triangles", "KAPPA", "SLACK"]
 
 TWO_PI = 2.0 * math.pi
 #: Widening at a grazed convex corner, in units of ``eps`` at the corner's distance.
 KAPPA = 4.0
 #: Angular slack (rad) of every interval end and of the seen test.
 SLACK = 1e-9
+
+
+def pack_triangles(T: np.ndarray, NB: np.ndarray, NK: np.ndarray, CON: np.ndarray,
+                   FREE: np.ndarray) -> np.ndarray:
+    """The ``(nt, 8)`` int64 rows of :func:`expand_views` (its ``TR``): corners, neighbours,
+    flags (constrained edges, free space, the edges' indices in their neighbours)."""
+    flags = (CON.astype(np.int64) << np.arange(3)).sum(axis=1) + (FREE.astype(np.int64) << 3)
+    flags += (NK.astype(np.int64) << (4 + 2 * np.arange(3))).sum(axis=1)
+    return np.ascontiguousarray(np.column_stack([T, NB, flags, np.zeros(len(T), np.int64)]),
+                                dtype=np.int64)
+
+
+@inlined
+def _con(TR, t, e):
+    """The edge opposite corner ``e`` of triangle ``t`` is constrained."""
+    return (TR[t, 6] >> e) & 1 != 0
+
+
+@inlined
+def _free(TR, t):
+    """Triangle ``t`` is free space."""
+    return (TR[t, 6] >> 3) & 1 != 0
+
+
+@inlined
+def _nk(TR, t, e):
+    """The index, in the neighbour across it, of the edge opposite corner ``e`` of ``t``."""
+    return (TR[t, 6] >> (4 + 2 * e)) & 3
 
 
 @inlined
@@ -86,8 +114,8 @@ def _push(stk, n, t, k, L, R):  # pragma: no cover - compiled
     return stk, _put(stk, n, t, k, L, R)
 
 
-@compiled(F2, I2, B2, B1, B1, I1, I1, i8, f8, f8, f8, f8, F2, i8)
-def _jump(VX, T, CON, FREE, CONV, vstart, vtri, v, th, sx, sy, tiny, stk,
+@compiled(F2, I2, B1, I1, I1, i8, f8, f8, f8, f8, F2, i8)
+def _jump(VX, TR, CONV, vstart, vtri, v, th, sx, sy, tiny, stk,
           n_st):  # pragma: no cover - compiled
     """The rays through the pinch vertex ``v`` (direction ``th``) go on into the free
     triangles at ``v`` whose corner holds their direction: a view of each entered at ``v``
@@ -99,10 +127,10 @@ def _jump(VX, T, CON, FREE, CONV, vstart, vtri, v, th, sx, sy, tiny, stk,
     for rr in range(vstart[v], vstart[v + 1]):
         t = vtri[rr] // 3
         kk = vtri[rr] % 3
-        if not FREE[t]:
+        if not _free(TR, t):
             continue
-        p = T[t, (kk + 1) % 3]
-        r = T[t, (kk + 2) % 3]
+        p = TR[t, (kk + 1) % 3]
+        r = TR[t, (kk + 2) % 3]
         px = VX[p, 0] - VX[v, 0]
         py = VX[p, 1] - VX[v, 1]
         rx = VX[r, 0] - VX[v, 0]
@@ -114,9 +142,8 @@ def _jump(VX, T, CON, FREE, CONV, vstart, vtri, v, th, sx, sy, tiny, stk,
     return stk, n_st
 
 
-@compiled(F2, I2, B2, B1, B1, B1, I1, I1, I1, I1, I1, I1, i8, i8, f8, f8, f8, f8, I1, i8, F2,
-          i8)
-def _visit(VX, T, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q, v, th,
+@compiled(F2, I2, B1, B1, I1, I1, I1, I1, I1, I1, i8, i8, f8, f8, f8, f8, I1, i8, F2, i8)
+def _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q, v, th,
            sx, sy, tiny, out, n_out, stk, n_st):  # pragma: no cover - compiled
     """Vertex ``v`` (direction ``th``) is seen from source ``q``: its centres not seen yet
     are appended to ``out``, and at a pinch (the first time) the rays through it go on
@@ -131,7 +158,7 @@ def _visit(VX, T, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, 
             n_out += 1
     if PINCH[v] and pst[v] != q:
         pst[v] = q
-        stk, n_st = _jump(VX, T, CON, FREE, CONV, vstart, vtri, v, th, sx, sy, tiny, stk, n_st)
+        stk, n_st = _jump(VX, TR, CONV, vstart, vtri, v, th, sx, sy, tiny, stk, n_st)
     return out, n_out, stk, n_st
 
 
@@ -146,7 +173,7 @@ def _put(stk, n, t, k, L, R):
 
 
 @inlined
-def _split(VX, T, NB, NK, CON, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st):
+def _split(VX, TR, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st):
     """Push the views beyond the two other edges of triangle ``t`` entered opposite ``k``:
     ``(A, c)`` with ``[L, min(R, tc + w)]``, ``(c, B)`` with ``[max(L, tc - w), R]``
     (module docstring); returns the stack and its size."""
@@ -154,19 +181,19 @@ def _split(VX, T, NB, NK, CON, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st)
         stk = _grown_f(stk, n_st + 2)
     e1 = (k + 1) % 3  # the edge (A, c), opposite B
     e2 = (k + 2) % 3  # the edge (c, B), opposite A
-    if not CON[t, e1] and NB[t, e1] >= 0:
-        R1 = min(R, tc + (_widen(VX, c, sx, sy, tiny, CONV) if CON[t, e2] else SLACK))
+    if not _con(TR, t, e1) and TR[t, 3 + e1] >= 0:
+        R1 = min(R, tc + (_widen(VX, c, sx, sy, tiny, CONV) if _con(TR, t, e2) else SLACK))
         if L < R1:
-            n_st = _put(stk, n_st, NB[t, e1], NK[t, e1], L, R1)
-    if not CON[t, e2] and NB[t, e2] >= 0:
-        L2 = max(L, tc - (_widen(VX, c, sx, sy, tiny, CONV) if CON[t, e1] else SLACK))
+            n_st = _put(stk, n_st, TR[t, 3 + e1], _nk(TR, t, e1), L, R1)
+    if not _con(TR, t, e2) and TR[t, 3 + e2] >= 0:
+        L2 = max(L, tc - (_widen(VX, c, sx, sy, tiny, CONV) if _con(TR, t, e1) else SLACK))
         if L2 < R:
-            n_st = _put(stk, n_st, NB[t, e2], NK[t, e2], L2, R)
+            n_st = _put(stk, n_st, TR[t, 3 + e2], _nk(TR, t, e2), L2, R)
     return stk, n_st
 
 
 @inlined
-def _expand(VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst,
+def _expand(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst,
             q, sx, sy, lo, tiny, stk, n_st, out, n_out):
     """Run the views on the stack for source ``q`` (module docstring); returns ``out``,
     its length and the stack (grown)."""
@@ -179,27 +206,27 @@ def _expand(VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems,
         mid = 0.5 * (L + R)
         if k >= 3:  # entered at a pinch vertex: its two other vertices, the edge beyond
             for j in range(1, 3):
-                v = T[t, (k - 3 + j) % 3]
+                v = TR[t, (k - 3 + j) % 3]
                 th = _rel(VX[v, 0], VX[v, 1], sx, sy, lo, mid)
                 if L - SLACK <= th <= R + SLACK:
-                    out, n_out, stk, n_st = _visit(VX, T, CON, FREE, CONV, PINCH, vstart, vtri,
+                    out, n_out, stk, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri,
                                                    cstart, citems, cstamp, pst, q, v, th, sx,
                                                    sy, tiny, out, n_out, stk, n_st)
-            if not CON[t, k - 3] and NB[t, k - 3] >= 0:
-                stk, n_st = _push(stk, n_st, NB[t, k - 3], NK[t, k - 3], L, R)
+            if not _con(TR, t, k - 3) and TR[t, k] >= 0:
+                stk, n_st = _push(stk, n_st, TR[t, k], _nk(TR, t, k - 3), L, R)
             continue
-        c = T[t, k]
+        c = TR[t, k]
         tc = _rel(VX[c, 0], VX[c, 1], sx, sy, lo, mid)
         if L - SLACK <= tc <= R + SLACK:
-            out, n_out, stk, n_st = _visit(VX, T, CON, FREE, CONV, PINCH, vstart, vtri, cstart,
+            out, n_out, stk, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart,
                                            citems, cstamp, pst, q, c, tc, sx, sy, tiny, out,
                                            n_out, stk, n_st)
-        stk, n_st = _split(VX, T, NB, NK, CON, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st)
+        stk, n_st = _split(VX, TR, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st)
     return out, n_out, stk
 
 
-@compiled(F2, I2, I2, f8, f8, i8, i8)
-def locate(VX, T, NB, x, y, t0, maxit):  # pragma: no cover - compiled
+@compiled(F2, I2, f8, f8, i8, i8)
+def locate(VX, TR, x, y, t0, maxit):  # pragma: no cover - compiled
     """The triangle holding ``(x, y)`` (its boundary included), by a remembering walk from
     triangle ``t0`` (never straight back; the edge tried first turns with the step, so the
     walk ends on any triangulation); -1 when the point is outside the triangulation or the
@@ -210,13 +237,13 @@ def locate(VX, T, NB, x, y, t0, maxit):  # pragma: no cover - compiled
         moved = False
         for j in range(3):
             k = (it + j) % 3
-            p = T[t, (k + 1) % 3]
-            r = T[t, (k + 2) % 3]
+            p = TR[t, (k + 1) % 3]
+            r = TR[t, (k + 2) % 3]
             o = ((VX[r, 0] - VX[p, 0]) * (y - VX[p, 1])
                  - (VX[r, 1] - VX[p, 1]) * (x - VX[p, 0]))
-            if o < 0.0 and NB[t, k] != prev:
+            if o < 0.0 and TR[t, 3 + k] != prev:
                 prev = t
-                t = NB[t, k]
+                t = TR[t, 3 + k]
                 moved = True
                 break
         if not moved:
@@ -227,36 +254,36 @@ def locate(VX, T, NB, x, y, t0, maxit):  # pragma: no cover - compiled
 
 
 @inlined
-def _passable(VX, CON, FREE, t, kk, a, b, sx, sy, tiny, vertex):
+def _passable(VX, TR, t, kk, a, b, sx, sy, tiny, vertex):
     """A first view may leave its triangle across the edge ``(a, b)`` opposite ``kk``: it
     is not constrained, or the source is no vertex and lies within ``tiny`` of it (or in a
     triangle inside a solid)."""
-    if not CON[t, kk]:
+    if not _con(TR, t, kk):
         return True
     if vertex:
         return False
     ex = VX[b, 0] - VX[a, 0]
     ey = VX[b, 1] - VX[a, 1]
     return (abs(ex * (sy - VX[a, 1]) - ey * (sx - VX[a, 0])) / math.hypot(ex, ey) <= tiny
-            or not FREE[t])
+            or not _free(TR, t))
 
 
 @inlined
-def _root(VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q,
+def _root(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q,
           sx, sy, lo, wd, tiny, t, kk, vertex, stk, n_st, out, n_out):
     """The first view beyond the edge opposite corner ``kk`` of triangle ``t`` (the source
     at that corner, or inside ``t``), cut to the window ``[0, wd]`` (every turn of it); its
     ends are seen."""
-    a = T[t, (kk + 1) % 3]
-    b = T[t, (kk + 2) % 3]
+    a = TR[t, (kk + 1) % 3]
+    b = TR[t, (kk + 2) % 3]
     ta = math.atan2(VX[a, 1] - sy, VX[a, 0] - sx) - lo
     ta -= TWO_PI * math.floor(ta / TWO_PI)
     tb = _rel(VX[b, 0], VX[b, 1], sx, sy, lo, ta + 0.5 * math.pi)
     if tb < ta:  # the source on the edge: half a turn
         tb = ta + math.pi
-    wa = _widen(VX, a, sx, sy, tiny, CONV) if CON[t, (kk + 2) % 3] else SLACK
-    wb = _widen(VX, b, sx, sy, tiny, CONV) if CON[t, (kk + 1) % 3] else SLACK
-    go = _passable(VX, CON, FREE, t, kk, a, b, sx, sy, tiny, vertex) and NB[t, kk] >= 0
+    wa = _widen(VX, a, sx, sy, tiny, CONV) if _con(TR, t, (kk + 2) % 3) else SLACK
+    wb = _widen(VX, b, sx, sy, tiny, CONV) if _con(TR, t, (kk + 1) % 3) else SLACK
+    go = _passable(VX, TR, t, kk, a, b, sx, sy, tiny, vertex) and TR[t, 3 + kk] >= 0
     for sh in range(-1, 2) if wd < TWO_PI else range(0, 1):
         L = ta - wa + sh * TWO_PI
         R = tb + wb + sh * TWO_PI
@@ -265,16 +292,16 @@ def _root(VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems, c
             R = min(R, wd + SLACK)
         for v, th in ((a, ta + sh * TWO_PI), (b, tb + sh * TWO_PI)):
             if L - SLACK <= th <= R + SLACK:
-                out, n_out, stk, n_st = _visit(VX, T, CON, FREE, CONV, PINCH, vstart, vtri,
+                out, n_out, stk, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri,
                                                cstart, citems, cstamp, pst, q, v, th, sx, sy,
                                                tiny, out, n_out, stk, n_st)
         if go and L < R:
-            stk, n_st = _push(stk, n_st, NB[t, kk], NK[t, kk], L, R)
+            stk, n_st = _push(stk, n_st, TR[t, 3 + kk], _nk(TR, t, kk), L, R)
     return out, n_out, stk, n_st
 
 
-@compiled(F2, I1, I1, F1, F1, F2, I2, I2, I2, B2, B1, B1, B1, I1, I1, I1, I1, f8)
-def expand_views(S, SV, ST, LO, WID, VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri,
+@compiled(F2, I1, I1, F1, F1, F2, I2, B1, B1, I1, I1, I1, I1, f8)
+def expand_views(S, SV, ST, LO, WID, VX, TR, CONV, PINCH, vstart, vtri,
                  cstart, citems, eps):  # pragma: no cover - compiled
     """Candidate visible centres per source by triangular expansion (module docstring).
 
@@ -283,9 +310,11 @@ def expand_views(S, SV, ST, LO, WID, VX, T, NB, NK, CON, FREE, CONV, PINCH, vsta
     S : (k, 2) sources; SV : (k,) the vertex each source is (-1: none); ST : (k,) the
         triangle holding it when it is no vertex (-1: not found: every centre is then a
         candidate); LO, WID : (k,) window start and width (rad, ``>= 2 pi``: all directions);
-    VX : (nv, 2) vertices; T : (nt, 3) counter-clockwise triangles; NB, NK : (nt, 3) the
-        neighbour across the edge opposite each corner (-1: none) and that edge's index in
-        it; CON : (nt, 3) that edge is constrained; FREE : (nt,) the triangle is free space;
+    VX : (nv, 2) vertices; TR : (nt, 8) one row per triangle (one cache line): its corners
+        (counter-clockwise), the neighbours across the edges opposite them (-1: none), and
+        flags: bit ``e`` the edge opposite corner ``e`` is constrained, bit 3 the triangle is
+        free space, bits ``4 + 2 e`` and ``5 + 2 e`` that edge's index in the neighbour
+        (:func:`pack_triangles`);
     CONV, PINCH : (nv,) the vertex is a convex corner of a solid / where solids touch;
     vstart, vtri : CSR of the triangles at each vertex (``vtri = 3 t + corner``);
     cstart, citems : CSR of the centres at each vertex; eps : tolerance.
@@ -320,12 +349,12 @@ def expand_views(S, SV, ST, LO, WID, VX, T, NB, NK, CON, FREE, CONV, PINCH, vsta
             roots = range(vstart[SV[q]], vstart[SV[q] + 1]) if SV[q] >= 0 else range(3)
             for rr in roots:
                 t = vtri[rr] // 3 if SV[q] >= 0 else ST[q]
-                if SV[q] < 0 or FREE[t]:
+                if SV[q] < 0 or _free(TR, t):
                     out, n_out, stk, n_st = _root(
-                        VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri, cstart, citems,
+                        VX, TR, CONV, PINCH, vstart, vtri, cstart, citems,
                         cstamp, pst, q, sx, sy, LO[q], WID[q], tiny, t,
                         vtri[rr] % 3 if SV[q] >= 0 else rr, SV[q] >= 0, stk, n_st, out, n_out)
-            out, n_out, stk = _expand(VX, T, NB, NK, CON, FREE, CONV, PINCH, vstart, vtri,
+            out, n_out, stk = _expand(VX, TR, CONV, PINCH, vstart, vtri,
                                       cstart, citems, cstamp, pst, q, sx, sy, LO[q], tiny, stk,
                                       n_st, out, n_out)
         counts[q] = n_out - n0

@@ -1,13 +1,14 @@
 """Candidate sight lines (``optplan.geometry.sightlines``) never lose a free tangent.
 
 The triangular expansion lists, per source, a superset of the circles it sees; the tangent
-graph keeps only the tangents to those.  Oracle: the same tangents computed towards *every* circle and tested
-with the exact segment predicate (``ObstacleSet.segment_free``): the free ones must be the
-same sets, edge for edge, on grid maps (touching cells, pinch points, long walls of many
-pieces, staircases), maps with circle obstacles, for a point and a disc robot.  From points:
-every centre a free straight segment reaches is a candidate.  Metamorphic: translating and
-scaling the map changes no candidate set.  ``TangentGraph.build`` stores exactly the free
-tangents and answers queries like the lazy graph.
+graph keeps only the tangents to those.  Oracle: the same tangents computed towards *every*
+circle and tested with the exact segment predicate (``ObstacleSet.segment_free``): the free
+ones must be the same sets, edge for edge, on grid maps (touching cells, pinch points, long
+walls of many pieces, staircases), maps with circle obstacles, for a point and a disc robot.
+From points: every centre a free straight segment reaches is a candidate; a point sees through
+a pinch and along a wall.  The triangles' free/solid labels agree with shapely.  Metamorphic:
+translating and scaling the map changes no candidate set.  ``TangentGraph.build`` stores
+exactly the free tangents and answers queries like the lazy graph.
 """
 
 from __future__ import annotations
