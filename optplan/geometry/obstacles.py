@@ -582,9 +582,9 @@ def solid_edges(oset: ObstacleSet) -> np.ndarray:
     """The boundary edges of the polygon solids of ``oset`` (local frame), ``(m, 4)``: ``x1,
     y1, x2, y2``, every edge of every ring (exterior and holes) of the solids' polygons once,
     so the rings close (the constrained edges of :mod:`~optplan.geometry.sightlines`)."""
-    rings = [np.asarray(r.coords) for _, g in oset.shapes if not isinstance(g, tuple)
-             for p in getattr(g, "geoms", [g]) for r in (p.exterior, *p.interiors)]
-    if not rings:
-        return np.zeros((0, 4))
-    seg = np.concatenate([np.concatenate([r[:-1], r[1:]], axis=1) for r in rings])
+    polys = [g for _, g in oset.shapes if not isinstance(g, tuple)]
+    rings = shapely.get_rings(shapely.get_parts(np.array(polys, dtype=object)))
+    xy, ring = shapely.get_coordinates(rings, return_index=True)
+    same = np.flatnonzero(ring[1:] == ring[:-1])  # consecutive points of one ring
+    seg = np.concatenate([xy[same], xy[same + 1]], axis=1).reshape(-1, 4)
     return np.ascontiguousarray(seg[(seg[:, 0] != seg[:, 2]) | (seg[:, 1] != seg[:, 3])])

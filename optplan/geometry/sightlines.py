@@ -163,11 +163,13 @@ class Sightlines:
         counts, flat = self.candidates_flat(sources, lo, width)
         return np.split(flat, np.cumsum(counts)[:-1]) if len(counts) else []
 
-    def candidates_flat(self, sources, lo, width) -> tuple[np.ndarray, np.ndarray]:
+    def candidates_flat(self, sources, lo, width, group=None) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`candidates` as ``(counts, flat)``: how many per source, and those of
-        source 0, then of source 1, ..."""
+        source 0, then of source 1, ...; consecutive sources of one ``group`` (ints, default
+        each its own) list a centre once between them."""
         S = np.ascontiguousarray(np.asarray(sources, float).reshape(-1, 2))
         k = len(S)
+        G = np.arange(k) if group is None else np.ascontiguousarray(group, np.int64)
         LO = np.broadcast_to(np.asarray(lo, float), (k,)).copy()
         W = np.broadcast_to(np.asarray(width, float), (k,)).copy()
         if k == 0 or len(self.centres) == 0:
@@ -178,5 +180,5 @@ class Sightlines:
         ST = np.full(k, -1, np.int64)
         for q in np.flatnonzero(~hit):
             ST[q] = locate(self.VX, self.TR, S[q, 0], S[q, 1], 0, 4 * len(self.T) + 8)
-        return expand_views(S, SV, ST, LO, W, self.VX, self.TR, self.CONV, self.PINCH,
+        return expand_views(S, SV, ST, LO, W, G, self.VX, self.TR, self.CONV, self.PINCH,
                             self.vstart, self.vtri, self.cstart, self.citems, self.eps)

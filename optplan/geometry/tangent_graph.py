@@ -192,28 +192,31 @@ class TangentGraph:
         return np.sort(np.concatenate([self._pts[found], self._full]))
 
     def _seen_keys(self, idx: np.ndarray) -> np.ndarray:
-        """The circles that circles ``idx`` may see (:meth:`visible`) as sorted keys ``i n +
-        j``, each once; the sources split between two threads (the expansion runs without
-        the GIL)."""
+        """The circles that circles ``idx`` may see (:meth:`visible`) as keys ``i n + j``,
+        each once (the windows of a circle share their stamps), in no particular order; the
+        sources split between two threads (the expansion runs without the GIL)."""
         own, lo, wd = self._windows(idx)
+        order = np.argsort(own, kind="stable")  # a circle's windows one after the other
+        own, lo, wd = own[order], lo[order], wd[order]
         z = self.circles.center[idx[own]]
         xy = np.stack([z.real, z.imag], 1)
-        cut = len(own) // 2
+        cut = int(np.searchsorted(own, len(idx) // 2))  # between two circles
         sight = self.sightlines
-        def run(k: slice) -> tuple[np.ndarray, np.ndarray]:
-            return sight.candidates_flat(xy[k], lo[k], wd[k])
 
-        if cut < 64:  # a few sources (a lazy search's circle): no threads
+        def run(k: slice) -> tuple[np.ndarray, np.ndarray]:
+            return sight.candidates_flat(xy[k], lo[k], wd[k], own[k])
+
+        if len(own) < 128:  # a few sources (a lazy search's circle): no threads
             halves = [run(slice(None))]
         else:
             with ThreadPoolExecutor(2) as pool:
                 halves = list(pool.map(run, [slice(0, cut), slice(cut, None)]))
         counts = np.concatenate([c for c, _ in halves])
         n, m = self.circles.n, len(self._full)
-        flat = np.concatenate([self._pts[f] for _, f in halves]
+        seen = np.concatenate([self._pts[f] for _, f in halves]
                               + [np.tile(self._full, len(idx))])
-        key = np.sort(np.r_[np.repeat(idx[own], counts), np.repeat(idx, m)] * n + flat)
-        return key[np.r_[True, key[1:] != key[:-1]][:len(key)]]
+        src = np.r_[np.repeat(own, counts), np.repeat(np.arange(len(idx)), m)]
+        return idx[src] * n + seen
 
     def visible(self, i: int) -> np.ndarray:
         """Indices of the circles whose tangents from circle ``i`` may be free (a superset
@@ -222,7 +225,7 @@ class TangentGraph:
             return self._all  # every circle: one shared array, not a copy per circle
         v = self._visible.get(i)
         if v is None:
-            v = self._seen_keys(np.array([i])) % self.circles.n
+            v = np.sort(self._seen_keys(np.array([i])) % self.circles.n)
             self._visible[i] = v
         return v
 

@@ -300,8 +300,8 @@ def _root(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q,
     return out, n_out, stk, n_st
 
 
-@compiled(F2, I1, I1, F1, F1, F2, I2, B1, B1, I1, I1, I1, I1, f8)
-def expand_views(S, SV, ST, LO, WID, VX, TR, CONV, PINCH, vstart, vtri,
+@compiled(F2, I1, I1, F1, F1, I1, F2, I2, B1, B1, I1, I1, I1, I1, f8)
+def expand_views(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri,
                  cstart, citems, eps):  # pragma: no cover - compiled
     """Candidate visible centres per source by triangular expansion (module docstring).
 
@@ -310,6 +310,8 @@ def expand_views(S, SV, ST, LO, WID, VX, TR, CONV, PINCH, vstart, vtri,
     S : (k, 2) sources; SV : (k,) the vertex each source is (-1: none); ST : (k,) the
         triangle holding it when it is no vertex (-1: not found: every centre is then a
         candidate); LO, WID : (k,) window start and width (rad, ``>= 2 pi``: all directions);
+    G : (k,) the sources' groups: consecutive sources of one group (the windows of one point)
+        report a centre once between them;
     VX : (nv, 2) vertices; TR : (nt, 8) one row per triangle (one cache line): its corners
         (counter-clockwise), the neighbours across the edges opposite them (-1: none), and
         flags: bit ``e`` the edge opposite corner ``e`` is constrained, bit 3 the triangle is
@@ -352,10 +354,10 @@ def expand_views(S, SV, ST, LO, WID, VX, TR, CONV, PINCH, vstart, vtri,
                 if SV[q] < 0 or _free(TR, t):
                     out, n_out, stk, n_st = _root(
                         VX, TR, CONV, PINCH, vstart, vtri, cstart, citems,
-                        cstamp, pst, q, sx, sy, LO[q], WID[q], tiny, t,
+                        cstamp, pst, G[q], sx, sy, LO[q], WID[q], tiny, t,
                         vtri[rr] % 3 if SV[q] >= 0 else rr, SV[q] >= 0, stk, n_st, out, n_out)
             out, n_out, stk = _expand(VX, TR, CONV, PINCH, vstart, vtri,
-                                      cstart, citems, cstamp, pst, q, sx, sy, LO[q], tiny, stk,
+                                      cstart, citems, cstamp, pst, G[q], sx, sy, LO[q], tiny, stk,
                                       n_st, out, n_out)
         counts[q] = n_out - n0
     return counts, out[:n_out].copy()
