@@ -31,6 +31,7 @@ A query adds its start, goal and their tangents to this graph
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -159,9 +160,15 @@ def chains_of(C: Circles, t: dict[str, np.ndarray], arcs: Any) -> ChainGraph:
     E = len(t["j"])
     key = chain_key(C, t["i"], t["si"], t["od"])
     u = 2 * t["i"] + (t["si"] < 0)
-    order = np.lexsort((key, u))  # departures by chain and position
-    for k in list(t):
-        t[k] = t[k][order]
+    # departures by chain and position: np.lexsort((key, u)) (the same stable order), as
+    # one sort of exact integer keys (chain, rank of the position), about half its time
+    rank = np.empty(E, np.int64)
+    rank[np.argsort(key, kind="stable")] = np.arange(E)
+    order = np.argsort(u * E + rank)
+    names = list(t)
+    with ThreadPoolExecutor(2) as pool:  # the permutations in two threads
+        for k, v in zip(names, pool.map(lambda k: t[k][order], names)):
+            t[k] = v
     key, u = key[order], u[order]
     uptr = np.searchsorted(u, np.arange(2 * C.n + 1))
     nxt = np.full(E, -1, np.int64)
@@ -180,7 +187,11 @@ def chains_of(C: Circles, t: dict[str, np.ndarray], arcs: Any) -> ChainGraph:
     # arrivals: the entry (first departure at or after), the arc to it
     a_key = chain_key(C, t["j"], t["sj"], cone_off(C, t["j"], t["th_a"]))
     au = 2 * t["j"] + (t["sj"] < 0)
-    a_pos = first_above(uptr, key, au, a_key - ANGLE_TOL)
+    half = E // 2  # two threads (numpy's indexing and comparisons release the GIL)
+    with ThreadPoolExecutor(2) as pool:
+        a_pos = np.concatenate(list(pool.map(
+            lambda k: first_above(uptr, key, au[k], a_key[k] - ANGLE_TOL),
+            [slice(0, half), slice(half, None)])))
     entry, a_sweep = entry_of(C, uptr, key, t["j"], au, a_key, a_pos)
     has = np.flatnonzero(entry >= 0)
     free, n_entry = arcs_free(arcs, C, t["j"][has], t["th_a"][has], a_sweep[has],
