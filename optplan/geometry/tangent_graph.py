@@ -258,7 +258,7 @@ class TangentGraph:
 
         Every free tangent: the sight lines of every circle (:mod:`~optplan.geometry.sightlines`,
         the sources split between two threads: the expansion runs without the GIL), the
-        circle pairs one of which may see the other, each pair once, the tangents of the four
+        circle pairs each of which may see the other, each pair once, the tangents of the four
         sense pairs of each in vectorised batches (at most :data:`BUILD_PAIRS` each, two at a
         time in two threads), their segments tested in one call of
         :meth:`~optplan.geometry.obstacles.ObstacleSet.pairs_free` per batch (a segment that
