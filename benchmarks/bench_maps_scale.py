@@ -245,7 +245,8 @@ def main(argv: list[str] | None = None) -> None:
                         f"{st['segment_tests']}")
             if "build_wall_s" in st:
                 work.append(f"{kind}-{size}: build wall s: " + ", ".join(
-                    f"{k} {v:.2f}" for k, v in st["build_wall_s"].items()))
+                    f"{k} {v:.2f}" for k, v in st["build_wall_s"].items())
+                    + f"; circle pairs that see each other {st['build_pairs']}")
     for line in work:
         print(line)
     for line in notes:

@@ -52,9 +52,9 @@ import triangle
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
-from optplan.geometry.triangular_expansion import KAPPA, expand_views, locate, pack_triangles
+from optplan.geometry.triangular_expansion import expand_views, locate, pack_triangles
 
-__all__ = ["Sightlines", "KAPPA"]
+__all__ = ["Sightlines"]
 
 
 def _csr(keys: np.ndarray, items: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:

@@ -281,6 +281,7 @@ class TangentGraph:
         t1 = time.perf_counter()
         batches = self._batches(keys)
         del keys
+        self.stats["build_pairs"] = sum(len(b) for b in batches)
         self._edges = {}
         self.oset.pairs_free(np.zeros((1, 2)), [0], [0])  # its arrays made before the threads
         with ThreadPoolExecutor(2) as pool:  # two batches at a time
