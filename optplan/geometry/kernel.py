@@ -1,6 +1,7 @@
 """Compiled loops of the exact collision engine (numba; the only implementation).
 
-Every function here is ``@compiled(signature)`` (:mod:`optplan.geometry.jit`): compiled once,
+Every function here is ``@compiled(signature)`` or, where it allocates nothing, ``@leaf``
+(:mod:`optplan.geometry.jit`: no reference counting in the loops): compiled once,
 with its one signature, on its first call (about 3 s of CPU for the whole module, once per
 machine; the machine code is cached on disk) and tested against shapely in
 ``tests/geometry/test_geometry.py``.  Why compiled: the engine answers many small queries (a swarm's
@@ -24,7 +25,7 @@ import math
 
 import numpy as np
 
-from optplan.geometry.jit import B1, F1, F2, F3, I1, I2, b1, compiled, f8, i8, inlined
+from optplan.geometry.jit import B1, F1, F2, F3, I1, I2, b1, compiled, f8, i8, inlined, leaf
 
 __all__ = ["pair", "crossings", "clearance"]
 
@@ -35,7 +36,7 @@ _ITEMS = (F3, F3, F3, F2, F2, F2, F1)  # P, E, N, C, CE, IC, CR
 _GRID = (b1, f8, f8, f8, i8, i8, I1, I1, I1)  # use_grid, h, x0, y0, nx, ny, start, count, items
 
 
-@compiled(f8)
+@leaf(f8)
 def _clamp01(t):
     if t < 0.0:
         return 0.0
@@ -44,7 +45,7 @@ def _clamp01(t):
     return t
 
 
-@compiled(f8, f8, f8, f8, f8, f8)
+@leaf(f8, f8, f8, f8, f8, f8)
 def _pt_seg2(qx, qy, px, py, ex, ey):
     """Squared distance from point q to segment p -> p + e."""
     ee = ex * ex + ey * ey
@@ -56,7 +57,7 @@ def _pt_seg2(qx, qy, px, py, ex, ey):
     return dx * dx + dy * dy
 
 
-@compiled(*_SEG, i8, F3, F2)
+@leaf(*_SEG, i8, F3, F2)
 def _clip(ax, ay, dx, dy, k, N, C):
     """Cyrus-Beck: parameter interval of A + tD, t in [0, 1], inside the half-planes
     ``N[k, j] . x <= C[k, j]``."""
@@ -144,7 +145,7 @@ def _piece_distance(ax, ay, dx, dy, k, P, E):
     return math.sqrt(d2)
 
 
-@compiled(*_SEG, i8, i8, *_ITEMS, f8)
+@leaf(*_SEG, i8, i8, *_ITEMS, f8)
 def pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps):
     """Exact ``(dist, inside)`` of segment ``A -> A + D`` and item ``k`` (module docstring)."""
     dl = math.sqrt(dx * dx + dy * dy)
@@ -160,7 +161,7 @@ def pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps):
     return _piece_distance(ax, ay, dx, dy, k, P, E), 0.0
 
 
-@compiled(*_SEG, i8, F3, F2, f8)
+@leaf(*_SEG, i8, F3, F2, f8)
 def _apart(ax, ay, dx, dy, k, N, C, lim):
     """Both segment ends at least ``lim`` outside one edge line of piece ``k``: the segment is
     farther than ``lim`` from the piece (a separating axis), so the pair cannot collide."""
@@ -174,7 +175,7 @@ def _apart(ax, ay, dx, dy, k, N, C, lim):
     return False
 
 
-@compiled(*_SEG, i8, F2, F1, f8)
+@leaf(*_SEG, i8, F2, F1, f8)
 def _near_item(ax, ay, dx, dy, k, IC, IR, lim):
     """The item's bounding circle comes within ``lim`` of the segment."""
     wx = IC[k, 0] - ax
@@ -225,7 +226,7 @@ def _box_mask(ax, ay, dx, dy, BB, mask):
         mask[k] = (BB[0, k] <= hx) & (BB[1, k] >= lx) & (BB[2, k] <= hy) & (BB[3, k] >= ly)
 
 
-@compiled(*_SEG, i8, F2, F1, F2, B1, f8, *_GRID, I1, i8, I1)
+@leaf(*_SEG, i8, F2, F1, F2, B1, f8, *_GRID, I1, i8, I1)
 def _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx0, gy0, gnx,
                 gny, gstart, gcount, gitems, stamp, sid, out):
     """Items whose bounding circle is within ``lim`` of the segment, written to ``out``
@@ -321,29 +322,41 @@ def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_p
 
     Returns ``(count per path, penetration per path, number of hits)``; when the number of
     hits exceeds ``len(hits)`` only the first ones are stored (the caller retries larger).
+    The scratch arrays are made here, the loop is :func:`_crossings_loop` (a ``@leaf``).
     """
-    n_seg = A.shape[0]
-    P_n = n_seg // S if S > 0 else 0
-    # np.empty and loops, not np.zeros / np.full: each allocation routine is one more
-    # compilation; o_close, o_in, o_pen are set when an obstacle is first met (o_stamp)
+    P_n = A.shape[0] // S if S > 0 else 0
+    # np.empty, not np.zeros / np.full: each allocation routine is one more compilation;
+    # the loop initialises what it reads
     count = np.empty(P_n, np.int64)
     pen = np.empty(P_n)
-    for p in range(P_n):
-        count[p] = 0
-        pen[p] = 0.0
     n_items = IC.shape[0]
-    stamp = np.empty(n_items, np.int64)
-    stamp[:] = -1
-    cand = np.empty(n_items, np.int64)
-    o_stamp = np.empty(n_obs, np.int64)
-    o_stamp[:] = -1
-    o_close = np.empty(n_obs, np.bool_)
-    o_in = np.empty(n_obs)
-    o_pen = np.empty(n_obs)
-    touched = np.empty(n_items, np.int64)
     lim = r + 2.0 * eps
     BB = _item_boxes(K, P, IC, CR, lim)
-    mask = np.empty(n_items, np.bool_)
+    n_hits = _crossings_loop(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, want_pen,
+                             use_grid, gh, gx0, gy0, gnx, gny, gstart, gcount, gitems, hits,
+                             count, pen, lim, BB, np.empty(n_items, np.bool_),
+                             np.empty(n_items, np.int64), np.empty(n_items, np.int64),
+                             np.empty(n_items, np.int64), np.empty(n_obs, np.int64),
+                             np.empty(n_obs, np.bool_), np.empty(n_obs), np.empty(n_obs))
+    return count, pen, n_hits
+
+
+@leaf(F2, F2, i8, i8, F3, F3, F3, F2, F2, F2, F1, F1, I1, f8, f8, b1, *_GRID, I2, I1, F1,
+      f8, F2, B1, I1, I1, I1, I1, B1, F1, F1)
+def _crossings_loop(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, want_pen, use_grid,
+                    gh, gx0, gy0, gnx, gny, gstart, gcount, gitems, hits, count, pen, lim, BB,
+                    mask, stamp, cand, touched, o_stamp, o_close, o_in, o_pen):
+    """The loop of :func:`crossings` over its scratch arrays (uninitialised: set here);
+    returns the number of hits."""
+    n_seg = A.shape[0]
+    for p in range(count.shape[0]):
+        count[p] = 0
+        pen[p] = 0.0
+    for k in range(stamp.shape[0]):
+        stamp[k] = -1
+    for o in range(o_stamp.shape[0]):  # o_close, o_in, o_pen: set when o is first met
+        o_stamp[o] = -1
+    n_items = IC.shape[0]
     n_hits = 0
     for s in range(n_seg):
         ax = A[s, 0]
@@ -364,18 +377,25 @@ def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_p
                     hits[n_hits, 0] = s
                     hits[n_hits, 1] = o
                 n_hits += 1
-    return count, pen, n_hits
+    return n_hits
 
 
 @compiled(F2, F2, i8, F3, F3, F3, F2, F2, F2, F1, F1, f8, f8)
 def clearance(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist):
     """Per segment the exact minimum of ``dist - inside / 2`` over all items (``inf`` with no
-    item within ``max_dist``); bounding circles prune items that cannot beat the best bound."""
-    n_seg = A.shape[0]
+    item within ``max_dist``); bounding circles prune items that cannot beat the best bound
+    (the loop is :func:`_clearance_loop`, a ``@leaf``)."""
+    out = np.empty(A.shape[0])  # every entry is set by the loop
+    _clearance_loop(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist, out,
+                    np.empty(IC.shape[0]))
+    return out
+
+
+@leaf(F2, F2, i8, F3, F3, F3, F2, F2, F2, F1, F1, f8, f8, F1, F1)
+def _clearance_loop(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist, out, cd):
+    """The loop of :func:`clearance` (``cd``: scratch, one distance per item)."""
     n_items = IC.shape[0]
-    out = np.empty(n_seg)  # every entry is set below
-    cd = np.empty(n_items)
-    for s in range(n_seg):
+    for s in range(A.shape[0]):
         ax = A[s, 0]
         ay = A[s, 1]
         dx = D[s, 0]
@@ -403,4 +423,3 @@ def clearance(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist):
             if v < best:
                 best = v
         out[s] = best
-    return out

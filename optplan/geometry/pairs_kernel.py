@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.jit import F1, F2, F3, I1, compiled, f8, i8, inlined
+from optplan.geometry.jit import B1, F1, F2, F3, I1, compiled, f8, i8, inlined, leaf
 from optplan.geometry.kernel import (
     _GRID,
     _ITEMS,
@@ -38,7 +38,7 @@ def _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim)
     return not (k < K and _apart(ax, ay, dx, dy, k, N, C, lim))
 
 
-@inlined  # one call site (free_pairs)
+@inlined  # one call site (_free_pairs_loop)
 def _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K, P, E, N, C,
                    CE, IC, IR, CR, OWN, r, eps, lim, o_stamp, o_in, touched):
     """One segment of :func:`free_pairs` (its box ``(x0, x1, y0, y1)``): the first item closer
@@ -91,19 +91,31 @@ def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_g
     Tested against shapely and against :func:`crossings` in ``tests/swarm/test_swarm.py`` (its
     caller is :func:`optplan.swarm.core.pairs_free`).
     """
-    n = I.shape[0]
-    free = np.ones(n, np.bool_)
     n_items = IC.shape[0]
     lim = r + 2.0 * eps
-    bb = _item_boxes(K, P, IC, CR, lim)
-    mask = np.empty(n_items, np.bool_)  # scratch of _candidates
-    stamp = np.full(n_items, -1, np.int64)
-    cand = np.arange(n_items)
-    o_stamp = np.full(n_obs, -1, np.int64)
-    o_in = np.zeros(n_obs)
-    touched = np.empty(n_items, np.int64)
+    free = np.empty(I.shape[0], np.bool_)
+    _free_pairs_loop(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, use_grid, gh, gx0,
+                     gy0, gnx, gny, gstart, gcount, gitems, free, lim,
+                     _item_boxes(K, P, IC, CR, lim), np.empty(n_items, np.bool_),
+                     np.empty(n_items, np.int64), np.empty(n_items, np.int64),
+                     np.empty(n_obs, np.int64), np.empty(n_obs), np.empty(n_items, np.int64))
+    return free
+
+
+@leaf(F2, I1, I1, i8, F3, F3, F3, F2, F2, F2, F1, F1, I1, f8, f8, *_GRID, B1, f8, F2, B1, I1,
+      I1, I1, F1, I1)
+def _free_pairs_loop(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, use_grid, gh, gx0,
+                     gy0, gnx, gny, gstart, gcount, gitems, free, lim, bb, mask, stamp, cand,
+                     o_stamp, o_in, touched):
+    """The loop of :func:`free_pairs` over its scratch arrays (uninitialised: set here)."""
+    n_items = IC.shape[0]
+    for k in range(n_items):
+        stamp[k] = -1
+        cand[k] = k
+    for o in range(o_stamp.shape[0]):
+        o_stamp[o] = -1
     last = -1
-    for q in range(n):
+    for q in range(I.shape[0]):
         ax = L[I[q], 0]
         ay = L[I[q], 1]
         bx = L[J[q], 0]
@@ -121,18 +133,21 @@ def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_g
         if blocker >= 0:
             last = blocker
         free[q] = blocker == -1
-    return free
-
 
 
 @compiled(I1, I1, F2, F2, i8, *_ITEMS, f8)
 def pairs(SI, IT, A, D, K, P, E, N, C, CE, IC, CR, eps):
     """:func:`pair` for explicit (segment ``SI[q]``, item ``IT[q]``) pairs."""
-    n = SI.shape[0]
-    dist = np.empty(n)
-    inside = np.empty(n)
-    for q in range(n):
+    dist = np.empty(SI.shape[0])
+    inside = np.empty(SI.shape[0])
+    _pairs_loop(SI, IT, A, D, K, P, E, N, C, CE, IC, CR, eps, dist, inside)
+    return dist, inside
+
+
+@leaf(I1, I1, F2, F2, i8, *_ITEMS, f8, F1, F1)
+def _pairs_loop(SI, IT, A, D, K, P, E, N, C, CE, IC, CR, eps, dist, inside):
+    """The loop of :func:`pairs` (into ``dist``, ``inside``)."""
+    for q in range(SI.shape[0]):
         s = SI[q]
         dist[q], inside[q] = pair(A[s, 0], A[s, 1], D[s, 0], D[s, 1], IT[q], K, P, E, N, C,
                                   CE, IC, CR, eps)
-    return dist, inside

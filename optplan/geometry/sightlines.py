@@ -57,6 +57,12 @@ from optplan.geometry.triangular_expansion import expand_views, locate, pack_tri
 __all__ = ["Sightlines"]
 
 
+def _complex(xy: np.ndarray) -> np.ndarray:
+    """The points ``(n, 2)`` as complex numbers, exactly (no matrix product: numpy's BLAS
+    threads would spin beside the expansion's two threads)."""
+    return np.ascontiguousarray(xy, float).reshape(-1, 2).view(complex).ravel()
+
+
 def _csr(keys: np.ndarray, items: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """CSR lists of ``items`` by ``keys`` in ``0 .. n - 1`` (stable)."""
     order = np.argsort(keys, kind="stable")
@@ -120,7 +126,7 @@ class Sightlines:
         pad = float(max(hi[0] - lo[0], hi[1] - lo[1], 1e-12))
         box = np.array([[lo[0] - pad, lo[1] - pad], [hi[0] + pad, lo[1] - pad],
                         [hi[0] + pad, hi[1] + pad], [lo[0] - pad, hi[1] + pad]])
-        z = np.concatenate([pts[:n_c + 2 * m], box]) @ np.array([1.0, 1j])
+        z = _complex(np.concatenate([pts[:n_c + 2 * m], box]))
         self._keys, inv = np.unique(z, return_inverse=True)
         bv = inv[-4:]
         segs = np.concatenate([np.stack([inv[n_c:n_c + m], inv[n_c + m:n_c + 2 * m]], 1),
@@ -152,7 +158,7 @@ class Sightlines:
 
     def _vertex_ids(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The vertices at the points ``xy`` (exactly), and which points are vertices."""
-        z = xy @ np.array([1.0, 1j])
+        z = _complex(xy)
         k = np.minimum(np.searchsorted(self._keys, z), max(len(self._keys) - 1, 0))
         hit = self._keys[k] == z
         return k[hit], hit

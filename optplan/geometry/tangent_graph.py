@@ -170,41 +170,47 @@ class TangentGraph:
                                      self.oset.frame.local_bounds)
         return self._sight
 
-    def _windows(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _windows(self, idx: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Directions in which circles ``idx`` may see a tangent's other circle, as windows
-        ``(owner, start, width)`` (``owner``: the position in ``idx``).  A point (``rho =
-        0``) leaves perpendicular to a normal of its cone: in sense ``s`` the tangent's
-        direction is the departure's normal turned by ``s`` quarter turns, so two windows,
-        the cone turned by a quarter turn either way (``1e-7`` rad of slack); any other
-        circle one window of all directions (an inner tangent of two discs leaves at any
-        angle)."""
+        ``(owner, start, width, sense)`` (``owner``: the position in ``idx``).  A point
+        (``rho = 0``) leaves perpendicular to a normal of its cone: in sense ``s`` the
+        tangent's direction is the departure's normal turned by ``s`` quarter turns, so two
+        windows, the cone turned by a quarter turn either way (``1e-7`` rad of slack, beyond
+        the cone test's ``ANGLE_TOL``), of senses ``-1`` and ``+1``; any other circle one
+        window of all directions and either sense (``0``: an inner tangent of two discs
+        leaves at any angle)."""
         C = self.circles
         pt = (C.rho[idx] == 0.0) & ~C.full[idx]
         own = np.concatenate([np.arange(len(idx)), np.flatnonzero(pt)])
         k = idx[own]
         two = np.r_[pt, np.ones(int(pt.sum()), bool)]
-        turn = np.where(np.arange(len(own)) < len(idx), -0.5, 0.5) * math.pi
-        lo = np.where(two, C.lo[k] + turn - 1e-7, 0.0)
+        sense = np.where(np.arange(len(own)) < len(idx), -1, 1) * two
+        lo = np.where(two, C.lo[k] + 0.5 * math.pi * sense - 1e-7, 0.0)
         wd = np.where(two, C.width[k] + 2e-7, 4 * math.pi)
-        return own, lo, wd
+        return own, lo, wd, sense.astype(np.int8)
 
     def _with_full(self, found: np.ndarray) -> np.ndarray:
         return np.sort(np.concatenate([self._pts[found], self._full]))
 
-    def _seen_keys(self, idx: np.ndarray) -> np.ndarray:
-        """The circles that circles ``idx`` may see (:meth:`visible`) as keys ``i n + j``,
-        each once (the windows of a circle share their stamps), in no particular order; the
-        sources split between two threads (the expansion runs without the GIL)."""
-        own, lo, wd = self._windows(idx)
+    def _seen_keys(self, idx: np.ndarray, senses: bool = False
+                   ) -> tuple[np.ndarray, np.ndarray | None]:
+        """The circles that circles ``idx`` may see (:meth:`visible`) as keys ``i n + j``, in
+        no particular order, each once (the windows of a circle share their stamps), or with
+        ``senses`` once per window that sees it, with the window's sense (``-1``, ``+1``;
+        ``0``: either); the sources split between two threads (the expansion runs without
+        the GIL)."""
+        own, lo, wd, sense = self._windows(idx)
         order = np.argsort(own, kind="stable")  # a circle's windows one after the other
-        own, lo, wd = own[order], lo[order], wd[order]
+        own, lo, wd, sense = own[order], lo[order], wd[order], sense[order]
         z = self.circles.center[idx[own]]
         xy = np.stack([z.real, z.imag], 1)
         cut = int(np.searchsorted(own, len(idx) // 2))  # between two circles
         sight = self.sightlines
+        group = np.arange(len(own)) if senses else own
 
         def run(k: slice) -> tuple[np.ndarray, np.ndarray]:
-            return sight.candidates_flat(xy[k], lo[k], wd[k], own[k])
+            return sight.candidates_flat(xy[k], lo[k], wd[k], group[k])
 
         if len(own) < 128:  # a few sources (a lazy search's circle): no threads
             halves = [run(slice(None))]
@@ -216,7 +222,10 @@ class TangentGraph:
         seen = np.concatenate([self._pts[f] for _, f in halves]
                               + [np.tile(self._full, len(idx))])
         src = np.r_[np.repeat(own, counts), np.repeat(np.arange(len(idx)), m)]
-        return idx[src] * n + seen
+        keys = idx[src] * n + seen
+        if not senses:
+            return keys, None
+        return keys, np.r_[np.repeat(sense, counts), np.zeros(len(idx) * m, np.int8)]
 
     def visible(self, i: int) -> np.ndarray:
         """Indices of the circles whose tangents from circle ``i`` may be free (a superset
@@ -225,7 +234,7 @@ class TangentGraph:
             return self._all  # every circle: one shared array, not a copy per circle
         v = self._visible.get(i)
         if v is None:
-            v = np.sort(self._seen_keys(np.array([i])) % self.circles.n)
+            v = np.sort(self._seen_keys(np.array([i]))[0] % self.circles.n)
             self._visible[i] = v
         return v
 
@@ -258,11 +267,12 @@ class TangentGraph:
 
         Every free tangent: the sight lines of every circle (:mod:`~optplan.geometry.sightlines`,
         the sources split between two threads: the expansion runs without the GIL), the
-        circle pairs each of which may see the other, each pair once, the tangents of the four
-        sense pairs of each in vectorised batches (at most :data:`BUILD_PAIRS` each, two at a
+        circle pairs each of which may see the other, each pair once, the tangents of the
+        sense pairs of the windows that see across it (:meth:`_batches`: one for two points,
+        four for two discs) in vectorised batches (at most :data:`BUILD_PAIRS` each, two at a
         time in two threads), their segments tested in one call of
         :meth:`~optplan.geometry.obstacles.ObstacleSet.pairs_free` per batch (a segment that
-        several sense pairs share, as all four of two points do, tested once), the blocked
+        several sense pairs share tested once), the blocked
         ones dropped and each free tangent stored in both directions (travelled backwards, a
         tangent leaves ``j`` in sense ``-s_j`` and reaches ``i`` in sense ``-s_i``).  The free
         tangents become the explicit graph of :mod:`~optplan.geometry.tangent_chains`
@@ -277,18 +287,17 @@ class TangentGraph:
         if self.use_sightlines:
             self.sightlines  # noqa: B018 - the triangulation, timed on its own
         tt = time.perf_counter()
-        keys = self._all_keys()
+        keys, sense = self._all_keys()
         t1 = time.perf_counter()
-        batches = self._batches(keys)
-        del keys
-        self.stats["build_pairs"] = sum(len(b) for b in batches)
+        batches, self.stats["build_pairs"] = self._batches(keys, sense)
+        del keys, sense
         self._edges = {}
         self.oset.pairs_free(np.zeros((1, 2)), [0], [0])  # its arrays made before the threads
         with ThreadPoolExecutor(2) as pool:  # two batches at a time
             made = list(pool.map(self._free_tangents, batches))
         self.stats["segment_tests"] += sum(n for _, n in made)
         self._visible = {}  # no longer needed: memory for the chains
-        parts = [t for t, _ in made] or [self._free_tangents(np.zeros((0, 2), np.int64))[0]]
+        parts = [t for t, _ in made] or [self._free_tangents(np.zeros((0, 4), np.int64))[0]]
         del made
         t = {k: np.concatenate([p.pop(k) for p in parts]) for k in list(parts[0])}
         del parts
@@ -303,41 +312,64 @@ class TangentGraph:
         self.stats["arc_tests"] = self.chains.arc_tests
         return self
 
-    def _all_keys(self) -> np.ndarray:
-        """Every circle's :meth:`visible` circles as keys ``i n + j`` (circle obstacles see
-        every circle)."""
+    def _all_keys(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every circle's :meth:`visible` circles as keys ``i n + j``, once per window that
+        sees them, and the window's sense (``0``: either; circle obstacles see every circle
+        in either sense)."""
         C = self.circles
         n = C.n
+        if not self.use_sightlines:
+            return np.arange(n * n), np.zeros(n * n, np.int8)
         full = np.flatnonzero(C.full)
         every = np.repeat(full, n) * n + np.tile(np.arange(n), len(full))
-        if not self.use_sightlines:
-            return np.arange(n * n)
-        return np.concatenate([self._seen_keys(np.flatnonzero(~C.full)), every])
+        keys, sense = self._seen_keys(np.flatnonzero(~C.full), senses=True)
+        assert sense is not None
+        return np.r_[keys, every], np.r_[sense, np.zeros(len(every), np.int8)]
 
-    def _batches(self, keys: np.ndarray) -> list[np.ndarray]:
-        """The circle pairs ``(a, b)``, ``a < b``, each of which may see the other (a free
-        tangent leaves ``a`` in a direction of its window and ``b`` in the opposite one, in
-        a window of ``b``; ``keys``: who may see whom, ``i n + j``, each once), in an even
-        number of batches (two threads) of at most :data:`BUILD_PAIRS` / 4 (bounded
-        memory)."""
+    def _batches(self, keys: np.ndarray, sense: np.ndarray) -> tuple[list[np.ndarray], int]:
+        """The tangents to try, rows ``(i, s_i, j, s_j)`` with ``i < j``, of the circle pairs
+        each of which may see the other, in an even number of batches (two threads) of at
+        most :data:`BUILD_PAIRS` rows (bounded memory), and the number of such pairs.
+
+        ``keys``: ``a`` may see ``b`` (``a n + b``) in a window of sense ``sense`` (``0``:
+        either).  A tangent from ``i`` in sense ``s_i`` to ``j`` in sense ``s_j`` leaves
+        ``i`` in a direction of its window of sense ``s_i`` and, travelled backwards, leaves
+        ``j`` in sense ``-s_j`` (:meth:`_windows`), so each pair gets the sense pairs of the
+        windows that see across it: one for two points, four for two discs.
+        """
         n = self.circles.n
         a, b = keys // n, keys % n
-        key = np.sort(np.minimum(a, b) * n + np.maximum(a, b))
-        both = np.flatnonzero(key[1:] == key[:-1])  # listed from both ends
-        key = key[both[key[both] // n != key[both] % n]]
-        pairs = np.stack([key // n, key % n], axis=1)
-        parts = 2 * -(-len(pairs) // (2 * max(1, BUILD_PAIRS // 4)))
-        return [p for p in np.array_split(pairs, max(parts, 2)) if len(p)]
+        keep = a != b
+        a, b, s = a[keep], b[keep], sense[keep].astype(np.int64)
+        up = a > b  # listed from the pair's upper end: that end's arrival sense is -s
+        two = s == 0  # either sense: both
+        s = np.where(up, -s, s)
+        code = ((np.minimum(a, b) * n + np.maximum(a, b)) * 2 + up) * 2
+        code = np.sort(np.r_[code + (s > 0), code[two] + 1])  # (np.unique: 20x slower)
+        first = np.ones(len(code), bool)
+        first[1:] = code[1:] != code[:-1]
+        code = code[first]
+        pk, side, sg = code >> 2, (code >> 1) & 1, 2 * (code & 1) - 1
+        start = np.flatnonzero(np.r_[len(pk) > 0, pk[1:] != pk[:-1]])
+        c0 = np.add.reduceat(1 - side, start) if len(start) else start
+        c1 = np.diff(np.r_[start, len(pk)]) - c0
+        ok = (c0 > 0) & (c1 > 0)  # seen from both ends
+        start, c0, c1 = start[ok], c0[ok], c1[ok]
+        nr = c0 * c1  # each departure sense with each arrival sense
+        g = np.repeat(np.arange(len(start)), nr)
+        r = np.arange(int(nr.sum())) - np.repeat(np.cumsum(nr) - nr, nr)
+        e0, e1 = start[g] + r // c1[g], start[g] + c0[g] + r % c1[g]
+        rows = np.stack([pk[e0] // n, sg[e0], pk[e0] % n, sg[e1]], axis=1)
+        parts = 2 * -(-len(rows) // (2 * BUILD_PAIRS))
+        return [p for p in np.array_split(rows, max(parts, 2)) if len(p)], len(start)
 
-    def _free_tangents(self, pairs: np.ndarray) -> tuple[dict[str, np.ndarray], int]:
-        """The free tangents between the circles of ``pairs`` in both directions
-        (:func:`~optplan.geometry.tangent_edges.tangent_edges` for the four sense pairs, the
-        segments tested) and the number of segments tested (counted by the caller: this runs
-        in a thread)."""
-        sense = np.array([1, 1, -1, -1]), np.array([1, -1, 1, -1])
-        t = tangent_edges(self.circles, np.repeat(pairs[:, 0], 4),
-                          np.tile(sense[0], len(pairs)), np.repeat(pairs[:, 1], 4),
-                          np.tile(sense[1], len(pairs)), self.oset.eps)
+    def _free_tangents(self, rows: np.ndarray) -> tuple[dict[str, np.ndarray], int]:
+        """The free tangents among ``rows`` (``(i, s_i, j, s_j)``, :meth:`_batches`) in both
+        directions (:func:`~optplan.geometry.tangent_edges.tangent_edges`, the segments
+        tested) and the number of segments tested (counted by the caller: this runs in a
+        thread)."""
+        t = tangent_edges(self.circles, rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3],
+                          self.oset.eps)
         # rows of one pair are adjacent: test a segment once where they share it
         new = np.ones(len(t["i"]), bool)
         new[1:] = ((t["i"][1:] != t["i"][:-1]) | (t["j"][1:] != t["j"][:-1])

@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from optplan.geometry.jit import B1, F1, F2, I1, I2, compiled, f8, i8, inlined
+from optplan.geometry.jit import B1, F1, F2, I1, I2, compiled, f8, i8, inlined, leaf
 
 __all__ = ["expand_views", "locate", "pack_triangles", "KAPPA", "SLACK"]
 
@@ -75,7 +75,7 @@ def _rel(px, py, sx, sy, lo, mid):
     return mid + d
 
 
-@compiled(F2, i8, f8, f8, f8, B1)
+@leaf(F2, i8, f8, f8, f8, B1)
 def _widen(VX, v, sx, sy, tiny, CONV):  # pragma: no cover - compiled
     """Widening of an interval end at vertex ``v`` whose sibling edge is constrained."""
     if not CONV[v]:
@@ -86,40 +86,13 @@ def _widen(VX, v, sx, sy, tiny, CONV):  # pragma: no cover - compiled
     return SLACK + math.asin(tiny / d)
 
 
-@compiled(I1, i8)
-def _grown_i(a, need):  # pragma: no cover - compiled
-    """``a`` copied into an array of at least ``need`` (and twice its) items."""
-    b = np.empty(max(need, 2 * a.shape[0]), np.int64)
-    for k in range(a.shape[0]):
-        b[k] = a[k]
-    return b
-
-
-@compiled(F2, i8)
-def _grown_f(a, need):  # pragma: no cover - compiled
-    """``a`` copied into an array of at least ``need`` (and twice its) rows."""
-    b = np.empty((max(need, 2 * a.shape[0]), a.shape[1]))
-    for k in range(a.shape[0]):
-        for j in range(a.shape[1]):
-            b[k, j] = a[k, j]
-    return b
-
-
-@compiled(F2, i8, f8, f8, f8, f8)
-def _push(stk, n, t, k, L, R):  # pragma: no cover - compiled
-    """Push the view ``(t, k, L, R)``: triangle ``t`` entered through its edge opposite
-    corner ``k`` (``k >= 3``: at its vertex ``k - 3``); the stack grows when full."""
-    if n >= stk.shape[0]:
-        stk = _grown_f(stk, n + 1)
-    return stk, _put(stk, n, t, k, L, R)
-
-
-@compiled(F2, I2, B1, I1, I1, i8, f8, f8, f8, f8, F2, i8)
+@leaf(F2, I2, B1, I1, I1, i8, f8, f8, f8, f8, F2, i8)
 def _jump(VX, TR, CONV, vstart, vtri, v, th, sx, sy, tiny, stk,
           n_st):  # pragma: no cover - compiled
     """The rays through the pinch vertex ``v`` (direction ``th``) go on into the free
     triangles at ``v`` whose corner holds their direction: a view of each entered at ``v``
-    (``k = 3 + corner``) is pushed."""
+    (``k = 3 + corner``) is pushed (the caller made room: :data:`ROOM`); returns the stack's
+    size."""
     w = _widen(VX, v, sx, sy, tiny, CONV)
     dx = VX[v, 0] - sx
     dy = VX[v, 1] - sy
@@ -138,28 +111,27 @@ def _jump(VX, TR, CONV, vstart, vtri, v, th, sx, sy, tiny, stk,
         if (px * dy - py * dx < -w * math.hypot(px, py) * dn
                 or dx * ry - dy * rx < -w * math.hypot(rx, ry) * dn):
             continue  # the corner does not hold the direction
-        stk, n_st = _push(stk, n_st, t, 3 + kk, th - w, th + w)
-    return stk, n_st
+        n_st = _put(stk, n_st, t, 3 + kk, th - w, th + w)
+    return n_st
 
 
-@compiled(F2, I2, B1, B1, I1, I1, I1, I1, I1, I1, i8, i8, f8, f8, f8, f8, I1, i8, F2, i8)
+@leaf(F2, I2, B1, B1, I1, I1, I1, I1, I1, I1, i8, i8, f8, f8, f8, f8, I1, i8, F2, i8)
 def _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q, v, th,
            sx, sy, tiny, out, n_out, stk, n_st):  # pragma: no cover - compiled
-    """Vertex ``v`` (direction ``th``) is seen from source ``q``: its centres not seen yet
-    are appended to ``out``, and at a pinch (the first time) the rays through it go on
-    (:func:`_jump`); returns ``out``, its length, the stack and its size."""
+    """Vertex ``v`` (direction ``th``) is seen by the sources tagged ``q``: its centres not
+    seen yet are appended to ``out``, and at a pinch (the first time) the rays through it go
+    on (:func:`_jump`); returns the sizes of ``out`` and of the stack (the caller made
+    room)."""
     for t in range(cstart[v], cstart[v + 1]):
         c = citems[t]
         if cstamp[c] != q:
             cstamp[c] = q
-            if n_out >= out.shape[0]:
-                out = _grown_i(out, n_out + 1)
             out[n_out] = c
             n_out += 1
     if PINCH[v] and pst[v] != q:
         pst[v] = q
-        stk, n_st = _jump(VX, TR, CONV, vstart, vtri, v, th, sx, sy, tiny, stk, n_st)
-    return out, n_out, stk, n_st
+        n_st = _jump(VX, TR, CONV, vstart, vtri, v, th, sx, sy, tiny, stk, n_st)
+    return n_out, n_st
 
 
 @inlined
@@ -176,9 +148,7 @@ def _put(stk, n, t, k, L, R):
 def _split(VX, TR, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st):
     """Push the views beyond the two other edges of triangle ``t`` entered opposite ``k``:
     ``(A, c)`` with ``[L, min(R, tc + w)]``, ``(c, B)`` with ``[max(L, tc - w), R]``
-    (module docstring); returns the stack and its size."""
-    if n_st + 2 > stk.shape[0]:
-        stk = _grown_f(stk, n_st + 2)
+    (module docstring; the caller made room); returns the stack's size."""
     e1 = (k + 1) % 3  # the edge (A, c), opposite B
     e2 = (k + 2) % 3  # the edge (c, B), opposite A
     if not _con(TR, t, e1) and TR[t, 3 + e1] >= 0:
@@ -189,15 +159,17 @@ def _split(VX, TR, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st):
         L2 = max(L, tc - (_widen(VX, c, sx, sy, tiny, CONV) if _con(TR, t, e1) else SLACK))
         if L2 < R:
             n_st = _put(stk, n_st, TR[t, 3 + e2], _nk(TR, t, e2), L2, R)
-    return stk, n_st
+    return n_st
 
 
-@inlined
+@leaf(F2, I2, B1, B1, I1, I1, I1, I1, I1, I1, i8, f8, f8, f8, f8, F2, i8, I1, i8, i8)
 def _expand(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst,
-            q, sx, sy, lo, tiny, stk, n_st, out, n_out):
-    """Run the views on the stack for source ``q`` (module docstring); returns ``out``,
-    its length and the stack (grown)."""
+            q, sx, sy, lo, tiny, stk, n_st, out, n_out, room):  # pragma: no cover - compiled
+    """Run the views on the stack for the sources tagged ``q`` (module docstring); returns
+    the size of ``out``, or -1 when the stack has no ``room`` left for a view's pushes."""
     while n_st > 0:
+        if n_st + room > stk.shape[0]:
+            return -1
         n_st -= 1
         t = int(stk[n_st, 0])
         k = int(stk[n_st, 1])
@@ -209,20 +181,19 @@ def _expand(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst,
                 v = TR[t, (k - 3 + j) % 3]
                 th = _rel(VX[v, 0], VX[v, 1], sx, sy, lo, mid)
                 if L - SLACK <= th <= R + SLACK:
-                    out, n_out, stk, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri,
-                                                   cstart, citems, cstamp, pst, q, v, th, sx,
-                                                   sy, tiny, out, n_out, stk, n_st)
+                    n_out, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems,
+                                         cstamp, pst, q, v, th, sx, sy, tiny, out, n_out,
+                                         stk, n_st)
             if not _con(TR, t, k - 3) and TR[t, k] >= 0:
-                stk, n_st = _push(stk, n_st, TR[t, k], _nk(TR, t, k - 3), L, R)
+                n_st = _put(stk, n_st, TR[t, k], _nk(TR, t, k - 3), L, R)
             continue
         c = TR[t, k]
         tc = _rel(VX[c, 0], VX[c, 1], sx, sy, lo, mid)
         if L - SLACK <= tc <= R + SLACK:
-            out, n_out, stk, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart,
-                                           citems, cstamp, pst, q, c, tc, sx, sy, tiny, out,
-                                           n_out, stk, n_st)
-        stk, n_st = _split(VX, TR, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st)
-    return out, n_out, stk
+            n_out, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp,
+                                 pst, q, c, tc, sx, sy, tiny, out, n_out, stk, n_st)
+        n_st = _split(VX, TR, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st)
+    return n_out
 
 
 @compiled(F2, I2, f8, f8, i8, i8)
@@ -273,7 +244,7 @@ def _root(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q,
           sx, sy, lo, wd, tiny, t, kk, vertex, stk, n_st, out, n_out):
     """The first view beyond the edge opposite corner ``kk`` of triangle ``t`` (the source
     at that corner, or inside ``t``), cut to the window ``[0, wd]`` (every turn of it); its
-    ends are seen."""
+    ends are seen; returns the sizes of ``out`` and of the stack (the caller made room)."""
     a = TR[t, (kk + 1) % 3]
     b = TR[t, (kk + 2) % 3]
     ta = math.atan2(VX[a, 1] - sy, VX[a, 0] - sx) - lo
@@ -292,12 +263,99 @@ def _root(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q,
             R = min(R, wd + SLACK)
         for v, th in ((a, ta + sh * TWO_PI), (b, tb + sh * TWO_PI)):
             if L - SLACK <= th <= R + SLACK:
-                out, n_out, stk, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri,
-                                               cstart, citems, cstamp, pst, q, v, th, sx, sy,
-                                               tiny, out, n_out, stk, n_st)
+                n_out, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems,
+                                     cstamp, pst, q, v, th, sx, sy, tiny, out, n_out, stk,
+                                     n_st)
         if go and L < R:
-            stk, n_st = _push(stk, n_st, TR[t, 3 + kk], _nk(TR, t, kk), L, R)
-    return out, n_out, stk, n_st
+            n_st = _put(stk, n_st, TR[t, 3 + kk], _nk(TR, t, kk), L, R)
+    return n_out, n_st
+
+
+@compiled(I1, i8)
+def _grown_i(a, need):  # pragma: no cover - compiled
+    """``a`` copied into an array of at least ``need`` (and twice its) items."""
+    b = np.empty(max(need, 2 * a.shape[0]), np.int64)
+    for k in range(a.shape[0]):
+        b[k] = a[k]
+    return b
+
+
+@compiled(F2, i8)
+def _grown_f(a, need):  # pragma: no cover - compiled
+    """``a`` copied into an array of at least ``need`` (and twice its) rows."""
+    b = np.empty((max(need, 2 * a.shape[0]), a.shape[1]))
+    for k in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            b[k, j] = a[k, j]
+    return b
+
+
+@inlined
+def _one_source(S, SV, ST, LO, WID, VX, TR, CONV, PINCH, vstart, vtri, cstart, citems,
+                cstamp, pst, q, tag, tiny, stk, out, n_out, room):
+    """Append the candidates of source ``q`` (stamped ``tag``) to ``out`` (room made for
+    every centre); returns the new size of ``out``, -1 when the stack lacks room."""
+    n_c = citems.shape[0]
+    if SV[q] < 0 and ST[q] < 0:  # not located: every centre
+        for c in range(n_c):
+            out[n_out + c] = c
+        return n_out + n_c
+    sx = S[q, 0]
+    sy = S[q, 1]
+    n_st = 0
+    roots = range(vstart[SV[q]], vstart[SV[q] + 1]) if SV[q] >= 0 else range(3)
+    for rr in roots:
+        t = vtri[rr] // 3 if SV[q] >= 0 else ST[q]
+        if SV[q] < 0 or _free(TR, t):
+            if n_st + 3 * room > stk.shape[0]:
+                return -1
+            n_out, n_st = _root(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst,
+                                tag, sx, sy, LO[q], WID[q], tiny, t,
+                                vtri[rr] % 3 if SV[q] >= 0 else rr, SV[q] >= 0, stk, n_st,
+                                out, n_out)
+    return _expand(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, tag, sx, sy,
+                   LO[q], tiny, stk, n_st, out, n_out, room)
+
+
+@leaf(F2, I1, I1, F1, F1, I1, F2, I2, B1, B1, I1, I1, I1, I1, f8, I1, I1, I1, F2, I1, I1, i8,
+      i8)
+def _sources(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, eps,
+             counts, cstamp, pst, stk, out, state, room, gspan):  # pragma: no cover - compiled
+    """The loop of :func:`expand_views` from source ``state[0]`` (``state``: next source,
+    size of ``out``, stamp offset); returns 0 when every source is done, 1 when ``out``
+    needs room (stopped between two sources), 2 when the stack does (``state`` set back to
+    the start of the group, whose stamps are renewed with the offset ``gspan``)."""
+    n_c = citems.shape[0]
+    tiny = KAPPA * eps
+    q = state[0]
+    n_out = state[1]
+    g0 = q  # the start of q's group and the size of out there
+    while g0 > 0 and G[g0 - 1] == G[q]:
+        g0 -= 1
+    out0 = n_out
+    for p in range(g0, q):
+        out0 -= counts[p]
+    while q < S.shape[0]:
+        if q > g0 and G[q] != G[q - 1]:
+            g0 = q
+            out0 = n_out
+        if out.shape[0] - n_out < n_c:
+            state[0] = q
+            state[1] = n_out
+            return 1
+        m = _one_source(S, SV, ST, LO, WID, VX, TR, CONV, PINCH, vstart, vtri, cstart,
+                        citems, cstamp, pst, q, G[q] + state[2], tiny, stk, out, n_out, room)
+        if m < 0:
+            state[0] = g0
+            state[1] = out0
+            state[2] += gspan
+            return 2
+        counts[q] = m - n_out
+        n_out = m
+        q += 1
+    state[0] = q
+    state[1] = n_out
+    return 0
 
 
 @compiled(F2, I1, I1, F1, F1, I1, F2, I2, B1, B1, I1, I1, I1, I1, f8)
@@ -310,8 +368,8 @@ def expand_views(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri,
     S : (k, 2) sources; SV : (k,) the vertex each source is (-1: none); ST : (k,) the
         triangle holding it when it is no vertex (-1: not found: every centre is then a
         candidate); LO, WID : (k,) window start and width (rad, ``>= 2 pi``: all directions);
-    G : (k,) the sources' groups: consecutive sources of one group (the windows of one point)
-        report a centre once between them;
+    G : (k,) the sources' groups (ints >= 0): consecutive sources of one group (the windows
+        of one point) report a centre once between them;
     VX : (nv, 2) vertices; TR : (nt, 8) one row per triangle (one cache line): its corners
         (counter-clockwise), the neighbours across the edges opposite them (-1: none), and
         flags: bit ``e`` the edge opposite corner ``e`` is constrained, bit 3 the triangle is
@@ -327,37 +385,31 @@ def expand_views(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri,
         Candidates per source.
     flat : int64 array
         The candidates of source 0, then of source 1, ...
+
+    The loop is :func:`_sources` (a ``@leaf``: no reference counting); this wrapper makes
+    its arrays and grows them when it asks.
     """
+    k = S.shape[0]
     n_c = citems.shape[0]
+    deg = 1  # the most triangles at a vertex: a view pushes at most 2 deg + 2 views
+    for v in range(VX.shape[0]):
+        deg = max(deg, vstart[v + 1] - vstart[v])
+    room = 2 * deg + 2
+    gspan = 1
+    for q in range(k):
+        gspan = max(gspan, G[q] + 1)
+    counts = np.zeros(k, np.int64)
     cstamp = np.full(n_c, -1, np.int64)
     pst = np.full(VX.shape[0], -1, np.int64)
-    stk = np.empty((1024, 4))
-    counts = np.zeros(S.shape[0], np.int64)
-    out = np.empty(max(16, 16 * S.shape[0]), np.int64)
-    n_out = 0
-    tiny = KAPPA * eps
-    for q in range(S.shape[0]):
-        n0 = n_out
-        sx = S[q, 0]
-        sy = S[q, 1]
-        if SV[q] < 0 and ST[q] < 0:  # not located: every centre
-            if n_out + n_c > out.shape[0]:
-                out = _grown_i(out, n_out + n_c)
-            for c in range(n_c):
-                out[n_out + c] = c
-            n_out += n_c
+    stk = np.empty((max(1024, 8 * room), 4))
+    out = np.empty(16 * k + n_c, np.int64)
+    state = np.zeros(3, np.int64)
+    while True:
+        why = _sources(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri, cstart,
+                       citems, eps, counts, cstamp, pst, stk, out, state, room, gspan)
+        if why == 0:
+            return counts, out[:state[1]].copy()
+        if why == 1:
+            out = _grown_i(out, out.shape[0] + n_c)
         else:
-            n_st = 0
-            roots = range(vstart[SV[q]], vstart[SV[q] + 1]) if SV[q] >= 0 else range(3)
-            for rr in roots:
-                t = vtri[rr] // 3 if SV[q] >= 0 else ST[q]
-                if SV[q] < 0 or _free(TR, t):
-                    out, n_out, stk, n_st = _root(
-                        VX, TR, CONV, PINCH, vstart, vtri, cstart, citems,
-                        cstamp, pst, G[q], sx, sy, LO[q], WID[q], tiny, t,
-                        vtri[rr] % 3 if SV[q] >= 0 else rr, SV[q] >= 0, stk, n_st, out, n_out)
-            out, n_out, stk = _expand(VX, TR, CONV, PINCH, vstart, vtri,
-                                      cstart, citems, cstamp, pst, G[q], sx, sy, LO[q], tiny, stk,
-                                      n_st, out, n_out)
-        counts[q] = n_out - n0
-    return counts, out[:n_out].copy()
+            stk = _grown_f(stk, 2 * stk.shape[0])

@@ -189,3 +189,26 @@ def test_a_map_without_obstacles():
     assert g.shortest_path((1.0, 1.0), (9.0, 9.0)).length == pytest.approx(8 * math.sqrt(2))
     res = g.shortest_path((0.2, 1.0), (9.0, 9.0))
     assert res.length == math.inf and "within 0.5" in res.info["reason"]
+
+
+def test_stable_argsort_is_numpys_stable_sort():
+    from optplan.geometry.tangent_chains import stable_argsort
+
+    rng = np.random.default_rng(0)
+    for k in (rng.integers(0, 5, 1000), rng.integers(0, 10**6, 5000), np.zeros(0, np.int64),
+              np.array([2**61, 3, 2**61, 0])):  # the last one: too large, numpy's own sort
+        assert np.array_equal(stable_argsort(k), np.argsort(k, kind="stable"))
+
+
+def test_the_departures_order_is_lexsorts():
+    """chains_of orders the departures by chain, then position, ties by index: lexsort's."""
+    from optplan.geometry.tangent_chains import dense_rank, stable_argsort
+
+    rng = np.random.default_rng(1)
+    E = 4000
+    u = rng.integers(0, 50, E)
+    key = rng.choice(np.r_[0.0, 1.0, rng.random(20)], E)  # many exact ties
+    assert np.array_equal(dense_rank(key), np.searchsorted(np.unique(key), key))
+    assert len(dense_rank(np.zeros(0))) == 0
+    order = stable_argsort(u * E + dense_rank(key))
+    assert np.array_equal(order, np.lexsort((key, u)))

@@ -217,6 +217,22 @@ def test_sightlines_of_nothing():
     assert s.candidates([], 0.0, 7.0) == []
 
 
+@pytest.mark.parametrize("kind,seed", [("cells", 0), ("mixed", 1)])
+@pytest.mark.parametrize("radius", [0.0, 1e-6, 0.6])
+def test_build_stores_every_free_tangent_of_points_discs_and_circles(kind, seed, radius):
+    """The build tries only the sense pairs of the windows that see across a pair (one for
+    two points): it stores exactly the free tangents of every circle, sense and other circle
+    (points, discs of radius r at corners, circle obstacles)."""
+    rng = np.random.default_rng(seed)
+    obs = _cells(rng) if kind == "cells" else _mixed(rng)
+    oset = obstacle_set(obs, radius, Frame.from_bounds(BOUNDS))
+    ch = TangentGraph(oset, sightlines=True).build().chains
+    stored = set(zip(ch.circle.tolist(), ch.sense.tolist(), ch.a_circle.tolist(),
+                     ch.a_sense.tolist()))
+    free = _free_tangents(TangentGraph(oset, sightlines=False), every=True)
+    assert stored == free and ch.n_edges == len(free)
+
+
 @pytest.mark.parametrize("radius", [0.0, 0.2])
 def test_build_stores_the_free_tangents_and_answers_like_the_lazy_graph(radius, tmp_path):
     gen = generate_benchmark("street", 32, tmp_path, rng=np.random.default_rng(5), queries=8)
