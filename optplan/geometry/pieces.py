@@ -35,6 +35,18 @@ def _turns(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return cr, np.concatenate((ln[-1:], ln[:-1])) * ln
 
 
+def _convex_rows(q: np.ndarray) -> np.ndarray:
+    """:func:`is_convex` of each ring ``q[k]`` (``(m, k, 2)``, rings of one length), with
+    :func:`_turns`' arithmetic element by element."""
+    k = q.shape[1]
+    nxt, prv = (np.arange(k) + 1) % k, (np.arange(k) - 1) % k
+    e = q[:, nxt] - q  # edge i: v[i] -> v[i+1]
+    a = e[:, prv]  # incoming edge at vertex i
+    cr = a[..., 0] * e[..., 1] - a[..., 1] * e[..., 0]
+    ln = np.hypot(e[..., 0], e[..., 1])
+    return np.all(cr >= -SIN_TOL * (ln[:, prv] * ln), axis=1)
+
+
 def clean_ring(v: np.ndarray) -> np.ndarray:
     """Drop repeated and collinear vertices of a ring (no closing repeat)."""
     v = np.asarray(v, dtype=float)
@@ -55,46 +67,88 @@ def is_convex(v: np.ndarray) -> bool:
     return bool(np.all(cr >= -SIN_TOL * sc))
 
 
+def _turn_ok(a: tuple[float, float], b: tuple[float, float], c: tuple[float, float]) -> bool:
+    """No right turn at ``b`` on the way ``a -> b -> c`` (:func:`is_convex`'s test at one
+    vertex, in plain Python)."""
+    ux, uy, vx, vy = b[0] - a[0], b[1] - a[1], c[0] - b[0], c[1] - b[1]
+    return ux * vy - uy * vx >= -SIN_TOL * math.hypot(ux, uy) * math.hypot(vx, vy)
+
+
 def _convex_list(r: list[tuple[float, float]]) -> bool:
     """:func:`is_convex` for a short ring given as a list (plain Python: the merge loop tests
     many rings of 3-8 vertices, where array overhead would dominate)."""
     n = len(r)
-    for i in range(n):
-        ax, ay = r[i - 1]
-        bx, by = r[i]
-        cx, cy = r[(i + 1) % n]
-        ux, uy, vx, vy = bx - ax, by - ay, cx - bx, cy - by
-        cr = ux * vy - uy * vx
-        if cr < -SIN_TOL * math.hypot(ux, uy) * math.hypot(vx, vy):
-            return False
-    return True
+    return all(_turn_ok(r[i - 1], r[i], r[(i + 1) % n]) for i in range(n))
+
+
+def _rings_convex(rings: dict[int, list[tuple[float, float]]]) -> dict[int, bool]:
+    """:func:`_convex_list` of each of many small rings: the cross products at once (the
+    same arithmetic), :func:`_turn_ok` only where one is negative (``>= 0`` passes whatever
+    the lengths)."""
+    ok = {}
+    by_len: dict[int, list[int]] = {}
+    for k, r in rings.items():
+        by_len.setdefault(len(r), []).append(k)
+    for n, ks in by_len.items():
+        v = np.array([rings[k] for k in ks])  # (m, n, 2)
+        u = v - v[:, (np.arange(n) - 1) % n]  # incoming edge at each vertex
+        w = v[:, (np.arange(n) + 1) % n] - v  # outgoing edge
+        neg = (u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0] < 0).any(axis=1)
+        for k, bad in zip(ks, neg.tolist()):
+            ok[k] = not bad or _convex_list(rings[k])
+    return ok
 
 
 def _merge_convex(rings: dict[int, list[tuple[float, float]]]) -> list[np.ndarray]:
     """Hertel-Mehlhorn: one pass over the internal edges of a triangulation, removing an edge
-    when the union of its two pieces stays convex (near-linear in the number of triangles)."""
+    when the union of its two pieces stays convex (near-linear in the number of triangles).
+
+    Merging two rings across their shared edge ``(u, w)`` changes the neighbours of ``u`` and
+    ``w`` only, so the merged ring passes :func:`_convex_list` exactly when both rings did
+    and the turns at ``u`` and ``w`` pass: only those two are tested."""
     owner: dict[tuple, int] = {}
     for k, r in rings.items():
         for u, w in zip(r, r[1:] + r[:1]):
             owner[(u, w)] = k
+    ok = _rings_convex(rings)
     diagonals = [(u, w) for (u, w) in owner if (w, u) in owner and u < w]
     for u, w in diagonals:
-        a, b = owner.get((u, w)), owner.get((w, u))
-        if a is None or b is None or a == b:
-            continue
-        r, rq = rings[a], rings[b]
-        ia, ib = r.index(w), rq.index(u)
-        merged = (r[ia:] + r[:ia]) + (rq[ib:] + rq[:ib])[1:-1]
-        if not _convex_list(merged):
-            continue
-        for ring_ in (r, rq):
-            for x, y in zip(ring_, ring_[1:] + ring_[:1]):
-                owner.pop((x, y), None)
-        del rings[b]
-        rings[a] = merged
-        for x, y in zip(merged, merged[1:] + merged[:1]):
-            owner[(x, y)] = a
+        _merge_across(rings, owner, ok, u, w)
     return [clean_ring(np.asarray(r)) for r in rings.values()]
+
+
+def _merge_across(rings: dict[int, list[tuple[float, float]]], owner: dict[tuple, int],
+                  ok: dict[int, bool], u: tuple[float, float], w: tuple[float, float]) -> None:
+    """Merge the two rings on either side of the edge ``(u, w)`` when the union is convex
+    (:func:`_merge_convex`), updating ``rings`` and the edges' ``owner``."""
+    a, b = owner.get((u, w)), owner.get((w, u))
+    if a is None or b is None or a == b or not (ok[a] and ok[b]):
+        return
+    r, rq = rings[a], rings[b]
+    ia, ib = r.index(w), rq.index(u)
+    ra, rb = r[ia:] + r[:ia], rq[ib:] + rq[:ib]  # w ... u and u ... w
+    if not (_turn_ok(ra[-2], u, rb[1]) and _turn_ok(rb[-2], w, ra[1])):
+        return
+    del owner[(u, w)], owner[(w, u)]
+    for x, y in zip(rq, rq[1:] + rq[:1]):
+        if (x, y) in owner:
+            owner[(x, y)] = a
+    del rings[b]
+    rings[a] = ra + rb[1:-1]
+
+
+def _triangles(poly) -> dict[int, list[tuple[float, float]]]:
+    """The constrained Delaunay triangles of ``poly`` with area, counter-clockwise, as
+    vertex lists keyed by their index (one vectorised pass: the per-triangle shapely calls
+    were most of a large map's import)."""
+    tris = shapely.get_parts(shapely.constrained_delaunay_triangles(poly))
+    if len(tris) == 0:
+        return {}
+    xy = shapely.get_coordinates(tris).reshape(len(tris), 4, 2)[:, :3]
+    cw = ~shapely.is_ccw(shapely.get_exterior_ring(tris))
+    xy[cw] = xy[cw][:, [0, 2, 1]]  # orient(t, 1.0): the ring reversed
+    keep = np.flatnonzero(shapely.area(tris) > 0)
+    return {int(k): [tuple(p) for p in xy[k].tolist()] for k in keep}
 
 
 def convex_decompose(geom) -> list[np.ndarray]:
@@ -109,13 +163,7 @@ def convex_decompose(geom) -> list[np.ndarray]:
         if not poly.interiors and is_convex(ring):
             out.append(clean_ring(ring))
             continue
-        rings: dict[int, list[tuple[float, float]]] = {}
-        for k, t in enumerate(getattr(shapely.constrained_delaunay_triangles(poly), "geoms",
-                                      [])):
-            if t.area > 0:
-                rings[k] = [(float(x), float(y)) for x, y in
-                            np.asarray(orient(t, 1.0).exterior.coords)[:-1]]
-        out.extend(_merge_convex(rings))
+        out.extend(_merge_convex(_triangles(poly)))
     return [v for v in out if len(v) >= 3]
 
 
@@ -159,12 +207,17 @@ def _insert_boundary_vertices(parts: list[np.ndarray], poly, tol: float
         extra.setdefault(int(e), []).append((float(tt), int(vi)))
     out, changed, base = [], [], 0
     for v in parts:
+        if not any(base + j in extra for j in range(len(v))):  # no vertex to insert
+            base += len(v)
+            changed.append(False)
+            out.append(v)
+            continue
         ring = []
         for j in range(len(v)):
             ring.append(v[j])
             ring.extend(verts[vi] for _, vi in sorted(extra.get(base + j, [])))
         base += len(v)
-        changed.append(len(ring) > len(v))
+        changed.append(True)
         out.append(np.asarray(ring))
     return out, changed
 
@@ -175,7 +228,7 @@ def _fan(v: np.ndarray, flags: np.ndarray, max_edges: int) -> list[tuple[np.ndar
     i = 1
     while i < len(v) - 1:  # fan: (v0, v_i, ..., v_j)
         j = min(i + max_edges - 2, len(v) - 1)
-        piece = np.vstack([v[:1], v[i:j + 1]])
+        piece = np.concatenate((v[:1], v[i:j + 1]))
         fl = np.zeros(len(piece), bool)
         fl[1:-1] = flags[i:j]  # ring edges v_i -> v_{i+1} ... v_{j-1} -> v_j
         fl[0] = flags[0] if i == 1 else False  # v0 -> v1 only in the first fan piece
@@ -196,16 +249,17 @@ def _centre_fan(v: np.ndarray, flags: np.ndarray, max_edges: int
     """
     c = v.mean(axis=0)
     n = len(v)
+    k = np.arange(n)
+    quads = np.stack([np.broadcast_to(c, (n, 2)), v, v[(k + 1) % n], v[(k + 2) % n]], axis=1)
+    convex = _convex_rows(quads) if max_edges >= 4 else np.zeros(n, bool)
     out = []
     i = 0
     while i < n:
-        if max_edges >= 4 and i + 2 <= n:
-            quad = np.vstack([c, v[i], v[i + 1], v[(i + 2) % n]])
-            if is_convex(quad):
-                out.append((quad, np.array([False, flags[i], flags[i + 1], False])))
-                i += 2
-                continue
-        out.append((np.vstack([c, v[i], v[(i + 1) % n]]), np.array([False, flags[i], False])))
+        if i + 2 <= n and convex[i]:
+            out.append((quads[i], np.array([False, flags[i], flags[i + 1], False])))
+            i += 2
+            continue
+        out.append((quads[i, :3], np.array([False, flags[i], False])))
         i += 1
     return out
 

@@ -9,12 +9,13 @@ from typing import Any
 
 import numpy as np
 import shapely
-from shapely.geometry import Polygon, box
+from shapely.geometry import Polygon
 
 
-def _rectangles(mask: np.ndarray, row0: int, col0: int, height: int) -> list[Polygon]:
+def _rectangles(mask: np.ndarray, row0: int, col0: int, height: int) -> np.ndarray:
     """Maximal vertical stacks of identical row runs of ``mask`` as boxes in cell units
-    (``x = col``, ``y = height - row``); ``mask`` is a window at ``(row0, col0)``."""
+    (``x = col``, ``y = height - row``; an array of shapely boxes, made in one call);
+    ``mask`` is a window at ``(row0, col0)``."""
     h, w = mask.shape
     pad = np.zeros((h, w + 2), dtype=np.int8)
     pad[:, 1:-1] = mask
@@ -24,21 +25,18 @@ def _rectangles(mask: np.ndarray, row0: int, col0: int, height: int) -> list[Pol
     runs_by_row: dict[int, list[tuple[int, int]]] = {}
     for r, a, b in zip(rs.tolist(), cs.tolist(), ce.tolist()):
         runs_by_row.setdefault(r, []).append((a, b))
-    out: list[Polygon] = []
-
-    def close(run: tuple[int, int], top: int, bottom: int) -> None:
-        a, b = run
-        out.append(box(col0 + a, height - (row0 + bottom), col0 + b, height - (row0 + top)))
-
+    out: list[tuple[int, int, int, int]] = []  # a, b, top, bottom
     active: dict[tuple[int, int], int] = {}
     for r in range(h + 1):
         nxt: dict[tuple[int, int], int] = {}
         for run in runs_by_row.get(r, ()):
             nxt[run] = active.pop(run, r)
-        for run, top in active.items():
-            close(run, top, r)
+        for (a, b), top in active.items():
+            out.append((a, b, top, r))
         active = nxt
-    return out
+    q = np.array(out, dtype=float).reshape(-1, 4)
+    return shapely.box(col0 + q[:, 0], height - (row0 + q[:, 3]), col0 + q[:, 1],
+                       height - (row0 + q[:, 2]))
 
 
 def exact_union(mask: np.ndarray) -> Any:
@@ -70,13 +68,45 @@ class _Stats:
     tolerance_min: float = math.inf
 
 
-def _conservative(u: Any, grow: float, simplify: float, join: str, stats: _Stats) -> list[Polygon]:
-    """``S`` with ``U <= S <= U + disc(grow + simplify)`` for one component ``u`` (cells)."""
+def _grown(u: Any, grow: float, join: str) -> Any:
+    """The components ``u`` (one or an array) grown by ``grow`` cells."""
     if grow > 0:
-        g = shapely.buffer(u, grow, quad_segs=4, join_style=join, mitre_limit=2.0)
-    else:
-        g = u
+        return shapely.buffer(u, grow, quad_segs=4, join_style=join, mitre_limit=2.0)
+    return u
+
+
+def _conservative_all(us: np.ndarray, grow: float, simplify: float, join: str,
+                      stats: _Stats) -> list[Polygon]:
+    """:func:`_conservative` of every component ``us``: the first tolerance tried for all
+    of them in vectorised calls, the smaller ones only where it does not cover."""
+    out: list[Polygon] = []
+    if simplify <= 0 or len(us) == 0:
+        for u in us:
+            out += _conservative(u, grow, simplify, join, stats)
+        return out
+    g = _grown(us, grow, join)
+    s = shapely.simplify(g, simplify * _FALLBACK[0], preserve_topology=True)
+    bad = ~shapely.is_valid(s)
+    s[bad] = shapely.make_valid(s[bad])
+    cov = shapely.covers(s, us)
+    for k in range(len(us)):
+        if cov[k]:
+            stats.tolerance_min = min(stats.tolerance_min, simplify * _FALLBACK[0])
+            out += [shapely.geometry.polygon.orient(q, 1.0) for q in _polys(s[k])]
+        else:
+            out += _conservative(us[k], grow, simplify, join, stats, g[k], first=1)
+    return out
+
+
+def _conservative(u: Any, grow: float, simplify: float, join: str, stats: _Stats,
+                  g: Any = None, first: int = 0) -> list[Polygon]:
+    """``S`` with ``U <= S <= U + disc(grow + simplify)`` for one component ``u`` (cells;
+    ``g``: ``u`` grown, when made already; ``first``: the first tolerance to try)."""
+    if g is None:
+        g = _grown(u, grow, join)
     for k, f in enumerate(_FALLBACK):
+        if k < first:
+            continue
         tol = simplify * f
         s = shapely.simplify(g, tol, preserve_topology=True) if tol > 0 else g
         if not s.is_valid:
@@ -116,11 +146,12 @@ def grid_polygons(mask: np.ndarray, *, grow: float = 0.5, simplify: float = 0.5,
     out: list[Polygon] = []
     if m.any():
         labels = measure.label(m, connectivity=2)
+        us = []
         for region in measure.regionprops(labels):
             r0, c0, _, _ = region.bbox
-            u = shapely.union_all(_rectangles(region.image, r0, c0, m.shape[0]))
-            st.components += 1
-            out += _conservative(u, grow, simplify, join, st)
+            us.append(shapely.union_all(_rectangles(region.image, r0, c0, m.shape[0])))
+        st.components = len(us)
+        out = _conservative_all(np.array(us, dtype=object), grow, simplify, join, st)
     if stats is not None:
         stats.update(components=st.components, fallbacks=st.fallbacks,
                      tolerance_min=st.tolerance_min if st.components else simplify)

@@ -45,6 +45,26 @@ _FOLL_KEYS = {"id", "L", "phi"}
 _SENS_KEYS = {"range"}
 
 
+
+def _plain_points(v: list, coord: bool) -> np.ndarray | None:
+    """``v`` as an ``(n, 2)`` float array when every item is a list of two ints or floats
+    (not bools) that the point checks accept (finite; within :data:`MAX_COORD` when
+    ``coord``), converted at once; None otherwise (the point-by-point checks then name the
+    first offending value).  A map's polygons have tens of thousands of vertices."""
+    for p in v:
+        if type(p) is not list or len(p) != 2:
+            return None
+        ta, tb = type(p[0]), type(p[1])
+        if (ta is not float and ta is not int) or (tb is not float and tb is not int):
+            return None
+    try:
+        arr = np.array(v, dtype=float).reshape(-1, 2)
+    except OverflowError:  # an integer beyond the double range
+        return None
+    if not np.isfinite(arr).all() or (coord and bool((np.abs(arr) > MAX_COORD).any())):
+        return None
+    return arr
+
 class _Ctx:
     """Carries the file name for error messages."""
 
@@ -117,6 +137,9 @@ class _Ctx:
         if self.n_points > MAX_POINTS:
             raise self.err(key, f"too many points: the scenario's vertices and waypoints "
                                 f"exceed {MAX_POINTS} in all")
+        plain = _plain_points(v, coord)
+        if plain is not None:
+            return plain
         return np.array([self.point(p, f"{key}[{i}]", coord) for i, p in enumerate(v)])
 
     def ring(self, verts: np.ndarray, key: str, what: str = "polygon") -> Polygon:

@@ -886,3 +886,27 @@ def test_memo_builds_once() -> None:
     assert p.memo(("test", 1), lambda: calls.append(1) or 42) == 42
     assert p.memo(("test", 1), lambda: calls.append(1) or 43) == 42
     assert calls == [1]
+
+
+@pytest.mark.parametrize(("bad", "text"), [
+    (True, "obstacles[0].vertices[1][0]: expected a number"),
+    ("3", "obstacles[0].vertices[1][0]: expected a number"),
+    (math.nan, "obstacles[0].vertices[1][0]: must be finite"),
+    (10**400, "obstacles[0].vertices[1][0]: must be finite, got an integer of 401 digits"),
+    (1e300, "obstacles[0].vertices[1][0]: magnitude"),
+])
+def test_polygon_vertices_are_checked_one_by_one_when_not_plain(bad, text):
+    """Plain vertices (lists of two ints or floats) are converted at once; anything else
+    goes through the point-by-point checks, which name the offending value."""
+    verts = [[10.0, 10.0], [bad, 10.0], [20.0, 20.0]]
+    assert text in _reject(_scene([{"type": "polygon", "vertices": verts}]))
+
+
+def test_plain_and_numpy_vertices_give_the_same_polygon():
+    plain = _parse(_scene([{"type": "polygon", "vertices": _SQ}]))
+    wrapped = [[np.float64(x), np.float64(y)] for x, y in _SQ]  # float subclasses: slow path
+    other = _parse(_scene([{"type": "polygon", "vertices": wrapped}]))
+    ints = _parse(_scene([{"type": "polygon", "vertices": [[int(x), int(y)] for x, y in _SQ]}]))
+    g = plain.obstacles[0].geometry
+    assert g.equals_exact(other.obstacles[0].geometry, 0.0)
+    assert g.equals_exact(ints.obstacles[0].geometry, 0.0)
