@@ -114,7 +114,22 @@ def _merge_convex(rings: dict[int, list[tuple[float, float]]]) -> list[np.ndarra
     diagonals = [(u, w) for (u, w) in owner if (w, u) in owner and u < w]
     for u, w in diagonals:
         _merge_across(rings, owner, ok, u, w)
-    return [clean_ring(np.asarray(r)) for r in rings.values()]
+    return [np.asarray(r) if _clean_list(r) else clean_ring(np.asarray(r))
+            for r in rings.values()]
+
+
+def _clean_list(r: list[tuple[float, float]]) -> bool:
+    """:func:`clean_ring` would keep every vertex of the short ring ``r``: each turn's cross
+    product (the same arithmetic) beats the collinearity threshold with a margin of ``1e-9``
+    relative (``math.hypot`` and numpy's may differ in the last bits)."""
+    n = len(r)
+    for i in range(n):
+        a, b, c = r[i - 1], r[i], r[(i + 1) % n]
+        ux, uy, vx, vy = b[0] - a[0], b[1] - a[1], c[0] - b[0], c[1] - b[1]
+        lim = SIN_TOL * (1.0 + 1e-9) * math.hypot(ux, uy) * math.hypot(vx, vy)
+        if not abs(ux * vy - uy * vx) > lim:
+            return False
+    return n >= 3
 
 
 def _merge_across(rings: dict[int, list[tuple[float, float]]], owner: dict[tuple, int],
