@@ -62,7 +62,7 @@ from shapely.geometry import Polygon
 from optplan.geometry import kernel
 from optplan.geometry.frame import Frame
 from optplan.geometry.grid import item_grid
-from optplan.geometry.pieces import convex_pieces
+from optplan.geometry.pieces import convex_pieces, convex_pieces_many
 from optplan.geometry.solids import merge_solids
 
 __all__ = ["PIECE_EDGES", "BOUNDS_NAME", "DiscCrossings", "ObstacleSet", "obstacle_set",
@@ -505,14 +505,15 @@ def obstacle_set(obstacles: Iterable, radius: float, frame: Frame,
     shapes, names, members = _solids(obstacles, frame, margin, solids, walls)
     n_obs = len(obstacles)
     pieces, bflags, owner, circles, c_owner = [], [], [], [], []
+    polys = [g for i, g in shapes if not isinstance(g, tuple) and not (walls and i == n_obs)]
+    made = iter(convex_pieces_many(polys, PIECE_EDGES))  # every solid's queries at once
     for i, g in shapes:
         if isinstance(g, tuple):
             circles.append(g)
             c_owner.append(i)
             continue
         alone = walls and i == n_obs  # the wall, touched by no obstacle
-        for v, fl in (_wall_pieces(*frame.local_bounds, margin) if alone else
-                      convex_pieces(g, PIECE_EDGES)):
+        for v, fl in (_wall_pieces(*frame.local_bounds, margin) if alone else next(made)):
             pieces.append(v)
             bflags.append(fl)
             owner.append(i)

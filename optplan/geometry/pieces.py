@@ -20,7 +20,7 @@ import numpy as np
 import shapely
 from shapely.geometry.polygon import orient
 
-__all__ = ["convex_decompose", "convex_pieces", "clean_ring", "is_convex"]
+__all__ = ["convex_decompose", "convex_pieces", "convex_pieces_many", "clean_ring", "is_convex"]
 
 #: Relative tolerance of the collinearity / convexity tests (sine of the turning angle).
 SIN_TOL = 1e-12
@@ -182,45 +182,77 @@ def convex_decompose(geom) -> list[np.ndarray]:
     return [v for v in out if len(v) >= 3]
 
 
-def _on_boundary(points: np.ndarray, boundary, tol: float) -> np.ndarray:
-    """Per point: within ``tol`` of ``boundary`` (an STRtree of its edges: a polygon with
-    thousands of vertices is answered in milliseconds)."""
-    c = shapely.get_coordinates(boundary)
-    rings = shapely.get_parts(boundary)
-    segs = []
-    for ring in rings:
-        xy = shapely.get_coordinates(ring)
-        segs.append(np.stack([xy[:-1], xy[1:]], axis=1))
-    tree = shapely.STRtree(shapely.linestrings(np.concatenate(segs)) if len(c) else [])
-    hit = tree.query(shapely.points(points), predicate="dwithin", distance=tol)
-    on = np.zeros(len(points), bool)
-    on[hit[0]] = True
-    return on
+def _ring_segments(poly) -> np.ndarray:
+    """The edges ``(m, 2, 2)`` of the rings of ``poly`` (exterior, then holes)."""
+    segs = [np.stack([xy[:-1], xy[1:]], axis=1) for xy in
+            (shapely.get_coordinates(r) for r in (poly.exterior, *poly.interiors))]
+    return np.concatenate(segs) if segs else np.zeros((0, 2, 2))
 
 
-def _insert_boundary_vertices(parts: list[np.ndarray], poly, tol: float
-                              ) -> tuple[list[np.ndarray], list[bool]]:
-    """Re-insert the polygon's vertices that lie inside an edge of a part.
+def _pairs_within(tree_geoms, tree_owner: np.ndarray, query_geoms, query_owner: np.ndarray,
+                  tol: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(query, tree) index pairs within ``tol[query]`` of each other and of one polygon (one
+    STRtree for every polygon of a batch; each polygon's own tolerance)."""
+    q, k = shapely.STRtree(tree_geoms).query(query_geoms, predicate="dwithin", distance=tol)
+    same = query_owner[q] == tree_owner[k]
+    return q[same], k[same]
+
+
+def _boundary_flags(batch: list[tuple], mids: list[np.ndarray]) -> list[np.ndarray]:
+    """Per polygon of ``batch`` (``(poly, parts, tol)``), per point of its ``mids``: within
+    ``tol`` of the polygon's boundary."""
+    segs = [_ring_segments(poly) for poly, _, _ in batch]
+    sown = np.repeat(np.arange(len(batch)), [len(x) for x in segs])
+    mown = np.repeat(np.arange(len(batch)), [len(m) for m in mids])
+    tol = np.array([t for _, _, t in batch])[mown]
+    allm = np.concatenate(mids)
+    q, _ = _pairs_within(shapely.linestrings(np.concatenate(segs)), sown,
+                         shapely.points(allm), mown, tol)
+    on = np.zeros(len(allm), bool)
+    on[q] = True
+    return np.split(on, np.cumsum([len(m) for m in mids])[:-1])
+
+
+def _insert_boundary_vertices(batch: list[tuple]) -> list[tuple[list[np.ndarray], list[bool]]]:
+    """Re-insert each polygon's vertices that lie inside an edge of one of its parts
+    (``batch``: ``(poly, parts, tol)`` per polygon).
 
     :func:`convex_decompose` drops collinear vertices, so an edge of a part may run along the
     boundary and then on into the interior (a T-junction where a wall ends in line with a
     diagonal).  Splitting every part edge at the polygon vertices on it makes each sub-edge
-    either part of the boundary or interior, so its boundary flag is exact.  Returns the parts
-    and, per part, whether a vertex was inserted.
+    either part of the boundary or interior, so its boundary flag is exact.  Returns, per
+    polygon, the parts and, per part, whether a vertex was inserted.
     """
-    verts = np.concatenate([np.asarray(r.coords)[:-1] for r in (poly.exterior, *poly.interiors)])
-    starts = np.concatenate(parts)
-    ends = np.concatenate([np.concatenate((v[1:], v[:1])) for v in parts])
-    segs = shapely.linestrings(np.stack([starts, ends], axis=1))
-    e_idx, v_idx = shapely.STRtree(shapely.points(verts)).query(segs, predicate="dwithin",
-                                                                distance=tol)
+    verts = [np.concatenate([np.asarray(r.coords)[:-1] for r in (poly.exterior, *poly.interiors)])
+             for poly, _, _ in batch]
+    vown = np.repeat(np.arange(len(batch)), [len(v) for v in verts])
+    allv = np.concatenate(verts)
+    starts = np.concatenate([v for _, parts, _ in batch for v in parts])
+    ends = np.concatenate([np.concatenate((v[1:], v[:1])) for _, parts, _ in batch
+                           for v in parts])
+    eown = np.repeat(np.arange(len(batch)), [sum(len(v) for v in parts) for _, parts, _ in batch])
+    tol = np.array([t for _, _, t in batch])[eown]
+    e_idx, v_idx = _pairs_within(shapely.points(allv), vown,
+                                 shapely.linestrings(np.stack([starts, ends], axis=1)), eown,
+                                 tol)
     d = ends[e_idx] - starts[e_idx]
-    t = np.einsum("ij,ij->i", verts[v_idx] - starts[e_idx], d) / np.einsum("ij,ij->i", d, d)
+    t = np.einsum("ij,ij->i", allv[v_idx] - starts[e_idx], d) / np.einsum("ij,ij->i", d, d)
     inner = (t > 1e-9) & (t < 1 - 1e-9)  # not the edge's own end points
     extra: dict[int, list[tuple[float, int]]] = {}
     for e, vi, tt in zip(e_idx[inner], v_idx[inner], t[inner]):
         extra.setdefault(int(e), []).append((float(tt), int(vi)))
-    out, changed, base = [], [], 0
+    res, base = [], 0
+    for _, parts, _ in batch:
+        res.append(_with_inserted(parts, extra, base, allv))
+        base += sum(len(v) for v in parts)
+    return res
+
+
+def _with_inserted(parts: list[np.ndarray], extra: dict[int, list[tuple[float, int]]],
+                   base: int, verts: np.ndarray) -> tuple[list[np.ndarray], list[bool]]:
+    """The ``parts`` (their edges numbered from ``base``) with the vertices ``extra`` lists
+    for their edges inserted, and per part whether it changed."""
+    out, changed = [], []
     for v in parts:
         if not any(base + j in extra for j in range(len(v))):  # no vertex to insert
             base += len(v)
@@ -291,25 +323,57 @@ def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray
         or interior: a part edge that runs on from the boundary into the interior is split at
         the polygon vertex where it leaves it.
     """
+    return convex_pieces_many([geom], max_edges)[0]
+
+
+def convex_pieces_many(geoms: list, max_edges: int = 4
+                       ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+    """:func:`convex_pieces` of each of ``geoms``, the boundary queries of all of them in one
+    STRtree each (a map has thousands of solids)."""
     if max_edges < 3:
         raise ValueError(f"max_edges must be >= 3, got {max_edges}")
-    out: list[tuple[np.ndarray, np.ndarray]] = []
-    for poly in getattr(geom, "geoms", [geom]):
-        if poly.is_empty or poly.area <= 0:
-            continue
-        if not poly.interiors:  # fast path: a convex polygon is its own single piece
-            ring = np.asarray(poly.exterior.coords)[:-1]
-            ring = clean_ring(ring if poly.exterior.is_ccw else ring[::-1])
-            if len(ring) >= 3 and is_convex(ring):
-                out.extend(_fan(ring, np.ones(len(ring), bool), max_edges))
+    chunks: list[list] = [[] for _ in geoms]  # per geom: piece lists or batch indices
+    batch: list[tuple] = []  # (poly, parts, tol) of the polygons that need the queries
+    for gi, geom in enumerate(geoms):
+        for poly in getattr(geom, "geoms", [geom]):
+            if poly.is_empty or poly.area <= 0:
                 continue
-        x0, y0, x1, y1 = poly.bounds
-        tol = 1e-9 * max(x1 - x0, y1 - y0)
-        parts, changed = _insert_boundary_vertices(convex_decompose(poly), poly, tol)
-        # one vectorised distance query for the edge midpoints of every part
-        mids = np.concatenate([0.5 * (v + np.concatenate((v[1:], v[:1]))) for v in parts])
-        on = _on_boundary(mids, poly.boundary, tol)
-        all_flags = np.split(on, np.cumsum([len(v) for v in parts])[:-1])
-        for v, flags, ch in zip(parts, all_flags, changed):
-            out.extend(_centre_fan(v, flags, max_edges) if ch else _fan(v, flags, max_edges))
-    return out
+            one = _convex_one(poly, max_edges)
+            if one is not None:
+                chunks[gi].append(one)
+                continue
+            parts = convex_decompose(poly)
+            if parts:
+                x0, y0, x1, y1 = poly.bounds
+                batch.append((poly, parts, 1e-9 * max(x1 - x0, y1 - y0)))
+                chunks[gi].append(len(batch) - 1)
+    done = _split_and_flag(batch, max_edges) if batch else []
+    return [[p for c in ch for p in (done[c] if isinstance(c, int) else c)] for ch in chunks]
+
+
+def _convex_one(poly, max_edges: int) -> list[tuple[np.ndarray, np.ndarray]] | None:
+    """The fan of a convex polygon without holes (its own single piece), else None."""
+    if poly.interiors:
+        return None
+    ring = np.asarray(poly.exterior.coords)[:-1]
+    ring = clean_ring(ring if poly.exterior.is_ccw else ring[::-1])
+    if len(ring) >= 3 and is_convex(ring):
+        return _fan(ring, np.ones(len(ring), bool), max_edges)
+    return None
+
+
+def _split_and_flag(batch: list[tuple], max_edges: int
+                    ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+    """The pieces of each ``(poly, parts, tol)``: boundary vertices inserted, edges flagged
+    (one vectorised distance query for the edge midpoints of every part), fan-split."""
+    split = _insert_boundary_vertices(batch)
+    mids = [np.concatenate([0.5 * (v + np.concatenate((v[1:], v[:1]))) for v in parts])
+            for parts, _ in split]
+    flags = _boundary_flags([(poly, parts, tol) for (poly, _, tol), (parts, _) in
+                             zip(batch, split)], mids)
+    done = []
+    for (parts, changed), on in zip(split, flags):
+        fl = np.split(on, np.cumsum([len(v) for v in parts])[:-1])
+        done.append([p for v, f, ch in zip(parts, fl, changed)
+                     for p in (_centre_fan(v, f, max_edges) if ch else _fan(v, f, max_edges))])
+    return done

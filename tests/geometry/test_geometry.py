@@ -334,3 +334,22 @@ def test_lengths_and_degenerate_input() -> None:
         oset.crossings(np.zeros((2, 3)))
     with pytest.raises(ValueError, match="radius"):
         obstacle_set([], -1.0, frame)
+
+
+def test_pieces_of_many_polygons_at_once_are_each_ones_pieces() -> None:
+    """convex_pieces_many (one STRtree per query for every polygon, each with its own
+    tolerance) gives what convex_pieces gives polygon by polygon: neighbours within the
+    tolerance of each other (touching grid polygons, a far tiny one) change nothing."""
+    from optplan.geometry.pieces import convex_pieces_many
+
+    rng = np.random.default_rng(7)
+    geoms = [g for _ in range(6) for g in grid_polygons(rng)]
+    geoms += [shapely.MultiPolygon(grid_polygons(rng)[:2]), shapely.box(0, 0, 1e-3, 1e-3),
+              Polygon([(10, 10), (60, 10), (60, 30), (30, 30), (30, 60), (10, 60)])]
+    many = convex_pieces_many(geoms, 4)
+    assert len(many) == len(geoms)
+    for g, got in zip(geoms, many):
+        one = convex_pieces(g, 4)
+        assert len(got) == len(one)
+        for (v, fl), (w, gl) in zip(got, one):
+            assert np.array_equal(v, w) and np.array_equal(fl, gl)
