@@ -27,24 +27,21 @@ SIN_TOL = 1e-12
 
 
 def _turns(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Cross products of consecutive edges at each vertex, and the products of their lengths."""
-    e = np.concatenate((v[1:], v[:1])) - v  # edge i: v[i] -> v[i+1]
-    a = np.concatenate((e[-1:], e[:-1]))  # incoming edge at vertex i
-    cr = a[:, 0] * e[:, 1] - a[:, 1] * e[:, 0]
-    ln = np.hypot(e[:, 0], e[:, 1])
-    return cr, np.concatenate((ln[-1:], ln[:-1])) * ln
+    """Cross products of consecutive edges at each vertex of a ring ``(k, 2)`` (or of each
+    ring of ``(m, k, 2)``), and the products of their lengths."""
+    k = v.shape[-2]
+    nxt, prv = (np.arange(k) + 1) % k, (np.arange(k) - 1) % k
+    e = v[..., nxt, :] - v  # edge i: v[i] -> v[i+1]
+    a = e[..., prv, :]  # incoming edge at vertex i
+    cr = a[..., 0] * e[..., 1] - a[..., 1] * e[..., 0]
+    ln = np.hypot(e[..., 0], e[..., 1])
+    return cr, ln[..., prv] * ln
 
 
 def _convex_rows(q: np.ndarray) -> np.ndarray:
-    """:func:`is_convex` of each ring ``q[k]`` (``(m, k, 2)``, rings of one length), with
-    :func:`_turns`' arithmetic element by element."""
-    k = q.shape[1]
-    nxt, prv = (np.arange(k) + 1) % k, (np.arange(k) - 1) % k
-    e = q[:, nxt] - q  # edge i: v[i] -> v[i+1]
-    a = e[:, prv]  # incoming edge at vertex i
-    cr = a[..., 0] * e[..., 1] - a[..., 1] * e[..., 0]
-    ln = np.hypot(e[..., 0], e[..., 1])
-    return np.all(cr >= -SIN_TOL * (ln[:, prv] * ln), axis=1)
+    """:func:`is_convex` of each ring ``q[k]`` (``(m, k, 2)``, rings of one length)."""
+    cr, sc = _turns(q)
+    return np.all(cr >= -SIN_TOL * sc, axis=-1)
 
 
 def clean_ring(v: np.ndarray) -> np.ndarray:
@@ -89,11 +86,8 @@ def _rings_convex(rings: dict[int, list[tuple[float, float]]]) -> dict[int, bool
     by_len: dict[int, list[int]] = {}
     for k, r in rings.items():
         by_len.setdefault(len(r), []).append(k)
-    for n, ks in by_len.items():
-        v = np.array([rings[k] for k in ks])  # (m, n, 2)
-        u = v - v[:, (np.arange(n) - 1) % n]  # incoming edge at each vertex
-        w = v[:, (np.arange(n) + 1) % n] - v  # outgoing edge
-        neg = (u[..., 0] * w[..., 1] - u[..., 1] * w[..., 0] < 0).any(axis=1)
+    for ks in by_len.values():
+        neg = (_turns(np.array([rings[k] for k in ks]))[0] < 0).any(axis=1)
         for k, bad in zip(ks, neg.tolist()):
             ok[k] = not bad or _convex_list(rings[k])
     return ok
