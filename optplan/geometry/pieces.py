@@ -87,8 +87,8 @@ def _rings_convex(rings: dict[int, list[tuple[float, float]]]) -> dict[int, bool
     for k, r in rings.items():
         by_len.setdefault(len(r), []).append(k)
     for ks in by_len.values():
-        neg = (_turns(np.array([rings[k] for k in ks]))[0] < 0).any(axis=1)
-        for k, bad in zip(ks, neg.tolist()):
+        neg = np.any(_turns(np.array([rings[k] for k in ks]))[0] < 0, axis=1)
+        for k, bad in zip(ks, np.asarray(neg).tolist()):
             ok[k] = not bad or _convex_list(rings[k])
     return ok
 
