@@ -32,8 +32,8 @@ A function that allocates no array (it reads and writes the arrays it is given) 
 counting (``_nrt=False``).  With reference counting, every call of a compiled function from
 compiled code increments and decrements the count of each array argument around the call
 (two atomic operations per array; a multi-block ``@inlined`` helper pays the same on its
-array arguments), and these were half the time of the sight-line expansion and 40 % of the
-exact segment tests of the 1024 x 1024 graph build (``perf``: ``NRT_incref`` /
+array arguments), and these were the largest single cost of the sight-line expansion and
+the exact segment tests of the 1024 x 1024 graph build (``perf``: ``NRT_incref`` /
 ``NRT_decref``).  A hot loop is therefore a ``@leaf`` given its scratch arrays by a thin
 ``@compiled`` (or Python) wrapper that allocates them, and the helpers it calls are
 ``@leaf`` or single-block ``@inlined`` (whose counts numba removes).  Compiling a ``@leaf``
