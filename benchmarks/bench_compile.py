@@ -22,10 +22,16 @@ it), summed over the dispatchers of a module, over one process that imports optp
 the four solves (one empty cache).  The targets of issue 28 are printed beside the times:
 first ``ipso`` solve (import included) <= 10 s CPU, first ``visgraph`` solve <= 5 s CPU.
 
+``--wheel`` measures an installed wheel instead of the checkout: the wheel is built from the
+checkout with ``pip wheel`` (its build hook compiles every kernel for the generic CPU into
+``optplan/_kernels``, :mod:`optplan.geometry.kernel_cache`), installed without dependencies
+into a temporary directory, and the children import optplan from there (still with an empty
+``NUMBA_CACHE_DIR``: what a fresh installation on a new machine pays).
+
 ``--numba-opt N`` runs the children with ``NUMBA_OPT=N`` (numba's LLVM optimisation level,
 process-wide; default 3) to see how much of the compile time is LLVM's optimisation.
 
-Run: ``.venv/bin/python benchmarks/bench_compile.py [--cases visgraph ipso ...]
+Run: ``.venv/bin/python benchmarks/bench_compile.py [--cases visgraph ipso ...] [--wheel]
 [--numba-opt 0] [--json out.json]``.
 """
 
@@ -77,6 +83,7 @@ def _child(cases: list[str]) -> dict:
     import optplan as op
 
     out["import"] = time.process_time() - t
+    out["file"] = op.__file__
     for case in cases:
         problem, solver = CASES[case]
         times = []
@@ -88,17 +95,43 @@ def _child(cases: list[str]) -> dict:
     return out
 
 
-def run_child(cases: list[str], cache: str, opt: int | None = None) -> dict:
+def run_child(cases: list[str], cache: str, opt: int | None = None,
+              site: str | None = None) -> dict:
     """A fresh interpreter with ``NUMBA_CACHE_DIR=cache`` (and ``NUMBA_OPT=opt``) running
-    :func:`_child`."""
+    :func:`_child`; with ``site``, optplan is imported from that directory (an installed
+    wheel, :func:`install_wheel`), not from the checkout."""
     env = dict(os.environ, NUMBA_CACHE_DIR=cache)
     if opt is not None:
         env["NUMBA_OPT"] = str(opt)
+    if site is not None:
+        env["PYTHONPATH"] = site
     code = (f"import json, sys; sys.path.insert(0, {os.path.dirname(__file__)!r}); "
             f"import bench_compile as b; print(json.dumps(b._child({cases!r})))")
+    # cwd: the checkout's parent for a wheel (so that `import optplan` cannot find the checkout)
     p = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
-                       check=True)
-    return json.loads(p.stdout.strip().splitlines()[-1])
+                       check=True, cwd=site or os.getcwd())
+    out = json.loads(p.stdout.strip().splitlines()[-1])
+    if site is not None and not out["file"].startswith(site):
+        raise RuntimeError(f"the child imported optplan from {out['file']}, not from {site}")
+    return out
+
+
+def install_wheel(tmp: str) -> str:
+    """Build optplan's wheel from this checkout (``pip wheel``, in pip's isolated build
+    environment: the build hook compiles the shipped kernels) and install it without its
+    dependencies into ``tmp/site`` (the dependencies come from this environment); returns
+    that directory."""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    dist, site = os.path.join(tmp, "dist"), os.path.join(tmp, "site")
+    t = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", dist, root],
+                   check=True)
+    (whl,) = [f for f in os.listdir(dist) if f.endswith(".whl")]
+    print(f"built {whl} in {time.perf_counter() - t:.0f} s (wall, the kernels' compilation "
+          "included)")
+    subprocess.run([sys.executable, "-m", "pip", "install", "--no-deps", "-q", "--target", site,
+                    os.path.join(dist, whl)], check=True)
+    return site
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -109,13 +142,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--modules", action=argparse.BooleanOptionalAction, default=True,
                     help="also the per-module table (one more process, all cases)")
     ap.add_argument("--json", default=None, help="also write the measurements here")
+    ap.add_argument("--wheel", action="store_true",
+                    help="build and install the wheel (its shipped kernels) into a temporary "
+                         "directory and measure that installation instead of the checkout")
     args = ap.parse_args(argv)
     print(f"load average before: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
+    with tempfile.TemporaryDirectory(prefix="optplan-wheel-") as tmp:
+        site = install_wheel(tmp) if args.wheel else None
+        return _measure(args, site)
+
+
+def _measure(args: argparse.Namespace, site: str | None) -> int:
+    """The tables of :func:`main` for the checkout (``site`` None) or an installed wheel."""
     rows, record = [], {}
     for case in args.cases:
         with tempfile.TemporaryDirectory(prefix="optplan-numba-") as cache:
-            cold = run_child([case], cache, args.numba_opt)
-            warm = run_child([case], cache, args.numba_opt)
+            cold = run_child([case], cache, args.numba_opt, site)
+            warm = run_child([case], cache, args.numba_opt, site)
         first = cold["import"] + cold["cases"][case][0]
         target = TARGETS.get(case)
         record[case] = {"cold": cold, "warm": warm}
@@ -123,14 +166,16 @@ def main(argv: list[str] | None = None) -> int:
                     f"{first:.2f} | {f'<= {target:.0f}' if target else '-'} | "
                     f"{cold['cases'][case][1]:.2f} | {warm['import']:.2f} | "
                     f"{warm['cases'][case][0]:.2f} |")
-    print("\nCPU seconds per case, fresh process, empty NUMBA_CACHE_DIR (cold), then a second "
-          "process on that cache (warm):\n")
+    where = (f"optplan installed from its wheel ({site}; its shipped kernels)" if site
+             else "optplan from this checkout")
+    print(f"\nCPU seconds per case, {where}, fresh process, empty NUMBA_CACHE_DIR (cold), then "
+          "a second process on that cache (warm):\n")
     print("| case | import | first solve | import + first | target | second solve | "
           "warm import | warm first solve |")
     print("|---|---|---|---|---|---|---|---|")
     print("\n".join(rows))
     if args.modules:
-        _module_table(record, args.numba_opt)
+        _module_table(record, args.numba_opt, site)
     print(f"\nload average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
     if args.json:
         with open(args.json, "w") as f:
@@ -138,10 +183,10 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _module_table(record: dict, opt: int | None) -> None:
+def _module_table(record: dict, opt: int | None, site: str | None) -> None:
     """Print the compile CPU per kernel module (one process, the four cases, empty cache)."""
     with tempfile.TemporaryDirectory(prefix="optplan-numba-") as cache:
-        allc = run_child(list(CASES), cache, opt)
+        allc = run_child(list(CASES), cache, opt, site)
     record["all"] = allc
     mods: dict[str, float] = {}
     for name, sec in allc["per_fn"].items():

@@ -18,7 +18,9 @@ Where the cache lives (numba's rules, see docs/benchmarks.md "First run and the 
 cache"): ``NUMBA_CACHE_DIR`` when set; else ``__pycache__`` next to the module when that
 directory is writable; else numba's user-wide cache directory (``~/.cache/numba`` on Linux,
 ``$XDG_CACHE_HOME/numba`` when set).  A read-only installation therefore compiles once per
-user, not once per process.
+user, not once per process.  An installed wheel also ships the kernels compiled for its
+platform's generic CPU, looked up when numba's cache has nothing
+(:mod:`optplan.geometry.kernel_cache`): its first solve compiles nothing.
 
 A helper with one call site (in compiled code) is ``@inlined`` instead: numba inlines it into
 its caller's IR, so it costs no compilation of its own (a compiled function costs 0.1-0.3 s of
@@ -60,8 +62,11 @@ from numba import types
 from numba.core.compiler_lock import global_compiler_lock
 from numba.core.registry import CPUDispatcher
 
-__all__ = ["compiled", "leaf", "inlined", "OneSignature", "argsort_stable", "heap_push", "heap_pop",
-           "f8", "i8", "b1", "F1", "F2", "F3", "I1", "I2", "B1", "B2", "FA1", "FA2", "IA1", "IA2"]
+from optplan.geometry.kernel_cache import REGISTRY, KernelCache
+
+__all__ = ["compiled", "leaf", "inlined", "OneSignature", "argsort_stable",
+           "heap_push", "heap_pop", "f8", "i8", "b1", "F1", "F2", "F3", "I1", "I2", "B1", "B2",
+           "FA1", "FA2", "IA1", "IA2"]
 
 f8 = types.float64
 i8 = types.int64
@@ -148,8 +153,10 @@ def compiled(*argtypes: Any, refcount: bool = True) -> Callable[[Callable[..., A
     def wrap(fn: Callable[..., Any]) -> Any:
         disp = OneSignature(py_func=fn, locals={}, targetoptions={
             "nopython": True, "nogil": True, "fastmath": False, "boundscheck": None, **extra})
-        disp.enable_caching()
+        # numba's cache, then the shipped one (kernel_cache)
+        disp._cache = KernelCache(fn)  # type: ignore[attr-defined]
         disp._declared = sig
+        REGISTRY.append(disp)
         return disp
 
     return wrap

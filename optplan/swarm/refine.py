@@ -17,16 +17,12 @@ from __future__ import annotations
 
 import math
 
-import numba
 import numpy as np
 
+from optplan.geometry.jit import B1, F2, I1, compiled
 from optplan.swarm.core import SwarmSpace, pairs_free, segment_free
 
 __all__ = ["CUT_FRACTIONS", "CUT_STAGES", "shortcut", "tighten"]
-
-#: Compiled helpers (numba; cached on disk after the first run, see docs/solvers/pso.md).
-_jit = numba.njit(cache=True, nogil=True)
-
 
 def shortcut(path: np.ndarray, space: SwarmSpace) -> np.ndarray:
     """Greedy string pulling: from each kept vertex jump to the farthest visible later vertex."""
@@ -65,7 +61,7 @@ def _pairs(off: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
     return I[keep], J[keep]
 
 
-@_jit
+@compiled(I1, I1, I1, B1)
 def _greedy_keep(off, I, J, free):
     """Greedy string pulling from the visibility of the pairs ``(I, J)`` (sorted by ``I``
     then ``J``, as :func:`_pairs` makes them): from each kept vertex the farthest visible
@@ -134,7 +130,7 @@ def _apply_cuts(pts: np.ndarray, off: np.ndarray, ids: np.ndarray, rows: np.ndar
     return new_pts, start[off], new_ids, next_id + 2 * len(cv)
 
 
-@_jit
+@compiled(F2, I1)
 def _lengths(pts, off):
     """Length of each flat path."""
     out = np.zeros(off.shape[0] - 1)

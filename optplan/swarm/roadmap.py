@@ -25,10 +25,22 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
-from optplan.geometry.jit import heap_pop, heap_push, inlined
+from optplan.geometry.jit import (
+    B1,
+    F1,
+    F2,
+    I1,
+    I2,
+    compiled,
+    f8,
+    heap_pop,
+    heap_push,
+    i8,
+    inlined,
+    leaf,
+)
 from optplan.swarm.core import SwarmSpace, pairs_free
 from optplan.swarm.refine import _flat, _pull
 from optplan.swarm.samples import roadmap_nodes
@@ -36,11 +48,7 @@ from optplan.swarm.signatures import _segment_hashes
 
 __all__ = ["CORNER_REACH", "YAO_SECTORS", "Roadmap", "build_roadmap", "roadmap_corridors"]
 
-#: Compiled helpers (numba; cached on disk after the first run, see docs/solvers/pso.md).
-_jit = numba.njit(cache=True, nogil=True)
-
-
-@_jit
+@leaf(I2, I1, i8, i8)
 def _has_class(shash, settled, v, h):
     """Whether node ``v`` has settled the signature ``h`` already (among its ``settled[v]``
     settled signatures ``shash[v, :settled[v]]``)."""
@@ -50,8 +58,8 @@ def _has_class(shash, settled, v, h):
     return False
 
 
-@_jit
-def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node, slack=np.inf):
+@compiled(I1, I1, F1, I1, F1, i8, i8, i8, i8, f8)
+def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node, slack):
     """Label-setting search for the ``k_goal`` shortest ``src -> dst`` walks of distinct
     homotopy signatures (each node settles at most ``k_node`` signatures, shortest first),
     A*-ordered by ``g + heur[node]`` (``heur``: a consistent lower bound of the distance to
@@ -229,7 +237,7 @@ def _sector(dx, dy, sectors):
     return (o + np.int64(4) * np.int64(neg)) * sectors // 8
 
 
-@_jit
+@compiled(F2, i8)
 def _yao_nearest(nodes, sectors):
     """Per node its nearest other node in each of ``sectors`` equal angular sectors
     (:func:`_sector`; the lowest index on ties), ``-1`` for an empty sector: ``(n,
@@ -284,7 +292,7 @@ def _endpoint_distances(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             np.hypot(nodes[:, 0] - nodes[1, 0], nodes[:, 1] - nodes[1, 1]))
 
 
-@_jit
+@compiled(F2, I1, I1, B1, I1, B1, f8, f8, F1, F1)
 def _corner_edges(nodes, bi, bj, corner, cidx, okb, r2, bound, ds, dg):
     """All candidate pairs ``a < b`` in lexicographic order: the base edges ``(bi, bj)``
     (lexicographic, collision-free flags ``okb``) and the pairs of ``corner`` nodes (``cidx``:
@@ -368,7 +376,7 @@ def _roadmap_csr(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, Z: np.ndarray,
     return indptr, target, weight, ehash
 
 
-@_jit
+@compiled(I1, I1, F1, i8)
 def _dijkstra(indptr, target, weight, src):
     """Shortest distances from ``src`` over a CSR graph (``inf``: not reached)."""
     n = indptr.shape[0] - 1

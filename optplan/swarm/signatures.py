@@ -15,18 +15,14 @@ points :attr:`optplan.swarm.core.SwarmSpace.signature_points`.
 
 from __future__ import annotations
 
-import numba
 import numpy as np
 
+from optplan.geometry.jit import F2, I1, compiled
 from optplan.swarm.core import SwarmSpace
 
 __all__ = ["signature_hashes", "signature_hashes_list"]
 
-#: Compiled helpers (numba; cached on disk after the first run, see docs/solvers/pso.md).
-_jit = numba.njit(cache=True, nogil=True)
-
-
-@_jit
+@compiled(F2, F2, F2, I1)
 def _segment_hashes(A, B, Z, keys):
     """Per segment ``A[s] -> B[s]`` the sum of ``keys[o]`` times its signed crossing of the
     upward ray from ``Z[o]`` (wrapping int64 arithmetic)."""

@@ -6,6 +6,10 @@ stands in each; this holds even for root, whom permission bits do not stop) runs
 pointing at an empty directory: the first compiles the geometry kernels it uses (kernels
 compile on their first call) and writes numba's user-wide cache there, the second loads the
 kernels from it and compiles nothing.
+
+The kernels a wheel ships (optplan.geometry.kernel_cache): their build runs only for the
+generic CPU and covers every module that declares a kernel; tests/tools/test_install.py builds
+a wheel with shipped kernels and loads them.
 """
 
 from __future__ import annotations
@@ -40,7 +44,7 @@ def _read_only_copy(dst: Path) -> Path:
     """The package's sources under ``dst`` (with the solver presets where a wheel puts them)
     and no writable ``__pycache__`` anywhere."""
     pkg = dst / "optplan"
-    shutil.copytree(PKG, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
+    shutil.copytree(PKG, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "_kernels"))
     shutil.copytree(PKG.parent / "solvers", pkg / "_data" / "solvers", dirs_exist_ok=True)
     for d in [pkg, *(p for p in pkg.rglob("*") if p.is_dir())]:
         (d / "__pycache__").write_text("not a directory\n")
@@ -79,3 +83,34 @@ def test_read_only_package_caches_in_the_user_cache_dir(tmp_path: Path) -> None:
     assert second["crossings"] == [1, 0], second
     assert not any((d / "__pycache__").is_dir() for d in [pkg, *pkg.rglob("*")]
                    if d.is_dir())
+
+
+def test_shipped_cache_build_refuses_the_host_cpu(tmp_path: Path) -> None:
+    """Machine code for this CPU could not be shipped: build() runs only with the generic
+    CPU (build_in_child starts such a process)."""
+    import pytest
+
+    from optplan.geometry import kernel_cache
+
+    with pytest.raises(RuntimeError, match="generic CPU"):
+        kernel_cache.build(tmp_path / "k")
+    assert not (tmp_path / "k").exists()
+
+
+def test_kernel_modules_lists_every_compiled_kernel() -> None:
+    """The shipped cache compiles the kernels of KERNEL_MODULES: every module of the package
+    that declares a kernel is listed (source scan, and numba's registry after importing)."""
+    import re
+
+    from optplan.geometry import kernel_cache
+
+    declared = {
+        ".".join(("optplan", *p.relative_to(PKG).with_suffix("").parts))
+        for p in PKG.rglob("*.py")
+        if re.search(r"^@(compiled|leaf)\(", p.read_text(), re.MULTILINE)}
+    assert declared and declared <= set(kernel_cache.KERNEL_MODULES)
+    for name in kernel_cache.KERNEL_MODULES:
+        __import__(name)
+    ours = {d.py_func.__module__ for d in kernel_cache.REGISTRY
+            if d.py_func.__module__.startswith("optplan.")}  # not the tests' own kernels
+    assert ours == set(kernel_cache.KERNEL_MODULES)

@@ -2,7 +2,10 @@
 
 * non-editable: build the wheel, unpack it with ``pip install --no-deps --target`` and import
   it from a directory outside the repository; the wheel must ship ``problems/`` and
-  ``solvers/`` (hatch ``force-include`` into ``optplan/_data``);
+  ``solvers/`` (hatch ``force-include`` into ``optplan/_data``) and its compiled kernels
+  (``optplan/_kernels``, the build hook ``hatch_build.py``; here those of
+  ``optplan.geometry.jit`` only, to keep the build short), loaded without compiling in a
+  fresh process with an empty numba cache, and missed (compiled) once a source is edited;
 * editable (the test run itself): ``optplan`` is imported from this checkout.
 """
 
@@ -25,19 +28,26 @@ import optplan as op
 heavy = sorted(m for m in ("casadi", "cvxpy", "matplotlib", "clarabel") if m in sys.modules)
 from optplan.catalog import catalog_dir
 probs = op.list_problems()
-for name in probs:
-    op.load_problem(name)
 solvers = op.list_solvers()
-for name in solvers:
-    op.get_solver(name)
+if sys.argv[1:] != ["kernel-only"]:
+    for name in probs:
+        op.load_problem(name)
+    for name in solvers:
+        op.get_solver(name)
+import numpy as np
+from optplan.geometry import jit
+order = jit.argsort_stable(np.array([3.0, 1.0, 2.0, 1.0, np.nan, 0.5])).tolist()
+st = jit.argsort_stable.stats
 print(json.dumps({"file": op.__file__, "problems": probs, "solvers": solvers, "heavy": heavy,
-                  "catalog": str(catalog_dir("problems")), "version": op.__version__}))
+                  "catalog": str(catalog_dir("problems")), "version": op.__version__,
+                  "order": order, "hit_miss": [sum(st.cache_hits.values()),
+                                               sum(st.cache_misses.values())]}))
 """
 
 
-def _pip(*args: str, cwd: Path | None = None) -> None:
+def _pip(*args: str, cwd: Path | None = None, env: dict[str, str] | None = None) -> None:
     subprocess.run([sys.executable, "-m", "pip", "--disable-pip-version-check", *args],
-                   check=True, cwd=cwd, capture_output=True, text=True)
+                   check=True, cwd=cwd, capture_output=True, text=True, env=env)
 
 
 def test_wheel_install_loads_every_catalogue_name(tmp_path: Path) -> None:
@@ -45,20 +55,38 @@ def test_wheel_install_loads_every_catalogue_name(tmp_path: Path) -> None:
     elsewhere.mkdir()
     # the dev venv has hatchling: build without isolation (no download); a fresh venv may not
     isolation = [] if importlib.util.find_spec("hatchling") is None else ["--no-build-isolation"]
-    _pip("wheel", "--no-deps", *isolation, "-w", str(wheels), str(REPO))
+    _pip("wheel", "--no-deps", *isolation, "-w", str(wheels), str(REPO),
+         env=dict(os.environ, OPTPLAN_SHIP_KERNELS="optplan.geometry.jit"))
     (wheel,) = wheels.glob("optplan-*.whl")
+    assert not wheel.name.endswith("-py3-none-any.whl"), wheel.name  # it holds machine code
     _pip("install", "--no-deps", "--no-compile", "--target", str(target), str(wheel))
-    env = {k: v for k, v in os.environ.items() if k not in ("OPTPLAN_CATALOG", "PYTHONPATH")}
-    env["PYTHONPATH"] = str(target)
-    out = subprocess.run([sys.executable, "-c", CHECK], cwd=elsewhere, env=env, check=True,
-                         capture_output=True, text=True)
-    info = json.loads(out.stdout.strip().splitlines()[-1])
+    shipped = sorted(p.name.split("-")[0] for p in (target / "optplan" / "_kernels").rglob("*.nbi"))
+    assert shipped == ["jit.argsort_stable", "jit.heap_pop", "jit.heap_push"]
+
+    def check(cache: str, *args: str) -> dict:
+        env = {k: v for k, v in os.environ.items()
+               if k not in ("OPTPLAN_CATALOG", "PYTHONPATH") and not k.startswith("NUMBA_")}
+        env.update(PYTHONPATH=str(target), NUMBA_CACHE_DIR=str(tmp_path / cache))
+        out = subprocess.run([sys.executable, "-c", CHECK, *args], cwd=elsewhere, env=env,
+                             check=True, capture_output=True, text=True)
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    info = check("empty")
+    # the shipped kernel is loaded, not compiled (numba's own cache is empty), same answer
+    assert info["hit_miss"] == [1, 0] and info["order"] == [5, 1, 3, 2, 0, 4], info
+    assert not any((tmp_path / "empty").rglob("jit.argsort_stable-*.nbi"))
     assert Path(info["file"]).resolve().is_relative_to(target.resolve()), info["file"]
     assert Path(info["catalog"]).resolve() == (target / "optplan" / "_data" / "problems").resolve()
     assert info["problems"] == sorted(p.stem for p in (REPO / "problems").glob("*.toml"))
     assert info["solvers"] == op.list_solvers()
     assert info["version"] == op.__version__
     assert info["heavy"] == [], f"`import optplan` imports heavy modules: {info['heavy']}"
+    # a source edited after the build misses the shipped entries: compiled here instead
+    with (target / "optplan" / "geometry" / "jit.py").open("a") as f:
+        f.write("\n# edited after the wheel was built\n")
+    stale = check("empty2", "kernel-only")
+    assert stale["hit_miss"] == [0, 1] and stale["order"] == [5, 1, 3, 2, 0, 4], stale
+    assert any((tmp_path / "empty2").rglob("jit.argsort_stable-*.nbi"))
 
 
 def test_editable_install_uses_this_checkout() -> None:

@@ -1,0 +1,211 @@
+"""Where the compiled kernels' machine code is cached: numba's per-user cache, and a cache
+shipped inside a wheel so that a fresh installation's first solve compiles nothing.
+
+Every ``@compiled`` kernel (:mod:`optplan.geometry.jit`) looks up its machine code in two
+places, in this order (:class:`KernelCache`):
+
+1. **numba's own cache** (``NUMBA_CACHE_DIR`` when set; else ``__pycache__`` beside the
+   module when writable; else the user-wide ``~/.cache/numba``): what this machine compiled
+   for its own CPU.  A kernel compiled in this process is saved here, never elsewhere.
+2. **the shipped cache** ``optplan/_kernels/`` (read only): machine code compiled when the
+   wheel was built (:func:`build`, run by the wheel's build hook ``hatch_build.py``) for the
+   *generic* CPU of the build's platform (numba's ``NUMBA_CPU_NAME=generic``: the baseline
+   instruction set, x86-64 with SSE2 on a PC, so it runs on any CPU of that platform).
+
+numba keys an entry on the function's signature, its bytecode, the platform triple, the CPU
+name and features, numba's version and a hash of the source file's contents; the shipped
+cache is looked up with the CPU name and features replaced by the generic ones it was built
+with.  Any difference (another Python, another numba, another platform, an edited source
+file) is a miss: the kernel is compiled as before, for this CPU, and saved in numba's cache.
+
+A source checkout (``pip install -e``, ``make test``) has no shipped cache: ``optplan/_kernels``
+only exists in a built wheel.  Build one into a directory with
+``python -c "from optplan.geometry.kernel_cache import build_in_child as b; b('DIR')"`` (a
+child process with the generic CPU: :func:`build` refuses to run with the host's CPU, whose
+code could not be shipped).  The results are
+the same either way: no kernel uses fast-math, so the generic and the host code compute the
+same floating-point operations in the same order (``benchmarks/ipso_digest.py`` prints the
+same digests).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import subprocess
+import sys
+from collections.abc import Sequence
+from functools import cache
+from importlib import import_module
+from pathlib import Path
+from typing import Any
+
+from numba.core import config
+from numba.core.caching import CompileResultCacheImpl, FunctionCache, _CacheLocator
+
+__all__ = ["KERNEL_MODULES", "REGISTRY", "SHIPPED_DIR", "GENERIC_CPU", "KernelCache",
+           "ShippedCache", "build", "build_in_child"]
+
+#: The package's root directory (``optplan/``).
+PACKAGE_DIR = Path(__file__).resolve().parents[1]
+#: The shipped cache's directory inside the package (present in a built wheel only).
+SHIPPED_DIR = PACKAGE_DIR / "_kernels"
+#: The CPU name and features the shipped cache is compiled for (numba's generic target).
+GENERIC_CPU = ("generic", "")
+#: Every module that defines ``@compiled`` kernels (a test checks the list is complete).
+KERNEL_MODULES = (
+    "optplan.geometry.jit",
+    "optplan.geometry.kernel",
+    "optplan.geometry.nearest_kernel",
+    "optplan.geometry.pairs_kernel",
+    "optplan.geometry.triangular_expansion",
+    "optplan.geometry.chain_search",
+    "optplan.swarm.operators",
+    "optplan.swarm.ga",
+    "optplan.swarm.ipso",
+    "optplan.swarm.refine",
+    "optplan.swarm.signatures",
+    "optplan.swarm.roadmap",
+    "optplan.maps.movingai_gen",
+)
+
+
+@cache
+def _source_hash(path: str) -> str:
+    """SHA-256 of a source file's bytes (the shipped entries' freshness stamp)."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+class _ShippedLocator(_CacheLocator):
+    """numba cache locator of the shipped cache: ``root/<the module's package path>``,
+    stamped with the source file's contents (not its modification time, which an
+    installation does not keep)."""
+
+    root: Path = SHIPPED_DIR
+
+    def __init__(self, py_func: Any, py_file: str) -> None:
+        self._py_file = py_file
+        self._lineno = py_func.__code__.co_firstlineno
+        rel = Path(py_file).resolve().parent.relative_to(PACKAGE_DIR)
+        self._cache_path = str(self.root / rel)
+
+    def get_cache_path(self) -> str:
+        return self._cache_path
+
+    def get_source_stamp(self) -> str:
+        return _source_hash(self._py_file)
+
+    def get_disambiguator(self) -> str:
+        return str(self._lineno)
+
+    @classmethod
+    def from_function(cls, py_func: Any, py_file: str) -> _ShippedLocator | None:
+        try:
+            return cls(py_func, py_file)
+        except ValueError:  # not a module of the package
+            return None
+
+
+class _ShippedImpl(CompileResultCacheImpl):
+    _locator_classes = [_ShippedLocator]
+
+
+class ShippedCache(FunctionCache):
+    """numba's function cache on the shipped directory, keyed with the generic CPU (the CPU
+    the entries were compiled for) instead of this process's CPU."""
+
+    _impl_class = _ShippedImpl
+
+    def _index_key(self, sig: Any, codegen: Any) -> Any:
+        key = super()._index_key(sig, codegen)
+        return (key[0], (key[1][0], *GENERIC_CPU), key[2])
+
+
+class KernelCache:
+    """A kernel's cache: numba's own cache first (loads and saves), then the shipped one
+    (loads only, when the package has one).  Implements what a numba dispatcher asks of its
+    ``_cache``."""
+
+    def __init__(self, py_func: Any) -> None:
+        self._own = FunctionCache(py_func)
+        self._shipped = ShippedCache(py_func) if SHIPPED_DIR.is_dir() else None
+
+    @property
+    def cache_path(self) -> str:
+        """numba's own cache directory of this kernel."""
+        return self._own.cache_path
+
+    def load_overload(self, sig: Any, target_context: Any) -> Any:
+        """The cached compile result of ``sig``: numba's cache, else the shipped one, else
+        None."""
+        found = self._own.load_overload(sig, target_context)
+        if found is None and self._shipped is not None:
+            found = self._shipped.load_overload(sig, target_context)
+        return found
+
+    def save_overload(self, sig: Any, data: Any) -> None:
+        """Save a compile result of this process in numba's cache."""
+        self._own.save_overload(sig, data)
+
+    def enable(self) -> None:
+        self._own.enable()
+
+    def disable(self) -> None:
+        self._own.disable()
+
+    def flush(self) -> None:
+        self._own.flush()
+
+
+#: Every ``@compiled`` (and ``@leaf``) kernel, in definition order (``optplan.geometry.jit``
+#: registers them; :func:`build` compiles those of the package).
+REGISTRY: list[Any] = []
+
+
+def _dispatchers(modules: Sequence[str]) -> list[Any]:
+    """The ``@compiled`` kernels defined in ``modules`` (imported here)."""
+    for name in modules:
+        import_module(name)
+    return [d for d in REGISTRY if d.py_func.__module__ in modules]
+
+
+def build(dest: str | os.PathLike[str], modules: Sequence[str] = KERNEL_MODULES) -> int:
+    """Compile the kernels of ``modules`` (default: all) for the generic CPU into ``dest``
+    (the shipped cache's layout; the kernels they call are compiled there too).
+
+    Runs in a process started with ``NUMBA_CPU_NAME=generic`` (:func:`build_in_child` starts
+    one); refuses otherwise.  Returns the number of kernels compiled.
+    """
+    cfg: Any = config  # numba's settings module (untyped)
+    if (cfg.CPU_NAME, cfg.CPU_FEATURES) != GENERIC_CPU:
+        raise RuntimeError("the shipped kernel cache must be compiled for the generic CPU: "
+                           "use build_in_child(dir) (it sets NUMBA_CPU_NAME=generic); this "
+                           f"process has NUMBA_CPU_NAME={cfg.CPU_NAME!r}")
+    _ShippedLocator.root = Path(dest).resolve()
+    disps = _dispatchers(modules)
+    for d in REGISTRY:  # before anything compiles: a kernel's callees save there too
+        disp: Any = d  # numba's dispatcher attributes are untyped
+        disp._cache = ShippedCache(d.py_func)
+    for d in disps:
+        d.compile(d._declared)
+    return len(disps)
+
+
+def build_in_child(dest: str | os.PathLike[str], modules: Sequence[str] = KERNEL_MODULES) -> None:
+    """:func:`build` in a child of this interpreter started with ``NUMBA_CPU_NAME=generic``
+    (the wheel's build hook calls this).
+
+    Raises
+    ------
+    RuntimeError
+        When the child fails (its output is in the message).
+    """
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CPU_FEATURES", "NUMBA_OPT")}
+    env["NUMBA_CPU_NAME"] = GENERIC_CPU[0]
+    code = ("import sys; from optplan.geometry.kernel_cache import build; "
+            "build(sys.argv[1], sys.argv[2:])")
+    p = subprocess.run([sys.executable, "-c", code, os.fspath(dest), *modules], env=env,
+                       capture_output=True, text=True, check=False)
+    if p.returncode != 0:
+        raise RuntimeError(f"building the shipped kernel cache into {os.fspath(dest)!r} failed "
+                           f"(exit {p.returncode}):\n{p.stdout}{p.stderr}")
