@@ -25,7 +25,7 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	@echo "installing optplan[dev,docs] into $(VENV) (first run only; a few minutes)"
 	@# the build backend first, then an editable install without pip's isolated build
 	@# environment: the wheel hook's build dependencies (numba, scipy, ...: hatch_build.py) are
-	@# only needed for a wheel, and installing them in an isolated environment costs ~20 s
+	@# only needed for a wheel (an isolated environment would fetch and unpack them every time)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check 'hatchling>=1.21' editables
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check --no-build-isolation -e '.[dev,docs]'
 	@touch $@
