@@ -28,11 +28,16 @@ checkout with ``pip wheel`` (its build hook compiles every kernel for the generi
 into a temporary directory, and the children import optplan from there (still with an empty
 ``NUMBA_CACHE_DIR``: what a fresh installation on a new machine pays).
 
+``--together N`` also starts N processes at once per case on one empty cache and prints the
+import + first solve CPU of each: a kernel holds a lock on its cache entry while it compiles,
+so the others wait and load it (:meth:`optplan.geometry.kernel_cache.KernelCache.compiling`);
+their sum is about one compilation, not N.
+
 ``--numba-opt N`` runs the children with ``NUMBA_OPT=N`` (numba's LLVM optimisation level,
 process-wide; default 3) to see how much of the compile time is LLVM's optimisation.
 
 Run: ``.venv/bin/python benchmarks/bench_compile.py [--cases visgraph ipso ...] [--wheel]
-[--numba-opt 0] [--json out.json]``.
+[--together 2] [--numba-opt 0] [--json out.json]``.
 """
 
 from __future__ import annotations
@@ -142,6 +147,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--modules", action=argparse.BooleanOptionalAction, default=True,
                     help="also the per-module table (one more process, all cases)")
     ap.add_argument("--json", default=None, help="also write the measurements here")
+    ap.add_argument("--together", type=int, default=0, metavar="N",
+                    help="also start N processes at once per case on one empty cache (they "
+                         "compile each kernel once: the others wait and load it)")
     ap.add_argument("--wheel", action="store_true",
                     help="build and install the wheel (its shipped kernels) into a temporary "
                          "directory and measure that installation instead of the checkout")
@@ -174,6 +182,8 @@ def _measure(args: argparse.Namespace, site: str | None) -> int:
           "warm import | warm first solve |")
     print("|---|---|---|---|---|---|---|---|")
     print("\n".join(rows))
+    if args.together > 1:
+        _together_table(args, site, record)
     if args.modules:
         _module_table(record, args.numba_opt, site)
     print(f"\nload average after: {' '.join(f'{x:.2f}' for x in os.getloadavg())}")
@@ -181,6 +191,28 @@ def _measure(args: argparse.Namespace, site: str | None) -> int:
         with open(args.json, "w") as f:
             json.dump(record, f, indent=1)
     return 0
+
+
+def _together_table(args: argparse.Namespace, site: str | None, record: dict) -> None:
+    """Print, per case, the import + first solve CPU of ``args.together`` processes started
+    at once on one empty cache (beside one process alone, the cold column above)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    n = args.together
+    print(f"\n{n} processes started at once per case, one empty NUMBA_CACHE_DIR: import + "
+          "first solve CPU seconds of each, and their sum (one process alone: the table "
+          "above):\n")
+    print("| case | each | sum |")
+    print("|---|---|---|")
+    for case in args.cases:
+        with tempfile.TemporaryDirectory(prefix="optplan-numba-") as cache, \
+                ThreadPoolExecutor(n) as pool:
+            futs = [pool.submit(run_child, [case], cache, args.numba_opt, site)
+                    for _ in range(n)]
+            outs = [f.result() for f in futs]
+        each = [o["import"] + o["cases"][case][0] for o in outs]
+        record.setdefault("together", {})[case] = outs
+        print(f"| {case} | {', '.join(f'{x:.2f}' for x in sorted(each))} | {sum(each):.2f} |")
 
 
 def _module_table(record: dict, opt: int | None, site: str | None) -> None:

@@ -90,8 +90,10 @@ class OneSignature(CPUDispatcher):
     Until its first call it can compile; the first compilation request, whatever argument
     types it names (a Python call's, or a compiled caller's when that caller is typed),
     compiles (or loads from the disk cache) the declared signature instead, and compilation
-    is then disabled: later calls are converted to that signature or rejected, exactly as
-    for ``numba.njit([signature])``, which compiles the same signature at import.
+    is then disabled.  While it compiles, it holds its cache entry's lock across processes
+    (:meth:`optplan.geometry.kernel_cache.KernelCache.compiling`: processes started together
+    compile each kernel once).  Later calls are converted to that signature or rejected,
+    exactly as for ``numba.njit([signature])``, which compiles the same signature at import.
     """
 
     _declared: tuple[Any, ...] | None = None
@@ -115,7 +117,8 @@ class OneSignature(CPUDispatcher):
         with global_compiler_lock:
             if not disp._can_compile:  # compiled meanwhile: the declared overload exists
                 return disp.overloads[self._declared].entry_point
-            entry = super().compile(self._declared)
+            with disp._cache.compiling():  # another process compiling it: wait, then load
+                entry = super().compile(self._declared)
             self.disable_compile()
             return entry
 

@@ -34,7 +34,8 @@ import hashlib
 import os
 import subprocess
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from functools import cache
 from importlib import import_module
 from pathlib import Path
@@ -146,6 +147,28 @@ class KernelCache:
     def save_overload(self, sig: Any, data: Any) -> None:
         """Save a compile result of this process in numba's cache."""
         self._own.save_overload(sig, data)
+
+    @contextmanager
+    def compiling(self) -> Iterator[None]:
+        """Hold, across processes, an exclusive lock on this kernel's entry in numba's cache
+        while it compiles (POSIX ``flock`` on ``<entry>.nbi.lock``; no lock where there is no
+        ``flock`` or the lock file cannot be made).  Processes started together (pytest-xdist
+        workers, a sweep's workers) then compile each kernel once: the others wait, and the
+        compilation they then ask for finds the kernel in the cache and loads it."""
+        try:
+            import fcntl
+
+            self._own._impl.locator.ensure_cache_path()
+            f = open(self._own._cache_file._index_path + ".lock", "a")  # noqa: SIM115
+        except (ImportError, OSError):
+            yield
+            return
+        with f:
+            fcntl.flock(f, fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                fcntl.flock(f, fcntl.LOCK_UN)
 
     def enable(self) -> None:
         self._own.enable()

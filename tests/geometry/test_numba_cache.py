@@ -20,6 +20,7 @@ import shutil
 import stat
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 PKG = Path(__file__).resolve().parents[2] / "optplan"
@@ -114,3 +115,36 @@ def test_kernel_modules_lists_every_compiled_kernel() -> None:
     ours = {d.py_func.__module__ for d in kernel_cache.REGISTRY
             if d.py_func.__module__.startswith("optplan.")}  # not the tests' own kernels
     assert ours == set(kernel_cache.KERNEL_MODULES)
+
+
+LOCK_CHILD = """
+import json, sys, time
+from pathlib import Path
+import numpy as np
+from optplan.geometry import jit
+Path(sys.argv[2]).touch()  # ready: imported, nothing compiled yet
+while not Path(sys.argv[1]).exists():
+    time.sleep(0.005)
+jit.argsort_stable(np.array([2.0, 1.0, 3.0]))
+s = jit.argsort_stable.stats
+print(json.dumps([sum(s.cache_hits.values()), sum(s.cache_misses.values())]))
+"""
+
+
+def test_processes_started_together_compile_a_kernel_once(tmp_path: Path) -> None:
+    """Two processes on one empty cache call the same kernel at the same moment: one compiles
+    it while holding the entry's lock, the other waits and loads it (without the lock both
+    compiled it, as pytest-xdist workers and a sweep's workers did)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env["NUMBA_CACHE_DIR"] = str(tmp_path / "cache")
+    go = tmp_path / "go"
+    procs = [subprocess.Popen([sys.executable, "-c", LOCK_CHILD, str(go), str(tmp_path / f"r{i}")],
+                              cwd=PKG.parent, env=env, stdout=subprocess.PIPE, text=True)
+             for i in range(2)]
+    while not all((tmp_path / f"r{i}").exists() for i in range(2)):
+        assert all(p.poll() is None for p in procs), [p.communicate() for p in procs]
+        time.sleep(0.01)
+    go.touch()
+    got = [json.loads(p.communicate()[0].strip().splitlines()[-1]) for p in procs]
+    assert all(p.returncode == 0 for p in procs)
+    assert sorted(got) == [[0, 1], [1, 0]], got  # one compiled, the other loaded
