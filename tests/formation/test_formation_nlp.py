@@ -55,7 +55,8 @@ def test_a_formation_squeezes_through_a_gap_narrower_than_itself():
     walls = [{"type": "rectangle", "min": [48, 0], "max": [52, 46]},
              {"type": "rectangle", "min": [48, 54], "max": [52, 100]}]
     p = _team(obstacles=walls)
-    res = op.solve(p, "formation-nlp", init=_straight(p), n_steps=40)
+    # 30 steps: the same squeeze through the gap as 40, in a fraction of the time
+    res = op.solve(p, "formation-nlp", init=_straight(p), n_steps=30)
     m = res.metrics
     assert res.status.value == "solved" and "locally optimal" in res.message, res.message
     assert m["collisions"] == 0 and m["feasible"] and m["reached"]
