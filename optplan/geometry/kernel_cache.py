@@ -13,10 +13,12 @@ places, in this order (:class:`KernelCache`):
    instruction set, x86-64 with SSE2 on a PC, so it runs on any CPU of that platform).
 
 numba keys an entry on the function's signature, its bytecode, the platform triple, the CPU
-name and features, numba's version and a hash of the source file's contents; the shipped
-cache is looked up with the CPU name and features replaced by the generic ones it was built
-with.  Any difference (another Python, another numba, another platform, an edited source
-file) is a miss: the kernel is compiled as before, for this CPU, and saved in numba's cache.
+name and features and numba's version; the shipped entries are stamped with a hash of the
+sources of every kernel module (a kernel's machine code includes the kernels it calls, from
+other modules too; numba's own cache stamps only the kernel's own file) and looked up with
+the CPU name and features replaced by the generic ones they were built with.  Any difference
+(another Python, another numba, another platform, an edited kernel module) is a miss: the
+kernel is compiled as before, for this CPU, and saved in numba's cache.
 
 A source checkout (``pip install -e``, ``make test``) has no shipped cache: ``optplan/_kernels``
 only exists in a built wheel.  Build one into a directory with
@@ -72,15 +74,20 @@ KERNEL_MODULES = (
 
 
 @cache
-def _source_hash(path: str) -> str:
-    """SHA-256 of a source file's bytes (the shipped entries' freshness stamp)."""
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+def _sources_hash() -> str:
+    """SHA-256 of the sources of every kernel module (the shipped entries' freshness stamp:
+    a kernel's machine code includes the kernels it calls, from other modules too, so an edit
+    to any of them makes every shipped entry stale)."""
+    h = hashlib.sha256()
+    for name in KERNEL_MODULES:
+        h.update(PACKAGE_DIR.joinpath(*name.split(".")[1:]).with_suffix(".py").read_bytes())
+    return h.hexdigest()
 
 
 class _ShippedLocator(_CacheLocator):
     """numba cache locator of the shipped cache: ``root/<the module's package path>``,
-    stamped with the source file's contents (not its modification time, which an
-    installation does not keep)."""
+    stamped with the contents of every kernel module (:func:`_sources_hash`; not their
+    modification times, which an installation does not keep)."""
 
     root: Path = SHIPPED_DIR
 
@@ -94,7 +101,7 @@ class _ShippedLocator(_CacheLocator):
         return self._cache_path
 
     def get_source_stamp(self) -> str:
-        return _source_hash(self._py_file)
+        return _sources_hash()
 
     def get_disambiguator(self) -> str:
         return str(self._lineno)
@@ -116,6 +123,12 @@ class ShippedCache(FunctionCache):
     the entries were compiled for) instead of this process's CPU."""
 
     _impl_class = _ShippedImpl
+
+    @contextmanager
+    def compiling(self) -> Iterator[None]:
+        """No lock (:meth:`KernelCache.compiling`): the shipped cache is built by one
+        process."""
+        yield
 
     def _index_key(self, sig: Any, codegen: Any) -> Any:
         key = super()._index_key(sig, codegen)

@@ -5,7 +5,8 @@
   ``solvers/`` (hatch ``force-include`` into ``optplan/_data``) and its compiled kernels
   (``optplan/_kernels``, the build hook ``hatch_build.py``; here those of
   ``optplan.geometry.jit`` only, to keep the build short), loaded without compiling in a
-  fresh process with an empty numba cache, and missed (compiled) once a source is edited;
+  fresh process with an empty numba cache, and missed (compiled) once a kernel module is
+  edited;
 * editable (the test run itself): ``optplan`` is imported from this checkout.
 """
 
@@ -81,8 +82,9 @@ def test_wheel_install_loads_every_catalogue_name(tmp_path: Path) -> None:
     assert info["solvers"] == op.list_solvers()
     assert info["version"] == op.__version__
     assert info["heavy"] == [], f"`import optplan` imports heavy modules: {info['heavy']}"
-    # a source edited after the build misses the shipped entries: compiled here instead
-    with (target / "optplan" / "geometry" / "jit.py").open("a") as f:
+    # a kernel module edited after the build (not even the called kernel's own module: a
+    # kernel's machine code includes the kernels it calls) misses every shipped entry
+    with (target / "optplan" / "geometry" / "kernel.py").open("a") as f:
         f.write("\n# edited after the wheel was built\n")
     stale = check("empty2", "kernel-only")
     assert stale["hit_miss"] == [0, 1] and stale["order"] == [5, 1, 3, 2, 0, 4], stale
