@@ -3,9 +3,10 @@
 A wheel (not an editable install, not an sdist) gets ``optplan/_kernels/``: every kernel of
 the package compiled for the generic CPU of the build's platform
 (:mod:`optplan.geometry.kernel_cache`), so that the first solve after ``pip install`` loads
-machine code instead of compiling it (about 25 s of CPU here).  The wheel is then tagged for
-this Python and platform (``cp311-cp311-linux_x86_64``).  ``OPTPLAN_SHIP_KERNELS=0`` builds a
-pure-Python wheel without them (the kernels then compile on first use, as from a checkout);
+machine code instead of compiling it (they compile once, here, when the wheel is built).
+The wheel is then tagged for this Python and platform (``cp311-cp311-linux_x86_64``).
+``OPTPLAN_SHIP_KERNELS=0`` builds a pure-Python wheel without them (the kernels then compile
+on first use, as from a checkout);
 ``OPTPLAN_SHIP_KERNELS=module,module`` ships the kernels of those modules only (the tests use
 it to keep the wheel's build short).
 """
