@@ -4,7 +4,9 @@ and ``hybrid-paper``.
 
 Each case runs in a fresh Python process whose ``NUMBA_CACHE_DIR`` is a new empty temporary
 directory, so every kernel it needs is compiled there (nothing is read from the package's
-``__pycache__`` or from the user cache).  The child measures CPU seconds
+``__pycache__`` or from the user cache; only from the package's shipped kernels,
+``optplan/_kernels``, which an installed wheel has, ``--wheel``, and a checkout has not unless
+someone built them into it).  The child measures CPU seconds
 (``time.process_time``: every thread of the process; the machine is shared, so wall times
 would measure the other users), in this order:
 
