@@ -1798,7 +1798,7 @@ def _db_bytes(tmp: Path, edit: Callable[[Any], None] | None = None, runs: int = 
                    "n_eval": 1, "message": "fuzz run " * 4, "backend": "visgraph",
                    "options": "{}"}
             db.add_run(exp, row, "{}", [(i, 5.0 - i, i, 0.1 * i) for i in range(5)], "w")
-        db.end_experiment(exp, "complete", runs)
+        db.end_experiment(exp, "complete")
     if edit is not None:
         con = sqlite3.connect(path)
         edit(con)

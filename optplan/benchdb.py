@@ -380,7 +380,7 @@ class ResultsDB:
     >>> import tempfile, os
     >>> db = ResultsDB(os.path.join(tempfile.mkdtemp(), "runs.sqlite"))
     >>> exp = db.begin_experiment(experiment_info("doctest"), planned=0, skipped=0)
-    >>> db.end_experiment(exp, "complete", 0); db.close()
+    >>> db.end_experiment(exp, "complete"); db.close()
     """
 
     def __init__(self, path: str | Path):
@@ -432,10 +432,14 @@ class ResultsDB:
                  int(planned), int(skipped)))
         return _inserted_id(cur)
 
-    def end_experiment(self, experiment_id: int, outcome: str, done: int) -> None:
+    def end_experiment(self, experiment_id: int, outcome: str) -> None:
+        """Record when and how the sweep ended.  ``runs_done`` is not set here: each
+        :meth:`add_run` counts its run in the run's own transaction, so the count equals the
+        stored runs even when the sweep is interrupted between storing a run and counting it
+        in memory."""
         with _guarded(self.path), self.con:
-            self.con.execute("UPDATE experiment SET finished = ?, outcome = ?, runs_done = ? "
-                             "WHERE id = ?", (_now(), outcome, int(done), int(experiment_id)))
+            self.con.execute("UPDATE experiment SET finished = ?, outcome = ? WHERE id = ?",
+                             (_now(), outcome, int(experiment_id)))
 
     def add_run(self, experiment_id: int, row: Mapping[str, Any], config: str,
                 progress: Iterable[Sequence[Any]] = (), worker: str = "") -> int:

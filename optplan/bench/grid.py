@@ -246,17 +246,17 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
         raise
     finally:
         if store is not None:
-            _end_experiment(store, exp_id, outcome, record.n_done)
+            _end_experiment(store, exp_id, outcome)
     return [with_scen(r, scen[r["problem"]]) for r in rows if r is not None]
 
 
-def _end_experiment(store: Any, exp_id: int, outcome: str, done: int) -> None:
+def _end_experiment(store: Any, exp_id: int, outcome: str) -> None:
     """Record how the sweep ended and close the database.  When the sweep already failed
     (the database locked or damaged while it ran), that error is the one reported: a second
     one from this update is dropped (``runs_done`` is right anyway: each stored run counts
     itself)."""
     try:
-        store.end_experiment(exp_id, outcome, done)
+        store.end_experiment(exp_id, outcome)
     except ValueError:
         if outcome == "complete":
             raise

@@ -38,7 +38,10 @@ class Stream:
     __slots__ = ("node", "f", "g", "j", "sj", "pi", "pj", "th_d", "th_a", "sweep", "ok", "pos",
                  "checked", "edges", "eidx")
 
-    def __init__(self, node, f, g, j, sj, pi, pj, th_d, th_a, sweep, edges=None, eidx=None):
+    def __init__(self, node: int, f: np.ndarray, g: np.ndarray, j: np.ndarray, sj: np.ndarray,
+                 pi: np.ndarray, pj: np.ndarray, th_d: np.ndarray, th_a: np.ndarray,
+                 sweep: np.ndarray, edges: Edges | None = None,
+                 eidx: np.ndarray | None = None) -> None:
         order = np.argsort(f, kind="stable")
         self.node = node
         self.f, self.g, self.j, self.sj = f[order], g[order], j[order], sj[order]

@@ -29,22 +29,33 @@ def plain_visibility_length(polys: list[Polygon], start, goal) -> float:
     nodes = np.array(nodes)
     n = len(nodes)
     i, j = np.triu_indices(n, 1)
-    segs = shapely.linestrings(np.stack([nodes[i], nodes[j]], axis=1))
     union = shapely.unary_union(polys)
     shapely.prepare(union)
-    # screens before the exact test (do the interiors meet?): a segment whose rounded midpoint
-    # lies in the interior, farther than 1e-9 x the extent from the boundary, is blocked; one
-    # that does not touch the union is free
-    mid = shapely.points(0.5 * (nodes[i] + nodes[j]))
+    # screen before the exact test: a segment with a point (its middle, quarters, eighths) in
+    # the interior, farther than 1e-9 x the extent from the boundary (not a rounding artefact
+    # of the point), meets the interior: blocked
     x0, y0, x1, y1 = union.bounds
     edge = union.boundary
     shapely.prepare(edge)
-    blocked = shapely.contains_properly(union, mid)
-    blocked[blocked] = ~shapely.dwithin(edge, mid[blocked], 1e-9 * max(x1 - x0, y1 - y0, 1.0))
-    test = ~blocked & shapely.intersects(union, segs)
-    blocked[test] = shapely.relate_pattern(segs[test], union, "T********")
-    ok = ~blocked & (shapely.length(segs) > 0)
-    i, j, w = i[ok], j[ok], shapely.length(segs)[ok]
+    tol = 1e-9 * max(x1 - x0, y1 - y0, 1.0)
+    blocked = np.zeros(len(i), bool)
+    for f in (0.5, 0.25, 0.75, 0.125, 0.375, 0.625, 0.875):
+        k = np.flatnonzero(~blocked)
+        pts = shapely.points((1 - f) * nodes[i[k]] + f * nodes[j[k]])
+        inside = shapely.contains_properly(union, pts)
+        k, pts = k[inside], pts[inside]
+        blocked[k[~shapely.dwithin(edge, pts, tol)]] = True
+    # the exact test of the others: a segment that meets the union is blocked unless it only
+    # touches it (DE-9IM: their interiors do not meet; the same verdicts as relate_pattern
+    # "T********", faster on a prepared geometry)
+    test = np.flatnonzero(~blocked)
+    segs = shapely.linestrings(np.stack([nodes[i[test]], nodes[j[test]]], axis=1))
+    meet = shapely.intersects(union, segs)
+    blocked[test[meet]] = ~shapely.touches(union, segs[meet])
+    d = nodes[j] - nodes[i]
+    length = np.sqrt(d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1])
+    ok = ~blocked & (length > 0)
+    i, j, w = i[ok], j[ok], length[ok]
     g = csr_matrix((np.r_[w, w], (np.r_[i, j], np.r_[j, i])), shape=(n, n))
     return float(dijkstra(g, indices=0)[1])
 

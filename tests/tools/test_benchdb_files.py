@@ -36,7 +36,7 @@ def _small_db(path: Path, runs: int = 3, end: bool = True) -> Path:
         for k in range(runs):
             db.add_run(exp, _row(k), CONFIG, [(i, 5.0 - i, i, 0.1 * i) for i in range(5)], "w")
         if end:
-            db.end_experiment(exp, "complete", runs)
+            db.end_experiment(exp, "complete")
     return path
 
 

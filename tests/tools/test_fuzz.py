@@ -1,7 +1,8 @@
 """Bad input never crashes, never hangs, never lies -- a bounded, seeded slice of the
 input fuzz of ``benchmarks/fuzz_inputs.py`` (the full run is ``python
 benchmarks/fuzz_inputs.py``: >= 3,000 scenarios, >= 2,500 option values, >= 200 inits, >= 50
-result files, and its counts table), with every map, results-database and plugin case.
+result files, and its counts table), with every map and results-database case and a seeded
+sample of the plugin cases.
 
 Every case runs in a worker process with a time limit; the slice must show no crash, no hang, no
 unclear message, no silent acceptance of an out-of-range value and no success the independent
@@ -26,6 +27,9 @@ ROOT = Path(__file__).resolve().parents[2]
 SEED = 14
 #: the slice: scenario mutations (small scenes), option values, inits, result files
 N_SCENARIOS, N_OPTIONS, N_INITS, N_RESULTS = 200, 200, 40, 40
+#: plugin cases sampled (each runs a fresh process, ~1 s; tests/core/test_plugins.py covers
+#: the mechanism, the full run of benchmarks/fuzz_inputs.py every case)
+N_PLUGINS = 6
 SMALL_SCENES = ("open-field", "trap-u", "trap-gnron", "trap-saddle", "trap-channel",
                 "paper-env1", "paper-env2", "paper-apf-env1", "paper-apf-env2",
                 "paper-formation", "formation-open-field", "paper-hybrid", "paper-warehouse")
@@ -45,7 +49,8 @@ def _slice() -> list[fz.Case]:
     cases += pick + rng.sample(rest, N_OPTIONS - len(pick))
     cases += rng.sample(fz.init_cases(presets, SEED), N_INITS)
     cases += rng.sample(fz.result_cases(SEED, n_random=12), N_RESULTS)
-    cases += fz.map_cases(SEED) + fz.database_cases(SEED) + fz.plugin_cases()
+    cases += fz.map_cases(SEED) + fz.database_cases(SEED)
+    cases += rng.sample(fz.plugin_cases(), N_PLUGINS)
     return cases
 
 
