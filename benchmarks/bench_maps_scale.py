@@ -29,7 +29,9 @@ its path inside the obstacles, measured with shapely).  Maps with more than
 the vertices).
 
 Import and build times are wall seconds (CPU seconds, ``time.process_time``, in brackets),
-query times CPU milliseconds, on a machine shared with other jobs.  ``--sightlines on|off``
+query times CPU milliseconds, on a machine shared with other jobs; ``reference ms`` is the
+machine's speed just before each map (:func:`reference_ms`: a fixed workload in two threads),
+so that a run in a slow spell of the machine shows as one.  ``--sightlines on|off``
 sets :class:`TangentGraph`'s option (default: from ``SIGHTLINES_MIN`` circles on);
 ``--build`` makes the whole graph first (:meth:`TangentGraph.build`: its time is the build;
 the queries are then the compiled search of ``optplan/geometry/chain_search.py``, whose
@@ -48,6 +50,7 @@ import resource
 import statistics
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -116,6 +119,21 @@ def run_optplan(scen: Path, budget: float, sightlines: bool | None = None,
             "import": (ti.wall, ti.cpu), "build": (tb.wall, tb.cpu), "times": times,
             "cpus": cpus, "lengths": lengths, "unfinished": unfinished,
             "graph_mib": graph.nbytes / 2**20, "rss": _rss_mib()}
+
+
+def reference_ms() -> float:
+    """The machine's speed at the moment: wall milliseconds of a fixed workload, two threads
+    each sorting ``2**21`` seeded random floats (numpy releases the GIL while it sorts), the
+    median of three.  On a shared machine a slow run of the benchmark comes with a slow
+    reference (the build, in two threads, is the figure it resembles most)."""
+    x = np.random.default_rng(0).random(2**21)
+    times = []
+    with ThreadPoolExecutor(2) as pool:
+        for _ in range(3):
+            t = time.perf_counter()
+            list(pool.map(np.sort, [x, x[::-1]]))
+            times.append(1e3 * (time.perf_counter() - t))
+    return statistics.median(times)
 
 
 def _free_parts(problem) -> list:
@@ -211,11 +229,12 @@ def main(argv: list[str] | None = None) -> None:
           f"(sightlines {args.sightlines}{', whole graph built first' if args.build else ''}), "
           f"{args.queries} .scen queries per map, seed {args.seed}, query budget "
           f"{args.budget:g} CPU s; wall s (CPU s); query CPU ms: median / worst; shared 2-core "
-          "machine")
+          "machine; reference: a fixed two-thread workload (ms) just before each map")
     print()
     print("| map | vertices | circles | import s | build s | query ms | unfinished | graph MiB "
-          "| peak RSS MiB | extremitypathfinder build s | its query ms | lengths agree |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---|")
+          "| peak RSS MiB | extremitypathfinder build s | its query ms | lengths agree "
+          "| reference ms |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---|---:|")
     notes: list[str] = []
     work: list[str] = []  # the search's and the graph's counts per map
     for kind in args.kinds.split(","):
@@ -223,6 +242,7 @@ def main(argv: list[str] | None = None) -> None:
             with tempfile.TemporaryDirectory() as d:
                 gen = generate_benchmark(kind, size, d, rng=np.random.default_rng(args.seed),
                                          queries=args.queries)
+                ref = reference_ms()
                 ours = run_optplan(gen.scen_path, args.budget, sight, args.build)
                 epf = (run_epf(ours["problems"])
                        if ours["vertices"] <= args.epf_max_vertices else None)
@@ -236,7 +256,7 @@ def main(argv: list[str] | None = None) -> None:
             print(f"| {kind}-{size} | {ours['vertices']} | {ours['circles']} | "
                   f"{_fmt(ours['import'])} | {_fmt(ours['build'])} | {_ms(ours['times'])} | "
                   f"{ours['unfinished']} | {ours['graph_mib']:.0f} | {ours['rss']:.0f} | "
-                  f"{e_build} | {e_q} | {agree} |", flush=True)
+                  f"{e_build} | {e_q} | {agree} | {ref:.0f} |", flush=True)
             st, ex = ours["stats"], ours["expanded"]
             work.append(f"{kind}-{size}: expanded {'nodes' if args.build else 'arrivals'} "
                         "per query median "
