@@ -6,6 +6,7 @@ Imports inside functions count too (a lazy import is still a dependency).
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -24,12 +25,16 @@ TOOLS = ("optplan.cli", "optplan.bench", "optplan.benchdb", "optplan.report", "o
          "optplan.maps", "optplan.generators", "optplan.experiments")
 
 
+def module_name(p: Path, root: Path = ROOT) -> str:
+    """The dotted name of the module file ``p`` of the package directory ``root``."""
+    return ".".join(p.relative_to(root.parent).with_suffix("").parts).removesuffix(".__init__")
+
+
 def modules(root: Path = ROOT) -> dict[str, set[str]]:
     """module name -> the optplan modules it imports (``root`` is the package directory)."""
     out = {}
     for p in sorted(root.rglob("*.py")):
-        name = ".".join(p.relative_to(root.parent).with_suffix("").parts).removesuffix(
-            ".__init__")
+        name = module_name(p, root)
         deps: set[str] = set()
         for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))):
             if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
@@ -45,24 +50,32 @@ def under(name: str, prefixes: tuple[str, ...]) -> bool:
     return any(name == p or name.startswith(p + ".") for p in prefixes)
 
 
-MODULES = modules()
+#: every module's name (the parametrisations: no parsing while pytest collects, in every
+#: xdist worker)
+NAMES = sorted(module_name(p) for p in ROOT.rglob("*.py"))
+
+
+@functools.cache
+def imports() -> dict[str, set[str]]:
+    """:func:`modules` of the package, parsed once, when a test first asks."""
+    return modules()
 
 
 def test_every_module_has_a_layer() -> None:
     layered = CORE + METHODS + TOOLS + ("optplan", "optplan.__main__")
-    assert all(under(m, layered) for m in MODULES), sorted(
-        m for m in MODULES if not under(m, layered))
+    assert all(under(m, layered) for m in NAMES), sorted(
+        m for m in NAMES if not under(m, layered))
 
 
-@pytest.mark.parametrize("mod", sorted(m for m in MODULES if under(m, CORE)))
+@pytest.mark.parametrize("mod", sorted(m for m in NAMES if under(m, CORE)))
 def test_core_never_imports_a_method_or_a_tool(mod: str) -> None:
-    bad = sorted(d for d in MODULES[mod] if under(d, METHODS + TOOLS))
+    bad = sorted(d for d in imports()[mod] if under(d, METHODS + TOOLS))
     assert not bad, f"{mod} imports {bad}"
 
 
-@pytest.mark.parametrize("mod", sorted(m for m in MODULES if under(m, METHODS)))
+@pytest.mark.parametrize("mod", sorted(m for m in NAMES if under(m, METHODS)))
 def test_methods_never_import_a_tool(mod: str) -> None:
-    bad = sorted(d for d in MODULES[mod] if under(d, TOOLS))
+    bad = sorted(d for d in imports()[mod] if under(d, TOOLS))
     assert not bad, f"{mod} imports {bad}"
 
 
@@ -79,7 +92,7 @@ def test_the_checker_sees_lazy_imports(tmp_path: Path) -> None:
 def test_every_module_is_on_the_architecture_page() -> None:
     page = (ROOT.parent / "docs" / "architecture.md").read_text(encoding="utf-8")
     missing = []
-    for m in MODULES:
+    for m in NAMES:
         rel = m.removeprefix("optplan").lstrip(".").replace(".", "/")
         if not rel or rel == "__main__" or (ROOT / rel).is_dir():
             continue  # the package and its sub-packages (listed as folders)
@@ -117,7 +130,7 @@ def test_no_function_is_too_complex() -> None:
 def test_the_catalogue_does_not_import_the_solver() -> None:
     """The catalogue reads files; the solver uses it (the docs' preset tables, which need
     both, live in optplan.doc_tables)."""
-    assert not any(under(d, ("optplan.solver",)) for d in MODULES["optplan.catalog"])
+    assert not any(under(d, ("optplan.solver",)) for d in imports()["optplan.catalog"])
 
 
 #: names vulture reports that are used from outside its view, each with the reason
