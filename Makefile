@@ -36,8 +36,9 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check .
 	@# mypy and `mkdocs build --strict` are tests (tests/tools/test_static_checks.py): one
-	@# xdist worker runs them while the other runs other tests
-	$(BIN)/python -m pytest -m "not slow" -q -n 2 --dist loadfile
+	@# xdist worker runs them while the other runs other tests; files are handed out in
+	@# collection order, the longest first (tests/conftest.py), not by their test counts
+	$(BIN)/python -m pytest -m "not slow" -q -n 2 --dist loadfile --no-loadscope-reorder
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
