@@ -89,18 +89,25 @@ def _vertices(problem) -> int:
 
 
 def run_optplan(scen: Path, budget: float, sightlines: bool | None = None,
-                full: bool = False) -> dict:
+                full: bool = False, repeat: int = 1) -> dict:
     """Import, build and the queries of one ``.scen`` on one :class:`TangentGraph`
-    (``sightlines``: its option; ``full``: :meth:`TangentGraph.build` before the queries)."""
-    with _Clock() as ti:
-        probs = read_scen(scen)
-    p0 = probs[0]
-    with _Clock() as tb:
-        oset = p0.obstacle_set(p0.robots[0].radius)  # made by the import (cached)
-        graph = TangentGraph(oset, sightlines=sightlines,
-                             max_bytes=2**30 if full else MAX_GRAPH_BYTES)
-        if full:
-            graph.build()
+    (``sightlines``: its option; ``full``: :meth:`TangentGraph.build` before the queries;
+    ``repeat``: the import and the build made that many times, each from scratch, the
+    queries on the last)."""
+    ti, tb = [], []
+    for _ in range(repeat):
+        probs = graph = p0 = oset = None  # the previous repeat's freed first
+        with _Clock() as ci:
+            probs = read_scen(scen)
+        ti.append(ci)
+        p0 = probs[0]
+        with _Clock() as cb:
+            oset = p0.obstacle_set(p0.robots[0].radius)  # made by the import (cached)
+            graph = TangentGraph(oset, sightlines=sightlines,
+                                 max_bytes=2**30 if full else MAX_GRAPH_BYTES)
+            if full:
+                graph.build()
+        tb.append(cb)
     times, cpus, lengths, unfinished, expanded = [], [], [], 0, []
     for p in probs:
         r = p.robots[0]
@@ -116,7 +123,7 @@ def run_optplan(scen: Path, budget: float, sightlines: bool | None = None,
         expanded.append(res.info["n_expanded"])
     return {"problems": probs, "vertices": _vertices(p0), "circles": graph.circles.n,
             "expanded": expanded, "stats": dict(graph.stats),
-            "import": (ti.wall, ti.cpu), "build": (tb.wall, tb.cpu), "times": times,
+            "import": ti, "build": tb, "times": times,
             "cpus": cpus, "lengths": lengths, "unfinished": unfinished,
             "graph_mib": graph.nbytes / 2**20, "rss": _rss_mib()}
 
@@ -186,6 +193,14 @@ def _fmt(pair: tuple[float, float]) -> str:
     return f"{pair[0]:.2f} ({pair[1]:.2f})"
 
 
+def _fmt_runs(clocks: list[_Clock]) -> str:
+    """One run: wall (CPU); several: the median wall time (the fastest)."""
+    if len(clocks) == 1:
+        return _fmt((clocks[0].wall, clocks[0].cpu))
+    walls = [c.wall for c in clocks]
+    return f"{statistics.median(walls):.2f} ({min(walls):.2f})"
+
+
 def _ms(xs: list[float]) -> str:
     return f"{1e3 * statistics.median(xs):.1f} / {1e3 * max(xs):.0f}"
 
@@ -217,6 +232,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--budget", type=float, default=10.0, help="CPU seconds per query")
     ap.add_argument("--epf-max-vertices", type=int, default=3000)
     ap.add_argument("--show", type=int, default=3, help="disagreements listed per map")
+    ap.add_argument("--repeat", type=int, default=1,
+                    help="imports and builds per map, each from scratch (the table shows the "
+                         "median wall time and, in brackets, the fastest)")
     ap.add_argument("--sightlines", choices=("auto", "on", "off"), default="auto",
                     help="TangentGraph(sightlines=): auto (from SIGHTLINES_MIN circles), "
                          "on or off")
@@ -224,12 +242,16 @@ def main(argv: list[str] | None = None) -> None:
                     help="make the whole graph (TangentGraph.build) before the queries, "
                          "which then run the compiled search; its time is the build time")
     args = ap.parse_args(argv)
+    if args.repeat < 1:
+        ap.error(f"--repeat must be >= 1, got {args.repeat}")
     sight = {"auto": None, "on": True, "off": False}[args.sightlines]
     print("exact tangent graph at scale: point robot, one TangentGraph per map "
           f"(sightlines {args.sightlines}{', whole graph built first' if args.build else ''}), "
           f"{args.queries} .scen queries per map, seed {args.seed}, query budget "
           f"{args.budget:g} CPU s; wall s (CPU s); query CPU ms: median / worst; shared 2-core "
-          "machine; reference: a fixed two-thread workload (ms) just before each map")
+          "machine; reference: a fixed two-thread workload (ms) just before each map"
+          + (f"; import and build: median wall s of {args.repeat} runs from scratch (fastest)"
+             if args.repeat > 1 else ""))
     print()
     print("| map | vertices | circles | import s | build s | query ms | unfinished | graph MiB "
           "| peak RSS MiB | extremitypathfinder build s | its query ms | lengths agree "
@@ -243,7 +265,7 @@ def main(argv: list[str] | None = None) -> None:
                 gen = generate_benchmark(kind, size, d, rng=np.random.default_rng(args.seed),
                                          queries=args.queries)
                 ref = reference_ms()
-                ours = run_optplan(gen.scen_path, args.budget, sight, args.build)
+                ours = run_optplan(gen.scen_path, args.budget, sight, args.build, args.repeat)
                 epf = (run_epf(ours["problems"])
                        if ours["vertices"] <= args.epf_max_vertices else None)
             if epf is None:
@@ -254,7 +276,8 @@ def main(argv: list[str] | None = None) -> None:
                 agree = f"{n - bad} of {n}"
                 notes += [f"{kind}-{size} {x}" for x in bad_notes[:args.show]]
             print(f"| {kind}-{size} | {ours['vertices']} | {ours['circles']} | "
-                  f"{_fmt(ours['import'])} | {_fmt(ours['build'])} | {_ms(ours['times'])} | "
+                  f"{_fmt_runs(ours['import'])} | {_fmt_runs(ours['build'])} | "
+                  f"{_ms(ours['times'])} | "
                   f"{ours['unfinished']} | {ours['graph_mib']:.0f} | {ours['rss']:.0f} | "
                   f"{e_build} | {e_q} | {agree} | {ref:.0f} |", flush=True)
             st, ex = ours["stats"], ours["expanded"]
@@ -263,6 +286,10 @@ def main(argv: list[str] | None = None) -> None:
                         f"{statistics.median(ex):.0f}, worst {max(ex)} (unfinished queries: "
                         f"up to the budget); stored edges {st['edges']}, exact segment tests "
                         f"{st['segment_tests']}")
+            if args.repeat > 1:
+                work.append(f"{kind}-{size}: wall s of each repeat: import " + ", ".join(
+                    f"{c.wall:.2f}" for c in ours["import"]) + "; build " + ", ".join(
+                    f"{c.wall:.2f}" for c in ours["build"]))
             if "build_wall_s" in st:
                 work.append(f"{kind}-{size}: build wall s: " + ", ".join(
                     f"{k} {v:.2f}" for k, v in st["build_wall_s"].items())
