@@ -34,3 +34,11 @@ def test_the_docs_site_builds_strict(tmp_path: Path) -> None:
     out = _run("mkdocs", "build", "--strict", "--quiet", "-d", str(tmp_path / "site"), env=env)
     assert out.returncode == 0, out.stdout + out.stderr
     assert (tmp_path / "site" / "index.html").is_file()
+
+
+def test_the_files_run_first_exist() -> None:
+    """``tests/conftest.py``'s list of the longest files names files that exist (a renamed
+    file would silently lose its place at the front)."""
+    from tests.conftest import FIRST
+
+    assert all((ROOT / f).is_file() for f in FIRST), [f for f in FIRST if not (ROOT / f).is_file()]
