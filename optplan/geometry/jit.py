@@ -18,9 +18,10 @@ Where the cache lives (numba's rules, see docs/benchmarks.md "First run and the 
 cache"): ``NUMBA_CACHE_DIR`` when set; else ``__pycache__`` next to the module when that
 directory is writable; else numba's user-wide cache directory (``~/.cache/numba`` on Linux,
 ``$XDG_CACHE_HOME/numba`` when set).  A read-only installation therefore compiles once per
-user, not once per process.  An installed wheel also ships the kernels compiled for its
-platform's generic CPU, looked up when numba's cache has nothing
-(:mod:`optplan.geometry.kernel_cache`): its first solve compiles nothing.
+user, not once per process; with none of them writable, the kernels compile in memory in
+every process, with one warning (``kernel_cache.NoKernelCacheWarning``).  An installed wheel
+also ships the kernels compiled for its platform's generic CPU, looked up when numba's cache
+has nothing (:mod:`optplan.geometry.kernel_cache`): its first solve compiles nothing.
 
 A helper with one call site (in compiled code) is ``@inlined`` instead: numba inlines it into
 its caller's IR, so it costs no compilation of its own (a compiled function costs 0.1-0.3 s of

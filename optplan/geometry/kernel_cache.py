@@ -6,7 +6,10 @@ places, in this order (:class:`KernelCache`):
 
 1. **numba's own cache** (``NUMBA_CACHE_DIR`` when set; else ``__pycache__`` beside the
    module when writable; else the user-wide ``~/.cache/numba``): what this machine compiled
-   for its own CPU.  A kernel compiled in this process is saved here, never elsewhere.
+   for its own CPU.  A kernel compiled in this process is saved here, never elsewhere.  When
+   none of these is writable, numba has no cache: the kernel is compiled in memory, again in
+   every process, with one :class:`NoKernelCacheWarning` per process (numba alone would
+   refuse to compile it: ``import optplan`` failed).
 2. **the shipped cache** ``optplan/_kernels/`` (read only): machine code compiled when the
    wheel was built (:func:`build`, run by the wheel's build hook ``hatch_build.py``) for the
    *generic* CPU of the build's platform (numba's ``NUMBA_CPU_NAME=generic``: the baseline
@@ -47,7 +50,7 @@ from numba.core import config
 from numba.core.caching import CompileResultCacheImpl, FunctionCache, _CacheLocator
 
 __all__ = ["KERNEL_MODULES", "REGISTRY", "SHIPPED_DIR", "GENERIC_CPU", "KernelCache",
-           "ShippedCache", "build", "build_in_child"]
+           "NoKernelCacheWarning", "ShippedCache", "build", "build_in_child"]
 
 #: The package's root directory (``optplan/``).
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
@@ -141,25 +144,38 @@ class KernelCache:
     ``_cache``."""
 
     def __init__(self, py_func: Any) -> None:
-        self._own = FunctionCache(py_func)
-        self._shipped = ShippedCache(py_func) if SHIPPED_DIR.is_dir() else None
+        self._own: FunctionCache | None
+        try:
+            self._own = FunctionCache(py_func)
+        except RuntimeError:  # numba: "cannot cache function ...: no locator available"
+            self._own = None
+            _warn_no_cache(py_func)
+        self._shipped: ShippedCache | None = None
+        if SHIPPED_DIR.is_dir():
+            try:
+                self._shipped = ShippedCache(py_func)
+            except RuntimeError:  # a kernel outside the package: no shipped entry
+                pass
 
     @property
     def cache_path(self) -> str:
-        """numba's own cache directory of this kernel."""
-        return self._own.cache_path
+        """numba's own cache directory of this kernel (``""`` when there is none: the kernel
+        compiles in memory)."""
+        return self._own.cache_path if self._own is not None else ""
 
     def load_overload(self, sig: Any, target_context: Any) -> Any:
         """The cached compile result of ``sig``: numba's cache, else the shipped one, else
         None."""
-        found = self._own.load_overload(sig, target_context)
+        found = None if self._own is None else self._own.load_overload(sig, target_context)
         if found is None and self._shipped is not None:
             found = self._shipped.load_overload(sig, target_context)
         return found
 
     def save_overload(self, sig: Any, data: Any) -> None:
-        """Save a compile result of this process in numba's cache."""
-        self._own.save_overload(sig, data)
+        """Save a compile result of this process in numba's cache (nowhere when there is
+        none)."""
+        if self._own is not None:
+            self._own.save_overload(sig, data)
 
     @contextmanager
     def compiling(self) -> Iterator[None]:
@@ -168,6 +184,9 @@ class KernelCache:
         ``flock`` or the lock file cannot be made).  Processes started together (pytest-xdist
         workers, a sweep's workers) then compile each kernel once: the others wait, and the
         compilation they then ask for finds the kernel in the cache and loads it."""
+        if self._own is None:  # compiled in memory: nothing to share
+            yield
+            return
         try:
             import fcntl
 
@@ -184,13 +203,46 @@ class KernelCache:
                 fcntl.flock(f, fcntl.LOCK_UN)
 
     def enable(self) -> None:
-        self._own.enable()
+        if self._own is not None:
+            self._own.enable()
 
     def disable(self) -> None:
-        self._own.disable()
+        if self._own is not None:
+            self._own.disable()
 
     def flush(self) -> None:
-        self._own.flush()
+        if self._own is not None:
+            self._own.flush()
+
+
+class NoKernelCacheWarning(RuntimeWarning):
+    """numba has no writable cache directory: kernels compile in memory, in every process."""
+
+
+_warned: list[bool] = []  # the fallback's warning, once per process
+
+
+def _warn_no_cache(py_func: Any) -> None:
+    """Warn, once per process, that numba found no writable cache directory for the kernels
+    (``NUMBA_CACHE_DIR`` unset, the package's ``__pycache__`` and numba's user-wide cache
+    directory not writable): they are compiled in memory instead (and the shipped ones, in a
+    wheel, still loaded)."""
+    if _warned:
+        return
+    _warned.append(True)
+    import warnings
+
+    from numba.misc.appdirs import AppDirs
+
+    user = AppDirs(appname="numba", appauthor=False).user_cache_dir
+    here = Path(py_func.__code__.co_filename).resolve().parent / "__pycache__"
+    shipped = " (the kernels the wheel ships are still loaded)" if SHIPPED_DIR.is_dir() else ""
+    warnings.warn(
+        f"optplan: numba found no writable cache directory for its compiled kernels: "
+        f"NUMBA_CACHE_DIR is unset, and neither the package's __pycache__ ({here}, beside each "
+        f"module) nor numba's user cache directory ({user}) could be written; kernels are "
+        f"compiled in memory, again in every process{shipped}.  Set NUMBA_CACHE_DIR to a "
+        f"writable directory to cache them", NoKernelCacheWarning, stacklevel=4)
 
 
 #: Every ``@compiled`` (and ``@leaf``) kernel, in definition order (``optplan.geometry.jit``

@@ -5,7 +5,8 @@ stands in each; this holds even for root, whom permission bits do not stop) runs
 ``visgraph`` solve in two fresh processes with ``NUMBA_CACHE_DIR`` unset and ``XDG_CACHE_HOME``
 pointing at an empty directory: the first compiles the geometry kernels it uses (kernels
 compile on their first call) and writes numba's user-wide cache there, the second loads the
-kernels from it and compiles nothing.
+kernels from it and compiles nothing.  With no writable cache at all (a home whose
+``~/.cache`` cannot be made either) the kernels compile in memory, with one warning.
 
 The kernels a wheel ships (optplan.geometry.kernel_cache): their build runs only for the
 generic CPU and covers every module that declares a kernel; tests/tools/test_install.py builds
@@ -84,6 +85,60 @@ def test_read_only_package_caches_in_the_user_cache_dir(tmp_path: Path) -> None:
     assert second["crossings"] == [1, 0], second
     assert not any((d / "__pycache__").is_dir() for d in [pkg, *pkg.rglob("*")]
                    if d.is_dir())
+
+
+NO_CACHE_CHILD = """
+import json, warnings
+with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always")
+    import optplan as op
+    from optplan.geometry import kernel
+    from optplan.problem import parse_problem
+    prob = parse_problem({
+        "name": "box", "bounds": [0.0, 0.0, 100.0, 100.0],
+        "robots": [{"id": "r", "start": [10.0, 10.0], "goal": [90.0, 90.0], "radius": 1.0}],
+        "obstacles": [{"type": "polygon", "vertices": [[30, 30], [70, 30], [70, 70], [30, 70]]}]})
+    ok = op.solve(prob, "visgraph").success
+s = kernel.crossings.stats
+print(json.dumps({"file": op.__file__, "ok": ok, "crossings": [sum(s.cache_hits.values()),
+                  sum(s.cache_misses.values())],
+                  "warnings": [[w.category.__name__, str(w.message)] for w in caught]}))
+"""
+
+
+def test_no_writable_cache_compiles_in_memory_with_one_warning(tmp_path: Path) -> None:
+    """A read-only package, a home whose cache directory cannot be made and no
+    ``NUMBA_CACHE_DIR``: numba has no cache locator (it used to make ``import optplan`` fail:
+    "cannot cache function ...: no locator available"); the kernels compile in memory, with
+    one warning naming the directories tried and ``NUMBA_CACHE_DIR``, and nothing is
+    written."""
+    site, home = tmp_path / "site", tmp_path / "home"
+    pkg = _read_only_copy(site)
+    home.mkdir()
+    (home / ".cache").write_text("a file: ~/.cache/numba cannot be made (even by root)\n")
+    home.chmod(0o555)
+    env = {k: v for k, v in os.environ.items()
+           if not k.startswith("NUMBA_") and k not in ("XDG_CACHE_HOME", "PYTHONWARNINGS")}
+    env.update(PYTHONPATH=str(site), HOME=str(home), PYTHONDONTWRITEBYTECODE="1")
+    try:
+        p = subprocess.run([sys.executable, "-c", NO_CACHE_CHILD], env=env, capture_output=True,
+                           text=True, cwd=site)
+    finally:
+        home.chmod(0o755)
+        for q in [pkg, *pkg.rglob("*")]:
+            q.chmod(q.stat().st_mode | stat.S_IWUSR)
+    assert p.returncode == 0, p.stderr[-2000:]
+    out = json.loads(p.stdout.strip().splitlines()[-1])
+    assert Path(out["file"]).is_relative_to(site), out["file"]
+    assert out["ok"] and out["crossings"] == [0, 1], out  # compiled (in memory)
+    assert len(out["warnings"]) == 1, out["warnings"]
+    (cat, msg), = out["warnings"]
+    assert cat == "NoKernelCacheWarning", out["warnings"]
+    for name in ("NUMBA_CACHE_DIR", str(home / ".cache" / "numba"),
+                 str(pkg / "geometry" / "__pycache__")):
+        assert name in msg, msg
+    assert sorted(q.name for q in home.iterdir()) == [".cache"]
+    assert not any((d / "__pycache__").is_dir() for d in [pkg, *pkg.rglob("*")] if d.is_dir())
 
 
 def test_shipped_cache_build_refuses_the_host_cpu(tmp_path: Path) -> None:

@@ -5,8 +5,8 @@
   ``solvers/`` (hatch ``force-include`` into ``optplan/_data``) and its compiled kernels
   (``optplan/_kernels``, the build hook ``hatch_build.py``; here those of
   ``optplan.geometry.jit`` only, to keep the build short), loaded without compiling in a
-  fresh process with an empty numba cache, and missed (compiled) once a kernel module is
-  edited;
+  fresh process with an empty numba cache (and, with one warning, where no numba cache
+  directory is writable), and missed (compiled) once a kernel module is edited;
 * editable (the test run itself): ``optplan`` is imported from this checkout.
 """
 
@@ -64,13 +64,16 @@ def test_wheel_install_loads_every_catalogue_name(tmp_path: Path) -> None:
     shipped = sorted(p.name.split("-")[0] for p in (target / "optplan" / "_kernels").rglob("*.nbi"))
     assert shipped == ["jit.argsort_stable", "jit.heap_pop", "jit.heap_push"]
 
-    def check(cache: str, *args: str) -> dict:
+    def check(cache: str | None, *args: str, home: Path | None = None) -> dict:
         env = {k: v for k, v in os.environ.items()
-               if k not in ("OPTPLAN_CATALOG", "PYTHONPATH") and not k.startswith("NUMBA_")}
-        env.update(PYTHONPATH=str(target), NUMBA_CACHE_DIR=str(tmp_path / cache))
+               if k not in ("OPTPLAN_CATALOG", "PYTHONPATH", "XDG_CACHE_HOME", "PYTHONWARNINGS")
+               and not k.startswith("NUMBA_")}
+        env.update(PYTHONPATH=str(target), PYTHONDONTWRITEBYTECODE="1")
+        env.update({"NUMBA_CACHE_DIR": str(tmp_path / cache)} if cache else {})
+        env.update({"HOME": str(home)} if home else {})
         out = subprocess.run([sys.executable, "-c", CHECK, *args], cwd=elsewhere, env=env,
                              check=True, capture_output=True, text=True)
-        return json.loads(out.stdout.strip().splitlines()[-1])
+        return {**json.loads(out.stdout.strip().splitlines()[-1]), "stderr": out.stderr}
 
     info = check("empty")
     # the shipped kernel is loaded, not compiled (numba's own cache is empty), same answer
@@ -82,6 +85,19 @@ def test_wheel_install_loads_every_catalogue_name(tmp_path: Path) -> None:
     assert info["solvers"] == op.list_solvers()
     assert info["version"] == op.__version__
     assert info["heavy"] == [], f"`import optplan` imports heavy modules: {info['heavy']}"
+    # no writable numba cache anywhere (NUMBA_CACHE_DIR unset, an installation that cannot
+    # hold a __pycache__, a home whose ~/.cache cannot be made): import and the shipped kernel
+    # still work, with one warning (numba used to fail at import: "no locator available")
+    for d in [target / "optplan", *(target / "optplan").rglob("*")]:
+        if d.is_dir() and d.name != "__pycache__":
+            (d / "__pycache__").write_text("not a directory\n")
+    home = tmp_path / "home"
+    home.mkdir()
+    (home / ".cache").write_text("not a directory\n")
+    ro = check(None, "kernel-only", home=home)
+    assert ro["hit_miss"] == [1, 0] and ro["order"] == [5, 1, 3, 2, 0, 4], ro
+    assert ro["stderr"].count("NoKernelCacheWarning") == 1, ro["stderr"]
+    assert "NUMBA_CACHE_DIR" in ro["stderr"] and "the wheel ships" in ro["stderr"], ro["stderr"]
     # a kernel module edited after the build (not even the called kernel's own module: a
     # kernel's machine code includes the kernels it calls) misses every shipped entry
     with (target / "optplan" / "geometry" / "kernel.py").open("a") as f:
