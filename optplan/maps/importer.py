@@ -20,6 +20,7 @@ from optplan.maps.grid import (
     OCCUPIED,
     UNKNOWN,
     Grid,
+    _check_cells,
     _check_unknown,
     _err,
     _number,
@@ -75,12 +76,24 @@ def scene_name(path: str | Path) -> str:
     return stem or "map"
 
 
+def _crop_switch(where: str, crop: Any) -> bool | str:
+    """``crop`` as ``"auto"``, True or False: a bool (``numpy.bool_`` too) or ``"auto"``;
+    anything else, a number such as 0 or 1 included (a margin? a switch?), is an error."""
+    if isinstance(crop, (bool, np.bool_)):
+        return bool(crop)
+    if isinstance(crop, str) and crop == "auto":
+        return "auto"
+    why = "; a number is not accepted: crop is a switch, not a margin" if isinstance(
+        crop, (int, float, np.number)) else ""
+    raise _err(where, "crop", f"expected 'auto', True or False, got {crop!r} "
+                              f"({type(crop).__name__}{why})")
+
+
 def _crop(where: str, grid: Grid, crop: Any, unknown: str) -> tuple[Grid, dict[str, Any]]:
     """The grid cropped to the bounding box of its known cells (``crop=True``; ``"auto"``:
     when the unknown margin outside it is more than ``CROP_MARGIN`` of the image and unknown
     cells are obstacles) and what was measured."""
-    if crop not in ("auto", True, False):
-        raise _err(where, "crop", f"expected 'auto', True or False, got {crop!r}")
+    crop = _crop_switch(where, crop)
     known = grid.cells != UNKNOWN
     rows, cols = np.flatnonzero(known.any(axis=1)), np.flatnonzero(known.any(axis=0))
     if not len(rows):
@@ -287,15 +300,19 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
         Scenario keys (``dynamic_obstacles``: tables as in the TOML format).
     crop : ``"auto"`` (default), True or False
         Crop the map (its cells and the scenario's bounds) to the bounding box of its known
-        (free or occupied) cells.  ``"auto"`` crops when the unknown cells outside that box
-        are more than ``CROP_MARGIN`` (25 %) of the image and unknown cells are obstacles
+        (free or occupied) cells (``numpy.bool_`` is accepted; a number, 0 or 1 included, is
+        an error: ``crop`` is a switch, not a margin).  ``"auto"`` crops when the unknown
+        cells outside that box are more than ``CROP_MARGIN`` (25 %) of the image and unknown
+        cells are obstacles
         (``unknown="occupied"``: the margin is then an obstacle the bounds replace; with
         ``unknown="free"`` it is free space, and only ``crop=True`` drops it).
     max_cells : int
         The largest map read, in cells (:data:`~optplan.maps.grid.MAX_CELLS`, 8192 x 8192),
-        checked before the image is decoded or the grid allocated.
+        checked before the image is decoded or the grid allocated (for ``grid=``, before
+        any geometry is made).
     grid : Grid, optional
-        An already read grid (``path`` then only names the source in messages).
+        An already read grid (``path`` then only names the source in messages); at most
+        ``max_cells`` cells, as a map read from a file.
     info : dict, optional
         Receives ``components``, ``polygons``, ``vertices``, ``holes_filled``, ``fallbacks``,
         ``tolerance_min``, ``cells`` (occupied, unknown, free counts, of the cropped map)
@@ -316,6 +333,10 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
                  "free_thresh": free_thresh, "mode": mode}
         extra = {k: v for k, v in extra.items() if v is not None}
         grid = read_grid(p, resolution=resolution, origin=origin, max_cells=max_cells, **extra)
+    elif not isinstance(grid, Grid):
+        raise _err(where, "grid", f"expected an optplan.maps.Grid, got {type(grid).__name__}")
+    else:  # the limit of the readers, for an in-memory grid too
+        _check_cells(where, "grid", grid.height, grid.width, max_cells, "the grid: ")
     r = _check_vector_args(where, grow, simplify, join, radius)
     starts, goals, ids = _robot_ends(where, start, goal, robot_id)
     _check_ends_free(where, grid, grid.obstacle_mask(unknown), starts, goals)

@@ -36,9 +36,10 @@ def read_movingai(path: str | Path, *, resolution: float = 1.0,
     the default ``resolution = 1`` and ``origin = (0, 0)`` its centre is
     ``(x + 0.5, height - y - 0.5)``.
 
-    Trailing white space of a row and text after the grid (a citation, a licence) are
-    ignored, but a grid row after the ``height`` rows is an error (the header's height is
-    wrong), and so is a map of more than ``max_cells`` cells, before the grid is allocated.
+    A leading UTF-8 byte order mark, trailing white space of a row and text after the grid
+    (a citation, a licence) are ignored, but a grid row after the ``height`` rows is an error
+    (the header's height is wrong), and so is a map of more than ``max_cells`` cells, before
+    the grid is allocated.
 
     Raises
     ------
@@ -74,9 +75,11 @@ def read_movingai(path: str | Path, *, resolution: float = 1.0,
 
 def _read_lines(p: Path) -> list[str]:
     """The file's lines (bytes as Latin-1: the header and the grid are checked character by
-    character, text after the grid may be anything)."""
+    character, text after the grid may be anything); a leading UTF-8 byte order mark (an
+    editor's) is dropped."""
     try:
-        return p.read_bytes().decode("latin-1").splitlines()
+        data = p.read_bytes()
+        return data.removeprefix(b"\xef\xbb\xbf").decode("latin-1").splitlines()
     except OSError as e:
         raise ProblemError(f"{p}: cannot read file ({e.strerror})") from None
 

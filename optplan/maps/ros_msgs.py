@@ -15,7 +15,18 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from optplan.maps.grid import FREE, OCCUPIED, UNKNOWN, Grid, _err, _number
+from optplan.maps.grid import (
+    FREE,
+    MAX_CELLS,
+    OCCUPIED,
+    UNKNOWN,
+    Grid,
+    _check_cells,
+    _check_extent,
+    _err,
+    _is_real,
+    _number,
+)
 from optplan.maps.occupancy import _thresholds, classify
 
 #: Largest stamp a ``builtin_interfaces/Time`` holds (``sec`` is an int32).
@@ -195,24 +206,55 @@ def path_msg(result: Any, robot: str | None = None, *, frame_id: str = "map",
     return timed_path_msg(path, times, frame_id=frame_id, start_time=start_time)
 
 
+def _int_field(v: Any, where: str, key: str, hi: int) -> int:
+    """An integer field of a ``builtin_interfaces/Time`` in ``[0, hi)``."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) \
+            or not 0 <= v < hi:
+        raise _err(where, key, f"expected an integer in [0, {hi - 1}], got {v!r}")
+    return int(v)
+
+
+def _stamp(st: Any, where: str, key: str) -> int:
+    """A ``builtin_interfaces/Time`` in nanoseconds: ``sec`` in ``[0, 2**31 - 1]`` (an
+    int32, not negative: the stamps :func:`timed_path_msg` writes and ROS time accepts),
+    ``nanosec`` in ``[0, 10**9)``."""
+    st = _mapping(st, where, key, ("sec", "nanosec"), ("sec", "nanosec"))
+    sec = _int_field(st["sec"], where, f"{key}.sec", 2**31)
+    ns = _int_field(st["nanosec"], where, f"{key}.nanosec", 1_000_000_000)
+    return sec * 1_000_000_000 + ns
+
+
 def read_path_msg(msg: Any, name: str = "<nav_msgs/Path>") -> TimedPath:
     """A ``nav_msgs/Path`` dict (as :func:`path_msg` writes it) -> :class:`TimedPath`;
-    errors name ``name`` and the key."""
+    errors name ``name`` and the key.
+
+    Every pose's ``header.stamp`` is a ``builtin_interfaces/Time`` with integer ``sec`` in
+    ``[0, 2**31 - 1]`` and ``nanosec`` in ``[0, 10**9)``, and the stamps are non-decreasing
+    along the path (a timed path; equal stamps are a jump, as :func:`timed_path_msg` writes
+    them, so every path it writes reads back); ``header.stamp``, when given, is checked the
+    same way."""
     m = _mapping(msg, name, "<root>", ("header", "poses"), ("header", "poses"))
     head = _mapping(m["header"], name, "header", ("stamp", "frame_id"), ("frame_id",))
+    if "stamp" in head:
+        _stamp(head["stamp"], name, "header.stamp")
     if not isinstance(head["frame_id"], str):
         raise _err(name, "header.frame_id", f"expected a string, got {head['frame_id']!r}")
     if not isinstance(m["poses"], Sequence) or isinstance(m["poses"], str):
         raise _err(name, "poses", "expected a list of geometry_msgs/PoseStamped")
     pts, ts, yaw = [], [], []
+    last = -1
     for k, ps in enumerate(m["poses"]):
         key = f"poses[{k}]"
         ps = _mapping(ps, name, key, ("header", "pose"), ("header", "pose"))
-        st = _mapping(_mapping(ps["header"], name, f"{key}.header", ("stamp", "frame_id"),
-                               ("stamp",))["stamp"], name, f"{key}.header.stamp",
-                      ("sec", "nanosec"), ("sec", "nanosec"))
-        ts.append(_number(st["sec"], name, f"{key}.header.stamp.sec")
-                  + 1e-9 * _number(st["nanosec"], name, f"{key}.header.stamp.nanosec"))
+        st = _mapping(ps["header"], name, f"{key}.header", ("stamp", "frame_id"),
+                      ("stamp",))["stamp"]
+        ns = _stamp(st, name, f"{key}.header.stamp")
+        if ns < last:
+            raise _err(name, f"{key}.header.stamp", f"{ns / 1e9:.9f} s is before the "
+                       f"previous pose's {last / 1e9:.9f} s: the stamps of a timed path must "
+                       f"be non-decreasing")
+        last = ns
+        ts.append(ns * 1e-9)
         x, y, a = _pose(ps["pose"], name, f"{key}.pose")
         pts.append((x, y))
         yaw.append(a)
@@ -229,19 +271,43 @@ def _size(v: Any, where: str, key: str) -> int:
     return int(v)
 
 
-def _grid_values(data: Any, width: int, height: int, where: str) -> np.ndarray:
-    """``data`` as ``(height, width)`` int values, checked: the length and -1..100."""
+def _check_numbers(data: Sequence[Any], where: str, expected: str) -> None:
+    """Every entry of ``data`` is a real number (``int``, ``float``, numpy; not a bool, not a
+    string such as ``"50"``); the first other one is an error naming its index."""
+    kinds = set(map(type, data))
+    if all(issubclass(t, (int, float, np.integer, np.floating))
+           and not issubclass(t, (bool, np.bool_)) for t in kinds):
+        return
+    k = next(i for i, v in enumerate(data) if not _is_real(v))
+    raise _err(where, f"data[{k}]", f"{data[k]!r} ({type(data[k]).__name__}) is not a number: "
+                                    f"{expected}")
+
+
+def _as_values(data: Any, where: str) -> np.ndarray:
+    """``data`` (a list, an array, ``bytes`` as int8) as a float array; every entry a number."""
+    expected = "expected a sequence of int8 values -1 (unknown) or 0..100 (occupancy, percent)"
     if isinstance(data, (bytes, bytearray)):
-        a = np.frombuffer(bytes(data), dtype=np.int8).astype(float)
-    else:
-        try:
-            if isinstance(data, str):
-                raise TypeError
-            a = np.asarray(data, dtype=float)
-        except (TypeError, ValueError):
-            raise _err(where, "data", f"expected a sequence of int8 values -1 (unknown) or "
-                                      f"0..100 (occupancy, percent), got "
-                                      f"{type(data).__name__}") from None
+        return np.frombuffer(bytes(data), dtype=np.int8).astype(float)
+    if isinstance(data, (str, Mapping)):
+        raise _err(where, "data", f"{expected}, got {type(data).__name__}")
+    if isinstance(data, (list, tuple)):
+        _check_numbers(data, where, expected)
+    try:
+        a = np.asarray(data)
+    except (TypeError, ValueError):
+        raise _err(where, "data", f"{expected}, got {type(data).__name__}") from None
+    if a.dtype.kind == "O" and a.ndim == 1:  # e.g. Python ints beyond int64
+        _check_numbers(a.tolist(), where, expected)
+        return np.array([float(v) if abs(v) < 1e300 else 1e300 if v > 0 else -1e300
+                         for v in a.tolist()])
+    if a.dtype.kind not in "iuf":
+        raise _err(where, "data", f"{expected}, got an array of {a.dtype}")
+    return a.astype(float)
+
+
+def _grid_values(data: Any, width: int, height: int, where: str) -> np.ndarray:
+    """``data`` as ``(height, width)`` int values, checked: numbers, the length and -1..100."""
+    a = _as_values(data, where)
     if a.ndim != 1 or len(a) != width * height:
         raise _err(where, "data", f"{a.size} values, expected info.width x info.height = "
                                   f"{width} x {height} = {width * height} (row-major from the "
@@ -256,7 +322,8 @@ def _grid_values(data: Any, width: int, height: int, where: str) -> np.ndarray:
 
 
 def read_occupancy_grid(msg: Any, *, name: str = "<nav_msgs/OccupancyGrid>",
-                        occupied_thresh: float = 0.65, free_thresh: float = 0.196) -> Grid:
+                        occupied_thresh: float = 0.65, free_thresh: float = 0.196,
+                        max_cells: int = MAX_CELLS) -> Grid:
     """An in-memory ``nav_msgs/OccupancyGrid`` dict -> :class:`~optplan.maps.Grid`.
 
     ``info``: ``resolution`` (> 0, m / cell), ``width`` and ``height`` (cells), ``origin`` (a
@@ -266,7 +333,12 @@ def read_occupancy_grid(msg: Any, *, name: str = "<nav_msgs/OccupancyGrid>",
     unknown, ``0..100`` occupancy in percent.  Values are classified as ``map_server``'s
     ``raw`` mode classifies pixels (:func:`~optplan.maps.classify`, one implementation):
     occupied when ``v / 100 > occupied_thresh``, free when ``v / 100 < free_thresh``, unknown
-    otherwise (so ``0`` free, ``100`` occupied, ``-1`` unknown with the defaults).
+    otherwise (so ``0`` free, ``100`` occupied, ``-1`` unknown with the defaults).  The
+    entries must be numbers (a string such as ``"50"`` is an error); ``resolution`` may be a
+    numpy scalar; the map's diagonal must lie in ``[1e-100, 1e100]`` and its centre within
+    ``1e6`` diagonals of the coordinate origin (:data:`~optplan.maps.grid.MAP_MIN_LENGTH`); a
+    map of more than ``max_cells`` cells (:data:`~optplan.maps.MAX_CELLS` by default) is an
+    error, as it is for the file readers.
 
     Raises
     ------
@@ -280,6 +352,9 @@ def read_occupancy_grid(msg: Any, *, name: str = "<nav_msgs/OccupancyGrid>",
     width = _size(info["width"], name, "info.width")
     height = _size(info["height"], name, "info.height")
     origin = _pose(info["origin"], name, "info.origin")
+    _check_cells(name, "info.width", height, width, max_cells,
+                 "info.width x info.height: ")
+    _check_extent(name, width, height, res, origin, "info.resolution", "info.origin")
     occ, free, _, _ = _thresholds(name, occupied_thresh, free_thresh, "raw", 0)
     v = _grid_values(m["data"], width, height, name)[::-1]  # row 0 of a Grid is the top
     pixels = np.where(v < 0, 255, v).astype(float)  # map_server's raw -1 is 255: unknown

@@ -37,14 +37,18 @@ def read_scen_entries(path: str | Path) -> list[ScenEntry]:
     """Parse a MovingAI ``.scen`` file (``version 1`` header, tab-separated lines
     ``bucket map width height start_x start_y goal_x goal_y optimal_length``).
 
-    Blank lines (anywhere) and white space around the fields are ignored.  A line is an
-    error naming the file and the line when it has not 9 fields, a field is not a number, the
-    map size is not positive, a start or goal cell lies outside the line's ``width x height``
-    map, or the optimal length is ``nan``, infinite or negative.
+    A leading UTF-8 byte order mark, blank lines (anywhere), white space around the fields
+    and a line's trailing white space (a carriage return of a Windows line end included) are
+    ignored.  The first line may be a version line: MovingAI defines ``version 1`` (also
+    written ``version 1.0``); any other version is an error.  A line is an error naming the
+    file and the line when it has not 9 fields (text after the optimal length is an error
+    that shows it), a field is not a number, the map size is not positive, a start or goal
+    cell lies outside the line's ``width x height`` map, or the optimal length is ``nan``,
+    infinite or negative.
     """
     p = Path(path)
     try:
-        lines = p.read_text(encoding="utf-8").splitlines()
+        lines = p.read_text(encoding="utf-8-sig").splitlines()
     except OSError as e:
         raise ProblemError(f"{p}: cannot read file ({e.strerror})") from None
     except UnicodeDecodeError as e:
@@ -56,6 +60,7 @@ def read_scen_entries(path: str | Path) -> list[ScenEntry]:
         if not ln.strip():
             continue
         if first and ln.split()[0].lower() == "version":
+            _check_version(p, k, ln)
             first = False
             continue
         first = False
@@ -65,13 +70,40 @@ def read_scen_entries(path: str | Path) -> list[ScenEntry]:
     return out
 
 
-def _scen_line(p: Path, k: int, ln: str) -> ScenEntry:
-    """One line of a ``.scen`` file, checked (see :func:`read_scen_entries`)."""
+#: the versions of the ``.scen`` format MovingAI defines (``version 1``; ``1.0`` is the same)
+SCEN_VERSIONS = ("1", "1.0")
+
+
+def _check_version(p: Path, k: int, ln: str) -> None:
+    """A ``version`` line names a version MovingAI defines (:data:`SCEN_VERSIONS`)."""
+    parts = ln.split()
+    if len(parts) != 2 or parts[1] not in SCEN_VERSIONS:
+        raise _err(p, f"line {k}", f"unsupported version line {ln.strip()[:60]!r} (allowed: "
+                                   f"'version 1' or 'version 1.0', the MovingAI .scen "
+                                   f"format's)")
+
+
+def _scen_fields(p: Path, k: int, ln: str) -> list[str]:
+    """The 9 fields of a line: tab-separated (white space when the line has no tab), white
+    space around them dropped; text after the 9th is an error that shows it."""
     parts = ln.split("\t") if "\t" in ln else ln.split()
     parts = [t.strip() for t in parts if t.strip() != ""]
+    if len(parts) == 9:  # text after the optimal length, separated by a blank, not a tab
+        parts = parts[:8] + parts[8].split()
+    if len(parts) > 9:
+        raise _err(p, f"line {k}", f"text after the 9 fields (bucket map width height "
+                                   f"start_x start_y goal_x goal_y optimal_length): "
+                                   f"{' '.join(parts[9:])[:60]!r} (only trailing white space "
+                                   f"is allowed)")
     if len(parts) != 9:
         raise _err(p, f"line {k}", f"expected 9 fields (bucket map width height start_x "
                                    f"start_y goal_x goal_y optimal_length), got {len(parts)}")
+    return parts
+
+
+def _scen_line(p: Path, k: int, ln: str) -> ScenEntry:
+    """One line of a ``.scen`` file, checked (see :func:`read_scen_entries`)."""
+    parts = _scen_fields(p, k, ln)
     try:
         b, w, h, sx, sy, gx, gy = (int(parts[i]) for i in (0, 2, 3, 4, 5, 6, 7))
         opt = float(parts[8])

@@ -89,3 +89,59 @@ def test_bench_scen_missing_map(tmp_path: Path, capsys) -> None:
     assert main(["bench", "--problems", str(p), "--solvers", "visgraph", "--quiet",
                  "--out", str(tmp_path / "o")]) == 2
     assert "cannot find the map" in capsys.readouterr().err
+
+
+# -- issue 42: what a .scen file may contain -------------------------------------------------
+
+
+def _entries(tmp_path: Path, text: str | bytes) -> list:
+    from optplan.maps import read_scen_entries
+
+    p = tmp_path / "x.scen"
+    p.write_bytes(text if isinstance(text, bytes) else text.encode("utf-8"))
+    return read_scen_entries(p)
+
+
+def _cells(entries: list) -> list:
+    return [(e.bucket, e.map, e.start, e.goal, e.optimal_length, e.line) for e in entries]
+
+
+@pytest.mark.parametrize("head", ["version 1\n", "version 1.0\n", "Version 1\n", ""])
+def test_the_versions_movingai_defines_are_read(tmp_path: Path, head: str) -> None:
+    body = SCEN.split("\n", 1)[1]
+    got = _cells(_entries(tmp_path, head + body))
+    shift = 0 if head else -1
+    assert got == [(0, "arena.map", (1, 1), (6, 4), 8.0, 2 + shift),
+                   (0, "arena.map", (1, 4), (4, 3), 4.0, 3 + shift),
+                   (1, "arena.map", (6, 1), (1, 3), 7.0, 4 + shift)]
+
+
+@pytest.mark.parametrize("head", ["version 2", "version 0.9", "version", "version 1 beta",
+                                  "version one"])
+def test_another_version_is_an_error(tmp_path: Path, head: str) -> None:
+    from optplan import ProblemError
+
+    with pytest.raises(ProblemError, match=rf"x\.scen: line 1: unsupported version line "
+                                           rf"'{head}' \(allowed: 'version 1' or 'version "
+                                           rf"1\.0', the MovingAI \.scen format's\)"):
+        _entries(tmp_path, head + "\n" + SCEN.split("\n", 1)[1])
+
+
+def test_a_byte_order_mark_and_trailing_white_space_are_read(tmp_path: Path) -> None:
+    ref = _cells(_entries(tmp_path, SCEN))
+    assert _cells(_entries(tmp_path, b"\xef\xbb\xbf" + SCEN.encode())) == ref
+    crlf = SCEN.replace("\n", " \t\r\n")  # Windows line ends after trailing blanks and tabs
+    assert _cells(_entries(tmp_path, crlf)) == ref
+
+
+@pytest.mark.parametrize("tail", ["\textra", "\t0", " # comment"])
+def test_text_after_the_nine_fields_is_an_error_that_shows_it(tmp_path: Path,
+                                                              tail: str) -> None:
+    from optplan import ProblemError
+
+    lines = SCEN.splitlines()
+    lines[2] += tail
+    shown = tail.strip().split()[0] if tail.startswith(" ") else tail.strip()
+    with pytest.raises(ProblemError, match=rf"x\.scen: line 3: text after the 9 fields "
+                                           rf"\(bucket map .* optimal_length\): '{shown}"):
+        _entries(tmp_path, "\n".join(lines) + "\n")

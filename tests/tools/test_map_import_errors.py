@@ -315,3 +315,75 @@ def test_image_too_large_to_decode(tmp_path):
     with pytest.raises(ProblemError, match=r"m\.map: line 3: 6 x 4 = 24 cells, more than "
                                            r"the limit of 23"):
         import_map(m, radius=0.1, start=(1.5, 2.5), goal=(4.5, 1.5), max_cells=23)
+
+
+# --------------------------------------------------------------------------------------
+# issue 42: crop switches, the cell limit of an in-memory grid, a byte order mark
+# --------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("crop", "cropped"), [
+    (True, True), (np.True_, True), (False, False), (np.False_, False), ("auto", True)])
+def test_crop_takes_bools_of_either_kind(tmp_path, crop, cropped):
+    y = _ros(tmp_path / "lab", arena(25))
+    g = read_grid(y)
+    s, t = _centre(g, 35, 30), _centre(g, 35, 50)
+    info: dict = {}
+    prob = import_map(y, radius=0.05, start=s, goal=t, crop=crop, info=info)
+    assert info["crop"]["cropped"] is cropped
+    assert (prob.bounds != g.bounds) is cropped
+
+
+@pytest.mark.parametrize("crop", [0, 0.0, 1, 1.0, np.int64(0), np.float64(0.0), 0.25])
+def test_a_number_is_not_a_crop_switch(tmp_path, crop):
+    y = _ros(tmp_path / "lab", arena(25))
+    g = read_grid(y)
+    s, t = _centre(g, 35, 30), _centre(g, 35, 50)
+    with pytest.raises(ProblemError, match=rf"lab/map\.yaml: crop: expected 'auto', True or "
+                                           rf"False, got .*{type(crop).__name__}; a number is "
+                                           rf"not accepted: crop is a switch, not a margin"):
+        import_map(y, radius=0.05, start=s, goal=t, crop=crop)
+
+
+def test_the_cell_limit_holds_for_an_in_memory_grid():
+    """``import_map(grid=...)`` checks ``max_cells`` as the readers do (an 81 M-cell grid is
+    refused by default, before any geometry; a broadcast array: nothing is allocated)."""
+    big = Grid(np.broadcast_to(np.uint8(FREE), (9000, 9000)), 1.0, source="big")
+    with pytest.raises(ProblemError, match=r"^mem: grid: the grid: 9000 x 9000 = 81,000,000 "
+                                           r"cells, more than the limit of 67,108,864"):
+        import_map("mem", grid=big, radius=0.0, start=(0.5, 0.5), goal=(1.5, 0.5))
+    small = Grid(np.zeros((4, 6), dtype=np.uint8), 1.0)
+    prob = import_map("mem", grid=small, radius=0.0, start=(0.5, 0.5), goal=(1.5, 0.5),
+                      max_cells=24)
+    assert prob.bounds == (0.0, 0.0, 6.0, 4.0)
+    with pytest.raises(ProblemError, match=r"mem: grid: the grid: 6 x 4 = 24 cells, more "
+                                           r"than the limit of 23"):
+        import_map("mem", grid=small, radius=0.0, start=(0.5, 0.5), goal=(1.5, 0.5),
+                   max_cells=23)
+    with pytest.raises(ProblemError, match=r"mem: grid: expected an optplan\.maps\.Grid, got "
+                                           r"ndarray"):
+        import_map("mem", grid=small.cells, radius=0.0, start=(0.5, 0.5), goal=(1.5, 0.5))
+
+
+@pytest.mark.parametrize(("cells", "match"), [
+    (np.zeros(4, dtype=np.uint8), r"cells: expected a 2-D integer array"),
+    (np.zeros((0, 3), dtype=np.uint8), r"cells: expected a 2-D integer array"),
+    (np.full((2, 2), 0.5), r"cells: expected a 2-D integer array"),
+    (np.full((2, 2), 3, dtype=np.uint8), r"cells: values 3\.\.3: expected FREE"),
+])
+def test_bad_cells_of_an_in_memory_grid(cells, match):
+    with pytest.raises(ProblemError, match=r"^<grid>: " + match):
+        Grid(cells, 1.0)
+
+
+def test_a_byte_order_mark_before_a_map_is_dropped(tmp_path):
+    m = tmp_path / "bom.map"
+    m.write_bytes(b"\xef\xbb\xbf" + MAP.encode("ascii"))
+    plain = tmp_path / "plain.map"
+    plain.write_text(MAP, encoding="ascii")
+    g, ref = read_grid(m), read_grid(plain)
+    assert (g.cells == ref.cells).all() and g.cells.shape == (4, 6)
+    # only at the start of the file: elsewhere it is an unexpected header line
+    m.write_bytes(b"type octile\n\xef\xbb\xbfheight 4\nwidth 6\nmap\n" + MAP.encode()[33:])
+    with pytest.raises(ProblemError, match=r"bom\.map: line 2: expected 'type T', 'height H'"):
+        read_grid(m)

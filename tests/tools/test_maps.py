@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import heapq
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,7 @@ from optplan.maps import (
     grid_polygons,
     import_map,
     read_grid,
+    read_image,
     read_ros_yaml,
     read_scen,
     read_scen_entries,
@@ -710,3 +712,96 @@ def test_cli_import_map(tmp_path, ros_map, capsys):
     assert main(["import-map", str(ros_map), "--radius", "0.1", "--start", "1;2",
                  "--goal", "1,1"]) == 2
     assert "--start: expected X,Y" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------------------
+# issue 42: the resolution and the origin must give a representable map
+# --------------------------------------------------------------------------------------
+
+
+def _tiny_yaml(tmp_path: Path, resolution: str, origin: str = "[0.0, 0.0, 0.0]") -> Path:
+    """A 10 x 10 map_server map (a wall along the top) with the given YAML values."""
+    px = np.full((10, 10), 254, dtype=np.uint8)
+    px[0, :] = 0
+    Image.fromarray(px, mode="L").save(tmp_path / "tiny.pgm")
+    y = tmp_path / "tiny.yaml"
+    y.write_text(f"image: tiny.pgm\nresolution: {resolution}\norigin: {origin}\n",
+                 encoding="utf-8")
+    return y
+
+
+@pytest.mark.parametrize("res", ["1e-300", "1e-40", "1e+40", "1e300"])
+def test_a_resolution_outside_the_range_names_the_file_key_value_and_range(tmp_path, res):
+    from optplan.maps.grid import MAP_MAX_LENGTH, MAP_MIN_LENGTH
+
+    y = _tiny_yaml(tmp_path, res)
+    value = re.escape(repr(float(res)))
+    span = re.escape(f"[{MAP_MIN_LENGTH:g}, {MAP_MAX_LENGTH:g}]")
+    pattern = (rf"tiny\.yaml: resolution: {value} makes the 10 x 10 cell map .* outside the "
+               rf"supported range {span}; for this map the resolution must lie in "
+               rf"\[7\.07e-32, 7\.07e\+28\]")
+    with pytest.raises(ProblemError, match=pattern):
+        read_ros_yaml(y)
+    with pytest.raises(ProblemError, match=pattern):
+        import_map(y, radius=0.0, start=(0, 0), goal=(0, 0))
+    # an in-memory grid: the same check, naming its source
+    with pytest.raises(ProblemError, match=r"^<grid>: resolution: .* outside the supported"):
+        Grid(np.zeros((10, 10), dtype=np.uint8), float(res))
+
+
+def test_the_cli_prints_the_resolution_error_not_an_internal_error(tmp_path, capsys):
+    from optplan.cli import main
+
+    y = _tiny_yaml(tmp_path, "1e-300")
+    assert main(["import-map", str(y), "--radius", "0", "--start", "0,0", "--goal",
+                 "0,0"]) == 2
+    err = capsys.readouterr().err
+    assert "internal error" not in err and "GEOS" not in err
+    assert "tiny.yaml: resolution: 1e-300 makes the 10 x 10 cell map" in err
+
+
+def test_an_origin_too_far_for_the_map_size_is_an_error(tmp_path):
+    y = _tiny_yaml(tmp_path, "1.0", "[1.0e+300, 0.0, 0.0]")
+    with pytest.raises(ProblemError, match=r"tiny\.yaml: origin: \[1e\+300, 0\.0, 0\.0\] puts "
+                                           r"the centre of the map .* more than 1e\+06 x its "
+                                           r"diagonal"):
+        read_ros_yaml(y)
+    with pytest.raises(ProblemError, match=r"<grid>: origin: .* shift the origin"):
+        Grid(np.zeros((2, 2), dtype=np.uint8), 1.0, (1e20, 0.0, 0.0))
+
+
+@pytest.mark.parametrize("res", [1e-31, 5e-2, 7e28])
+def test_maps_at_both_ends_of_the_range_import_cleanly(tmp_path, res):
+    """The extreme resolutions accepted make a valid scenario without a numerical warning."""
+    import warnings
+
+    y = _tiny_yaml(tmp_path, repr(res))
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        prob = import_map(y, radius=0.0, start=(5 * res, 5 * res), goal=(5 * res, 3 * res),
+                          max_speed=res)
+    assert prob.bounds == pytest.approx((0.0, 0.0, 10 * res, 10 * res))
+    assert len(prob.obstacles) == 1
+
+
+@pytest.mark.parametrize("res", [np.float32(0.5), np.float64(0.5), np.int64(2), np.int32(1)])
+def test_numpy_resolutions_are_numbers(tmp_path, res):
+    png = tmp_path / "p.png"
+    Image.fromarray(np.full((4, 6), 254, dtype=np.uint8), mode="L").save(png)
+    g = read_grid(png, resolution=res, origin=(np.float32(1.0), np.int64(2)))
+    assert type(g.resolution) is float and g.resolution == float(res)
+    assert g.origin == (1.0, 2.0, 0.0) and g.bounds == (1.0, 2.0, 1.0 + 6 * float(res),
+                                                       2.0 + 4 * float(res))
+    assert Grid(g.cells, res).resolution == float(res)
+    prob = import_map(png, resolution=res, radius=0.0, start=(float(res), float(res)),
+                      goal=(2 * float(res), float(res)))
+    assert prob.bounds == pytest.approx((0.0, 0.0, 6 * float(res), 4 * float(res)))
+
+
+@pytest.mark.parametrize("res", [True, np.bool_(True), "0.5", None])
+def test_booleans_and_strings_are_not_resolutions(tmp_path, res):
+    png = tmp_path / "p.png"
+    Image.fromarray(np.full((4, 6), 254, dtype=np.uint8), mode="L").save(png)
+    with pytest.raises(ProblemError, match=rf"p\.png: resolution: expected a number, got "
+                                           rf"{re.escape(repr(res))}"):
+        read_image(png, resolution=res)

@@ -213,3 +213,114 @@ def test_bad_grids_name_the_key_and_the_allowed_values(edit, match):
 def test_int8_bytes_are_read_as_signed_values():
     g = read_occupancy_grid(_grid_msg(bytes([0, 100, 255, 0, 0, 0])))  # 255 is int8 -1
     assert g.cells[1].tolist() == [FREE, OCCUPIED, UNKNOWN]
+
+
+# -- issue 42: what the readers accept ---------------------------------------------------
+
+
+@pytest.mark.parametrize(("value", "shown"), [
+    ("50", r"'50' \(str\)"), (True, r"True \(bool\)"), (None, r"None \(NoneType\)"),
+    ([1], r"\[1\] \(list\)"), (np.bool_(False), r"(np\.)?False_? \(bool_?\)"),
+])
+def test_non_numeric_occupancy_values_are_errors(value, shown):
+    data = [0, 100, -1, 50, 0, 19]
+    data[3] = value
+    with pytest.raises(ProblemError, match=r"^<nav_msgs/OccupancyGrid>: data\[3\]: " + shown
+                       + r" is not a number: expected a sequence of int8 values"):
+        read_occupancy_grid(_grid_msg(data))
+
+
+def test_numeric_occupancy_values_of_any_type_are_read():
+    want = read_occupancy_grid(_grid_msg([0, 100, -1, 50, 0, 19])).cells
+    for data in ([0, 100.0, -1, np.int8(50), np.float32(0), 19],
+                 np.array([0, 100, -1, 50, 0, 19], dtype=np.int8),
+                 np.array([0, 100, -1, 50, 0, 19], dtype=object), (0, 100, -1, 50, 0, 19)):
+        assert (read_occupancy_grid(_grid_msg(data)).cells == want).all()
+    with pytest.raises(ProblemError, match=r"data: expected a sequence of int8 values .* got "
+                                           r"an array of <U1"):
+        read_occupancy_grid(_grid_msg(np.array(["0"] * 6)))
+    with pytest.raises(ProblemError, match=r"data\[0\]: 1e\+300 is not an occupancy value"):
+        read_occupancy_grid(_grid_msg([10**400] + [0] * 5))
+
+
+@pytest.mark.parametrize("res", [np.float32(0.5), np.float64(0.5), np.int64(1), np.uint8(2)])
+def test_a_numpy_resolution_round_trips(res):
+    g = read_occupancy_grid(_grid_msg([0] * 6, resolution=res))
+    assert type(g.resolution) is float and g.resolution == float(res)
+    back = read_occupancy_grid(occupancy_grid_msg(g))
+    assert back.resolution == g.resolution and (back.cells == g.cells).all()
+
+
+@pytest.mark.parametrize(("res", "match"), [
+    (1e-300, r"info\.resolution: 1e-300 makes the 3 x 2 cell map .* outside the supported "
+             r"range \[1e-30, 1e\+30\]; for this map the resolution must lie in \[2\.77e-31, "
+             r"2\.77e\+29\]"),
+    (1e300, r"info\.resolution: 1e\+300 makes the 3 x 2 cell map"),
+    (np.bool_(True), r"info\.resolution: expected a number, got (np\.)?True_?"),
+])
+def test_a_resolution_outside_the_range_is_an_error(res, match):
+    with pytest.raises(ProblemError, match=r"^<nav_msgs/OccupancyGrid>: " + match):
+        read_occupancy_grid(_grid_msg([0] * 6, resolution=res))
+
+
+def test_an_origin_too_far_is_an_error():
+    origin = {"position": {"x": 1e300, "y": 0.0},
+              "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}
+    with pytest.raises(ProblemError, match=r"info\.origin: \[1e\+300, 0\.0, 0\.0\] puts the "
+                                           r"centre of the map"):
+        read_occupancy_grid(_grid_msg([0] * 6, origin=origin))
+
+
+def test_the_cell_limit_holds_for_messages():
+    """``max_cells`` is checked from ``info`` before ``data`` is converted."""
+    msg = _grid_msg([0] * 6)
+    assert read_occupancy_grid(msg, max_cells=6).cells.shape == (2, 3)
+    with pytest.raises(ProblemError, match=r"info\.width: info\.width x info\.height: 3 x 2 = "
+                                           r"6 cells, more than the limit of 5"):
+        read_occupancy_grid(msg, max_cells=5)
+    huge = _grid_msg([], width=9000, height=9000)  # the data is never looked at
+    with pytest.raises(ProblemError, match=r"9000 x 9000 = 81,000,000 cells, more than the "
+                                           r"limit of 67,108,864"):
+        read_occupancy_grid(huge)
+    with pytest.raises(ProblemError, match=r"max_cells: expected a positive integer"):
+        read_occupancy_grid(msg, max_cells=0)
+
+
+def _stamped(stamps) -> dict:
+    msg = timed_path_msg([(0.0, 0.0)] * len(stamps), [0.0] * len(stamps))
+    for ps, (sec, ns) in zip(msg["poses"], stamps):
+        ps["header"]["stamp"] = {"sec": sec, "nanosec": ns}
+    return msg
+
+
+@pytest.mark.parametrize(("stamps", "match"), [
+    ([(5, 0), (4, 999_999_999)], r"poses\[1\]\.header\.stamp: 4\.999999999 s is before the "
+                                 r"previous pose's 5\.000000000 s: the stamps of a timed path "
+                                 r"must be non-decreasing"),
+    ([(-1, 0)], r"poses\[0\]\.header\.stamp\.sec: expected an integer in \[0, 2147483647\], "
+                r"got -1"),
+    ([(2**31, 0)], r"poses\[0\]\.header\.stamp\.sec: expected an integer in \[0, 2147483647\]"),
+    ([(0, 1_000_000_000)], r"poses\[0\]\.header\.stamp\.nanosec: expected an integer in "
+                           r"\[0, 999999999\], got 1000000000"),
+    ([(0, -1)], r"poses\[0\]\.header\.stamp\.nanosec: expected an integer in \[0, 999999999\]"),
+    ([(1.5, 0)], r"poses\[0\]\.header\.stamp\.sec: expected an integer .* got 1\.5"),
+    ([(math.nan, 0)], r"poses\[0\]\.header\.stamp\.sec: expected an integer .* got nan"),
+    ([(0, True)], r"poses\[0\]\.header\.stamp\.nanosec: expected an integer .* got True"),
+])
+def test_bad_stamps_name_the_pose_and_the_range(stamps, match):
+    with pytest.raises(ProblemError, match=r"^<nav_msgs/Path>: " + match):
+        read_path_msg(_stamped(stamps))
+
+
+def test_stamps_equal_or_increasing_round_trip():
+    """Non-decreasing stamps are read (equal stamps are a jump, as the writer allows), numpy
+    integers too; a header stamp is checked the same way."""
+    msg = timed_path_msg([(0, 0), (1, 0), (2, 0), (2, 0)], [0.0, 1.5, 1.5, 2.0],
+                         start_time=7.0)
+    back = read_path_msg(msg)
+    np.testing.assert_allclose(back.times, [7.0, 8.5, 8.5, 9.0], rtol=0, atol=1e-9)
+    assert read_path_msg(_stamped([(np.int32(3), np.int64(5)), (3, 5)])).times.tolist() == [
+        3.000000005, 3.000000005]
+    msg["header"]["stamp"] = {"sec": 0, "nanosec": 10**9}
+    with pytest.raises(ProblemError, match=r"header\.stamp\.nanosec: expected an integer"):
+        read_path_msg(msg)
