@@ -13,6 +13,8 @@ from pathlib import Path
 
 import pytest
 
+from tests import helpers
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -64,8 +66,8 @@ def _run(plugin_path: Path, *args: str) -> subprocess.CompletedProcess:
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(
         [str(plugin_path), *[p for p in os.environ.get("PYTHONPATH", "").split(os.pathsep)
                              if p]])}
-    return subprocess.run([sys.executable, *args], capture_output=True, text=True, env=env,
-                          timeout=300, cwd=str(plugin_path))
+    return helpers.run([sys.executable, *args], capture_output=True, text=True, env=env,
+                       cwd=str(plugin_path))
 
 
 def test_plugin_backend_and_preset_in_the_api(plugin_path: Path) -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 import importlib.machinery
 import json
 import os
-import subprocess
 import sys
 import types
 import warnings
@@ -15,6 +14,7 @@ import pytest
 from optplan import cli
 from optplan.cli import app
 from optplan.result import Result
+from tests import helpers
 
 
 def run(capsys, *argv):
@@ -243,16 +243,15 @@ def test_validate_dispatch_and_missing(capsys, monkeypatch):
 
 
 def test_python_dash_m(tmp_path):
-    out = subprocess.run([sys.executable, "-m", "optplan", "list", "solvers"],
-                         capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    out = helpers.run([sys.executable, "-m", "optplan", "list", "solvers"],
+                      capture_output=True, text=True, cwd=tmp_path)
     assert out.returncode == 0 and "visgraph" in out.stdout
 
 
 def test_import_optplan_stays_light():
     code = ("import sys, optplan, optplan.cli, optplan.bench; "
             "print(any(m.startswith('matplotlib') for m in sys.modules))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         timeout=120)
+    out = helpers.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.returncode == 0 and out.stdout.strip() == "False"
 
 
@@ -378,9 +377,9 @@ def test_bad_files_give_one_line_and_exit_2_in_a_real_process(tmp_path):
     and the key (file-descriptor level capture: a warning or traceback would show)."""
     files = _bad_files(tmp_path)
     argvs = [v[0] for v in files.values()]
-    proc = subprocess.run([sys.executable, "-c", _DRIVER], input=json.dumps(argvs),
-                          capture_output=True, text=True, timeout=300, cwd=tmp_path,
-                          env={**os.environ, "PYTHONWARNINGS": "always"})
+    proc = helpers.run([sys.executable, "-c", _DRIVER], input=json.dumps(argvs),
+                       capture_output=True, text=True, cwd=tmp_path,
+                       env={**os.environ, "PYTHONWARNINGS": "always"})
     assert proc.returncode == 0, proc.stderr[-3000:]
     got = json.loads(proc.stdout.strip().splitlines()[-1])
     for (name, (_, path, needle)), (rc, err) in zip(files.items(), got):
@@ -393,12 +392,12 @@ def test_bad_files_give_one_line_and_exit_2_in_a_real_process(tmp_path):
 def test_console_script_bad_file_end_to_end(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text(BAD_SCENES["followers-empty"][0], encoding="utf-8")
-    p = subprocess.run([sys.executable, "-W", "always", "-m", "optplan", "show", str(bad)],
-                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    p = helpers.run([sys.executable, "-W", "always", "-m", "optplan", "show", str(bad)],
+                    capture_output=True, text=True, cwd=tmp_path)
     assert p.returncode == 2 and p.stdout == ""
     assert p.stderr.count("\n") == 1 and "formation.followers: expected at least" in p.stderr
-    p = subprocess.run([sys.executable, "-m", "optplan", "--traceback", "show", str(bad)],
-                       capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    p = helpers.run([sys.executable, "-m", "optplan", "--traceback", "show", str(bad)],
+                    capture_output=True, text=True, cwd=tmp_path)
     assert p.returncode == 1 and "Traceback" in p.stderr and "ProblemError" in p.stderr
 
 

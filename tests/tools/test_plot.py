@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 import re
-import subprocess
 import sys
 from pathlib import Path
 
@@ -15,6 +14,7 @@ import optplan as op
 from optplan import plot
 from optplan.plot.convergence import _quartiles
 from optplan.result import History, Result, Status
+from tests import helpers
 
 PIL = pytest.importorskip("PIL.Image")
 
@@ -203,8 +203,7 @@ def test_plot_module_is_headless_and_never_uses_pyplot(tmp_path):
     )
     env = {**os.environ, "DISPLAY": "", "MPLBACKEND": ""}
     env.pop("MPLBACKEND")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                         env=env, timeout=120)
+    out = helpers.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
     assert out.returncode == 0, out.stderr
     assert (tmp_path / "a.png").is_file() and (tmp_path / "a.gif").is_file()
     for f in Path(plot.__file__).parent.glob("*.py"):
