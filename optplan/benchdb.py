@@ -289,6 +289,20 @@ def _float_out(x: Any) -> float:
     return float("nan") if x is None else float(x)
 
 
+def _typed(path: Path, table: str, rid: Any, col: str, v: Any, kind: type,
+           allowed: tuple = ()) -> Any:
+    """A stored REAL (``kind`` float; NULL is nan) or INTEGER (int; NULL is None) in ``allowed``;
+    else (``'abc'``, a blob, a fraction) an error naming the file, table, row and column."""
+    ok = v is None or isinstance(v, (int, float)) and (kind is float or float(v).is_integer())
+    if ok and (not allowed or v in allowed):
+        return _float_out(v) if kind is float else None if v is None else int(v)
+    want = f"one of {', '.join(map(str, allowed))}" if allowed else \
+        "a number (REAL)" if kind is float else "an integer"
+    raise ResultsDBError(f"{path}: the results database is damaged: table {table}, row id "
+                         f"{rid}, column {col}: {v!r} is not {want}; fix or delete that row "
+                         f"(sqlite3), or run the sweep again")
+
+
 def thin_progress(trace: Sequence[tuple[int, float, int, float]],
                   cap: int = MAX_PROGRESS) -> list[tuple[int, float, int, float]]:
     """Keep the first row, every improvement of ``best_cost`` and the last row; at most ``cap``.
@@ -482,7 +496,7 @@ class ResultsDB:
 
     def runs(self, with_ids: bool = False) -> list[dict[str, Any]]:
         """Every run as a tidy row (NULL -> nan, success -> bool), in insertion order."""
-        extra = ", id, config, worker, finished" if with_ids else ""
+        extra = ", id, config, worker, finished" if with_ids else ", id"
         with _guarded(self.path):
             have = _tables(self.con)["runs"]
             cols = ", ".join(c if c in have else f"NULL AS {c}" for c in _ROW_COLS)
@@ -492,11 +506,13 @@ class ResultsDB:
         out = []
         for rec in recs:
             r = dict(zip(names, rec))
-            for c in _FLOATS:
-                r[c] = _float_out(r[c])
-            r["success"] = bool(r["success"])
-            for c in _INTS:
-                r[c] = 0 if r[c] is None else int(r[c])
+            rid = r["id"] if with_ids else r.pop("id")
+            for c, kind in [*((c, float) for c in _FLOATS), *((c, int) for c in _INTS),
+                            ("bucket", int), ("scen_line", int)]:
+                r[c] = _typed(self.path, "runs", rid, c, r[c], kind)
+                r[c] = 0 if r[c] is None and c in _INTS else r[c]
+            r["success"] = bool(_typed(self.path, "runs", rid, "success", r["success"], int,
+                                       (0, 1)))
             for c in ("stop_reason", "message", "backend", "options", "scen"):
                 r[c] = r[c] or ""
             out.append(r)
@@ -546,15 +562,17 @@ def read_progress(path: str | Path) -> dict[int, dict[str, list[float]]]:
     out: dict[int, dict[str, list[float]]] = {}
     try:
         with _guarded(Path(path)):
-            recs = con.execute("SELECT run_id, iteration, best_cost, n_eval, time FROM progress "
-                               "ORDER BY run_id, rowid").fetchall()
-        for rid, it, c, ne, t in recs:
-            d = out.setdefault(int(rid), {"iteration": [], "best_cost": [], "n_eval": [],
-                                          "time": []})
-            d["iteration"].append(int(it))
-            d["best_cost"].append(_float_out(c))
-            d["n_eval"].append(int(ne or 0))
-            d["time"].append(float(t))
+            recs = con.execute("SELECT rowid, run_id, iteration, best_cost, n_eval, time FROM "
+                               "progress ORDER BY run_id, rowid").fetchall()
+        for row, *vals in recs:
+            rid, it, c, ne, t = (_typed(Path(path), "progress", row, col, v, kind) for col, v, kind
+                                 in zip(("run_id", "iteration", "best_cost", "n_eval", "time"),
+                                        vals, (int, int, float, int, float)))
+            d = out.setdefault(rid, {"iteration": [], "best_cost": [], "n_eval": [], "time": []})
+            d["iteration"].append(it)
+            d["best_cost"].append(c)
+            d["n_eval"].append(ne or 0)
+            d["time"].append(t)
     finally:
         con.close()
     return out

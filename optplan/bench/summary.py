@@ -8,6 +8,7 @@ import json
 import math
 import os
 import sqlite3
+import tempfile
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -245,7 +246,7 @@ def _arena_experiments(runs: Sequence[Mapping[str, Any]],
         machine: dict[str, Any] = sweep.get("machine") or {}
         if not isinstance(machine, dict):
             machine = {}
-        limit = json.loads(r.get("config") or "{}").get("time_limit")
+        limit = r["config"].get("time_limit")
         e = out.setdefault(key, {
             "name": key[0], "totaltime": 0.0, "timelimit": None, "memorylimit": None,
             "seeds": set(), "version": key[1], "hostname": machine.get("host"),
@@ -299,37 +300,86 @@ def export_arena(db: str | Path, out: str | Path) -> dict[str, int]:
     Raises
     ------
     ValueError
-        ``db`` is not a results database, or ``out`` is ``db`` itself.
+        ``db`` is not a results database, has no runs (an empty file would not load in
+        Planner Arena: ``no runs to export``), or is damaged (the message names the table, the
+        row id, the column and the value); ``out`` is ``db`` itself, a directory or not a
+        regular file.  Nothing is left behind: the temporary file is removed on any error.
     FileNotFoundError
         ``db`` does not exist.
     """
     from optplan.benchdb import read_experiments, read_progress, read_runs
 
-    src, dst = Path(db), Path(out)
+    src, dst = Path(db), _arena_destination(Path(db), Path(out))
+    runs = read_runs(src)
+    if not runs:
+        raise ValueError(f"{src}: no runs to export (its runs table is empty; Planner Arena "
+                         f"cannot open a database without experiments): run a sweep into it "
+                         f"first (optplan bench ... --db {src})")
+    sweeps = {int(e["id"]): e for e in read_experiments(src)}
+    progress = read_progress(src)
+    _decode_runs(src, runs)
+    fd, name = tempfile.mkstemp(prefix=f".{dst.name}.", suffix=".tmp", dir=dst.parent)
+    os.close(fd)
+    tmp = Path(name)
+    try:
+        con = sqlite3.connect(str(tmp))
+        try:
+            counts = _write_arena(con, runs, sweeps, progress)
+            con.commit()
+        finally:
+            con.close()
+        os.replace(tmp, dst)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return counts
+
+
+def _arena_destination(src: Path, dst: Path) -> Path:
+    """``dst`` checked before anything is read or written: not the results database, not a
+    directory nor another non-file; its folder made."""
     if dst.exists() and src.exists() and dst.resolve() == src.resolve():
         raise ValueError(f"{dst}: the Planner Arena database would replace the results "
                          f"database it is made from; give another file name")
-    runs = read_runs(src)
-    sweeps = {int(e["id"]): e for e in read_experiments(src)}
-    progress = read_progress(src)
+    if dst.is_dir():
+        raise ValueError(f"{dst}: is a directory; give the Planner Arena database's file "
+                         f"name (e.g. {dst / 'arena.db'})")
+    if dst.exists() and not dst.is_file():
+        raise ValueError(f"{dst}: not a regular file; give another file name")
+    try:
+        dst.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        raise ValueError(f"{dst}: cannot make its folder {dst.parent} ({e.strerror})") from None
+    return dst
+
+
+def _decode_runs(src: Path, runs: list[dict[str, Any]]) -> None:
+    """Add each run's sweep (``experiment_id``) and decode its JSON ``config`` and
+    ``options`` (a time limit a number); a damaged value is an error naming the file, the
+    table, the row id, the column and the value."""
+    from optplan.benchdb import ResultsDBError, _typed
+
     con = sqlite3.connect(f"file:{src}?mode=ro", uri=True)
     try:
         sweep_of = dict(con.execute("SELECT id, experiment_id FROM runs").fetchall())
     finally:
         con.close()
     for r in runs:
-        r["experiment_id"] = sweep_of.get(r["id"])
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dst.with_name(dst.name + ".tmp")
-    tmp.unlink(missing_ok=True)
-    con = sqlite3.connect(str(tmp))
-    try:
-        counts = _write_arena(con, runs, sweeps, progress)
-        con.commit()
-    finally:
-        con.close()
-    os.replace(tmp, dst)
-    return counts
+        r["experiment_id"] = _typed(src, "runs", r["id"], "experiment_id",
+                                    sweep_of.get(r["id"]), int)
+        for col in ("config", "options"):
+            raw = r[col]
+            try:
+                val = json.loads(raw or "{}")
+            except (TypeError, ValueError):
+                val = None
+            limit = val.get("time_limit") if isinstance(val, dict) else None
+            if not isinstance(val, dict) or not (limit is None or (
+                    isinstance(limit, (int, float)) and _arena_real(limit) is not None)):
+                raise ResultsDBError(f"{src}: the results database is damaged: table runs, row "
+                                     f"id {r['id']}, column {col}: {raw!r} is not a JSON "
+                                     f"object (with a finite number as time_limit)")
+            r[col] = val
 
 
 def _write_arena(con: sqlite3.Connection, runs: Sequence[dict[str, Any]],
@@ -353,8 +403,8 @@ def _write_arena(con: sqlite3.Connection, runs: Sequence[dict[str, Any]],
     n_prog = 0
     for r in runs:
         key = _arena_key(r, sweeps)
-        settings = json.dumps({"backend": r["backend"], "options": json.loads(
-            r["options"] or "{}")}, sort_keys=True)
+        settings = json.dumps({"backend": r["backend"], "options": r["options"]},
+                              sort_keys=True)
         if (r["solver"], settings) not in planner_ids:
             cur = con.execute("INSERT INTO plannerConfigs (name, settings) VALUES (?, ?)",
                               (r["solver"], settings))

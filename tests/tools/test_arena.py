@@ -3,6 +3,8 @@ Arena's own loader (``plannerarena.database.load_database``, a dev dependency)."
 
 from __future__ import annotations
 
+import re
+import shutil
 import sqlite3
 from pathlib import Path
 
@@ -107,3 +109,99 @@ def test_status_enum_and_refusals(sweep, tmp_path: Path) -> None:
     bad.write_text("not a database")
     assert main(["export-arena", str(bad), str(tmp_path / "b.db")]) == 2
     assert not (tmp_path / "b.db").exists()
+
+
+# -- issue 42: what the export refuses, and what it leaves behind ----------------------------
+
+
+def _leftovers(d: Path) -> list[str]:
+    return sorted(p.name for p in d.iterdir() if p.name.endswith(".tmp"))
+
+
+def test_an_empty_results_database_is_refused(tmp_path: Path, capsys) -> None:
+    from optplan.benchdb import ResultsDB
+
+    empty = tmp_path / "empty.sqlite"
+    ResultsDB(empty).close()
+    with pytest.raises(ValueError, match=r"empty\.sqlite: no runs to export \(its runs table "
+                                         r"is empty; Planner Arena cannot open"):
+        export_arena(empty, tmp_path / "a.db")
+    assert not (tmp_path / "a.db").exists() and _leftovers(tmp_path) == []
+    assert main(["export-arena", str(empty), str(tmp_path / "a.db")]) == 2
+    err = capsys.readouterr().err
+    assert "no runs to export" in err and "internal error" not in err
+
+
+@pytest.mark.parametrize(("column", "value", "shown"), [
+    ("length", "'abc'", r"column length: 'abc' is not a number \(REAL\)"),
+    ("seed", "1.5", r"column seed: 1\.5 is not an integer"),
+    ("success", "7", r"column success: 7 is not one of 0, 1"),
+    ("bucket", "x'00'", r"column bucket: b'\\x00' is not an integer"),
+    ("options", "'{oops'", r"column options: '\{oops' is not a JSON object"),
+    ("config", "'[1]'", r"column config: '\[1\]' is not a JSON object"),
+    ("config", "'{\"time_limit\": \"soon\"}'", r"column config: .* \(with a finite number as "
+                                                r"time_limit\)"),
+])
+def test_a_damaged_row_names_the_file_table_row_column_and_value(
+        sweep, tmp_path: Path, capsys, column: str, value: str, shown: str) -> None:
+    db, _ = sweep
+    bad = tmp_path / "bad.sqlite"
+    shutil.copy(db, bad)
+    con = sqlite3.connect(bad)
+    (rid,) = con.execute("SELECT id FROM runs ORDER BY id LIMIT 1 OFFSET 2").fetchone()
+    con.execute(f"UPDATE runs SET {column} = {value} WHERE id = ?", (rid,))
+    con.commit()
+    con.close()
+    pattern = rf"bad\.sqlite: the results database is damaged: table runs, row id {rid}, {shown}"
+    with pytest.raises(ValueError, match=pattern):
+        export_arena(bad, tmp_path / "a.db")
+    assert not (tmp_path / "a.db").exists() and _leftovers(tmp_path) == []
+    assert main(["export-arena", str(bad), str(tmp_path / "a.db")]) == 2
+    assert re.search(pattern, capsys.readouterr().err)
+
+
+def test_a_damaged_progress_row_is_named_too(sweep, tmp_path: Path) -> None:
+    db, _ = sweep
+    bad = tmp_path / "bad.sqlite"
+    shutil.copy(db, bad)
+    con = sqlite3.connect(bad)
+    (row,) = con.execute("SELECT rowid FROM progress LIMIT 1").fetchone()
+    con.execute("UPDATE progress SET time = 'later' WHERE rowid = ?", (row,))
+    con.commit()
+    con.close()
+    with pytest.raises(ValueError, match=rf"bad\.sqlite: .* damaged: table progress, row id "
+                                         rf"{row}, column time: 'later' is not a number"):
+        export_arena(bad, tmp_path / "a.db")
+
+
+def test_the_destination_is_checked_first_and_no_temporary_file_stays(
+        sweep, tmp_path: Path, monkeypatch) -> None:
+    db, out = sweep
+    folder = tmp_path / "dir.db"
+    folder.mkdir()
+    with pytest.raises(ValueError, match=r"dir\.db: is a directory; give the Planner Arena "
+                                         r"database's file name"):
+        export_arena(db, folder)
+    assert list(folder.iterdir()) == [] and _leftovers(tmp_path) == []
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ValueError, match=r"cannot make its folder .*file"):
+        export_arena(db, tmp_path / "file" / "a.db")
+    # a failure while writing removes the temporary file and keeps the previous export
+    dst = tmp_path / "keep.db"
+    shutil.copy(out, dst)
+    before = dst.read_bytes()
+
+    def boom(*args, **kwargs):
+        raise sqlite3.OperationalError("disk I/O error")
+
+    monkeypatch.setattr("optplan.bench.summary._write_arena", boom)
+    with pytest.raises(sqlite3.OperationalError):
+        export_arena(db, dst)
+    assert dst.read_bytes() == before and _leftovers(tmp_path) == []
+    monkeypatch.undo()
+    # and a valid export replaces the file: the same content as the first one
+    counts = export_arena(db, dst)
+    assert counts["runs"] == 8 and _leftovers(tmp_path) == []
+    con = sqlite3.connect(dst)
+    assert con.execute("SELECT COUNT(*) FROM runs").fetchone() == (8,)
+    con.close()
