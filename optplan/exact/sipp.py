@@ -75,10 +75,14 @@ __all__ = ["SIPP", "TimedPlan", "earliest_arrival", "PLAN_STATUSES"]
 PLAN_STATUSES = ("arrived", "no_path", "start_blocked", "goal_blocked", "not_found",
                  "stopped", "effort")
 
-#: Expansions between two polls of ``stop``.
+#: Units of work between two polls of ``stop``: a unit is a state expanded, a chain corner
+#: drawn, a segment whose windows are computed or a segment scheduled.
 _POLL = 256
 #: Chains whose windows are computed together (one vectorised pass).
 _WINDOW_BATCH = 8
+#: Most segments in one vectorised pass of :func:`segment_windows` (a batch of long chains, as
+#: with a small ``arc_step``, is cut into passes of this size with a poll between them).
+_WINDOW_SEGMENTS = 4096
 
 
 @dataclass(frozen=True)
@@ -154,6 +158,19 @@ class _Sipp:
         self.streams: list[list[int]] = []  # [state, next chain]
         self.seq = 0
         self.expanded = 0
+        self.work = 0
+        rm.tick = self.tick
+
+    def tick(self, units: int) -> None:
+        """Count ``units`` of work; every :data:`_POLL` units, poll ``stop`` (raises
+        :class:`_Stopped` when it asks to end).  Every phase whose work grows with the options
+        (drawing chains, their windows, the schedules along them, the expansions) counts here,
+        so the search overruns its deadline by at most one bounded step."""
+        self.work += units
+        if self.work >= _POLL:
+            self.work = 0
+            if self.stop is not None and self.stop():
+                raise _Stopped("stopped")
 
     # ---- windows -------------------------------------------------------------------
     def safe(self, v: int) -> Intervals:
@@ -189,10 +206,21 @@ class _Sipp:
         it has none yet)."""
         want = self._wanted(v, k)
         pts = [self.rm.chains[u].points[m] for u, m in want]
+        sizes = np.cumsum([len(p) - 1 for p in pts if p is not None])
+        # the first chain (the one asked for) and the next ones while the pass stays small
+        want = want[:max(1, int(np.searchsorted(sizes, _WINDOW_SEGMENTS, side="right")))]
+        pts = pts[:len(want)]
         a = np.vstack([p[:-1] for p in pts if p is not None])
         b = np.vstack([p[1:] for p in pts if p is not None])
-        forb, busy = segment_windows(self.boxes.near_segments(a, b), a, b, self.radius,
-                                     self.speed, self.horizon)
+        forb: list[Intervals] = []
+        busy: list[Intervals] = []
+        for c in range(0, len(a), _WINDOW_SEGMENTS):
+            ac, bc = a[c:c + _WINDOW_SEGMENTS], b[c:c + _WINDOW_SEGMENTS]
+            f, bz = segment_windows(self.boxes.near_segments(ac, bc), ac, bc, self.radius,
+                                    self.speed, self.horizon)
+            forb += f
+            busy += bz
+            self.tick(len(ac))
         lengths = np.hypot(*(b - a).T).tolist()
         safe = [free_intervals(x, self.horizon) for x in busy]
         at = 0
@@ -222,8 +250,7 @@ class _Sipp:
         self.budget[0] -= 1
         if self.budget[0] < 0:
             raise _Stopped("effort")
-        if self.stop is not None and self.expanded % _POLL == 0 and self.stop():
-            raise _Stopped("stopped")
+        self.tick(1)
         v, _, t = self.st[s][:3]
         ch = self.rm.out_chains(v)
         if len(ch):
@@ -247,6 +274,7 @@ class _Sipp:
         leave_by = self.safe(v)[j][1]
         out = chain_schedule(t, leave_by, lengths, forb, [*corners, self.safe(w)], self.speed,
                              self.horizon)
+        self.tick(len(lengths))
         for jw, (arr, deps) in out.items():
             self._add_state(w, jw, arr, s, (v, k), deps)
 
@@ -350,7 +378,9 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
     max_expansions : int
         Largest number of states expanded (all horizons together).
     stop : callable, optional
-        Polled every 256 expansions; True ends the search (status ``stopped``).
+        Polled every 256 units of work (states expanded, chain corners drawn, segments whose
+        windows are computed or scheduled: a bounded step whatever the options); True ends the
+        search (status ``stopped``).
 
     Returns
     -------

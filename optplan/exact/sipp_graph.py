@@ -9,10 +9,11 @@ successors the tangent graph's A* generates (its ``_candidates`` and ``_departur
 circles, the same normal-cone filter), checked with its exact tests (the segment predicate of
 the obstacle set, the exact arc test).  Each arc is driven along its *circumscribed polyline*
 (:func:`~optplan.geometry.tangent_graph.arc_polyline`, chords of at most ``arc_step`` rad,
-redrawn up to four times four times finer where it comes too close to a neighbouring
-obstacle, as the tangent graph does); its corners are vertices of the chain, where the robot
-may wait like at every other vertex.  No graph is stored: the chains of a vertex are generated
-when a state on it is first expanded, sorted by length plus the distance to the goal, and
+redrawn up to four times four times finer, never finer than :data:`FINEST_STEP`, where it
+comes too close to a neighbouring obstacle, as the tangent graph does); its corners are
+vertices of the chain, where the robot may wait like at every other vertex.  No graph is
+stored: the chains of a vertex are generated when a state on it is first expanded, sorted by
+length plus the distance to the goal, and
 checked lazily (:class:`Roadmap`).
 
 **Windows in time.**  A chain is a polyline driven at full speed ``v`` with waits at its
@@ -32,6 +33,7 @@ from __future__ import annotations
 
 import bisect
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, cast
 
@@ -66,6 +68,10 @@ GOAL_KEY: tuple = ("goal",)
 #: divides the chord angle by 4), as in
 #: :func:`optplan.geometry.tangent_graph.problem_shortest_path`.
 _REFINE = 4
+#: The finest chord angle (rad) of a refinement: the smallest ``arc_step`` accepted.  A chain
+#: then has at most ``2 pi / FINEST_STEP`` (about 63,000) corners, so drawing one chain, or
+#: computing its windows, is a bounded step between two polls of the deadline.
+FINEST_STEP = 1e-4
 
 
 # --------------------------------------------------------------------------------------
@@ -424,6 +430,9 @@ class Roadmap:
         self.vertices: list[Vertex] = []
         self.index: dict[tuple, int] = {}
         self.chains: dict[int, Chains] = {}
+        #: Called with the number of corners of every chain drawn (the search counts its work
+        #: and polls its deadline there; it may raise to end the search).
+        self.tick: Callable[[int], None] = _no_tick
         self.vertex(START_KEY, -1, 1, 0.0, self.zs)
         self.vertex(GOAL_KEY, -2, 1, 0.0, self.zg)
 
@@ -487,6 +496,7 @@ class Roadmap:
                 pts = self._drawn(v, ch, m) if f else None
                 ch.points[m] = pts
                 ch.ok[m] = 1 if pts is not None else -1
+                self.tick(1 if pts is None else len(pts))
         return bool(ch.ok[k] == 1)
 
     def _tangents_free(self, v: int, ch: Chains, idx: np.ndarray) -> np.ndarray:
@@ -521,8 +531,15 @@ class Roadmap:
             pts = _dedup(np.vstack([vx.xy, mid, end]))
             if self.oset.segment_free(pts[:-2], pts[1:-1]).all():
                 return pts
-            step /= 4
+            if step <= FINEST_STEP:
+                break
+            self.tick(len(pts))
+            step = max(step / 4, FINEST_STEP)
         return None
+
+
+def _no_tick(n: int) -> None:
+    """The default :attr:`Roadmap.tick`: no deadline."""
 
 
 def _dedup(pts: np.ndarray) -> np.ndarray:

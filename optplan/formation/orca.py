@@ -334,7 +334,9 @@ class ORCA(Backend):
     time_horizon_obst : float
         ORCA's time horizon against static obstacles (s); at least ``dt``.
     circle_sides : int
-        Sides of the polygon circumscribed about a circle obstacle (in [3, 1024]).
+        Sides of the polygon circumscribed about a circle obstacle (in [3, 256]: RVO2 builds
+        its obstacle tree in one uninterruptible call whose time grows faster than the square
+        of the number of sides; 1024 took 14 s on ``paper-warehouse``).
     margin : float
         Added to every robot's radius in RVO2 (x length_scale): RVO2 computes in single
         precision, and the validator grades contacts to 1e-9 of the map.
@@ -365,7 +367,7 @@ class ORCA(Backend):
     max_neighbors: int = option(10, lo=1, hi=10_000)
     time_horizon: float = option(2.0, lo=0.0, lo_open=True, hi=1e6)
     time_horizon_obst: float = option(1.0, lo=0.0, lo_open=True, hi=1e6)
-    circle_sides: int = option(16, lo=3, hi=1024)
+    circle_sides: int = option(16, lo=3, hi=256)
     margin: float = option(0.01, lo=0.0, hi=100.0, scale=True)
     trail: bool = option(False)
     settle_tol: float = option(0.02, lo=0.0, hi=0.25, lo_open=True)

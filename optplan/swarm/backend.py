@@ -29,6 +29,8 @@ from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
 from optplan.solver import Backend, make_rng, option
 from optplan.swarm.core import (
+    EVAL_SEGMENTS,
+    Interrupted,
     SwarmEval,
     SwarmSpace,
     as_particle,
@@ -229,7 +231,7 @@ class SwarmBackend(Backend):
     def _initial(self, space: SwarmSpace, init_path: np.ndarray | None,
                  rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray]]:
         """Initial positions and the roadmap corridors that seeded some of them."""
-        X = initial_swarm(space, self.n_particles, self.init_mode, rng)
+        X = self._initial_swarm(space, rng)
         seeds: list[np.ndarray] = []
         if self.init_mode == "roadmap":
             seeds = roadmap_corridors(space, self.corridors, rng, n_samples=self.roadmap_samples,
@@ -243,6 +245,24 @@ class SwarmBackend(Backend):
             X[0] = as_particle(init_path, space)
         return X, seeds
 
+    def _initial_swarm(self, space: SwarmSpace, rng: np.random.Generator) -> np.ndarray:
+        """:func:`initial_swarm`; with a deadline (``space.poll``) and more than
+        :data:`~optplan.swarm.core.EVAL_SEGMENTS` coordinates, drawn in blocks of rows with a
+        poll between two (the same positions: each row's draws are consecutive in the
+        stream).  When the poll asks to stop, the rows not drawn repeat the first (the
+        evaluation stops at its own first poll)."""
+        P, D = self.n_particles, space.dim
+        rows = max(1, EVAL_SEGMENTS // D)
+        if space.poll is None or P <= rows:
+            return initial_swarm(space, P, self.init_mode, rng)
+        X = np.empty((P, D))
+        for c in range(0, P, rows):
+            X[c:c + rows] = initial_swarm(space, min(rows, P - c), self.init_mode, rng)
+            if c + rows < P and space.poll():
+                X[c + rows:] = X[0]
+                break
+        return X
+
     def _seed_blocks(self, n_seeds: int) -> int:
         """How many roadmap corridors the initial swarm holds (one per block of consecutive
         particles): all of them, at most one per particle."""
@@ -252,12 +272,24 @@ class SwarmBackend(Backend):
     def _run_robot(self, problem: Problem, robot: Robot, rng: np.random.Generator,
                    init_path: np.ndarray | None, callback, t0: float, it_offset: int):
         pw = self.penalty_weight
+        at = {"k": 0, "best": math.inf}
+
+        def poll() -> bool:  # the deadline, between two passes of a large evaluation
+            return notify(callback, Progress(iteration=it_offset + at["k"],
+                                             best_cost=at["best"], n_eval=0,
+                                             elapsed=time.perf_counter() - t0,
+                                             info={"robot": robot.id}))
+
         space = make_space(problem, robot, self.n_waypoints,
                            penalty_weight=None if pw is None else pw * problem.length_scale,
-                           penetration_weight=self.penetration_weight)
+                           penetration_weight=self.penetration_weight,
+                           poll=None if callback is None else poll)
         X, seeds = self._initial(space, init_path, rng)
         V = np.zeros_like(X)
-        ev = evaluate_swarm(X, space)
+        try:
+            ev, cut = evaluate_swarm(X, space), False
+        except Interrupted as e:  # the rows not scored are never feasible
+            ev, cut = e.ev, True
         state = new_state(X, V, ev)
         run = self._start(space, state, seeds, rng)
         rows: list[dict[str, Any]] = []
@@ -279,11 +311,16 @@ class SwarmBackend(Backend):
                                                    "feasible_best_length": row[
                                                        "feasible_best_length"]}))
 
-        stopped = record(0, {})
+        stopped = record(0, {}) or cut
         k = 0
         while not stopped and k < self.k_max:
             k += 1
-            extra = self._iterate(space, state, run, k, rng)
+            at["k"], at["best"] = k, state.gbest_f
+            try:
+                extra = self._iterate(space, state, run, k, rng)
+            except Interrupted:  # the state is the one of iteration k - 1
+                k, stopped = k - 1, True
+                break
             stopped = record(k, extra)
         iterations = k
         state.stats.update(self._stats(run))

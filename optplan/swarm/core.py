@@ -45,6 +45,7 @@ sparse roadmap and its corridors), :mod:`optplan.swarm.backend` (the shared driv
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING, Any
@@ -70,11 +71,31 @@ __all__ = [
     "as_particle",
     "segment_free",
     "pairs_free",
+    "Interrupted",
+    "EVAL_SEGMENTS",
 ]
 
 #: Clearance kept by roadmap edges and tightened paths, as a fraction of the map diagonal
 #: (1000 x the geometric tolerance ``eps``; see :class:`SwarmSpace`).
 CLEAR_MARGIN = 1e-6
+
+#: Path segments scored in one pass of the fitness kernel when the space has a deadline poll:
+#: a larger batch (a huge swarm, many waypoints) is scored in passes of at most this many
+#: segments with a poll between two passes, so one evaluation is never an unbounded step.
+EVAL_SEGMENTS = 1 << 16
+
+
+class Interrupted(Exception):
+    """The deadline's poll asked to stop in the middle of an evaluation.
+
+    ``ev`` holds the fitness of the whole batch: the rows scored before the poll, and the rest
+    as never feasible (cost and length ``inf``, one crossing), so that nothing unscored can
+    become a best.
+    """
+
+    def __init__(self, ev: SwarmEval):
+        super().__init__("stopped during an evaluation")
+        self.ev = ev
 
 
 # --------------------------------------------------------------------------------------
@@ -111,6 +132,9 @@ class SwarmSpace:
     penalty_weight: float
     penetration_weight: float = 0.0
     clear: ObstacleSet | None = None
+    #: The deadline's poll (True: stop), called between the passes of a large evaluation
+    #: (:data:`EVAL_SEGMENTS`); ``None``: no deadline.
+    poll: Callable[[], bool] | None = None
 
     @property
     def dim(self) -> int:
@@ -148,12 +172,13 @@ class SwarmSpace:
 
 def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
                penalty_weight: float | None = None,
-               penetration_weight: float = 0.0) -> SwarmSpace:
+               penetration_weight: float = 0.0,
+               poll: Callable[[], bool] | None = None) -> SwarmSpace:
     """Build the :class:`SwarmSpace` of ``robot`` on the map ``problem`` (pass a known view).
 
     The fitness scores with :meth:`optplan.problem.Problem.obstacle_set` of the known static
     obstacles for the robot's radius (the exact disc-robot test, built once per problem and
-    radius, cached).
+    radius, cached).  ``poll``: the deadline (:attr:`SwarmSpace.poll`).
     """
     x0, y0, x1, y1 = problem.bounds
     lo = np.tile([x0, y0], n_waypoints).astype(float)
@@ -166,7 +191,8 @@ def make_space(problem: Problem, robot: Robot, n_waypoints: int, *,
                                  known_only=True, walls=False)
     pw = default_penalty(problem.bounds, n_waypoints) if penalty_weight is None else penalty_weight
     return SwarmSpace(np.asarray(robot.start, float), np.asarray(robot.goal, float),
-                      n_waypoints, lo, hi, obs, float(pw), float(penetration_weight), clear)
+                      n_waypoints, lo, hi, obs, float(pw), float(penetration_weight), clear,
+                      poll)
 
 
 def decode(X: np.ndarray, space: SwarmSpace) -> np.ndarray:
@@ -195,12 +221,51 @@ class SwarmEval:
 
 
 def evaluate_swarm(X: np.ndarray, space: SwarmSpace) -> SwarmEval:
-    """Eqs 31-33 for a whole batch: one collision-test call for all particles."""
-    return evaluate_paths(decode(X, space), space)
+    """Eqs 31-33 for a whole batch: one collision-test call for all particles (in passes,
+    each decoded on its own, with a deadline: :func:`evaluate_paths`)."""
+    rows = max(1, EVAL_SEGMENTS // (space.n_waypoints + 1))
+    if space.poll is None or len(X) <= rows:
+        return evaluate_paths(decode(X, space), space)
+    return _in_passes(len(X), rows, lambda a, b: _evaluate(decode(X[a:b], space), space),
+                      space.poll)
 
 
 def evaluate_paths(paths: np.ndarray, space: SwarmSpace) -> SwarmEval:
-    """Eqs 31-33 for already decoded polylines ``(P, n + 2, 2)`` (see :class:`PathBuffer`)."""
+    """Eqs 31-33 for already decoded polylines ``(P, n + 2, 2)`` (see :class:`PathBuffer`).
+
+    With a deadline (``space.poll``), a batch of more than :data:`EVAL_SEGMENTS` segments is
+    scored in passes with a poll between two; raises :class:`Interrupted` when it asks to
+    stop.
+    """
+    rows = max(1, EVAL_SEGMENTS // max(1, paths.shape[1] - 1))
+    if space.poll is None or len(paths) <= rows:
+        return _evaluate(paths, space)
+    return _in_passes(len(paths), rows, lambda a, b: _evaluate(paths[a:b], space), space.poll)
+
+
+def _in_passes(n: int, rows: int, score: Callable[[int, int], SwarmEval],
+               poll: Callable[[], bool]) -> SwarmEval:
+    """The fitness of ``n`` rows scored ``rows`` at a time by ``score(a, b)``, with ``poll``
+    between two passes (raises :class:`Interrupted` when it asks to stop)."""
+    parts = []
+    for c in range(0, n, rows):
+        parts.append(score(c, min(c + rows, n)))
+        if c + rows < n and poll():
+            m = n - c - rows
+            parts.append(SwarmEval(np.full(m, np.inf), np.full(m, np.inf),
+                                   np.ones(m, np.int64), np.zeros(m)))
+            raise Interrupted(_joined(parts))
+    return _joined(parts)
+
+
+def _joined(parts: list[SwarmEval]) -> SwarmEval:
+    """The fitness of consecutive batches as one."""
+    return SwarmEval(*(np.concatenate([getattr(e, f) for e in parts])
+                       for f in ("cost", "length", "count", "penetration")))
+
+
+def _evaluate(paths: np.ndarray, space: SwarmSpace) -> SwarmEval:
+    """Eqs 31-33 of one pass (:func:`evaluate_paths`)."""
     z = paths.view(np.complex128)[..., 0]  # points as complex numbers
     length = np.abs(z[:, 1:] - z[:, :-1]) @ space._seg_ones
     if space.obstacles is None:  # no obstacles: nothing to cross

@@ -1,0 +1,144 @@
+"""Every registered backend stops within ``time_limit`` plus a bounded step, whatever its other
+options (issue 42, item 4; docs/api.md, "Time limits").
+
+No assertion here depends on the machine's load.  The deadline's one clock,
+``optplan.solver.clock``, is replaced by the process's CPU time (``time.process_time``: the
+seconds this process computed, which waiting for a busy core does not advance), and the
+overrun is measured on the same clock: CPU seconds from the call to its return, and the
+number of readings of the clock after the deadline had passed.  Each backend runs with the
+options that scale its work set adversarially (the largest populations, iterations,
+resolutions and expansions its option ranges allow, within the memory of a test run).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import pytest
+
+import optplan as op
+import optplan.solver as solver_mod
+
+#: The time limit (CPU seconds) of every run here.
+LIMIT = 0.3
+#: CPU seconds a run may take beyond the limit: one step of its slowest phase, the validator
+#: and the bookkeeping.  The overruns this file guards against were 10 to 60 s.
+STEP = 1.5
+#: Readings of the clock after the deadline: the one that stops the run, and one by each nested
+#: stage on its way out (``formation-nlp``'s warm start is a hybrid of three stages: 7).
+READINGS_AFTER = 8
+
+#: backend -> (preset, problem, adversarial options)
+CASES: dict[str, tuple[str, str, dict]] = {
+    "visgraph": ("visgraph", "paper-warehouse", {"arc_step": 1e-4, "graph": "built"}),
+    "sipp": ("sipp", "paper-warehouse", {"arc_step": 1e-4, "max_expansions": 10**9,
+                                          "max_doublings": 20}),
+    "pso": ("pso-paper", "paper-env1", {"n_particles": 20_000, "n_waypoints": 200,
+                                        "k_max": 10**6}),
+    "mpso": ("mpso-paper", "paper-env1", {"n_particles": 20_000, "n_waypoints": 200,
+                                          "k_max": 10**6, "n_refine": 10_000}),
+    "ipso": ("ipso", "paper-env1", {"n_particles": 20_000, "n_waypoints": 200,
+                                    "k_max": 10**6, "A": 10_000, "islands": 100}),
+    "nlp": ("nlp-ipopt", "paper-warehouse", {"n_segments": 400, "max_rounds": 50,
+                                             "max_iter": 100_000, "tol": 1e-12,
+                                             "init_from": "straight"}),
+    "apf": ("apf-paper", "paper-apf-env1", {"max_steps": 10**7, "dt": 1e-6, "n_probe": 360,
+                                            "window": 10_000, "patience": 10**7}),
+    "sa-apf": ("sa-apf-paper", "paper-hybrid", {"sa_budget": 10**7, "sa_restarts": 10_000,
+                                                "sa_batch": 1000, "rollout": 10_000.0,
+                                                "max_steps": 10**7, "n_probe": 360}),
+    "leader-follower": ("leader-follower-paper", "paper-formation",
+                        {"max_steps": 10**7, "max_rows": 1000, "speed_sides": 256,
+                         "dt": 1e-6}),
+    "formation-qp": ("formation-qp", "paper-formation",
+                     {"max_steps": 10**7, "max_iter": 10_000, "max_obstacles": 64,
+                      "tol": 1e-12, "dt": 1e-6}),
+    "formation-nlp": ("formation-nlp", "formation-open-field",
+                      {"n_steps": 2000, "max_iter": 100_000, "tol": 1e-12, "t_max": 100.0}),
+    "orca": ("orca", "paper-warehouse", {"max_steps": 10**7, "dt": 1e-6, "circle_sides": 256,
+                                         "max_neighbors": 10_000}),
+    "hybrid": ("hybrid-paper", "paper-warehouse", {"max_steps": 10**7, "settle_steps": 10**7,
+                                                   "stall_steps": 10**7, "dt": 1e-5}),
+}
+
+
+#: Backends that may finish before the limit even with these options (``visgraph``: the exact
+#: graph does not grow with ``arc_step``, which only draws the arcs of the answer).
+FINISHES_FIRST = {"visgraph"}
+
+
+class CpuClock:
+    """``time.process_time`` that counts its readings at or past ``deadline``."""
+
+    def __init__(self) -> None:
+        self.deadline = float("inf")
+        self.late = 0
+
+    def __call__(self) -> float:
+        t = time.process_time()
+        if t >= self.deadline:
+            self.late += 1
+        return t
+
+
+def test_every_registered_backend_has_a_case() -> None:
+    assert set(op.list_backends()) <= set(CASES), set(op.list_backends()) - set(CASES)
+
+
+@pytest.mark.parametrize("backend", list(CASES))
+def test_stops_within_the_limit_plus_a_bounded_step(backend, monkeypatch) -> None:
+    preset, problem, options = CASES[backend]
+    # a fresh cache: the obstacle sets and graphs a run builds are part of its work
+    prob = dataclasses.replace(op.load_problem(problem), _cache={})
+    op.get_solver(preset, **options)  # imports and option checks: not part of the run
+    clock = CpuClock()
+    monkeypatch.setattr(solver_mod, "clock", clock)
+    t0 = time.process_time()
+    clock.deadline = t0 + LIMIT
+    res = op.solve(prob, preset, rng=0, time_limit=LIMIT, **options)
+    used = time.process_time() - t0
+    assert used <= LIMIT + STEP, f"{backend}: {used:.2f} CPU s for a limit of {LIMIT} s"
+    if backend in FINISHES_FIRST and res.stop_reason == "":
+        return
+    assert res.stop_reason == "time_limit", res.message  # the options make it run longer
+    assert 1 <= clock.late <= READINGS_AFTER, clock.late
+    # the honest status of a run cut short: its best so far, graded, never a proof
+    assert res.status in (op.Status.solved, op.Status.approximate), res.status
+    assert "stopped by the time limit" in res.message
+
+
+def test_sipp_cut_short_says_so_and_returns_no_false_proof(monkeypatch) -> None:
+    """The issue's case: a tiny ``arc_step`` and no expansion cap.  The search polls the
+    deadline between bounded steps (drawing a chain, a pass of windows, a schedule, 256
+    expansions): stopped before an arrival, it is ``approximate`` and says why, never
+    ``infeasible`` or ``failed``."""
+    clock = CpuClock()
+    monkeypatch.setattr(solver_mod, "clock", clock)
+    prob = op.load_problem("warehouse-grid")
+    t0 = time.process_time()
+    clock.deadline = t0 + 0.05
+    res = op.solve(prob, "sipp", time_limit=0.05, arc_step=1e-4, max_expansions=10**9)
+    assert time.process_time() - t0 <= 0.05 + STEP
+    assert res.stop_reason == "time_limit"
+    assert res.status is op.Status.approximate
+    assert "stopped before an arrival was found" in res.message
+    ex = next(iter(res.extras["sipp"].values()))
+    assert ex["status"] == "stopped"
+
+
+def test_sipp_polls_by_work_not_by_expansions() -> None:
+    """A poll per 256 units of work: with chains of thousands of corners (``arc_step`` =
+    1e-4) the search polls many times before its 256th expansion."""
+    from optplan.exact.sipp import earliest_arrival
+
+    polls = []
+
+    def stop() -> bool:
+        polls.append(None)
+        return len(polls) >= 3
+
+    plan = earliest_arrival(op.load_problem("paper-warehouse"), arc_step=1e-4,
+                            max_expansions=10**9, stop=stop)
+    assert plan.status == "stopped" and len(polls) == 3
+    assert plan.info["expansions"] < 256
