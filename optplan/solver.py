@@ -587,7 +587,7 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         metrics, t_ref = graded, t3 - t1
     out = dataclasses.replace(res, solver=backend.preset or backend.name, backend=backend.name,
                               seed=seed, metrics=metrics, status=status, message=message,
-                              stop_reason=stop["reason"], scenario=prob)
+                              stop_reason=stop["reason"] or res.stop_reason, scenario=prob)
     # what the caller waited for, from entry to return (loading, validation and this
     # bookkeeping included), less the optional reference (its own figure: reference_time)
     return dataclasses.replace(out, wall_time=time.perf_counter() - t_entry - t_ref)
