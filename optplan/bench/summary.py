@@ -312,9 +312,9 @@ def export_arena(db: str | Path, out: str | Path) -> dict[str, int]:
     src, dst = Path(db), _arena_destination(Path(db), Path(out))
     runs = read_runs(src)
     if not runs:
-        raise ValueError(f"{src}: no runs to export (its runs table is empty; Planner Arena "
-                         f"cannot open a database without experiments): run a sweep into it "
-                         f"first (optplan bench ... --db {src})")
+        raise ValueError(f"{src}: no runs to export: the results database holds no runs "
+                         f"(Planner Arena cannot open a database without experiments); run a "
+                         f"sweep into it first (optplan bench ... --db {src})")
     sweeps = {int(e["id"]): e for e in read_experiments(src)}
     progress = read_progress(src)
     _decode_runs(src, runs)

@@ -130,9 +130,9 @@ def _thresholds(where: Any, occupied_thresh: Any, free_thresh: Any, mode: Any,
         close = difflib.get_close_matches(str(mode), _MODES, n=1)
         hint = f"; did you mean {close[0]!r}?" if close else ""
         raise _err(where, "mode", f"unknown mode {mode!r}{hint} (allowed: {', '.join(_MODES)})")
-    if isinstance(negate, bool):
-        neg = negate
-    elif isinstance(negate, int) and negate in (0, 1):
+    if isinstance(negate, (bool, np.bool_)):  # numpy scalars as Python's
+        neg = bool(negate)
+    elif isinstance(negate, (int, np.integer)) and negate in (0, 1):
         neg = bool(negate)
     else:
         raise _err(where, "negate", f"expected 0 or 1, got {negate!r}")

@@ -123,8 +123,8 @@ def test_an_empty_results_database_is_refused(tmp_path: Path, capsys) -> None:
 
     empty = tmp_path / "empty.sqlite"
     ResultsDB(empty).close()
-    with pytest.raises(ValueError, match=r"empty\.sqlite: no runs to export \(its runs table "
-                                         r"is empty; Planner Arena cannot open"):
+    with pytest.raises(ValueError, match=r"empty\.sqlite: no runs to export: the results "
+                                         r"database holds no runs \(Planner Arena cannot open"):
         export_arena(empty, tmp_path / "a.db")
     assert not (tmp_path / "a.db").exists() and _leftovers(tmp_path) == []
     assert main(["export-arena", str(empty), str(tmp_path / "a.db")]) == 2

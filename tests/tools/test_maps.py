@@ -805,3 +805,15 @@ def test_booleans_and_strings_are_not_resolutions(tmp_path, res):
     with pytest.raises(ProblemError, match=rf"p\.png: resolution: expected a number, got "
                                            rf"{re.escape(repr(res))}"):
         read_image(png, resolution=res)
+
+
+@pytest.mark.parametrize("negate", [True, 1, np.True_, np.int64(1)])
+def test_negate_takes_numpy_scalars_as_python_ones(tmp_path, negate):
+    png = tmp_path / "p.png"
+    px = np.full((4, 6), 254, dtype=np.uint8)
+    px[0, :] = 0
+    Image.fromarray(px, mode="L").save(png)
+    ref = read_image(png, resolution=1.0, negate=True)
+    assert (read_image(png, resolution=1.0, negate=negate).cells == ref.cells).all()
+    with pytest.raises(ProblemError, match=r"p\.png: negate: expected 0 or 1, got "):
+        read_image(png, resolution=1.0, negate=np.int64(2))
