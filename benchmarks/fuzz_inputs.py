@@ -30,16 +30,36 @@ memory limit (:data:`MEMORY_LIMIT`) too:
   loaded with :meth:`optplan.Result.load` and drawn with ``optplan plot``.
 * **map**: ROS ``map_server`` YAML files (every key out of range or of the wrong type,
   unknown and missing keys, bad YAML, non-UTF-8 bytes) with good and bad images (PGM
-  ``maxval 0`` / 70000, zero width, truncated PGM and PNG, garbage), bare images, MovingAI
-  ``.map`` files and in-memory ``nav_msgs/OccupancyGrid`` dicts (wrong ``data`` length or
-  values, resolution <= 0, a tilted origin, ...), read with :func:`optplan.maps.read_grid` /
-  :func:`~optplan.maps.read_occupancy_grid`; a rejected file is also given to
-  ``optplan import-map``.
+  ``maxval 0`` / 70000, zero width, truncated PGM and PNG, garbage), resolutions 1e-300 /
+  1e300 / ``numpy.float32``, bare images, MovingAI ``.map`` files (a UTF-8 BOM, CRLF, a
+  citation after the grid, a grid row too many) and in-memory ``nav_msgs/OccupancyGrid``
+  dicts (wrong ``data`` length or values, ``"50"`` inside ``data``, numpy and ``bytes`` data,
+  resolution <= 0 or 1e-300 or a numpy scalar, a tilted origin, 81M cells, ...), read with
+  :func:`optplan.maps.read_grid` / :func:`~optplan.maps.read_occupancy_grid`; a rejected file
+  is also given to ``optplan import-map``.
 * **database**: results databases (intact, of another program, of schema version 99 or none,
   failing SQLite's integrity check, text SQLite cannot decode, truncated, byte flips, a text
   file, an empty file, a directory, a missing file, one locked by another connection) read
   with every :mod:`optplan.benchdb` reader, opened with ``ResultsDB`` and given to
   ``optplan report`` and ``optplan export-arena``.
+* **path**: ``nav_msgs/Path`` dicts read with :func:`optplan.maps.read_path_msg`: stamps
+  decreasing, out of ROS's range (``sec`` < 0 or >= 2**31, ``nanosec`` >= 10**9), of the
+  wrong type, missing; bad poses, quaternions, keys; random stamp sequences; and paths
+  written by :func:`~optplan.maps.timed_path_msg` read back.  An accepted path must have
+  finite points and non-decreasing times in range.
+* **crop**: ``import_map(..., crop=...)`` on a map with an unknown margin: ``"auto"``, bools
+  and ``numpy.bool_`` must crop exactly when they say so, anything else (0, 1, 0.0,
+  ``numpy.int64(0)``, strings, None, ...) is an error naming ``crop``; and extreme
+  resolutions.
+* **scen**: MovingAI ``.scen`` files read with :func:`optplan.maps.read_scen`: version lines,
+  a UTF-8 BOM (in the ``.scen`` and the ``.map``), CRLF, blank lines, trailing text, wrong field
+  counts, non-numbers, cells outside the map or blocked, bad optimal lengths, two maps, a
+  missing map, non-UTF-8 bytes, empty files.
+* **arena**: :func:`optplan.bench.summary.export_arena` and ``optplan export-arena`` of
+  databases without runs or with a damaged row (``length = 'abc'``, a ``config`` that is not
+  JSON, ...: the error names the file and the row), onto a directory, the database itself, a
+  missing folder, an existing file; an export must load as an OMPL database with every run,
+  and a failed one must leave no ``.tmp`` file behind.
 * **plugin**: plugin distributions (entry points ``optplan.backends`` / ``optplan.presets``)
   whose package raises or exits when imported, with malformed entry points, missing modules,
   classes or preset folders, broken preset files, beside a working plugin; each case in a
@@ -64,7 +84,8 @@ Every case is classified:
 ==========================  ===========================================================
 
 Run ``python benchmarks/fuzz_inputs.py`` for the full run (>= 3,000 scenarios, >= 2,500 option
-values, >= 200 inits, >= 50 result files, >= 100 maps, >= 25 databases, >= 15 plugins;
+values, >= 200 inits, >= 50 result files, >= 100 maps, >= 25 databases, >= 15 plugins,
+>= 50 path messages, >= 30 crop values, >= 30 ``.scen`` files, >= 15 exports;
 ``--workers N``, ``--seed S``, ``--quick``, ``--family F``) and the counts table;
 ``tests/tools/test_fuzz.py`` runs a bounded, seeded slice.  Known findings in files other
 engineers own (backends, ``solve``'s option and ``init`` checks) are listed in
@@ -123,7 +144,8 @@ MEMORY_LIMIT = 6 * 2**30
 MAX_MESSAGE = 1200
 
 #: the families of inputs, in the order of the counts table
-FAMILIES = ("scenario", "option", "init", "result", "map", "database", "plugin")
+FAMILIES = ("scenario", "option", "init", "result", "map", "database", "plugin", "path", "crop",
+            "scen", "arena")
 CATEGORIES = ("clear error", "accepted and solved", "crash", "hang", "unclear message",
               "silently accepted", "success disagrees")
 BAD = ("crash", "hang", "unclear message", "silently accepted", "success disagrees")
@@ -1635,7 +1657,8 @@ def _ros_variants() -> list[tuple[str, dict[str, Any] | bytes, tuple[str, ...], 
         ("intact", {}, (), False), ("origin [x, y]", {"origin": [1.0, -2.0]}, (), False),
         ("rotated origin", {"origin": [0.0, 0.0, 0.5]}, (), False),
         ("resolution 5e-2 (YAML 1.2)", b"resolution: 5e-2\n", (), False)]
-    for key, bad in (("resolution", [0, -1, "abc", [1], None, True, 1e400]),
+    for key, bad in (("resolution", [0, -1, "abc", [1], None, True, 1e400, 1e-300, 5e-324,
+                                     1e300]),
                      ("origin", [[0], [0, 0, 0, 0], "a b", [None, 0], [1e400, 0], 3]),
                      ("negate", [2, "yes", -1, 0.5]),
                      ("occupied_thresh", [1.5, -0.1, "x", 1e400]),
@@ -1670,6 +1693,14 @@ def _movingai_variants() -> list[tuple[str, bytes, tuple[str, ...], bool]]:
     ok = "type octile\nheight 3\nwidth 4\nmap\n@@@@\n@..@\n@@@@\n"
     keys = ("height", "width", "map", "type", "line", "not a MovingAI map")
     return [("intact .map", ok.encode(), (), False),
+            ("UTF-8 BOM", b"\xef\xbb\xbf" + ok.encode(), (), False),
+            ("CRLF", ok.replace("\n", "\r\n").encode(), (), False),
+            ("trailing blanks on rows", ok.replace("@..@", "@..@  ").encode(), (), False),
+            ("a citation after the grid", (ok + "Sturtevant 2012, grid benchmarks\n").encode(),
+             (), False),
+            ("a grid row after the grid", (ok + "@@@@\n").encode(), keys, True),
+            ("BOM, then not UTF-8", b"\xef\xbb\xbf\xff\xfe" + ok.encode(), keys + (
+                "not UTF-8",), True),
             ("height mismatch", ok.replace("height 3", "height 4").encode(), keys, True),
             ("width mismatch", ok.replace("width 4", "width 5").encode(), keys, True),
             ("unknown terrain", ok.replace("..", ".X").encode(), keys, True),
@@ -1697,6 +1728,21 @@ def _grid_msg_variants(rng: random.Random) -> list[tuple[str, Any, tuple[str, ..
     yawed = {"position": {"x": 1.0, "y": 2.0}, "orientation": {"x": 0.0, "y": 0.0, "z": 0.4,
                                                                "w": 0.9}}
     out.append(("rotated about z", msg(origin=yawed), (), False))
+    import numpy as np
+
+    out += [("resolution numpy.float32", msg(resolution=np.float32(0.5)), (), False),
+            ("resolution numpy.float64", msg(resolution=np.float64(0.5)), (), False),
+            ("resolution numpy.int64", msg(resolution=np.int64(1)), (), False)]
+    for v in (1e-300, 5e-324, 1e300, np.float32(0.0), np.float64(math.inf)):
+        out.append((f"info.resolution = {_short(v)}", msg(resolution=v), ("info.resolution",),
+                    True))
+    for what, data in (("data int8 array", np.array([0, 100, -1, 0, 0, 50], dtype=np.int8)),
+                       ("data bytes", bytes([0, 100, 255, 0, 0, 50])),
+                       ("data numpy ints", [np.int8(0), np.int64(100), -1, 0, 0, 50])):
+        m = msg()
+        m["data"] = data
+        out.append((what, m, (), False))
+    out.append(("81M cells (9001 x 9001)", {"big": [9001, 9001]}, ("info.width",), True))
     for key, v in (("resolution", 0.0), ("resolution", -1.0), ("resolution", math.nan),
                    ("resolution", "0.5"), ("width", 0), ("width", 2.5), ("height", True),
                    ("height", -2), ("width", 2**40), ("origin", tilted), ("origin", [0, 0]),
@@ -1709,6 +1755,10 @@ def _grid_msg_variants(rng: random.Random) -> list[tuple[str, Any, tuple[str, ..
                             ("data nan", [math.nan] * 6, "data[0]"),
                             ("data string", "abcdef", "data"), ("data dict", {"a": 1}, "data"),
                             ("data nested", [[0, 0, 0], [0, 0, 0]], "data"),
+                            ("data '50'", [0, "50", 0, 0, 0, 0], "data[1]"),
+                            ("data True", [0, 0, True, 0, 0, 0], "data[2]"),
+                            ("data numpy '50'", np.array(["0", "50", "0", "0", "0", "0"]),
+                             "data"),
                             ("data None", None, "data")):
         m = msg()
         m["data"] = data
@@ -1746,6 +1796,12 @@ def map_cases(seed: int = 0) -> list[Case]:
                                             name: img}, "open": "m.yaml"}, ("image",), must)
         add(f"bare image {what}", {"files": {name: img}, "open": name, "resolution": 0.1},
             ("image",), must)
+    import numpy as np
+
+    for what, res, must in (("resolution 1e-300", 1e-300, True), ("resolution 1e300", 1e300, True),
+                            ("resolution numpy.float32", np.float32(0.1), False)):
+        add(f"bare image {what}", {"files": {"m.pgm": _pgm()}, "open": "m.pgm",
+                                   "resolution": res}, ("resolution",), must)
     for what, text, keys, must in _movingai_variants():
         add(f"MovingAI {what}", {"files": {"m.map": text}, "open": "m.map"}, keys, must)
     for what, msg, keys, must in _grid_msg_variants(rng):
@@ -1758,8 +1814,17 @@ def run_map(case: Case, tmp: Path) -> Outcome:
 
     d = case.data
     if "msg" in d:
+        msg = copy.deepcopy(d["msg"])
+        if isinstance(msg, dict) and "big" in msg:  # made here: 81 MB would not go in a pipe
+            import numpy as np
+
+            w, h = msg["big"]
+            msg = {"header": {"frame_id": "map"}, "data": np.zeros(w * h, dtype=np.int8),
+                   "info": {"resolution": 0.05, "width": w, "height": h, "origin": {
+                       "position": {"x": 0.0, "y": 0.0, "z": 0.0},
+                       "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}}
         try:
-            read_occupancy_grid(copy.deepcopy(d["msg"]), name=_GRID_NAME)
+            read_occupancy_grid(msg, name=_GRID_NAME)
         except Exception as e:  # noqa: BLE001
             return Outcome(case, *_classify_error(e, case, _GRID_NAME))
         return _accepted(case, "read")
@@ -1851,7 +1916,9 @@ def database_cases(seed: int = 0) -> list[Case]:
     try:
         good = _db_bytes(tmp)
         add("intact", good, (), False)
-        add("no runs", _db_bytes(tmp, runs=0), ("holds no runs",), False)
+        # report: "holds no runs"; export-arena: "no runs to export" (Planner Arena cannot
+        # open a database without experiments)
+        add("no runs", _db_bytes(tmp, runs=0), ("holds no runs", "no runs to export"), False)
         for what, sql, keys in (
                 ("foreign runs table", "DROP TABLE progress", ("not an optplan results database",)),
                 ("runs without columns", "ALTER TABLE runs DROP COLUMN message",
@@ -1884,10 +1951,11 @@ def database_cases(seed: int = 0) -> list[Case]:
             i = rng.randrange(100, len(good))
             add(f"byte flip {k}", good[:i] + bytes([rng.randrange(256)]) + good[i + 1:],
                 ("not an optplan results database", "damaged", "integrity check",
-                 "meta.schema_version", "holds no runs"), False)
+                 "meta.schema_version", "holds no runs", "no runs to export"), False)
         add("text file", b"hello, not a database\n" * 50, ("not an optplan results database",),
             True)
-        add("empty file", b"", ("not an optplan results database", "holds no runs"), False)
+        add("empty file", b"", ("not an optplan results database", "holds no runs",
+                                 "no runs to export"), False)
         add("locked", good, ("locked",), True, kind="locked")
         add("directory", None, ("no such results database", "cannot open the results database"),
             True, kind="dir")
@@ -2129,9 +2197,390 @@ def run_plugin(case: Case, tmp: Path) -> Outcome:
     return _plugin_verdict(case, json.loads(line.removeprefix("FUZZ-RESULT ")))
 
 
+# -- ROS path messages, import_map's crop, MovingAI .scen lines, Planner Arena export --------
+
+_PATH_NAME = "<fuzz-path>"
+_NS = 1_000_000_000
+
+
+def _path_msg(stamps: list[tuple[Any, Any]], head_stamp: bool = True) -> dict[str, Any]:
+    """A ``nav_msgs/Path`` dict with one pose per ``(sec, nanosec)``."""
+    head: dict[str, Any] = {"frame_id": "map"}
+    if head_stamp:
+        head["stamp"] = {"sec": 0, "nanosec": 0}
+    return {"header": head, "poses": [
+        {"header": {"frame_id": "map", "stamp": {"sec": s, "nanosec": ns}},
+         "pose": {"position": {"x": float(k), "y": 0.5 * k, "z": 0.0},
+                  "orientation": {"x": 0.0, "y": 0.0, "z": 0.0, "w": 1.0}}}
+        for k, (s, ns) in enumerate(stamps)]}
+
+
+def _first_bad_stamp(stamps: list[tuple[Any, Any]]) -> int | None:
+    """The index of the first pose whose stamp is out of range or before the previous one."""
+    last = -1
+    for k, (s, ns) in enumerate(stamps):
+        if not (type(s) is int and type(ns) is int and 0 <= s < 2**31 and 0 <= ns < _NS):
+            return k
+        if s * _NS + ns < last:
+            return k
+        last = s * _NS + ns
+    return None
+
+
+def _path_variants(rng: random.Random) -> list[tuple[str, Any, tuple[str, ...], bool]]:
+    """nav_msgs/Path dicts: (what, message, keys, must it be rejected)."""
+    ok = [(0, 0), (1, 0), (2, 500_000_000)]
+    out: list[tuple[str, Any, tuple[str, ...], bool]] = [
+        ("intact", _path_msg(ok), (), False),
+        ("equal stamps (a jump)", _path_msg([(0, 0), (1, 0), (1, 0)]), (), False),
+        ("no header stamp", _path_msg(ok, head_stamp=False), (), False),
+        ("largest stamp", _path_msg([(2**31 - 1, _NS - 1)]), (), False),
+        ("empty path", _path_msg([]), ("poses",), False)]
+    for what, st in (("decreasing sec", [(0, 0), (2, 0), (1, 0)]),
+                     ("decreasing nanosec", [(1, 5), (1, 4)]),
+                     ("sec -1", [(0, 0), (-1, 0)]), ("sec 2**31", [(0, 0), (2**31, 0)]),
+                     ("sec 2**64", [(0, 0), (2**64, 0)]), ("nanosec 1e9", [(0, _NS)]),
+                     ("nanosec -1", [(0, 0), (1, -1)]), ("sec 1.5", [(0, 0), (1.5, 0)]),
+                     ("sec 1.0", [(1.0, 0)]), ("sec True", [(0, 0), (True, 0)]),
+                     ("sec '1'", [(0, 0), ("1", 0)]), ("sec None", [(None, 0)]),
+                     ("nanosec nan", [(0, math.nan)]), ("sec inf", [(0, 0), (math.inf, 0)])):
+        k = _first_bad_stamp(st)
+        out.append((what, _path_msg(st), (f"poses[{k}].header.stamp",), True))
+    m = _path_msg(ok)
+    m["header"]["stamp"] = {"sec": -1, "nanosec": 0}
+    out.append(("header stamp sec -1", m, ("header.stamp",), True))
+
+    def edit(what: str, f: Callable[[dict], Any], keys: tuple[str, ...]) -> None:
+        m = _path_msg(ok)
+        f(m)
+        out.append((what, m, keys, True))
+
+    p1 = "poses[1]"
+    edit("pose without stamp", lambda m: m["poses"][1]["header"].pop("stamp"),
+         (f"{p1}.header.stamp",))
+    edit("pose without header", lambda m: m["poses"][1].pop("header"), (f"{p1}.header",))
+    edit("unknown pose key", lambda m: m["poses"][1].__setitem__("twist", {}), (f"{p1}.twist",))
+    edit("frame_id 5", lambda m: m["header"].__setitem__("frame_id", 5), ("header.frame_id",))
+    edit("no header", lambda m: m.pop("header"), ("header",))
+    edit("poses a string", lambda m: m.__setitem__("poses", "abc"), ("poses",))
+    edit("poses None", lambda m: m.__setitem__("poses", None), ("poses",))
+    edit("poses a dict", lambda m: m.__setitem__("poses", {"a": 1}), ("poses",))
+    for v in (math.nan, math.inf, -math.inf, "1", None, True, [1.0]):
+        edit(f"position.x {_short(v)}",
+             lambda m, v=v: m["poses"][1]["pose"]["position"].__setitem__("x", v),
+             (f"{p1}.pose.position.x",))
+    edit("tilted orientation", lambda m: m["poses"][1]["pose"].__setitem__(
+        "orientation", {"x": 0.7, "y": 0.0, "z": 0.0, "w": 0.7}), (f"{p1}.pose.orientation",))
+    edit("zero quaternion", lambda m: m["poses"][1]["pose"].__setitem__(
+        "orientation", {"x": 0.0, "y": 0.0, "z": 0.0, "w": 0.0}), (f"{p1}.pose.orientation",))
+    out.append(("root a list", [1, 2], ("<root>",), True))
+    for k in range(24):  # random stamp sequences, some out of range or decreasing
+        st = [(rng.choice([0, 1, 2, 3, rng.randint(-2, 6), 2**31 - 1, 2**31]),
+               rng.choice([0, 1, _NS - 1, rng.randrange(_NS), _NS, -1]))
+              for _ in range(rng.randint(2, 6))]
+        bad = _first_bad_stamp(st)
+        keys = (f"poses[{bad}].header.stamp",) if bad is not None else ()
+        out.append((f"random stamps {k}", _path_msg(st), keys, bad is not None))
+    return out
+
+
+def path_cases(seed: int = 0) -> list[Case]:
+    """``nav_msgs/Path`` messages read with :func:`optplan.maps.read_path_msg`, and paths
+    written with :func:`~optplan.maps.timed_path_msg` read back."""
+    rng = random.Random(seed)
+    out = [Case("path", f"path/{k + 1:04d}/{what}", what, {"msg": msg}, keys, must)
+           for k, (what, msg, keys, must) in enumerate(_path_variants(rng))]
+    for k in range(6):
+        n = rng.randint(1, 6)
+        times = sorted(rng.choice([0.0, 0.5, 1.0, rng.uniform(0, 9), 1e-9 * k]) for _ in range(n))
+        pts = [[rng.uniform(-50, 50), rng.uniform(-50, 50)] for _ in range(n)]
+        out.append(Case("path", f"path/{len(out) + 1:04d}/written {k}", f"written {k}",
+                        {"write": [pts, times]}))
+    return out
+
+
+def _check_timed_path(case: Case, tp: Any) -> Outcome:
+    """An accepted path: finite points, one per pose, non-decreasing times in ROS's range."""
+    import numpy as np
+
+    n = len(case.data["msg"]["poses"]) if "msg" in case.data else len(case.data["write"][1])
+    t = np.asarray(tp.times, dtype=float)
+    bad = (len(tp.points) != n or len(t) != n or not np.isfinite(tp.points).all()
+           or not np.isfinite(t).all() or (t < 0).any() or (t > 2.0**31).any()
+           or (np.diff(t) < 0).any())
+    if bad or case.must_reject:
+        return Outcome(case, "silently accepted", f"read {n} poses, times {t.tolist()[:8]}")
+    return Outcome(case, "accepted and solved", f"{n} poses")
+
+
+def run_path(case: Case, tmp: Path) -> Outcome:
+    import numpy as np
+
+    from optplan.maps import read_path_msg, timed_path_msg
+
+    d = case.data
+    try:
+        if "write" in d:
+            pts, times = d["write"]
+            msg = timed_path_msg(np.asarray(pts, dtype=float), np.asarray(times, dtype=float))
+        else:
+            msg = copy.deepcopy(d["msg"])
+        tp = read_path_msg(msg, name=_PATH_NAME)
+    except Exception as e:  # noqa: BLE001
+        return Outcome(case, *_classify_error(e, case, _PATH_NAME))
+    return _check_timed_path(case, tp)
+
+
+#: the crop map: 12 x 10 cells of 1 m, unknown (grey) but for a free block of 8 x 6 cells whose
+#: world box is (2, 2)-(10, 8) (the bounds when cropped; (0, 0)-(12, 10) when not)
+_CROP_SHAPE, _CROP_ROWS, _CROP_COLS = (10, 12), (2, 8), (2, 10)
+_CROPPED, _UNCROPPED = (2.0, 2.0, 10.0, 8.0), (0.0, 0.0, 12.0, 10.0)
+
+
+def _crop_pgm() -> bytes:
+    h, w = _CROP_SHAPE
+    px = bytearray([128] * (h * w))  # 128: unknown in trinary mode
+    for r in range(*_CROP_ROWS):
+        for c in range(*_CROP_COLS):
+            px[r * w + c] = 254
+    return _pgm(w, h, body=bytes(px))
+
+
+def crop_cases() -> list[Case]:
+    """``import_map(..., crop=...)`` on a map with an unknown margin: every switch value
+    (``"auto"``, bools, ``numpy.bool_``) and values that are not one (numbers, 0 and 1
+    included, strings, None, ...); an accepted value must crop exactly when it says so."""
+    import numpy as np
+
+    good: list[tuple[Any, str, bool]] = [
+        ("auto", "occupied", True), ("auto", "free", False), (True, "occupied", True),
+        (False, "occupied", False), (np.True_, "occupied", True),
+        (np.False_, "occupied", False), (True, "free", True), (np.False_, "free", False)]
+    bad: list[Any] = [0, 1, 0.0, 1.0, -1, 2, math.nan, np.int64(0), np.int8(1),
+                      np.float64(0.0), np.float32(1.0), "yes", "no", "True", "false", "on",
+                      "off", "", "AUTO", None, [True], [], {}, b"auto", 1 + 0j]
+    out = [Case("crop", f"crop/{k + 1:04d}/crop={v!r} unknown={u}", f"crop={v!r} unknown={u}",
+                {"crop": v, "unknown": u, "cropped": c})
+           for k, (v, u, c) in enumerate(good)]
+    out += [Case("crop", f"crop/{len(out) + k + 1:04d}/crop={v!r}", f"crop={v!r}",
+                 {"crop": v, "unknown": "occupied"}, ("crop",), True)
+            for k, v in enumerate(bad)]
+    # the import's other numbers at their extremes (a raw GEOSException at 1e-300 once)
+    out += [Case("crop", f"crop/{len(out) + k + 1:04d}/resolution={v!r}", f"resolution={v!r}",
+                 {"crop": "auto", "unknown": "occupied", "resolution": v}, ("resolution",),
+                 True) for k, v in enumerate((1e-300, 5e-324, 1e300, -1.0, math.nan))]
+    return out
+
+
+def run_crop(case: Case, tmp: Path) -> Outcome:
+    import numpy as np
+
+    from optplan.maps import import_map
+
+    d = case.data
+    (tmp / "m.pgm").write_bytes(_crop_pgm())
+    path = tmp / "m.pgm"
+    try:
+        prob = import_map(path, radius=0.1, start=(3.0, 5.0), goal=(9.0, 5.0),
+                          resolution=d.get("resolution", 1.0), crop=d["crop"],
+                          unknown=d["unknown"])
+    except Exception as e:  # noqa: BLE001
+        return Outcome(case, *_classify_error(e, case, str(path)))
+    bounds = tuple(float(b) for b in prob.bounds)
+    if case.must_reject:
+        return Outcome(case, "silently accepted", f"imported, bounds {bounds}")
+    want = _CROPPED if d["cropped"] else _UNCROPPED
+    if not np.allclose(bounds, want):
+        return Outcome(case, "silently accepted", f"bounds {bounds}, expected {want} "
+                       f"({'cropped' if d['cropped'] else 'not cropped'})")
+    return Outcome(case, "accepted and solved", f"bounds {bounds}")
+
+
+#: the .scen family's map: 6 x 4 cells, a wall cell at (2, 1) (column, row from the top)
+_SCEN_MAP = "type octile\nheight 4\nwidth 6\nmap\n......\n..@...\n......\n......\n"
+_SCEN_LINE = "0\tm.map\t6\t4\t{sx}\t{sy}\t{gx}\t{gy}\t{opt}"
+
+
+def _scen(*lines: str, version: str | None = "version 1") -> str:
+    return "".join(f"{ln}\n" for ln in ([version] if version else []) + list(lines))
+
+
+def _scen_variants() -> list[tuple[str, bytes, bytes, tuple[str, ...], bool, int]]:
+    """(what, .scen bytes, .map bytes, keys, must it be rejected, lines when accepted)."""
+    ln = _SCEN_LINE.format(sx=0, sy=0, gx=5, gy=3, opt="6.24264069")
+    ln2 = _SCEN_LINE.format(sx=1, sy=3, gx=4, gy=0, opt="4.24264069")
+    mp = _SCEN_MAP.encode()
+    out: list[tuple[str, bytes, bytes, tuple[str, ...], bool, int]] = [
+        ("intact", _scen(ln, ln2).encode(), mp, (), False, 2),
+        ("version 1.0", _scen(ln, version="version 1.0").encode(), mp, (), False, 1),
+        ("no version line", _scen(ln, version=None).encode(), mp, (), False, 1),
+        ("UTF-8 BOM", b"\xef\xbb\xbf" + _scen(ln).encode(), mp, (), False, 1),
+        ("UTF-8 BOM in the map", _scen(ln).encode(), b"\xef\xbb\xbf" + mp, (), False, 1),
+        ("CRLF", _scen(ln, ln2).replace("\n", "\r\n").encode(), mp, (), False, 2),
+        ("blank lines", ("\n" + _scen(ln, "", ln2) + "\n\n").encode(), mp, (), False, 2),
+        ("trailing blanks", _scen(ln + " \t ").encode(), mp, (), False, 1),
+        ("spaces, no tabs", _scen(ln.replace("\t", " ")).encode(), mp, (), False, 1)]
+
+    def bad(what: str, text: str | bytes, keys: tuple[str, ...], m: bytes = mp) -> None:
+        out.append((what, text if isinstance(text, bytes) else text.encode(), m, keys, True, 0))
+
+    for v in ("version 2", "version 1 extra", "version", "version 0.9", "version x",
+              "VERSION 3"):
+        bad(v, _scen(ln, version=v), ("line 1",))
+    bad("trailing text", _scen(ln + "\tfrom a paper"), ("line 2",))
+    bad("trailing text after a blank", _scen(ln + " extra"), ("line 2",))
+    bad("8 fields", _scen(ln.rsplit("\t", 1)[0]), ("line 2",))
+    bad("10 fields", _scen(ln + "\t7"), ("line 2",))
+    for field, sub in (("width", "six"), ("start_x", "1.5"), ("opt", "abc")):
+        bad(f"{field} not a number", _scen(ln.replace("\t6\t" if field == "width" else
+                                                      "\t0\t0\t" if field == "start_x" else
+                                                      "6.24264069",
+                                                      f"\t{sub}\t" if field == "width" else
+                                                      f"\t{sub}\t0\t" if field == "start_x"
+                                                      else sub, 1)), ("line 2",))
+    for what, kw in (("width 0", {"w": 0}), ("height -1", {"h": -1}),
+                     ("start x = width", {"sx": 6}), ("goal y -1", {"gy": -1}),
+                     ("start on the wall", {"sx": 2, "sy": 1}),
+                     ("map size differs", {"w": 7}), ("optimal nan", {"opt": "nan"}),
+                     ("optimal inf", {"opt": "inf"}), ("optimal -1", {"opt": "-1"}),
+                     ("optimal 1e400", {"opt": "1e400"})):
+        f = {"sx": 0, "sy": 0, "gx": 5, "gy": 3, "opt": "6.24264069", "w": 6, "h": 4, **kw}
+        line = f"0\tm.map\t{f['w']}\t{f['h']}\t{f['sx']}\t{f['sy']}\t{f['gx']}\t{f['gy']}" \
+               f"\t{f['opt']}"
+        bad(what, _scen(line), ("line 2",))
+    bad("two maps", _scen(ln, ln2.replace("m.map", "other.map")), ("line 3",))
+    bad("missing map", _scen(ln.replace("m.map", "nope.map")), ("map",))
+    bad("not UTF-8", b"version 1\n\xff\xfe" + ln.encode(), ("not UTF-8",))
+    bad("empty file", "", ("<file>",))
+    bad("version line only", _scen(), ("<file>",))
+    bad("binary", b"\x00\x01\x02" * 20, ("line 1", "not UTF-8"))
+    return out
+
+
+def scen_cases() -> list[Case]:
+    """MovingAI ``.scen`` files (with their ``.map``) read with
+    :func:`optplan.maps.read_scen`."""
+    return [Case("scen", f"scen/{k + 1:04d}/{what}", what,
+                 {"files": {"m.scen": text, "m.map": mp}, "lines": n}, keys, must)
+            for k, (what, text, mp, keys, must, n) in enumerate(_scen_variants())]
+
+
+def run_scen(case: Case, tmp: Path) -> Outcome:
+    from optplan.maps import read_scen
+
+    for name, content in case.data["files"].items():
+        (tmp / name).write_bytes(content)
+    path = tmp / "m.scen"
+    try:
+        probs = read_scen(path)
+    except Exception as e:  # noqa: BLE001
+        return Outcome(case, *_classify_error(e, case, str(path)))
+    if case.must_reject or len(probs) != case.data["lines"]:
+        return Outcome(case, "silently accepted", f"{len(probs)} problems")
+    return Outcome(case, "accepted and solved", f"{len(probs)} problems")
+
+
+def arena_cases() -> list[Case]:
+    """``export_arena`` (and ``optplan export-arena``) of results databases with damaged rows,
+    without runs, and onto bad destinations; an export must load as an OMPL database with
+    every run, and nothing (no ``.tmp``) may be left behind by a failed one."""
+    tmp = Path(tempfile.mkdtemp(prefix="fuzz-arena-"))
+    out: list[Case] = []
+
+    def add(what: str, db: bytes | None, keys: tuple[str, ...], must: bool,
+            dest: str = "new", names: str = "db", runs: int = 3) -> None:
+        out.append(Case("arena", f"arena/{len(out) + 1:04d}/{what}", what,
+                        {"bytes": db, "dest": dest, "names": names, "runs": runs}, keys, must))
+
+    try:
+        good = _db_bytes(tmp)
+        add("intact", good, (), False)
+        add("into a missing folder", good, (), False, dest="deep")
+        add("over an existing file", good, (), False, dest="existing")
+        add("no runs", _db_bytes(tmp, runs=0), ("holds no runs", "no runs to export"), True,
+            runs=0)
+        add("onto a directory", good, ("is a directory", "file name"), True, dest="dir",
+            names="out")
+        add("onto itself", good, ("would replace the results database",), True, dest="same",
+            names="out")
+        add("missing database", None, ("no such results database",), True)
+        add("a text file", b"not a database\n" * 40, ("not an optplan results database",), True)
+        for col, val in (("length", "'abc'"), ("wall_time", "'x'"), ("seed", "'s'"),
+                         ("success", "'maybe'"), ("collisions", "'many'"),
+                         ("config", "'not json'"), ("config", "'[1]'"),
+                         ("config", "'{\"time_limit\": \"soon\"}'"), ("options", "'{'"),
+                         ("length", "X'00ff'")):
+            add(f"row 2 {col} = {val}", _db_bytes(tmp, lambda con, c=col, v=val: con.execute(
+                f"UPDATE runs SET {c} = {v} WHERE id = 2")), ("row id 2",), True)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return out
+
+
+def _arena_dest(case: Case, tmp: Path, db: Path) -> Path:
+    kind = case.data["dest"]
+    if kind == "dir":
+        (tmp / "arena.db").mkdir()
+    elif kind == "existing":
+        (tmp / "arena.db").write_bytes(b"old contents")
+    return {"same": db, "deep": tmp / "x" / "y" / "arena.db"}.get(kind, tmp / "arena.db")
+
+
+def _arena_loads(path: Path, runs: int) -> str | None:
+    """Why ``path`` is not an OMPL benchmark database with ``runs`` runs (None when it is)."""
+    import sqlite3
+
+    con = sqlite3.connect(f"file:{path}?mode=ro", uri=True)
+    try:
+        tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        need = {"experiments", "plannerConfigs", "enums", "runs", "progress"}
+        if not need <= tables:
+            return f"tables {sorted(tables)}"
+        n_exp = con.execute("SELECT count(*) FROM experiments").fetchone()[0]
+        n_runs = con.execute("SELECT count(*) FROM runs").fetchone()[0]
+    finally:
+        con.close()
+    return None if n_exp >= 1 and n_runs == runs else f"{n_exp} experiments, {n_runs} runs"
+
+
+def run_arena(case: Case, tmp: Path) -> Outcome:
+    from optplan.bench.summary import export_arena
+
+    d = case.data
+    db = tmp / "r.sqlite"
+    if d["bytes"] is not None:
+        db.write_bytes(d["bytes"])
+    dest = _arena_dest(case, tmp, db)
+    named = str(db if d["names"] == "db" else dest)
+    try:
+        export_arena(db, dest)
+        outcome = None
+    except FileNotFoundError as e:  # documented, for a missing database
+        ok, why = _message_ok(str(e), case.keys, named)
+        outcome = Outcome(case, "clear error" if ok else "unclear message", f"{why}: {e}")
+    except Exception as e:  # noqa: BLE001
+        outcome = Outcome(case, *_classify_error(e, case, named))
+        if outcome.category == "clear error":
+            ok, why = _cli_ok(["export-arena", str(db), str(dest)], case, named)
+            if not ok:
+                outcome = Outcome(case, "unclear message", why)
+    left = sorted(str(p.relative_to(tmp)) for p in tmp.rglob("*.tmp"))
+    if left:
+        return Outcome(case, "crash", f"left behind: {left}")
+    if outcome is not None:
+        return outcome
+    if case.must_reject:
+        return Outcome(case, "silently accepted", f"exported {dest}")
+    why = _arena_loads(dest, d["runs"])
+    if why:
+        return Outcome(case, "silently accepted", f"the export does not load: {why}")
+    return Outcome(case, "accepted and solved", "exported and loaded")
+
+
 RUNNERS = {"scenario": run_scenario, "option": run_option, "init": run_init,
            "result": run_result, "selftest": run_selftest, "map": run_map,
-           "database": run_database, "plugin": run_plugin}
+           "database": run_database, "plugin": run_plugin, "path": run_path, "crop": run_crop,
+           "scen": run_scen, "arena": run_arena}
 
 
 def run_case(case: Case, tmp: Path) -> Outcome:
@@ -2482,10 +2931,19 @@ def known_finding(outcome: Outcome) -> str | None:
 # ======================================================================================
 
 
+def surface_cases(seed: int = 0, families: Iterable[str] = ("path", "crop", "scen",
+                                                            "arena")) -> list[Case]:
+    """The ROS path message, ``crop=``, ``.scen`` and Planner Arena export families."""
+    make = {"path": lambda: path_cases(seed), "crop": crop_cases, "scen": scen_cases,
+            "arena": arena_cases}
+    return [c for f in families for c in make[f]()]
+
+
 def build_cases(seed: int = 0, n_scenarios: int = 3000, options: bool = True,
                 inits: bool = True, results: bool = True,
                 scenes: Iterable[str] | None = None, maps: bool = True,
-                databases: bool = True, plugins: bool = True) -> list[Case]:
+                databases: bool = True, plugins: bool = True,
+                surfaces: Iterable[str] = ("path", "crop", "scen", "arena")) -> list[Case]:
     cases = ScenarioFuzzer(seed).cases(n_scenarios, scenes)
     presets = preset_table() if (options or inits) else {}
     if options:
@@ -2500,7 +2958,7 @@ def build_cases(seed: int = 0, n_scenarios: int = 3000, options: bool = True,
         cases += database_cases(seed)
     if plugins:
         cases += plugin_cases()
-    return cases
+    return cases + surface_cases(seed, surfaces)
 
 
 def annotate(outcomes: list[Outcome]) -> list[Outcome]:
@@ -2551,7 +3009,8 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     cases = build_cases(args.seed, n_sc if "scenario" in fam else 0, "option" in fam,
                         "init" in fam, "result" in fam, maps="map" in fam,
-                        databases="database" in fam, plugins="plugin" in fam)
+                        databases="database" in fam, plugins="plugin" in fam,
+                        surfaces=[f for f in ("path", "crop", "scen", "arena") if f in fam])
     print(f"{len(cases)} cases ({time.perf_counter() - t0:.1f} s to generate); "
           f"{args.workers} workers, hang limit {HANG_S:g} CPU s", file=sys.stderr)
     last = [0.0]

@@ -1,8 +1,8 @@
 """Bad input never crashes, never hangs, never lies -- a bounded, seeded slice of the
 input fuzz of ``benchmarks/fuzz_inputs.py`` (the full run is ``python
 benchmarks/fuzz_inputs.py``: >= 3,000 scenarios, >= 2,500 option values, >= 200 inits, >= 50
-result files, and its counts table), with every map and results-database case and a seeded
-sample of the plugin cases.
+result files, and its counts table), with every map, results-database, ROS path message,
+``crop=``, ``.scen`` and Planner Arena export case and a seeded sample of the plugin cases.
 
 Every case runs in a worker process with a CPU-time limit (and a stall limit for a case blocked
 forever; no wall-clock limit a loaded machine could reach: the workers start with a readiness
@@ -53,6 +53,8 @@ def _slice() -> list[fz.Case]:
     cases += rng.sample(fz.result_cases(SEED, n_random=12), N_RESULTS)
     cases += fz.map_cases(SEED) + fz.database_cases(SEED)
     cases += rng.sample(fz.plugin_cases(), N_PLUGINS)
+    # every case of the ROS path message, crop=, .scen and Planner Arena export families
+    cases += fz.surface_cases(SEED)
     return cases
 
 
@@ -109,6 +111,8 @@ def test_full_run_sizes():
     assert len(fz.result_cases(0)) >= 50
     assert len(fz.map_cases(0)) >= 100 and len(fz.database_cases(0)) >= 25
     assert len(fz.plugin_cases()) >= 15
+    assert len(fz.path_cases(0)) >= 50 and len(fz.crop_cases()) >= 30
+    assert len(fz.scen_cases()) >= 30 and len(fz.arena_cases()) >= 15
     assert len(fz.ScenarioFuzzer(0).cases(200, ["open-field", "trap-u"])) == 200
 
 
