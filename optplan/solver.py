@@ -513,7 +513,8 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         Seconds (> 0).  The run stops at the first poll of the deadline after the limit (every
         backend polls it at least once per bounded step of every phase that grows with its
         options) and returns its best result with ``stop_reason = "time_limit"``
-        (docs/api.md, "Time limits").
+        (docs/api.md, "Time limits").  It replaces a backend's own ``time_limit`` option
+        (the hybrid presets' default budget, 60 s), which is then ``None``.
     reference : bool
         Also compute the certified optimum of the known static map (:func:`reference_optimum`,
         cached per problem): ``metrics["optimum"]``, ``metrics["ratio_to_optimum"]`` and
@@ -550,6 +551,10 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
     if time_limit is not None and (isinstance(time_limit, bool) or not isinstance(
             time_limit, (int, float)) or not (0 < time_limit < math.inf)):
         raise ValueError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
+    if time_limit is not None and "time_limit" in {f.name for f in dataclasses.fields(backend)}:
+        # the caller's limit replaces a backend's own default budget (the hybrid presets'
+        # 60 s): this call's deadline alone stops the run
+        backend = get_solver(backend, time_limit=None)
     stop = {"reason": ""}
     t0 = time.perf_counter()
     start = clock()  # the deadline's clock (module global: tests replace it)
