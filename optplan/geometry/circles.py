@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from optplan.geometry.obstacles import ObstacleSet
+from optplan.geometry.solids import corner_partners
 
 __all__ = ["TWO_PI", "ANGLE_TOL", "Circles", "circles_of", "ArcChecker"]
 
@@ -97,8 +98,10 @@ def circles_of(oset: ObstacleSet) -> Circles:
         idx = np.arange(int(sizes.sum()))
         pos = idx - start
         size = np.repeat(sizes, sizes)
-        v, lo, wd = _convex_vertices(np.concatenate(rings), start + (pos - 1) % size,
-                                     start + (pos + 1) % size)
+        allv, nxt = np.concatenate(rings), start + (pos + 1) % size
+        # at a pinch the rings meet: pair the edges by the solid wedge they bound
+        v, lo, wd = _convex_vertices(allv, corner_partners(allv, start + (pos - 1) % size, nxt),
+                                     nxt)
     else:
         v, lo, wd = np.zeros((0, 2)), np.zeros(0), np.zeros(0)
     cc = np.array(circ, dtype=float).reshape(-1, 3)

@@ -256,7 +256,11 @@ def _with_inserted(parts: list[np.ndarray], extra: dict[int, list[tuple[float, i
         ring = []
         for j in range(len(v)):
             ring.append(v[j])
-            ring.extend(verts[vi] for _, vi in sorted(extra.get(base + j, [])))
+            for _, vi in sorted(extra.get(base + j, [])):
+                # a pinch vertex is listed once per ring through it: insert it once (a
+                # repeated vertex is an edge of length 0, without a normal)
+                if verts[vi][0] != ring[-1][0] or verts[vi][1] != ring[-1][1]:
+                    ring.append(verts[vi])
         base += len(v)
         changed.append(True)
         out.append(np.asarray(ring))

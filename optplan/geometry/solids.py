@@ -26,6 +26,15 @@ Pinch points
     interior does not contain that point.  A point robot (``r <= eps``) may pass through it,
     exactly as the shapely oracle ("the segment does not meet the interior of the union")
     says; any robot with ``r > eps`` may not.
+
+    Where the touching pieces are also joined elsewhere (both touch the bounds wall, or a
+    chain of pieces closes a pocket), the union is one polygon whose rings meet at the pinch:
+    two holes, or a hole and the exterior, touching at a vertex.  Read ring by ring, that
+    vertex is *reflex* in each ring (the ring's turn there spans the other ring's wedge too),
+    although the solid has two *convex* corners there, one per piece, and a shortest path
+    through the pinch turns on one of them.  :func:`corner_partners` pairs the edges at such a
+    vertex by the solid wedge they bound, so that the corners read off the rings are the
+    solid's own, however GEOS lays out the rings.
 """
 
 from __future__ import annotations
@@ -36,7 +45,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from shapely.geometry import MultiPolygon, Polygon
 
-__all__ = ["merge_solids"]
+__all__ = ["merge_solids", "corner_partners"]
 
 
 def _valid_polygonal(g) -> object | None:
@@ -139,3 +148,46 @@ def _groups(geoms: list, idx: list[int], eps: float
     for u, v in zip(a[earlier].tolist(), b[earlier].tolist()):
         nbrs.setdefault(u, []).append(v)
     return groups, nbrs
+
+
+def corner_partners(v: np.ndarray, prv: np.ndarray, nxt: np.ndarray) -> np.ndarray:
+    """The incoming edge of each vertex's *solid wedge* (module docstring, pinch points).
+
+    ``v`` ``(n, 2)``: the vertices of closed rings with the solid on their left (all rings of
+    all solids concatenated), ``prv`` / ``nxt``: the index of each vertex's ring neighbours.
+    A vertex that the rings pass once bounds one solid wedge, between its incoming and its
+    outgoing edge: its entry is ``prv`` unchanged.  Where the rings pass a point ``k > 1``
+    times (a pinch), the ``2k`` edges there alternate around it between solid and free
+    wedges; the solid wedge left of an outgoing edge ends at the first edge counter-clockwise
+    from it, which is an incoming edge travelled backwards.  Returns ``prv`` with, at those
+    points, the start of that incoming edge: ``v[k] - v[out[k]]`` and ``v[nxt[k]] - v[k]``
+    are the two edges of one solid wedge, convex or not by the usual turn test.
+
+    Points are matched exactly (the merge snaps touching vertices onto each other); edges of
+    zero length keep their ring neighbour.
+    """
+    prv = np.asarray(prv)
+    out = prv.copy()
+    if len(v) < 2:
+        return out
+    z = v[:, 0] + 1j * v[:, 1]
+    _, inv, cnt = np.unique(z, return_inverse=True, return_counts=True)
+    inv = inv.ravel()
+    d_out = v[nxt] - v
+    d_back = v[prv] - v
+    ok = (cnt[inv] > 1) & np.any(d_out != 0, axis=1) & np.any(d_back != 0, axis=1)
+    rep = np.flatnonzero(ok)
+    if not len(rep):
+        return out
+    rep = rep[np.argsort(inv[rep], kind="stable")]
+    a_out = np.arctan2(d_out[rep, 1], d_out[rep, 0])
+    a_back = np.arctan2(d_back[rep, 1], d_back[rep, 0])
+    grp = inv[rep]
+    cut = np.flatnonzero(np.r_[True, grp[1:] != grp[:-1], True])
+    for s, e in zip(cut[:-1], cut[1:]):
+        if e - s < 2:
+            continue
+        ccw = np.mod(a_back[None, s:e] - a_out[s:e, None], 2.0 * np.pi)
+        ccw[ccw <= 0.0] = np.inf  # an edge back along an outgoing one: no wedge
+        out[rep[s:e]] = prv[rep[s:e][np.argmin(ccw, axis=1)]]
+    return out
