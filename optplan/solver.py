@@ -480,11 +480,22 @@ def time_reference(problem: Problem, robot_id: str) -> Any:
     return backend.earliest_arrival(problem, robot_id)
 
 
-def _early_stop_status(res: Result) -> Status:
-    """The one status of a run stopped by its callback or time limit: ``solved`` when the best
-    path so far is feasible and reaches the goal, else ``approximate``."""
-    m = res.metrics
-    return Status.solved if (m.get("feasible") and m.get("reached")) else Status.approximate
+def _without_own_limit(backend: Backend, time_limit: float | None) -> Backend:
+    """``backend`` without its own ``time_limit`` option (the hybrid presets' 60 s) when the
+    caller gives ``solve`` one: that call's deadline alone stops the run."""
+    if time_limit is None or "time_limit" not in {f.name for f in dataclasses.fields(backend)}:
+        return backend
+    return get_solver(backend, time_limit=None)
+
+
+def _stop_outcome(res: Result, reason: str, wall: float) -> tuple[Status, str]:
+    """``res``'s status and message; after a stop by ``solve``'s callback or limit (``reason``)
+    ``solved`` iff its best path is feasible and reaches the goal, and what stopped it."""
+    if not reason:
+        return res.status, res.message
+    m, what = res.metrics, "time limit" if reason == "time_limit" else "callback"
+    return (Status.solved if (m.get("feasible") and m.get("reached")) else Status.approximate,
+            (f"stopped by the {what} after {wall:.3f} s; " + res.message).rstrip("; "))
 
 
 def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
@@ -513,8 +524,7 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         Seconds (> 0).  The run stops at the first poll of the deadline after the limit (every
         backend polls it at least once per bounded step of every phase that grows with its
         options) and returns its best result with ``stop_reason = "time_limit"``
-        (docs/api.md, "Time limits").  It replaces a backend's own ``time_limit`` option
-        (the hybrid presets' default budget, 60 s), which is then ``None``.
+        (docs/api.md, "Time limits"); it replaces a backend's own (hybrid presets: 60 s).
     reference : bool
         Also compute the certified optimum of the known static map (:func:`reference_optimum`,
         cached per problem): ``metrics["optimum"]``, ``metrics["ratio_to_optimum"]`` and
@@ -551,10 +561,7 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
     if time_limit is not None and (isinstance(time_limit, bool) or not isinstance(
             time_limit, (int, float)) or not (0 < time_limit < math.inf)):
         raise ValueError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
-    if time_limit is not None and "time_limit" in {f.name for f in dataclasses.fields(backend)}:
-        # the caller's limit replaces a backend's own default budget (the hybrid presets'
-        # 60 s): this call's deadline alone stops the run
-        backend = get_solver(backend, time_limit=None)
+    backend = _without_own_limit(backend, time_limit)
     stop = {"reason": ""}
     t0 = time.perf_counter()
     start = clock()  # the deadline's clock (module global: tests replace it)
@@ -571,13 +578,8 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
                 stop["reason"] = "time_limit"
                 raise StopIteration
     res = backend.solve(prob, rng=gen, init=init, callback=cb)
-    wall = time.perf_counter() - t0
+    status, message = _stop_outcome(res, stop["reason"], time.perf_counter() - t0)
     metrics = dict(res.metrics)
-    status, message = res.status, res.message
-    if stop["reason"]:
-        status = _early_stop_status(res)
-        what = "time limit" if stop["reason"] == "time_limit" else "callback"
-        message = (f"stopped by the {what} after {wall:.3f} s; " + message).rstrip("; ")
     t_ref = 0.0
     if reference:
         t1 = time.perf_counter()
