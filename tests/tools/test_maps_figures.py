@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+import importlib.util
 from pathlib import Path
 
 import pytest
 
-from optplan.experiments import maps_figures
 from optplan.maps import import_map
+
+#: the script docs/figures/maps.py (outside the package: loaded from its file)
+_SPEC = importlib.util.spec_from_file_location(
+    "docs_figures_maps", Path(__file__).resolve().parents[2] / "docs" / "figures" / "maps.py")
+assert _SPEC is not None and _SPEC.loader is not None
+maps_figures = importlib.util.module_from_spec(_SPEC)
+_SPEC.loader.exec_module(maps_figures)
 
 
 def test_the_office_map_is_the_same_bytes_and_is_cropped_to_the_office(tmp_path: Path) -> None:

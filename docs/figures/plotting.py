@@ -1,7 +1,7 @@
 """The figures of docs/plotting.md (headless; run from anywhere).
 
-    python -m optplan.experiments.plotting_figures                 # into runs/plotting-figures/
-    python -m optplan.experiments.plotting_figures --out docs/img  # refresh the docs' figures
+    python docs/figures/plotting.py                 # into runs/plotting-figures/
+    python docs/figures/plotting.py --out docs/img  # refresh the docs' figures
 
 Writes ``plotting-map.png``, ``plotting-formation.png``, ``plotting-formation.gif``,
 ``plotting-collisions.png`` and ``plotting-convergence.png`` into ``--out`` (default
@@ -37,7 +37,7 @@ def first_available(*names: str) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m optplan.experiments.plotting_figures",
+    ap = argparse.ArgumentParser(prog="python docs/figures/plotting.py",
                                  description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT,

@@ -3,8 +3,8 @@
 Everything is drawn by :mod:`optplan.plot` (the functions behind ``optplan plot`` and
 ``optplan animate``) from results computed here with fixed seeds::
 
-    python -m optplan.experiments.hybrid_figures [--seed 0] [--out runs]
-    python -m optplan.experiments.hybrid_figures --out docs/img      # regenerate the docs
+    python docs/figures/hybrid.py [--seed 0] [--out runs]
+    python docs/figures/hybrid.py --out docs/img      # regenerate the docs
 
 Legends are placed outside the axes (they covered the warehouse's top-right corner).
 

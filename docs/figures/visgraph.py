@@ -1,7 +1,7 @@
 """The figure of docs/solvers/visgraph.md (headless; run from anywhere).
 
-    python -m optplan.experiments.visgraph_figures                 # into runs/visgraph-figures/
-    python -m optplan.experiments.visgraph_figures --out docs/img  # refresh the docs' figure
+    python docs/figures/visgraph.py                 # into runs/visgraph-figures/
+    python docs/figures/visgraph.py --out docs/img  # refresh the docs' figure
 
 Writes into ``--out`` (default ``runs/visgraph-figures``; the docs' copies in ``docs/img/``
 change only when ``--out`` names that folder):
@@ -26,7 +26,7 @@ DEFAULT_OUT = Path("runs") / "visgraph-figures"
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m optplan.experiments.visgraph_figures",
+    ap = argparse.ArgumentParser(prog="python docs/figures/visgraph.py",
                                  description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT,

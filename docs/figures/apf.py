@@ -1,6 +1,6 @@
 """Figures of docs/solvers/apf.md: each trap and both paper environments, apf vs sa-apf.
 
-Run: ``python -m optplan.experiments.apf_figures [--seed 0] [--out runs]`` (writes
+Run: ``python docs/figures/apf.py [--seed 0] [--out runs]`` (writes
 ``apf-traps.png``, ``apf-env1.png`` and ``apf-env2.png`` into ``--out``; ``--out docs/img``
 regenerates the docs' figures).
 """
@@ -43,7 +43,7 @@ def draw(ax, name: str, seed: int = 0) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m optplan.experiments.apf_figures",
+    ap = argparse.ArgumentParser(prog="python docs/figures/apf.py",
                                  description=__doc__.split("\n\n")[0])
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=Path("runs"),

@@ -1,7 +1,7 @@
 """The figures of docs/solvers/formation-nlp.md (headless; run from anywhere).
 
-    python -m optplan.experiments.team_figures                 # into runs/team-figures/
-    python -m optplan.experiments.team_figures --out docs/img  # refresh the docs' figures
+    python docs/figures/team.py                 # into runs/team-figures/
+    python docs/figures/team.py --out docs/img  # refresh the docs' figures
 
 Writes into ``--out`` (default ``runs/team-figures``):
 

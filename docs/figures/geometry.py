@@ -1,7 +1,7 @@
 """The figure of docs/geometry.md: solids and the bounds wall (headless; run from anywhere).
 
-    python -m optplan.experiments.geometry_figures                 # into runs/geometry-figures/
-    python -m optplan.experiments.geometry_figures --out docs/img  # refresh the docs' figure
+    python docs/figures/geometry.py                 # into runs/geometry-figures/
+    python docs/figures/geometry.py --out docs/img  # refresh the docs' figure
 
 Writes ``geometry-solids.png`` into ``--out`` (default ``runs/geometry-figures``): three certified
 (``visgraph``) paths, drawn with :mod:`optplan.plot`:
@@ -53,7 +53,7 @@ def scenes() -> list[tuple[str, op.Problem]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m optplan.experiments.geometry_figures",
+    ap = argparse.ArgumentParser(prog="python docs/figures/geometry.py",
                                  description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT,

@@ -1,8 +1,8 @@
 """Figures of docs/solvers/formation.md: both formation solvers on paper-formation and
 paper-warehouse (trajectories, formation snapshots, formation error over time).
 
-    python -m optplan.experiments.formation_figures                  # into runs/
-    python -m optplan.experiments.formation_figures --out docs/img   # the docs' figures
+    python docs/figures/formation.py                  # into runs/
+    python docs/figures/formation.py --out docs/img   # the docs' figures
 
 Writes ``formation-<scene>.png`` per scene (seed 0, leader reference by ``visgraph``) into
 ``--out`` (default ``runs/``).

@@ -1,8 +1,8 @@
 """The figure of docs/maps.md: an imported ROS map, cropped, with the planners' paths
 (headless; run from anywhere).
 
-    python -m optplan.experiments.maps_figures                 # into runs/maps-figures/
-    python -m optplan.experiments.maps_figures --out docs/img  # refresh the docs' figure
+    python docs/figures/maps.py                 # into runs/maps-figures/
+    python docs/figures/maps.py --out docs/img  # refresh the docs' figure
 
 Writes a ROS ``map_server`` map (``office.yaml`` + ``office.pgm``, drawn here, the same bytes on
 every run: a 9 x 6 m office of two rooms, a corridor, furniture and pillars mapped at 5 cm in a
@@ -104,7 +104,7 @@ def _draw_image(ax: Any, info: dict[str, Any]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m optplan.experiments.maps_figures",
+    ap = argparse.ArgumentParser(prog="python docs/figures/maps.py",
                                  description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT,

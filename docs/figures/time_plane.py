@@ -1,7 +1,7 @@
 """The figure of docs/time.md: the (arc length, time) plane of a path (headless).
 
-    python -m optplan.experiments.time_figures                 # into runs/time-figures/
-    python -m optplan.experiments.time_figures --out docs/img  # refresh the docs' figure
+    python docs/figures/time_plane.py                 # into runs/time-figures/
+    python docs/figures/time_plane.py --out docs/img  # refresh the docs' figure
 
 Writes ``time-st-plane.png``: on the left the scene (a robot's two-segment path, a sliding door
 and two discs crossing it, one of them bouncing), on the right the (arc length, time) plane of
