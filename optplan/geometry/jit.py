@@ -60,10 +60,9 @@ from typing import Any
 import numba
 import numpy as np
 from numba import types
-from numba.core.compiler_lock import global_compiler_lock
-from numba.core.registry import CPUDispatcher
 
 from optplan.geometry.kernel_cache import REGISTRY, KernelCache
+from optplan.geometry.numba_internals import NO_REFCOUNT, LazyDispatcher, global_compiler_lock
 
 __all__ = ["compiled", "leaf", "inlined", "OneSignature", "argsort_stable",
            "heap_push", "heap_pop", "f8", "i8", "b1", "F1", "F2", "F3", "I1", "I2", "B1", "B2",
@@ -85,7 +84,7 @@ IA1 = types.Array(i8, 1, "A")
 IA2 = types.Array(i8, 2, "A")
 
 
-class OneSignature(CPUDispatcher):
+class OneSignature(LazyDispatcher):
     """A numba dispatcher that compiles one declared signature, lazily.
 
     Until its first call it can compile; the first compilation request, whatever argument
@@ -95,6 +94,8 @@ class OneSignature(CPUDispatcher):
     (:meth:`optplan.geometry.kernel_cache.KernelCache.compiling`: processes started together
     compile each kernel once).  Later calls are converted to that signature or rejected,
     exactly as for ``numba.njit([signature])``, which compiles the same signature at import.
+    (The first call reaches :meth:`compile` through numba internals:
+    :class:`optplan.geometry.numba_internals.LazyDispatcher`.)
     """
 
     _declared: tuple[Any, ...] | None = None
@@ -116,21 +117,16 @@ class OneSignature(CPUDispatcher):
             return super().compile(sig)
         disp: Any = self  # numba's attributes are untyped
         with global_compiler_lock:
-            if not disp._can_compile:  # compiled meanwhile: the declared overload exists
+            if not self.can_compile:  # compiled meanwhile: the declared overload exists
                 return disp.overloads[self._declared].entry_point
-            with disp._cache.compiling():  # another process compiling it: wait, then load
+            with self.kernel_cache.compiling():  # another process compiling it: wait, load
                 entry = super().compile(self._declared)
             self.disable_compile()
             return entry
 
-    def _compile_for_args(self, *_args: Any) -> Any:
-        """First call from Python: compile the declared signature, then dispatch the call
-        as for an eagerly compiled dispatcher (converted to the declared types, or a
-        ``TypeError``): numba calls what this returns with the call's arguments."""
-        disp: Any = self
-        disp._compilation_chain_init_hook()
-        self.compile(self._declared)
-        return self
+    def first_signature(self) -> Any:
+        """The declared signature (what the first call compiles)."""
+        return self._declared
 
 
 def compiled(*argtypes: Any, refcount: bool = True) -> Callable[[Callable[..., Any]], Any]:
@@ -152,13 +148,13 @@ def compiled(*argtypes: Any, refcount: bool = True) -> Callable[[Callable[..., A
         ``argtypes`` (or arguments safely converted to them).
     """
     sig = tuple(argtypes)
-    extra = {} if refcount else {"_nrt": False}
+    extra = {} if refcount else NO_REFCOUNT
 
     def wrap(fn: Callable[..., Any]) -> Any:
         disp = OneSignature(py_func=fn, locals={}, targetoptions={
             "nopython": True, "nogil": True, "fastmath": False, "boundscheck": None, **extra})
         # numba's cache, then the shipped one (kernel_cache)
-        disp._cache = KernelCache(fn)  # type: ignore[attr-defined]
+        disp.kernel_cache = KernelCache(fn)
         disp._declared = sig
         REGISTRY.append(disp)
         return disp

@@ -15,6 +15,9 @@ places, in this order (:class:`KernelCache`):
    *generic* CPU of the build's platform (numba's ``NUMBA_CPU_NAME=generic``: the baseline
    instruction set, x86-64 with SSE2 on a PC, so it runs on any CPU of that platform).
 
+numba has no public API for either: the numba internals this needs are in
+:mod:`optplan.geometry.numba_internals`, and nowhere else.
+
 numba keys an entry on the function's signature, its bytecode, the platform triple, the CPU
 name and features and numba's version; the shipped entries are stamped with a hash of the
 sources of every kernel module (a kernel's machine code includes the kernels it calls, from
@@ -46,8 +49,14 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any
 
-from numba.core import config
-from numba.core.caching import CompileResultCacheImpl, FunctionCache, _CacheLocator
+from optplan.geometry.numba_internals import (
+    CacheLocator,
+    LocatedCache,
+    cpu,
+    index_lock_path,
+    numba_cache,
+    user_cache_dir,
+)
 
 __all__ = ["KERNEL_MODULES", "REGISTRY", "SHIPPED_DIR", "GENERIC_CPU", "KernelCache",
            "NoKernelCacheWarning", "ShippedCache", "build", "build_in_child"]
@@ -87,7 +96,7 @@ def _sources_hash() -> str:
     return h.hexdigest()
 
 
-class _ShippedLocator(_CacheLocator):
+class _ShippedLocator(CacheLocator):
     """numba cache locator of the shipped cache: ``root/<the module's package path>``,
     stamped with the contents of every kernel module (:func:`_sources_hash`; not their
     modification times, which an installation does not keep)."""
@@ -95,7 +104,7 @@ class _ShippedLocator(_CacheLocator):
     root: Path = SHIPPED_DIR
 
     def __init__(self, py_func: Any, py_file: str) -> None:
-        self._py_file = py_file
+        super().__init__(py_file)
         self._lineno = py_func.__code__.co_firstlineno
         rel = Path(py_file).resolve().parent.relative_to(PACKAGE_DIR)
         self._cache_path = str(self.root / rel)
@@ -117,25 +126,18 @@ class _ShippedLocator(_CacheLocator):
             return None
 
 
-class _ShippedImpl(CompileResultCacheImpl):
-    _locator_classes = [_ShippedLocator]
-
-
-class ShippedCache(FunctionCache):
+class ShippedCache(LocatedCache):
     """numba's function cache on the shipped directory, keyed with the generic CPU (the CPU
     the entries were compiled for) instead of this process's CPU."""
 
-    _impl_class = _ShippedImpl
+    locator = _ShippedLocator
+    cpu = GENERIC_CPU
 
     @contextmanager
     def compiling(self) -> Iterator[None]:
         """No lock (:meth:`KernelCache.compiling`): the shipped cache is built by one
         process."""
         yield
-
-    def _index_key(self, sig: Any, codegen: Any) -> Any:
-        key = super()._index_key(sig, codegen)
-        return (key[0], (key[1][0], *GENERIC_CPU), key[2])
 
 
 class KernelCache:
@@ -144,11 +146,8 @@ class KernelCache:
     ``_cache``."""
 
     def __init__(self, py_func: Any) -> None:
-        self._own: FunctionCache | None
-        try:
-            self._own = FunctionCache(py_func)
-        except RuntimeError:  # numba: "cannot cache function ...: no locator available"
-            self._own = None
+        self._own: Any = numba_cache(py_func)  # None: numba has no writable cache directory
+        if self._own is None:
             _warn_no_cache(py_func)
         self._shipped: ShippedCache | None = None
         if SHIPPED_DIR.is_dir():
@@ -190,8 +189,7 @@ class KernelCache:
         try:
             import fcntl
 
-            self._own._impl.locator.ensure_cache_path()
-            f = open(self._own._cache_file._index_path + ".lock", "a")  # noqa: SIM115
+            f = open(index_lock_path(self._own), "a")  # noqa: SIM115
         except (ImportError, OSError):
             yield
             return
@@ -232,9 +230,7 @@ def _warn_no_cache(py_func: Any) -> None:
     _warned.append(True)
     import warnings
 
-    from numba.misc.appdirs import AppDirs
-
-    user = AppDirs(appname="numba", appauthor=False).user_cache_dir
+    user = user_cache_dir()
     here = Path(py_func.__code__.co_filename).resolve().parent / "__pycache__"
     shipped = " (the kernels the wheel ships are still loaded)" if SHIPPED_DIR.is_dir() else ""
     warnings.warn(
@@ -264,16 +260,14 @@ def build(dest: str | os.PathLike[str], modules: Sequence[str] = KERNEL_MODULES)
     Runs in a process started with ``NUMBA_CPU_NAME=generic`` (:func:`build_in_child` starts
     one); refuses otherwise.  Returns the number of kernels compiled.
     """
-    cfg: Any = config  # numba's settings module (untyped)
-    if (cfg.CPU_NAME, cfg.CPU_FEATURES) != GENERIC_CPU:
+    if cpu() != GENERIC_CPU:
         raise RuntimeError("the shipped kernel cache must be compiled for the generic CPU: "
                            "use build_in_child(dir) (it sets NUMBA_CPU_NAME=generic); this "
-                           f"process has NUMBA_CPU_NAME={cfg.CPU_NAME!r}")
+                           f"process has NUMBA_CPU_NAME={cpu()[0]!r}")
     _ShippedLocator.root = Path(dest).resolve()
     disps = _dispatchers(modules)
     for d in REGISTRY:  # before anything compiles: a kernel's callees save there too
-        disp: Any = d  # numba's dispatcher attributes are untyped
-        disp._cache = ShippedCache(d.py_func)
+        d.kernel_cache = ShippedCache(d.py_func)
     for d in disps:
         d.compile(d._declared)
     return len(disps)
