@@ -39,9 +39,19 @@ from optplan.swarm.core import (
     make_space,
 )
 from optplan.swarm.operators import BOUNDS_MODES, INIT_MODES, initial_swarm
-from optplan.swarm.roadmap import roadmap_corridors
+from optplan.swarm.roadmap import MAX_NEIGHBOURS, roadmap_corridors
 
-__all__ = ["SwarmState", "SwarmBackend", "new_state", "converged_iteration"]
+__all__ = ["SwarmState", "SwarmBackend", "new_state", "converged_iteration", "MAX_PARTICLES",
+           "MAX_SAMPLES"]
+
+#: The largest ``n_particles`` (200 x the paper's 50): with the largest ``n_waypoints`` (200)
+#: one position array is 32 MB and one iteration a bounded step (docs/solvers/pso.md,
+#: "Options").
+MAX_PARTICLES = 10_000
+
+#: The largest ``roadmap_samples``, ``roadmap_boundary`` and ``roadmap_medial`` (14 to 125 x
+#: the defaults): a roadmap of at most ~15,000 nodes (docs/solvers/pso.md, "Options").
+MAX_SAMPLES = 5_000
 
 
 def converged_iteration(best: np.ndarray, rel: float = 1e-3) -> int:
@@ -122,11 +132,14 @@ class SwarmState:
                 self.feas_x = X[k].copy()
 
 
-def new_state(X: np.ndarray, V: np.ndarray, ev: SwarmEval) -> SwarmState:
+def new_state(X: np.ndarray, V: np.ndarray, ev: SwarmEval, *, own: bool = False) -> SwarmState:
+    """The state of a swarm at ``X`` with velocities ``V`` and fitness ``ev`` (the personal
+    bests are a copy of ``X``).  ``own``: ``X`` and ``V`` are handed over (the state uses them
+    instead of copies: no needless copy of a large swarm)."""
     j = int(np.argmin(ev.cost))
-    st = SwarmState(X=X.copy(), V=V.copy(), F=ev.cost.copy(), pbest=X.copy(),
-                    pbest_f=ev.cost.copy(), gbest=X[j].copy(), gbest_f=float(ev.cost[j]),
-                    gbest_count=int(ev.count[j]), n_eval=len(X))
+    st = SwarmState(X=X if own else X.copy(), V=V if own else V.copy(), F=ev.cost.copy(),
+                    pbest=X.copy(), pbest_f=ev.cost.copy(), gbest=X[j].copy(),
+                    gbest_f=float(ev.cost[j]), gbest_count=int(ev.count[j]), n_eval=len(X))
     st.offer(X, ev)
     return st
 
@@ -169,7 +182,8 @@ class SwarmBackend(Backend):
         (:func:`optplan.swarm.samples.medial_samples`).
     roadmap_neighbours : int
         Nearest neighbours each roadmap node is connected to (besides its Yao edges and the
-        pairs of corner nodes); 0 connects every pair of nodes.
+        pairs of corner nodes); 0 connects every pair of nodes (a roadmap of at most 1,024
+        nodes; a larger one gets the largest value, 64).
     corridors : int
         Homotopy classes taken from the roadmap (beyond the paper): its ``corridors`` shortest
         walks of distinct classes (:func:`optplan.swarm.roadmap.roadmap_corridors`); the
@@ -179,7 +193,7 @@ class SwarmBackend(Backend):
 
     name: ClassVar[str] = "swarm"
 
-    n_particles: int = option(50, lo=2, hi=100_000)
+    n_particles: int = option(50, lo=2, hi=MAX_PARTICLES)
     k_max: int = option(200, lo=0, hi=1_000_000)
     c1: float = option(1.5, lo=0.0, hi=10.0)
     c2: float = option(1.5, lo=0.0, hi=10.0)
@@ -189,10 +203,10 @@ class SwarmBackend(Backend):
     init_mode: str = option("sorted", choices=INIT_MODES)
     penalty_weight: float | None = option(None, lo=0.0, scale=True)
     penetration_weight: float = option(0.0, lo=0.0)
-    roadmap_samples: int = option(40, lo=0, hi=100_000)
-    roadmap_boundary: int = option(360, lo=0, hi=100_000)
-    roadmap_medial: int = option(200, lo=0, hi=100_000)
-    roadmap_neighbours: int = option(25, lo=0, hi=100_000)
+    roadmap_samples: int = option(40, lo=0, hi=MAX_SAMPLES)
+    roadmap_boundary: int = option(360, lo=0, hi=MAX_SAMPLES)
+    roadmap_medial: int = option(200, lo=0, hi=MAX_SAMPLES)
+    roadmap_neighbours: int = option(25, lo=0, hi=MAX_NEIGHBOURS)
     corridors: int = option(30, lo=1, hi=1000)
 
     # -- hooks for subclasses ------------------------------------------------------
@@ -290,7 +304,7 @@ class SwarmBackend(Backend):
             ev, cut = evaluate_swarm(X, space), False
         except Interrupted as e:  # the rows not scored are never feasible
             ev, cut = e.ev, True
-        state = new_state(X, V, ev)
+        state = new_state(X, V, ev, own=True)  # X and V are this run's own
         run = self._start(space, state, seeds, rng)
         rows: list[dict[str, Any]] = []
 

@@ -286,27 +286,34 @@ class PathBuffer:
     ``paths(i)``): an iteration writes its particles straight into the polylines that the
     fitness kernel reads, with no decode or concatenation.  Two batches alternate so that the
     swarm of iteration ``k`` (a view into one) is intact while iteration ``k + 1`` writes the
-    other.
+    other; each is allocated when first used (a run stopped before its first iteration
+    allocates neither).
     """
 
     def __init__(self, space: SwarmSpace, rows: int) -> None:
-        self._paths = []
-        self._X = []
-        for _ in range(2):
+        self._space, self._rows = space, rows
+        self._paths: list[np.ndarray | None] = [None, None]  # made on first use (a large
+        self._X: list[np.ndarray | None] = [None, None]  # swarm's is hundreds of MB)
+
+    def _batch(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+        b = i % 2
+        p, X = self._paths[b], self._X[b]
+        if p is None or X is None:
+            space, rows = self._space, self._rows
             p = np.empty((rows, space.n_waypoints + 2, 2))
             p[:, 0] = space.start
             p[:, -1] = space.goal
-            self._paths.append(p)
             X = p[:, 1:-1].reshape(rows, space.dim)  # a view: each row's inner block
             if not np.shares_memory(X, p):  # pragma: no cover - numpy guarantees the view
                 raise RuntimeError("PathBuffer: the particle view of the paths is a copy")
-            self._X.append(X)
+            self._paths[b], self._X[b] = p, X
+        return p, X
 
     def paths(self, i: int) -> np.ndarray:
-        return self._paths[i % 2]
+        return self._batch(i)[0]
 
     def X(self, i: int) -> np.ndarray:
-        return self._X[i % 2]
+        return self._batch(i)[1]
 
 
 # --------------------------------------------------------------------------------------

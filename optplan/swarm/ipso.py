@@ -81,7 +81,7 @@ import numpy as np
 
 from optplan.geometry.jit import F1, F2, F3, FA2, I1, argsort_stable, compiled, f8, i8, inlined
 from optplan.solver import option
-from optplan.swarm.backend import SwarmBackend, SwarmState
+from optplan.swarm.backend import MAX_PARTICLES, SwarmBackend, SwarmState
 from optplan.swarm.core import PathBuffer, SwarmSpace, evaluate_paths
 from optplan.swarm.endgame import endgame_candidates, tighten_best
 from optplan.swarm.ga import ga_children, ga_pairs
@@ -333,7 +333,8 @@ class IPSO(SwarmBackend):
         Eq 24 as printed (absolute coordinates), on the step, or in the start-goal frame
         (module docstring).
     A : int
-        Number of best particles selected for crossover (even; the paper does not give it).
+        Number of best particles selected for crossover (even; the paper does not give it);
+        at most the whole swarm is selected (``A / islands`` per island, at most its size).
     crossover : {"blend", "swap"}
         The GA crossover of a selected pair.  ``"swap"`` (``ipso-paper``): the paper's text,
         "intercept the locally identical path information in two particles ... swapping each
@@ -384,11 +385,11 @@ corridors
     w_min: float = option(0.2, lo=0.0, hi=1.0)
     inertia: str = option("paper", choices=INERTIA_MODES)
     position_update: str = option("paper", choices=POSITION_MODES)
-    A: int = option(10, lo=0, hi=100_000)
+    A: int = option(10, lo=0, hi=MAX_PARTICLES)
     crossover: str = option("blend", choices=CROSSOVER_MODES)
     crossover_tol: float = option(0.05, lo=0.0, inf_ok=True)
     mutation_scale: float = option(0.05, lo=0.0, hi=10.0)
-    islands: int = option(1, lo=1, hi=10_000)
+    islands: int = option(1, lo=1, hi=MAX_PARTICLES // 2)
     tighten_rounds: int = option(0, lo=0, hi=100_000)
     endgame: str = option("islands", choices=ENDGAME_MODES)
     endgame_margin: float = option(0.005, lo=0.0, hi=10.0)
@@ -429,7 +430,8 @@ corridors
         P = self.n_particles
         tol = self.crossover_tol * space.diag
         run = IPSORun(
-            buffer=PathBuffer(space, P + 2 * self.A),  # swarm, mutants, children
+            # swarm, mutants, children: at most I n_select of each (A beyond that selects none)
+            buffer=PathBuffer(space, P + 2 * I * self._selection_size()),
             vmax=self._vmax(space), mut_sigma=self.mutation_scale * space.span,
             n_islands=I, n_select=self._selection_size(),
             tol2=tol * tol if math.isfinite(tol) else math.inf,

@@ -23,6 +23,7 @@ compiled with numba, the rest (candidate edges, CSR form) is vectorised numpy.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,7 +47,33 @@ from optplan.swarm.refine import _flat, _pull
 from optplan.swarm.samples import roadmap_nodes
 from optplan.swarm.signatures import _segment_hashes
 
-__all__ = ["CORNER_REACH", "YAO_SECTORS", "Roadmap", "build_roadmap", "roadmap_corridors"]
+__all__ = ["CORNER_REACH", "CORNER_PARTNERS", "YAO_SECTORS", "ALL_PAIRS_NODES", "PAIRS_PER_POLL",
+           "MAX_NEIGHBOURS", "RoadmapStopped", "Roadmap", "build_roadmap", "roadmap_corridors"]
+
+#: Candidate pairs tested (or node pairs scanned by the Yao search, or labels popped by the
+#: class search) between two polls of the deadline (``space.poll``): a roadmap of any size in
+#: the options' ranges is built in bounded steps.
+PAIRS_PER_POLL = 1 << 16
+
+#: ``roadmap_neighbours = 0`` (or >= the node count) connects every pair of at most this many
+#: nodes (~524,000 pairs); a larger roadmap gets ``MAX_NEIGHBOURS`` (a dense one does not fit).
+ALL_PAIRS_NODES = 1024
+
+#: Labels the class search (:func:`_k_classes`) makes room for first (doubled when full).
+FIRST_LABELS = 1 << 16
+#: Nearest neighbours of a node at most (the largest ``roadmap_neighbours``).
+MAX_NEIGHBOURS = 64
+
+
+class RoadmapStopped(Exception):
+    """The deadline (``space.poll``) stopped the roadmap: :func:`roadmap_corridors` gives none."""
+
+
+def _poll(stop: Callable[[], bool] | None) -> None:
+    """Raise :class:`RoadmapStopped` when the deadline's poll asks to stop."""
+    if stop is not None and stop():
+        raise RoadmapStopped
+
 
 @leaf(I2, I1, i8, i8)
 def _has_class(shash, settled, v, h):
@@ -58,40 +85,32 @@ def _has_class(shash, settled, v, h):
     return False
 
 
-@compiled(I1, I1, F1, I1, F1, i8, i8, i8, i8, f8)
-def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node, slack):
-    """Label-setting search for the ``k_goal`` shortest ``src -> dst`` walks of distinct
-    homotopy signatures (each node settles at most ``k_node`` signatures, shortest first),
-    A*-ordered by ``g + heur[node]`` (``heur``: a consistent lower bound of the distance to
-    ``dst``, e.g. the exact roadmap distance, so each node still settles its labels shortest
-    first; ``inf`` marks nodes that do not reach ``dst``).  The search stops at the
-    first label longer than ``slack`` x the first walk found (the walks it could still find
-    are at least that long).
-
-    Returns the goal labels (shortest first), each label's node and parent label.
-    """
-    n = indptr.shape[0] - 1
-    cap = k_node * nbr.shape[0] + 1  # every settled label pushes one label per edge
-    lab_node = np.empty(cap, np.int64)
-    lab_hash = np.empty(cap, np.int64)
-    lab_par = np.empty(cap, np.int64)
-    lab_g = np.empty(cap)
-    hk = np.empty(cap)
-    hv = np.empty(cap, np.int64)
-    lab_node[0] = src
-    lab_hash[0] = 0
-    lab_par[0] = -1
-    lab_g[0] = 0.0
-    n_lab = 1
-    settled = np.zeros(n, np.int64)
-    shash = np.empty((n, k_node), np.int64)
-    goals = np.empty(k_goal, np.int64)
-    n_goal = 0
-    size = heap_push(hk, hv, 0, heur[src], 0)
-    bound = np.inf
+@compiled(I1, I1, F1, I1, F1, i8, i8, i8, f8, I1, F1, I1, I1, I1, F1, F1, I1, I1, I2, I1, i8, i8)
+def _k_classes_run(indptr, nbr, weight, ehash, heur, dst, k_goal, k_node, slack, st, bnd,
+                   lab_node, lab_hash, lab_par, lab_g, hk, hv, settled, shash, goals, max_deg,
+                   budget):
+    """The loop of :func:`_k_classes`, resumable (its scalars ``st = [heap size, labels, goal
+    labels]``, ``bnd = [bound]`` updated in place).  Returns 0 when the search is over, 1 after
+    ``budget`` units of work (labels popped, edges scanned), 2 when the label arrays may not
+    hold one more expansion (``max_deg``: the largest degree; the caller grows them)."""
+    size = st[0]
+    n_lab = st[1]
+    n_goal = st[2]
+    bound = bnd[0]
+    cap = lab_node.shape[0]
+    code = 0
+    pops = 0
     while size > 0 and n_goal < k_goal:
+        if pops >= budget:
+            code = 1
+            break
+        if n_lab + max_deg > cap:
+            code = 2
+            break
+        pops += 1
         f, lab, size = heap_pop(hk, hv, size)
         if f > bound:
+            size = 0
             break
         v = lab_node[lab]
         d = lab_g[lab]
@@ -100,6 +119,7 @@ def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node, slack
             continue
         shash[v, settled[v]] = h
         settled[v] += 1
+        pops += indptr[v + 1] - indptr[v]  # the edges scanned below
         if v == dst:
             goals[n_goal] = lab
             if n_goal == 0:
@@ -122,6 +142,65 @@ def _k_classes(indptr, nbr, weight, ehash, heur, src, dst, k_goal, k_node, slack
             lab_g[n_lab] = g
             size = heap_push(hk, hv, size, g + heur[u], n_lab)
             n_lab += 1
+    st[0] = size
+    st[1] = n_lab
+    st[2] = n_goal
+    bnd[0] = bound
+    return code
+
+
+def _k_classes(indptr: np.ndarray, nbr: np.ndarray, weight: np.ndarray, ehash: np.ndarray,
+               heur: np.ndarray, src: int, dst: int, k_goal: int, k_node: int, slack: float,
+               stop: Callable[[], bool] | None = None
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Label-setting search for the ``k_goal`` shortest ``src -> dst`` walks of distinct
+    homotopy signatures (each node settles at most ``k_node`` signatures, shortest first),
+    A*-ordered by ``g + heur[node]`` (``heur``: a consistent lower bound of the distance to
+    ``dst``, e.g. the exact roadmap distance, so each node still settles its labels shortest
+    first; ``inf`` marks nodes that do not reach ``dst``).  The search stops at the
+    first label longer than ``slack`` x the first walk found (the walks it could still find
+    are at least that long).
+
+    The compiled loop (:func:`_k_classes_run`) runs in steps of 16 x :data:`PAIRS_PER_POLL`
+    units of work (labels popped, edges scanned), polling ``stop`` between two and after a
+    large growth (:class:`RoadmapStopped`); its label arrays hold :data:`FIRST_LABELS` first,
+    doubled when full (at most ``k_node`` x the directed edges).
+
+    Returns the goal labels (shortest first), each label's node and parent label.
+    """
+    n = indptr.shape[0] - 1
+    full = k_node * nbr.shape[0] + 1  # every settled label pushes one label per edge
+    max_deg = int(np.diff(indptr).max()) if n else 0
+    cap = min(full, FIRST_LABELS + max_deg)
+    lab_node = np.empty(cap, np.int64)
+    lab_hash = np.empty(cap, np.int64)
+    lab_par = np.empty(cap, np.int64)
+    lab_g = np.empty(cap)
+    hk = np.empty(cap)
+    hv = np.empty(cap, np.int64)
+    lab_node[0], lab_hash[0], lab_par[0], lab_g[0] = src, 0, -1, 0.0
+    hk[0], hv[0] = heur[src], 0  # a heap of one label
+    settled = np.zeros(n, np.int64)
+    shash = np.empty((n, k_node), np.int64)
+    goals = np.empty(k_goal, np.int64)
+    st = np.array([1, 1, 0], np.int64)
+    bnd = np.array([np.inf])
+    budget = PAIRS_PER_POLL << 4 if stop is not None else 1 << 62
+    while True:
+        code = _k_classes_run(indptr, nbr, weight, ehash, heur, dst, k_goal, k_node, slack, st,
+                              bnd, lab_node, lab_hash, lab_par, lab_g, hk, hv, settled, shash,
+                              goals, max_deg, budget)
+        if code == 0:
+            break
+        if code == 2:
+            m = int(st[1])
+            cap = max(min(full, 2 * cap), m + max_deg)
+            lab_node, lab_hash, lab_par, lab_g, hk, hv = (  # the first m kept
+                np.concatenate((x[:m], np.empty(cap - m, x.dtype)))
+                for x in (lab_node, lab_hash, lab_par, lab_g, hk, hv))
+        if code == 1 or cap > budget:  # a step done, or a large growth
+            _poll(stop)
+    n_lab, n_goal = int(st[1]), int(st[2])
     return goals[:n_goal], lab_node[:n_lab], lab_par[:n_lab]
 
 
@@ -156,9 +235,11 @@ def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 
     """The sparse random roadmap (beyond the paper; no exact planner).  Nodes:
     :func:`roadmap_nodes`.  Edges: each node to its ``k_neighbours`` nearest nodes (start and
     goal to twice as many) and to its nearest node in each of :data:`YAO_SECTORS` angular
-    sectors, and every pair of corner nodes (taut paths run between corners; 0 neighbours:
-    every pair of nodes), kept when collision-free with the margin of ``space.clear``.  None
-    when no edge is free.
+    sectors, and every pair of corner nodes (taut paths run between corners; at most
+    :data:`CORNER_PARTNERS` per corner node) within :data:`CORNER_REACH` x diag, kept when
+    collision-free with the margin of ``space.clear``; 0 neighbours: every pair of nodes (up to
+    :data:`ALL_PAIRS_NODES` nodes, else :data:`MAX_NEIGHBOURS` neighbours).  None when no edge
+    is free.
 
     ``slack`` (the search bound of :func:`roadmap_corridors`): the neighbour and Yao edges are
     tested first; with ``U`` the shortest start-goal walk over them, a corner pair ``(a, b)``
@@ -168,20 +249,36 @@ def build_roadmap(space: SwarmSpace, rng: np.random.Generator, n_samples: int = 
     class search returns the same walks; it only skips the collision tests of long corner pairs
     far from the start-goal line.
 
-    The candidate edges come from :func:`_base_edges` and :func:`_corner_edges`,
-    and each group is tested in one call of the collision kernel (two calls in all)."""
+    The candidate edges come from :func:`_base_edges` and :func:`_corner_edges` (sparse), each
+    group tested in passes of :data:`PAIRS_PER_POLL` pairs; ``space.poll`` (the deadline) is
+    polled between two passes and, past :data:`ALL_PAIRS_NODES` nodes, between the phases."""
     nodes, corner = roadmap_nodes(space, n_samples, rng, boundary, medial)
     n = len(nodes)
-    if k_neighbours <= 0 or k_neighbours >= n - 1:  # every pair
+    _poll(space.poll if n > ALL_PAIRS_NODES else None)
+    if (k_neighbours <= 0 or k_neighbours >= n - 1) and n <= ALL_PAIRS_NODES:  # every pair
         i, j = np.triu_indices(n, 1)
-        ok = pairs_free(nodes, i, j, space)
-    else:
-        i, j, ok = _tested_edges(space, nodes, corner, k_neighbours, slack)
+        ok = _free(nodes, i, j, space)
+    else:  # (0 on a large roadmap: the most neighbours)
+        k_neighbours = MAX_NEIGHBOURS if k_neighbours <= 0 else k_neighbours
+        i, j, ok = _tested_edges(space, nodes, corner, min(k_neighbours, MAX_NEIGHBOURS), slack)
     i, j = i[ok], j[ok]
     if len(i) == 0:
         return None
     return Roadmap(nodes, *_roadmap_csr(nodes, i, j, space.signature_points,
-                                        space.signature_keys))
+                                        space.signature_keys, space.poll))
+
+
+def _free(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, space: SwarmSpace) -> np.ndarray:
+    """:func:`pairs_free` in passes of :data:`PAIRS_PER_POLL` pairs, polling the deadline
+    between two (the same flags: each pair is decided on its own)."""
+    if len(i) <= PAIRS_PER_POLL:
+        return pairs_free(nodes, i, j, space)
+    ok = np.empty(len(i), bool)
+    for a in range(0, len(i), PAIRS_PER_POLL):
+        _poll(space.poll if a else None)
+        b = a + PAIRS_PER_POLL
+        ok[a:b] = pairs_free(nodes, i[a:b], j[a:b], space)
+    return ok
 
 
 def _tested_edges(space: SwarmSpace, nodes: np.ndarray, corner: np.ndarray, k: int,
@@ -194,19 +291,24 @@ def _tested_edges(space: SwarmSpace, nodes: np.ndarray, corner: np.ndarray, k: i
 
     n = len(nodes)
     tree = cKDTree(nodes)
+    k = min(k, n - 1)
     nb = tree.query(nodes, k=k + 1)[1][:, 1:]
     nb2 = tree.query(nodes[:2], k=min(2 * k, n - 1) + 1)[1][:, 1:]
-    bi, bj = _base_edges(nodes, nb.astype(np.int64), nb2.astype(np.int64), YAO_SECTORS)
-    okb = pairs_free(nodes, bi, bj, space)
+    _poll(space.poll if n > ALL_PAIRS_NODES else None)
+    bi, bj = _base_edges(nodes, nb.astype(np.int64), nb2.astype(np.int64),
+                         _yao(nodes, YAO_SECTORS, space.poll))
+    okb = _free(nodes, bi, bj, space)
     bound = math.inf
     if slack is not None and math.isfinite(slack):
         U = _walk_length(nodes, bi[okb], bj[okb])
         if math.isfinite(U):
             bound = slack * U * (1.0 + 1e-9)
     reach = CORNER_REACH * space.diag
-    i, j, ok, todo = _corner_edges(nodes, bi, bj, corner, np.flatnonzero(corner), okb,
-                                   reach * reach, bound, *_endpoint_distances(nodes))
-    ok[todo] = pairs_free(nodes, i[todo], j[todo], space)
+    ends = _endpoint_distances(nodes)
+    cptr, cadj = _corner_partners(nodes, corner, reach, bound, ends, space.poll)
+    _poll(space.poll if n > ALL_PAIRS_NODES else None)
+    i, j, ok, todo = _corner_edges(nodes, bi, bj, cptr, cadj, okb, reach * reach, bound, *ends)
+    ok[todo] = _free(nodes, i[todo], j[todo], space)
     return i, j, ok
 
 
@@ -220,6 +322,12 @@ def _walk_length(nodes: np.ndarray, i: np.ndarray, j: np.ndarray) -> float:
 
 #: Corner nodes farther apart than this fraction of the map diagonal are not paired directly.
 CORNER_REACH = 0.3
+
+#: Corner nodes a corner node is paired with at most: all of them while there are at most
+#: this many others, else its nearest this many (within :data:`CORNER_REACH`; a pair is kept
+#: when either end chose the other).  Bounds the corner pairs of a large roadmap to this many
+#: per corner node instead of the square of their count.
+CORNER_PARTNERS = 512
 
 #: Angular sectors of the Yao edges of :func:`build_roadmap` (a divisor of 8: octants).
 YAO_SECTORS = 8
@@ -237,19 +345,19 @@ def _sector(dx, dy, sectors):
     return (o + np.int64(4) * np.int64(neg)) * sectors // 8
 
 
-@compiled(F2, i8)
-def _yao_nearest(nodes, sectors):
-    """Per node its nearest other node in each of ``sectors`` equal angular sectors
-    (:func:`_sector`; the lowest index on ties), ``-1`` for an empty sector: ``(n,
-    sectors)``."""
+@compiled(F2, i8, i8, i8)
+def _yao_nearest(nodes, sectors, i0, i1):
+    """Per node ``i0 <= i < i1`` its nearest other node in each of ``sectors`` equal angular
+    sectors (:func:`_sector`; the lowest index on ties), ``-1`` for an empty sector:
+    ``(i1 - i0, sectors)``."""
     n = nodes.shape[0]
     X = nodes[:, 0].copy()
     Y = nodes[:, 1].copy()
     d2 = np.empty(n)
     sec = np.empty(n, np.int64)
     best = np.empty(sectors)
-    arg = np.empty((n, sectors), np.int64)
-    for i in range(n):
+    arg = np.empty((i1 - i0, sectors), np.int64)
+    for i in range(i0, i1):
         xi = X[i]
         yi = Y[i]
         for j in range(n):
@@ -258,32 +366,86 @@ def _yao_nearest(nodes, sectors):
             d2[j] = dx * dx + dy * dy
             sec[j] = _sector(dx, dy, sectors)
         best[:] = np.inf
-        arg[i, :] = -1
+        arg[i - i0, :] = -1
         for j in range(n):
             if j != i and d2[j] < best[sec[j]]:
                 best[sec[j]] = d2[j]
-                arg[i, sec[j]] = j
+                arg[i - i0, sec[j]] = j
     return arg
 
 
+def _yao(nodes: np.ndarray, sectors: int, stop: Callable[[], bool] | None) -> np.ndarray:
+    """:func:`_yao_nearest` of every node, in passes of about ``64`` x :data:`PAIRS_PER_POLL`
+    node pairs with the deadline's poll ``stop`` between two."""
+    n = len(nodes)
+    rows = max(1, (PAIRS_PER_POLL << 6) // max(n, 1))
+    parts = []
+    for a in range(0, n, rows):
+        _poll(stop if a else None)
+        parts.append(_yao_nearest(nodes, sectors, a, min(a + rows, n)))
+    return np.concatenate(parts) if len(parts) != 1 else parts[0]
+
+
+def _unique_pairs(n: int, i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The distinct pairs ``min(i, j) < max(i, j)`` of nodes ``0 .. n - 1`` (``i == j`` and
+    ``j < 0`` dropped), in lexicographic order."""
+    keep = (i != j) & (j >= 0)
+    key = np.sort(np.minimum(i, j)[keep] * np.int64(n) + np.maximum(i, j)[keep])
+    key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # (np.unique: slower)
+    return key // n, key % n
+
+
 def _base_edges(nodes: np.ndarray, nb: np.ndarray, nb2: np.ndarray,
-                sectors: int) -> tuple[np.ndarray, np.ndarray]:
+                yao: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The neighbour and Yao edges of :func:`build_roadmap`: each node to its nearest nodes
     ``nb`` (a row per node; ``nb2``: more for nodes 0 and 1, start and goal) and to its
-    nearest node in each of ``sectors`` equal angular sectors (:func:`_yao_nearest`; a Yao
-    graph: connected, and it bridges a dense cluster and a sparse region, which the k nearest
+    nearest node in each angular sector ``yao`` (:func:`_yao_nearest`; a Yao graph:
+    connected, and it bridges a dense cluster and a sparse region, which the k nearest
     neighbours of the cluster's nodes do not).  Returns those pairs ``i < j`` in
     lexicographic order."""
+    rows = [np.repeat(np.arange(len(r), dtype=np.int64), r.shape[1]) for r in (nb, nb2, yao)]
+    return _unique_pairs(len(nodes), np.concatenate(rows),
+                         np.concatenate([r.ravel() for r in (nb, nb2, yao)]).astype(np.int64))
+
+
+def _corner_partners(nodes: np.ndarray, corner: np.ndarray, reach: float, bound: float,
+                     ends: tuple[np.ndarray, np.ndarray], stop: Callable[[], bool] | None
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Per node ``a`` (CSR: ``cadj[cptr[a]:cptr[a + 1]]``, ascending) the corner nodes
+    ``b > a`` that a corner node ``a`` is paired with: every later corner node while there are
+    at most :data:`CORNER_PARTNERS` + 1 corner nodes, else the pairs of a corner node and one
+    of its :data:`CORNER_PARTNERS` nearest corner nodes within ``reach`` (either way;
+    searched in passes with the deadline's poll ``stop`` between two), those beyond the
+    detour ``bound`` (:func:`_corner_edges`, ``ends``: :func:`_endpoint_distances`) dropped
+    early, with a margin (the merge decides)."""
     n = len(nodes)
-    M = np.zeros((n, n), bool)
-    yao = _yao_nearest(nodes, sectors)
-    for rows in (nb, nb2, yao):
-        i = np.repeat(np.arange(len(rows)), rows.shape[1])
-        j = rows.ravel()
-        keep = (i != j) & (j >= 0)
-        M[np.minimum(i, j)[keep], np.maximum(i, j)[keep]] = True
-    bi, bj = np.nonzero(np.triu(M, 1))
-    return bi.astype(np.int64), bj.astype(np.int64)
+    cidx = np.flatnonzero(corner).astype(np.int64)
+    nc = len(cidx)
+    if nc <= CORNER_PARTNERS + 1:
+        x, y = np.triu_indices(nc, 1)
+        lo, hi = cidx[x], cidx[y]
+    else:
+        from scipy.spatial import cKDTree
+
+        pts = nodes[cidx]
+        tree = cKDTree(pts)
+        step = max(1, PAIRS_PER_POLL // CORNER_PARTNERS)
+        ds, dg = ends
+        pa, pb = [], []
+        for a in range(0, nc, step):  # in passes, polling the deadline between two
+            _poll(stop if a else None)
+            d, nbr = tree.query(pts[a:a + step], k=CORNER_PARTNERS + 1,
+                                distance_upper_bound=reach * (1.0 + 1e-9))
+            keep = nbr < nc  # missing neighbours are nc
+            u = cidx[np.repeat(np.arange(a, a + len(nbr)), nbr.shape[1])[keep.ravel()]]
+            v, d = cidx[nbr[keep]], d[keep]
+            keep = d + np.minimum(ds[u] + dg[v], ds[v] + dg[u]) <= bound * (1.0 + 1e-6)
+            pa.append(u[keep])
+            pb.append(v[keep])
+        lo, hi = _unique_pairs(n, np.concatenate(pa), np.concatenate(pb))
+    cptr = np.zeros(n + 1, np.int64)
+    cptr[1:] = np.cumsum(np.bincount(lo, minlength=n))
+    return cptr, hi.astype(np.int64)
 
 
 def _endpoint_distances(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -292,33 +454,30 @@ def _endpoint_distances(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             np.hypot(nodes[:, 0] - nodes[1, 0], nodes[:, 1] - nodes[1, 1]))
 
 
-@compiled(F2, I1, I1, B1, I1, B1, f8, f8, F1, F1)
-def _corner_edges(nodes, bi, bj, corner, cidx, okb, r2, bound, ds, dg):
+@compiled(F2, I1, I1, I1, I1, B1, f8, f8, F1, F1)
+def _corner_edges(nodes, bi, bj, cptr, cadj, okb, r2, bound, ds, dg):
     """All candidate pairs ``a < b`` in lexicographic order: the base edges ``(bi, bj)``
-    (lexicographic, collision-free flags ``okb``) and the pairs of ``corner`` nodes (``cidx``:
-    their indices, ascending) at most ``sqrt(r2)`` apart whose start-goal detour ``|s - a| +
-    |a - b| + |b - g|`` (the shorter orientation; ``ds``, ``dg``:
-    :func:`_endpoint_distances`) is at most ``bound``, merged row by row (a pair that is both
-    is a base edge).  Returns the pairs, their flags (the base flags, False for a corner
-    pair) and the mask of the corner pairs (to be tested)."""
+    (lexicographic, collision-free flags ``okb``) and the corner pairs ``(a, cadj[c])``,
+    ``cptr[a] <= c < cptr[a + 1]`` (:func:`_corner_partners`) at most ``sqrt(r2)`` apart whose
+    start-goal detour ``|s - a| + |a - b| + |b - g|`` (the shorter orientation; ``ds``,
+    ``dg``: :func:`_endpoint_distances`) is at most ``bound``, merged row by row (a pair that
+    is both is a base edge).  Returns the pairs, their flags (the base flags, False for a
+    corner pair) and the mask of the corner pairs (to be tested)."""
     n = nodes.shape[0]
-    nc = cidx.shape[0]
     nbase = bi.shape[0]
-    cap = nbase + nc * (nc - 1) // 2
+    cap = nbase + cadj.shape[0]
     I = np.empty(cap, np.int64)
     J = np.empty(cap, np.int64)
     ok = np.zeros(cap, np.bool_)
     todo = np.zeros(cap, np.bool_)
     q = 0
     e = 0  # next base edge
-    c0 = 0  # first corner node after a
     for a in range(n):
-        while c0 < nc and cidx[c0] <= a:
-            c0 += 1
-        c = c0 if corner[a] else nc
+        c = cptr[a]
+        c1 = cptr[a + 1]
         while True:
             b_base = bj[e] if e < nbase and bi[e] == a else n
-            b_corn = cidx[c] if c < nc else n
+            b_corn = cadj[c] if c < c1 else n
             if b_base == n and b_corn == n:
                 break
             if b_base <= b_corn:
@@ -364,12 +523,18 @@ def _csr(n: int, i: np.ndarray, j: np.ndarray,
 
 
 def _roadmap_csr(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, Z: np.ndarray,
-                 keys: np.ndarray) -> tuple[np.ndarray, ...]:
+                 keys: np.ndarray, stop: Callable[[], bool] | None = None
+                 ) -> tuple[np.ndarray, ...]:
     """CSR arrays of :class:`Roadmap` (indptr, target, length, signature hash) of the free
-    edges ``(i, j)``."""
+    edges ``(i, j)`` (the hashes in passes of :data:`PAIRS_PER_POLL` edges, with the
+    deadline's poll ``stop`` between two)."""
     w = _edge_lengths(nodes, i, j)
     indptr, target, weight, pos = _csr(len(nodes), i, j, w)
-    eh = _segment_hashes(nodes[i], nodes[j], Z, keys)
+    eh = np.empty(len(i), np.int64)
+    for a in range(0, max(len(i), 1), PAIRS_PER_POLL):
+        _poll(stop if a else None)
+        b = a + PAIRS_PER_POLL
+        eh[a:b] = _segment_hashes(nodes[i[a:b]], nodes[j[a:b]], Z, keys)
     ehash = np.empty(2 * len(i), np.int64)
     ehash[pos[:len(i)]] = eh
     ehash[pos[len(i):]] = -eh
@@ -415,15 +580,18 @@ def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
     Each walk is string-pulled (greedy, over nodes at most 8 apart; it can only shorten the
     walk).  A roadmap that does not connect start and goal gives no path.
     """
-    g = build_roadmap(space, rng, n_samples, k_neighbours, boundary, medial, slack)
-    if g is None or n_paths < 1:
+    try:
+        g = build_roadmap(space, rng, n_samples, k_neighbours, boundary, medial, slack)
+        if g is None or n_paths < 1:
+            return []
+        heur = g.to_goal()
+        if not np.isfinite(heur[0]):  # start and goal are not connected
+            return []
+        goals, lab_node, lab_par = _k_classes(g.indptr, g.target, g.weight, g.ehash, heur, 0,
+                                              1, int(n_paths), int(min(n_paths, node_classes)),
+                                              float(slack), space.poll)
+    except RoadmapStopped:  # the deadline: no corridor (the run stops at its next poll)
         return []
-    heur = g.to_goal()
-    if not np.isfinite(heur[0]):  # start and goal are not connected
-        return []
-    goals, lab_node, lab_par = _k_classes(g.indptr, g.target, g.weight, g.ehash, heur, 0, 1,
-                                          int(n_paths), int(min(n_paths, node_classes)),
-                                          float(slack))
     walks = [g.walk(int(lab), lab_node, lab_par) for lab in goals]
     if not walks:
         return []

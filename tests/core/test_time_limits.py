@@ -34,12 +34,14 @@ CASES: dict[str, tuple[str, str, dict]] = {
     "visgraph": ("visgraph", "paper-warehouse", {"arc_step": 1e-4, "graph": "built"}),
     "sipp": ("sipp", "paper-warehouse", {"arc_step": 1e-4, "max_expansions": 10**9,
                                           "max_doublings": 20}),
-    "pso": ("pso-paper", "paper-env1", {"n_particles": 20_000, "n_waypoints": 200,
+    # the swarms at the largest values of their ranges (docs/solvers/pso.md, "Options")
+    "pso": ("pso-paper", "paper-env1", {"n_particles": 10_000, "n_waypoints": 200,
                                         "k_max": 10**6}),
-    "mpso": ("mpso-paper", "paper-env1", {"n_particles": 20_000, "n_waypoints": 200,
+    "mpso": ("mpso-paper", "paper-env1", {"n_particles": 10_000, "n_waypoints": 200,
                                           "k_max": 10**6, "n_refine": 10_000}),
-    "ipso": ("ipso", "paper-env1", {"n_particles": 20_000, "n_waypoints": 200,
-                                    "k_max": 10**6, "A": 10_000, "islands": 100}),
+    "ipso": ("ipso", "paper-env1", {"n_particles": 10_000, "n_waypoints": 200,
+                                    "k_max": 10**6, "A": 10_000, "islands": 5_000,
+                                    "tighten_rounds": 100_000}),
     "nlp": ("nlp-ipopt", "paper-warehouse", {"n_segments": 400, "max_rounds": 50,
                                              "max_iter": 100_000, "tol": 1e-12,
                                              "init_from": "straight"}),
@@ -142,3 +144,124 @@ def test_sipp_polls_by_work_not_by_expansions() -> None:
                             max_expansions=10**9, stop=stop)
     assert plan.status == "stopped" and len(polls) == 3
     assert plan.info["expansions"] < 256
+
+
+#: ``ipso``'s roadmap at the largest values of its options (~15,000 nodes, 1,000 corridors).
+ROADMAP_MAX = {"roadmap_samples": 5_000, "roadmap_boundary": 5_000, "roadmap_medial": 5_000,
+               "roadmap_neighbours": 64, "corridors": 1000}
+
+
+def _run_cpu_limited(monkeypatch, preset: str, problem: str, **options):
+    """``solve`` with the CPU clock and :data:`LIMIT`: the result, CPU seconds, late readings."""
+    prob = dataclasses.replace(op.load_problem(problem), _cache={})
+    op.get_solver(preset, **options)
+    clock = CpuClock()
+    monkeypatch.setattr(solver_mod, "clock", clock)
+    t0 = time.process_time()
+    clock.deadline = t0 + LIMIT
+    res = op.solve(prob, preset, rng=0, time_limit=LIMIT, **options)
+    return res, time.process_time() - t0, clock.late
+
+
+def test_the_largest_options_are_the_documented_ones() -> None:
+    """The maxima the cases above use are the declared ones (a larger value is refused)."""
+    from optplan.swarm.backend import MAX_PARTICLES, MAX_SAMPLES
+    from optplan.swarm.roadmap import MAX_NEIGHBOURS
+
+    assert (MAX_PARTICLES, MAX_SAMPLES, MAX_NEIGHBOURS) == (10_000, 5_000, 64)
+    for name, big in [("n_particles", 10_001), ("n_waypoints", 201), ("A", 10_002),
+                      ("roadmap_samples", 5_001), ("roadmap_neighbours", 65)]:
+        with pytest.raises(ValueError, match=name):
+            op.get_solver("ipso", **{name: big})
+
+
+@pytest.mark.parametrize("neighbours", [64, 0])
+def test_the_largest_roadmap_neither_crashes_nor_overruns(neighbours, monkeypatch) -> None:
+    """The roadmap of ``init_mode = "roadmap"`` at its largest options (``roadmap_neighbours =
+    0``: every pair, which a roadmap this large replaces by the nearest 64) used to allocate
+    a dense neighbour matrix (198 GiB, ``MemoryError``) or build for seconds without a poll:
+    now sparse, and polled in steps of at most 65,536 pairs."""
+    res, used, late = _run_cpu_limited(monkeypatch, "ipso", "paper-warehouse",
+                                       **{**ROADMAP_MAX, "roadmap_neighbours": neighbours})
+    assert used <= LIMIT + STEP, f"{used:.2f} CPU s for a limit of {LIMIT} s"
+    assert res.stop_reason == "time_limit", res.message
+    assert 1 <= late <= READINGS_AFTER, late
+    assert res.status in (op.Status.solved, op.Status.approximate)
+
+
+def test_roadmap_builds_in_bounded_steps_to_the_end(monkeypatch) -> None:
+    """Without a deadline a large roadmap (corner nodes beyond ``CORNER_PARTNERS``, more nodes
+    than ``ALL_PAIRS_NODES``) is built and searched to the end with a poll at least every
+    bounded step (CPU seconds between two polls), and a poll that asks to stop gives no
+    corridor instead of an error."""
+    import numpy as np
+
+    import optplan.swarm.core as sw
+    import optplan.swarm.roadmap as rm
+
+    monkeypatch.setattr(rm, "FIRST_LABELS", 64)  # the class search's arrays grow, too
+    prob = op.load_problem("paper-warehouse")
+    polls: list[float] = []
+
+    def poll() -> bool:
+        polls.append(time.process_time())
+        return False
+
+    space = dataclasses.replace(sw.make_space(prob, prob.planned_robots[0], 8), poll=poll)
+    t0 = time.process_time()
+    paths = rm.roadmap_corridors(space, 1000, np.random.default_rng(0), 1500, 0, 1500, 1500)
+    gaps = np.diff([t0, *polls, time.process_time()])
+    assert paths and len(polls) >= 10, len(polls)
+    assert gaps.max() <= STEP, gaps.max()
+    plain = dataclasses.replace(space, poll=None)  # no deadline: one pass each, no polls
+    again = rm.roadmap_corridors(plain, 1000, np.random.default_rng(0), 1500, 0, 1500, 1500)
+    assert [p.tolist() for p in again] == [p.tolist() for p in paths]  # polls change nothing
+    polls.clear()
+    stop = dataclasses.replace(space, poll=lambda: polls.append(0.0) or len(polls) >= 3)
+    assert rm.roadmap_corridors(stop, 1000, np.random.default_rng(0), 1500, 0, 1500,
+                                1500) == []
+    assert len(polls) == 3
+
+
+class JumpClock:
+    """A fake clock: 0 at its first reading (the start of the run), far past any limit at
+    every later one; counts its readings."""
+
+    def __init__(self) -> None:
+        self.readings = 0
+
+    def __call__(self) -> float:
+        self.readings += 1
+        return 0.0 if self.readings == 1 else 1e9
+
+
+def test_visgraph_build_polls_the_deadline(monkeypatch) -> None:
+    """``graph = "built"``: the build of the tangent graph polls the deadline (between its
+    phases and its batches of tangents); stopped at its first poll the run is
+    ``approximate``, says so, and leaves the graph unbuilt (a later run builds it)."""
+    prob = dataclasses.replace(op.load_problem("warehouse-grid"), _cache={})
+    clock = JumpClock()
+    monkeypatch.setattr(solver_mod, "clock", clock)
+    res = op.solve(prob, "visgraph", rng=0, time_limit=1.0, graph="built")
+    assert res.stop_reason == "time_limit" and res.status is op.Status.approximate
+    assert "stopped by the time limit" in res.message
+    assert clock.readings == 2  # the start, then the build's first poll
+    monkeypatch.undo()
+    full = op.solve(prob, "visgraph", rng=0, graph="built")
+    assert full.status is op.Status.optimal
+
+
+def test_tangent_graph_build_stops_between_steps() -> None:
+    from optplan.geometry.tangent_graph import TangentGraph
+    from optplan.geometry.tangent_search import Stopped
+
+    prob = op.load_problem("warehouse-grid")
+    r = prob.robots[0]
+    graph = TangentGraph(prob.obstacle_set(r.radius))
+    polls: list[int] = []
+    with pytest.raises(Stopped):
+        graph.build(lambda: polls.append(0) or len(polls) >= 3)
+    assert graph.chains is None and len(polls) == 3
+    whole = TangentGraph(prob.obstacle_set(r.radius)).build()
+    assert graph.build().shortest_path(r.start, r.goal).length == \
+        whole.shortest_path(r.start, r.goal).length
