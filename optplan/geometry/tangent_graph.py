@@ -261,9 +261,12 @@ class TangentGraph:
             self.stats["nodes"] += 1
             self.stats["edges"] += len(e.j)
 
-    def build(self) -> TangentGraph:
+    def build(self, stop: Callable[[], bool] | None = None) -> TangentGraph:
         """Make the whole graph now, not only what the searches reach, and search it with
-        compiled code from now on; returns ``self``.
+        compiled code from now on; returns ``self``.  ``stop`` (the deadline) is polled
+        between the phases and between two steps of two batches; when it asks, the build
+        raises :class:`~optplan.geometry.tangent_search.Stopped` and the graph stays unbuilt
+        (lazy: a later :meth:`build` starts again).
 
         Every free tangent: the sight lines of every circle (:mod:`~optplan.geometry.sightlines`,
         the sources split between two threads: the expansion runs without the GIL), the
@@ -286,15 +289,21 @@ class TangentGraph:
         t0 = time.perf_counter()
         if self.use_sightlines:
             self.sightlines  # noqa: B018 - the triangulation, timed on its own
+        _poll(stop)
         tt = time.perf_counter()
         keys, sense = self._all_keys()
+        _poll(stop)
         t1 = time.perf_counter()
         batches, self.stats["build_pairs"] = self._batches(keys, sense)
         del keys, sense
-        self._edges = {}
+        self._edges, self.nbytes = {}, 0
         self.oset.pairs_free(np.zeros((1, 2)), [0], [0])  # its arrays made before the threads
-        with ThreadPoolExecutor(2) as pool:  # two batches at a time
-            made = list(pool.map(self._free_tangents, batches))
+        made = []
+        with ThreadPoolExecutor(2) as pool:  # two batches at a time, a poll between
+            for q in range(0, len(batches), 2):
+                _poll(stop)
+                made += pool.map(self._free_tangents, batches[q:q + 2])
+        _poll(stop)
         self.stats["segment_tests"] += sum(n for _, n in made)
         self._visible = {}  # no longer needed: memory for the chains
         parts = [t for t, _ in made] or [self._free_tangents(np.zeros((0, 4), np.int64))[0]]
@@ -472,6 +481,12 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
     return TangentPath(length, poly, wps, info)
 
 
+def _poll(stop: Callable[[], bool] | None) -> None:
+    """Raise :class:`~optplan.geometry.tangent_search.Stopped` when ``stop`` asks."""
+    if stop is not None and stop():
+        raise Stopped
+
+
 class _Uncached(Exception):
     """A search stopped by its ``stop`` callback: its partial result is not cached."""
     def __init__(self, result: TangentPath):
@@ -489,14 +504,19 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
     obstacle set is walled (the bounds are a wall), so a path found is the certified shortest
     path inside the bounds and none found proves that no path exists.  ``build``: make the
     whole graph of the obstacle set first (:meth:`TangentGraph.build`, once per obstacle
-    set; ``stop`` is polled by the search, not the build) and search it compiled.
+    set; ``stop`` is polled by the build too) and search it compiled.
     """
 
     def plan() -> TangentPath:
         oset = problem.obstacle_set(robot.radius, known_only=known_only)
         graph = tangent_graph(oset)
         if build:
-            graph.build()
+            try:
+                graph.build(stop)
+            except Stopped:  # not cached: a later call builds the graph
+                raise _Uncached(TangentPath(math.inf, None, [], {
+                    "n_circles": graph.circles.n, "certified": False, "stopped": True,
+                    "reason": "stopped before the graph was built"})) from None
         res = graph.shortest_path(robot.start, robot.goal, arc_step=arc_step, stop=stop)
         if res.info.get("stopped"):
             raise _Uncached(res)  # a later call without a stop must finish the search
