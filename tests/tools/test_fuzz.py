@@ -1,5 +1,5 @@
 """Bad input never crashes, never hangs, never lies -- a bounded, seeded slice of the
-input fuzz of ``benchmarks/fuzz_inputs.py`` (the full run is ``python
+input fuzz of the package ``benchmarks/fuzz/`` (the full run is ``python
 benchmarks/fuzz_inputs.py``: >= 3,000 scenarios, >= 2,500 option values, >= 200 inits, >= 50
 result files, and its counts table), with every map, results-database, ROS path message,
 ``crop=``, ``.scen`` and Planner Arena export case and a seeded sample of the plugin cases.
@@ -9,20 +9,23 @@ forever; no wall-clock limit a loaded machine could reach: the workers start wit
 handshake and no deadline of their own); the slice must show no crash, no hang, no unclear
 message, no silent acceptance of an out-of-range value and no success the independent shapely
 check contradicts.  Outcomes explained by a finding in code this suite does not own
-(``fuzz_inputs.KNOWN_FINDINGS``) are not counted, and every listed finding must still
-reproduce in the slice: a stale entry fails the test, naming the entry to remove.
+(``KNOWN_FINDINGS`` of ``benchmarks/fuzz/report.py``) are not counted, and every listed
+finding must still reproduce in the slice: a stale entry fails the test, naming the entry to
+remove.
 """
 
 from __future__ import annotations
 
 import random
+import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 import optplan as op
-from benchmarks import fuzz_inputs as fz
+from benchmarks import fuzz as fz
+from benchmarks.fuzz import checks, report
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -90,12 +93,12 @@ def test_every_known_finding_still_reproduces(outcomes):
     finding was fixed) and must be removed, so a stale entry cannot hide a new bug."""
     stale = fz.stale_findings(outcomes)
     assert not stale, (f"KNOWN_FINDINGS entries that no longer reproduce in the slice: {stale}; "
-                       "remove them from benchmarks/fuzz_inputs.py (KNOWN_FINDINGS)")
+                       "remove them from benchmarks/fuzz/report.py (KNOWN_FINDINGS)")
 
 
 def test_stale_findings_are_reported(monkeypatch):
     o = fz.Outcome(fz.Case("selftest", "selftest/x", "x", {}), "hang", "d")
-    monkeypatch.setattr(fz, "KNOWN_FINDINGS", {
+    monkeypatch.setattr(report, "KNOWN_FINDINGS", {
         "fixed": ("somewhere", "no longer happens", lambda o: False),
         "live": ("elsewhere", "still happens", lambda o: o.category == "hang")})
     assert fz.stale_findings(fz.annotate([o])) == ["fixed"]
@@ -155,14 +158,14 @@ def test_a_worker_that_cannot_start_is_reported_not_waited_for(monkeypatch, tmp_
     fake = tmp_path / "python"
     fake.write_text(f"#!/bin/sh\n{script}\n")
     fake.chmod(0o755)
-    monkeypatch.setattr(fz.sys, "executable", str(fake))
+    monkeypatch.setattr(sys, "executable", str(fake))
     case = fz.Case("selftest", "selftest/ok", "ok", {})
     with pytest.raises(RuntimeError, match=f"(?s){message}"):
         fz.run_cases([case], workers=1, log_dir=tmp_path / "logs", stall_s=1.0)
 
 
 def test_message_key_matching():
-    ok = fz._message_ok
+    ok = checks._message_ok
     assert ok("f.toml: obstacles[2].vertices[1][0]: bad", ("obstacles[2].vertices",), "f.toml")[0]
     assert ok("f.toml: obstacles[2]: bad", ("obstacles[2]",), "f.toml")[0]
     assert not ok("f.toml: obstacles[2]: bad", ("obstacles[2].vertices",), "f.toml")[0]
