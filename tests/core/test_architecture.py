@@ -142,7 +142,8 @@ VULTURE_USED = {
     **dict.fromkeys(("get_cache_path", "get_source_stamp", "get_disambiguator",
                      "from_function"),
                     "a numba cache locator's methods, called by numba (geometry.kernel_cache)"),
-    "_py_file": "a numba cache locator's attribute, read by numba's warnings (geometry.numba_internals)",
+    "_py_file": "a numba cache locator's attribute, read by numba's warnings "
+                "(geometry.numba_internals)",
     **dict.fromkeys(("get_n_in", "get_n_out", "get_name_in", "get_name_out",
                      "get_sparsity_in", "eval"),
                     "casadi.Callback methods, called by CasADi (exact.nlp_model)"),

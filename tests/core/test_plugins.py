@@ -42,8 +42,8 @@ def toyplug(root: Path) -> None:
     """The plugin of docs/adding-a-solver.md, laid out as the page shows: ``toyplug`` and its
     ``presets`` folder are namespace packages (no ``__init__.py``)."""
     make_dist(root, "toyplug", {
-        "toyplug/planner.py": page_file("toyplug/planner.py"),
-        "toyplug/presets/line-five.toml": page_file("toyplug/presets/line-five.toml"),
+        "toyplug/planner.py": page_file("runs/toyplug/toyplug/planner.py"),
+        "toyplug/presets/line-five.toml": page_file("runs/toyplug/toyplug/presets/line-five.toml"),
     }, """\
         [optplan.backends]
         line = toyplug.planner:Line

@@ -7,7 +7,7 @@ Rules (documented in docs/index.md, "Docs that stay true"):
   earlier block of its page wrote (the page says so), never a file of another page;
 * whatever a page's blocks write, inputs of ``<!-- file: -->`` blocks included, goes under
   ``runs/`` (ignored by git; ``make demo`` writes there too), so the examples, run from a
-  checkout as shown, leave ``git status`` clean (pages not converted yet: ``OUTSIDE_RUNS``);
+  checkout as shown, leave ``git status`` clean;
 * a block preceded by the line ``<!-- file: NAME -->`` (any language) is written to ``NAME`` in
   that directory before the page runs (e.g. the scenario a later block loads);
 * a ``console`` block preceded by ``<!-- run -->`` runs through the CLI: each line
@@ -218,21 +218,9 @@ def test_doc_blocks_run_and_print_what_the_page_says(page: Path, tmp_path: Path)
     assert not leftovers, f"the page wrote files into the repository root: {leftovers}"
     outside = sorted(str(f.relative_to(tmp_path)) for f in tmp_path.rglob("*")
                      if f.is_file() and f.relative_to(tmp_path).parts[0] != "runs")
-    name = str(page.relative_to(ROOT))
-    if name in OUTSIDE_RUNS:
-        assert outside, f"{name} writes only under runs/ now: remove it from OUTSIDE_RUNS"
-        return
     assert not outside, (
-        f"{name}: its examples write outside runs/ (run from a checkout, they would leave "
-        f"these files in it): {outside}")
-
-
-#: pages whose examples still write outside ``runs/`` (other pages' conversions, issue 43);
-#: remove a page from here when it is converted
-OUTSIDE_RUNS = {
-    # tests/core/test_plugins.py reads the plugin's blocks by their names toyplug/...
-    "docs/adding-a-solver.md": "writes the plugin package toyplug/",
-}
+        f"{page.relative_to(ROOT)}: its examples write outside runs/ (run from a checkout, they "
+        f"would leave these files in it): {outside}")
 
 
 _TRACKED = {p.name for p in ROOT.iterdir()} | {"site", "runs", "build", "dist"}
