@@ -8,6 +8,7 @@ maps its paths, lengths, history and extras back to the world scene.
 
 from __future__ import annotations
 
+import math
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -25,7 +26,12 @@ from optplan.units import Each, Record, Unit, to_scale
 if TYPE_CHECKING:
     from optplan.hybrid.policy import HybridPolicy
 
-__all__ = ["assemble", "early_answer", "world_answer", "extras_units", "HISTORY_UNITS"]
+__all__ = ["assemble", "early_answer", "world_answer", "extras_units", "long_path_note",
+           "HISTORY_UNITS", "LONG_PATH_RATIO"]
+
+#: A successful run whose leader path is more than this many times the certified optimum of
+#: the known map says so in its message (:func:`long_path_note`); the status is unchanged.
+LONG_PATH_RATIO = 3.0
 
 #: The units of the history's columns (:mod:`optplan.units`).
 HISTORY_UNITS = Record({
@@ -57,11 +63,12 @@ def extras_units(local_stats: Record, formation_stats: Record) -> Record:
 
 
 def assemble(opts: RunOptions, glob: GlobalStage, policy: HybridPolicy, out: SimOutcome,
-             t_start: float) -> dict[str, Any]:
+             t_start: float, stop_text: str = "stopped by callback") -> dict[str, Any]:
     """The answer of a finished simulation (canonical frame): the :meth:`Backend.finish`
-    arguments."""
+    arguments.  ``stop_text`` says what stopped a run that ended by its callback (the
+    caller's, or the time limit)."""
     paths = out.paths()
-    claim, msg = _outcome(opts, glob, policy, out)
+    claim, msg = _outcome(opts, glob, policy, out, stop_text)
     ld = policy.lead
     lp = paths[ld.robot.id]
     dist_goal = np.hypot(*(lp - ld.robot.goal).T)
@@ -82,7 +89,7 @@ def assemble(opts: RunOptions, glob: GlobalStage, policy: HybridPolicy, out: Sim
 
 
 def _outcome(opts: RunOptions, glob: GlobalStage, policy: HybridPolicy,
-             out: SimOutcome) -> tuple[Status, str]:
+             out: SimOutcome, stop_text: str) -> tuple[Status, str]:
     """The claim and the message of a finished simulation."""
     if out.reason == "done" and policy.tracker.all_done:
         claim, msg = Status.solved, "every sub-goal sequence completed"
@@ -92,7 +99,8 @@ def _outcome(opts: RunOptions, glob: GlobalStage, policy: HybridPolicy,
                "budget": f"step budget ({opts.max_steps}) exhausted",
                "gave_up": (f"collision: {policy.guard.collision}" if policy.guard.collision
                            else "; ".join(policy.gave_up) or "local planner gave up"),
-               "callback": "stopped by callback"}.get(out.reason, out.reason)
+               "callback": f"{stop_text} after {out.steps} steps (t={out.times[-1]:.2f} s)",
+               }.get(out.reason, out.reason)
     notes = list(glob.messages)
     if (policy.k_arrived is not None and policy.fctrl is not None and out.reason == "done"
             and not policy.followers_settled(out.positions[-1])):
@@ -185,3 +193,28 @@ def _field_summary(ctrl: LocalController) -> dict:
 def _small_metrics(m: dict) -> dict:
     keep = ("feasible", "length", "collisions", "static_collisions", "min_clearance", "reached")
     return {k: m[k] for k in keep if k in m}
+
+
+def long_path_note(world: Problem, res: Result) -> str:
+    """``"path 30.1x the certified optimum 12.1 (...)"`` when ``res`` succeeded with a leader
+    path longer than :data:`LONG_PATH_RATIO` times the certified optimum of the known map
+    (:func:`optplan.solver.reference_optimum`, cached per problem), else ``""``.
+
+    The optimum is computed only when the path is longer than that many straight-line
+    distances (the optimum is at least the straight line, so a shorter path cannot qualify).
+    The note says whether the global path already was that long or the local planner's
+    detours between the sub-goals made it so."""
+    from optplan.solver import reference_optimum  # the solver module imports the backends
+
+    lead = world.leader
+    length = res.metrics.get("length")
+    if (res.status not in (Status.optimal, Status.solved) or lead.goal is None
+            or length is None or not length > LONG_PATH_RATIO * math.dist(lead.start, lead.goal)):
+        return ""
+    opt = reference_optimum(world)["optimum"]
+    if not opt or not length > LONG_PATH_RATIO * opt:
+        return ""
+    g = res.extras.get("global_length", math.nan) / opt
+    why = (f"the global path is already {g:.1f}x" if g > LONG_PATH_RATIO else
+           f"global path {g:.2f}x; the rest is the local planner's detours between sub-goals")
+    return f"path {length / opt:.1f}x the certified optimum {opt:.4g} ({why})"

@@ -60,7 +60,13 @@ from typing import Any, ClassVar, cast
 import numpy as np
 
 from optplan.canonical import canonical_problem, to_canonical
-from optplan.hybrid.answer import assemble, early_answer, extras_units, world_answer
+from optplan.hybrid.answer import (
+    assemble,
+    early_answer,
+    extras_units,
+    long_path_note,
+    world_answer,
+)
 from optplan.hybrid.policy import HybridPolicy, Team
 from optplan.hybrid.stages import StageCallback, global_stage
 from optplan.hybrid.subgoals import subgoals
@@ -148,6 +154,18 @@ class Hybrid(Backend):
         fraction of the formation distance ``L``, so it scales with the scene).
     stop_on_collision : bool
         Stop the simulation at the first contact (the result is then ``approximate``).
+    time_limit : float or None
+        Wall-clock budget of the whole run (s; ``None`` or ``inf``: none).  Every stage
+        reports its progress to the run's callback (the global solver every iteration, the
+        simulation, i.e. the local planner and the formation, every step), which stops the run
+        at the first report after the limit: the result is graded as it stands (``solved``
+        only when what was driven is feasible and reached the goal, else ``approximate``),
+        its ``stop_reason`` is ``"time_limit"`` and its message says so.  The presets: 60.
+    leader_safe_step : bool or None
+        ``None`` keeps the local planner's own ``safe_step``; ``True`` (beyond the paper;
+        ``hybrid-qp``, ``hybrid-guided``) makes the leader's local planner test each step
+        exactly and slide it along the obstacle or clip it to the bounds instead of taking a
+        step the step guard would stop the run at.
 
     Notes
     -----
@@ -176,24 +194,20 @@ class Hybrid(Backend):
     v_factor: float = option(0.75, lo=0.0, hi=1.0, lo_open=True)
     heading_rate: float = option(0.0, lo=0.0)
     stop_on_collision: bool = option(True)
+    time_limit: float | None = option(60.0, lo=0.0, lo_open=True, inf_ok=True, none_ok=True)
+    leader_safe_step: bool | None = option(None, kind="bool", none_ok=True)
     _stages: dict[str, Any] | None = field(init=False, repr=False, compare=False, default=None)
 
     def check(self) -> None:
         """Resolve the three stages (names of the wrong kind raise ``ValueError``) and check
-        that ``leader_rho_0`` can be applied to the local planner."""
+        that ``leader_rho_0`` and ``leader_safe_step`` can be applied to the local planner."""
         local = resolve_stage(self.name, "local_solver", self.local_solver, LOCAL_PLANNER)
-        if self.leader_rho_0 is not None:
-            if not hasattr(local, "rho_0"):
-                raise ValueError(f"option 'leader_rho_0' of backend 'hybrid': the local planner "
-                                 f"{stage_name(self.local_solver)!r} has no option 'rho_0' "
-                                 "(set leader_rho_0 = None to use it as it is)")
-            prev = local
-            try:
-                # a planner with a rho_0 field (hasattr above), which Backend does not declare
-                local = dataclasses.replace(cast(Any, prev), rho_0=float(self.leader_rho_0))
-            except ValueError as e:
-                raise ValueError(f"option 'leader_rho_0' of backend 'hybrid': {e}") from None
-            object.__setattr__(local, "_preset", getattr(prev, "_preset", None))
+        for opt, field_name, value in (
+                ("leader_rho_0", "rho_0", None if self.leader_rho_0 is None
+                 else float(self.leader_rho_0)),
+                ("leader_safe_step", "safe_step", self.leader_safe_step)):
+            if value is not None:
+                local = self._leader_field(local, opt, field_name, value)
         stages = {
             "global_solver": resolve_stage(self.name, "global_solver", self.global_solver,
                                            PATH_SOLVER),
@@ -203,6 +217,21 @@ class Hybrid(Backend):
                                              FORMATION_BACKEND)),
         }
         object.__setattr__(self, "_stages", stages)
+
+    def _leader_field(self, local: Any, opt: str, name: str, value: Any) -> Any:
+        """The local planner ``local`` with its option ``name`` set to ``value`` (the hybrid's
+        option ``opt``); ``ValueError`` when it has no such option or rejects the value."""
+        if not hasattr(local, name):
+            raise ValueError(f"option {opt!r} of backend 'hybrid': the local planner "
+                             f"{stage_name(self.local_solver)!r} has no option {name!r} "
+                             f"(set {opt} = None to use it as it is)")
+        try:
+            # a planner with that field (hasattr above), which Backend does not declare
+            out = dataclasses.replace(cast(Any, local), **{name: value})
+        except ValueError as e:
+            raise ValueError(f"option {opt!r} of backend 'hybrid': {e}") from None
+        object.__setattr__(out, "_preset", getattr(local, "_preset", None))
+        return out
 
     @property
     def stages(self) -> dict[str, Any]:
@@ -235,13 +264,13 @@ class Hybrid(Backend):
         world, problem = problem, canonical_problem(problem)
         rng = make_rng(rng)[0]
         rng_global, rng_local, rng_form = rng.spawn(3)
-        cb = StageCallback(callback, problem.world_unit)
+        cb = StageCallback(callback, problem.world_unit, self.time_limit)
         team = self._team(problem)
         if init:
             init = {k: to_canonical(problem, v) for k, v in init.items()}
         glob = global_stage(self, problem, team, init, rng_global, cb, t_start)
         if isinstance(glob, dict):
-            return self._world_result(world, problem, glob)
+            return self._world_result(world, problem, glob, cb)
         drivers = self._drivers(problem, team, glob.paths, rng_local)
         fctrl = (self.stages["formation"].followers_controller(problem, rng_form)
                  if team.use_formation else None)
@@ -258,15 +287,22 @@ class Hybrid(Backend):
                                   f"numerical failure in the simulation: {e}", t_start,
                                   self.angle_tol, Status.failed)
         else:
-            answer = assemble(self, glob, policy, out, t_start)
-        return self._world_result(world, problem, answer)
+            answer = assemble(self, glob, policy, out, t_start, cb.stop_text())
+        return self._world_result(world, problem, answer, cb)
 
-
-    def _world_result(self, world: Problem, image: Problem, answer: dict[str, Any]) -> Result:
+    def _world_result(self, world: Problem, image: Problem, answer: dict[str, Any],
+                      cb: StageCallback) -> Result:
         """The answer planned on the canonical ``image`` mapped back to ``world`` (x its unit;
-        each path starts at the robot's exact start) and graded there by the validator."""
+        each path starts at the robot's exact start) and graded there by the validator; a
+        successful path far longer than the certified optimum says so in the message
+        (:func:`~optplan.hybrid.answer.long_path_note`), a run stopped by the time limit in
+        its ``stop_reason``."""
         paths, kwargs = world_answer(world, image, answer, self.extras_units)
-        return self.finish(world, paths, **kwargs)
+        res = self.finish(world, paths, **kwargs)
+        note = long_path_note(world, res)
+        if note:
+            res = dataclasses.replace(res, message="; ".join(m for m in (res.message, note) if m))
+        return dataclasses.replace(res, stop_reason=cb.stop_reason)
 
     # -- which robots drive themselves, which follow -----------------------------------
     def _team(self, problem: Problem) -> Team:

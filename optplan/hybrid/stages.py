@@ -23,6 +23,14 @@ from optplan.units import Record, Unit, to_scale
 
 __all__ = ["StageCallback", "global_stage", "PROGRESS_INFO_UNITS"]
 
+
+def _clock() -> float:
+    """The deadline clock of every backend, :data:`optplan.solver.clock` (read at each call:
+    tests replace it)."""
+    from optplan import solver  # the solver module imports the backends
+
+    return solver.clock()
+
 _D = Unit.DIMENSIONLESS
 #: The units of the stages' ``Progress.info`` (:mod:`optplan.units`), mapped back from the
 #: canonical frame by them: the swarm's, the visibility graph's (its search counters), the
@@ -36,15 +44,30 @@ PROGRESS_INFO_UNITS = Record({
 
 
 class StageCallback:
-    """Forwards the stages' progress with a running iteration offset; remembers a stop."""
+    """Forwards the stages' progress with a running iteration offset; remembers a stop.
 
-    def __init__(self, callback: Callable[[Progress], Any] | None, unit: float = 1.0):
+    With a ``time_limit`` (seconds from construction, on :data:`optplan.solver.clock`) it
+    also stops every stage at its first progress report after the limit (the global
+    solver's polls, the simulator's step, which drives the local planner and the formation):
+    ``timed_out`` then says why."""
+
+    def __init__(self, callback: Callable[[Progress], Any] | None, unit: float = 1.0,
+                 time_limit: float | None = None):
         self.callback = callback
         self.offset = 0
         self.stopped = False
+        self.timed_out = False
         self.unit = unit  # world length of a canonical unit (best_cost is a length)
+        self.time_limit = time_limit
+        self.deadline = (_clock() + time_limit if time_limit is not None
+                         and time_limit < float("inf") else None)
 
     def __call__(self, p: Progress) -> None:
+        if self.stopped:  # a stage on its way out: the stop stands (no more clock readings)
+            raise StopIteration
+        if self.deadline is not None and _clock() >= self.deadline:
+            self.stopped = self.timed_out = True
+            raise StopIteration
         info = to_scale(p.info, PROGRESS_INFO_UNITS, self.unit, "Progress.info")
         q = Progress(p.iteration + self.offset, p.best_cost * self.unit, p.n_eval, p.elapsed,
                      info, p.sim_time)
@@ -54,8 +77,19 @@ class StageCallback:
 
     @property
     def forward(self) -> Callable[[Progress], Any] | None:
-        """What to pass to a stage: this object, or None without a callback."""
-        return self if self.callback is not None else None
+        """What to pass to a stage: this object, or None without a callback or limit."""
+        return self if self.callback is not None or self.deadline is not None else None
+
+    @property
+    def stop_reason(self) -> str:
+        """``"time_limit"``, ``"callback"`` or ``""`` (the stages ran to their end)."""
+        return "time_limit" if self.timed_out else ("callback" if self.stopped else "")
+
+    def stop_text(self) -> str:
+        """What stopped the run, for the message."""
+        if self.timed_out:
+            return f"time limit ({self.time_limit:g} s) reached"
+        return "stopped by callback"
 
 
 def global_stage(opts: RunOptions, problem: Problem, team: Team,
@@ -73,7 +107,7 @@ def global_stage(opts: RunOptions, problem: Problem, team: Team,
         out.result, out.wall_time = gres, time.perf_counter() - t0
         cb.offset += max(gres.n_iter, len(gres.history))
         if cb.stopped:
-            return early_answer(problem, team.ids, gres, "stopped by callback during the "
+            return early_answer(problem, team.ids, gres, f"{cb.stop_text()} during the "
                                 "global stage", t_start, opts.angle_tol)
         if gres.status is Status.infeasible:
             return early_answer(problem, team.ids, gres, "global planner: no path exists on "
