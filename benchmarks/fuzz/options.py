@@ -123,9 +123,14 @@ def run_option(case: Case, tmp: Path) -> Outcome:
         path = tmp / f"{d['preset']}-fuzz.toml"
         path.write_text(toml_dumps(src), encoding="utf-8")
         solver, file = str(path), str(path)
-    else:
+    elif opt != "time_limit":
         kwargs[opt] = value
     try:
+        if opt == "time_limit" and d["via"] != "file":
+            # a backend's own ``time_limit`` option (the hybrids' default budget): the call's
+            # ``time_limit=`` is the same keyword, so the option is set on the preset and the
+            # run keeps the slice's short limit
+            solver = op.get_solver(d["preset"], time_limit=value)
         res = op.solve(d["scene"], solver, rng=0, time_limit=SOLVE_TIME_LIMIT, **kwargs)
     except Exception as e:  # noqa: BLE001
         cat, det = _classify_error(e, case, file)
