@@ -2,7 +2,7 @@
 
 A wheel (not an editable install, not an sdist) gets ``optplan/_kernels/``: every kernel of
 the package compiled for the generic CPU of the build's platform
-(:mod:`optplan.geometry.kernel_cache`), so that the first solve after ``pip install`` loads
+(:mod:`optplan.geometry.compiled.kernel_cache`), so that the first solve after ``pip install`` loads
 machine code instead of compiling it (they compile once, here, when the wheel is built).
 The wheel is then tagged for this Python and platform (``cp311-cp311-linux_x86_64``).
 ``OPTPLAN_SHIP_KERNELS=0`` builds a pure-Python wheel without them (the kernels then compile
@@ -22,7 +22,8 @@ from typing import Any
 
 from hatchling.builders.hooks.plugin.interface import BuildHookInterface
 
-CHILD = ("import sys; from optplan.geometry.kernel_cache import KERNEL_MODULES, build_in_child; "
+CHILD = ("import sys; "
+         "from optplan.geometry.compiled.kernel_cache import KERNEL_MODULES, build_in_child; "
          "build_in_child(sys.argv[1], sys.argv[2:] or KERNEL_MODULES)")
 
 

@@ -11,7 +11,7 @@ someone built them into it).  The child measures CPU seconds
 would measure the other users), in this order:
 
 * ``import``: ``import optplan`` (no kernel compiles here: each compiles, with its one
-  signature, on its first call, :mod:`optplan.geometry.jit`);
+  signature, on its first call, :mod:`optplan.geometry.compiled.jit`);
 * ``first solve``: the first ``op.solve(problem, solver, rng=0)`` (the kernels it calls
   compile here);
 * ``second solve``: the same call again in the same process (no compilation);
@@ -26,14 +26,15 @@ first ``ipso`` solve (import included) <= 10 s CPU, first ``visgraph`` solve <= 
 
 ``--wheel`` measures an installed wheel instead of the checkout: the wheel is built from the
 checkout with ``pip wheel`` (its build hook compiles every kernel for the generic CPU into
-``optplan/_kernels``, :mod:`optplan.geometry.kernel_cache`), installed without dependencies
+``optplan/_kernels``, :mod:`optplan.geometry.compiled.kernel_cache`), installed without dependencies
 into a temporary directory, and the children import optplan from there (still with an empty
 ``NUMBA_CACHE_DIR``: what a fresh installation on a new machine pays).
 
 ``--together N`` also starts N processes at once per case on one empty cache and prints the
 import + first solve CPU of each: a kernel holds a lock on its cache entry while it compiles,
-so the others wait and load it (:meth:`optplan.geometry.kernel_cache.KernelCache.compiling`);
-their sum is about one compilation, not N.
+so the others wait and load it
+(:meth:`optplan.geometry.compiled.kernel_cache.KernelCache.compiling`); their sum is about one
+compilation, not N.
 
 ``--numba-opt N`` runs the children with ``NUMBA_OPT=N`` (numba's LLVM optimisation level,
 process-wide; default 3) to see how much of the compile time is LLVM's optimisation.

@@ -32,7 +32,7 @@ import time
 import numpy as np
 
 import optplan as op
-from optplan.geometry import kernel
+from optplan.geometry.collision import kernel
 from optplan.swarm import backend as be
 from optplan.swarm import endgame as eg
 from optplan.swarm import ipso as ip

@@ -4,8 +4,8 @@ For every map (the known static maps of the paper scenes ``paper-env1``, ``paper
 ``paper-hybrid``, ``paper-warehouse`` and the generated corridor family
 :func:`optplan.generators.corridor_scene`: walls with narrow doors, shelf rows, U traps) and
 every seed ``0 .. --seeds-1`` each solver runs once; the ratio of its path length to the
-certified optimum (:func:`optplan.geometry.tangent_graph.problem_shortest_path`, computed once
-per map) is recorded for the collision-free runs.  Printed (markdown):
+certified optimum (:func:`optplan.geometry.tangent.tangent_graph.problem_shortest_path`, computed
+once per map) is recorded for the collision-free runs.  Printed (markdown):
 
 1. ``ipso`` per map: collision-free runs, median and worst ratio, runs above 1.01 and 1.001,
    median and worst wall time and median CPU time (``time.process_time``: what a busy shared
@@ -45,7 +45,7 @@ import numpy as np
 
 import optplan as op
 from optplan.generators import CORRIDOR_KINDS, corridor_scene
-from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.geometry.tangent.tangent_graph import problem_shortest_path
 
 PAPER_MAPS = ("paper-env1", "paper-env2", "paper-hybrid", "paper-warehouse")
 

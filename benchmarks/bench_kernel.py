@@ -1,5 +1,5 @@
 """Speed of the exact disc-robot kernel ``ObstacleSet.crossings`` (the one implementation:
-compiled with numba in ``optplan.geometry.kernel``).
+compiled with numba in ``optplan.geometry.collision.kernel``).
 
 1. Per-call time on ``paper-env1``: the fitness batches of one ``ipso-paper`` run (50-70
    paths x 7 segments, replayed) and one random 70-path x 7-segment batch, count only (what

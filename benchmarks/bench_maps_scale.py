@@ -8,7 +8,7 @@ For each map kind and size (``--kinds``, ``--sizes``) a MovingAI map and its ``.
   conservative polygons, one validated problem per line sharing one obstacle set: the exact
   collision engine of a point robot, made once by the import to check the lines' ends and
   cached on the problems, as every solver and the validator use it);
-* **build**: the :class:`~optplan.geometry.tangent_graph.TangentGraph` of that obstacle set
+* **build**: the :class:`~optplan.geometry.tangent.tangent_graph.TangentGraph` of that obstacle set
   (the circles; with ``--build`` the whole graph, else the successors of a circle are made
   when a query first expands it and kept for the later queries);
 * **queries**: every ``.scen`` line answered on that one graph, each with a budget of
@@ -34,7 +34,7 @@ machine's speed just before each map (:func:`reference_ms`: a fixed workload in 
 so that a run in a slow spell of the machine shows as one.  ``--sightlines on|off``
 sets :class:`TangentGraph`'s option (default: from ``SIGHTLINES_MIN`` circles on);
 ``--build`` makes the whole graph first (:meth:`TangentGraph.build`: its time is the build;
-the queries are then the compiled search of ``optplan/geometry/chain_search.py``, whose
+the queries are then the compiled search of ``optplan/geometry/tangent/chain_search.py``, whose
 expanded nodes are departure points, not arrivals).
 ``python benchmarks/bench_maps_scale.py --sizes 1024 --queries 1000 --build
 --epf-max-vertices 0`` is the issue's scale (1024 x 1024 street and room maps, the graph built
@@ -58,7 +58,7 @@ import shapely
 from shapely.geometry import box
 from shapely.geometry.polygon import orient
 
-from optplan.geometry.tangent_graph import MAX_GRAPH_BYTES, TangentGraph
+from optplan.geometry.tangent.tangent_graph import MAX_GRAPH_BYTES, TangentGraph
 from optplan.maps import read_scen
 from optplan.maps.movingai_gen import generate_benchmark
 

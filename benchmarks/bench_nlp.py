@@ -35,7 +35,7 @@ import statistics
 import time
 
 import optplan as op
-from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.geometry.tangent.tangent_graph import problem_shortest_path
 from optplan.problem import transform_problem
 from optplan.result import OPTIMAL_REL_TOL
 

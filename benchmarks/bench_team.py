@@ -34,7 +34,7 @@ import numpy as np
 
 import optplan as op
 from optplan.generators import formation_scene
-from optplan.geometry.time_bounds import arrival_time
+from optplan.geometry.timing.time_bounds import arrival_time
 from optplan.problem import Problem, parse_problem
 
 PLANNERS = ("hybrid-paper", "hybrid-qp", "leader-follower-paper", "formation-qp", "orca-team")

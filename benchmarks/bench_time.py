@@ -11,7 +11,7 @@ Scenes:
 
 Three tables, each with the machine's 1-minute load average before and after its runs:
 
-1. **References**: the wall time of :func:`optplan.geometry.schedule.fastest_schedule` on the
+1. **References**: the wall time of :func:`optplan.geometry.timing.schedule.fastest_schedule` on the
    leader's ``visgraph`` path (``see_temporary = true``: the shortest path of the whole static
    map) and of ``optplan.solve(problem, "sipp")`` (bound, search and validator, as in
    ``bench_sipp.py``), each on a freshly built problem (no cached roadmap or bound); ``sipp``'s
@@ -23,7 +23,7 @@ Three tables, each with the machine's 1-minute load average before and after its
    ``ipso`` (a geometric path timed at ``max_speed`` from t = 0), ``--seeds`` seeds on each
    catalogue scene and one on each random scene: the share of plans that reach the goal and
    are collision-free (the validator's ``feasible``, in continuous time), and over those the
-   leader's arrival (:func:`optplan.geometry.time_bounds.arrival_time`, the metric
+   leader's arrival (:func:`optplan.geometry.timing.time_bounds.arrival_time`, the metric
    ``arrival_time`` of ``reference=True``) over the ``sipp`` reference and over the lower
    bound, median and worst.  The grades are those of ``op.solve(..., reference=True)`` without
    its ``schedule_arrival``: the fastest schedule of a heuristic's own trajectory is the slow
@@ -61,8 +61,8 @@ import numpy as np
 
 import optplan as op
 from optplan.exact.sipp import earliest_arrival
-from optplan.geometry.schedule import fastest_schedule
-from optplan.geometry.time_bounds import arrival_lower_bound, arrival_time
+from optplan.geometry.timing.schedule import fastest_schedule
+from optplan.geometry.timing.time_bounds import arrival_lower_bound, arrival_time
 from optplan.metrics import evaluate
 from optplan.problem import Problem
 

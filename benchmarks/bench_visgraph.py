@@ -38,7 +38,7 @@ import shapely
 
 from optplan.generators import random_obstacles
 from optplan.geometry import Frame, obstacle_set
-from optplan.geometry.tangent_graph import shortest_path
+from optplan.geometry.tangent.tangent_graph import shortest_path
 
 SIZES = (10, 20, 30, 100, 300, 1000)
 BOUNDS = (0.0, 0.0, 500.0, 500.0)

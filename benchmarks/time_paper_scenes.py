@@ -8,7 +8,7 @@ reference=True)``, and the table shows, for the leader:
 
 * SA-APF's ``arrival_time`` (its own time stamps: the first within the goal tolerance);
 * ``schedule_arrival``: the fastest timing of SA-APF's own path up to that point
-  (:func:`optplan.geometry.schedule.fastest_schedule`, exact);
+  (:func:`optplan.geometry.timing.schedule.fastest_schedule`, exact);
 * ``time_reference``: the ``sipp`` earliest arrival (exact on the tangent roadmap), and
   ``time_lower_bound`` (certified for every motion), with their ratio;
 * the ratios ``arrival / schedule`` (what SA-APF loses by its timing), ``arrival / sipp``,

@@ -77,7 +77,7 @@ from typing import Any
 
 __all__ = ["SCHEMA", "SCHEMA_VERSION", "MAX_PROGRESS", "LOCK_TIMEOUT", "ResultsDB",
            "ResultsDBError", "experiment_info", "read_runs", "read_progress",
-           "read_experiments", "thin_progress"]
+           "read_experiments", "thin_progress", "typed"]
 
 SCHEMA_VERSION = 1
 #: at most this many progress rows are stored per run
@@ -289,8 +289,8 @@ def _float_out(x: Any) -> float:
     return float("nan") if x is None else float(x)
 
 
-def _typed(path: Path, table: str, rid: Any, col: str, v: Any, kind: type,
-           allowed: tuple = ()) -> Any:
+def typed(path: Path, table: str, rid: Any, col: str, v: Any, kind: type,
+          allowed: tuple = ()) -> Any:
     """A stored REAL (``kind`` float; NULL is nan) or INTEGER (int; NULL is None) in ``allowed``;
     else (``'abc'``, a blob, a fraction) an error naming the file, table, row and column."""
     ok = v is None or isinstance(v, (int, float)) and (kind is float or float(v).is_integer())
@@ -509,10 +509,10 @@ class ResultsDB:
             rid = r["id"] if with_ids else r.pop("id")
             for c, kind in [*((c, float) for c in _FLOATS), *((c, int) for c in _INTS),
                             ("bucket", int), ("scen_line", int)]:
-                r[c] = _typed(self.path, "runs", rid, c, r[c], kind)
+                r[c] = typed(self.path, "runs", rid, c, r[c], kind)
                 r[c] = 0 if r[c] is None and c in _INTS else r[c]
-            r["success"] = bool(_typed(self.path, "runs", rid, "success", r["success"], int,
-                                       (0, 1)))
+            r["success"] = bool(typed(self.path, "runs", rid, "success", r["success"], int,
+                                      (0, 1)))
             for c in ("stop_reason", "message", "backend", "options", "scen"):
                 r[c] = r[c] or ""
             out.append(r)
@@ -565,7 +565,7 @@ def read_progress(path: str | Path) -> dict[int, dict[str, list[float]]]:
             recs = con.execute("SELECT rowid, run_id, iteration, best_cost, n_eval, time FROM "
                                "progress ORDER BY run_id, rowid").fetchall()
         for row, *vals in recs:
-            rid, it, c, ne, t = (_typed(Path(path), "progress", row, col, v, kind) for col, v, kind
+            rid, it, c, ne, t = (typed(Path(path), "progress", row, col, v, kind) for col, v, kind
                                  in zip(("run_id", "iteration", "best_cost", "n_eval", "time"),
                                         vals, (int, int, float, int, float)))
             d = out.setdefault(rid, {"iteration": [], "best_cost": [], "n_eval": [], "time": []})

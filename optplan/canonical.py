@@ -22,8 +22,8 @@ The *canonical image* of a problem removes that difference before the planner st
 The planner runs on the image and its answer is mapped back (``x u``; the start of each path is set
 to the robot's exact start).  The shared validator then grades the mapped paths on the problem as
 given.  Rounding moves a vertex or a radius by at most ``0.5 x 10**-d <= 5e-10 L``, at most half the
-geometric tolerance ``eps = 1e-9 L`` (:mod:`optplan.geometry.frame`) and about a tenth of it at the
-usual ``L = 707``, so the image is the same scene to within the validator's resolution.
+geometric tolerance ``eps = 1e-9 L`` (:mod:`optplan.geometry.collision.frame`) and about a tenth of
+it at the usual ``L = 707``, so the image is the same scene to within the validator's resolution.
 
 What is and is not invariant: a drawing scaled by any factor gives bit-identical planner decisions
 (up to the straddle chance above); a translated drawing does not (the frame is about the origin, and

@@ -329,11 +329,11 @@ def corridor_scene(kind: str, seed: int = 0, *, side: float = 500.0,
       the start, plus discs and boxes; start and goal near opposite sides.
 
     Every draw whose start and goal are not connected for the robot's disc (checked with the
-    certified shortest path, :func:`optplan.geometry.tangent_graph.problem_shortest_path`) or
-    lie within an obstacle is redrawn from the next sub-seed, so the map is reproducible from
+    certified shortest path, :func:`optplan.geometry.tangent.tangent_graph.problem_shortest_path`)
+    or lie within an obstacle is redrawn from the next sub-seed, so the map is reproducible from
     ``(kind, seed)`` alone.  Name: ``corridor-{kind}-{seed}``.
     """
-    from optplan.geometry.tangent_graph import problem_shortest_path
+    from optplan.geometry.tangent import problem_shortest_path
 
     makers = {"doors": _doors, "shelves": _shelves, "u-traps": _u_traps}
     if kind not in makers:

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from optplan.geometry import Frame, ObstacleSet, cumulative_length, obstacle_set, path_lengths
-from optplan.geometry.motion import (
+from optplan.geometry.timing import (
     mover_track,
     polyline_segments,
     positions_at,
@@ -159,12 +159,12 @@ def time_checks(problem: Problem, paths: dict[str, np.ndarray],
     The check covers ``[min(0, first stamp), horizon]``, the horizon being the last robot's last
     stamp.  Every robot follows its polyline linearly between its stamps, waits at its first
     point before its first stamp and holds its last position until the horizon.  Each moving
-    obstacle follows its exact track (:func:`optplan.geometry.motion.mover_track`: ``hold``,
+    obstacle follows its exact track (:func:`optplan.geometry.timing.motion.mover_track`: ``hold``,
     ``loop`` with its jump back to the first waypoint at each period end, ``bounce``, constant
     velocity).  Per (robot, dynamic obstacle) and per robot pair, the relative motion on the
     merged stamps and knots is a sequence of segments tested with the exact engine
-    (:mod:`optplan.geometry.motion`), so nothing can pass between two stamps unseen; a jump of
-    an obstacle ends one segment and starts the next (checked on both sides, never swept).
+    (:mod:`optplan.geometry.timing.motion`), so nothing can pass between two stamps unseen; a jump
+    of an obstacle ends one segment and starts the next (checked on both sides, never swept).
     """
     ids = list(paths)
     t_end = max(float(stamps[k][-1]) for k in ids)

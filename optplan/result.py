@@ -20,7 +20,7 @@ SCHEMA_VERSION = 1
 
 #: The one tolerance of ``optimal``: a path is confirmed optimal when its length is at most
 #: ``optimum * (1 + OPTIMAL_REL_TOL)``, the optimum being the certified one of
-#: :mod:`optplan.geometry.tangent_graph`.  1e-9 is round-off: the NLP reaches it (gaps
+#: :mod:`optplan.geometry.tangent.tangent_graph`.  1e-9 is round-off: the NLP reaches it (gaps
 #: <= 1e-12) wherever its polyline can represent the optimum (docs/api.md, "Status").
 OPTIMAL_REL_TOL = 1e-9
 

@@ -382,11 +382,11 @@ def reference_optimum(problem: Problem) -> dict[str, Any]:
     """The certified optimum of the planned robot on the known static map, cached per problem.
 
     Returns ``{"optimum": float or None, "reference_time": s, "reference_error": str or None}``:
-    the exact length of the tangent-graph shortest path (:mod:`optplan.geometry.tangent_graph`)
-    when it is certified, else ``None`` with the reason.  The time is that of the first
-    computation (0 when cached).
+    the exact length of the tangent-graph shortest path
+    (:mod:`optplan.geometry.tangent.tangent_graph`) when it is certified, else ``None`` with the
+    reason.  The time is that of the first computation (0 when cached).
     """
-    from optplan.geometry.tangent_graph import problem_shortest_path
+    from optplan.geometry.tangent import problem_shortest_path
 
     fresh: list[bool] = []
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from optplan.geometry.time_bounds import arrival_time
+from optplan.geometry.timing import arrival_time
 from optplan.problem import Problem
 from optplan.result import Result
 

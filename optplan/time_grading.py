@@ -3,17 +3,17 @@
 On a problem with moving obstacles, ``op.solve(..., reference=True)`` grades each robot of the
 plan (:func:`with_time_reference`):
 
-* ``arrival_time``: the plan as executed (:func:`~optplan.geometry.time_bounds.arrival_time`:
+* ``arrival_time``: the plan as executed (:func:`~optplan.geometry.timing.time_bounds.arrival_time`:
   the first stamp within the goal tolerance; a geometric path is timed at ``max_speed``).  A
   follower has no goal: its arrival is the time it reaches the end of its path for good;
 * ``schedule_arrival``: the fastest timing of the same geometric path up to that point
-  (:func:`~optplan.geometry.schedule.fastest_schedule`, exact): how much the planner lost by
+  (:func:`~optplan.geometry.timing.schedule.fastest_schedule`, exact): how much the planner lost by
   its timing alone;
 * ``time_reference``: the earliest arrival of the reference planner in time (``op.solve``
   passes the ``sipp`` preset's: safe intervals on the exact tangent roadmap), for robots with
   a goal;
 * ``time_lower_bound``: the certified bound of
-  :func:`~optplan.geometry.time_bounds.arrival_lower_bound` (robots with a goal);
+  :func:`~optplan.geometry.timing.time_bounds.arrival_lower_bound` (robots with a goal);
 * the ratios of ``arrival_time`` to each of them.
 
 The planned robot's (the leader's) grades are metrics of their own; with more than one robot,
@@ -28,8 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from optplan.geometry.schedule import fastest_schedule
-from optplan.geometry.time_bounds import arrival_lower_bound, arrival_time
+from optplan.geometry.timing import arrival_lower_bound, arrival_time, fastest_schedule
 from optplan.problem import Problem
 
 __all__ = ["with_time_reference", "grade_robot", "Reference"]

@@ -29,7 +29,7 @@ from benchmarks.fuzz.surfaces import arena_cases, crop_cases, path_cases, scen_c
 #: (:func:`stale_findings`) and fails the test, so a fixed finding is removed, not kept; an entry
 #: must therefore come with a case in the slice that reproduces it.  (Removed, no longer
 #: reproducing: ``int-option-recompiles``, an integer value for a float swarm option compiled
-#: a new numba specialisation; ``optplan.geometry.jit.OneSignature`` converts it since.)
+#: a new numba specialisation; ``optplan.geometry.compiled.jit.OneSignature`` converts it since.)
 KNOWN_FINDINGS: dict[str, tuple[str, str, Callable[[Outcome], bool]]] = {}
 
 

@@ -7,7 +7,8 @@ Writes ``time-st-plane.png``: on the left the scene (a robot's two-segment path,
 and two discs crossing it, one of them bouncing), on the right the (arc length, time) plane of
 that path: the forbidden regions (drawn from their exact sections at 800 arc lengths), the
 full-speed line from the start and the fastest schedule of
-:func:`optplan.geometry.schedule.fastest_schedule` (full speed, waits where the regions demand).
+:func:`optplan.geometry.timing.schedule.fastest_schedule` (full speed, waits where the regions
+demand).
 """
 
 from __future__ import annotations
@@ -23,8 +24,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 import optplan as op  # noqa: E402
-from optplan.geometry.schedule import fastest_schedule  # noqa: E402
-from optplan.geometry.st_regions import path_regions, sections  # noqa: E402
+from optplan.geometry.timing.schedule import fastest_schedule  # noqa: E402
+from optplan.geometry.timing.st_regions import path_regions, sections  # noqa: E402
 
 __all__ = ["scene", "main"]
 

@@ -61,7 +61,7 @@ def _chains_figure():
     from matplotlib.collections import LineCollection
 
     from optplan import plot
-    from optplan.geometry.tangent_graph import TangentGraph
+    from optplan.geometry.tangent.tangent_graph import TangentGraph
 
     prob = op.catalog.load_problem("paper-env1")
     r = prob.leader

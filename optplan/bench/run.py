@@ -16,8 +16,7 @@ _REF_KEY = ("optplan.bench", "reference")
 
 def _fresh(prob: Any) -> Any:
     """A copy of ``prob`` with empty caches (its frame kept: it only depends on the bounds)."""
-    keep = {k: v for k, v in prob._cache.items() if k == ("frame",)}
-    return dataclasses.replace(prob, _cache=keep)
+    return prob.replaced(keep=("frame",))
 
 
 def _reference(prob: Any) -> dict[str, Any]:

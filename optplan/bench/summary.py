@@ -357,7 +357,7 @@ def _decode_runs(src: Path, runs: list[dict[str, Any]]) -> None:
     """Add each run's sweep (``experiment_id``) and decode its JSON ``config`` and
     ``options`` (a time limit a number); a damaged value is an error naming the file, the
     table, the row id, the column and the value."""
-    from optplan.benchdb import ResultsDBError, _typed
+    from optplan.benchdb import ResultsDBError, typed
 
     con = sqlite3.connect(f"file:{src}?mode=ro", uri=True)
     try:
@@ -365,8 +365,8 @@ def _decode_runs(src: Path, runs: list[dict[str, Any]]) -> None:
     finally:
         con.close()
     for r in runs:
-        r["experiment_id"] = _typed(src, "runs", r["id"], "experiment_id",
-                                    sweep_of.get(r["id"]), int)
+        r["experiment_id"] = typed(src, "runs", r["id"], "experiment_id",
+                                   sweep_of.get(r["id"]), int)
         for col in ("config", "options"):
             raw = r[col]
             try:

@@ -86,15 +86,15 @@ Warm start
     convex piece (the piece's edge normals, the segment's normals, the directions from the
     piece's vertices to the segment's endpoints), with ``c`` in the middle of the gap.
     Without ``init`` the start is the arc-exact tangent-graph path
-    (:func:`optplan.geometry.tangent_graph.problem_shortest_path`, ``init_from = "visgraph"``)
-    or the straight line (``"straight"``).  IPOPT is local: the homotopy class is the initial
-    guess's.
+    (:func:`optplan.geometry.tangent.tangent_graph.problem_shortest_path`, ``init_from =
+    "visgraph"``) or the straight line (``"straight"``).  IPOPT is local: the homotopy class is the
+    initial guess's.
 
 Statuses
     IPOPT ``Solve_Succeeded`` is a KKT point: locally optimal in the initial guess's homotopy
     class.  It is claimed ``optimal`` only when it lies in the homotopy class of the certified
-    optimum of the same map (:mod:`optplan.geometry.homotopy`) *and* that optimum confirms its
-    length within :data:`optplan.result.OPTIMAL_REL_TOL` (1e-9); otherwise ``solved``, with
+    optimum of the same map (:mod:`optplan.geometry.collision.homotopy`) *and* that optimum confirms
+    its length within :data:`optplan.result.OPTIMAL_REL_TOL` (1e-9); otherwise ``solved``, with
     "locally optimal (KKT)", the gap (also ``extras["ipopt"][robot]["optimum_gap"]``) and the
     reason in the message: chords around the optimum's arcs, or the safety clearance at a
     corner, keep a KKT point 1e-6 to 1e-4 above the optimum (docs/solvers/nlp.md).  Acceptable
@@ -127,8 +127,8 @@ import numpy as np
 from optplan.exact.nlp_pieces import blocked_end
 from optplan.exact.nlp_solve import MAX_SEGMENTS, NLPOutcome, solve_waypoint_nlp
 from optplan.exact.nlp_status import combine_claims, guard, ipopt_claim, outcome_message
-from optplan.geometry.polyline import path_lengths
-from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.geometry.collision import path_lengths
+from optplan.geometry.tangent import problem_shortest_path
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Result, Status, notify
 from optplan.solver import Backend, option

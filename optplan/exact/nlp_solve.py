@@ -27,7 +27,7 @@ from optplan.exact.nlp_pieces import (
     select_pairs,
 )
 from optplan.geometry import Frame
-from optplan.geometry.polyline import path_lengths, resample_path
+from optplan.geometry.collision import path_lengths, resample_path
 from optplan.metrics import evaluate
 from optplan.problem import Problem, Robot
 

@@ -16,9 +16,8 @@ from typing import Any
 import numpy as np
 
 from optplan.exact.nlp_solve import NLPOutcome
-from optplan.geometry.homotopy import same_homotopy
-from optplan.geometry.polyline import path_lengths
-from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.geometry.collision import path_lengths, same_homotopy
+from optplan.geometry.tangent import problem_shortest_path
 from optplan.metrics import evaluate
 from optplan.problem import Problem, Robot
 from optplan.result import Status, confirms_optimum, optimum_gap

@@ -22,7 +22,7 @@ obstacles and, as moving discs on their timed trajectories (parked at their goal
 the robots planned before it (prioritised planning: the first robot's plan is the earliest in
 the model, the team's is not jointly optimal).
 
-**Certificate.**  :func:`~optplan.geometry.time_bounds.arrival_lower_bound` holds for every
+**Certificate.**  :func:`~optplan.geometry.timing.time_bounds.arrival_lower_bound` holds for every
 motion; the plan is ``optimal`` when its arrival equals the bound (relative
 :data:`~optplan.result.OPTIMAL_REL_TOL`), else ``solved`` with the gap.  The earliest arrival
 within the model is not the true time optimum (the robot could leave the roadmap, drive
@@ -51,8 +51,7 @@ from optplan.exact.sipp_graph import (
     free_intervals,
     segment_windows,
 )
-from optplan.geometry.motion import positions_at
-from optplan.geometry.time_bounds import TimeBound, arrival_lower_bound
+from optplan.geometry.timing import TimeBound, arrival_lower_bound, positions_at
 from optplan.problem import DynamicObstacle, Problem
 from optplan.result import (
     History,
@@ -101,7 +100,8 @@ class TimedPlan:
     message : str
         What was found, or why not.
     bound : TimeBound
-        The certified lower bound (:func:`~optplan.geometry.time_bounds.arrival_lower_bound`).
+        The certified lower bound
+        (:func:`~optplan.geometry.timing.time_bounds.arrival_lower_bound`).
     horizon : float
         The time window of the last search (s; NaN when none ran).
     info : dict
@@ -175,8 +175,8 @@ class _Sipp:
     # ---- windows -------------------------------------------------------------------
     def safe(self, v: int) -> Intervals:
         """Safe intervals of vertex ``v`` on ``[0, horizon]``: of the start from
-        :func:`~optplan.geometry.time_bounds.parked_contact_times`, of a tangent point from the
-        end of the first chain whose windows reach it (:meth:`_compute_windows`), of the goal
+        :func:`~optplan.geometry.timing.time_bounds.parked_contact_times`, of a tangent point from
+        the end of the first chain whose windows reach it (:meth:`_compute_windows`), of the goal
         all of it (the robot need only arrive there)."""
         if v not in self.safe_of:
             vx = self.rm.vertices[v]

@@ -1,14 +1,15 @@
 r"""The roadmap of the ``sipp`` preset and its windows in time (``optplan.exact.sipp``).
 
 **Roadmap.**  The vertices and edges are those of the arc-exact tangent visibility graph of
-the static map (:mod:`optplan.geometry.tangent_graph`): a *vertex* is the start, the goal, or
-the point where a tangent segment arrives on a circle (one per tangent: circle ``i`` in sense
+the static map (:mod:`optplan.geometry.tangent.tangent_graph`): a *vertex* is the start, the goal,
+or the point where a tangent segment arrives on a circle (one per tangent: circle ``i`` in sense
 ``s_i`` to circle ``j`` in sense ``s_j``); the edges out of a vertex on circle ``j`` are the
 *chains* "arc along ``j`` to the departure point of a tangent, then that tangent", exactly the
-successors the tangent graph's A* generates (its ``_candidates`` and ``_departures``: the same
-circles, the same normal-cone filter), checked with its exact tests (the segment predicate of
+successors the tangent graph's A* generates (``candidates`` and ``departures`` of
+:class:`~optplan.geometry.tangent.tangent_search.TangentSearch`: the same circles, the same
+normal-cone filter), checked with its exact tests (the segment predicate of
 the obstacle set, the exact arc test).  Each arc is driven along its *circumscribed polyline*
-(:func:`~optplan.geometry.tangent_graph.arc_polyline`, chords of at most ``arc_step`` rad,
+(:func:`~optplan.geometry.tangent.tangent_graph.arc_polyline`, chords of at most ``arc_step`` rad,
 redrawn up to four times four times finer, never finer than :data:`FINEST_STEP`, where it
 comes too close to a neighbouring obstacle, as the tangent graph does); its corners are
 vertices of the chain, where the robot may wait like at every other vertex.  No graph is
@@ -19,10 +20,10 @@ checked lazily (:class:`Roadmap`).
 **Windows in time.**  A chain is a polyline driven at full speed ``v`` with waits at its
 corners.  Its segment ``a -> b`` is forbidden to a departure at ``t`` when the disc crossing it
 from ``t`` at speed ``v`` overlaps a moving obstacle:
-:func:`~optplan.geometry.st_regions.forbidden_departures`, computed here for many segments in one
-vectorised pass (:func:`segment_windows`: the same regions and the same extremes).  A point is
+:func:`~optplan.geometry.timing.st_regions.forbidden_departures`, computed here for many segments in
+one vectorised pass (:func:`segment_windows`: the same regions and the same extremes).  A point is
 busy when the disc parked there overlaps a moving obstacle
-(:func:`~optplan.geometry.time_bounds.parked_contact_times`); its *safe intervals* are the
+(:func:`~optplan.geometry.timing.time_bounds.parked_contact_times`); its *safe intervals* are the
 closed complement (:func:`free_intervals`).  Only the moving obstacles whose motion on
 ``[0, horizon]`` passes near a point or a segment are handed to these functions
 (:class:`MoverBoxes`, an axis-aligned box test that never drops a contact).
@@ -39,15 +40,17 @@ from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
-from optplan.geometry.arc_lines import arc_polyline
-from optplan.geometry.circles import circles_of
-from optplan.geometry.contact_times import shape_pieces
-from optplan.geometry.motion import mover_pieces
-from optplan.geometry.obstacles import ObstacleSet
-from optplan.geometry.st_regions import merge_open, path_regions, region_extremes, sections
-from optplan.geometry.tangent_graph import TangentGraph
-from optplan.geometry.tangent_search import TangentSearch
-from optplan.geometry.time_bounds import parked_contact_times
+from optplan.geometry.collision import ObstacleSet
+from optplan.geometry.tangent import TangentGraph, TangentSearch, arc_polyline, circles_of
+from optplan.geometry.timing import (
+    merge_open,
+    mover_pieces,
+    parked_contact_times,
+    path_regions,
+    region_extremes,
+    sections,
+    shape_pieces,
+)
 
 if TYPE_CHECKING:
     from optplan.problem import DynamicObstacle, Problem
@@ -66,7 +69,7 @@ GOAL_KEY: tuple = ("goal",)
 
 #: Refinements of a circumscribed arc polyline that comes too close to a neighbour (each
 #: divides the chord angle by 4), as in
-#: :func:`optplan.geometry.tangent_graph.problem_shortest_path`.
+#: :func:`optplan.geometry.tangent.tangent_graph.problem_shortest_path`.
 _REFINE = 4
 #: The finest chord angle (rad) of a refinement: the smallest ``arc_step`` accepted.  A chain
 #: then has at most ``2 pi / FINEST_STEP`` (about 63,000) corners, so drawing one chain, or
@@ -91,8 +94,8 @@ class MoverBoxes:
     """Axis-aligned boxes of the moving obstacles' motions on ``[0, horizon]``.
 
     Each box holds every point of the obstacle's shape at every time of the window (the
-    reference point's linear pieces, :func:`~optplan.geometry.motion.mover_pieces`, clipped to
-    the window, plus the shape's extent) grown by the robot's ``radius``; a point or segment
+    reference point's linear pieces, :func:`~optplan.geometry.timing.motion.mover_pieces`, clipped
+    to the window, plus the shape's extent) grown by the robot's ``radius``; a point or segment
     outside a box cannot touch that obstacle in the window.
     """
 
@@ -130,7 +133,7 @@ class MoverBoxes:
         return [self.movers[k] for k in np.flatnonzero(ok)]
 
     def parked_busy(self, point, radius: float, t_lo: float, t_hi: float) -> Intervals:
-        """:func:`~optplan.geometry.time_bounds.parked_contact_times` of the disc parked at
+        """:func:`~optplan.geometry.timing.time_bounds.parked_contact_times` of the disc parked at
         ``point`` against the obstacles near it."""
         near = self.near(point)
         if not near:
@@ -194,7 +197,7 @@ def _may_meet(reg) -> np.ndarray:
 
 def _grouped(k: np.ndarray, lo: np.ndarray, hi: np.ndarray, n: int) -> list[Intervals]:
     """Per group ``0..n-1``: the union of the open intervals ``(lo_i, hi_i)`` with ``k_i``
-    equal to it (:func:`~optplan.geometry.st_regions.merge_open`)."""
+    equal to it (:func:`~optplan.geometry.timing.st_regions.merge_open`)."""
     out: list[Intervals] = [[] for _ in range(n)]
     if len(k) == 0:
         return out
@@ -209,8 +212,8 @@ def _grouped(k: np.ndarray, lo: np.ndarray, hi: np.ndarray, n: int) -> list[Inte
 def segment_windows(movers: list[DynamicObstacle], a: np.ndarray, b: np.ndarray,
                     radius: float, speed: float, horizon: float
                     ) -> tuple[list[Intervals], list[Intervals]]:
-    """:func:`~optplan.geometry.st_regions.forbidden_departures` of many segments at once, and
-    the busy times of their end points.
+    """:func:`~optplan.geometry.timing.st_regions.forbidden_departures` of many segments at once,
+    and the busy times of their end points.
 
     Parameters
     ----------
@@ -227,19 +230,19 @@ def segment_windows(movers: list[DynamicObstacle], a: np.ndarray, b: np.ndarray,
         a moving obstacle (sorted disjoint open intervals, touching ones merged).
     busy : list of Intervals
         Per segment, the times at which the disc parked at ``b[k]`` overlaps a moving obstacle
-        (the same set as :func:`~optplan.geometry.time_bounds.parked_contact_times` on the
+        (the same set as :func:`~optplan.geometry.timing.time_bounds.parked_contact_times` on the
         window).
 
     Notes
     -----
     The segments are strung into one polyline ``a0, b0, a1, b1, ...`` whose convex forbidden
-    regions (:func:`~optplan.geometry.st_regions.path_regions`) are those of the segments plus
-    those of the connectors ``b_k -> a_{k+1}``; the connectors' regions are dropped, and so are
+    regions (:func:`~optplan.geometry.timing.st_regions.path_regions`) are those of the segments
+    plus those of the connectors ``b_k -> a_{k+1}``; the connectors' regions are dropped, and so are
     the regions whose segment and obstacle piece never come within reach (a segment-to-segment
     distance).  The departures of the rest are the extremes of ``t' - sigma / speed``
-    (:func:`~optplan.geometry.st_regions.region_extremes`), as in
-    :func:`~optplan.geometry.st_regions.forbidden_departures`; the busy times at ``b[k]`` are
-    the regions' sections at ``sigma = ell`` (:func:`~optplan.geometry.st_regions.sections`).
+    (:func:`~optplan.geometry.timing.st_regions.region_extremes`), as in
+    :func:`~optplan.geometry.timing.st_regions.forbidden_departures`; the busy times at ``b[k]`` are
+    the regions' sections at ``sigma = ell`` (:func:`~optplan.geometry.timing.st_regions.sections`).
     """
     a = np.asarray(a, float).reshape(-1, 2)
     b = np.asarray(b, float).reshape(-1, 2)
@@ -465,8 +468,8 @@ class Roadmap:
         i, si, th_a = vx.circle, vx.sense, vx.theta
         self.info["n_expanded"] += 1
         ci, ri = (self.zs, 0.0) if i < 0 else (g.cen[i], float(g.rho[i]))
-        jj, sj, dd, delta, nl, pj, th_arr = g._candidates(i, si, ci, ri)
-        pi, th_d, sweep, ok = g._departures(i, si, th_a, ci, ri, nl)
+        jj, sj, dd, delta, nl, pj, th_arr = g.candidates(i, si, ci, ri)
+        pi, th_d, sweep, ok = g.departures(i, si, th_a, ci, ri, nl)
         isg = jj < 0
         if g.n:
             ok &= isg | np.isfinite(g.cone_off(np.where(isg, 0, jj), th_arr))

@@ -1,6 +1,6 @@
 r"""Certified shortest path: the arc-exact tangent visibility graph (``optplan.geometry``).
 
-The mathematics lives in :mod:`optplan.geometry.tangent_graph` (the certified optimum is a
+The mathematics lives in :mod:`optplan.geometry.tangent.tangent_graph` (the certified optimum is a
 geometry algorithm); this module is the thin :class:`~optplan.backend.Backend` driver.
 
 For each planned robot (a disc of radius ``r >= 0``) the search returns the exact length of the
@@ -25,7 +25,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.geometry.tangent import problem_shortest_path
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status, notify
 from optplan.solver import Backend, option
@@ -57,8 +57,8 @@ class VisGraph(Backend):
         ``"lazy"`` (default): the map's tangent graph grows as searches reach it, searched by
         the lazy A* (nothing to build: a single query on a large map is fastest).
         ``"built"``: the whole graph of the map is made before the first query
-        (:meth:`~optplan.geometry.tangent_graph.TangentGraph.build`) and every query runs the
-        compiled search over it: for many queries on one map (the problems of one ``.scen``
+        (:meth:`~optplan.geometry.tangent.tangent_graph.TangentGraph.build`) and every query runs
+        the compiled search over it: for many queries on one map (the problems of one ``.scen``
         share their obstacle set, so the graph is built once).  Same lengths; the build is
         not interrupted by a time limit.
     """

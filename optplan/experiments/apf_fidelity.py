@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 import optplan as op
-from optplan.geometry.polyline import path_lengths
+from optplan.geometry.collision import path_lengths
 from optplan.potential.sa_apf import K_B, K_B_PAPER
 from optplan.problem import transform_problem
 

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from optplan.catalog import load_problem
-from optplan.geometry.homotopy import same_homotopy
+from optplan.geometry.collision import same_homotopy
 from optplan.problem import Problem
 from optplan.result import Result
 from optplan.solver import Backend, get_solver, solve

@@ -24,8 +24,7 @@ import numpy as np
 from optplan.exact.nlp import IterProgress
 from optplan.exact.nlp_pieces import SAFETY_REL, obstacle_pieces
 from optplan.formation.team_nlp import MoverTable, TeamModel, solve_team_nlp
-from optplan.geometry.motion import mover_track, positions_at
-from optplan.geometry.time_bounds import arrival_time
+from optplan.geometry.timing import arrival_time, mover_track, positions_at
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status
 from optplan.solver import Backend, get_solver, option

@@ -45,8 +45,8 @@ from optplan.formation.orca_world import (
     require_pyrvo,
 )
 from optplan.formation.slots import slot_positions
-from optplan.geometry.polyline import path_lengths
-from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.geometry.collision import path_lengths
+from optplan.geometry.tangent import problem_shortest_path
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Result, Status
 from optplan.sim import SimOutcome, SimState, simulate
@@ -305,8 +305,8 @@ class ORCA(Backend):
         driven to its goal and every follower to its L-phi slot.
     subgoals : str
         ``"none"``: preferred velocity straight toward the goal.  ``"visgraph"``: along the
-        certified shortest path on the known map (:mod:`optplan.geometry.tangent_graph`, what
-        the ``visgraph`` preset plans), from one visible waypoint to the next; plain ORCA stops
+        certified shortest path on the known map (:mod:`optplan.geometry.tangent.tangent_graph`,
+        what the ``visgraph`` preset plans), from one visible waypoint to the next; plain ORCA stops
         behind concave obstacles.  In a team only the leader follows it.
     subgoal_reach : float
         A waypoint within this distance counts as passed (x length_scale).

@@ -30,7 +30,7 @@ import shapely
 from shapely.geometry import Polygon
 from shapely.geometry.polygon import orient
 
-from optplan.geometry.motion import mover_pieces
+from optplan.geometry.timing import mover_pieces
 from optplan.problem import DynamicObstacle, Problem
 
 __all__ = ["LocalFrame", "Movers", "circle_polygon", "obstacle_polygons", "require_pyrvo",
@@ -159,7 +159,7 @@ class Movers:
     (centre ``offset`` from the reference point that
     :meth:`~optplan.problem.DynamicObstacle.position` moves).  :meth:`at` gives the discs'
     centres and velocities at a time: the velocity of the linear piece of the track
-    (:func:`optplan.geometry.motion.mover_pieces`) the obstacle is on at that time.
+    (:func:`optplan.geometry.timing.motion.mover_pieces`) the obstacle is on at that time.
     """
 
     def __init__(self, problem: Problem):

@@ -29,7 +29,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan.formation.slots import slot_positions, wrap
-from optplan.geometry.polyline import cumulative_length, resample_uniform
+from optplan.geometry.collision import cumulative_length, resample_uniform
 from optplan.interfaces import LOCAL_PLANNER, PATH_SOLVER, LocalController, resolve_stage
 from optplan.potential.field import attractive_force, repulsive_force
 from optplan.problem import Problem

@@ -12,7 +12,7 @@ import numpy.typing as npt
 import shapely
 from shapely.geometry import Polygon, box
 
-from optplan.geometry.frame import MAX_REL_COORD
+from optplan.geometry.collision import MAX_REL_COORD
 from optplan.maps.polygons import exact_union
 from optplan.problem import ProblemError
 
@@ -29,9 +29,9 @@ MAX_CELLS = 8192 * 8192
 #: The supported size of a map: its diagonal ``hypot(width, height) x resolution`` lies in
 #: ``[MAP_MIN_LENGTH, MAP_MAX_LENGTH]`` = ``[1e-30, 1e30]`` map units, and the centre of the
 #: map lies within ``MAX_REL_COORD`` (1e6) diagonals of the coordinate origin (the rule of
-#: the geometry core, :mod:`optplan.geometry.frame`: the double format resolves the tolerance
-#: ``1e-9 x`` the diagonal there).  Why these bounds: the geometry core accepts diagonals in
-#: ``[1e-100, 1e100]``, but the exact obstacle engine squares and multiplies lengths, and an
+#: the geometry core, :mod:`optplan.geometry.collision.frame`: the double format resolves the
+#: tolerance ``1e-9 x`` the diagonal there).  Why these bounds: the geometry core accepts diagonals
+#: in ``[1e-100, 1e100]``, but the exact obstacle engine squares and multiplies lengths, and an
 #: imported map runs clean (no overflow, underflow or nan) only for diagonals between about
 #: ``1e-60`` and ``1e70``; 30 decades inside that on each side still cover every unit a map
 #: is drawn in.  Outside these bounds the world coordinates of the cells underflow, overflow

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from optplan.geometry.jit import B2, compiled, i8, inlined
+from optplan.geometry.compiled import B2, compiled, i8, inlined
 
 __all__ = ["KINDS", "GeneratedMap", "benchmark_terrain", "octile_length", "scen_queries",
            "generate_benchmark", "default_name"]

@@ -269,7 +269,6 @@ def _like(template: Problem, where: str, s: np.ndarray, g: np.ndarray,
             raise _err(where, f"robots[0].{k}", f"{q.tolist()} lies inside obstacle "
                        f"{template.obstacles[hit].name!r} (obstacles[{hit}]) inflated by "
                        f"the robot radius {template.robots[0].radius:g}")
-    shared = {k: v for k, v in template._cache.items()
-              if k[0] in ("frame", "obstacle_set")}
     robot = dataclasses.replace(template.robots[0], start=s, goal=g)
-    return dataclasses.replace(template, robots=(robot,), path=where, _cache=shared, **keys)
+    return template.replaced(keep=("frame", "obstacle_set"), robots=(robot,), path=where,
+                             **keys)

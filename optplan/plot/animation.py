@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 from matplotlib.text import Text
 
-from optplan.geometry.polyline import cumulative_length, points_along
+from optplan.geometry.collision import cumulative_length, points_along
 from optplan.plot.legend import _place_legend
 from optplan.plot.scene import _problem_of, _robot_colour, plot_problem
 from optplan.plot.shapes import _draw_poly, _draw_violations, _include_points, _poly_path, _polygons

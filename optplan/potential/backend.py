@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, cast
 
 import numpy as np
 
-from optplan.geometry.polyline import path_lengths
+from optplan.geometry.collision import path_lengths
 from optplan.options import option
 from optplan.potential.controller import STATS_UNITS, APFController, Trace
 from optplan.potential.field import FieldParams

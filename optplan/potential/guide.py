@@ -4,7 +4,7 @@ Beyond the paper.  The potential field of eqs 3-6 / 34 knows obstacles within ``
 on grid-derived maps (hundreds of small squares, walls of many pieces, one-cell passages) its
 local minima are everywhere and the SA escape of §IV.B wanders.  With ``guide = "visgraph"``
 the controller plans once the arc-exact shortest path of the robot disc on the *known* map
-(:func:`optplan.geometry.tangent_graph.tangent_graph`, the ``visgraph`` solver's graph) from
+(:func:`optplan.geometry.tangent.tangent_graph.tangent_graph`, the ``visgraph`` solver's graph) from
 where it is to its goal, and uses its vertices as a moving sub-goal:
 
 .. math::  g(x) = P_{j(x)}, \qquad j(x) = \max\{\, j \le i + m : [x, P_j] \text{ free}\,\},
@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.tangent_graph import tangent_graph
+from optplan.geometry.tangent.tangent_graph import tangent_graph
 from optplan.problem import Problem, Robot
 
 __all__ = ["Guide", "LOOKAHEAD", "REPLAN_EVERY", "GUIDE_MARGIN"]

@@ -206,10 +206,10 @@ class DynamicObstacle:
         """Reference position at time(s) ``t``; shape ``(2,)`` or ``(len(t), 2)``.
 
         The motion model of ``problems/README.md``, evaluated on the one track of
-        :func:`optplan.geometry.motion.mover_track` (right-continuous: at a ``loop`` period
+        :func:`optplan.geometry.timing.motion.mover_track` (right-continuous: at a ``loop`` period
         boundary the obstacle is at its first waypoint).
         """
-        from optplan.geometry.motion import mover_position
+        from optplan.geometry.timing.motion import mover_position
 
         return mover_position(self, t)
 
@@ -320,11 +320,20 @@ class Problem:
         A problem is immutable, so what is derived from it (obstacle sets, the certified
         optimum, the known view) is computed once and kept with it.  ``key`` is a tuple whose
         first item names what is cached (``("obstacle_set", radius, known_only)``); this is the
-        only way modules read or write the cache.
+        only way modules read or write the cache (:meth:`replaced` copies part of it).
         """
         if key not in self._cache:
             self._cache[key] = build()
         return self._cache[key]
+
+    def replaced(self, keep: tuple[str, ...] = (), **changes: Any) -> Problem:
+        """A copy with ``changes`` (:func:`dataclasses.replace`) that shares only the cached
+        values named in ``keep`` (the first item of a :meth:`memo` key, e.g. ``"frame"``):
+        the rest may depend on what changed, and is built again when asked for."""
+        import dataclasses
+
+        shared = {k: v for k, v in self._cache.items() if k[0] in keep}
+        return dataclasses.replace(self, _cache=shared, **changes)
 
     def known_view(self) -> Problem:
         """A copy without temporary (``known = false``) obstacles and without dynamic ones.

@@ -291,7 +291,7 @@ def _check_periods(ctx: _Ctx, dyn: tuple[DynamicObstacle, ...], robots: list[Rob
                    diag: float) -> None:
     """Periodic dynamic obstacles: not faster than the validator can follow
     (:data:`MIN_REL_PERIOD`)."""
-    from optplan.geometry.motion import mover_period
+    from optplan.geometry.timing.motion import mover_period
 
     slow = min(robots, key=lambda r: r.max_speed)
     t_cross = diag / slow.max_speed

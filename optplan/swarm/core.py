@@ -52,8 +52,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from optplan.geometry.homotopy import obstacle_points
-from optplan.geometry.polyline import resample_path
+from optplan.geometry.collision import obstacle_points, resample_path
 from optplan.problem import Problem, Robot
 
 if TYPE_CHECKING:
@@ -343,7 +342,7 @@ def pairs_free(points: np.ndarray, i: np.ndarray, j: np.ndarray,
     of ``space.clear`` (no obstacles: all free).
 
     One call of :meth:`optplan.geometry.ObstacleSet.pairs_free` (the compiled
-    :func:`optplan.geometry.kernel.free_pairs`): the decision of
+    :func:`optplan.geometry.collision.kernel.free_pairs`): the decision of
     :meth:`optplan.geometry.ObstacleSet.segment_free` (``crossings(...).count == 0``) with an
     early exit per segment; the segments are given by point indices, so a roadmap or a
     string pulling tests its vertex pairs without gathering their end points."""

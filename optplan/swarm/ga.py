@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.jit import F1, F2, FA2, I2, argsort_stable, b1, compiled, f8, i8, inlined
+from optplan.geometry.compiled import F1, F2, FA2, I2, argsort_stable, b1, compiled, f8, i8, inlined
 
 __all__ = [
     "crossover",
@@ -27,8 +27,8 @@ __all__ = [
     "ga_children",
 ]
 
-#: Compiled with one signature each (optplan.geometry.jit; cached on disk after the first run).
-#: Element loops, not array expressions, fancy indexing or slice assignments: those compile
+#: Compiled with one signature each (optplan.geometry.compiled.jit; cached on disk after the first
+#: run). Element loops, not array expressions, fancy indexing or slice assignments: those compile
 #: several times slower (broadcasting and its error messages) for the same arithmetic.
 
 

@@ -79,7 +79,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.geometry.jit import F1, F2, F3, FA2, I1, argsort_stable, compiled, f8, i8, inlined
+from optplan.geometry.compiled import F1, F2, F3, FA2, I1, argsort_stable, compiled, f8, i8, inlined
 from optplan.solver import option
 from optplan.swarm.backend import MAX_PARTICLES, SwarmBackend, SwarmState
 from optplan.swarm.core import PathBuffer, SwarmSpace, evaluate_paths

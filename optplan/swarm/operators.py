@@ -20,14 +20,15 @@ Initialisation (option ``init_mode``)
     (:func:`optplan.swarm.roadmap.roadmap_corridors`, placed by the driver,
     :class:`optplan.swarm.backend.SwarmBackend`), one per block of consecutive particles (one
     per island of ``ipso``).  An ``init`` path (from an earlier stage) seeds particle 0
-    (:func:`optplan.geometry.polyline.resample_path`: exact when it has at most ``n`` bends).
+    (:func:`optplan.geometry.collision.polyline.resample_path`: exact when it has at most ``n``
+    bends).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.jit import F1, F2, FA2, I1, compiled, f8, i8
+from optplan.geometry.compiled import F1, F2, FA2, I1, compiled, f8, i8
 from optplan.swarm.core import SwarmSpace
 
 __all__ = [

@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from optplan.geometry.jit import B1, F2, I1, compiled
+from optplan.geometry.compiled import B1, F2, I1, compiled
 from optplan.swarm.core import SwarmSpace, pairs_free, segment_free
 
 __all__ = ["CUT_FRACTIONS", "CUT_STAGES", "shortcut", "tighten"]

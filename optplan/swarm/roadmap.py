@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optplan.geometry.jit import (
+from optplan.geometry.compiled import (
     B1,
     F1,
     F2,

@@ -6,8 +6,8 @@ Homotopy classes (beyond the paper)
     it; each segment crossing a ray adds ``+1`` (left to right) or ``-1`` to that item's count,
     and the signature hashes the count vector (:func:`signature_hashes`).  Two paths with
     common endpoints have the same signature iff their loop winds zero times around every
-    item (see :mod:`optplan.geometry.homotopy`); the counts add over concatenated segments, so
-    a roadmap search can carry them along its edges.
+    item (see :mod:`optplan.geometry.collision.homotopy`); the counts add over concatenated
+    segments, so a roadmap search can carry them along its edges.
 
 The per-item keys are :attr:`optplan.swarm.core.SwarmSpace.signature_keys`, the reference
 points :attr:`optplan.swarm.core.SwarmSpace.signature_points`.
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.jit import F2, I1, compiled
+from optplan.geometry.compiled import F2, I1, compiled
 from optplan.swarm.core import SwarmSpace
 
 __all__ = ["signature_hashes", "signature_hashes_list"]

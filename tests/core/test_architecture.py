@@ -138,12 +138,14 @@ VULTURE_USED = {
     "signum": "a signal handler's signature (bench.run)",
     "exc": "a context manager's __exit__ signature (benchdb)",
     "_negative_number_matcher": "argparse reads it (cli.parser)",
-    "_compile_for_args": "numba's dispatcher calls it on a first call (geometry.numba_internals)",
+    "_compile_for_args": "numba's dispatcher calls it on a first call "
+                         "(geometry.compiled.numba_internals)",
     **dict.fromkeys(("get_cache_path", "get_source_stamp", "get_disambiguator",
                      "from_function"),
-                    "a numba cache locator's methods, called by numba (geometry.kernel_cache)"),
+                    "a numba cache locator's methods, called by numba "
+                    "(geometry.compiled.kernel_cache)"),
     "_py_file": "a numba cache locator's attribute, read by numba's warnings "
-                "(geometry.numba_internals)",
+                "(geometry.compiled.numba_internals)",
     **dict.fromkeys(("get_n_in", "get_n_out", "get_name_in", "get_name_out",
                      "get_sparsity_in", "eval"),
                     "casadi.Callback methods, called by CasADi (exact.nlp_model)"),
@@ -151,7 +153,7 @@ VULTURE_USED = {
     "obstacle": "owner of each NLP piece, checked by tests/exact/test_nlp.py",
     "retries": "Clarabel adapter's retry count, checked by tests/formation",
     **dict.fromkeys(("static_bound", "goal_bound"),
-                    "fields of the public TimeBound record (geometry.time_bounds)"),
+                    "fields of the public TimeBound record (geometry.timing.time_bounds)"),
     "squares": "public method of maps.Grid (the exact union of cells as a shapely geometry)",
     **dict.fromkeys(("maxdict", "maxlevel", "maxlist", "maxtuple", "maxlong", "maxother",
                      "maxstring"), "reprlib.Repr settings (problem.model)"),
@@ -249,3 +251,83 @@ def test_the_cycle_check_sees_a_lazy_cycle(tmp_path: Path) -> None:
     graph = import_graph(tmp_path / "optplan")
     assert graph["optplan.fam.b"] == {"optplan.fam.c"}
     assert cycles(graph) == [["optplan.fam.a", "optplan.fam.b", "optplan.fam.c"]]
+
+
+def is_private(name: str) -> bool:
+    """``_x`` is private to its package; dunder names (``__version__``) are not."""
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def attribute_module(node: ast.Attribute, alias: dict[str, str]) -> str | None:
+    """The dotted name ``m.a.b`` of ``node``'s value ``m.a.b`` (``node = m.a.b._x``) when its
+    root ``m`` is bound to an optplan module (``alias``), else None."""
+    chain, v = [], node.value
+    while isinstance(v, ast.Attribute):
+        chain.append(v.attr)
+        v = v.value
+    if not isinstance(v, ast.Name) or v.id not in alias:
+        return None
+    return ".".join([alias[v.id], *reversed(chain)])
+
+
+def private_crossings(root: Path = ROOT) -> list[str]:
+    """Every use of another package's private name: ``from X import _n`` and ``X._n`` (``X``
+    imported as a module, ``import X`` / ``import X as m`` / ``from P import X``), where ``X``
+    is owned by another package than the importing module's.  A package is the innermost
+    package directory: ``optplan.geometry.collision`` and ``optplan.geometry.tangent`` are two,
+    and a module of ``optplan/`` itself (``optplan.benchdb``) is of the package ``optplan``."""
+    files = {module_name(p, root): p for p in sorted(root.rglob("*.py"))}
+
+    def package(mod: str) -> str:
+        return mod if files[mod].name == "__init__.py" else mod.rpartition(".")[0]
+
+    bad = []
+    for name, p in files.items():
+        here = package(name)
+        tree = ast.parse(p.read_text(encoding="utf-8"))
+        alias: dict[str, str] = {}  # local name -> the module it is bound to
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    up = here.split(".")[: len(here.split(".")) - node.level + 1]
+                    base = ".".join([*up, base] if base else up)
+                alias.update({a.asname or a.name: f"{base}.{a.name}" for a in node.names
+                              if f"{base}.{a.name}" in files})
+                bad += [f"{name}:{node.lineno} from {base} import {a.name}" for a in node.names
+                        if base in files and is_private(a.name) and package(base) != here]
+            elif isinstance(node, ast.Import):
+                for a in node.names:  # import a.b (binds a) / import a.b as m (binds a.b)
+                    bound = a.asname or a.name.split(".")[0]
+                    alias[bound] = a.name if a.asname else bound
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and is_private(node.attr):
+                mod = attribute_module(node, alias)
+                if mod in files and package(mod) != here:
+                    bad.append(f"{name}:{node.lineno} {mod}.{node.attr}")
+    return bad
+
+
+def test_no_module_uses_another_packages_private_names() -> None:
+    """A package's private names (``_x``) are its own: another package imports only its
+    public surface (the subpackages of optplan.geometry are packages of their own)."""
+    bad = private_crossings()
+    assert not bad, f"private names used across packages: {bad}"
+
+
+def test_the_private_check_sees_every_form(tmp_path: Path) -> None:
+    for pkg in ("optplan/fam/a", "optplan/fam/b"):
+        (tmp_path / pkg).mkdir(parents=True)
+        (tmp_path / pkg / "__init__.py").write_text("")
+    (tmp_path / "optplan" / "__init__.py").write_text("")
+    (tmp_path / "optplan" / "fam" / "__init__.py").write_text("")
+    (tmp_path / "optplan/fam/a/m.py").write_text("_x = 1\n__version__ = '1'\n")
+    (tmp_path / "optplan/fam/a/n.py").write_text(  # the same package: allowed
+        "from optplan.fam.a.m import _x\nfrom . import m\nm._x\n")
+    (tmp_path / "optplan/fam/b/k.py").write_text(
+        "from optplan.fam.a.m import _x, __version__\n"
+        "import optplan.fam.a.m\nimport optplan.fam.a.m as mm\nfrom optplan.fam.a import m\n"
+        "def f():\n    from ..a.m import _x\n    return optplan.fam.a.m._x + mm._x + m._x\n")
+    bad = private_crossings(tmp_path / "optplan")
+    assert not [b for b in bad if "fam.a.n" in b or "__version__" in b], bad
+    assert len([b for b in bad if b.startswith("optplan.fam.b.k")]) == 5, bad

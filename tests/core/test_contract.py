@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.geometry.tangent.tangent_graph import problem_shortest_path
 from optplan.result import OPTIMAL_REL_TOL, History, Progress, Result, Status, _jsonable
 
 #: backend -> (catalogue scene, options that make the contract runs fast)

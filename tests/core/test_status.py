@@ -223,7 +223,7 @@ def test_nlp_is_optimal_only_when_the_certified_optimum_confirms_it() -> None:
     assert "locally optimal (KKT)" in good.message and "the optimum's homotopy class" in \
         good.message
     # a collision-free swarm path in another corridor: a KKT point there is only "solved"
-    from optplan.geometry.homotopy import same_homotopy
+    from optplan.geometry.collision.homotopy import same_homotopy
 
     oset = prob.obstacle_set(prob.robots[0].radius)
     best = good.paths["r1"]

@@ -293,8 +293,8 @@ def test_visgraph_build_polls_the_deadline(monkeypatch) -> None:
 
 
 def test_tangent_graph_build_stops_between_steps() -> None:
-    from optplan.geometry.tangent_graph import TangentGraph
-    from optplan.geometry.tangent_search import Stopped
+    from optplan.geometry.tangent.tangent_graph import TangentGraph
+    from optplan.geometry.tangent.tangent_search import Stopped
 
     prob = op.load_problem("warehouse-grid")
     r = prob.robots[0]

@@ -21,9 +21,9 @@ from optplan.exact.nlp_pieces import (
 )
 from optplan.experiments.validate import format_table, summarize, validate
 from optplan.geometry import convex_decompose, path_lengths
-from optplan.geometry.homotopy import obstacle_points, same_homotopy, winding_numbers
-from optplan.geometry.polyline import resample_path
-from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.geometry.collision.homotopy import obstacle_points, same_homotopy, winding_numbers
+from optplan.geometry.collision.polyline import resample_path
+from optplan.geometry.tangent.tangent_graph import problem_shortest_path
 from optplan.problem import transform_problem
 from optplan.result import OPTIMAL_REL_TOL
 

@@ -30,8 +30,8 @@ from optplan.exact.sipp_graph import (
     free_intervals,
     segment_windows,
 )
-from optplan.geometry.st_regions import forbidden_departures
-from optplan.geometry.time_bounds import parked_contact_times
+from optplan.geometry.timing.st_regions import forbidden_departures
+from optplan.geometry.timing.time_bounds import parked_contact_times
 from optplan.problem import parse_problem
 from tests.exact.time_oracle import (
     check_trajectory,

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.geometry.tangent_graph import TangentGraph, shortest_path, tangent_graph
+from optplan.geometry.tangent.tangent_graph import TangentGraph, shortest_path, tangent_graph
 from optplan.maps import read_scen
 from optplan.maps.movingai_gen import generate_benchmark
 

@@ -15,7 +15,7 @@ from shapely.geometry.polygon import orient
 
 import optplan as op
 from optplan.geometry import Frame, obstacle_set
-from optplan.geometry.tangent_graph import shortest_path
+from optplan.geometry.tangent.tangent_graph import shortest_path
 from optplan.problem import Obstacle, parse_problem, transform_problem
 from tests.geometry.oracles import plain_visibility_length, polygonal_bracket
 

@@ -1,6 +1,6 @@
-"""The compiled search over a built tangent graph (``optplan.geometry.chain_search``).
+"""The compiled search over a built tangent graph (``optplan.geometry.tangent.chain_search``).
 
-Oracle: the lazy A* of ``optplan.geometry.tangent_search`` on the same map, an independent
+Oracle: the lazy A* of ``optplan.geometry.tangent.tangent_search`` on the same map, an independent
 search over a different graph (arrival states expanded into sorted successor streams,
 dominance by arcs, no chains): every length must agree, and both must find no path together.
 Maps: random cell maps (shared edges, pinch points, staircases), maps with rotated rectangles
@@ -18,8 +18,8 @@ import pytest
 import shapely
 
 from optplan.geometry import Frame, obstacle_set
-from optplan.geometry import chain_search as cs
-from optplan.geometry.tangent_graph import TangentGraph
+from optplan.geometry.tangent import chain_search as cs
+from optplan.geometry.tangent.tangent_graph import TangentGraph
 from optplan.maps import read_scen
 from optplan.maps.movingai_gen import generate_benchmark
 from optplan.problem import Obstacle
@@ -192,7 +192,7 @@ def test_a_map_without_obstacles():
 
 
 def test_stable_argsort_is_numpys_stable_sort():
-    from optplan.geometry.tangent_chains import stable_argsort
+    from optplan.geometry.tangent.tangent_chains import stable_argsort
 
     rng = np.random.default_rng(0)
     for k in (rng.integers(0, 5, 1000), rng.integers(0, 10**6, 5000), np.zeros(0, np.int64),
@@ -202,7 +202,7 @@ def test_stable_argsort_is_numpys_stable_sort():
 
 def test_the_departures_order_is_lexsorts():
     """chains_of orders the departures by chain, then position, ties by index: lexsort's."""
-    from optplan.geometry.tangent_chains import dense_rank, stable_argsort
+    from optplan.geometry.tangent.tangent_chains import dense_rank, stable_argsort
 
     rng = np.random.default_rng(1)
     E = 4000

@@ -1,4 +1,5 @@
-"""Closed-form contact intervals (optplan.geometry.contact_times) against shapely distances."""
+"""Closed-form contact intervals (optplan.geometry.timing.contact_times) against shapely
+distances."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ import numpy as np
 import pytest
 import shapely
 
-from optplan.geometry.contact_times import ConvexShape, line_intervals, shape_pieces
+from optplan.geometry.timing.contact_times import ConvexShape, line_intervals, shape_pieces
 
 
 def _shapely_interval(c, d, geom, r, n=6001, span=15.0):

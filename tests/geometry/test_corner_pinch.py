@@ -37,7 +37,7 @@ from shapely.geometry import Polygon
 
 import optplan as op
 from optplan.geometry import Frame
-from optplan.geometry.tangent_graph import TangentGraph, shortest_path
+from optplan.geometry.tangent.tangent_graph import TangentGraph, shortest_path
 from tests.geometry.oracles import path_is_free, plain_visibility_length, polygonal_bracket
 
 BOUNDS = (0.0, 0.0, 100.0, 100.0)

@@ -340,7 +340,7 @@ def test_pieces_of_many_polygons_at_once_are_each_ones_pieces() -> None:
     """convex_pieces_many (one STRtree per query for every polygon, each with its own
     tolerance) gives what convex_pieces gives polygon by polygon: neighbours within the
     tolerance of each other (touching grid polygons, a far tiny one) change nothing."""
-    from optplan.geometry.pieces import convex_pieces_many
+    from optplan.geometry.collision.pieces import convex_pieces_many
 
     rng = np.random.default_rng(7)
     geoms = [g for _ in range(6) for g in grid_polygons(rng)]

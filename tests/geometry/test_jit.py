@@ -1,4 +1,4 @@
-"""The numba configuration of :mod:`optplan.geometry.jit`: ``@leaf`` compiles without
+"""The numba configuration of :mod:`optplan.geometry.compiled.jit`: ``@leaf`` compiles without
 reference counting, refuses to allocate, and computes what ``@compiled`` computes."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from numba.core.errors import NumbaError
 
-from optplan.geometry.jit import F1, compiled, f8, i8, leaf
-from optplan.geometry.numba_internals import NO_REFCOUNT
+from optplan.geometry.compiled.jit import F1, compiled, f8, i8, leaf
+from optplan.geometry.compiled.numba_internals import NO_REFCOUNT
 
 
 def _scale_into(a, out, s):

@@ -16,7 +16,7 @@ import pytest
 import shapely
 
 import optplan as op
-from optplan.geometry.motion import mover_track, track_eval
+from optplan.geometry.timing.motion import mover_track, track_eval
 
 DY = 1.0 / 64.0  # time grid of the movers' waypoint times (exact binary fractions)
 N_DENSE = 20_000

@@ -1,4 +1,4 @@
-"""A read-only installation still caches its compiled kernels (optplan.geometry.jit).
+"""A read-only installation still caches its compiled kernels (optplan.geometry.compiled.jit).
 
 A copy of the package whose directories cannot hold a ``__pycache__`` (a file of that name
 stands in each; this holds even for root, whom permission bits do not stop) runs a small
@@ -8,7 +8,7 @@ compile on their first call) and writes numba's user-wide cache there, the secon
 kernels from it and compiles nothing.  With no writable cache at all (a home whose
 ``~/.cache`` cannot be made either) the kernels compile in memory, with one warning.
 
-The kernels a wheel ships (optplan.geometry.kernel_cache): their build runs only for the
+The kernels a wheel ships (optplan.geometry.compiled.kernel_cache): their build runs only for the
 generic CPU and covers every module that declares a kernel; tests/tools/test_install.py builds
 a wheel with shipped kernels and loads them.
 """
@@ -29,7 +29,7 @@ PKG = Path(__file__).resolve().parents[2] / "optplan"
 CHILD = """
 import json
 import optplan as op
-from optplan.geometry import kernel
+from optplan.geometry.collision import kernel
 from optplan.problem import parse_problem
 prob = parse_problem({
     "name": "box", "bounds": [0.0, 0.0, 100.0, 100.0],
@@ -92,7 +92,7 @@ import json, warnings
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")
     import optplan as op
-    from optplan.geometry import kernel
+    from optplan.geometry.collision import kernel
     from optplan.problem import parse_problem
     prob = parse_problem({
         "name": "box", "bounds": [0.0, 0.0, 100.0, 100.0],
@@ -135,7 +135,7 @@ def test_no_writable_cache_compiles_in_memory_with_one_warning(tmp_path: Path) -
     (cat, msg), = out["warnings"]
     assert cat == "NoKernelCacheWarning", out["warnings"]
     for name in ("NUMBA_CACHE_DIR", str(home / ".cache" / "numba"),
-                 str(pkg / "geometry" / "__pycache__")):
+                 str(pkg / "geometry"), "__pycache__"):  # beside the first kernel compiled
         assert name in msg, msg
     assert sorted(q.name for q in home.iterdir()) == [".cache"]
     assert not any((d / "__pycache__").is_dir() for d in [pkg, *pkg.rglob("*")] if d.is_dir())
@@ -146,7 +146,7 @@ def test_shipped_cache_build_refuses_the_host_cpu(tmp_path: Path) -> None:
     CPU (build_in_child starts such a process)."""
     import pytest
 
-    from optplan.geometry import kernel_cache
+    from optplan.geometry.compiled import kernel_cache
 
     with pytest.raises(RuntimeError, match="generic CPU"):
         kernel_cache.build(tmp_path / "k")
@@ -158,7 +158,7 @@ def test_kernel_modules_lists_every_compiled_kernel() -> None:
     that declares a kernel is listed (source scan, and numba's registry after importing)."""
     import re
 
-    from optplan.geometry import kernel_cache
+    from optplan.geometry.compiled import kernel_cache
 
     declared = {
         ".".join(("optplan", *p.relative_to(PKG).with_suffix("").parts))
@@ -176,7 +176,7 @@ LOCK_CHILD = """
 import json, sys, time
 from pathlib import Path
 import numpy as np
-from optplan.geometry import jit
+from optplan.geometry.compiled import jit
 Path(sys.argv[2]).touch()  # ready: imported, nothing compiled yet
 while not Path(sys.argv[1]).exists():
     time.sleep(0.005)

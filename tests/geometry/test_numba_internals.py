@@ -1,8 +1,8 @@
-"""The numba internals of the kernel machinery (optplan.geometry.numba_internals) are still
+"""The numba internals of the kernel machinery (optplan.geometry.compiled.numba_internals) are still
 there and still behave as relied on; the installed numba is inside the tested pin.
 
 A numba that changed one of them must fail here, with a message naming what changed ("numba
-X changed ...; update optplan/geometry/numba_internals.py and the numba pin"), not make the
+X changed ...; update optplan/geometry/compiled/numba_internals.py and the numba pin"), not make the
 kernels silently compile again in every process or on every call.
 """
 
@@ -23,15 +23,15 @@ from numba.core import caching, dispatcher
 from packaging.specifiers import SpecifierSet
 from packaging.version import Version
 
-from optplan.geometry import numba_internals as ni
-from optplan.geometry.jit import compiled, f8, i8
+from optplan.geometry.compiled import numba_internals as ni
+from optplan.geometry.compiled.jit import compiled, f8, i8
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
 def _changed(what: str) -> str:
     return (f"numba {numba.__version__} changed {what}; update "
-            f"optplan/geometry/numba_internals.py and the numba pin in pyproject.toml")
+            f"optplan/geometry/compiled/numba_internals.py and the numba pin in pyproject.toml")
 
 
 def test_every_internal_is_there() -> None:
@@ -54,7 +54,8 @@ def test_the_pin_is_the_tested_range() -> None:
     assert any(s.operator == "<" for s in spec), "the pin needs an upper bound"
     assert Version(numba.__version__) in spec, (
         f"numba {numba.__version__} is outside the tested range numba{ni.TESTED}: run these "
-        "tests with it, update optplan/geometry/numba_internals.py if they fail, then widen "
+        "tests with it, update optplan/geometry/compiled/numba_internals.py if they fail, then "
+        "widen "
         "the pin (pyproject.toml, numba_internals.TESTED)")
 
 
@@ -208,10 +209,10 @@ def test_a_missing_internal_fails_the_import_loudly(remove, named) -> None:
     NumbaInternalsError naming it and what to update."""
     code = ("from numba.core import caching, dispatcher\n"
             f"{remove}\n"
-            "import optplan.geometry.jit\n")
+            "import optplan.geometry.compiled.jit\n")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                        cwd=ROOT, check=False)
     assert p.returncode != 0
     assert "NumbaInternalsError" in p.stderr, p.stderr[-2000:]
-    assert named in p.stderr and "update optplan/geometry/numba_internals.py and the numba " \
-        "pin" in p.stderr, p.stderr[-2000:]
+    assert named in p.stderr and "update optplan/geometry/compiled/numba_internals.py and the " \
+        "numba pin" in p.stderr, p.stderr[-2000:]

@@ -1,4 +1,4 @@
-"""The fastest schedule along a path (optplan.geometry.schedule): hand-derived arrivals, an
+"""The fastest schedule along a path (optplan.geometry.timing.schedule): hand-derived arrivals, an
 independent brute-force oracle, metamorphic cases and bad input."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from optplan.geometry.schedule import fastest_schedule
+from optplan.geometry.timing.schedule import fastest_schedule
 from optplan.metrics import time_checks
 from optplan.problem import parse_problem
 from tests.exact import time_oracle as oracle

@@ -1,4 +1,4 @@
-"""Candidate sight lines (``optplan.geometry.sightlines``) never lose a free tangent.
+"""Candidate sight lines (``optplan.geometry.tangent.sightlines``) never lose a free tangent.
 
 The triangular expansion lists, per source, a superset of the circles it sees; the tangent
 graph keeps only the tangents to those.  Oracle: the same tangents computed towards *every*
@@ -19,9 +19,9 @@ import shapely
 from shapely.geometry.polygon import orient
 
 from optplan.geometry import Frame, obstacle_set
-from optplan.geometry.sightlines import Sightlines
-from optplan.geometry.tangent_edges import edges_of_one
-from optplan.geometry.tangent_graph import TangentGraph
+from optplan.geometry.tangent.sightlines import Sightlines
+from optplan.geometry.tangent.tangent_edges import edges_of_one
+from optplan.geometry.tangent.tangent_graph import TangentGraph
 from optplan.maps import read_scen
 from optplan.maps.movingai_gen import generate_benchmark
 from optplan.problem import Obstacle

@@ -16,7 +16,7 @@ from shapely.ops import split
 
 import optplan as op
 from optplan.geometry import Frame, obstacle_set
-from optplan.geometry.tangent_graph import shortest_path
+from optplan.geometry.tangent.tangent_graph import shortest_path
 from optplan.problem import Obstacle, parse_problem
 from tests.geometry.oracles import path_is_free, plain_visibility_length, polygonal_bracket
 

@@ -1,4 +1,5 @@
-"""Certified arrival lower bounds (optplan.geometry.time_bounds): analytic, metamorphic cases."""
+"""Certified arrival lower bounds (optplan.geometry.timing.time_bounds): analytic, metamorphic
+cases."""
 
 from __future__ import annotations
 
@@ -7,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from optplan.geometry.motion import mover_pieces
-from optplan.geometry.time_bounds import arrival_lower_bound, parked_contact_times
+from optplan.geometry.timing.motion import mover_pieces
+from optplan.geometry.timing.time_bounds import arrival_lower_bound, parked_contact_times
 from optplan.problem import parse_problem
 from tests.geometry.time_scenes import SQUARE
 from tests.geometry.time_scenes import time_scene as _problem
@@ -109,7 +110,7 @@ def test_reference_grades_the_plan_in_time():
 
 
 def test_arrival_time_of_a_timed_plan():
-    from optplan.geometry.time_bounds import arrival_time
+    from optplan.geometry.timing.time_bounds import arrival_time
 
     p = _problem([])
     path = np.array([[1, 5], [5, 5], [9, 5], [9, 5]], float)

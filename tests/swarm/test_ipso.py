@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import optplan as op
-from optplan.geometry.polyline import resample_path
+from optplan.geometry.collision.polyline import resample_path
 from optplan.swarm import backend as be
 from optplan.swarm import core as sw
 from optplan.swarm import ga
@@ -468,7 +468,7 @@ def test_ipso_variant_worst_ratio_on_generated_corridor_maps(kind, seed):
     """On generated maps with narrow corridors and shelf rows, 30 seeds, every run
     collision-free and within 1 % of the certified optimum."""
     from optplan.generators import corridor_scene
-    from optplan.geometry.tangent_graph import problem_shortest_path
+    from optplan.geometry.tangent.tangent_graph import problem_shortest_path
 
     prob = corridor_scene(kind, seed)
     ref = problem_shortest_path(prob, prob.robots[0]).length

@@ -11,7 +11,7 @@ import shapely
 
 import optplan as op
 from optplan.geometry import PIECE_EDGES, convex_pieces, obstacle_set
-from optplan.geometry.polyline import resample_path
+from optplan.geometry.collision.polyline import resample_path
 from optplan.swarm import backend as be
 from optplan.swarm import core as sw
 from optplan.swarm import operators as ops
@@ -164,7 +164,7 @@ def test_pairs_free_is_the_exact_disc_test(grid, radius):
 def test_near_item_screen_is_the_clamped_projection_test():
     """The bounding-circle screen divides only inside the segment: the same answers as
     ``clamp01(p / dd)`` (projections before, at and beyond the ends, point segments)."""
-    from optplan.geometry import kernel
+    from optplan.geometry.collision import kernel
 
     rng = np.random.default_rng(2)
     IC = rng.uniform(-10, 10, (60, 2))

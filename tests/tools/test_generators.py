@@ -15,7 +15,7 @@ from optplan.generators import (
     random_obstacles,
     swap_scene,
 )
-from optplan.geometry.tangent_graph import problem_shortest_path
+from optplan.geometry.tangent.tangent_graph import problem_shortest_path
 
 
 def _signature(prob: op.Problem) -> list:

@@ -4,7 +4,7 @@
   it from a directory outside the repository; the wheel must ship ``problems/`` and
   ``solvers/`` (hatch ``force-include`` into ``optplan/_data``) and its compiled kernels
   (``optplan/_kernels``, the build hook ``hatch_build.py``; here those of
-  ``optplan.geometry.jit`` only, to keep the build short), loaded without compiling in a
+  ``optplan.geometry.compiled.jit`` only, to keep the build short), loaded without compiling in a
   fresh process with an empty numba cache (and, with one warning, where no numba cache
   directory is writable), and missed (compiled) once a kernel module is edited;
 * editable (the test run itself): ``optplan`` is imported from this checkout.
@@ -36,7 +36,7 @@ if sys.argv[1:] != ["kernel-only"]:
     for name in solvers:
         op.get_solver(name)
 import numpy as np
-from optplan.geometry import jit
+from optplan.geometry.compiled import jit
 order = jit.argsort_stable(np.array([3.0, 1.0, 2.0, 1.0, np.nan, 0.5])).tolist()
 st = jit.argsort_stable.stats
 print(json.dumps({"file": op.__file__, "problems": probs, "solvers": solvers, "heavy": heavy,
@@ -57,7 +57,7 @@ def test_wheel_install_loads_every_catalogue_name(tmp_path: Path) -> None:
     # the dev venv has hatchling: build without isolation (no download); a fresh venv may not
     isolation = [] if importlib.util.find_spec("hatchling") is None else ["--no-build-isolation"]
     _pip("wheel", "--no-deps", *isolation, "-w", str(wheels), str(REPO),
-         env=dict(os.environ, OPTPLAN_SHIP_KERNELS="optplan.geometry.jit"))
+         env=dict(os.environ, OPTPLAN_SHIP_KERNELS="optplan.geometry.compiled.jit"))
     (wheel,) = wheels.glob("optplan-*.whl")
     assert not wheel.name.endswith("-py3-none-any.whl"), wheel.name  # it holds machine code
     _pip("install", "--no-deps", "--no-compile", "--target", str(target), str(wheel))
@@ -100,7 +100,7 @@ def test_wheel_install_loads_every_catalogue_name(tmp_path: Path) -> None:
     assert "NUMBA_CACHE_DIR" in ro["stderr"] and "the wheel ships" in ro["stderr"], ro["stderr"]
     # a kernel module edited after the build (not even the called kernel's own module: a
     # kernel's machine code includes the kernels it calls) misses every shipped entry
-    with (target / "optplan" / "geometry" / "kernel.py").open("a") as f:
+    with (target / "optplan" / "geometry" / "collision" / "kernel.py").open("a") as f:
         f.write("\n# edited after the wheel was built\n")
     stale = check("empty2", "kernel-only")
     assert stale["hit_miss"] == [0, 1] and stale["order"] == [5, 1, 3, 2, 0, 4], stale

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.obstacles import ObstacleSet
+from optplan.geometry.collision.obstacles import ObstacleSet
 
 __all__ = ["winding_numbers", "obstacle_points", "same_homotopy"]
 

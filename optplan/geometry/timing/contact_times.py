@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.pieces import convex_decompose
+from optplan.geometry.collision import convex_decompose
 
 __all__ = ["ConvexShape", "shape_pieces", "line_intervals"]
 

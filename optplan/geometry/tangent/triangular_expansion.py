@@ -1,6 +1,6 @@
 r"""Triangular expansion: the vertices a point may see, over a constrained triangulation.
 
-The compiled kernel of :mod:`optplan.geometry.sightlines` (its module docstring has the
+The compiled kernel of :mod:`optplan.geometry.tangent.sightlines` (its module docstring has the
 mathematics and the tolerances).  The free space is a constrained triangulation whose
 constrained edges are the solids' boundary edges; a *view* is a triangle entered through one
 of its edges with an interval ``[L, R]`` of directions (radians, unwrapped in the frame of the
@@ -28,7 +28,7 @@ import math
 
 import numpy as np
 
-from optplan.geometry.jit import B1, F1, F2, I1, I2, compiled, f8, i8, inlined, leaf
+from optplan.geometry.compiled import B1, F1, F2, I1, I2, compiled, f8, i8, inlined, leaf
 
 __all__ = ["expand_views", "locate", "pack_triangles", "KAPPA", "SLACK"]
 

@@ -1,9 +1,9 @@
 """The uniform grid of the collision engine's items (the candidate screen of many items).
 
-Each item (a convex piece or a circle of :class:`~optplan.geometry.obstacles.ObstacleSet`) is
-listed in every cell its bounding square, grown by the collision reach ``r + 4 eps``, covers;
-a segment visits the cells it crosses (column by column, :mod:`optplan.geometry.kernel`), so
-the work per segment grows with the items near it.  The cells at the grid's border are
+Each item (a convex piece or a circle of :class:`~optplan.geometry.collision.obstacles.ObstacleSet`)
+is listed in every cell its bounding square, grown by the collision reach ``r + 4 eps``, covers;
+a segment visits the cells it crosses (column by column, :mod:`optplan.geometry.collision.kernel`),
+so the work per segment grows with the items near it.  The cells at the grid's border are
 unbounded outwards, so an item or a segment beyond the grid is still found.
 
 Items of the solid that holds the bounds wall are large pieces around the bounds: they are

@@ -1,15 +1,15 @@
 """Compiled loops of the exact collision engine (numba; the only implementation).
 
 Every function here is ``@compiled(signature)`` or, where it allocates nothing, ``@leaf``
-(:mod:`optplan.geometry.jit`: no reference counting in the loops): compiled once,
+(:mod:`optplan.geometry.compiled.jit`: no reference counting in the loops): compiled once,
 with its one signature, on its first call (about 3 s of CPU for the whole module, once per
 machine; the machine code is cached on disk) and tested against shapely in
 ``tests/geometry/test_geometry.py``.  Why compiled: the engine answers many small queries (a swarm's
 fitness: tens of paths x a few segments x the obstacles near them, thousands of times per run);
 per-query numpy overhead, not arithmetic, would dominate, and early exits per (segment, item)
-pair are natural in loops.  The maths is in :mod:`optplan.geometry.obstacles`' docstring.
+pair are natural in loops.  The maths is in :mod:`optplan.geometry.collision.obstacles`' docstring.
 
-Data layout (local frame, built by :func:`optplan.geometry.obstacles.obstacle_set`):
+Data layout (local frame, built by :func:`optplan.geometry.collision.obstacles.obstacle_set`):
 
 * pieces ``k < K``: ``P[k, j]`` edge start, ``E[k, j]`` edge vector, ``N[k, j]`` outward unit
   normal, ``C[k, j] = N . P``, ``CE[k, j]`` the offset eroded by ``eps`` on boundary edges,
@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from optplan.geometry.jit import B1, F1, F2, F3, I1, I2, b1, compiled, f8, i8, inlined, leaf
+from optplan.geometry.compiled import B1, F1, F2, F3, I1, I2, b1, compiled, f8, i8, inlined, leaf
 
 __all__ = ["pair", "crossings", "clearance"]
 

@@ -1,10 +1,10 @@
-r"""Compiled A* over a built tangent graph (:mod:`optplan.geometry.tangent_chains`).
+r"""Compiled A* over a built tangent graph (:mod:`optplan.geometry.tangent.tangent_chains`).
 
-A query adds to the static graph of :class:`~optplan.geometry.tangent_chains.ChainGraph` its own
-nodes: the start ``S``, the goal ``G``, the arrival point ``A_k`` of every tangent from the
+A query adds to the static graph of :class:`~optplan.geometry.tangent.tangent_chains.ChainGraph` its
+own nodes: the start ``S``, the goal ``G``, the arrival point ``A_k`` of every tangent from the
 start to a circle and the departure point ``D_m`` of every tangent from a circle to the goal
 (tangents from the circles the start or the goal may see,
-:meth:`~optplan.geometry.tangent_graph.TangentGraph.visible_from`, that pass the circle's
+:meth:`~optplan.geometry.tangent.tangent_graph.TangentGraph.visible_from`, that pass the circle's
 cone, their segments tested exactly), and its edges: ``S -> A_k`` and ``D_m -> G`` (the
 tangents), ``S -> G`` (the straight line), ``A_k`` to the next node of its chain, the node
 before ``D_m`` on its chain to ``D_m``, and ``A_k -> D_m`` when no chain node lies between
@@ -14,7 +14,7 @@ static and query edges, in compiled code, pausing every ``chunk`` expansions so 
 ``stop`` callback can end it.
 
 The result is the length of the shortest path of the tangent graph, as
-:class:`~optplan.geometry.tangent_search.TangentSearch` finds it on the same graph
+:class:`~optplan.geometry.tangent.tangent_search.TangentSearch` finds it on the same graph
 (``tests/geometry/test_chain_search.py`` compares the two on maps with point robots, disc
 robots and circle obstacles).
 """
@@ -27,18 +27,18 @@ from typing import Any
 
 import numpy as np
 
-from optplan.geometry.arc_lines import arc_polyline
-from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
-from optplan.geometry.jit import F1, F2, I1, compiled, f8, heap_pop, heap_push, i8
-from optplan.geometry.tangent_chains import (
+from optplan.geometry.compiled import F1, F2, I1, compiled, f8, heap_pop, heap_push, i8
+from optplan.geometry.tangent.arc_lines import arc_polyline
+from optplan.geometry.tangent.circles import ANGLE_TOL, TWO_PI, Circles
+from optplan.geometry.tangent.tangent_chains import (
     ChainGraph,
     arcs_free,
     chain_key,
     entry_of,
     first_above,
 )
-from optplan.geometry.tangent_edges import cone_off, tangent_exists, tangent_normal
-from optplan.geometry.tangent_search import Stopped
+from optplan.geometry.tangent.tangent_edges import cone_off, tangent_exists, tangent_normal
+from optplan.geometry.tangent.tangent_search import Stopped
 
 __all__ = ["chain_astar", "ChainSearch"]
 
@@ -145,7 +145,7 @@ def _gap_pairs(group: np.ndarray, order: np.ndarray, a_key: np.ndarray, G: int, 
 
 
 class ChainSearch:
-    """One query on :class:`~optplan.geometry.tangent_chains.ChainGraph`: its own nodes and
+    """One query on :class:`~optplan.geometry.tangent.tangent_chains.ChainGraph`: its own nodes and
     edges (module docstring), the compiled A*, the path.
 
     Parameters
@@ -283,7 +283,7 @@ class ChainSearch:
 
     def length(self, stop: Callable[[], bool] | None) -> float:
         """The length of the shortest path (``inf`` when none); raises
-        :class:`~optplan.geometry.tangent_search.Stopped` when ``stop`` asks."""
+        :class:`~optplan.geometry.tangent.tangent_search.Stopped` when ``stop`` asks."""
         self._query_graph()
         ch = self.ch
         N0 = ch.n_edges
@@ -343,7 +343,7 @@ class ChainSearch:
     def polyline(self, arc_step: float) -> tuple[np.ndarray, list]:
         """Local-frame points of the path found by :meth:`length` (arcs as circumscribed
         polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``, as
-        :meth:`~optplan.geometry.tangent_search.TangentSearch.polyline` gives them."""
+        :meth:`~optplan.geometry.tangent.tangent_search.TangentSearch.polyline` gives them."""
         C = self.C
         legs, visits = self._legs()
         pts, wps = [self.zs], []

@@ -1,6 +1,6 @@
 """Drawing the arcs of an exact tangent-graph path: circumscribed polylines.
 
-The exact path of :mod:`optplan.geometry.tangent_graph` runs along arcs of the grown
+The exact path of :mod:`optplan.geometry.tangent.tangent_graph` runs along arcs of the grown
 obstacles; a polyline that replaces every arc by a *circumscribed* polyline (vertices outside
 the circle, every chord tangent to it) stays ``>= r`` from the arc's obstacle.
 """

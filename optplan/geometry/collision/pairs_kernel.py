@@ -3,18 +3,17 @@ implementation): :func:`free_pairs`, the collision-free flags of index pairs of 
 swarm's roadmap and string pulling), and :func:`pairs`, the exact ``(dist, inside)`` of explicit
 (segment, item) pairs (the NLP's pair distances).
 
-The loops of :mod:`optplan.geometry.kernel` (its data layout, screens and :func:`pair`), in a
-module of their own: only the planners that ask these questions import it (through
-:meth:`optplan.geometry.obstacles.ObstacleSet.pairs_free` and ``pair_geometry``), so a process
-that never does, e.g. one ``visgraph`` solve, never compiles them.
+The loops of :mod:`optplan.geometry.collision.kernel` (its data layout, screens and :func:`pair`),
+in a module of their own: only the planners that ask these questions import it (through
+:meth:`optplan.geometry.collision.obstacles.ObstacleSet.pairs_free` and ``pair_geometry``), so a
+process that never does, e.g. one ``visgraph`` solve, never compiles them.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.jit import B1, F1, F2, F3, I1, compiled, f8, i8, inlined, leaf
-from optplan.geometry.kernel import (
+from optplan.geometry.collision.kernel import (
     _GRID,
     _ITEMS,
     _apart,
@@ -23,6 +22,7 @@ from optplan.geometry.kernel import (
     _near_item,
     pair,
 )
+from optplan.geometry.compiled import B1, F1, F2, F3, I1, compiled, f8, i8, inlined, leaf
 
 __all__ = ["free_pairs", "pairs"]
 

@@ -1,6 +1,6 @@
 r"""Candidate sight lines: the circles a point may see, found without testing every pair.
 
-The tangent graph (:mod:`optplan.geometry.tangent_graph`) joins its circles by common
+The tangent graph (:mod:`optplan.geometry.tangent.tangent_graph`) joins its circles by common
 tangents; testing the tangents from one circle to all ``n`` others costs ``O(n)`` per circle
 and ``O(n^2)`` for the graph, although on a map of many obstacles a circle sees only a few
 others.  This module lists, per *source* point and angular *window*, a superset of the circle
@@ -35,14 +35,14 @@ vertex where solids touch at a point: four or more constrained edges) goes on in
 triangles at that vertex whose corner holds its direction: a point robot may pass there.
 
 The candidates are a *superset*: each is still tested with the exact predicates of
-:class:`~optplan.geometry.obstacles.ObstacleSet` by its user.  Circle obstacles cast no shadow
-here (their tangents are never filtered: :mod:`~optplan.geometry.tangent_graph`).
+:class:`~optplan.geometry.collision.obstacles.ObstacleSet` by its user.  Circle obstacles cast no
+shadow here (their tangents are never filtered: :mod:`~optplan.geometry.tangent.tangent_graph`).
 
 Why by hand: neither shapely nor scipy offers visibility from a point; the triangulation is
 Triangle's (its ``p`` switch: the constrained triangulation of the edges, ``c``: of their
 convex hull), the expansion is compiled with numba
-(:mod:`optplan.geometry.triangular_expansion`) and tested against the all-pairs exact segment
-tests in ``tests/geometry/test_sightlines.py``.
+(:mod:`optplan.geometry.tangent.triangular_expansion`) and tested against the all-pairs exact
+segment tests in ``tests/geometry/test_sightlines.py``.
 """
 
 from __future__ import annotations
@@ -52,7 +52,7 @@ import triangle
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import breadth_first_order, connected_components
 
-from optplan.geometry.triangular_expansion import expand_views, locate, pack_triangles
+from optplan.geometry.tangent.triangular_expansion import expand_views, locate, pack_triangles
 
 __all__ = ["Sightlines"]
 
@@ -94,8 +94,8 @@ def _free_triangles(T: np.ndarray, NB: np.ndarray, CON: np.ndarray, seed: int) -
 
 class Sightlines:
     """The constrained triangulation of one obstacle set's boundary edges and a set of
-    centres, and the candidate query of :func:`~optplan.geometry.triangular_expansion.expand_views`
-    over it.
+    centres, and the candidate query of
+    :func:`~optplan.geometry.tangent.triangular_expansion.expand_views` over it.
 
     Parameters
     ----------

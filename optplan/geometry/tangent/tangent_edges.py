@@ -9,14 +9,14 @@ must lie in the vertex's normal cone (the directions between the outward normals
 edges), else the path would cut into an offset edge: :func:`tangent_edges` keeps the tangents
 whose departure and arrival points both pass (the bitangent filter of the reduced visibility
 graph).  :class:`Edges` holds those of one circle and sense, with the status of their
-segments.  The search that uses them is :mod:`optplan.geometry.tangent_search`.
+segments.  The search that uses them is :mod:`optplan.geometry.tangent.tangent_search`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
+from optplan.geometry.tangent.circles import ANGLE_TOL, TWO_PI, Circles
 
 __all__ = ["Edges", "cone_off", "tangent_exists", "tangent_normal", "tangent_edges"]
 

@@ -1,14 +1,14 @@
 r"""The A* of the tangent graph: one search from a start to a goal over the graph's edges.
 
 Nodes are arrival states ``(circle, sense, arrival angle, g, pred, seg)``; the successors of
-an expanded node (the query-independent :class:`~optplan.geometry.tangent_edges.Edges` of its
-circle and sense, kept by the :class:`~optplan.geometry.tangent_graph.TangentGraph`, plus the
-tangent to the goal) form one :class:`Stream` sorted by ``f = g + h`` (Euclidean ``h``,
+an expanded node (the query-independent :class:`~optplan.geometry.tangent.tangent_edges.Edges` of
+its circle and sense, kept by the :class:`~optplan.geometry.tangent.tangent_graph.TangentGraph`,
+plus the tangent to the goal) form one :class:`Stream` sorted by ``f = g + h`` (Euclidean ``h``,
 consistent) and are checked lazily: only when the cheapest open candidate (exact segment test
-of :class:`~optplan.geometry.obstacles.ObstacleSet`, exact arc test of
-:class:`~optplan.geometry.circles.ArcChecker`).  An arrival is dominated (not expanded) when
+of :class:`~optplan.geometry.collision.obstacles.ObstacleSet`, exact arc test of
+:class:`~optplan.geometry.tangent.circles.ArcChecker`).  An arrival is dominated (not expanded) when
 an earlier expanded arrival on the same circle and sense reaches it along a free arc at no
-greater cost.  The mathematics is in :mod:`optplan.geometry.tangent_graph`.
+greater cost.  The mathematics is in :mod:`optplan.geometry.tangent.tangent_graph`.
 """
 
 from __future__ import annotations
@@ -20,10 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from optplan.geometry.arc_lines import arc_polyline
-from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
-from optplan.geometry.obstacles import ObstacleSet
-from optplan.geometry.tangent_edges import Edges, cone_off, tangent_exists, tangent_normal
+from optplan.geometry.collision import ObstacleSet
+from optplan.geometry.tangent.arc_lines import arc_polyline
+from optplan.geometry.tangent.circles import ANGLE_TOL, TWO_PI, Circles
+from optplan.geometry.tangent.tangent_edges import Edges, cone_off, tangent_exists, tangent_normal
 
 __all__ = ["Stream", "TangentSearch", "Stopped"]
 
@@ -57,7 +57,7 @@ class Stream:
 
 class TangentSearch:
     """State of one A* search over the tangent graph
-    (:func:`optplan.geometry.tangent_graph.shortest_path`).
+    (:func:`optplan.geometry.tangent.tangent_graph.shortest_path`).
 
     Nodes are arrival states ``(circle, sense, arrival angle, g, pred, seg)``; the successors
     of an expanded node form one :class:`Stream` sorted by ``f``, consumed lazily.
@@ -68,7 +68,7 @@ class TangentSearch:
     info : dict
         Counters, filled in (``n_expanded``, ``n_generated``, ``n_checked``).
     graph : TangentGraph
-        The map's :class:`~optplan.geometry.tangent_graph.TangentGraph` (its ``edges_of``,
+        The map's :class:`~optplan.geometry.tangent.tangent_graph.TangentGraph` (its ``edges_of``,
         ``visible``, ``visible_from``, ``arcs`` and ``stats``; typed loosely here, since that
         module imports this one).
     """
@@ -95,13 +95,15 @@ class TangentSearch:
 
     def cone_off(self, k, th):
         """Offset of angle ``th`` from the cone start of circle(s) ``k``, or nan outside
-        (:func:`~optplan.geometry.tangent_edges.cone_off`)."""
+        (:func:`~optplan.geometry.tangent.tangent_edges.cone_off`)."""
         return cone_off(self.C, k, th)
 
-    def _candidates(self, i: int, si: int, ci: complex, ri: float, circles: bool = True,
-                    goal: bool = True):
+    def candidates(self, i: int, si: int, ci: complex, ri: float, circles: bool = True,
+                   goal: bool = True):
         """Tangents from circle ``i`` (sense ``si``; ``i < 0``: the start point) to every
-        other circle with both senses (``circles``) and to the goal (``goal``).
+        other circle with both senses (``circles``) and to the goal (``goal``): with
+        :meth:`departures`, the successors of an arrival (also the chains of the ``sipp``
+        roadmap, :mod:`optplan.exact.sipp_graph`).
 
         Returns ``jj, sj, dd, delta, nl, pj, th_arr`` (target circle, its sense, centre
         distance, radius difference, tangent normal, arrival point and angle) for the
@@ -109,7 +111,7 @@ class TangentSearch:
         """
         if not circles:
             idx = self.all_j[:0]
-        else:  # the circles it may see (a superset: :mod:`optplan.geometry.sightlines`)
+        else:  # the circles it may see (a superset: :mod:`optplan.geometry.tangent.sightlines`)
             idx = self.graph.visible(i) if i >= 0 else self.graph.visible_from(ci)
         n = len(idx)
         g = 1 if goal else 0
@@ -130,9 +132,10 @@ class TangentSearch:
         th_arr = np.angle(-sj * nl)
         return jj, sj, dd, delta, nl, pj, th_arr
 
-    def _departures(self, i: int, si: int, th_a: float, ci: complex, ri: float, nl):
-        """Departure points on circle ``i``, their angles, the arc swept from the arrival
-        angle ``th_a`` and whether that arc stays in the cone: ``pi, th_d, sweep, ok``."""
+    def departures(self, i: int, si: int, th_a: float, ci: complex, ri: float, nl):
+        """Departure points on circle ``i`` of the tangents of normals ``nl``
+        (:meth:`candidates`), their angles, the arc swept from the arrival angle ``th_a`` and
+        whether that arc stays in the cone: ``pi, th_d, sweep, ok``."""
         m = len(nl)
         if i < 0:
             return np.full(m, ci), np.zeros(m), np.zeros(m), np.ones(m, bool)
@@ -163,8 +166,8 @@ class TangentSearch:
         else:
             ci, ri = self.cen[i], self.rho[i]
         start = i < 0
-        jj, sj, dd, delta, nl, pj, th_arr = self._candidates(i, si, ci, ri, circles=start)
-        pi, th_d, sweep, ok = self._departures(i, si, th_a, ci, ri, nl)
+        jj, sj, dd, delta, nl, pj, th_arr = self.candidates(i, si, ci, ri, circles=start)
+        pi, th_d, sweep, ok = self.departures(i, si, th_a, ci, ri, nl)
         if start and self.n:  # arrival point in the cone of circle j (the goal has none)
             isg = jj < 0
             ok &= isg | np.isfinite(self.cone_off(np.where(isg, 0, jj), th_arr))

@@ -6,9 +6,9 @@ into a bound that holds for *every* collision-free motion at speed ``<= max_spee
 
 1. the static bound ``L* / v``: ``L*`` is the certified shortest path of the robot's disc among
    all static obstacles (temporary ones included: they are there all the time), the exact
-   tangent graph (:mod:`optplan.geometry.tangent_graph`), ``v`` its ``max_speed``;
+   tangent graph (:mod:`optplan.geometry.tangent.tangent_graph`), ``v`` its ``max_speed``;
 2. the goal bound: the robot parked at its goal overlaps a moving obstacle at the times of
-   :func:`parked_contact_times` (closed form, :mod:`optplan.geometry.contact_times`); an
+   :func:`parked_contact_times` (closed form, :mod:`optplan.geometry.timing.contact_times`); an
    arrival at time ``T`` needs the goal free at ``T``, so the bound is the first free time of
    the goal at or after the static bound.
 
@@ -25,8 +25,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from optplan.geometry.contact_times import line_intervals, shape_pieces
-from optplan.geometry.motion import mover_period, mover_pieces
+from optplan.geometry.timing.contact_times import line_intervals, shape_pieces
+from optplan.geometry.timing.motion import mover_period, mover_pieces
 
 if TYPE_CHECKING:
     from optplan.problem import Problem
@@ -60,10 +60,10 @@ def parked_contact_times(problem: Problem, point, radius: float, t_lo: float, t_
     """The times in ``[t_lo, t_hi]`` at which a disc of ``radius`` parked at ``point`` overlaps
     a moving obstacle: sorted disjoint open intervals (an interval may end at ``inf``).
 
-    Per linear piece of each obstacle's motion (:func:`~optplan.geometry.motion.mover_pieces`)
-    and per convex piece of its shape, the parked disc seen from the obstacle moves on the line
-    ``point - b - (t - ta) w``: one closed-form interval
-    (:func:`~optplan.geometry.contact_times.line_intervals`), clipped to the piece.
+    Per linear piece of each obstacle's motion
+    (:func:`~optplan.geometry.timing.motion.mover_pieces`) and per convex piece of its shape, the
+    parked disc seen from the obstacle moves on the line ``point - b - (t - ta) w``: one closed-form
+    interval (:func:`~optplan.geometry.timing.contact_times.line_intervals`), clipped to the piece.
     """
     p = np.asarray(point, float)
     los, his = [], []
@@ -98,7 +98,7 @@ def arrival_lower_bound(problem: Problem, robot_id: str | None = None) -> TimeBo
     ValueError
         If the robot is unknown or has no goal (a formation follower).
     """
-    from optplan.geometry.tangent_graph import problem_shortest_path
+    from optplan.geometry.tangent import problem_shortest_path
 
     robot = problem.leader if robot_id is None else problem.robot(robot_id)
     rid = robot.id

@@ -40,11 +40,12 @@ replaces each arc by a *circumscribed* polyline (vertices outside the circle, ev
 to it), so it stays ``>= r`` from the obstacle; its length is slightly larger and is reported
 apart.
 
-Bounds: the bounds are a wall of the obstacle set (:func:`~optplan.geometry.obstacles.bounds_wall`),
-merged with every obstacle that touches them into one solid (its convex vertices are circles
-like any other; the bounds' corners are reflex).  The search is complete and exact on a walled
-set: its path is the shortest inside the bounds (certified), and none found proves that no path
-exists.  On a set built with ``walls=False`` ``info["certified"]`` is False.
+Bounds: the bounds are a wall of the obstacle set
+(:func:`~optplan.geometry.collision.obstacles.bounds_wall`), merged with every obstacle that touches
+them into one solid (its convex vertices are circles like any other; the bounds' corners are
+reflex).  The search is complete and exact on a walled set: its path is the shortest inside the
+bounds (certified), and none found proves that no path exists.  On a set built with ``walls=False``
+``info["certified"]`` is False.
 """
 
 from __future__ import annotations
@@ -58,14 +59,14 @@ from typing import Any
 
 import numpy as np
 
-from optplan.geometry.arc_lines import arc_polyline, rebuild_polyline
-from optplan.geometry.chain_search import ChainSearch
-from optplan.geometry.circles import ArcChecker, Circles, circles_of
-from optplan.geometry.obstacles import ObstacleSet, solid_edges
-from optplan.geometry.sightlines import Sightlines
-from optplan.geometry.tangent_chains import ChainGraph, chains_of
-from optplan.geometry.tangent_edges import Edges, cone_off, edges_of_one, tangent_edges
-from optplan.geometry.tangent_search import Stopped, TangentSearch
+from optplan.geometry.collision import ObstacleSet, solid_edges
+from optplan.geometry.tangent.arc_lines import arc_polyline, rebuild_polyline
+from optplan.geometry.tangent.chain_search import ChainSearch
+from optplan.geometry.tangent.circles import ArcChecker, Circles, circles_of
+from optplan.geometry.tangent.sightlines import Sightlines
+from optplan.geometry.tangent.tangent_chains import ChainGraph, chains_of
+from optplan.geometry.tangent.tangent_edges import Edges, cone_off, edges_of_one, tangent_edges
+from optplan.geometry.tangent.tangent_search import Stopped, TangentSearch
 
 __all__ = ["TangentPath", "TangentGraph", "tangent_graph", "shortest_path",
            "problem_shortest_path", "arc_polyline"]
@@ -108,8 +109,8 @@ class TangentGraph:
     """The tangent graph of one static map and radius: build once, query many.
 
     Keeps the circles, the exact arc tests, the candidate sight lines
-    (:mod:`~optplan.geometry.sightlines`) and, per circle and sense, the query-independent
-    successors (:class:`~optplan.geometry.tangent_edges.Edges`) with the status of every
+    (:mod:`~optplan.geometry.tangent.sightlines`) and, per circle and sense, the query-independent
+    successors (:class:`~optplan.geometry.tangent.tangent_edges.Edges`) with the status of every
     segment tested so far: a query reuses what earlier ones computed, only the start, the
     goal and the A* itself are per query.  Successors are made when a search first expands
     a circle, or all at once, their segments tested in one batch, by :meth:`build`.  A query
@@ -126,10 +127,10 @@ class TangentGraph:
         Successors are stored while they hold less memory than this (default
         :data:`MAX_GRAPH_BYTES`); beyond it they are made anew when a search needs them.
     sightlines : bool or None
-        Tangents only towards the circles the sight lines of :mod:`~optplan.geometry.sightlines`
-        lists (True), or towards every circle (False: each expansion costs ``O(n)``, no
-        kernel to compile).  ``None`` (default) uses them from :data:`SIGHTLINES_MIN`
-        circles on.  Both give the same edges, paths and lengths
+        Tangents only towards the circles the sight lines of
+        :mod:`~optplan.geometry.tangent.sightlines` lists (True), or towards every circle (False:
+        each expansion costs ``O(n)``, no kernel to compile).  ``None`` (default) uses them from
+        :data:`SIGHTLINES_MIN` circles on.  Both give the same edges, paths and lengths
         (``tests/geometry/test_sightlines.py``).
 
     Attributes
@@ -229,7 +230,7 @@ class TangentGraph:
 
     def visible(self, i: int) -> np.ndarray:
         """Indices of the circles whose tangents from circle ``i`` may be free (a superset
-        of those that are: :mod:`optplan.geometry.sightlines`), made on first use."""
+        of those that are: :mod:`optplan.geometry.tangent.sightlines`), made on first use."""
         if self.circles.full[i] or not self.use_sightlines:
             return self._all  # every circle: one shared array, not a copy per circle
         v = self._visible.get(i)
@@ -265,22 +266,22 @@ class TangentGraph:
         """Make the whole graph now, not only what the searches reach, and search it with
         compiled code from now on; returns ``self``.  ``stop`` (the deadline) is polled
         between the phases and between two steps of two batches; when it asks, the build
-        raises :class:`~optplan.geometry.tangent_search.Stopped` and the graph stays unbuilt
+        raises :class:`~optplan.geometry.tangent.tangent_search.Stopped` and the graph stays unbuilt
         (lazy: a later :meth:`build` starts again).
 
-        Every free tangent: the sight lines of every circle (:mod:`~optplan.geometry.sightlines`,
-        the sources split between two threads: the expansion runs without the GIL), the
-        circle pairs each of which may see the other, each pair once, the tangents of the
-        sense pairs of the windows that see across it (:meth:`_batches`: one for two points,
-        four for two discs) in vectorised batches (at most :data:`BUILD_PAIRS` each, two at a
-        time in two threads), their segments tested in one call of
-        :meth:`~optplan.geometry.obstacles.ObstacleSet.pairs_free` per batch (a segment that
-        several sense pairs share tested once), the blocked
+        Every free tangent: the sight lines of every circle
+        (:mod:`~optplan.geometry.tangent.sightlines`, the sources split between two threads: the
+        expansion runs without the GIL), the circle pairs each of which may see the other, each pair
+        once, the tangents of the sense pairs of the windows that see across it (:meth:`_batches`:
+        one for two points, four for two discs) in vectorised batches (at most :data:`BUILD_PAIRS`
+        each, two at a time in two threads), their segments tested in one call of
+        :meth:`~optplan.geometry.collision.obstacles.ObstacleSet.pairs_free` per batch (a segment
+        that several sense pairs share tested once), the blocked
         ones dropped and each free tangent stored in both directions (travelled backwards, a
         tangent leaves ``j`` in sense ``-s_j`` and reaches ``i`` in sense ``-s_i``).  The free
-        tangents become the explicit graph of :mod:`~optplan.geometry.tangent_chains`
+        tangents become the explicit graph of :mod:`~optplan.geometry.tangent.tangent_chains`
         (``chains``), and every later query is the compiled A* of
-        :mod:`~optplan.geometry.chain_search` (same lengths).  What earlier lazy searches
+        :mod:`~optplan.geometry.tangent.chain_search` (same lengths).  What earlier lazy searches
         stored is dropped; ``max_bytes`` bounds what lazy searches store, not this.
         """
         if self.chains is not None:
@@ -298,7 +299,7 @@ class TangentGraph:
         del keys, sense
         self._edges, self.nbytes = {}, 0
         self.oset.pairs_free(np.zeros((1, 2)), [0], [0])  # its arrays made before the threads
-        made = []
+        made: list[tuple[dict[str, np.ndarray], int]] = []
         with ThreadPoolExecutor(2) as pool:  # two batches at a time, a poll between
             for q in range(0, len(batches), 2):
                 _poll(stop)
@@ -374,7 +375,7 @@ class TangentGraph:
 
     def _free_tangents(self, rows: np.ndarray) -> tuple[dict[str, np.ndarray], int]:
         """The free tangents among ``rows`` (``(i, s_i, j, s_j)``, :meth:`_batches`) in both
-        directions (:func:`~optplan.geometry.tangent_edges.tangent_edges`, the segments
+        directions (:func:`~optplan.geometry.tangent.tangent_edges.tangent_edges`, the segments
         tested) and the number of segments tested (counted by the caller: this runs in a
         thread)."""
         t = tangent_edges(self.circles, rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3],
@@ -482,7 +483,7 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
 
 
 def _poll(stop: Callable[[], bool] | None) -> None:
-    """Raise :class:`~optplan.geometry.tangent_search.Stopped` when ``stop`` asks."""
+    """Raise :class:`~optplan.geometry.tangent.tangent_search.Stopped` when ``stop`` asks."""
     if stop is not None and stop():
         raise Stopped
 

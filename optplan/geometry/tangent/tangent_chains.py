@@ -1,8 +1,8 @@
 r"""The built tangent graph as one explicit graph: tangent points chained along their circles.
 
-After :meth:`~optplan.geometry.tangent_graph.TangentGraph.build` every free tangent of the map
-is known.  :class:`ChainGraph` turns them into a graph whose shortest paths are the map's shortest
-paths, searched by the compiled A* of :mod:`optplan.geometry.chain_search`:
+After :meth:`~optplan.geometry.tangent.tangent_graph.TangentGraph.build` every free tangent of the
+map is known.  :class:`ChainGraph` turns them into a graph whose shortest paths are the map's
+shortest paths, searched by the compiled A* of :mod:`optplan.geometry.tangent.chain_search`:
 
 * **Nodes**: the departure points of the free tangents (``E`` of them, on circle ``i`` with
   sense ``s_i``), numbered chain by chain so that a chain's nodes are neighbours in memory.
@@ -10,7 +10,7 @@ paths, searched by the compiled A* of :mod:`optplan.geometry.chain_search`:
   travel direction (the cone offset, counted in the sense of travel; all the way round and
   back to the first for a circle obstacle); each leads to the next one, along the arc
   between them, of length ``rho * sweep``, when the exact arc test
-  (:class:`~optplan.geometry.circles.ArcChecker`) finds that arc free.
+  (:class:`~optplan.geometry.tangent.circles.ArcChecker`) finds that arc free.
 * **Tangent edges**: a departure leads to the *entry* of its tangent's arrival point: the
   first departure of the arrival's chain at or after it, of length ``seg + rho * sweep``
   (the tangent, then the arc to the entry, tested exactly).  Arrival points are not nodes:
@@ -26,7 +26,7 @@ a path through a vertex stays on the side of its cone (the bitangent condition).
 robot (``rho = 0``) the arcs cost nothing and need no test.
 
 A query adds its start, goal and their tangents to this graph
-(:mod:`optplan.geometry.chain_search`); the arrays here do not change.
+(:mod:`optplan.geometry.tangent.chain_search`); the arrays here do not change.
 """
 
 from __future__ import annotations
@@ -37,8 +37,8 @@ from typing import Any
 
 import numpy as np
 
-from optplan.geometry.circles import ANGLE_TOL, TWO_PI, Circles
-from optplan.geometry.tangent_edges import cone_off
+from optplan.geometry.tangent.circles import ANGLE_TOL, TWO_PI, Circles
+from optplan.geometry.tangent.tangent_edges import cone_off
 
 __all__ = ["ChainGraph", "arcs_free", "chain_key", "chains_of", "entry_of", "first_above",
            "dense_rank", "stable_argsort"]
@@ -94,7 +94,7 @@ def first_above(uptr: np.ndarray, key: np.ndarray, u: np.ndarray, x: np.ndarray)
 
 @dataclass(frozen=True)
 class ChainGraph:
-    """The explicit graph of a built :class:`~optplan.geometry.tangent_graph.TangentGraph`.
+    """The explicit graph of a built :class:`~optplan.geometry.tangent.tangent_graph.TangentGraph`.
 
     Attributes
     ----------
@@ -121,7 +121,7 @@ class ChainGraph:
     a_order, a_group : ndarrays ``(E,)``
         The arrivals sorted by the gap between departures they lie in (``a_group`` =
         ``u (E + 1) + a_pos``, ascending): the arrivals that reach a goal's departure
-        without passing a departure (:mod:`~optplan.geometry.chain_search`).
+        without passing a departure (:mod:`~optplan.geometry.tangent.chain_search`).
     arc_tests : int
         Exact arc tests run to make the chains.
     """
@@ -177,8 +177,8 @@ def arcs_free(arcs: Any, C: Circles, src: np.ndarray, th: np.ndarray, sweep: np.
 
 def chains_of(C: Circles, t: dict[str, np.ndarray], arcs: Any) -> ChainGraph:
     """:class:`ChainGraph` of the free tangents ``t`` (arrays as
-    :func:`~optplan.geometry.tangent_edges.tangent_edges` gives them, every one free) on
-    circles ``C``; ``arcs`` the graph's :class:`~optplan.geometry.circles.ArcChecker`.
+    :func:`~optplan.geometry.tangent.tangent_edges.tangent_edges` gives them, every one free) on
+    circles ``C``; ``arcs`` the graph's :class:`~optplan.geometry.tangent.circles.ArcChecker`.
     ``t``'s arrays are replaced (sorted) in place, so that the unsorted ones are freed."""
     E = len(t["j"])
     key = chain_key(C, t["i"], t["si"], t["od"])

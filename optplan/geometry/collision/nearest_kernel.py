@@ -1,8 +1,8 @@
 """Compiled nearest-point queries of the exact collision engine (numba; the only
 implementation): per (point, obstacle) the nearest boundary point and the exact distance, 0
-inside (:meth:`optplan.geometry.obstacles.ObstacleSet.nearest`).
+inside (:meth:`optplan.geometry.collision.obstacles.ObstacleSet.nearest`).
 
-The data layout is that of :mod:`optplan.geometry.kernel`; tested against shapely in
+The data layout is that of :mod:`optplan.geometry.collision.kernel`; tested against shapely in
 ``tests/geometry/test_geometry.py``.
 """
 
@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 
-from optplan.geometry.jit import B2, F1, F2, F3, I1, compiled, f8, i8, inlined
-from optplan.geometry.kernel import _clamp01
+from optplan.geometry.collision.kernel import _clamp01
+from optplan.geometry.compiled import B2, F1, F2, F3, I1, compiled, f8, i8, inlined
 
 __all__ = ["nearest"]
 

@@ -3,7 +3,7 @@ r"""The one exact collision and clearance engine: true polygons and true circles
 Model
     A robot is a disc of radius ``r >= 0`` (``r = 0``: a point robot).  A straight segment ``s``
     is free of an obstacle ``O`` when the exact Euclidean distance ``dist(s, O) >= r - eps``
-    (touching allowed; ``eps`` from :class:`~optplan.geometry.frame.Frame`).  Nothing is
+    (touching allowed; ``eps`` from :class:`~optplan.geometry.collision.frame.Frame`).  Nothing is
     buffered or polygonised: polygons (with holes) are split into convex pieces that tile them,
     circles are kept as centre and radius.
 
@@ -33,8 +33,8 @@ Working region and frame
 Solids
     The obstacle region is the union of the obstacles (closed sets).  Polygons that touch or
     overlap are merged into one solid before the decomposition
-    (:mod:`optplan.geometry.solids`), so a seam between two pieces is an internal diagonal,
-    never an eroded boundary: no robot, not even a point, runs along or through it.
+    (:mod:`optplan.geometry.collision.solids`), so a seam between two pieces is an internal
+    diagonal, never an eroded boundary: no robot, not even a point, runs along or through it.
 
 Candidate pairs and the compiled loops
     Each item has a bounding box and a bounding circle.  With few items (< 48) every item's
@@ -44,7 +44,7 @@ Candidate pairs and the compiled loops
     segment visits the cells it crosses (column by column), so
     the work per segment grows with the obstacles near it.  The screens keep a margin of
     ``2 eps`` beyond the collision threshold.  The loops are compiled with numba
-    (:mod:`optplan.geometry.kernel`, the only implementation; shapely is the oracle of the
+    (:mod:`optplan.geometry.collision.kernel`, the only implementation; shapely is the oracle of the
     tests).
 """
 
@@ -59,11 +59,11 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon
 
-from optplan.geometry import kernel
-from optplan.geometry.frame import Frame
-from optplan.geometry.grid import item_grid
-from optplan.geometry.pieces import convex_pieces, convex_pieces_many
-from optplan.geometry.solids import merge_solids
+from optplan.geometry.collision import kernel
+from optplan.geometry.collision.frame import Frame
+from optplan.geometry.collision.grid import item_grid
+from optplan.geometry.collision.pieces import convex_pieces, convex_pieces_many
+from optplan.geometry.collision.solids import merge_solids
 
 __all__ = ["PIECE_EDGES", "BOUNDS_NAME", "DiscCrossings", "ObstacleSet", "obstacle_set",
            "clip_obstacles", "bounds_wall"]
@@ -224,7 +224,7 @@ class ObstacleSet:
     shapes : tuple
         ``(obstacle index, local shape)`` of the solids kept: the obstacles clipped by
         :func:`clip_obstacles`, touching polygons merged into one solid under the smallest
-        index of its members (:func:`optplan.geometry.solids.merge_solids`).
+        index of its members (:func:`optplan.geometry.collision.solids.merge_solids`).
     n_pieces : int
         Convex pieces; items ``0 .. n_pieces - 1`` are pieces, the rest circles.
     item_obstacle, item_center, item_reach : arrays
@@ -323,7 +323,7 @@ class ObstacleSet:
         K, P, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
         A = np.ascontiguousarray(np.stack([np.real(a), np.imag(a)], axis=1), dtype=float)
         D = np.ascontiguousarray(np.stack([np.real(d), np.imag(d)], axis=1), dtype=float)
-        from optplan.geometry import pairs_kernel  # compiled on first use (its docstring)
+        from optplan.geometry.collision import pairs_kernel  # compiled on first use (its docstring)
 
         return pairs_kernel.pairs(np.ascontiguousarray(si, np.int64),
                                   np.ascontiguousarray(it, np.int64), A, D, K, P, E, N, C, CE,
@@ -403,7 +403,7 @@ class ObstacleSet:
             return np.ones(len(i), dtype=bool)
         K, P, E, N, C, CE, _, IC, IR, CR, OWN = self.arrays
         L = np.ascontiguousarray(self.frame.local(points))
-        from optplan.geometry import pairs_kernel  # compiled on first use (its docstring)
+        from optplan.geometry.collision import pairs_kernel  # compiled on first use (its docstring)
 
         return pairs_kernel.free_pairs(L, i, j, K, P, E, N, C, CE, IC, IR, CR, OWN,
                                        self.n_obstacles, self.radius, self.eps,
@@ -464,7 +464,9 @@ class ObstacleSet:
         if self.n_items == 0 or R == 0:
             return np.full((R, n, 2), np.nan), np.full((R, n), math.inf)
         K, Pt, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
-        from optplan.geometry import nearest_kernel  # compiled on first use (its docstring)
+        from optplan.geometry.collision import (
+            nearest_kernel,  # compiled on first use (its docstring)
+        )
 
         near, dist = nearest_kernel.nearest(np.ascontiguousarray(self.frame.local(pts)), K, Pt,
                                             E, N, C, B, IC, IR, CR, OWN, n, float(max_range))
@@ -582,7 +584,7 @@ def _edge_table(pieces: list, bflags: list, eps: float) -> tuple:
 def solid_edges(oset: ObstacleSet) -> np.ndarray:
     """The boundary edges of the polygon solids of ``oset`` (local frame), ``(m, 4)``: ``x1,
     y1, x2, y2``, every edge of every ring (exterior and holes) of the solids' polygons once,
-    so the rings close (the constrained edges of :mod:`~optplan.geometry.sightlines`)."""
+    so the rings close (the constrained edges of :mod:`~optplan.geometry.tangent.sightlines`)."""
     polys = [g for _, g in oset.shapes if not isinstance(g, tuple)]
     rings = shapely.get_rings(shapely.get_parts(np.array(polys, dtype=object)))
     xy, ring = shapely.get_coordinates(rings, return_index=True)

@@ -1,5 +1,5 @@
 """Every use of numba's private internals, in one place (the kernel machinery of
-:mod:`optplan.geometry.jit` and :mod:`optplan.geometry.kernel_cache` needs a few).
+:mod:`optplan.geometry.compiled.jit` and :mod:`optplan.geometry.compiled.kernel_cache` needs a few).
 
 numba has no public API for what the kernels need: a cache that looks in two places (numba's
 own, then the one a wheel ships), a lock around a compilation shared by processes, a
@@ -91,7 +91,7 @@ class NumbaInternalsError(ImportError):
 
 def _fix(what: str) -> str:
     return (f"numba {numba.__version__} changed {what}; update "
-            f"optplan/geometry/numba_internals.py and the numba pin in pyproject.toml "
+            f"optplan/geometry/compiled/numba_internals.py and the numba pin in pyproject.toml "
             f"(tested: numba{TESTED})")
 
 

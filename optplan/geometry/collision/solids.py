@@ -3,7 +3,7 @@ r"""The obstacle region as a union of solids: touching and overlapping obstacles
 Obstacles are closed sets and the obstacle region is their *union*.  Two rectangles that share
 an edge are one wall: the seam between them lies inside the region, and a path may run along
 the union's outer boundary but never along or across a seam.  The collision engine
-(:mod:`optplan.geometry.obstacles`) erodes the boundary of each solid by ``eps`` to decide
+(:mod:`optplan.geometry.collision.obstacles`) erodes the boundary of each solid by ``eps`` to decide
 point robots (a segment that runs along a boundary is not inside), so it must see the solids,
 not the pieces as drawn: otherwise a seam would be a boundary of both pieces, eroded on both
 sides, and a point robot would slide through it.
@@ -87,8 +87,9 @@ def merge_solids(shapes: list[tuple[int, object]], eps: float
     Parameters
     ----------
     shapes : list of ``(index, shape)``
-        As returned by :func:`optplan.geometry.obstacles.clip_obstacles`: a valid, non-empty
-        shapely Polygon or MultiPolygon, or a ``(cx, cy, R)`` tuple for a circle (kept as is).
+        As returned by :func:`optplan.geometry.collision.obstacles.clip_obstacles`: a valid,
+        non-empty shapely Polygon or MultiPolygon, or a ``(cx, cy, R)`` tuple for a circle (kept as
+        is).
     eps : float
         The geometric tolerance of the frame.
 

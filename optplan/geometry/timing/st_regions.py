@@ -6,7 +6,7 @@ the time.  The robot at ``s`` at time ``t`` overlaps a moving obstacle exactly o
 
 * path segment ``k`` (from ``A`` in the unit direction ``u``, of length ``l``; local arc length
   ``sigma = s - s_k`` in ``[0, l]``),
-* linear piece of the obstacle's motion (:func:`~optplan.geometry.motion.mover_pieces`: from
+* linear piece of the obstacle's motion (:func:`~optplan.geometry.timing.motion.mover_pieces`: from
   ``B`` at time ``ta`` with velocity ``w``, for ``t' = t - ta`` in ``[0, T]``),
 * convex piece ``K`` of the obstacle's shape,
 
@@ -17,8 +17,9 @@ with the relative position :math:`x = (A - B) + \sigma u - t' w`.  ``x`` is affi
 Everything the references in time need is computed in closed form:
 
 * the **section** at a given ``s`` (the times of contact there): the disc on the line
-  ``t' -> x(sigma, t')`` against ``K`` (:func:`~optplan.geometry.contact_times.line_intervals`,
-  roots of quadratics), clipped to ``[0, T]``;
+  ``t' -> x(sigma, t')`` against ``K``
+  (:func:`~optplan.geometry.timing.contact_times.line_intervals`, roots of quadratics), clipped to
+  ``[0, T]``;
 * the **extremes of a linear function** ``g . (sigma, t')`` over ``R`` intersected with a
   sub-box (:func:`region_extremes`): a linear function on a convex set peaks at a corner of the
   box inside ``K + D_r``, where an edge of the box crosses the boundary of ``K + D_r`` (again
@@ -40,8 +41,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from optplan.geometry.contact_times import ConvexShape, line_intervals, shape_pieces
-from optplan.geometry.motion import mover_pieces
+from optplan.geometry.timing.contact_times import ConvexShape, line_intervals, shape_pieces
+from optplan.geometry.timing.motion import mover_pieces
 
 if TYPE_CHECKING:
     from optplan.problem import DynamicObstacle

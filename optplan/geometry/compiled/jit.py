@@ -21,7 +21,7 @@ directory is writable; else numba's user-wide cache directory (``~/.cache/numba`
 user, not once per process; with none of them writable, the kernels compile in memory in
 every process, with one warning (``kernel_cache.NoKernelCacheWarning``).  An installed wheel
 also ships the kernels compiled for its platform's generic CPU, looked up when numba's cache
-has nothing (:mod:`optplan.geometry.kernel_cache`): its first solve compiles nothing.
+has nothing (:mod:`optplan.geometry.compiled.kernel_cache`): its first solve compiles nothing.
 
 A helper with one call site (in compiled code) is ``@inlined`` instead: numba inlines it into
 its caller's IR, so it costs no compilation of its own (a compiled function costs 0.1-0.3 s of
@@ -61,8 +61,12 @@ import numba
 import numpy as np
 from numba import types
 
-from optplan.geometry.kernel_cache import REGISTRY, KernelCache
-from optplan.geometry.numba_internals import NO_REFCOUNT, LazyDispatcher, global_compiler_lock
+from optplan.geometry.compiled.kernel_cache import REGISTRY, KernelCache
+from optplan.geometry.compiled.numba_internals import (
+    NO_REFCOUNT,
+    LazyDispatcher,
+    global_compiler_lock,
+)
 
 __all__ = ["compiled", "leaf", "inlined", "OneSignature", "argsort_stable",
            "heap_push", "heap_pop", "f8", "i8", "b1", "F1", "F2", "F3", "I1", "I2", "B1", "B2",
@@ -91,11 +95,11 @@ class OneSignature(LazyDispatcher):
     types it names (a Python call's, or a compiled caller's when that caller is typed),
     compiles (or loads from the disk cache) the declared signature instead, and compilation
     is then disabled.  While it compiles, it holds its cache entry's lock across processes
-    (:meth:`optplan.geometry.kernel_cache.KernelCache.compiling`: processes started together
-    compile each kernel once).  Later calls are converted to that signature or rejected,
+    (:meth:`optplan.geometry.compiled.kernel_cache.KernelCache.compiling`: processes started
+    together compile each kernel once).  Later calls are converted to that signature or rejected,
     exactly as for ``numba.njit([signature])``, which compiles the same signature at import.
     (The first call reaches :meth:`compile` through numba internals:
-    :class:`optplan.geometry.numba_internals.LazyDispatcher`.)
+    :class:`optplan.geometry.compiled.numba_internals.LazyDispatcher`.)
     """
 
     _declared: tuple[Any, ...] | None = None

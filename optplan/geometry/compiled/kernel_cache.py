@@ -1,7 +1,7 @@
 """Where the compiled kernels' machine code is cached: numba's per-user cache, and a cache
 shipped inside a wheel so that a fresh installation's first solve compiles nothing.
 
-Every ``@compiled`` kernel (:mod:`optplan.geometry.jit`) looks up its machine code in two
+Every ``@compiled`` kernel (:mod:`optplan.geometry.compiled.jit`) looks up its machine code in two
 places, in this order (:class:`KernelCache`):
 
 1. **numba's own cache** (``NUMBA_CACHE_DIR`` when set; else ``__pycache__`` beside the
@@ -16,7 +16,7 @@ places, in this order (:class:`KernelCache`):
    instruction set, x86-64 with SSE2 on a PC, so it runs on any CPU of that platform).
 
 numba has no public API for either: the numba internals this needs are in
-:mod:`optplan.geometry.numba_internals`, and nowhere else.
+:mod:`optplan.geometry.compiled.numba_internals`, and nowhere else.
 
 numba keys an entry on the function's signature, its bytecode, the platform triple, the CPU
 name and features and numba's version; the shipped entries are stamped with a hash of the
@@ -28,7 +28,7 @@ kernel is compiled as before, for this CPU, and saved in numba's cache.
 
 A source checkout (``pip install -e``, ``make test``) has no shipped cache: ``optplan/_kernels``
 only exists in a built wheel.  Build one into a directory with
-``python -c "from optplan.geometry.kernel_cache import build_in_child as b; b('DIR')"`` (a
+``python -c "from optplan.geometry.compiled.kernel_cache import build_in_child as b; b('DIR')"`` (a
 child process with the generic CPU: :func:`build` refuses to run with the host's CPU, whose
 code could not be shipped).  The results are
 the same either way: no kernel uses fast-math, so the generic and the host code compute the
@@ -49,7 +49,7 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any
 
-from optplan.geometry.numba_internals import (
+from optplan.geometry.compiled.numba_internals import (
     CacheLocator,
     LocatedCache,
     cpu,
@@ -62,19 +62,19 @@ __all__ = ["KERNEL_MODULES", "REGISTRY", "SHIPPED_DIR", "GENERIC_CPU", "KernelCa
            "NoKernelCacheWarning", "ShippedCache", "build", "build_in_child"]
 
 #: The package's root directory (``optplan/``).
-PACKAGE_DIR = Path(__file__).resolve().parents[1]
+PACKAGE_DIR = Path(__file__).resolve().parents[2]
 #: The shipped cache's directory inside the package (present in a built wheel only).
 SHIPPED_DIR = PACKAGE_DIR / "_kernels"
 #: The CPU name and features the shipped cache is compiled for (numba's generic target).
 GENERIC_CPU = ("generic", "")
 #: Every module that defines ``@compiled`` kernels (a test checks the list is complete).
 KERNEL_MODULES = (
-    "optplan.geometry.jit",
-    "optplan.geometry.kernel",
-    "optplan.geometry.nearest_kernel",
-    "optplan.geometry.pairs_kernel",
-    "optplan.geometry.triangular_expansion",
-    "optplan.geometry.chain_search",
+    "optplan.geometry.compiled.jit",
+    "optplan.geometry.collision.kernel",
+    "optplan.geometry.collision.nearest_kernel",
+    "optplan.geometry.collision.pairs_kernel",
+    "optplan.geometry.tangent.triangular_expansion",
+    "optplan.geometry.tangent.chain_search",
     "optplan.swarm.operators",
     "optplan.swarm.ga",
     "optplan.swarm.ipso",
@@ -241,8 +241,8 @@ def _warn_no_cache(py_func: Any) -> None:
         f"writable directory to cache them", NoKernelCacheWarning, stacklevel=4)
 
 
-#: Every ``@compiled`` (and ``@leaf``) kernel, in definition order (``optplan.geometry.jit``
-#: registers them; :func:`build` compiles those of the package).
+#: Every ``@compiled`` (and ``@leaf``) kernel, in definition order
+#: (``optplan.geometry.compiled.jit`` registers them; :func:`build` compiles those of the package).
 REGISTRY: list[Any] = []
 
 
@@ -284,7 +284,7 @@ def build_in_child(dest: str | os.PathLike[str], modules: Sequence[str] = KERNEL
     """
     env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CPU_FEATURES", "NUMBA_OPT")}
     env["NUMBA_CPU_NAME"] = GENERIC_CPU[0]
-    code = ("import sys; from optplan.geometry.kernel_cache import build; "
+    code = ("import sys; from optplan.geometry.compiled.kernel_cache import build; "
             "build(sys.argv[1], sys.argv[2:])")
     p = subprocess.run([sys.executable, "-c", code, os.fspath(dest), *modules], env=env,
                        capture_output=True, text=True, check=False)

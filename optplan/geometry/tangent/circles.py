@@ -6,7 +6,7 @@ cone* (the directions between the outward normals of the two edges), and radius 
 around every circle obstacle (all directions).  :func:`circles_of` lists them;
 :class:`ArcChecker` decides exactly whether an arc along one keeps ``r`` from the items near
 its circle (arc-to-segment and arc-to-circle distances in closed form).  The search that uses
-them is :mod:`optplan.geometry.tangent_graph`.
+them is :mod:`optplan.geometry.tangent.tangent_graph`.
 """
 
 from __future__ import annotations
@@ -16,8 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optplan.geometry.obstacles import ObstacleSet
-from optplan.geometry.solids import corner_partners
+from optplan.geometry.collision import ObstacleSet, corner_partners
 
 __all__ = ["TWO_PI", "ANGLE_TOL", "Circles", "circles_of", "ArcChecker"]
 

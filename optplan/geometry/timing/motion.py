@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from optplan.geometry.obstacles import ObstacleSet
+from optplan.geometry.collision import ObstacleSet
 
 __all__ = ["Contact", "mover_period", "mover_track", "mover_pieces", "mover_position",
            "track_eval",

@@ -3,8 +3,8 @@ r"""The earliest arrival along a path: a sweep of the (arc length, delay) plane.
 Along a fixed path, a schedule is a non-decreasing time ``t(s)`` with ``dt/ds >= 1/v``.  In the
 coordinates ``(s, tau)`` with the *delay* ``tau = t - s / v``, full speed is horizontal and a
 wait is vertical, so a schedule is exactly a non-decreasing ``tau(s)`` from ``(0, 0)`` that
-avoids the forbidden regions (:mod:`optplan.geometry.st_regions`; a shear keeps them convex), and
-the earliest arrival is the lowest such path's ``tau`` at ``s = S``, plus ``S / v``.
+avoids the forbidden regions (:mod:`optplan.geometry.timing.st_regions`; a shear keeps them convex),
+and the earliest arrival is the lowest such path's ``tau`` at ``s = S``, plus ``S / v``.
 
 **Structure.**  At a given ``s`` each region's section is an open interval ``(lo(s), hi(s))``
 with ``lo`` convex and ``hi`` concave.  Overlapping sections merge into *blocks* (closed: two
@@ -20,7 +20,7 @@ running maximum: wait exactly as long as the floor demands).  ``hi_i`` is concav
 running maximum is ``hi_i`` up to its peak and flat after it, and the gap survives the
 interval iff every ceiling region's ``lo`` stays above it: minima of ``lo`` over sub-intervals,
 all closed-form extremes of a linear function over a convex region
-(:func:`~optplan.geometry.st_regions.region_extremes`).  At an event, the robot may wait: the
+(:func:`~optplan.geometry.timing.st_regions.region_extremes`).  At an event, the robot may wait: the
 free vertical segments (*components*) at that ``s`` connect the gaps ending there to the gaps
 starting there.  The arrival is the lowest reachable delay at ``s = S``.
 
@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from optplan.geometry.st_regions import Regions, region_extremes, sections
+from optplan.geometry.timing.st_regions import Regions, region_extremes, sections
 
 __all__ = ["Sweep", "sweep"]
 
@@ -311,7 +311,7 @@ def sweep(reg: Regions, speed: float, knots: np.ndarray, S: float, tol: float) -
     Parameters
     ----------
     reg : Regions
-        The path's forbidden regions (:func:`~optplan.geometry.st_regions.path_regions`).
+        The path's forbidden regions (:func:`~optplan.geometry.timing.st_regions.path_regions`).
     speed : float
         The robot's speed limit.
     knots : ndarray

@@ -5,8 +5,8 @@ velocity profile along it.  :func:`fastest_schedule` solves the second half exac
 fixed polyline path of a disc robot with speed limit ``max_speed`` (waits allowed), it returns
 the earliest arrival at the path's end and a timed trajectory achieving it, or says that no
 schedule exists.  The moving obstacles become forbidden regions of the (arc length, time) plane
-in closed form (:mod:`optplan.geometry.st_regions`), and the earliest arrival is the lowest
-monotone path among them (:mod:`optplan.geometry.st_sweep`).
+in closed form (:mod:`optplan.geometry.timing.st_regions`), and the earliest arrival is the lowest
+monotone path among them (:mod:`optplan.geometry.timing.st_sweep`).
 
 **What is exact.**  No schedule of *this path* arrives earlier (up to round-off: the events
 where two regions begin to overlap are roots of convex functions found by bisection).  Contact
@@ -30,9 +30,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from optplan.geometry.motion import mover_period
-from optplan.geometry.st_regions import path_regions
-from optplan.geometry.st_sweep import sweep
+from optplan.geometry.timing.motion import mover_period
+from optplan.geometry.timing.st_regions import path_regions
+from optplan.geometry.timing.st_sweep import sweep
 
 if TYPE_CHECKING:
     from optplan.problem import DynamicObstacle, Problem
