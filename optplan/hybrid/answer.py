@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from optplan.geometry.polyline import path_lengths
+from optplan.geometry.collision import path_lengths
 from optplan.hybrid.steps import GlobalStage, RunOptions
 from optplan.hybrid.subgoals import inflection_points
 from optplan.interfaces import LocalController, stage_name
