@@ -481,11 +481,11 @@ def time_reference(problem: Problem, robot_id: str) -> Any:
 
 
 def _without_own_limit(backend: Backend, time_limit: float | None) -> Backend:
-    """``backend`` without its own ``time_limit`` option (the hybrid presets' 60 s) when the
-    caller gives ``solve`` one: that call's deadline alone stops the run."""
+    """``backend`` without its own ``time_limit`` (hybrid presets: 60 s) when solve has one."""
     if time_limit is None or "time_limit" not in {f.name for f in dataclasses.fields(backend)}:
         return backend
-    return get_solver(backend, time_limit=None)
+    out = object.__new__(type(backend))  # a copy: no new checks or stages (within the limit)
+    return out.__dict__.update(vars(backend), time_limit=None) or out
 
 
 def _stop_outcome(res: Result, reason: str, wall: float) -> tuple[Status, str]:
