@@ -109,6 +109,9 @@ class FormationNLP(Backend):
             warm = _warm_from_paths(problem, init)
         else:
             res = get_solver(self.warm_start).solve(problem, rng=rng, callback=callback)
+            if res.stop_reason == "time_limit":  # cut short: no time left to polish it
+                return self._give_up(problem, f"the warm start ({self.warm_start}) was "
+                                     "stopped by the time limit", t0)
             warm = warm_from_result(problem, res)
         if warm is None:
             return self._give_up(problem, f"the warm start ({self.warm_start}) gives no "

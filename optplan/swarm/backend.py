@@ -289,7 +289,7 @@ class SwarmBackend(Backend):
         at = {"k": 0, "best": math.inf}
 
         def poll() -> bool:  # the deadline, between two passes of a large evaluation
-            return notify(callback, Progress(iteration=it_offset + at["k"],
+            return notify(callback, Progress(iteration=it_offset + int(at["k"]),
                                              best_cost=at["best"], n_eval=0,
                                              elapsed=time.perf_counter() - t0,
                                              info={"robot": robot.id}))
