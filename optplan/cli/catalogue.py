@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 from optplan.cli.figures import FIG_SUFFIXES, _check_dpi, _check_out
 
@@ -36,21 +37,28 @@ def cmd_show_solver(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _rows(files: dict[str, Any], read: Callable[[Any], Any], none: str,
+          row: Callable[[str, Any], tuple[str, str, str] | None]) -> list[tuple[str, str, str]]:
+    """``row(name, read(path))`` of every file that ``row`` keeps; ``(name, none, "(invalid:
+    ...)")`` of a file ``read`` rejects."""
+    rows = []
+    for name, path in files.items():
+        try:
+            item = read(path)
+        except ValueError as e:
+            rows.append((name, none, f"(invalid: {e})"))
+            continue
+        if (r := row(name, item)) is not None:
+            rows.append(r)
+    return rows
+
+
 def _problem_rows(tag: str | None) -> list[tuple[str, str, str]]:
     """(name, tags, description) of every catalogue problem (with ``tag``, those tagged so)."""
     from optplan.catalog import load_problem, problem_files
 
-    rows = []
-    for name, path in problem_files().items():
-        try:
-            prob = load_problem(path)
-        except ValueError as e:
-            rows.append((name, "", f"(invalid: {e})"))
-            continue
-        if tag and tag not in prob.tags:
-            continue
-        rows.append((name, ",".join(prob.tags), prob.description))
-    return rows
+    return _rows(problem_files(), load_problem, "", lambda name, prob: (
+        None if tag and tag not in prob.tags else (name, ",".join(prob.tags), prob.description)))
 
 
 def _solver_rows(tag: str | None, avail: set[str]) -> list[tuple[str, str, str]]:
@@ -58,18 +66,13 @@ def _solver_rows(tag: str | None, avail: set[str]) -> list[tuple[str, str, str]]
     from optplan.catalog import read_preset
     from optplan.solver import all_preset_files
 
-    rows = []
-    for name, path in all_preset_files().items():
-        try:
-            data = read_preset(path)
-        except ValueError as e:
-            rows.append((name, "?", f"(invalid: {e})"))
-            continue
+    def row(name: str, data: dict[str, Any]) -> tuple[str, str, str] | None:
         if tag and data["backend"] != tag:
-            continue
+            return None
         note = "" if data["backend"] in avail else " (backend not available yet)"
-        rows.append((name, data["backend"], data["summary"] + note))
-    return rows
+        return name, data["backend"], data["summary"] + note
+
+    return _rows(all_preset_files(), read_preset, "?", row)
 
 
 def _list_problems(args: argparse.Namespace, out: TextIO) -> None:

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 import optplan as op
+from optplan.experiments import print_sections
 from optplan.geometry.collision import path_lengths
 from optplan.potential.sa_apf import K_B, K_B_PAPER
 from optplan.problem import transform_problem
@@ -151,39 +152,17 @@ def _agree_until(a: dict[str, Any], b: dict[str, Any]) -> float:
 
 
 def _scale_groups(rows: list[dict[str, Any]]) -> list[tuple[str, str, list[dict[str, Any]]]]:
-    """The rows of :func:`scale_rows` grouped by ``(preset, scene)``, in first-seen order.
-
-    Parameters
-    ----------
-    rows
-        Rows of :func:`scale_rows`.
-
-    Returns
-    -------
-    list of tuple
-        ``(preset, scene, rows of that pair)``.
-    """
+    """The rows of :func:`scale_rows` grouped by ``(preset, scene)``, in first-seen order. Returns
+    ``(preset, scene, rows of that pair)``."""
     pairs = dict.fromkeys((r["preset"], r["scene"]) for r in rows)
     return [(p, scene, [r for r in rows if r["preset"] == p and r["scene"] == scene])
             for p, scene in pairs]
 
 
 def _scale_line(p: str, scene: str, rs: list[dict[str, Any]]) -> str:
-    """One table line: status and length / scale at each scale, their largest relative
-    difference and how long the trajectories agree with the x 1 one (:func:`_agreement`).
-
-    Parameters
-    ----------
-    p, scene
-        The preset and the scene.
-    rs
-        Their rows, one per scale (one of them at scale 1).
-
-    Returns
-    -------
-    str
-        The markdown table line.
-    """
+    """One table line: status and length / scale at each scale, their largest relative difference
+    and how long the trajectories agree with the x 1 one (:func:`_agreement`); ``rs`` are their
+    rows, one per scale, one of them at scale 1.  Returns the markdown table line."""
     base = next(r["length"] for r in rs if r["scale"] == 1.0)
     dev = max(abs(r["length"] - base) / base for r in rs) if base > 0 else math.nan
     cells = " | ".join(f"{r['status']}, {r['length']:.3f}" for r in rs)
@@ -191,60 +170,26 @@ def _scale_line(p: str, scene: str, rs: list[dict[str, Any]]) -> str:
 
 
 def _agreement(rs: list[dict[str, Any]]) -> str:
-    """How long the trajectories at every scale agree with the x 1 one.
-
-    Parameters
-    ----------
-    rs
-        The rows of one ``(preset, scene)``, one per scale (one of them at scale 1).
-
-    Returns
-    -------
-    str
-        ``"the end"`` when they agree all the way, else the time (s) of the first
-        divergence, one decimal.
-    """
+    """How long the trajectories at every scale agree with the x 1 one ; ``rs`` are the rows of one
+    ``(preset, scene)``, one per scale, one of them at scale 1.  Returns ``"the end"`` when they
+    agree all the way, else the time (s) of the first divergence, one decimal."""
     one = next(r for r in rs if r["scale"] == 1.0)
     until = min(_agree_until(one, r) for r in rs if r is not one)
     return "the end" if until == np.inf else f"{until:.1f}"
 
 
 def _same_global(gs: list[np.ndarray], extent: float) -> bool:
-    """True when the global paths of one robot at every scale have the same vertex count and
-    agree within 1e-9 x the map extent.
-
-    Parameters
-    ----------
-    gs
-        The robot's rescaled global path at each scale.
-    extent
-        The rescaled map extent.
-
-    Returns
-    -------
-    bool
-        Whether the paths agree.
-    """
+    """True when the global paths of one robot at every scale have the same vertex count and agree
+    within 1e-9 x the map extent (``gs``: the robot's rescaled global path at each scale;
+    ``extent``: the rescaled map extent). Returns whether the paths agree."""
     return all(len(g) == len(gs[0]) and np.allclose(g, gs[0], rtol=0, atol=1e-9 * extent)
                for g in gs)
 
 
 def _global_notes(p: str, scene: str, rs: list[dict[str, Any]]) -> list[str]:
-    """Notes on the robots whose global paths differ between the scales.
-
-    Parameters
-    ----------
-    p, scene
-        The preset and the scene.
-    rs
-        Their rows; only the rows with global paths count, and nothing is noted unless
-        there is one such row per scale.
-
-    Returns
-    -------
-    list of str
-        One markdown list item per robot whose global paths differ.
-    """
+    """Notes on the robots whose global paths differ between the scales (``rs``: their rows; only
+    the rows with global paths count, and nothing is noted unless there is one such row per scale).
+    Returns one markdown list item per robot whose global paths differ."""
     rs = [r for r in rs if r["global"]]
     if len(rs) != len(SCALES):
         return []
@@ -261,18 +206,8 @@ def _global_notes(p: str, scene: str, rs: list[dict[str, Any]]) -> list[str]:
 
 
 def format_scale(rows: list[dict[str, Any]]) -> str:
-    """Markdown table of :func:`scale_rows`, with notes on global paths that differ.
-
-    Parameters
-    ----------
-    rows
-        Rows of :func:`scale_rows`.
-
-    Returns
-    -------
-    str
-        The table, one line per ``(preset, scene)``, then the notes if any.
-    """
+    """Markdown table of :func:`scale_rows`, with notes on global paths that differ. Returns the
+    table, one line per ``(preset, scene)``, then the notes if any."""
     out = ["| preset | scene | " + " | ".join(f"x {k:g}: status, length / scale" for k in SCALES)
            + " | max relative length difference | trajectories agree until (s) |",
            "|---|---|" + "---|" * (len(SCALES) + 2)]
@@ -350,22 +285,15 @@ def main(argv: list[str] | None = None) -> int:
                     help="seeds of the tau_0 / sa_step sweep on trap-u (8)")
     ap.add_argument("--skip", default="", help="comma-separated: kb, sweep, scale, metre")
     a = ap.parse_args(argv)
-    skip = set(filter(None, a.skip.split(",")))
-    if "kb" not in skip:
-        print(f"Boltzmann constant of eq 15, sa-apf-paper ({a.seeds} seeds)\n")
-        print(format_kb(kb_rows(range(a.seeds))))
-        print()
-    if "sweep" not in skip:
-        print(f"tau_0 / sa_step sweep, sa-apf-paper on trap-u ({a.sweep_seeds} seeds)\n")
-        print(format_sweep(sweep_rows(range(a.sweep_seeds))))
-        print()
-    if "scale" not in skip:
-        print("Scale invariance (seed 0; the scene drawn x 0.01, x 1, x 100)\n")
-        print(format_scale(scale_rows()))
-        print()
-    if "metre" not in skip:
-        print("Metre-scale scenes (seed 0)\n")
-        print(format_metre(metre_rows()))
+    print_sections([
+        ("kb", f"Boltzmann constant of eq 15, sa-apf-paper ({a.seeds} seeds)",
+         lambda: format_kb(kb_rows(range(a.seeds)))),
+        ("sweep", f"tau_0 / sa_step sweep, sa-apf-paper on trap-u ({a.sweep_seeds} seeds)",
+         lambda: format_sweep(sweep_rows(range(a.sweep_seeds)))),
+        ("scale", "Scale invariance (seed 0; the scene drawn x 0.01, x 1, x 100)",
+         lambda: format_scale(scale_rows())),
+        ("metre", "Metre-scale scenes (seed 0)", lambda: format_metre(metre_rows())),
+    ], a.skip)
     return 0
 
 

@@ -74,54 +74,24 @@ def _med(v: list[float]) -> float:
 
 
 def _error_cells(g: list[dict[str, Any]]) -> str:
-    """Success count and the median formation errors (RMSE, worst, final) of one group.
-
-    Parameters
-    ----------
-    g
-        The rows of one (scene, solver).
-
-    Returns
-    -------
-    str
-        The four cells, joined by ``" | "``.
-    """
+    """Success count and the median formation errors (RMSE, worst, final) of one group (the rows
+    ``g`` of one scene and solver). Returns the four cells, joined by ``" | "``."""
     n_ok = sum(r["success"] for r in g)
     return (f"{n_ok}/{len(g)} | {_med([r['rmse'] for r in g]):.2f} | "
             f"{_med([r['max_err'] for r in g]):.1f} | {_med([r['final_err'] for r in g]):.2g}")
 
 
 def _safety_cells(g: list[dict[str, Any]]) -> str:
-    """Worst separation (with the safety distance), clearances and total collisions.
-
-    Parameters
-    ----------
-    g
-        The rows of one (scene, solver).
-
-    Returns
-    -------
-    str
-        The three cells, joined by ``" | "``.
-    """
+    """Worst separation (with the safety distance), clearances and total collisions. Returns the
+    three cells, joined by ``" | "``."""
     return (f"{min(r['min_sep'] for r in g):.2f} ({g[0]['safety']:g}) | "
             f"{min(r['clear'] for r in g):.2f} / {min(r['clear_dyn'] for r in g):.1f} | "
             f"{sum(r['collisions'] for r in g)}")
 
 
 def _run_cells(g: list[dict[str, Any]]) -> str:
-    """Median time to goal, total QP failures and median wall time of one group.
-
-    Parameters
-    ----------
-    g
-        The rows of one (scene, solver).
-
-    Returns
-    -------
-    str
-        The three cells, joined by ``" | "``.
-    """
+    """Median time to goal, total QP failures and median wall time of one group. Returns the three
+    cells, joined by ``" | "``."""
     return (f"{_med([r['time'] for r in g]):.1f} | {sum(r['qp_failures'] for r in g)} | "
             f"{_med([r['wall'] for r in g]):.1f}")
 

@@ -171,18 +171,8 @@ def _three_way_line(label: str, rs: list[dict[str, Any]]) -> str:
 
 
 def _hybrid_vs_ipso(rows: dict[str, list[dict[str, Any]]]) -> list[str]:
-    """The hybrid's length over IPSO's, seed by seed (median and max).
-
-    Parameters
-    ----------
-    rows
-        Output of :func:`three_way`.
-
-    Returns
-    -------
-    list of str
-        A blank line and the comparison, or nothing unless both methods ran.
-    """
+    """A blank line and the hybrid's length over IPSO's, seed by seed (median and max), of the
+    :func:`three_way` ``rows``; nothing unless both methods ran."""
     if "hybrid" not in rows or "IPSO alone" not in rows:
         return []
     rat = [h["length"] / i["length"] for h, i in zip(rows["hybrid"], rows["IPSO alone"])]
@@ -278,18 +268,8 @@ def _formation_line(scene: str, solver: str, rs: list[dict[str, Any]]) -> str:
 
 
 def _formation_failures(rows: list[dict[str, Any]]) -> list[str]:
-    """The runs that were available but neither solved nor optimal.
-
-    Parameters
-    ----------
-    rows
-        Rows of :func:`formation_runs`.
-
-    Returns
-    -------
-    list of str
-        A blank line, a heading and one list item per such run; nothing when there is none.
-    """
+    """A blank line, a heading and one list item per run of the :func:`formation_runs`
+    ``rows`` that was available but neither solved nor optimal; nothing when there is none."""
     fails = [r for r in rows if r["status"] not in ("solved", "optimal")
              and not r["status"].startswith("unavailable")]
     if not fails:

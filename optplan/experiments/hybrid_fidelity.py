@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 import optplan as op
+from optplan.experiments import print_sections
 
 if TYPE_CHECKING:
     from optplan.formation.leader_follower import LeaderFollower
@@ -51,6 +52,15 @@ VISIBLE_SCENES = ("paper-env1", "paper-env2", "paper-hybrid", "paper-warehouse",
 def _med(xs: Sequence[float]) -> float:
     a = np.asarray([x for x in xs if math.isfinite(x)], dtype=float)
     return float(np.median(a)) if len(a) else math.nan
+
+
+def _outcome_cells(rs: list[dict[str, Any]], time_to_goal: bool = False) -> str:
+    """The cells of the runs ``rs``: successes, median length and collisions (and time to goal),
+    total SA escapes."""
+    medians = [("length", ".1f"), ("collisions", "g")] + [("time_to_goal", ".1f")] * time_to_goal
+    return " | ".join([f"{sum(r['success'] for r in rs)}/{len(rs)}",
+                       *(format(_med([r[k] for r in rs]), f) for k, f in medians),
+                       f"{sum(r['escapes'] for r in rs)}"])
 
 
 def leader_rho_0_rows(seeds: Sequence[int], scenes: Sequence[str] = RHO_SCENES
@@ -81,11 +91,7 @@ def format_leader_rho_0(rows: list[dict[str, Any]]) -> str:
         for v in RHO_VALUES:
             rs = [r for r in rows if r["scene"] == scene and r["leader_rho_0"] == v]
             lab = f"{rho_preset:g} (preset, eq 34)" if v is None else f"{v:g} (paper eq 41)"
-            out.append(f"| {scene} | {lab} | {sum(r['success'] for r in rs)}/{len(rs)} "
-                       f"| {_med([r['length'] for r in rs]):.1f} "
-                       f"| {_med([r['collisions'] for r in rs]):g} "
-                       f"| {_med([r['time_to_goal'] for r in rs]):.1f} "
-                       f"| {sum(r['escapes'] for r in rs)} |")
+            out.append(f"| {scene} | {lab} | {_outcome_cells(rs, time_to_goal=True)} |")
     return "\n".join(out)
 
 
@@ -113,11 +119,7 @@ def format_reach_visible(rows: list[dict[str, Any]]) -> str:
     for scene in dict.fromkeys(r["scene"] for r in rows):
         for v in (False, True):
             rs = [r for r in rows if r["scene"] == scene and r["reach_visible"] == v]
-            out.append(f"| {scene} | {'on' if v else 'off (preset)'} "
-                       f"| {sum(r['success'] for r in rs)}/{len(rs)} "
-                       f"| {_med([r['length'] for r in rs]):.1f} "
-                       f"| {_med([r['collisions'] for r in rs]):g} "
-                       f"| {sum(r['escapes'] for r in rs)} |")
+            out.append(f"| {scene} | {'on' if v else 'off (preset)'} | {_outcome_cells(rs)} |")
     return "\n".join(out)
 
 
@@ -215,23 +217,17 @@ def main(argv: list[str] | None = None) -> int:
                     help="seeds of the ipso-paper known-map table (30)")
     ap.add_argument("--skip", default="", help="comma-separated: rho, visible, ipso, eq52")
     a = ap.parse_args(argv)
-    skip = set(filter(None, a.skip.split(",")))
-    if "rho" not in skip:
-        print(f"Leader influence distance, hybrid-paper ({a.seeds} seeds, medians)\n")
-        print(format_leader_rho_0(leader_rho_0_rows(range(a.seeds))))
-        print()
-    if "visible" not in skip:
-        print(f"Sub-goal switching with the next sub-goal in sight, hybrid-paper ({a.seeds} "
-              "seeds, medians)\n")
-        print(format_reach_visible(reach_visible_rows(range(a.seeds))))
-        print()
-    if "ipso" not in skip:
-        print(f"ipso-paper on the known maps ({a.ipso_seeds} seeds)\n")
-        print(format_ipso_paper_known(ipso_paper_known_rows(range(a.ipso_seeds))))
-        print()
-    if "eq52" not in skip:
-        print("Eq 52 near an obstacle (leader-follower-paper, recovery off; one command)\n")
-        print(format_eq52(eq52_rows()))
+    print_sections([
+        ("rho", f"Leader influence distance, hybrid-paper ({a.seeds} seeds, medians)",
+         lambda: format_leader_rho_0(leader_rho_0_rows(range(a.seeds)))),
+        ("visible", f"Sub-goal switching with the next sub-goal in sight, hybrid-paper "
+                    f"({a.seeds} seeds, medians)",
+         lambda: format_reach_visible(reach_visible_rows(range(a.seeds)))),
+        ("ipso", f"ipso-paper on the known maps ({a.ipso_seeds} seeds)",
+         lambda: format_ipso_paper_known(ipso_paper_known_rows(range(a.ipso_seeds)))),
+        ("eq52", "Eq 52 near an obstacle (leader-follower-paper, recovery off; one command)",
+         lambda: format_eq52(eq52_rows())),
+    ], a.skip)
     return 0
 
 

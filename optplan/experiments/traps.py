@@ -111,19 +111,9 @@ def _med(v: list) -> float:
 
 
 def _outcome_stats(rs: list[dict[str, Any]]) -> dict[str, Any]:
-    """Runs, successes and the medians over the successful runs of one (trap, solver).
-
-    Parameters
-    ----------
-    rs
-        The rows of :func:`run` of one trap and solver (not empty).
-
-    Returns
-    -------
-    dict
-        ``runs``, ``solved``, ``success_rate``, ``median_time_to_goal`` and
-        ``median_ratio`` (``nan`` without a successful run).
-    """
+    """Runs, successes and the medians over the successful runs of one (trap, solver). Returns
+    ``runs``, ``solved``, ``success_rate``, ``median_time_to_goal`` and ``median_ratio`` (``nan``
+    without a successful run)."""
     ok = [r for r in rs if r["success"]]
     return {"runs": len(rs), "solved": len(ok), "success_rate": len(ok) / len(rs),
             "median_time_to_goal": _med([r["time_to_goal"] for r in ok]),
@@ -131,35 +121,14 @@ def _outcome_stats(rs: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _detection_totals(rs: list[dict[str, Any]]) -> dict[str, int]:
-    """Local minima detected (all, eq 38, stall or oscillation) and escapes, summed.
-
-    Parameters
-    ----------
-    rs
-        The rows of :func:`run` of one trap and solver.
-
-    Returns
-    -------
-    dict
-        ``minima``, ``eq38``, ``stall_osc`` and ``escapes``, each summed over ``rs``.
-    """
+    """Local minima detected (all, eq 38, stall or oscillation) and escapes, summed. Returns
+    ``minima``, ``eq38``, ``stall_osc`` and ``escapes``, each summed over ``rs``."""
     return {k: int(sum(r[k] for r in rs)) for k in ("minima", "eq38", "stall_osc", "escapes")}
 
 
 def _cost_stats(rs: list[dict[str, Any]]) -> dict[str, Any]:
-    """SA steps, failed runs and wall time of one (trap, solver).
-
-    Parameters
-    ----------
-    rs
-        The rows of :func:`run` of one trap and solver.
-
-    Returns
-    -------
-    dict
-        ``median_sa_steps``, ``failed_collision`` (runs with status ``failed``) and
-        ``median_wall_ms``.
-    """
+    """SA steps, failed runs and wall time of one (trap, solver). Returns ``median_sa_steps``,
+    ``failed_collision`` (runs with status ``failed``) and ``median_wall_ms``."""
     return {"median_sa_steps": _med([r["sa_steps"] for r in rs]),
             "failed_collision": sum(r["status"] == "failed" for r in rs),
             "median_wall_ms": 1e3 * _med([r["wall"] for r in rs])}

@@ -13,33 +13,8 @@ surface (its ``__all__``; another package imports nothing else):
 * :mod:`~optplan.geometry.compiled`: the compiled-kernel machinery (``@compiled``, the numba
   cache and the wheel's shipped kernels).
 
-The names below (the collision engine's most used) are re-exported here.
+The collision engine's public surface (its ``__all__``) is re-exported here.
 """
 
-from optplan.geometry.collision import (
-    PIECE_EDGES,
-    REL_TOL,
-    DiscCrossings,
-    Frame,
-    ObstacleSet,
-    clip_obstacles,
-    convex_decompose,
-    convex_pieces,
-    cumulative_length,
-    obstacle_set,
-    path_lengths,
-)
-
-__all__ = [
-    "REL_TOL",
-    "Frame",
-    "PIECE_EDGES",
-    "DiscCrossings",
-    "ObstacleSet",
-    "clip_obstacles",
-    "convex_decompose",
-    "convex_pieces",
-    "obstacle_set",
-    "path_lengths",
-    "cumulative_length",
-]
+from optplan.geometry.collision import *  # noqa: F403
+from optplan.geometry.collision import __all__ as __all__

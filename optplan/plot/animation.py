@@ -13,9 +13,10 @@ from matplotlib.text import Text
 
 from optplan.geometry.collision import cumulative_length, points_along
 from optplan.plot.legend import _place_legend
+from optplan.plot.result import _draw_global_path
 from optplan.plot.scene import _problem_of, _robot_colour, plot_problem
 from optplan.plot.shapes import _draw_poly, _draw_violations, _include_points, _poly_path, _polygons
-from optplan.plot.style import DYN_COLOUR, GLOBAL_COLOUR
+from optplan.plot.style import DYN_COLOUR
 from optplan.problem import Formation, Problem
 from optplan.result import Result
 from optplan.violations import violations
@@ -47,15 +48,6 @@ def _timed_paths(result: Result, prob: Problem) -> tuple[np.ndarray, dict[str, n
         else:
             out[k] = points_along(p, t, tk)
     return t, out
-
-
-def _draw_global_path(ax: Axes, result: Result) -> None:
-    """The global path of a hybrid run (``extras["global_path"]``), dashed."""
-    gp = result.extras.get("global_path") if result.extras else None
-    if gp is not None:
-        g = np.asarray(gp, dtype=float).reshape(-1, 2)
-        ax.plot(g[:, 0], g[:, 1], "--", color=GLOBAL_COLOUR, lw=1.0, zorder=6,
-                label="global path")
 
 
 class _Frames:
@@ -170,7 +162,7 @@ def animate(result: Result, out: str | Path, problem: Problem | None = None, fps
     fig = Figure(figsize=(7.2, 5.5), dpi=dpi, layout="constrained")
     ax = fig.add_subplot(1, 1, 1)
     plot_problem(prob, ax=ax, t_end=float(t[-1]) if n else None, legend=None)
-    _draw_global_path(ax, result)
+    _draw_global_path(ax, result, lw=1.0)
     paths = {k: np.asarray(v, dtype=float).reshape(-1, 2) for k, v in result.paths.items()}
     _draw_violations(ax, violations(prob, paths, result.metrics or {}, result.times))
     _include_points(ax, prob, paths)

@@ -85,13 +85,18 @@ def plot_result(result: Result, problem: Problem | None = None, ax: Axes | None 
     return fig
 
 
-def _draw_hybrid_extras(ax: Axes, result: Result) -> None:
-    """The global path (dashed) and its inflection points of a hybrid run, when present."""
+def _draw_global_path(ax: Axes, result: Result, lw: float) -> None:
+    """The global path of a hybrid run (``extras["global_path"]``), dashed, when present."""
     gp = result.extras.get("global_path") if result.extras else None
     if gp is not None:
         g = np.asarray(gp, dtype=float).reshape(-1, 2)
-        ax.plot(g[:, 0], g[:, 1], "--", color=GLOBAL_COLOUR, lw=1.3, zorder=6,
+        ax.plot(g[:, 0], g[:, 1], "--", color=GLOBAL_COLOUR, lw=lw, zorder=6,
                 label="global path")
+
+
+def _draw_hybrid_extras(ax: Axes, result: Result) -> None:
+    """The global path (dashed) and its inflection points of a hybrid run, when present."""
+    _draw_global_path(ax, result, lw=1.3)
     ip = result.extras.get("inflection_points") if result.extras else None
     if ip is not None:
         q = np.asarray(ip, dtype=float).reshape(-1, 2)

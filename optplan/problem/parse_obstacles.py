@@ -1,5 +1,13 @@
 """Parsing of the scenario's static and moving obstacles (``[[obstacles]]``,
-``[[dynamic_obstacles]]``; problems/README.md)."""
+``[[dynamic_obstacles]]``; problems/README.md).
+
+The parsers share their parameters' names: ``ctx`` the parsing context (file name, error
+messages), ``o`` the table (its keys checked once its type is known), ``i`` its index in its
+list, ``pre`` the key prefix (``obstacles[i].``, ``dynamic_obstacles[i].``), ``kind`` its
+checked type, ``known`` whether it is on the known map, ``name`` its name, ``frame`` the map's
+frame (extents and speeds are checked against it), ``wps`` a moving obstacle's waypoints and
+``vmax`` the largest speed allowed.
+"""
 
 from __future__ import annotations
 
@@ -21,22 +29,7 @@ from optplan.problem.model import (
 
 
 def _parse_obstacle(ctx: _Ctx, o: Any, i: int) -> Obstacle:
-    """One ``[[obstacles]]`` table.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context (file name, error messages).
-    o : Any
-        The raw table.
-    i : int
-        Its index in ``obstacles``.
-
-    Returns
-    -------
-    Obstacle
-        A circle, rectangle or polygon obstacle.
-    """
+    """One ``[[obstacles]]`` table. Returns a circle, rectangle or polygon obstacle."""
     pre = f"obstacles[{i}]."
     kind = _obstacle_kind(ctx, o, i, pre)
     ctx.check_keys(o, _OBST_KEYS[kind], pre)
@@ -52,24 +45,8 @@ def _parse_obstacle(ctx: _Ctx, o: Any, i: int) -> Obstacle:
 
 
 def _obstacle_kind(ctx: _Ctx, o: Any, i: int, pre: str) -> str:
-    """The checked ``type`` of obstacle ``i`` (the table itself checked first).
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : Any
-        The raw table.
-    i : int
-        Its index in ``obstacles``.
-    pre : str
-        The key prefix, ``obstacles[i].``.
-
-    Returns
-    -------
-    str
-        One of the keys of ``_OBST_KEYS``.
-    """
+    """The checked ``type`` of obstacle ``i`` (the table itself checked first). Returns one of
+    the keys of ``_OBST_KEYS``."""
     if not isinstance(o, dict):
         raise ctx.err(f"obstacles[{i}]", f"expected a table, got {_show(o)}")
     kind = ctx.require(o, "type", pre)
@@ -85,50 +62,14 @@ def _obstacle_kind(ctx: _Ctx, o: Any, i: int, pre: str) -> str:
 
 
 def _parse_circle(ctx: _Ctx, o: dict, pre: str, known: bool, name: str) -> Obstacle:
-    """A circle obstacle: ``center`` and ``radius``.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : dict
-        The table (keys already checked).
-    pre : str
-        The key prefix, ``obstacles[i].``.
-    known : bool
-        Whether the obstacle is on the known map.
-    name : str
-        Its name.
-
-    Returns
-    -------
-    Obstacle
-    """
+    """A circle obstacle: ``center`` and ``radius``."""
     c = ctx.point(ctx.require(o, "center", pre), f"{pre}center", coord=True)
     r = ctx.number(ctx.require(o, "radius", pre), f"{pre}radius", positive=True, coord=True)
     return Obstacle("circle", None, known, name, center=c, radius=r)
 
 
 def _parse_rectangle(ctx: _Ctx, o: dict, pre: str, known: bool, name: str) -> Obstacle:
-    """A rectangle obstacle: ``min``/``max`` or ``center``/``size``, not both.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : dict
-        The table (keys already checked).
-    pre : str
-        The key prefix, ``obstacles[i].``.
-    known : bool
-        Whether the obstacle is on the known map.
-    name : str
-        Its name.
-
-    Returns
-    -------
-    Obstacle
-    """
+    """A rectangle obstacle: ``min``/``max`` or ``center``/``size``, not both."""
     if ("min" in o or "max" in o) and ("center" in o or "size" in o):
         raise ctx.err(f"{pre}center", "give either min/max or center/size, not both")
     if "min" in o or "max" in o:
@@ -142,22 +83,8 @@ def _parse_rectangle(ctx: _Ctx, o: dict, pre: str, known: bool, name: str) -> Ob
 
 
 def _rectangle_min_max(ctx: _Ctx, o: dict, pre: str) -> tuple[np.ndarray, np.ndarray]:
-    """The corners of a rectangle given by ``min`` and ``max``.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : dict
-        The table.
-    pre : str
-        The key prefix, ``obstacles[i].``.
-
-    Returns
-    -------
-    tuple of ndarray
-        ``(lo, hi)``, with ``lo < hi`` in both axes.
-    """
+    """The corners of a rectangle given by ``min`` and ``max``. Returns ``(lo, hi)``,
+    with ``lo < hi`` in both axes."""
     lo = ctx.point(ctx.require(o, "min", pre), f"{pre}min", coord=True)
     hi = ctx.point(ctx.require(o, "max", pre), f"{pre}max", coord=True)
     if np.any(hi <= lo):
@@ -167,22 +94,8 @@ def _rectangle_min_max(ctx: _Ctx, o: dict, pre: str) -> tuple[np.ndarray, np.nda
 
 
 def _rectangle_center_size(ctx: _Ctx, o: dict, pre: str) -> tuple[np.ndarray, np.ndarray]:
-    """The corners of a rectangle given by ``center`` and ``size``.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : dict
-        The table.
-    pre : str
-        The key prefix, ``obstacles[i].``.
-
-    Returns
-    -------
-    tuple of ndarray
-        ``(lo, hi)``, with ``lo < hi`` in both axes.
-    """
+    """The corners of a rectangle given by ``center`` and ``size``. Returns
+    ``(lo, hi)``, with ``lo < hi`` in both axes."""
     c = ctx.point(ctx.require(o, "center", pre), f"{pre}center", coord=True)
     s = ctx.point(ctx.require(o, "size", pre), f"{pre}size", coord=True)
     lo, hi = c - s / 2, c + s / 2
@@ -193,25 +106,7 @@ def _rectangle_center_size(ctx: _Ctx, o: dict, pre: str) -> tuple[np.ndarray, np
 
 
 def _parse_polygon(ctx: _Ctx, o: dict, pre: str, known: bool, name: str) -> Obstacle:
-    """A polygon obstacle: ``vertices`` and optional ``holes``.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : dict
-        The table (keys already checked).
-    pre : str
-        The key prefix, ``obstacles[i].``.
-    known : bool
-        Whether the obstacle is on the known map.
-    name : str
-        Its name.
-
-    Returns
-    -------
-    Obstacle
-    """
+    """A polygon obstacle: ``vertices`` and optional ``holes``."""
     verts = ctx.points(ctx.require(o, "vertices", pre), f"{pre}vertices", 3, coord=True)
     holes = None
     if "holes" in o:
@@ -262,23 +157,7 @@ def _check_extent(ctx: _Ctx, frame, o: Obstacle, key: str, margin: float) -> Non
 
 
 def _parse_dynamic(ctx: _Ctx, o: Any, i: int, frame: Any) -> DynamicObstacle:
-    """One ``[[dynamic_obstacles]]`` table.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context (file name, error messages).
-    o : Any
-        The raw table.
-    i : int
-        Its index in ``dynamic_obstacles``.
-    frame : Frame
-        The map's frame (extents and speeds are checked against it).
-
-    Returns
-    -------
-    DynamicObstacle
-    """
+    """One ``[[dynamic_obstacles]]`` table."""
     pre = f"dynamic_obstacles[{i}]."
     kind = _dynamic_kind(ctx, o, i, pre)
     ctx.check_keys(o, _DYN_TYPE_KEYS[kind], pre)
@@ -301,24 +180,8 @@ def _parse_dynamic(ctx: _Ctx, o: Any, i: int, frame: Any) -> DynamicObstacle:
 
 
 def _dynamic_kind(ctx: _Ctx, o: Any, i: int, pre: str) -> str:
-    """The checked ``type`` of dynamic obstacle ``i`` (the table itself checked first).
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : Any
-        The raw table.
-    i : int
-        Its index in ``dynamic_obstacles``.
-    pre : str
-        The key prefix, ``dynamic_obstacles[i].``.
-
-    Returns
-    -------
-    str
-        ``"circle"`` or ``"polygon"``.
-    """
+    """The checked ``type`` of dynamic obstacle ``i`` (the table itself checked first). Returns
+    ``"circle"`` or ``"polygon"``."""
     if not isinstance(o, dict):
         raise ctx.err(f"dynamic_obstacles[{i}]", f"expected a table, got {_show(o)}")
     kind = ctx.require(o, "type", pre)
@@ -330,25 +193,9 @@ def _dynamic_kind(ctx: _Ctx, o: Any, i: int, pre: str) -> str:
 
 def _dynamic_shape(ctx: _Ctx, o: dict, kind: str,
                    pre: str) -> tuple[float | None, Any, np.ndarray | None]:
-    """The shape of a dynamic obstacle in its own frame.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : dict
-        The table (keys already checked).
-    kind : str
-        ``"circle"`` or ``"polygon"``.
-    pre : str
-        The key prefix, ``dynamic_obstacles[i].``.
-
-    Returns
-    -------
-    tuple
-        ``(radius, local, verts)``: the radius (None for a polygon), the shapely shape
-        centred on the origin, and the raw vertices (None for a circle).
-    """
+    """The shape of a dynamic obstacle in its own frame. Returns ``(radius, local, verts)``: the
+    radius (None for a polygon), the shapely shape centred on the origin, and the raw vertices
+    (None for a circle)."""
     if kind == "circle":
         radius = ctx.number(ctx.require(o, "radius", pre), f"{pre}radius", positive=True,
                             coord=True)
@@ -359,28 +206,9 @@ def _dynamic_shape(ctx: _Ctx, o: dict, kind: str,
 
 def _check_dynamic_size(ctx: _Ctx, frame: Any, pre: str, name: str, radius: float | None,
                         verts: np.ndarray | None) -> float:
-    """Reject a moving shape the map's frame cannot resolve.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    frame : Frame
-        The map's frame.
-    pre : str
-        The key prefix, ``dynamic_obstacles[i].``.
-    name : str
-        The obstacle's name.
-    radius : float or None
-        The circle's radius (None for a polygon).
-    verts : ndarray or None
-        The polygon's vertices (None for a circle).
-
-    Returns
-    -------
-    float
-        The shape's extent about its origin.
-    """
+    """Reject a moving shape the map's frame cannot resolve (``radius``: the circle's radius, None
+    for a polygon; ``verts``: the polygon's vertices, None for a circle).  Returns the shape's
+    extent about its origin."""
     # a polygon (radius None) has its vertices
     size = (float(radius) if radius is not None
             else float(np.max(np.abs(cast(np.ndarray, verts)))))
@@ -393,28 +221,8 @@ def _check_dynamic_size(ctx: _Ctx, frame: Any, pre: str, name: str, radius: floa
 
 def _dynamic_waypoints(ctx: _Ctx, o: dict, frame: Any, pre: str, name: str,
                        size: float) -> np.ndarray:
-    """The ``waypoints``, each with the shape resolvable in the map's frame.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : dict
-        The table.
-    frame : Frame
-        The map's frame.
-    pre : str
-        The key prefix, ``dynamic_obstacles[i].``.
-    name : str
-        The obstacle's name.
-    size : float
-        The shape's extent about its origin.
-
-    Returns
-    -------
-    ndarray
-        ``(W, 2)`` waypoints.
-    """
+    """The ``waypoints``, each with the shape resolvable in the map's frame (``size``: the shape's
+    extent about its origin). Returns ``(W, 2)`` waypoints."""
     wps = ctx.points(ctx.require(o, "waypoints", pre), f"{pre}waypoints", 1, coord=True)
     far = np.max(np.abs(frame.local(wps)), axis=1) + size
     k = int(np.argmax(far))
@@ -427,26 +235,8 @@ def _dynamic_waypoints(ctx: _Ctx, o: dict, frame: Any, pre: str, name: str,
 
 def _velocity_schedule(ctx: _Ctx, o: dict, pre: str, wps: np.ndarray,
                        vmax: float) -> tuple[np.ndarray, np.ndarray]:
-    """A constant-velocity motion: ``velocity``, one start waypoint and one start time.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : dict
-        The table (it has ``velocity``).
-    pre : str
-        The key prefix, ``dynamic_obstacles[i].``.
-    wps : ndarray
-        The waypoints.
-    vmax : float
-        The largest speed allowed.
-
-    Returns
-    -------
-    tuple of ndarray
-        ``(velocity, times)``.
-    """
+    """A constant-velocity motion: ``velocity``, one start waypoint and one start time. Returns
+    ``(velocity, times)``."""
     velocity = ctx.point(o["velocity"], f"{pre}velocity", coord=True)
     if float(np.hypot(*velocity)) > vmax:
         raise ctx.err(f"{pre}velocity", f"speed {float(np.hypot(*velocity)):.6g} is above "
@@ -461,25 +251,7 @@ def _velocity_schedule(ctx: _Ctx, o: dict, pre: str, wps: np.ndarray,
 
 def _timed_schedule(ctx: _Ctx, o: dict, pre: str, wps: np.ndarray, vmax: float) -> np.ndarray:
     """The ``times`` of a waypoint motion: one per waypoint, increasing, speeds at most ``vmax``.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    o : dict
-        The table (it has no ``velocity``).
-    pre : str
-        The key prefix, ``dynamic_obstacles[i].``.
-    wps : ndarray
-        The waypoints.
-    vmax : float
-        The largest speed allowed.
-
-    Returns
-    -------
-    ndarray
-        The time stamps.
-    """
+    Returns the time stamps."""
     raw_t = ctx.require(o, "times", pre)
     if not isinstance(raw_t, list) or len(raw_t) != len(wps):
         got = f"{len(raw_t)}" if isinstance(raw_t, list) else _show(raw_t)
@@ -495,21 +267,8 @@ def _timed_schedule(ctx: _Ctx, o: dict, pre: str, wps: np.ndarray, vmax: float) 
 
 def _check_leg_speeds(ctx: _Ctx, pre: str, wps: np.ndarray, times: np.ndarray,
                       vmax: float) -> None:
-    """Reject a leg between consecutive waypoints faster than ``vmax``.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    pre : str
-        The key prefix, ``dynamic_obstacles[i].``.
-    wps : ndarray
-        The waypoints (at least two).
-    times : ndarray
-        Their strictly increasing time stamps.
-    vmax : float
-        The largest speed allowed.
-    """
+    """Reject a leg between consecutive waypoints faster than ``vmax`` (``times``: their strictly
+    increasing time stamps)."""
     step = np.hypot(*np.diff(wps, axis=0).T)
     with np.errstate(over="ignore", divide="ignore"):
         speed = step / np.diff(times)

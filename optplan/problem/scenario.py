@@ -2,6 +2,13 @@
 
 Every key is checked with its unit and range; every error raises :class:`ProblemError` naming
 the file and the key.
+
+The formation's parsers share their parameters' names: ``ctx`` the parsing context (file
+name, error messages), ``tbl`` the ``[formation]`` table, ``robots`` the parsed robots and
+``ids`` their ids, ``diag`` the bounds diagonal (the upper bound of ``L`` and
+``safety_distance``) and ``diag_s`` how messages name it, ``f`` a ``formation.followers``
+table, ``k`` its index, ``pre`` its key prefix (``formation.followers[k].``), ``followers``
+the followers parsed before it and ``leader`` the leader's id.
 """
 
 from __future__ import annotations
@@ -35,23 +42,7 @@ from optplan.problem.parse_obstacles import (
 
 
 def _parse_formation(ctx: _Ctx, tbl: Any, robots: list[Robot], diag: float) -> Formation:
-    """The ``[formation]`` table: leader, followers and safety distance.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context (file name, error messages).
-    tbl : Any
-        The raw table.
-    robots : list of Robot
-        The parsed robots.
-    diag : float
-        The bounds diagonal (upper bound of ``L`` and ``safety_distance``).
-
-    Returns
-    -------
-    Formation
-    """
+    """The ``[formation]`` table: leader, followers and safety distance."""
     if not isinstance(tbl, dict):
         raise ctx.err("formation", f"expected a table, got {_show(tbl)}")
     ctx.check_keys(tbl, _FORM_KEYS, "formation.")
@@ -71,21 +62,7 @@ def _parse_formation(ctx: _Ctx, tbl: Any, robots: list[Robot], diag: float) -> F
 
 
 def _formation_leader(ctx: _Ctx, tbl: dict, ids: list[str]) -> str:
-    """The checked ``formation.leader``: the id of a robot.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    tbl : dict
-        The ``[formation]`` table.
-    ids : list of str
-        The robots' ids.
-
-    Returns
-    -------
-    str
-    """
+    """The checked ``formation.leader``: the id of a robot."""
     leader = ctx.require(tbl, "leader", "formation.")
     if not isinstance(leader, str):
         raise ctx.err("formation.leader", f"expected a robot id string, got {_show(leader)}")
@@ -96,31 +73,7 @@ def _formation_leader(ctx: _Ctx, tbl: dict, ids: list[str]) -> str:
 
 def _parse_follower(ctx: _Ctx, f: Any, k: int, followers: list[Follower], ids: list[str],
                     leader: str, diag: float, diag_s: str) -> Follower:
-    """One ``formation.followers`` table: ``id``, ``L`` and ``phi``.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    f : Any
-        The raw table.
-    k : int
-        Its index in ``formation.followers``.
-    followers : list of Follower
-        The followers parsed before it.
-    ids : list of str
-        The robots' ids.
-    leader : str
-        The leader's id.
-    diag : float
-        The bounds diagonal (upper bound of ``L``).
-    diag_s : str
-        How ``diag`` is named in messages.
-
-    Returns
-    -------
-    Follower
-    """
+    """One ``formation.followers`` table: ``id``, ``L`` and ``phi``."""
     pre = f"formation.followers[{k}]."
     if not isinstance(f, dict):
         raise ctx.err(f"formation.followers[{k}]", f"expected a table, got {_show(f)}")
@@ -136,27 +89,7 @@ def _parse_follower(ctx: _Ctx, f: Any, k: int, followers: list[Follower], ids: l
 
 def _follower_id(ctx: _Ctx, f: dict, pre: str, followers: list[Follower], ids: list[str],
                  leader: str) -> str:
-    """The checked ``id`` of a follower: a robot, listed once, not the leader.
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    f : dict
-        The follower's table.
-    pre : str
-        The key prefix, ``formation.followers[k].``.
-    followers : list of Follower
-        The followers parsed before it.
-    ids : list of str
-        The robots' ids.
-    leader : str
-        The leader's id.
-
-    Returns
-    -------
-    str
-    """
+    """The checked ``id`` of a follower: a robot, listed once, not the leader."""
     fid = ctx.require(f, "id", pre)
     if not isinstance(fid, str):
         raise ctx.err(f"{pre}id", f"expected a robot id string, got {_show(fid)}")
@@ -171,25 +104,7 @@ def _follower_id(ctx: _Ctx, f: dict, pre: str, followers: list[Follower], ids: l
 
 def _safety_distance(ctx: _Ctx, tbl: dict, robots: list[Robot], diag: float,
                      diag_s: str) -> float:
-    """The checked ``formation.safety_distance`` (default: 2 x the largest robot radius).
-
-    Parameters
-    ----------
-    ctx : _Ctx
-        The parsing context.
-    tbl : dict
-        The ``[formation]`` table.
-    robots : list of Robot
-        The parsed robots.
-    diag : float
-        The bounds diagonal (upper bound).
-    diag_s : str
-        How ``diag`` is named in messages.
-
-    Returns
-    -------
-    float
-    """
+    """The checked ``formation.safety_distance`` (default: 2 x the largest robot radius)."""
     rmax = max(r.radius for r in robots)
     if "safety_distance" not in tbl and rmax == 0:
         raise ctx.err("formation.safety_distance", "missing: the default 2 x the largest "
