@@ -331,3 +331,49 @@ def test_the_private_check_sees_every_form(tmp_path: Path) -> None:
     bad = private_crossings(tmp_path / "optplan")
     assert not [b for b in bad if "fam.a.n" in b or "__version__" in b], bad
     assert len([b for b in bad if b.startswith("optplan.fam.b.k")]) == 5, bad
+
+
+#: the identical-code budget: no run of this many code lines stands twice in the package
+#: (the shape budget, pairs of the ``duplicates`` tool, is checked by hand: docs/architecture.md)
+MIN_REPEAT = 6
+
+
+def repeated_runs(root: Path = ROOT, n: int = MIN_REPEAT) -> list[str]:
+    """Every run of ``n`` identical code lines that stands in two places (in one file or two).
+    White space is folded; blank lines, comments, lone punctuation and import statements are
+    passed over (as the ``duplicates`` tool does)."""
+    seen: dict[tuple[str, ...], str] = {}
+    bad = []
+    for p in sorted(root.rglob("*.py")):
+        text = p.read_text(encoding="utf-8")
+        skip = {i for node in ast.walk(ast.parse(text))
+                if isinstance(node, ast.Import | ast.ImportFrom)
+                for i in range(node.lineno, (node.end_lineno or node.lineno) + 1)}
+        lines = [(i, s) for i, line in enumerate(text.splitlines(), 1)
+                 if i not in skip and (s := " ".join(line.split()))
+                 and not s.startswith("#") and any(c.isalnum() for c in s)]
+        last = -n  # a run overlapping the last one reported in this file is the same run
+        for k in range(len(lines) - n + 1):
+            run = tuple(s for _, s in lines[k:k + n])
+            where = f"{p.relative_to(root.parent)}:{lines[k][0]}"
+            if run not in seen:
+                seen[run] = where
+            elif k >= last + n:
+                bad.append(f"{where} ~ {seen[run]}")
+                last = k
+    return bad
+
+
+def test_no_code_stands_twice() -> None:
+    """Code written twice is factored into one helper, a table or a constant."""
+    bad = repeated_runs()
+    assert not bad, f"runs of {MIN_REPEAT} identical lines written twice: {bad}"
+
+
+def test_the_repeat_check_sees_a_repeat(tmp_path: Path) -> None:
+    body = "".join(f"    x{i} = f(x, {i})\n" for i in range(MIN_REPEAT))
+    (tmp_path / "optplan").mkdir()
+    (tmp_path / "optplan/a.py").write_text(f"import os\n\ndef f(x):\n{body}    return x\n")
+    (tmp_path / "optplan/b.py").write_text(f"def g(x):  # other\n\n{body.replace('    ', '  ')}")
+    (tmp_path / "optplan/c.py").write_text("def h(x):\n" + body.replace("x5", "y5"))
+    assert repeated_runs(tmp_path / "optplan") == ["optplan/b.py:3 ~ optplan/a.py:4"]
