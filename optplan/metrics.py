@@ -20,9 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from optplan.geometry import Frame, ObstacleSet, cumulative_length, obstacle_set, path_lengths
+from optplan.geometry import Frame, ObstacleSet, obstacle_set, path_lengths
 from optplan.geometry.timing import (
     mover_track,
+    path_times,
     polyline_segments,
     positions_at,
     relative_contact,
@@ -117,12 +118,10 @@ def _robot_metrics(problem: Problem, robot: Robot, path: np.ndarray) -> dict[str
 
 def time_stamps(problem: Problem, paths: dict[str, np.ndarray],
                 times: np.ndarray | None) -> dict[str, np.ndarray]:
-    """Time stamps of every path: the shared ``times`` of a simulated trajectory, else the
-    documented parameterisation of a geometric path: each robot from its start at t = 0 at its
-    ``max_speed`` (``t_k = arc length to point k / max_speed``)."""
-    if times is not None:
-        return {k: times for k in paths}
-    return {k: cumulative_length(v) / problem.robot(k).max_speed for k, v in paths.items()}
+    """Time stamps of every path (:func:`~optplan.geometry.timing.time_bounds.path_times`): the
+    shared ``times`` of a simulated trajectory, else each robot from its start at t = 0 at its
+    ``max_speed``."""
+    return {k: path_times(v, problem.robot(k).max_speed, times) for k, v in paths.items()}
 
 
 def shape_set(kind: str, radius: float | None, local_geometry, robot_radius: float,

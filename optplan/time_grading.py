@@ -28,28 +28,27 @@ from typing import Any
 
 import numpy as np
 
-from optplan.geometry.timing import arrival_lower_bound, arrival_time, fastest_schedule
+from optplan.geometry.timing import (
+    PlanStatus,
+    TimedPlan,
+    arrival_lower_bound,
+    arrival_time,
+    fastest_schedule,
+    path_times,
+)
 from optplan.problem import Problem
 
 __all__ = ["with_time_reference", "grade_robot", "Reference"]
 
-#: ``reference(problem, robot_id)``: a plan with ``arrival``, ``status`` and ``message``
-#: (the earliest arrival of a reference planner in time).
-Reference = Callable[[Problem, str], Any]
-
-
-def _stamps(problem: Problem, rid: str, pts: np.ndarray, times: Any) -> np.ndarray:
-    if times is not None:
-        return np.asarray(times, float)
-    seg = np.hypot(*np.diff(pts, axis=0).T) if len(pts) > 1 else np.zeros(0)
-    return np.concatenate([[0.0], np.cumsum(seg)]) / problem.robot(rid).max_speed
+#: ``reference(problem, robot_id)``: the earliest arrival of a reference planner in time.
+Reference = Callable[[Problem, str], TimedPlan]
 
 
 def _arrival(problem: Problem, rid: str, pts: np.ndarray, times: Any
              ) -> tuple[float | None, int | None]:
     """The arrival as executed and the index of the point where it happens."""
     robot = problem.robot(rid)
-    stamps = _stamps(problem, rid, pts, times)
+    stamps = path_times(pts, robot.max_speed, times)
     if robot.goal is not None:
         t = arrival_time(problem, rid, pts, times)
         return t, (None if t is None else int(np.searchsorted(stamps, t)))
@@ -63,7 +62,7 @@ def _reference(problem: Problem, rid: str, reference: Reference) -> dict[str, An
 
     def build() -> dict[str, Any]:
         plan = reference(problem, rid)
-        return {"time_reference": plan.arrival, "time_reference_status": plan.status,
+        return {"time_reference": plan.arrival, "time_reference_status": plan.status.value,
                 "time_reference_message": plan.message}
 
     return dict(problem.memo(("time_reference", rid), build))
@@ -87,8 +86,8 @@ def grade_robot(problem: Problem, rid: str, path: Any, times: Any = None,
                            "schedule_status": "no arrival"}
     if end is not None:
         sch = fastest_schedule(problem, pts[:end + 1], rid)
-        out["schedule_arrival"], out["schedule_status"] = sch.arrival, sch.status
-        if sch.status != "scheduled":
+        out["schedule_arrival"], out["schedule_status"] = sch.arrival, sch.status.value
+        if sch.status is not PlanStatus.scheduled:
             out["schedule_message"] = sch.message
     out["arrival_ratio_to_schedule"] = _ratio(arrival, out["schedule_arrival"])
     if problem.robot(rid).goal is None:

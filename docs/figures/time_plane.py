@@ -72,7 +72,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = ap.parse_args(argv)
     prob = scene()
     sch = fastest_schedule(prob, PATH)
-    if sch.status != "scheduled" or sch.points is None or sch.times is None:
+    if sch.status != "scheduled" or sch.path is None or sch.times is None:
         raise SystemExit(f"no schedule: {sch.message}")
     fig, (left, right) = plt.subplots(1, 2, figsize=(12, 4.8))
     for d in prob.dynamic_obstacles:
@@ -84,7 +84,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     left.set_ylim(0, 10)
     left.set_title("scene")
     left.legend(loc="lower right", fontsize=8)
-    s_sched = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(sch.points, axis=0).T))])
+    s_sched = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(sch.path, axis=0).T))])
     t_max = float(sch.times[-1]) + 2.0
     _plane(right, prob, t_max)
     right.plot(s_sched, sch.times, "k-", lw=2, label=f"fastest schedule ({sch.arrival:.2f} s)")

@@ -35,7 +35,7 @@ import heapq
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -44,14 +44,20 @@ import shapely
 from optplan.exact.sipp_graph import (
     GOAL_KEY,
     START_KEY,
-    Intervals,
     MoverBoxes,
     Roadmap,
     chain_schedule,
-    free_intervals,
     segment_windows,
 )
-from optplan.geometry.timing import TimeBound, arrival_lower_bound, positions_at
+from optplan.geometry.timing import (
+    Intervals,
+    PlanStatus,
+    TimeBound,
+    TimedPlan,
+    arrival_lower_bound,
+    free_intervals,
+    positions_at,
+)
 from optplan.problem import DynamicObstacle, Problem
 from optplan.result import (
     History,
@@ -64,15 +70,7 @@ from optplan.result import (
 )
 from optplan.solver import Backend, option
 
-__all__ = ["SIPP", "TimedPlan", "earliest_arrival", "PLAN_STATUSES"]
-
-#: ``arrived``: the earliest arrival within the model; ``no_path``: the static map has none
-#: (a proof); ``start_blocked``: the robot overlaps a moving obstacle at t = 0;
-#: ``goal_blocked``: the goal is occupied for ever (a proof, from the lower bound);
-#: ``not_found``: no arrival up to the largest horizon; ``stopped``: ``stop`` asked;
-#: ``effort``: ``max_expansions`` states expanded without an arrival.
-PLAN_STATUSES = ("arrived", "no_path", "start_blocked", "goal_blocked", "not_found",
-                 "stopped", "effort")
+__all__ = ["SIPP", "earliest_arrival"]
 
 #: Units of work between two polls of ``stop``: a unit is a state expanded, a chain corner
 #: drawn, a segment whose windows are computed or a segment scheduled.
@@ -84,53 +82,10 @@ _WINDOW_BATCH = 8
 _WINDOW_SEGMENTS = 4096
 
 
-@dataclass(frozen=True)
-class TimedPlan:
-    """The result of :func:`earliest_arrival`.
-
-    Attributes
-    ----------
-    status : str
-        One of :data:`PLAN_STATUSES`.
-    arrival : float or None
-        The earliest arrival at the goal within the model (s).
-    points, times : ndarray or None
-        The timed trajectory: ``(m, 2)`` points from the start to the goal and a time per
-        point, waits included (a wait is the same point at two times).
-    message : str
-        What was found, or why not.
-    bound : TimeBound
-        The certified lower bound
-        (:func:`~optplan.geometry.timing.time_bounds.arrival_lower_bound`).
-    horizon : float
-        The time window of the last search (s; NaN when none ran).
-    info : dict
-        ``expansions`` (states expanded, all horizons), ``states``, ``chains`` (windows
-        computed), ``horizons`` (searches run), and the roadmap's counters.
-    """
-
-    status: str
-    arrival: float | None
-    points: np.ndarray | None
-    times: np.ndarray | None
-    message: str
-    bound: TimeBound
-    horizon: float = math.nan
-    info: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def gap(self) -> float | None:
-        """``arrival / bound - 1`` (``None`` without an arrival or a positive finite bound)."""
-        b = self.bound.value
-        if self.arrival is None or b is None or math.isinf(b):
-            return None
-        return optimum_gap(self.arrival, b)
-
-
 class _Stopped(Exception):
     """The search ended early (``stop`` asked, or the effort cap): ``status`` says which."""
 
-    def __init__(self, status: str):
+    def __init__(self, status: PlanStatus):
         super().__init__(status)
         self.status = status
 
@@ -170,7 +125,7 @@ class _Sipp:
         if self.work >= _POLL:
             self.work = 0
             if self.stop is not None and self.stop():
-                raise _Stopped("stopped")
+                raise _Stopped(PlanStatus.stopped)
 
     # ---- windows -------------------------------------------------------------------
     def safe(self, v: int) -> Intervals:
@@ -249,7 +204,7 @@ class _Sipp:
         self.expanded += 1
         self.budget[0] -= 1
         if self.budget[0] < 0:
-            raise _Stopped("effort")
+            raise _Stopped(PlanStatus.effort)
         self.tick(1)
         v, _, t = self.st[s][:3]
         ch = self.rm.out_chains(v)
@@ -341,18 +296,20 @@ def _early(robot, bound: TimeBound, movers: list[DynamicObstacle], horizon: floa
     inside a moving obstacle, or start = goal."""
     rid = robot.id
     if bound.value is None:
-        return TimedPlan("no_path", None, None, None, f"{rid}: {bound.reason}", bound)
+        return TimedPlan(PlanStatus.no_path, None, None, None, f"{rid}: {bound.reason}",
+                         bound=bound)
     if math.isinf(bound.value):
-        return TimedPlan("goal_blocked", None, None, None, f"{rid}: {bound.reason}", bound)
+        return TimedPlan(PlanStatus.goal_blocked, None, None, None, f"{rid}: {bound.reason}",
+                         bound=bound)
     boxes = MoverBoxes.build(movers, robot.radius, horizon)
     if _starts_inside(boxes, robot.start, robot.radius, horizon):
-        return TimedPlan("start_blocked", None, None, None,
+        return TimedPlan(PlanStatus.start_blocked, None, None, None,
                          f"{rid}: the robot overlaps a moving obstacle at t = 0 at its start: "
-                         "no collision-free motion exists", bound)
+                         "no collision-free motion exists", bound=bound)
     if bound.value == 0.0:  # start = goal, free at t = 0
         pts = np.vstack([robot.start, robot.goal])
-        return TimedPlan("arrived", 0.0, pts, np.zeros(2), f"{rid}: starts at its goal",
-                         bound, 0.0)
+        return TimedPlan(PlanStatus.arrived, 0.0, pts, np.zeros(2),
+                         f"{rid}: starts at its goal", 0.0, bound=bound)
     return None
 
 
@@ -385,6 +342,15 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
     Returns
     -------
     TimedPlan
+        Status ``arrived`` (the earliest arrival within the model), ``no_path`` (the static
+        map has none: a proof), ``start_blocked`` (the robot overlaps a moving obstacle at
+        t = 0), ``goal_blocked`` (the goal is occupied for ever: a proof, from the lower
+        bound), ``not_found`` (no arrival up to the largest horizon), ``stopped`` (``stop``
+        asked) or ``effort`` (``max_expansions`` states expanded without an arrival);
+        ``bound`` the certified lower bound
+        (:func:`~optplan.geometry.timing.time_bounds.arrival_lower_bound`); ``info`` holds
+        ``expansions`` (states expanded, all horizons), ``states``, ``chains`` (windows
+        computed), ``horizons`` (searches run), and the roadmap's counters.
 
     Raises
     ------
@@ -412,19 +378,19 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
             goal = search.run()
         except _Stopped as e:
             _count(info, search, rm)
-            why = ("stopped before an arrival was found" if e.status == "stopped" else
-                   f"no arrival found within {max_expansions} expansions")
-            return TimedPlan(e.status, None, None, None, f"{robot.id}: {why}", bound, horizon,
-                             info)
+            why = ("stopped before an arrival was found" if e.status is PlanStatus.stopped
+                   else f"no arrival found within {max_expansions} expansions")
+            return TimedPlan(e.status, None, None, None, f"{robot.id}: {why}", horizon, info,
+                             bound)
         _count(info, search, rm)
         if goal is not None:
             pts, ts = search.trajectory(goal)
-            return TimedPlan("arrived", float(ts[-1]), pts, ts, _arrival_text(
-                robot.id, float(ts[-1]), bound), bound, horizon, info)
-    return TimedPlan("not_found", None, None, None,
+            return TimedPlan(PlanStatus.arrived, float(ts[-1]), pts, ts, _arrival_text(
+                robot.id, float(ts[-1]), bound), horizon, info, bound)
+    return TimedPlan(PlanStatus.not_found, None, None, None,
                      f"{robot.id}: no arrival found up to the horizon {horizon:.6g} s (the cap: "
                      f"2^{max_doublings} x the first horizon {h0:.6g} s); not a proof that "
-                     "none exists", bound, horizon, info)
+                     "none exists", horizon, info, bound)
 
 
 def _count(info: dict[str, Any], search: _Sipp, rm: Roadmap) -> None:
@@ -455,10 +421,10 @@ def _arrival_text(rid: str, arrival: float, bound: TimeBound) -> str:
 def _robot_mover(rid: str, radius: float, plan: TimedPlan) -> DynamicObstacle:
     """A planned robot as a moving obstacle for the robots planned after it: a disc of its
     radius on its timed trajectory, parked at its goal afterwards."""
-    assert plan.points is not None and plan.times is not None
+    assert plan.path is not None and plan.times is not None
     keep = np.r_[True, np.diff(plan.times) > 0]
     disc = shapely.Point(0.0, 0.0).buffer(max(radius, 1e-12))
-    return DynamicObstacle("circle", disc, plan.times[keep], plan.points[keep], None, "hold",
+    return DynamicObstacle("circle", disc, plan.times[keep], plan.path[keep], None, "hold",
                            f"robot {rid}", float(radius))
 
 
@@ -468,17 +434,30 @@ def _merged(plans: dict[str, TimedPlan]) -> tuple[dict[str, np.ndarray], np.ndar
     stamps = np.unique(np.concatenate([p.times for p in plans.values() if p.times is not None]))
     paths = {}
     for rid, p in plans.items():
-        assert p.points is not None and p.times is not None
+        assert p.path is not None and p.times is not None
         if len(plans) == 1:
-            return {rid: p.points}, p.times
-        paths[rid] = positions_at(p.times, p.points, stamps)
+            return {rid: p.path}, p.times
+        paths[rid] = positions_at(p.times, p.path, stamps)
     return paths, stamps
 
 
+def _bound(plan: TimedPlan) -> float | None:
+    """The value of a plan's certified lower bound (every ``earliest_arrival`` plan has one)."""
+    return None if plan.bound is None else plan.bound.value
+
+
+def _gap(plan: TimedPlan) -> float | None:
+    """``arrival / bound - 1`` (``None`` without an arrival or a positive finite bound)."""
+    b = _bound(plan)
+    if plan.arrival is None or b is None or math.isinf(b):
+        return None
+    return optimum_gap(plan.arrival, b)
+
+
 #: TimedPlan status -> the claim of the backend.
-_CLAIMS = {"no_path": Status.infeasible, "start_blocked": Status.failed,
-           "goal_blocked": Status.failed, "not_found": Status.failed,
-           "stopped": Status.approximate, "effort": Status.failed}
+_CLAIMS = {PlanStatus.no_path: Status.infeasible, PlanStatus.start_blocked: Status.failed,
+           PlanStatus.goal_blocked: Status.failed, PlanStatus.not_found: Status.failed,
+           PlanStatus.stopped: Status.approximate, PlanStatus.effort: Status.failed}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -526,7 +505,7 @@ class SIPP(Backend):
                                     max_expansions=self.max_expansions,
                                     stop=poll if callback is not None else None)
             plans[r.id] = plan
-            if plan.status != "arrived" or (callback is not None and poll()):
+            if plan.status is not PlanStatus.arrived or (callback is not None and poll()):
                 break
             movers.append(_robot_mover(r.id, r.radius, plan))
         return self._answer(problem, plans, t0)
@@ -542,7 +521,7 @@ class SIPP(Backend):
         """The Result of the plans (every planned robot gets a path)."""
         lead = problem.planned_robots[0].id
         msgs = [p.message for p in plans.values()]
-        failed = [p for p in plans.values() if p.status != "arrived"]
+        failed = [p for p in plans.values() if p.status is not PlanStatus.arrived]
         if failed or len(plans) < len(problem.planned_robots):
             claim = _CLAIMS.get(failed[0].status, Status.approximate) if failed else \
                 Status.approximate
@@ -552,9 +531,9 @@ class SIPP(Backend):
             paths, times = _merged(plans)
             lp = plans[lead]
             one = len(plans) == 1
-            claim = (Status.optimal if one and lp.bound.value is not None and lp.arrival
-                     is not None and confirms_optimum(lp.arrival, lp.bound.value)
-                     else Status.solved)
+            b = _bound(lp)
+            claim = (Status.optimal if one and b is not None and lp.arrival is not None and
+                     confirms_optimum(lp.arrival, b) else Status.solved)
             if not one:
                 msgs.append("robots planned in turn, each avoiding the ones before it")
         return self._finish(problem, plans, lead, paths, times, claim, "; ".join(msgs), t0)
@@ -564,13 +543,13 @@ class SIPP(Backend):
                 t0: float) -> Result:
         """:meth:`Backend.finish` with the extras of the plans."""
         lp = plans.get(lead)
-        extras = {"sipp": {rid: {"status": p.status, "arrival": p.arrival,
-                                 "lower_bound": p.bound.value, "gap": p.gap,
+        extras = {"sipp": {rid: {"status": p.status.value, "arrival": p.arrival,
+                                 "lower_bound": _bound(p), "gap": _gap(p),
                                  "horizon": p.horizon, **p.info} for rid, p in plans.items()}}
         extra: dict[str, Any] = {}
         if lp is not None:
-            extra = {"arrival_time": lp.arrival, "time_lower_bound": lp.bound.value,
-                     "arrival_gap": lp.gap}
+            extra = {"arrival_time": lp.arrival, "time_lower_bound": _bound(lp),
+                     "arrival_gap": _gap(lp)}
         n_eval = sum(int(p.info.get("expansions", 0)) for p in plans.values())
         hist = History()
         cost = lp.arrival if lp is not None and lp.arrival is not None else math.inf

@@ -24,9 +24,9 @@ from ``t`` at speed ``v`` overlaps a moving obstacle:
 one vectorised pass (:func:`segment_windows`: the same regions and the same extremes).  A point is
 busy when the disc parked there overlaps a moving obstacle
 (:func:`~optplan.geometry.timing.time_bounds.parked_contact_times`); its *safe intervals* are the
-closed complement (:func:`free_intervals`).  Only the moving obstacles whose motion on
-``[0, horizon]`` passes near a point or a segment are handed to these functions
-(:class:`MoverBoxes`, an axis-aligned box test that never drops a contact).
+closed complement (:func:`~optplan.geometry.timing.intervals.free_intervals`).  Only the moving
+obstacles whose motion on ``[0, horizon]`` passes near a point or a segment are handed to these
+functions (:class:`MoverBoxes`, an axis-aligned box test that never drops a contact).
 :func:`chain_schedule` is the earliest arrival along one chain.
 """
 
@@ -36,13 +36,15 @@ import bisect
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from optplan.geometry.collision import ObstacleSet
 from optplan.geometry.tangent import TangentGraph, TangentSearch, arc_polyline, circles_of
 from optplan.geometry.timing import (
+    Intervals,
+    first_free,
     merge_open,
     mover_pieces,
     parked_contact_times,
@@ -53,14 +55,10 @@ from optplan.geometry.timing import (
 )
 
 if TYPE_CHECKING:
-    from optplan.problem import DynamicObstacle, Problem
+    from optplan.problem import DynamicObstacle
 
-__all__ = ["Intervals", "MoverBoxes", "segment_windows", "free_intervals", "first_free",
-           "chain_schedule", "Chains", "Roadmap", "GOAL_KEY", "START_KEY"]
-
-#: A sorted list of disjoint intervals ``(lo, hi)`` (open when busy or forbidden, closed when
-#: safe).
-Intervals = list[tuple[float, float]]
+__all__ = ["MoverBoxes", "segment_windows", "chain_schedule", "Chains", "Roadmap", "GOAL_KEY",
+           "START_KEY"]
 
 #: Keys of the start and goal vertices (a tangent-point vertex is keyed by its tangent
 #: ``(i, s_i, j, s_j)``, ``i = -1`` for the start).
@@ -80,13 +78,6 @@ FINEST_STEP = 1e-4
 # --------------------------------------------------------------------------------------
 # moving obstacles near a point or a segment
 # --------------------------------------------------------------------------------------
-
-
-class _MoverView:
-    """The one attribute :func:`parked_contact_times` reads from a problem."""
-
-    def __init__(self, movers: list[DynamicObstacle]):
-        self.dynamic_obstacles = tuple(movers)
 
 
 @dataclass(frozen=True)
@@ -136,10 +127,7 @@ class MoverBoxes:
         """:func:`~optplan.geometry.timing.time_bounds.parked_contact_times` of the disc parked at
         ``point`` against the obstacles near it."""
         near = self.near(point)
-        if not near:
-            return []
-        view = cast("Problem", _MoverView(near))
-        return parked_contact_times(view, point, radius, t_lo, t_hi)
+        return parked_contact_times(near, point, radius, t_lo, t_hi) if near else []
 
 
 # --------------------------------------------------------------------------------------
@@ -269,34 +257,6 @@ def segment_windows(movers: list[DynamicObstacle], a: np.ndarray, b: np.ndarray,
     on = ~np.isnan(s_lo)
     busy = _grouped(k[on], reg.ta[on] + s_lo[on], reg.ta[on] + s_hi[on], n)
     return forbidden, busy
-
-
-def free_intervals(busy: Intervals, horizon: float) -> Intervals:
-    """The safe intervals in ``[0, horizon]``: the closed complement of the open ``busy``
-    intervals (sorted, disjoint; touching a moving obstacle is allowed)."""
-    out: Intervals = []
-    t = 0.0
-    for lo, hi in busy:
-        if hi <= t:
-            continue
-        if lo >= horizon:
-            break
-        if lo >= t:
-            out.append((t, lo))
-        t = hi
-        if t > horizon:
-            return out
-    out.append((t, horizon))
-    return out
-
-
-def first_free(forbidden: Intervals, t: float) -> float:
-    """The earliest time ``>= t`` outside the open intervals ``forbidden`` (sorted, disjoint,
-    touching ones merged)."""
-    k = bisect.bisect_left(forbidden, (t, -math.inf)) - 1
-    if k >= 0 and forbidden[k][1] > t:
-        return forbidden[k][1]
-    return t
 
 
 def chain_schedule(t0: float, leave_by: float, lengths: list[float],

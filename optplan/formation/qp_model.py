@@ -238,7 +238,8 @@ class QPModel:
         st = str(raw.status)
         if st not in _OK or self.u.value is None:
             return QPSolution(None, st, math.nan, self.soft), None
-        # a solved status (checked above) sets every Variable's value, S's as u's
+        # cvxpy types Variable.value as optional; a solved status (checked above) sets every
+        # Variable's value, S's as u's
         slack = (max(float(cast(np.ndarray, self.S.value).max()), 0.0) if self.S is not None
                  else 0.0)
         U = np.asarray(self.u.value).reshape(-1, 2)

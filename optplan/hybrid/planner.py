@@ -55,7 +55,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, ClassVar, cast
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -226,8 +226,7 @@ class Hybrid(Backend):
                              f"{stage_name(self.local_solver)!r} has no option {name!r} "
                              f"(set {opt} = None to use it as it is)")
         try:
-            # a planner with that field (hasattr above), which Backend does not declare
-            out = dataclasses.replace(cast(Any, local), **{name: value})
+            out = dataclasses.replace(local, **{name: value})
         except ValueError as e:
             raise ValueError(f"option {opt!r} of backend 'hybrid': {e}") from None
         object.__setattr__(out, "_preset", getattr(local, "_preset", None))

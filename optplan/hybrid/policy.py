@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -20,8 +20,8 @@ from optplan.hybrid.tracker import Driver, SubgoalTracker
 from optplan.interfaces import FollowerController
 from optplan.potential.backend import RobotsAsObstacles
 from optplan.potential.swept import StepGuard
-from optplan.problem import Formation, Problem, Robot
-from optplan.sim import ObstacleField, SimState
+from optplan.problem import Problem, Robot
+from optplan.sim import SimState
 
 if TYPE_CHECKING:
     from optplan.hybrid.steps import RunOptions
@@ -45,14 +45,13 @@ class HybridPolicy:
     def __init__(self, opts: RunOptions, problem: Problem, team: Team, drivers: list[Driver],
                  tracker: SubgoalTracker, fctrl: FollowerController | None):
         self.o, self.problem, self.team, self.drivers = opts, problem, team, drivers
-        self.tracker, self.fctrl = tracker, fctrl
+        # a follower controller only with a formation (Hybrid.solve)
+        self.tracker, self.fctrl, self.form = tracker, fctrl, problem.formation
         lid = problem.leader.id
         self.lead = next((d for d in drivers if d.robot.id == lid), drivers[0])
         self.f_idx = [team.ids.index(f) for f in team.follower_ids] if fctrl else []
-        if fctrl:  # a follower controller only with a formation (Hybrid.solve)
-            self.L = np.array([f.L for f in cast(Formation, problem.formation).followers])
-        else:
-            self.L = np.zeros(0)
+        self.L = (np.array([f.L for f in self.form.followers]) if fctrl and self.form
+                  else np.zeros(0))
         self.k_arrived: int | None = None
         self.gave_up: list[str] = []
         # several drivers (no formation between them): each one's local planner senses the
@@ -74,7 +73,7 @@ class HybridPolicy:
             if v is None:
                 return None
             u[d.index] = v
-        if self.fctrl is not None and not self._followers(u, state):
+        if self.fctrl is not None and not self._followers(self.fctrl, u, state):
             return None
         if self.o.stop_on_collision and self.guard.check(state.positions, u, state.dt,
                                                          state.t):
@@ -85,9 +84,8 @@ class HybridPolicy:
         """Driver ``d``'s command (capped, heading updated), or None when it gave up."""
         if self.sense_others:
             o = self._d_idx != d.index
-            # RobotsAsObstacles implements the part of ObstacleField the controllers use
-            state = dataclasses.replace(state, field=cast(ObstacleField, RobotsAsObstacles(
-                state.field, state.positions[self._d_idx[o]], self._d_rad[o])))
+            state = dataclasses.replace(state, field=RobotsAsObstacles(
+                state.field, state.positions[self._d_idx[o]], self._d_rad[o]))
         v = d.controller.velocity(state, d.index)
         while v is None and not d.final:
             d.advance(state.k, state.t, "gave_up")
@@ -114,11 +112,10 @@ class HybridPolicy:
             d.heading = want
         return v
 
-    def _followers(self, u: np.ndarray, state: SimState) -> bool:
-        """The followers' commands into ``u``; False on non-finite output."""
+    def _followers(self, fctrl: FollowerController, u: np.ndarray, state: SimState) -> bool:
+        """The followers' commands (by ``fctrl``) into ``u``; False on non-finite output."""
         li = self.lead.index
         state.leader_velocity = u[li].copy()
-        fctrl = cast(FollowerController, self.fctrl)  # called only with one (__call__)
         uf = fctrl.velocities(state, li, self.f_idx, self.lead.heading)
         uf = np.asarray(uf, dtype=float).reshape(len(self.f_idx), 2)
         if not np.all(np.isfinite(uf)):
@@ -129,11 +126,9 @@ class HybridPolicy:
         return True
 
     def followers_settled(self, positions: np.ndarray) -> bool:
-        if self.fctrl is None:
+        if self.fctrl is None or self.form is None:
             return True
-        # a follower controller only with a formation (Hybrid.solve: team.use_formation)
-        form = cast(Formation, self.problem.formation)
-        slots = positions[self.lead.index] + form.slot_offsets(self.lead.heading)
+        slots = positions[self.lead.index] + self.form.slot_offsets(self.lead.heading)
         err = np.hypot(*(positions[self.f_idx] - slots).T)
         return bool(np.all(err <= self.o.settle_tol * self.L))
 

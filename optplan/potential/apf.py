@@ -74,4 +74,5 @@ detect_eq38, evade_factor, sense_robots
         """A :class:`~optplan.interfaces.LocalController` for ``robot_id``
         (:class:`~optplan.interfaces.LocalPlanner`)."""
         robot = problem.robot(robot_id)
-        return APFController(self, problem, robot, rng, self.field_params(problem, robot))
+        return APFController(self, problem, robot, rng, self.field_params(problem, robot),
+                             self.patience)

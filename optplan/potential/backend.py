@@ -14,7 +14,7 @@ import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, ClassVar, cast
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -57,7 +57,7 @@ def oscillation_index(path: np.ndarray, unit: float = 1.0) -> float:
 
 
 
-class RobotsAsObstacles:
+class RobotsAsObstacles(ObstacleField):
     """An obstacle field plus other robots as disc obstacles frozen at their current positions.
 
     Beyond the paper (which plans one robot, or a formation through its leader): when
@@ -65,12 +65,13 @@ class RobotsAsObstacles:
     others through this view of the field (option ``sense_robots``).  The robots come after
     the scene's dynamic obstacles, so they count as moving obstacles (``n_static`` is
     unchanged), also for :meth:`~optplan.potential.controller.APFController.evade`.
-    Implements the part of :class:`~optplan.sim.ObstacleField` the controllers use:
-    ``nearest``, ``n``, ``n_static``.
+    A view of the ``base`` field (it builds no engine of its own): it answers what the
+    controllers ask of a field, ``nearest``, ``n``, ``n_static`` and the ``static`` obstacles
+    (the base's).
     """
 
     def __init__(self, base: ObstacleField, centers: np.ndarray, radii: np.ndarray):
-        self.base = base
+        self.base, self.static = base, base.static
         self.centers = np.asarray(centers, dtype=float).reshape(-1, 2)
         self.radii = np.asarray(radii, dtype=float).reshape(-1)
         self.n_static = base.n_static
@@ -114,9 +115,8 @@ class _TeamPolicy:
         if not self.sense_robots:
             return state
         o = np.arange(len(self.ctrls)) != i
-        # duck-typed: RobotsAsObstacles is the part of ObstacleField the controllers use
-        return dataclasses.replace(state, field=cast(ObstacleField, RobotsAsObstacles(
-            state.field, state.positions[o], self.radii[o])))
+        return dataclasses.replace(state, field=RobotsAsObstacles(
+            state.field, state.positions[o], self.radii[o]))
 
     def __call__(self, state: SimState) -> np.ndarray | None:
         out = np.zeros((len(self.ctrls), 2))

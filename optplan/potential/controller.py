@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Protocol, cast
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -68,12 +68,6 @@ class ControllerOptions(Protocol):
     def guide(self) -> str: ...
 
 
-class _APFOptions(ControllerOptions, Protocol):
-    """The basic planner's (:class:`~optplan.potential.apf.APF`) also has ``patience``."""
-
-    @property
-    def patience(self) -> int: ...
-
 #: The units of :attr:`APFController.stats` (and SA-APF's): counters, and the reason it gave up.
 STATS_UNITS = Record({
     "local_minima_detected": Unit.DIMENSIONLESS, "distinct_minima": Unit.DIMENSIONLESS,
@@ -104,12 +98,13 @@ class APFController:
     Implements :class:`optplan.interfaces.LocalController`: ``stats``, ``reset(goal)``,
     ``velocity(state, index)`` (the step length uses the simulator's ``state.dt``).  The basic
     planner never escapes; it gives up (returns ``None``) when it stays trapped ``patience``
-    steps after a detection.
+    steps after a detection (the option of :class:`~optplan.potential.apf.APF`; SA-APF escapes
+    instead, its ``patience`` is infinite).
     """
 
     def __init__(self, backend: ControllerOptions, problem: Problem, robot: Robot,
-                 rng: np.random.Generator, params: FieldParams):
-        self.b = backend
+                 rng: np.random.Generator, params: FieldParams, patience: float = math.inf):
+        self.b, self.patience = backend, patience
         self.problem = problem
         self.robot = robot
         self.rng = rng
@@ -199,8 +194,7 @@ class APFController:
 
     def _known_mask(self, fld: ObstacleField) -> np.ndarray:
         if self._known is None or len(self._known) != fld.n_static:
-            src = getattr(fld, "base", fld)  # RobotsAsObstacles wraps the scene's field
-            self._known = np.array([o.known for o in src.static], bool)
+            self._known = np.array([o.known for o in fld.static], bool)
         return self._known
 
     def free_step(self, x: np.ndarray, step: np.ndarray, fld: ObstacleField, ev: dict
@@ -339,8 +333,7 @@ class APFController:
         if self._trap_at is not None:
             if np.hypot(*(x - self._trap_at)) > r_same + l_step:
                 self._trap_at, self._trap_since = None, None
-            # built by APF.controller only (SAAPFController overrides _step): the backend is APF
-            elif self.stats["steps"] - self._trap_since >= cast(_APFOptions, self.b).patience:
+            elif self.stats["steps"] - self._trap_since >= self.patience:
                 dg = float(np.hypot(*(self.goal - x)))
                 kind = ("oscillating near the goal (GNRON)" if dg <= self.params.rho_0 +
                         self.robot.radius else "trapped in a local minimum")

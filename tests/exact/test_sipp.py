@@ -27,9 +27,9 @@ from optplan.exact.sipp_graph import (
     START_KEY,
     Roadmap,
     chain_schedule,
-    free_intervals,
     segment_windows,
 )
+from optplan.geometry.timing import free_intervals
 from optplan.geometry.timing.st_regions import forbidden_departures
 from optplan.geometry.timing.time_bounds import parked_contact_times
 from optplan.problem import parse_problem
@@ -283,7 +283,8 @@ def test_segment_windows_match_forbidden_departures_and_parked_contacts():
         ref = forbidden_departures(movers, a[k], b[k], 0.2, 1.3, 30.0)
         assert len(forb[k]) == len(ref)
         np.testing.assert_allclose(np.ravel(forb[k]), np.ravel(ref), rtol=0, atol=1e-9)
-        park = [(lo, min(hi, 30.0)) for lo, hi in parked_contact_times(p, b[k], 0.2, 0.0, 30.0)]
+        park = [(lo, min(hi, 30.0))
+                for lo, hi in parked_contact_times(p.dynamic_obstacles, b[k], 0.2, 0.0, 30.0)]
         np.testing.assert_allclose(np.ravel(free_intervals(busy[k], 30.0)),
                                    np.ravel(free_intervals(park, 30.0)), rtol=0, atol=1e-9)
 
@@ -453,7 +454,7 @@ def test_no_roadmap_schedule_is_earlier_than_sipp(seed):
         assert g is None or g >= plan.arrival - 1e-9, (q, g, plan.arrival)
     # not vacuous: along sipp's own path the brute force finds its arrival (up to a grid step
     # per wait and the margin)
-    own = plan.points[np.r_[True, np.any(np.diff(plan.points, axis=0) != 0, axis=1)]]
+    own = plan.path[np.r_[True, np.any(np.diff(plan.path, axis=0) != 0, axis=1)]]
     t_own = model_grid_arrival(p, own, 0.05, horizon, 0.02)
     assert t_own is not None and plan.arrival - 1e-9 <= t_own <= plan.arrival + 0.1
 

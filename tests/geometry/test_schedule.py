@@ -31,22 +31,22 @@ def _checked(p, path=LINE):
     s = fastest_schedule(p, path)
     if s.status == "scheduled":
         r = p.leader.radius
-        tc = time_checks(p, {p.leader.id: s.points}, {p.leader.id: s.times})
+        tc = time_checks(p, {p.leader.id: s.path}, {p.leader.id: s.times})
         assert tc["dynamic_contacts"] == 0
-        assert oracle.check_trajectory(p, s.times, s.points, r) >= -1e-9 * p.extent
+        assert oracle.check_trajectory(p, s.times, s.path, r) >= -1e-9 * p.extent
         assert np.all(np.diff(s.times) >= 0)
-        steps = np.hypot(*np.diff(s.points, axis=0).T)
+        steps = np.hypot(*np.diff(s.path, axis=0).T)
         dt = np.diff(s.times)
         assert np.all(steps <= p.leader.max_speed * dt * (1 + 1e-9) + 1e-12)
         assert s.times[-1] == pytest.approx(s.arrival, rel=1e-12)
-        assert np.allclose(s.points[[0, -1]], path[[0, -1]])
+        assert np.allclose(s.path[[0, -1]], path[[0, -1]])
     return s
 
 
 def test_no_mover_full_speed():
     s = _checked(time_scene([], speed=2.0))
     assert s.status == "scheduled" and s.arrival == pytest.approx(4.0, rel=1e-12)
-    assert len(s.points) == 2
+    assert len(s.path) == 2
 
 
 def test_a_door_that_closes_and_reopens():
@@ -106,7 +106,7 @@ def test_a_mover_faster_than_the_robot():
 def test_goal_occupied_for_ever():
     park = {"type": "circle", "radius": 0.5, "waypoints": [[9, 5]], "times": [0]}
     s = _checked(time_scene([park]))
-    assert s.status == "no_schedule" and s.points is None
+    assert s.status == "no_schedule" and s.path is None
 
 
 def test_bad_input_gives_a_status():

@@ -46,7 +46,7 @@ def test_repeating_square_over_the_goal(after, busy):
     # |y - 5| < 1 + 0.2
     p = _problem([{"type": "polygon", "vertices": SQUARE, "waypoints": [[9, 0], [9, 10]],
                    "times": [0, 10], "after": after}])
-    got = parked_contact_times(p, [9, 5], 0.2, 0.0, 30.0)
+    got = parked_contact_times(p.dynamic_obstacles, [9, 5], 0.2, 0.0, 30.0)
     assert np.allclose(got[:3], busy, rtol=0, atol=1e-12)
     assert arrival_lower_bound(p).value == 8.0  # the goal is free at 8
 

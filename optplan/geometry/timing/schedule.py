@@ -24,59 +24,25 @@ window up to the cap is reported as such, never as a proof.
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from optplan.geometry.collision import cumulative_length, path_lengths
 from optplan.geometry.timing.motion import mover_period
+from optplan.geometry.timing.plan import PlanStatus, TimedPlan
 from optplan.geometry.timing.st_regions import path_regions
 from optplan.geometry.timing.st_sweep import sweep
 
 if TYPE_CHECKING:
     from optplan.problem import DynamicObstacle, Problem
 
-__all__ = ["Schedule", "fastest_schedule", "SCHEDULE_STATUSES"]
-
-#: ``scheduled``: the earliest arrival and a trajectory; ``no_schedule``: none exists (a proof);
-#: ``not_found``: none below the largest horizon (repeating movers); ``invalid``: the input
-#: cannot be scheduled (the path misses the start, crosses a static obstacle, or the robot
-#: starts inside a moving obstacle).
-SCHEDULE_STATUSES = ("scheduled", "no_schedule", "not_found", "invalid")
+__all__ = ["fastest_schedule"]
 
 #: the largest horizon is this many times the first one
 _MAX_DOUBLINGS = 6
-
-
-@dataclass(frozen=True)
-class Schedule:
-    """The result of :func:`fastest_schedule`.
-
-    Attributes
-    ----------
-    status : str
-        One of :data:`SCHEDULE_STATUSES`.
-    arrival : float or None
-        The earliest arrival time at the path's end (s).
-    points, times : ndarray or None
-        The timed trajectory: ``(m, 2)`` points on the path and a time per point, waits
-        included (a wait is the same point twice, at two times).
-    message : str
-        What was found, or what went wrong.
-    horizon : float
-        The time window of the last sweep.
-    info : dict
-        ``events`` (of the last sweep), ``regions`` (convex forbidden regions), ``sweeps``.
-    """
-
-    status: str
-    arrival: float | None
-    points: np.ndarray | None
-    times: np.ndarray | None
-    message: str
-    horizon: float = math.nan
-    info: dict[str, Any] = field(default_factory=dict)
 
 
 def _checked_path(problem: Problem, robot, path) -> tuple[np.ndarray | None, str]:
@@ -146,7 +112,7 @@ def _first_horizon(movers: list[DynamicObstacle], drive: float, settle: float | 
 def _trajectory(path: np.ndarray, corners: np.ndarray, speed: float
                 ) -> tuple[np.ndarray, np.ndarray]:
     """Points and times from the staircase ``(s, tau)``, with the path's corners added."""
-    cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(path, axis=0).T))])
+    cum = cumulative_length(path)
     s_c, tau_c = corners[:, 0], corners[:, 1]
     extra = cum[(cum > s_c[0]) & (cum < s_c[-1])]
     # the delay at a path corner: the level of the staircase step that covers it
@@ -161,7 +127,7 @@ def _trajectory(path: np.ndarray, corners: np.ndarray, speed: float
     return pts, s / speed + tau
 
 
-def fastest_schedule(problem: Problem, path, robot_id: str | None = None) -> Schedule:
+def fastest_schedule(problem: Problem, path, robot_id: str | None = None) -> TimedPlan:
     """The earliest arrival of a robot driving along ``path`` among the moving obstacles.
 
     Parameters
@@ -176,10 +142,14 @@ def fastest_schedule(problem: Problem, path, robot_id: str | None = None) -> Sch
 
     Returns
     -------
-    Schedule
-        ``status`` ``"scheduled"`` with the earliest ``arrival`` at the path's end and the
-        trajectory (``points``, ``times``) achieving it; otherwise ``arrival`` is ``None`` and
-        ``message`` says why (module docstring).
+    TimedPlan
+        Status ``scheduled`` with the earliest ``arrival`` at the path's end and the trajectory
+        (``path``, ``times``) achieving it; otherwise ``arrival`` is ``None``, the status is
+        ``no_schedule`` (none exists: a proof), ``not_found`` (none below the largest horizon,
+        repeating movers) or ``invalid`` (the path misses the start, crosses a static obstacle,
+        or the robot starts inside a moving obstacle), and ``message`` says why (module
+        docstring).  ``horizon`` is the time window of the last sweep; ``info`` holds
+        ``events`` (of the last sweep), ``regions`` (convex forbidden regions) and ``sweeps``.
 
     Raises
     ------
@@ -189,38 +159,33 @@ def fastest_schedule(problem: Problem, path, robot_id: str | None = None) -> Sch
     robot = problem.leader if robot_id is None else problem.robot(robot_id)
     p, why = _checked_path(problem, robot, path)
     if p is None:
-        return Schedule("invalid", None, None, None, why)
+        return TimedPlan(PlanStatus.invalid, None, None, None, why)
     movers = list(problem.dynamic_obstacles)
     v = float(robot.max_speed)
-    S = float(np.sum(np.hypot(*np.diff(p, axis=0).T))) if len(p) > 1 else 0.0
+    S = float(path_lengths(p))
     settle = _settle_time(movers, p, robot.radius)
     H = _first_horizon(movers, S / v, settle)
     if S == 0.0:
         p = np.vstack([p, p])  # a zero-length path: the robot only has to be at its start
-    cum = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
+    cum = cumulative_length(p)
     for n in range(_MAX_DOUBLINGS + 1):
         out = _one_sweep(problem, robot, p, cum, S, v, H)
-        if out.status == "scheduled" or out.status == "invalid":
-            return _with(out, sweeps=n + 1)
+        if out.status in (PlanStatus.scheduled, PlanStatus.invalid):
+            return dataclasses.replace(out, info=dict(out.info, sweeps=n + 1))
         if settle is not None and H > settle + S / v:
-            return Schedule("no_schedule", None, None, None,
+            return TimedPlan(PlanStatus.no_schedule, None, None, None,
                             f"no schedule exists: the movers settle by t = {settle:.6g} s and "
                             f"no schedule arrives before t = {H:.6g} s", H,
                             dict(out.info, sweeps=n + 1))
         H *= 2.0
-    return Schedule("not_found", None, None, None,
-                    f"no schedule arrives before t = {H / 2:.6g} s (the largest horizon; "
-                    "repeating movers: not a proof that none exists)", H / 2,
-                    dict(out.info, sweeps=_MAX_DOUBLINGS + 1))
-
-
-def _with(out: Schedule, **info: Any) -> Schedule:
-    return Schedule(out.status, out.arrival, out.points, out.times, out.message, out.horizon,
-                    dict(out.info, **info))
+    return TimedPlan(PlanStatus.not_found, None, None, None,
+                     f"no schedule arrives before t = {H / 2:.6g} s (the largest horizon; "
+                     "repeating movers: not a proof that none exists)", H / 2,
+                     dict(out.info, sweeps=_MAX_DOUBLINGS + 1))
 
 
 def _one_sweep(problem: Problem, robot, p: np.ndarray, cum: np.ndarray, S: float, v: float,
-               H: float) -> Schedule:
+               H: float) -> TimedPlan:
     """One sweep with the horizon ``H``: ``scheduled`` when the arrival is below it."""
     reg = path_regions(list(problem.dynamic_obstacles), p, robot.radius, H)
     tol = 1e-10 * H
@@ -230,12 +195,12 @@ def _one_sweep(problem: Problem, robot, p: np.ndarray, cum: np.ndarray, S: float
     res = sweep(reg, v, cum, max(S, 1e-300), tol)
     info = {"events": res.events, "regions": len(reg)}
     if res.start_blocked:
-        return Schedule("invalid", None, None, None,
-                        f"robot {robot.id!r} starts inside a moving obstacle at t = 0", H, info)
+        return TimedPlan(PlanStatus.invalid, None, None, None,
+                         f"robot {robot.id!r} starts inside a moving obstacle at t = 0", H, info)
     if res.arrival_tau is None or S / v + res.arrival_tau >= H:
-        return Schedule("not_found", None, None, None, "", H, info)
+        return TimedPlan(PlanStatus.not_found, None, None, None, "", H, info)
     pts, times = _trajectory(p, res.corners, v)
     arrival = S / v + res.arrival_tau
-    return Schedule("scheduled", arrival, pts, times,
-                    f"earliest arrival along the path: {arrival:.6g} s "
-                    f"({res.arrival_tau:.6g} s of waiting)", H, info)
+    return TimedPlan(PlanStatus.scheduled, arrival, pts, times,
+                     f"earliest arrival along the path: {arrival:.6g} s "
+                     f"({res.arrival_tau:.6g} s of waiting)", H, info)

@@ -42,13 +42,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from optplan.geometry.timing.contact_times import ConvexShape, line_intervals, shape_pieces
+from optplan.geometry.timing.intervals import merge_open
 from optplan.geometry.timing.motion import mover_pieces
 
 if TYPE_CHECKING:
     from optplan.problem import DynamicObstacle
 
-__all__ = ["Regions", "path_regions", "region_extremes", "sections", "forbidden_departures",
-           "merge_open"]
+__all__ = ["Regions", "path_regions", "region_extremes", "sections", "forbidden_departures"]
 
 
 @dataclass(frozen=True)
@@ -280,16 +280,3 @@ def forbidden_departures(movers: list[DynamicObstacle], a, b, radius: float, spe
     lo, _, _ = region_extremes(reg, -g, zero, full)
     ok = np.isfinite(hi) & (hi > -lo)
     return merge_open(reg.ta[ok] - lo[ok], reg.ta[ok] + hi[ok])
-
-
-def merge_open(lo: np.ndarray, hi: np.ndarray) -> list[tuple[float, float]]:
-    """Union of open intervals ``(lo_i, hi_i)``, touching ones merged, sorted."""
-    out: list[tuple[float, float]] = []
-    order = np.argsort(lo, kind="stable")
-    for x, y in zip(np.asarray(lo)[order].tolist(), np.asarray(hi)[order].tolist()):
-        if out and x <= out[-1][1]:
-            out[-1] = (out[-1][0], max(out[-1][1], y))
-        else:
-            out.append((x, y))
-    return out
-

@@ -20,18 +20,22 @@ ever (no motion arrives).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from optplan.geometry.collision import cumulative_length
 from optplan.geometry.timing.contact_times import line_intervals, shape_pieces
+from optplan.geometry.timing.intervals import Intervals, first_free, merge_open
 from optplan.geometry.timing.motion import mover_period, mover_pieces
 
 if TYPE_CHECKING:
-    from optplan.problem import Problem
+    from optplan.problem import DynamicObstacle, Problem
 
-__all__ = ["TimeBound", "parked_contact_times", "arrival_lower_bound", "arrival_time"]
+__all__ = ["TimeBound", "parked_contact_times", "arrival_lower_bound", "arrival_time",
+           "path_times"]
 
 
 @dataclass(frozen=True)
@@ -44,21 +48,11 @@ class TimeBound:
     reason: str
 
 
-def _merge(lo: np.ndarray, hi: np.ndarray) -> list[tuple[float, float]]:
-    """Union of open intervals ``(lo_i, hi_i)`` (touching ones merged)."""
-    out: list[tuple[float, float]] = []
-    for a, b in sorted(zip(lo.tolist(), hi.tolist())):
-        if out and a <= out[-1][1]:
-            out[-1] = (out[-1][0], max(out[-1][1], b))
-        else:
-            out.append((a, b))
-    return out
-
-
-def parked_contact_times(problem: Problem, point, radius: float, t_lo: float, t_hi: float
-                         ) -> list[tuple[float, float]]:
+def parked_contact_times(movers: Sequence[DynamicObstacle], point, radius: float, t_lo: float,
+                         t_hi: float) -> Intervals:
     """The times in ``[t_lo, t_hi]`` at which a disc of ``radius`` parked at ``point`` overlaps
-    a moving obstacle: sorted disjoint open intervals (an interval may end at ``inf``).
+    one of the moving obstacles ``movers`` (a problem's ``dynamic_obstacles``, or the few near
+    the point): sorted disjoint open intervals (an interval may end at ``inf``).
 
     Per linear piece of each obstacle's motion
     (:func:`~optplan.geometry.timing.motion.mover_pieces`) and per convex piece of its shape, the
@@ -67,7 +61,7 @@ def parked_contact_times(problem: Problem, point, radius: float, t_lo: float, t_
     """
     p = np.asarray(point, float)
     los, his = [], []
-    for d in problem.dynamic_obstacles:
+    for d in movers:
         ta, tb, b, w = mover_pieces(d, t_lo, t_hi)
         for shape in shape_pieces(d.kind, d.radius, d.local_geometry):
             lo, hi = line_intervals(p - b, -w, shape, float(radius))
@@ -79,14 +73,7 @@ def parked_contact_times(problem: Problem, point, radius: float, t_lo: float, t_
             his.append(hi_t[keep])
     if not los:
         return []
-    return _merge(np.concatenate(los), np.concatenate(his))
-
-
-def _first_free(busy: list[tuple[float, float]], t: float) -> float:
-    for a, b in busy:
-        if a < t < b:
-            t = b
-    return t
+    return merge_open(np.concatenate(los), np.concatenate(his))
 
 
 def arrival_lower_bound(problem: Problem, robot_id: str | None = None) -> TimeBound:
@@ -114,8 +101,8 @@ def arrival_lower_bound(problem: Problem, robot_id: str | None = None) -> TimeBo
     # past every knot a hold/velocity motion is known for ever (open-ended pieces); a repeating
     # one repeats: one more period than the window covers every free time there is
     t_hi = max([static, *knots]) + (max(periods) if periods else 0.0) + 1.0
-    busy = parked_contact_times(problem, robot.goal, robot.radius, 0.0, t_hi)
-    goal = _first_free(busy, static)
+    busy = parked_contact_times(problem.dynamic_obstacles, robot.goal, robot.radius, 0.0, t_hi)
+    goal = first_free(busy, static)
     if goal > t_hi and periods:  # a repeating obstacle covers the goal for a whole period
         goal = math.inf
     if math.isinf(goal):
@@ -127,22 +114,23 @@ def arrival_lower_bound(problem: Problem, robot_id: str | None = None) -> TimeBo
     return TimeBound(goal, static, goal, reason)
 
 
-def arrival_time(problem: Problem, robot_id: str, path, times=None) -> float | None:
-    """The arrival time of a plan as executed: the first time stamp at which ``robot_id`` is
-    within the goal tolerance of its goal (``problem.goal_tol``), ``None`` if it never is.
+def path_times(path, max_speed: float, times=None) -> np.ndarray:
+    """The time stamp of every point of a plan: its own ``times`` (a time-stepping planner's
+    trajectory), else the validator's convention for a geometric path, driven from ``t = 0``
+    at ``max_speed`` (``t_k = arc length to point k / max_speed``)."""
+    if times is not None:
+        return np.asarray(times, float)
+    return cumulative_length(path) / max_speed
 
-    ``times`` are the plan's own stamps (a time-stepping planner's trajectory); without them a
-    geometric path is timed at the robot's ``max_speed`` from ``t = 0``, the validator's
-    convention.
-    """
+
+def arrival_time(problem: Problem, robot_id: str, path, times=None) -> float | None:
+    """The arrival time of a plan as executed: the first time stamp (:func:`path_times`) at
+    which ``robot_id`` is within the goal tolerance of its goal (``problem.goal_tol``), ``None``
+    if it never is."""
     robot = problem.robot(robot_id)
     if robot.goal is None:
         return None
     pts = np.asarray(path, float)
-    if times is None:
-        seg = np.hypot(*np.diff(pts, axis=0).T) if len(pts) > 1 else np.zeros(0)
-        stamps = np.concatenate([[0.0], np.cumsum(seg)]) / robot.max_speed
-    else:
-        stamps = np.asarray(times, float)
+    stamps = path_times(pts, robot.max_speed, times)
     near = np.hypot(*(pts - robot.goal).T) <= problem.goal_tol(robot) + problem.frame.eps
     return float(stamps[int(np.argmax(near))]) if near.any() else None
