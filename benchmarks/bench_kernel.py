@@ -6,7 +6,7 @@ compiled with numba in ``optplan.geometry.collision.kernel``).
    ``ipso-paper`` asks for) and with penetration; and the call overhead: the same batches
    through the public ``ObstacleSet.crossings`` and straight into the compiled loop
    ``kernel.crossings`` with the local segment arrays prepared once, and a one-segment call
-   (the dispatch floor of a 28-argument compiled function).
+   (the dispatch floor of the compiled function).
 2. Per-call time on random maps of 10 / 100 / 1000 obstacles (rectangles, circles, triangles,
    hexagons, concave U shapes; size ~ 1/sqrt(N) in a 500 x 500 map so the covered fraction is
    constant): it must grow sub-linearly with N (grid pre-filter from 48 items on).
@@ -28,7 +28,8 @@ import numpy as np
 
 import optplan as op
 from optplan.generators import random_obstacles as _random_obstacles
-from optplan.geometry import Frame, ObstacleSet, kernel, obstacle_set
+from optplan.geometry import Frame, ObstacleSet, obstacle_set
+from optplan.geometry.collision import kernel
 from optplan.problem import Obstacle
 from optplan.swarm.core import make_space
 
@@ -83,14 +84,14 @@ def overhead(obs: ObstacleSet, batches: list[np.ndarray], repeats: int = 7
     """Median seconds per call: through ``ObstacleSet.crossings``, straight into the compiled
     loop with prepared local segments, and a one-segment compiled call."""
     prep = [obs._segments(b) for b in batches]
-    K, Pt, E, N, C, CE, _, IC, IR, CR, OWN = obs.arrays
+    arrays = obs.arrays
     grid = obs._grid_args()
     hits = np.empty((0, 2), np.int64)
 
     def direct(items):
         for A, D, _, S in items:
-            kernel.crossings(A, D, S, K, Pt, E, N, C, CE, IC, IR, CR, OWN, obs.n_obstacles,
-                             obs.radius, obs.eps, False, *grid, hits)
+            kernel.crossings(A, D, S, arrays, obs.n_obstacles, grid, obs.radius, obs.eps,
+                             False, hits)
 
     def wrapped(items):
         for b in items:

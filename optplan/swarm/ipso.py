@@ -78,6 +78,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+from numba import types
 
 from optplan.geometry.compiled import F1, F2, F3, FA2, I1, argsort_stable, compiled, f8, i8, inlined
 from optplan.solver import option
@@ -152,11 +153,18 @@ def position_factor(k: float | np.ndarray, k_max: int) -> float | np.ndarray:
 
 
 
+#: ``swarm``: ``X, V, pbest`` (positions, a view into the batch; velocities; personal bests)
+_SWARM = types.Tuple((FA2, F2, F2))
+#: ``motion``: ``psi, mode, start, goal`` (eqs 23-24: the position factor and update mode)
+_MOTION = types.Tuple((f8, i8, F1, F1))
+
+
 @inlined  # one call site (advance)
-def move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal, out_X,
-         out_V):
-    """Eqs 22-24 for the whole swarm: ``V^{k+1}`` into ``out_V`` (eq 22 with ``eps = U[0]``,
-    ``eta = U[1]``), then ``X^{k+1}`` into ``out_X`` with ``psi(k) R``, ``R = U[2]``::
+def move(swarm, guides, leader, coef, U, vmax, motion, out):
+    """Eqs 22-24 for the whole swarm ``(X, V, pbest)``: ``V^{k+1}`` into ``out_V`` (eq 22
+    with the weights ``coef = (w, c1, c2)``, ``eps = U[0]``, ``eta = U[1]``), then
+    ``X^{k+1}`` into ``out_X`` (``out = (out_X, out_V)``) with ``psi(k) R``, ``R = U[2]``
+    (``motion = (psi, mode, start, goal)``)::
 
         mode 0 ("paper"):  x^{k+1} = psi R x^k + v^{k+1}                      (24)
         mode 1 ("step"):   x^{k+1} = x^k + psi R v^{k+1}
@@ -165,7 +173,10 @@ def move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal
 
     Bounds are not handled here.
     """
-    velocity_update(V, X, pbest, guides, leader, w, c1, c2, U[0], U[1], vmax, out_V)
+    X, V, pbest = swarm
+    psi, mode, start, goal = motion
+    out_X, out_V = out
+    velocity_update(V, X, pbest, guides, leader, coef, U[0], U[1], vmax, out_V)
     P, D = X.shape
     ux = goal[0] - start[0]
     uy = goal[1] - start[1]
@@ -186,18 +197,20 @@ def move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal
                     out_X[i, d] = (X[i, d] - foot) * R + foot + out_V[i, d]
 
 
-@compiled(FA2, F2, F2, F2, I1, f8, f8, f8, F3, F1, f8, i8, F1, F1, i8, F1, F1, i8, FA2, F2)
-def advance(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal, m, lo, hi,
-            bound_code, B, V_new):
+@compiled(_SWARM, F2, I1, types.UniTuple(f8, 3), F3, F1, _MOTION, i8,
+          types.Tuple((F1, F1, i8)), types.Tuple((FA2, F2)))
+def advance(swarm, guides, leader, coef, U, vmax, motion, m, bounds, out):
     """The pre-evaluation part of one iteration after the GA (:func:`ga_children` wrote the
-    ``m`` mutants and children to rows ``P .. P + 2m`` of the batch ``B``): the move
-    (:func:`move`, rows ``:P`` and ``V_new``), then bounds handling of swarm and mutants
-    (``bound_code``: see :func:`optplan.swarm.operators.bound_rows`; velocities of reflected
-    coordinates reversed, of clipped ones zeroed).  Returns the out-of-bounds mask (for
-    ``random`` mode, whose re-draws the caller makes) and whether any coordinate is out."""
-    P = X.shape[0]
-    move(X, V, pbest, guides, leader, w, c1, c2, U, vmax, psi, mode, start, goal, B[:P],
-         V_new)
+    ``m`` mutants and children to rows ``P .. P + 2m`` of the batch ``B``, ``out = (B,
+    V_new)``): the move of ``swarm = (X, V, pbest)`` (:func:`move`, rows ``:P`` and
+    ``V_new``), then bounds handling of swarm and mutants (``bounds = (lo, hi, bound_code)``,
+    see :func:`optplan.swarm.operators.bound_rows`; velocities of reflected coordinates
+    reversed, of clipped ones zeroed).  Returns the out-of-bounds mask (for ``random`` mode,
+    whose re-draws the caller makes) and whether any coordinate is out."""
+    B, V_new = out
+    lo, hi, bound_code = bounds
+    P = swarm[0].shape[0]
+    move(swarm, guides, leader, coef, U, vmax, motion, (B[:P], V_new))
     out, anyout = bound_rows(B[:P + m], lo, hi, bound_code)
     if anyout:
         for i in range(P):
@@ -225,10 +238,11 @@ def _worst_slots(F, isl, n_islands):
     return slots
 
 
-@compiled(FA2, F2, F1, F1, I1, FA2, i8, F2, I1, F2, F1, i8)
-def absorb(X, V, cost, length, count, B, m, cv, isl, pbest, pbest_f, n_islands):
-    """Memories after the evaluation of the batch ``B`` (swarm ``:P``, mutants, children),
-    in place: the best scored row and the shortest collision-free row (their positions are
+@compiled(_SWARM, F1, types.Tuple((F1, F1, I1)), FA2, i8, F2, I1, i8)
+def absorb(swarm, pbest_f, scores, B, m, cv, isl, n_islands):
+    """Memories of ``swarm = (X, V, pbest)`` (and ``pbest_f``) after the evaluation of the
+    batch ``B`` (swarm ``:P``, mutants, children; ``scores = (cost, length, count)`` per
+    row), in place: the best scored row and the shortest collision-free row (their positions are
     copied out *before* any slot changes), the personal bests of the moved swarm ``X``, then
     eq 29 (the better of mutant ``B[P + r]`` and child ``B[P + m + r]``) and the replacement of
     the worst particles of each child's island by the kept children.
@@ -236,6 +250,8 @@ def absorb(X, V, cost, length, count, B, m, cv, isl, pbest, pbest_f, n_islands):
     Returns ``(F, mutants kept, best row, its position, shortest feasible row or -1, its
     position)``.
     """
+    X, V, pbest = swarm
+    cost, length, count = scores
     P = X.shape[0]
     n = P + 2 * m
     j_best = np.argmin(cost[:n])
@@ -471,18 +487,19 @@ corridors
         # crossover, mutants, move, bounds (eqs 22-29 up to the evaluation)
         cv = ga_children(st.X, st.V, pairs, pc, noise, run.mut_sigma * psi, B[P:], frag, swap)
         out, anyout = advance(
-            st.X, st.V, st.pbest, guides, run.leader, w, self.c1, self.c2, U, run.vmax, psi,
-            run.position_code, space.start, space.goal, m, space.lo, space.hi,
-            BOUND_CODES[self.bounds_mode], B, V)
+            (st.X, st.V, st.pbest), guides, run.leader, (float(w), float(self.c1),
+                                                         float(self.c2)), U, run.vmax,
+            (float(psi), run.position_code, space.start, space.goal), m,
+            (space.lo, space.hi, BOUND_CODES[self.bounds_mode]), (B, V))
         if anyout and self.bounds_mode == "random":
             redraw_out(B[:P + m], out, space.lo, space.hi, rng)
         main = P + 2 * m
         ev = evaluate_paths(run.buffer.paths(it)[:main], space)  # one collision test
         st.n_eval += main
         # memories, eq 29, the children replace the worst particles
-        F, kept, jb, bx, jf, fx = absorb(B[:P], V, ev.cost, ev.length, ev.count, B, m, cv,
-                                         np.concatenate((isl, isl)), st.pbest, st.pbest_f,
-                                         run.n_islands)
+        F, kept, jb, bx, jf, fx = absorb((B[:P], V, st.pbest), st.pbest_f,
+                                         (ev.cost, ev.length, ev.count), B, m, cv,
+                                         np.concatenate((isl, isl)), run.n_islands)
         st.X, st.V, st.F = B[:P], V, F
         if ev.cost[jb] < st.gbest_f:
             st.gbest, st.gbest_f, st.gbest_count = bx, float(ev.cost[jb]), int(ev.count[jb])

@@ -27,6 +27,7 @@ Initialisation (option ``init_mode``)
 from __future__ import annotations
 
 import numpy as np
+from numba import types
 
 from optplan.geometry.compiled import F1, F2, FA2, I1, compiled, f8, i8
 from optplan.swarm.core import SwarmSpace
@@ -48,9 +49,10 @@ BOUNDS_MODES = ("reflect", "clip", "random")
 INIT_MODES = ("sorted", "uniform", "line", "roadmap")
 
 #: Compiled helpers (numba; cached on disk after the first run, see docs/solvers/pso.md).
-@compiled(F2, FA2, F2, F2, I1, f8, f8, f8, F2, F2, F1, F2)
-def velocity_update(V, X, pbest, guides, leader, w, c1, c2, eps, eta, vmax, out):
-    """Eq 1 (PSO) and eq 22 (IPSO) for the whole swarm, written into ``out`` (returned)::
+@compiled(F2, FA2, F2, F2, I1, types.UniTuple(f8, 3), F2, F2, F1, F2)
+def velocity_update(V, X, pbest, guides, leader, coef, eps, eta, vmax, out):
+    """Eq 1 (PSO) and eq 22 (IPSO) for the whole swarm, written into ``out`` (returned),
+    with the weights ``coef = (w, c1, c2)``::
 
         v_id <- w v_id + c1 eps_id (p_id - x_id) + c2 eta_id (g_d - x_id)      (1), (22)
 
@@ -59,6 +61,7 @@ def velocity_update(V, X, pbest, guides, leader, w, c1, c2, eps, eta, vmax, out)
     best.  ``eps``, ``eta`` ~ U(0, 1) per particle and coordinate are drawn by the caller from
     the run's generator.  ``out`` may be ``V``.
     """
+    w, c1, c2 = coef
     P, D = X.shape
     for i in range(P):
         g = leader[i]

@@ -41,7 +41,8 @@ def pso_step(state: SwarmState, w: float, c1: float, c2: float, vmax: np.ndarray
     eps = rng.random((P, D))
     eta = rng.random((P, D))
     V = velocity_update(state.V, state.X, state.pbest, state.gbest[None, :],
-                        np.zeros(P, np.int64), w, c1, c2, eps, eta, vmax, np.empty((P, D)))
+                        np.zeros(P, np.int64), (float(w), float(c1), float(c2)), eps, eta,
+                        vmax, np.empty((P, D)))
     return state.X + V, V  # eq 2
 
 

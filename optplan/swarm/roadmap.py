@@ -27,6 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numba import types
 
 from optplan.geometry.compiled import (
     B1,
@@ -85,14 +86,25 @@ def _has_class(shash, settled, v, h):
     return False
 
 
-@compiled(I1, I1, F1, I1, F1, i8, i8, i8, f8, I1, F1, I1, I1, I1, F1, F1, I1, I1, I2, I1, i8, i8)
-def _k_classes_run(indptr, nbr, weight, ehash, heur, dst, k_goal, k_node, slack, st, bnd,
-                   lab_node, lab_hash, lab_par, lab_g, hk, hv, settled, shash, goals, max_deg,
-                   budget):
-    """The loop of :func:`_k_classes`, resumable (its scalars ``st = [heap size, labels, goal
-    labels]``, ``bnd = [bound]`` updated in place).  Returns 0 when the search is over, 1 after
-    ``budget`` units of work (labels popped, edges scanned), 2 when the label arrays may not
-    hold one more expansion (``max_deg``: the largest degree; the caller grows them)."""
+#: ``graph`` of :func:`_k_classes`: ``indptr, nbr, weight, ehash`` (CSR)
+_GRAPH = types.Tuple((I1, I1, F1, I1))
+#: ``labels``: per label its node, signature hash, parent label and ``g``; the heap ``hk, hv``
+_LABELS = types.Tuple((I1, I1, I1, F1, F1, I1))
+
+
+@compiled(_GRAPH, F1, types.Tuple((i8, i8, i8, f8)), I1, F1, _LABELS, I1, I2, I1,
+          types.UniTuple(i8, 2))
+def _k_classes_run(graph, heur, query, st, bnd, labels, settled, shash, goals, limits):
+    """The loop of :func:`_k_classes` (``graph``, ``heur`` and ``query = (dst, k_goal, k_node,
+    slack)`` its arguments; ``labels = (lab_node, lab_hash, lab_par, lab_g, hk, hv)``),
+    resumable (its scalars ``st = [heap size, labels, goal labels]``, ``bnd = [bound]`` updated
+    in place).  Returns 0 when the search is over, 1 after ``budget`` units of work (labels
+    popped, edges scanned), 2 when the label arrays may not hold one more expansion
+    (``limits = (max_deg, budget)``, ``max_deg`` the largest degree; the caller grows them)."""
+    indptr, nbr, weight, ehash = graph
+    dst, k_goal, k_node, slack = query
+    lab_node, lab_hash, lab_par, lab_g, hk, hv = labels
+    max_deg, budget = limits
     size = st[0]
     n_lab = st[1]
     n_goal = st[2]
@@ -149,15 +161,16 @@ def _k_classes_run(indptr, nbr, weight, ehash, heur, dst, k_goal, k_node, slack,
     return code
 
 
-def _k_classes(indptr: np.ndarray, nbr: np.ndarray, weight: np.ndarray, ehash: np.ndarray,
+def _k_classes(graph: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
                heur: np.ndarray, src: int, dst: int, k_goal: int, k_node: int, slack: float,
                stop: Callable[[], bool] | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Label-setting search for the ``k_goal`` shortest ``src -> dst`` walks of distinct
-    homotopy signatures (each node settles at most ``k_node`` signatures, shortest first),
-    A*-ordered by ``g + heur[node]`` (``heur``: a consistent lower bound of the distance to
-    ``dst``, e.g. the exact roadmap distance, so each node still settles its labels shortest
-    first; ``inf`` marks nodes that do not reach ``dst``).  The search stops at the
+    """Label-setting search, over ``graph = (indptr, nbr, weight, ehash)`` (CSR: per directed
+    edge its target, length and signature hash), for the ``k_goal`` shortest ``src -> dst``
+    walks of distinct homotopy signatures (each node settles at most ``k_node`` signatures,
+    shortest first), A*-ordered by ``g + heur[node]`` (``heur``: a consistent lower bound of
+    the distance to ``dst``, e.g. the exact roadmap distance, so each node still settles its
+    labels shortest first; ``inf`` marks nodes that do not reach ``dst``).  The search stops at the
     first label longer than ``slack`` x the first walk found (the walks it could still find
     are at least that long).
 
@@ -168,6 +181,7 @@ def _k_classes(indptr: np.ndarray, nbr: np.ndarray, weight: np.ndarray, ehash: n
 
     Returns the goal labels (shortest first), each label's node and parent label.
     """
+    indptr, nbr = graph[0], graph[1]
     n = indptr.shape[0] - 1
     full = k_node * nbr.shape[0] + 1  # every settled label pushes one label per edge
     max_deg = int(np.diff(indptr).max()) if n else 0
@@ -187,9 +201,9 @@ def _k_classes(indptr: np.ndarray, nbr: np.ndarray, weight: np.ndarray, ehash: n
     bnd = np.array([np.inf])
     budget = PAIRS_PER_POLL << 4 if stop is not None else 1 << 62
     while True:
-        code = _k_classes_run(indptr, nbr, weight, ehash, heur, dst, k_goal, k_node, slack, st,
-                              bnd, lab_node, lab_hash, lab_par, lab_g, hk, hv, settled, shash,
-                              goals, max_deg, budget)
+        code = _k_classes_run(graph, heur, (dst, k_goal, k_node, slack), st, bnd,
+                              (lab_node, lab_hash, lab_par, lab_g, hk, hv), settled, shash,
+                              goals, (max_deg, budget))
         if code == 0:
             break
         if code == 2:
@@ -587,9 +601,10 @@ def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,
         heur = g.to_goal()
         if not np.isfinite(heur[0]):  # start and goal are not connected
             return []
-        goals, lab_node, lab_par = _k_classes(g.indptr, g.target, g.weight, g.ehash, heur, 0,
-                                              1, int(n_paths), int(min(n_paths, node_classes)),
-                                              float(slack), space.poll)
+        goals, lab_node, lab_par = _k_classes((g.indptr, g.target, g.weight, g.ehash), heur,
+                                              0, 1, int(n_paths),
+                                              int(min(n_paths, node_classes)), float(slack),
+                                              space.poll)
     except RoadmapStopped:  # the deadline: no corridor (the run stops at its next poll)
         return []
     walks = [g.walk(int(lab), lab_node, lab_par) for lab in goals]

@@ -395,3 +395,44 @@ def test_casts_stay_within_budget() -> None:
                   if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)
                   and n.func.id == "cast"]
     assert len(found) <= MAX_CASTS, f"{len(found)} casts (budget {MAX_CASTS}): {found}"
+
+
+#: functions still over the parameter budget (issue 43 item 4), as ``module path:function``;
+#: the list may only shrink (a new entry needs a design review, not an edit here).  Each is
+#: a public Python API whose keywords are documented: to group in a frozen options
+#: dataclass with its docs and callers.
+PARAMETER_BUDGET_EXCEPTIONS = frozenset({
+    "optplan/maps/importer.py:import_map",  # 28 keywords (docs/maps.md, cli/map_import)
+    "optplan/exact/nlp_solve.py:solve_waypoint_nlp",  # 14
+    "optplan/sim.py:simulate",  # 12
+    "optplan/formation/safety.py:recovery",  # 12
+    "optplan/bench/grid.py:run_grid",  # 12
+    "optplan/backend.py:finish",  # 12
+    "optplan/maps/scen.py:read_scen",  # 11
+})
+#: the most parameters a function may take (``self`` / ``cls`` not counted); compiled
+#: kernels take their arrays grouped in tuples (documented once in their module docstring)
+MAX_PARAMETERS = 10
+
+
+def test_no_function_takes_more_than_ten_parameters() -> None:
+    """Every function and method of the package (nested ones too) takes at most
+    :data:`MAX_PARAMETERS` parameters, ``*args`` and ``**kwargs`` each counting one."""
+    over, seen = [], set()
+    for p in sorted(ROOT.rglob("*.py")):
+        rel = p.relative_to(ROOT.parent).as_posix()
+        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))):
+            if not isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                continue
+            a = node.args
+            names = [x.arg for x in a.posonlyargs + a.args + a.kwonlyargs]
+            n = len(names) + (a.vararg is not None) + (a.kwarg is not None)
+            n -= bool(names) and names[0] in ("self", "cls")
+            key = f"{rel}:{node.name}"
+            if n > MAX_PARAMETERS:
+                seen.add(key)
+                if key not in PARAMETER_BUDGET_EXCEPTIONS:
+                    over.append(f"{rel}:{node.lineno}:{node.name} ({n})")
+    assert not over, "over the parameter budget: " + ", ".join(over)
+    stale = sorted(PARAMETER_BUDGET_EXCEPTIONS - seen)
+    assert not stale, f"within the budget now, remove from the exceptions: {stale}"

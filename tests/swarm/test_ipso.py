@@ -284,16 +284,16 @@ def test_paper_position_update_pulls_toward_the_origin():
     lead = np.zeros(30, np.int64)
     Xn, Vn = np.empty_like(X0), np.empty_like(X0)
     # almost no velocity (v_max ~ 0): the pure pull of eq 24
-    ip.move(X0, V0, X0, X0[:1], lead, 0.5, 1.5, 1.5, U, np.full(4, 1e-9), 1.0, 0,
-            space.start, space.goal, Xn, Vn)
+    ip.move((X0, V0, X0), X0[:1], lead, (0.5, 1.5, 1.5), U, np.full(4, 1e-9),
+            (1.0, 0, space.start, space.goal), (Xn, Vn))
     assert np.linalg.norm(Xn, axis=1).mean() < 0.6 * np.linalg.norm(X0, axis=1).mean()
     np.testing.assert_allclose(Xn, U[2] * X0, atol=1e-8)
     # on the step (mode 1): x + psi R v; in the start-goal frame (mode 2): lateral pull only
-    ip.move(X0, V0, X0, X0[:1], lead, 0.5, 1.5, 1.5, U, np.full(4, 1e-9), 1.0, 1,
-            space.start, space.goal, Xn, Vn)
+    ip.move((X0, V0, X0), X0[:1], lead, (0.5, 1.5, 1.5), U, np.full(4, 1e-9),
+            (1.0, 1, space.start, space.goal), (Xn, Vn))
     np.testing.assert_allclose(Xn, X0, atol=1e-8)
-    ip.move(X0, V0, X0, X0[:1], lead, 0.5, 1.5, 1.5, U, np.full(4, 1e-9), 1.0, 2,
-            space.start, space.goal, Xn, Vn)
+    ip.move((X0, V0, X0), X0[:1], lead, (0.5, 1.5, 1.5), U, np.full(4, 1e-9),
+            (1.0, 2, space.start, space.goal), (Xn, Vn))
     # the corridor's start-goal line is y = 50: x is kept, the offset from 50 is scaled
     np.testing.assert_allclose(Xn[:, 0::2], X0[:, 0::2], atol=1e-8)
     np.testing.assert_allclose(Xn[:, 1::2] - 50.0, U[2][:, 1::2] * (X0[:, 1::2] - 50.0),
@@ -307,7 +307,8 @@ def test_velocity_update_is_eq_1_with_a_guide_per_particle():
     lead = np.array([0, 0, 1, 1])
     eps, eta = rng.random((4, 6)), rng.random((4, 6))
     vmax = np.full(6, 0.3)
-    out = ops.velocity_update(V, X, Pb, G, lead, 0.7, 1.5, 2.0, eps, eta, vmax, np.empty((4, 6)))
+    out = ops.velocity_update(V, X, Pb, G, lead, (0.7, 1.5, 2.0), eps, eta, vmax,
+                              np.empty((4, 6)))
     ref = 0.7 * V + 1.5 * eps * (Pb - X) + 2.0 * eta * (G[lead] - X)
     np.testing.assert_array_equal(out, np.clip(ref, -vmax, vmax))
 
@@ -385,8 +386,9 @@ def test_compiled_step_follows_eqs_22_to_29():
     B = np.zeros((P + 2 * 2 * h, D))
     Vn = np.empty_like(V)
     cv = ga.ga_children(X, V, pairs, pc, noise, sigma, B[P:], frag, False)
-    out, anyout = ip.advance(X, V, pbest, gbest[None], np.zeros(P, np.int64), w, c1, c2, U,
-                             vmax, psi, 0, np.zeros(2), np.ones(2), 2 * h, lo, hi, 1, B, Vn)
+    out, anyout = ip.advance((X, V, pbest), gbest[None], np.zeros(P, np.int64), (w, c1, c2),
+                             U, vmax, (psi, 0, np.zeros(2), np.ones(2)), 2 * h, (lo, hi, 1),
+                             (B, Vn))
     # eqs 25-28
     a, b = X[pairs[:, 0]], X[pairs[:, 1]]
     p = pc[:, None]
@@ -411,8 +413,8 @@ def test_compiled_step_follows_eqs_22_to_29():
     count = np.zeros(P + 4 * h, np.int64)
     pb, pbf = pbest.copy(), F + 0.5
     Xs, Vs = B[:P].copy(), Vn.copy()
-    F2, kept, jb, bx, jf, fx = ip.absorb(Xs, Vs, cost, cost, count, B, 2 * h, cv,
-                                         np.zeros(2 * h, np.int64), pb, pbf, 1)
+    F2, kept, jb, bx, jf, fx = ip.absorb((Xs, Vs, pb), pbf, (cost, cost, count), B, 2 * h, cv,
+                                         np.zeros(2 * h, np.int64), 1)
     m = 2 * h
     use = cost[P:P + m] < cost[P + m:P + 2 * m]
     assert kept == use.sum() and jb == np.argmin(cost) and jf == np.argmin(cost)

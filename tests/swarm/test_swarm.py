@@ -491,7 +491,7 @@ def test_k_classes_label_search_on_a_hand_graph():
     w = np.hypot(*(nodes[src] - nodes[dst]).T)[order]
     h = np.concatenate([eh, -eh])[order]
     heur = np.hypot(*(nodes - nodes[1]).T)
-    goals, lab_node, lab_par = rm._k_classes(indptr, dst[order], w, h, heur, 0, 1, 3, 3, np.inf)
+    goals, lab_node, lab_par = rm._k_classes((indptr, dst[order], w, h), heur, 0, 1, 3, 3, np.inf)
     walks = []
     for g in goals:
         seq, lab = [], int(g)
@@ -501,7 +501,7 @@ def test_k_classes_label_search_on_a_hand_graph():
         walks.append(seq[::-1])
     assert walks[:2] == [[0, 2, 1], [0, 3, 1]]  # shortest first, both classes
     # the slack bound drops the longer class
-    goals, *_ = rm._k_classes(indptr, dst[order], w, h, heur, 0, 1, 3, 3, 1.1)
+    goals, *_ = rm._k_classes((indptr, dst[order], w, h), heur, 0, 1, 3, 3, 1.1)
     assert len(goals) == 1
 
 

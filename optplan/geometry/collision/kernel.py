@@ -17,6 +17,21 @@ Data layout (local frame, built by :func:`optplan.geometry.collision.obstacles.o
 * circles ``k >= K``: centre and radius ``CR[k - K]``;
 * every item: bounding circle ``(IC[k], IR[k])``, owning obstacle ``OWN[k]``;
 * optional uniform grid: cell size ``h``, origin, shape, CSR item lists.
+
+Grouped arguments (no compiled function takes more than 10 parameters; these tuples are
+passed whole, unpacked where they are read, and typed once below):
+
+* ``items``, :data:`ITEMS`: ``(K, P, E, N, C, CE, B, IC, IR, CR, OWN)``, the obstacle set's
+  items, exactly :attr:`optplan.geometry.collision.obstacles.ObstacleSet.arrays` (``K`` the
+  number of pieces, ``B`` the boundary flags, ``IR`` the bounding radii);
+* ``grid``, :data:`GRID`: ``(use_grid, h, x0, y0, nx, ny, start, count, items)``, the uniform
+  grid (``ObstacleSet._grid_args()``; a dummy one-cell grid with ``use_grid`` False);
+* ``work``, :data:`WORK`: the scratch arrays of a segment scan, ``(BB, mask, stamp, cand,
+  touched, o_stamp, o_close, o_in, o_pen)``: the items' grown boxes (:func:`_item_boxes`),
+  the box mask, the per-item stamp and candidate list (one entry per item), and per
+  obstacle the touched list, stamp, closeness flag, summed ``inside`` and penetration (made
+  uninitialised by the ``@compiled`` wrapper of each ``@leaf`` loop);
+* ``seg``: a segment ``(ax, ay, dx, dy)``, start and vector (the ``@inlined`` helpers).
 """
 
 from __future__ import annotations
@@ -24,16 +39,34 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import types
 
-from optplan.geometry.compiled import B1, F1, F2, F3, I1, I2, b1, compiled, f8, i8, inlined, leaf
+from optplan.geometry.compiled import (
+    B1,
+    B2,
+    F1,
+    F2,
+    F3,
+    I1,
+    I2,
+    b1,
+    compiled,
+    f8,
+    i8,
+    inlined,
+    leaf,
+)
 
 __all__ = ["pair", "crossings", "clearance"]
 
-#: argument types of the data layout (module docstring): pieces ``P, E, N`` and offsets
-#: ``C, CE``; circles ``IC, CR``; a segment ``ax, ay, dx, dy``
+#: a segment ``ax, ay, dx, dy`` (scalar arguments of the ``@leaf`` screens)
 _SEG = (f8, f8, f8, f8)
-_ITEMS = (F3, F3, F3, F2, F2, F2, F1)  # P, E, N, C, CE, IC, CR
-_GRID = (b1, f8, f8, f8, i8, i8, I1, I1, I1)  # use_grid, h, x0, y0, nx, ny, start, count, items
+#: ``items``: ``K, P, E, N, C, CE, B, IC, IR, CR, OWN`` (module docstring)
+ITEMS = types.Tuple((i8, F3, F3, F3, F2, F2, B2, F2, F1, F1, I1))
+#: ``grid``: ``use_grid, h, x0, y0, nx, ny, start, count, items`` (module docstring)
+GRID = types.Tuple((b1, f8, f8, f8, i8, i8, I1, I1, I1))
+#: ``work``: ``BB, mask, stamp, cand, touched, o_stamp, o_close, o_in, o_pen`` (module docstring)
+WORK = types.Tuple((F2, B1, I1, I1, I1, I1, B1, F1, F1))
 
 
 @leaf(f8)
@@ -145,9 +178,11 @@ def _piece_distance(ax, ay, dx, dy, k, P, E):
     return math.sqrt(d2)
 
 
-@leaf(*_SEG, i8, i8, *_ITEMS, f8)
-def pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps):
-    """Exact ``(dist, inside)`` of segment ``A -> A + D`` and item ``k`` (module docstring)."""
+@leaf(*_SEG, i8, ITEMS, f8)
+def pair(ax, ay, dx, dy, k, items, eps):
+    """Exact ``(dist, inside)`` of segment ``A -> A + D`` and item ``k`` of ``items`` (module
+    docstring)."""
+    K, P, E, N, C, CE, _, IC, _, CR, _ = items
     dl = math.sqrt(dx * dx + dy * dy)
     if k >= K:  # circle
         return _pair_circle(ax, ay, dx, dy, dl, k, K, IC, CR, eps)
@@ -226,15 +261,22 @@ def _box_mask(ax, ay, dx, dy, BB, mask):
         mask[k] = (BB[0, k] <= hx) & (BB[1, k] >= lx) & (BB[2, k] <= hy) & (BB[3, k] >= ly)
 
 
-@leaf(*_SEG, i8, F2, F1, F2, B1, f8, *_GRID, I1, i8, I1)
-def _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx0, gy0, gnx,
-                gny, gstart, gcount, gitems, stamp, sid, out):
-    """Items whose bounding circle is within ``lim`` of the segment, written to ``out``
-    (de-duplicated with ``stamp``; with a grid every listed item is stamped ``sid``); returns
-    their number.  Without a grid, the items' boxes grown by ``lim`` (``BB``,
+@leaf(*_SEG, ITEMS, GRID, f8, WORK, i8)
+def _candidates(ax, ay, dx, dy, items, grid, lim, work, sid):
+    """Items whose bounding circle is within ``lim`` of the segment, written to ``cand`` of
+    ``work`` (de-duplicated with its ``stamp``; with a grid every listed item is stamped
+    ``sid``); returns their number.  Without a grid, the items' boxes grown by ``lim`` (``BB``,
     :func:`_item_boxes`) are first compared with the segment's box in one branch-free pass
     (into ``mask``): an item outside it is farther than ``lim`` from the segment, so neither
     a collision nor a penetration is lost."""
+    IC = items[7]
+    IR = items[8]
+    n_items = IC.shape[0]
+    use_grid, gh, gx0, gy0, gnx, gny, gstart, gcount, gitems = grid
+    BB = work[0]
+    mask = work[1]
+    stamp = work[2]
+    out = work[3]
     m = 0
     if not use_grid:
         _box_mask(ax, ay, dx, dy, BB, mask)
@@ -283,17 +325,23 @@ def _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx
 
 
 @inlined  # one call site (crossings)
-def _segment_items(ax, ay, dx, dy, s, cand, m, K, P, E, N, C, CE, IC, CR, OWN, r, eps, lim,
-                   want_pen, o_stamp, o_close, o_in, o_pen, touched):
-    """One segment of :func:`crossings` against its ``m`` candidate items: per obstacle met
-    (listed in ``touched``, stamped ``s``) whether an item is closer than ``r - eps``, the
-    summed ``inside`` and the penetration; returns the number of obstacles met."""
+def _segment_items(seg, s, m, items, r, eps, lim, want_pen, work):
+    """One segment ``seg`` of :func:`crossings` against its ``m`` candidate items (``cand`` of
+    ``work``): per obstacle met (listed in ``touched``, stamped ``s``) whether an item is
+    closer than ``r - eps``, the summed ``inside`` and the penetration; returns the number of
+    obstacles met."""
+    ax, ay, dx, dy = seg
+    K = items[0]
+    N = items[3]
+    C = items[4]
+    OWN = items[10]
+    _, _, _, cand, touched, o_stamp, o_close, o_in, o_pen = work
     nt = 0
     for q in range(m):
         k = cand[q]
         if k < K and _apart(ax, ay, dx, dy, k, N, C, lim):
             continue
-        dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
+        dist, inside = pair(ax, ay, dx, dy, k, items, eps)
         o = OWN[k]
         if o_stamp[o] != s:
             o_stamp[o] = s
@@ -313,17 +361,17 @@ def _segment_items(ax, ay, dx, dy, s, cand, m, K, P, E, N, C, CE, IC, CR, OWN, r
     return nt
 
 
-@compiled(F2, F2, i8, i8, F3, F3, F3, F2, F2, F2, F1, F1, I1, i8, f8, f8, b1, *_GRID,
-          I2)
-def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_pen,
-              use_grid, gh, gx0, gy0, gnx, gny, gstart, gcount, gitems, hits):
+@compiled(F2, F2, i8, ITEMS, i8, GRID, f8, f8, b1, I2)
+def crossings(A, D, S, items, n_obs, grid, r, eps, want_pen, hits):
     """Collision count (and penetration) per path for segments ``A[s] -> A[s] + D[s]``, ``S``
-    segments per path; colliding (segment, obstacle) pairs into ``hits`` (rows ``(s, o)``).
+    segments per path, against ``items`` (``n_obs`` obstacles, ``grid``: module docstring);
+    colliding (segment, obstacle) pairs into ``hits`` (rows ``(s, o)``).
 
     Returns ``(count per path, penetration per path, number of hits)``; when the number of
     hits exceeds ``len(hits)`` only the first ones are stored (the caller retries larger).
     The scratch arrays are made here, the loop is :func:`_crossings_loop` (a ``@leaf``).
     """
+    K, P, _, _, _, _, _, IC, _, CR, _ = items
     P_n = A.shape[0] // S if S > 0 else 0
     # np.empty, not np.zeros / np.full: each allocation routine is one more compilation;
     # the loop initialises what it reads
@@ -331,23 +379,28 @@ def crossings(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, want_p
     pen = np.empty(P_n)
     n_items = IC.shape[0]
     lim = r + 2.0 * eps
-    BB = _item_boxes(K, P, IC, CR, lim)
-    n_hits = _crossings_loop(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, want_pen,
-                             use_grid, gh, gx0, gy0, gnx, gny, gstart, gcount, gitems, hits,
-                             count, pen, lim, BB, np.empty(n_items, np.bool_),
-                             np.empty(n_items, np.int64), np.empty(n_items, np.int64),
-                             np.empty(n_items, np.int64), np.empty(n_obs, np.int64),
-                             np.empty(n_obs, np.bool_), np.empty(n_obs), np.empty(n_obs))
+    mask, stamp, cand, touched, o_stamp, o_close, o_in, o_pen = (
+        np.empty(n_items, np.bool_), np.empty(n_items, np.int64), np.empty(n_items, np.int64),
+        np.empty(n_items, np.int64), np.empty(n_obs, np.int64), np.empty(n_obs, np.bool_),
+        np.empty(n_obs), np.empty(n_obs))
+    work = (_item_boxes(K, P, IC, CR, lim), mask, stamp, cand, touched, o_stamp, o_close,
+            o_in, o_pen)
+    n_hits = _crossings_loop(A, D, S, items, grid, r, eps, want_pen, (count, pen, hits), work)
     return count, pen, n_hits
 
 
-@leaf(F2, F2, i8, i8, F3, F3, F3, F2, F2, F2, F1, F1, I1, f8, f8, b1, *_GRID, I2, I1, F1,
-      f8, F2, B1, I1, I1, I1, I1, B1, F1, F1)
-def _crossings_loop(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, want_pen, use_grid,
-                    gh, gx0, gy0, gnx, gny, gstart, gcount, gitems, hits, count, pen, lim, BB,
-                    mask, stamp, cand, touched, o_stamp, o_close, o_in, o_pen):
-    """The loop of :func:`crossings` over its scratch arrays (uninitialised: set here);
-    returns the number of hits."""
+@leaf(F2, F2, i8, ITEMS, GRID, f8, f8, b1, types.Tuple((I1, F1, I2)), WORK)
+def _crossings_loop(A, D, S, items, grid, r, eps, want_pen, out, work):
+    """The loop of :func:`crossings` over its ``work`` arrays (uninitialised: set here) into
+    ``out = (count, pen, hits)``; returns the number of hits."""
+    count, pen, hits = out
+    stamp = work[2]
+    touched = work[4]
+    o_stamp = work[5]
+    o_close = work[6]
+    o_in = work[7]
+    o_pen = work[8]
+    lim = r + 2.0 * eps
     n_seg = A.shape[0]
     for p in range(count.shape[0]):
         count[p] = 0
@@ -356,17 +409,14 @@ def _crossings_loop(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, want_pe
         stamp[k] = -1
     for o in range(o_stamp.shape[0]):  # o_close, o_in, o_pen: set when o is first met
         o_stamp[o] = -1
-    n_items = IC.shape[0]
     n_hits = 0
     for s in range(n_seg):
         ax = A[s, 0]
         ay = A[s, 1]
         dx = D[s, 0]
         dy = D[s, 1]
-        m = _candidates(ax, ay, dx, dy, n_items, IC, IR, BB, mask, lim, use_grid, gh, gx0,
-                        gy0, gnx, gny, gstart, gcount, gitems, stamp, s, cand)
-        nt = _segment_items(ax, ay, dx, dy, s, cand, m, K, P, E, N, C, CE, IC, CR, OWN, r,
-                            eps, lim, want_pen, o_stamp, o_close, o_in, o_pen, touched)
+        m = _candidates(ax, ay, dx, dy, items, grid, lim, work, s)
+        nt = _segment_items((ax, ay, dx, dy), s, m, items, r, eps, lim, want_pen, work)
         path = s // S
         for q in range(nt):
             o = touched[q]
@@ -380,20 +430,21 @@ def _crossings_loop(A, D, S, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, want_pe
     return n_hits
 
 
-@compiled(F2, F2, i8, F3, F3, F3, F2, F2, F2, F1, F1, f8, f8)
-def clearance(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist):
+@compiled(F2, F2, ITEMS, f8, f8)
+def clearance(A, D, items, eps, max_dist):
     """Per segment the exact minimum of ``dist - inside / 2`` over all items (``inf`` with no
     item within ``max_dist``); bounding circles prune items that cannot beat the best bound
     (the loop is :func:`_clearance_loop`, a ``@leaf``)."""
     out = np.empty(A.shape[0])  # every entry is set by the loop
-    _clearance_loop(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist, out,
-                    np.empty(IC.shape[0]))
+    _clearance_loop(A, D, items, eps, max_dist, out, np.empty(items[7].shape[0]))
     return out
 
 
-@leaf(F2, F2, i8, F3, F3, F3, F2, F2, F2, F1, F1, f8, f8, F1, F1)
-def _clearance_loop(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist, out, cd):
+@leaf(F2, F2, ITEMS, f8, f8, F1, F1)
+def _clearance_loop(A, D, items, eps, max_dist, out, cd):
     """The loop of :func:`clearance` (``cd``: scratch, one distance per item)."""
+    IC = items[7]
+    IR = items[8]
     n_items = IC.shape[0]
     for s in range(A.shape[0]):
         ax = A[s, 0]
@@ -418,7 +469,7 @@ def _clearance_loop(A, D, K, P, E, N, C, CE, IC, IR, CR, eps, max_dist, out, cd)
             lb = cd[k] - IR[k]
             if lb > ub or lb > max_dist or lb > best:
                 continue
-            dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
+            dist, inside = pair(ax, ay, dx, dy, k, items, eps)
             v = dist - 0.5 * inside
             if v < best:
                 best = v

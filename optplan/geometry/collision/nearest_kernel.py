@@ -12,8 +12,8 @@ import math
 
 import numpy as np
 
-from optplan.geometry.collision.kernel import _clamp01
-from optplan.geometry.compiled import B2, F1, F2, F3, I1, compiled, f8, i8, inlined
+from optplan.geometry.collision.kernel import ITEMS, _clamp01
+from optplan.geometry.compiled import F2, compiled, f8, i8, inlined
 
 __all__ = ["nearest"]
 
@@ -87,10 +87,12 @@ def _finish_nearest(near, dist, inside, max_range):
                 near[i, o, 1] = np.nan
 
 
-@compiled(F2, i8, F3, F3, F3, F2, B2, F2, F1, F1, I1, i8, f8)
-def nearest(Q, K, P, E, N, C, B, IC, IR, CR, OWN, n_obs, max_range):
-    """Nearest boundary point and exact distance (0 inside) per (point, obstacle); obstacles
-    whose bounding circles are all farther than ``max_range`` are skipped (inf, nan)."""
+@compiled(F2, ITEMS, i8, f8)
+def nearest(Q, items, n_obs, max_range):
+    """Nearest boundary point and exact distance (0 inside) per (point, obstacle) of
+    ``items`` (:mod:`optplan.geometry.collision.kernel`); obstacles whose bounding circles are
+    all farther than ``max_range`` are skipped (inf, nan)."""
+    K, P, E, N, C, _, B, IC, IR, CR, OWN = items
     R = Q.shape[0]
     near = np.empty((R, n_obs, 2))  # np.empty and a loop: no np.full / np.zeros to compile
     dist = np.empty((R, n_obs))

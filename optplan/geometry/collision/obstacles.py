@@ -287,7 +287,8 @@ class ObstacleSet:
 
     @property
     def arrays(self) -> tuple:
-        """Real arrays of the compiled kernel ``(K, P, E, N, C, CE, B, IC, IR, CR, OWN)``."""
+        """Real arrays of the compiled kernel ``(K, P, E, N, C, CE, B, IC, IR, CR, OWN)``: its
+        ``items`` argument, one tuple (:mod:`optplan.geometry.collision.kernel`)."""
         if "arrays" not in self._cache:
             t = self.table
             K = self.n_pieces
@@ -320,14 +321,13 @@ class ObstacleSet:
 
         ``a``, ``d``: local complex segment starts and vectors.  See the module docstring.
         """
-        K, P, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
         A = np.ascontiguousarray(np.stack([np.real(a), np.imag(a)], axis=1), dtype=float)
         D = np.ascontiguousarray(np.stack([np.real(d), np.imag(d)], axis=1), dtype=float)
         from optplan.geometry.collision import pairs_kernel  # compiled on first use (its docstring)
 
         return pairs_kernel.pairs(np.ascontiguousarray(si, np.int64),
-                                  np.ascontiguousarray(it, np.int64), A, D, K, P, E, N, C, CE,
-                                  IC, CR, self.eps)
+                                  np.ascontiguousarray(it, np.int64), A, D, self.arrays,
+                                  self.eps)
 
     def _segments(self, paths) -> tuple[np.ndarray, np.ndarray, int, int]:
         """Local segment starts and vectors ``(n, 2)`` of a batch of polylines."""
@@ -360,13 +360,12 @@ class ObstacleSet:
             return DiscCrossings(np.zeros(P, np.int64), np.zeros(P),
                                  np.zeros((P, max(S, 0)), np.int64) if details else None,
                                  (np.zeros(0, np.int64),) * 3 if details else None)
-        K, Pt, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
         cap = 4 * len(A) + 16 if details else 0
         while True:
             hits = np.empty((cap, 2), np.int64)
             count, pen, n_hits = kernel.crossings(
-                A, D, S, K, Pt, E, N, C, CE, IC, IR, CR, OWN, self.n_obstacles,
-                self.radius, self.eps, bool(penetration), *self._grid_args(), hits)
+                A, D, S, self.arrays, self.n_obstacles, self._grid_args(), self.radius,
+                self.eps, bool(penetration), hits)
             if not details or n_hits <= cap:
                 break
             cap = int(n_hits)
@@ -401,13 +400,11 @@ class ObstacleSet:
             return np.zeros(0, dtype=bool)
         if self.n_items == 0:
             return np.ones(len(i), dtype=bool)
-        K, P, E, N, C, CE, _, IC, IR, CR, OWN = self.arrays
         L = np.ascontiguousarray(self.frame.local(points))
         from optplan.geometry.collision import pairs_kernel  # compiled on first use (its docstring)
 
-        return pairs_kernel.free_pairs(L, i, j, K, P, E, N, C, CE, IC, IR, CR, OWN,
-                                       self.n_obstacles, self.radius, self.eps,
-                                       *self._grid_args())
+        return pairs_kernel.free_pairs(L, i, j, self.arrays, self.n_obstacles,
+                                       self._grid_args(), self.radius, self.eps)
 
     def clearance(self, paths, max_dist: float = math.inf) -> np.ndarray:
         """Per path, the exact minimum distance to any obstacle minus the radius ``r``.
@@ -420,9 +417,7 @@ class ObstacleSet:
         out = np.full(P, math.inf)
         if self.n_items == 0 or S <= 0:
             return out
-        K, Pt, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
-        best = kernel.clearance(A, D, K, Pt, E, N, C, CE, IC, IR, CR, self.eps,
-                                float(max_dist))
+        best = kernel.clearance(A, D, self.arrays, self.eps, float(max_dist))
         return best.reshape(P, S).min(axis=1) - self.radius
 
     def point_distances(self, points) -> np.ndarray:
@@ -463,13 +458,12 @@ class ObstacleSet:
         R, n = len(pts), self.n_obstacles
         if self.n_items == 0 or R == 0:
             return np.full((R, n, 2), np.nan), np.full((R, n), math.inf)
-        K, Pt, E, N, C, CE, B, IC, IR, CR, OWN = self.arrays
         from optplan.geometry.collision import (
             nearest_kernel,  # compiled on first use (its docstring)
         )
 
-        near, dist = nearest_kernel.nearest(np.ascontiguousarray(self.frame.local(pts)), K, Pt,
-                                            E, N, C, B, IC, IR, CR, OWN, n, float(max_range))
+        near, dist = nearest_kernel.nearest(np.ascontiguousarray(self.frame.local(pts)),
+                                            self.arrays, n, float(max_range))
         m = n - 1 if self.walled else n  # the wall alone is not an obstacle of the map
         return near[:, :m] + self.frame.origin, dist[:, :m]
 

@@ -14,37 +14,44 @@ from __future__ import annotations
 import numpy as np
 
 from optplan.geometry.collision.kernel import (
-    _GRID,
-    _ITEMS,
+    GRID,
+    ITEMS,
+    WORK,
     _apart,
     _candidates,
     _item_boxes,
     _near_item,
     pair,
 )
-from optplan.geometry.compiled import B1, F1, F2, F3, I1, compiled, f8, i8, inlined, leaf
+from optplan.geometry.compiled import B1, F1, F2, I1, compiled, f8, i8, inlined, leaf
 
 __all__ = ["free_pairs", "pairs"]
 
 
 @inlined  # one call site (_first_blocker)
-def _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim):
-    """Item ``k`` may be within ``lim`` of the segment: its grown box meets the segment's box
-    ``(x0, x1, y0, y1)``, its bounding circle is near, no edge line separates them."""
+def _passes_screens(seg, box, k, bb, items, lim):
+    """Item ``k`` may be within ``lim`` of the segment ``seg``: its grown box meets the
+    segment's box ``(x0, x1, y0, y1)``, its bounding circle is near, no edge line separates
+    them."""
+    ax, ay, dx, dy = seg
+    x0, x1, y0, y1 = box
     if bb[0, k] > x1 or bb[1, k] < x0 or bb[2, k] > y1 or bb[3, k] < y0:
         return False
-    if not _near_item(ax, ay, dx, dy, k, IC, IR, lim):
+    if not _near_item(ax, ay, dx, dy, k, items[7], items[8], lim):
         return False
-    return not (k < K and _apart(ax, ay, dx, dy, k, N, C, lim))
+    return not (k < items[0] and _apart(ax, ay, dx, dy, k, items[3], items[4], lim))
 
 
 @inlined  # one call site (_free_pairs_loop)
-def _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K, P, E, N, C,
-                   CE, IC, IR, CR, OWN, r, eps, lim, o_stamp, o_in, touched):
-    """One segment of :func:`free_pairs` (its box ``(x0, x1, y0, y1)``): the first item closer
-    than ``r - eps`` (the item ``last`` tried first), ``-2`` when only an obstacle's summed
-    ``inside`` exceeds ``eps``, ``-1`` when the segment is free."""
-    x0, x1, y0, y1 = box
+def _first_blocker(seg, box, q, last, m, use_grid, items, r, eps, work):
+    """One segment ``seg`` of :func:`free_pairs` (its box ``(x0, x1, y0, y1)``): the first
+    item closer than ``r - eps`` (the item ``last`` tried first), ``-2`` when only an
+    obstacle's summed ``inside`` exceeds ``eps``, ``-1`` when the segment is free (``work``:
+    the scratch arrays, :mod:`optplan.geometry.collision.kernel`)."""
+    ax, ay, dx, dy = seg
+    OWN = items[10]
+    bb, _, stamp, cand, touched, o_stamp, _, o_in, _ = work
+    lim = r + 2.0 * eps
     nt = 0
     for c in range(-1, m):
         if c < 0:  # the last colliding item first (with a grid: if the segment lists it)
@@ -55,9 +62,9 @@ def _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K
             k = cand[c]
             if k == last:
                 continue
-        if not _passes_screens(ax, ay, dx, dy, x0, x1, y0, y1, k, bb, K, N, C, IC, IR, lim):
+        if not _passes_screens(seg, box, k, bb, items, lim):
             continue
-        dist, inside = pair(ax, ay, dx, dy, k, K, P, E, N, C, CE, IC, CR, eps)
+        dist, inside = pair(ax, ay, dx, dy, k, items, eps)
         if dist < r - eps:
             return k
         o = OWN[k]
@@ -73,10 +80,10 @@ def _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K
     return -1
 
 
-@compiled(F2, I1, I1, i8, F3, F3, F3, F2, F2, F2, F1, F1, I1, i8, f8, f8, *_GRID)
-def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_grid, gh, gx0,
-               gy0, gnx, gny, gstart, gcount, gitems):
-    """Collision-free flags of the segments ``L[I[q]] -> L[J[q]]`` (local points): the
+@compiled(F2, I1, I1, ITEMS, i8, GRID, f8, f8)
+def free_pairs(L, I, J, items, n_obs, grid, r, eps):
+    """Collision-free flags of the segments ``L[I[q]] -> L[J[q]]`` (local points) against
+    ``items`` (``n_obs`` obstacles, ``grid``: :mod:`optplan.geometry.collision.kernel`): the
     decision of :func:`crossings` (``count == 0``: no item with ``dist < r - eps`` and no
     obstacle whose summed ``inside`` exceeds ``eps``), with the same screens and the same
     :func:`pair`, answered with less work.
@@ -91,24 +98,28 @@ def free_pairs(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, n_obs, r, eps, use_g
     Tested against shapely and against :func:`crossings` in ``tests/swarm/test_swarm.py`` (its
     caller is :func:`optplan.swarm.core.pairs_free`).
     """
+    K, P, _, _, _, _, _, IC, _, CR, _ = items
     n_items = IC.shape[0]
     lim = r + 2.0 * eps
     free = np.empty(I.shape[0], np.bool_)
-    _free_pairs_loop(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, use_grid, gh, gx0,
-                     gy0, gnx, gny, gstart, gcount, gitems, free, lim,
-                     _item_boxes(K, P, IC, CR, lim), np.empty(n_items, np.bool_),
-                     np.empty(n_items, np.int64), np.empty(n_items, np.int64),
-                     np.empty(n_obs, np.int64), np.empty(n_obs), np.empty(n_items, np.int64))
+    work = (_item_boxes(K, P, IC, CR, lim), np.empty(n_items, np.bool_),
+            np.empty(n_items, np.int64), np.empty(n_items, np.int64),
+            np.empty(n_items, np.int64), np.empty(n_obs, np.int64), np.empty(0, np.bool_),
+            np.empty(n_obs), np.empty(0))
+    _free_pairs_loop(L, I, J, items, grid, r, eps, free, work)
     return free
 
 
-@leaf(F2, I1, I1, i8, F3, F3, F3, F2, F2, F2, F1, F1, I1, f8, f8, *_GRID, B1, f8, F2, B1, I1,
-      I1, I1, F1, I1)
-def _free_pairs_loop(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, use_grid, gh, gx0,
-                     gy0, gnx, gny, gstart, gcount, gitems, free, lim, bb, mask, stamp, cand,
-                     o_stamp, o_in, touched):
-    """The loop of :func:`free_pairs` over its scratch arrays (uninitialised: set here)."""
-    n_items = IC.shape[0]
+@leaf(F2, I1, I1, ITEMS, GRID, f8, f8, B1, WORK)
+def _free_pairs_loop(L, I, J, items, grid, r, eps, free, work):
+    """The loop of :func:`free_pairs` over its ``work`` arrays (uninitialised: set here; it
+    uses no ``o_close``, ``o_pen``)."""
+    use_grid = grid[0]
+    stamp = work[2]
+    cand = work[3]
+    o_stamp = work[5]
+    lim = r + 2.0 * eps
+    n_items = items[7].shape[0]
     for k in range(n_items):
         stamp[k] = -1
         cand[k] = k
@@ -125,29 +136,26 @@ def _free_pairs_loop(L, I, J, K, P, E, N, C, CE, IC, IR, CR, OWN, r, eps, use_gr
         box = (min(ax, bx), max(ax, bx), min(ay, by), max(ay, by))
         m = n_items
         if use_grid:
-            m = _candidates(ax, ay, dx, dy, n_items, IC, IR, bb, mask, lim, use_grid, gh, gx0,
-                            gy0, gnx, gny, gstart, gcount, gitems, stamp, q, cand)
-        blocker = _first_blocker(ax, ay, dx, dy, box, q, last, cand, m, use_grid, stamp, bb, K,
-                                 P, E, N, C, CE, IC, IR, CR, OWN, r, eps, lim, o_stamp, o_in,
-                                 touched)
+            m = _candidates(ax, ay, dx, dy, items, grid, lim, work, q)
+        blocker = _first_blocker((ax, ay, dx, dy), box, q, last, m, use_grid, items, r, eps,
+                                 work)
         if blocker >= 0:
             last = blocker
         free[q] = blocker == -1
 
 
-@compiled(I1, I1, F2, F2, i8, *_ITEMS, f8)
-def pairs(SI, IT, A, D, K, P, E, N, C, CE, IC, CR, eps):
-    """:func:`pair` for explicit (segment ``SI[q]``, item ``IT[q]``) pairs."""
+@compiled(I1, I1, F2, F2, ITEMS, f8)
+def pairs(SI, IT, A, D, items, eps):
+    """:func:`pair` for explicit (segment ``SI[q]``, item ``IT[q]``) pairs of ``items``."""
     dist = np.empty(SI.shape[0])
     inside = np.empty(SI.shape[0])
-    _pairs_loop(SI, IT, A, D, K, P, E, N, C, CE, IC, CR, eps, dist, inside)
+    _pairs_loop(SI, IT, A, D, items, eps, dist, inside)
     return dist, inside
 
 
-@leaf(I1, I1, F2, F2, i8, *_ITEMS, f8, F1, F1)
-def _pairs_loop(SI, IT, A, D, K, P, E, N, C, CE, IC, CR, eps, dist, inside):
+@leaf(I1, I1, F2, F2, ITEMS, f8, F1, F1)
+def _pairs_loop(SI, IT, A, D, items, eps, dist, inside):
     """The loop of :func:`pairs` (into ``dist``, ``inside``)."""
     for q in range(SI.shape[0]):
         s = SI[q]
-        dist[q], inside[q] = pair(A[s, 0], A[s, 1], D[s, 0], D[s, 1], IT[q], K, P, E, N, C,
-                                  CE, IC, CR, eps)
+        dist[q], inside[q] = pair(A[s, 0], A[s, 1], D[s, 0], D[s, 1], IT[q], items, eps)

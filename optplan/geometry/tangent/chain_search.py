@@ -26,6 +26,7 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+from numba import types
 
 from optplan.geometry.compiled import F1, F2, I1, compiled, f8, heap_pop, heap_push, i8
 from optplan.geometry.tangent.arc_lines import arc_polyline
@@ -60,12 +61,14 @@ def _relax(nt, q, hk, hv, size, gx, gy, x, y, ng):  # pragma: no cover - compile
     return heap_push(hk, hv, size, ng + math.hypot(nt[y, 1] - gx, nt[y, 2] - gy), y)
 
 
-@compiled(I1, F1, I1, F1, F2, I1, I1, F1, i8, f8, f8, f8, F1, I1, I1, i8)
-def chain_astar(tgt, tcost, nxt, ncost, nt, vsrc, vdst, vcost, g_node, gx, gy, q, hk, hv,
-                state, chunk):  # pragma: no cover - compiled
-    """A* to ``g_node`` (from the nodes on the heap: the start) over the static edges (node
-    ``x`` to ``tgt[x]`` of length ``tcost[x]``, to ``nxt[x]`` of length ``ncost[x]``; ``-1``:
-    none) and the query edges ``vsrc -> vdst`` (sorted by ``vsrc``) of lengths ``vcost``; nodes from
+@compiled(types.Tuple((I1, F1, I1, F1)), types.Tuple((I1, I1, F1)), F2, i8, f8, f8, f8,
+          types.Tuple((F1, I1)), I1, i8)
+def chain_astar(static, query, nt, g_node, gx, gy, q, heap, state,
+                chunk):  # pragma: no cover - compiled
+    """A* to ``g_node`` (from the nodes on the heap: the start) over the static edges
+    ``static = (tgt, tcost, nxt, ncost)`` (node ``x`` to ``tgt[x]`` of length ``tcost[x]``, to
+    ``nxt[x]`` of length ``ncost[x]``; ``-1``: none) and the query edges ``query = (vsrc, vdst,
+    vcost)``, ``vsrc -> vdst`` (sorted by ``vsrc``) of lengths ``vcost``; nodes from
     ``len(tgt)`` on are the query's.
 
     A closed node's chain successor at the same point and no cost (every chain of a point
@@ -74,11 +77,14 @@ def chain_astar(tgt, tcost, nxt, ncost, nt, vsrc, vdst, vcost, g_node, gx, gy, q
 
     ``nt`` is the node table, one row per node (what one relaxation reads is one cache
     line): ``g``, ``x``, ``y`` (its point), stamp (``q``: open, ``-q``: closed, anything
-    else: not seen in this query), predecessor.  ``hk, hv`` are the heap,
+    else: not seen in this query), predecessor.  ``heap = (hk, hv)`` is the heap,
     ``state = [size, expanded, pushed]``.  Runs at most ``chunk`` pops; returns 0 when the
     goal is closed (its ``g`` in ``nt[g_node, 0]``), 1 when the heap is empty (no path), 2
     when paused (call again with the same arrays to go on).
     """
+    tgt, tcost, nxt, ncost = static
+    vsrc, vdst, vcost = query
+    hk, hv = heap
     size = state[0]
     n_static = tgt.shape[0]
     nv = vsrc.shape[0]
@@ -298,9 +304,9 @@ class ChainSearch:
         state = np.zeros(3, np.int64)
         state[0] = heap_push(hk, hv, 0, abs(self.zg - self.zs), self.S)
         while True:
-            code = chain_astar(ch.tgt, ch.tcost, ch.nxt, ch.ncost, nt,
-                               self.vsrc, self.vdst, self.vcost, self.G, gx, gy, q, hk, hv,
-                               state, CHUNK)
+            code = chain_astar((ch.tgt, ch.tcost, ch.nxt, ch.ncost),
+                               (self.vsrc, self.vdst, self.vcost), nt, self.G, gx, gy, q,
+                               (hk, hv), state, CHUNK)
             if code != 2:
                 break
             if stop is not None and stop():

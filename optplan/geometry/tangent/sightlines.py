@@ -186,5 +186,6 @@ class Sightlines:
         ST = np.full(k, -1, np.int64)
         for q in np.flatnonzero(~hit):
             ST[q] = locate(self.VX, self.TR, S[q, 0], S[q, 1], 0, 4 * len(self.T) + 8)
-        return expand_views(S, SV, ST, LO, W, G, self.VX, self.TR, self.CONV, self.PINCH,
-                            self.vstart, self.vtri, self.cstart, self.citems, self.eps)
+        mesh = (self.VX, self.TR, self.CONV, self.PINCH, self.vstart, self.vtri, self.cstart,
+                self.citems)
+        return expand_views((S, SV, ST, LO, W, G), mesh, self.eps)

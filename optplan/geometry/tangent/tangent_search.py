@@ -33,15 +33,19 @@ class Stopped(Exception):
 
 
 class Stream:
-    """Sorted successor candidates of one expanded node."""
+    """Sorted successor candidates of one expanded node.
+
+    ``f``, ``g`` and the arrays of ``steps = (j, sj, pi, pj, th_d, th_a, sweep)`` are parallel,
+    one entry per candidate (sorted here by ``f``); ``eidx`` (same length) indexes ``edges``.
+    """
 
     __slots__ = ("node", "f", "g", "j", "sj", "pi", "pj", "th_d", "th_a", "sweep", "ok", "pos",
                  "checked", "edges", "eidx")
 
-    def __init__(self, node: int, f: np.ndarray, g: np.ndarray, j: np.ndarray, sj: np.ndarray,
-                 pi: np.ndarray, pj: np.ndarray, th_d: np.ndarray, th_a: np.ndarray,
-                 sweep: np.ndarray, edges: Edges | None = None,
+    def __init__(self, node: int, f: np.ndarray, g: np.ndarray,
+                 steps: tuple[np.ndarray, ...], edges: Edges | None = None,
                  eidx: np.ndarray | None = None) -> None:
+        j, sj, pi, pj, th_d, th_a, sweep = steps
         order = np.argsort(f, kind="stable")
         self.node = node
         self.f, self.g, self.j, self.sj = f[order], g[order], j[order], sj[order]
@@ -191,8 +195,9 @@ class TangentSearch:
         sel = np.flatnonzero(ok)
         if sel.size == 0:
             return
-        st = Stream(node_id, f[sel], g[sel], jj[sel], sj[sel], pi[sel], pj[sel], th_d[sel],
-                     th_arr[sel], sweep[sel], edges, None if eidx is None else eidx[sel])
+        st = Stream(node_id, f[sel], g[sel],
+                    (jj[sel], sj[sel], pi[sel], pj[sel], th_d[sel], th_arr[sel], sweep[sel]),
+                    edges, None if eidx is None else eidx[sel])
         self.streams.append(st)
         heapq.heappush(self.heap, (float(st.f[0]), len(self.streams) - 1))
 

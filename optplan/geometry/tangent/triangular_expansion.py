@@ -20,6 +20,16 @@ vertex at direction ``theta_c``:
 Every direction is measured as ``mid + wrap(atan2(p - s) - lo - mid)`` from the interval's
 middle ``mid``: the point lies beyond the entry edge, so within half a turn of any direction
 of the interval, and the result is in the interval's unwrapped frame.
+
+Grouped arguments (no compiled function takes more than 10 parameters; typed once below):
+
+* ``mesh``, :data:`MESH`: ``(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems)``, the
+  triangulation and its centres (:func:`expand_views`' parameters);
+* ``src``, :data:`SOURCES`: ``(S, SV, ST, LO, WID, G)``, the sources (idem);
+* ``marks``: ``(cstamp, pst)``, the stamps of the centres reported and of the pinch vertices
+  passed, per source group;
+* ``eye``: ``(sx, sy, lo, tiny)``, one source, the start of its window and the widening
+  tolerance ``KAPPA eps``.
 """
 
 from __future__ import annotations
@@ -27,10 +37,18 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import types
 
 from optplan.geometry.compiled import B1, F1, F2, I1, I2, compiled, f8, i8, inlined, leaf
 
 __all__ = ["expand_views", "locate", "pack_triangles", "KAPPA", "SLACK"]
+
+#: ``mesh``: ``VX, TR, CONV, PINCH, vstart, vtri, cstart, citems`` (module docstring)
+MESH = types.Tuple((F2, I2, B1, B1, I1, I1, I1, I1))
+#: ``src``: ``S, SV, ST, LO, WID, G`` (module docstring)
+SOURCES = types.Tuple((F2, I1, I1, F1, F1, I1))
+_MARKS = types.UniTuple(I1, 2)  # cstamp, pst
+_EYE = types.UniTuple(f8, 4)  # sx, sy, lo, tiny
 
 TWO_PI = 2.0 * math.pi
 #: Widening at a grazed convex corner, in units of ``eps`` at the corner's distance.
@@ -86,13 +104,14 @@ def _widen(VX, v, sx, sy, tiny, CONV):  # pragma: no cover - compiled
     return SLACK + math.asin(tiny / d)
 
 
-@leaf(F2, I2, B1, I1, I1, i8, f8, f8, f8, f8, F2, i8)
-def _jump(VX, TR, CONV, vstart, vtri, v, th, sx, sy, tiny, stk,
-          n_st):  # pragma: no cover - compiled
+@leaf(MESH, i8, f8, _EYE, F2, i8)
+def _jump(mesh, v, th, eye, stk, n_st):  # pragma: no cover - compiled
     """The rays through the pinch vertex ``v`` (direction ``th``) go on into the free
     triangles at ``v`` whose corner holds their direction: a view of each entered at ``v``
     (``k = 3 + corner``) is pushed (the caller made room: :data:`ROOM`); returns the stack's
     size."""
+    VX, TR, CONV, _, vstart, vtri, _, _ = mesh
+    sx, sy, _, tiny = eye
     w = _widen(VX, v, sx, sy, tiny, CONV)
     dx = VX[v, 0] - sx
     dy = VX[v, 1] - sy
@@ -115,13 +134,16 @@ def _jump(VX, TR, CONV, vstart, vtri, v, th, sx, sy, tiny, stk,
     return n_st
 
 
-@leaf(F2, I2, B1, B1, I1, I1, I1, I1, I1, I1, i8, i8, f8, f8, f8, f8, I1, i8, F2, i8)
-def _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q, v, th,
-           sx, sy, tiny, out, n_out, stk, n_st):  # pragma: no cover - compiled
+@leaf(MESH, _MARKS, i8, i8, f8, _EYE, I1, i8, F2, i8)
+def _visit(mesh, marks, q, v, th, eye, out, n_out, stk, n_st):  # pragma: no cover - compiled
     """Vertex ``v`` (direction ``th``) is seen by the sources tagged ``q``: its centres not
     seen yet are appended to ``out``, and at a pinch (the first time) the rays through it go
     on (:func:`_jump`); returns the sizes of ``out`` and of the stack (the caller made
     room)."""
+    PINCH = mesh[3]
+    cstart = mesh[6]
+    citems = mesh[7]
+    cstamp, pst = marks
     for t in range(cstart[v], cstart[v + 1]):
         c = citems[t]
         if cstamp[c] != q:
@@ -130,7 +152,7 @@ def _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q, v,
             n_out += 1
     if PINCH[v] and pst[v] != q:
         pst[v] = q
-        n_st = _jump(VX, TR, CONV, vstart, vtri, v, th, sx, sy, tiny, stk, n_st)
+        n_st = _jump(mesh, v, th, eye, stk, n_st)
     return n_out, n_st
 
 
@@ -145,10 +167,12 @@ def _put(stk, n, t, k, L, R):
 
 
 @inlined
-def _split(VX, TR, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st):
+def _split(mesh, t, k, c, tc, L, R, eye, stk, n_st):
     """Push the views beyond the two other edges of triangle ``t`` entered opposite ``k``:
     ``(A, c)`` with ``[L, min(R, tc + w)]``, ``(c, B)`` with ``[max(L, tc - w), R]``
     (module docstring; the caller made room); returns the stack's size."""
+    VX, TR, CONV, _, _, _, _, _ = mesh
+    sx, sy, _, tiny = eye
     e1 = (k + 1) % 3  # the edge (A, c), opposite B
     e2 = (k + 2) % 3  # the edge (c, B), opposite A
     if not _con(TR, t, e1) and TR[t, 3 + e1] >= 0:
@@ -162,11 +186,13 @@ def _split(VX, TR, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st):
     return n_st
 
 
-@leaf(F2, I2, B1, B1, I1, I1, I1, I1, I1, I1, i8, f8, f8, f8, f8, F2, i8, I1, i8, i8)
-def _expand(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst,
-            q, sx, sy, lo, tiny, stk, n_st, out, n_out, room):  # pragma: no cover - compiled
+@leaf(MESH, _MARKS, i8, _EYE, F2, i8, I1, i8, i8)
+def _expand(mesh, marks, q, eye, stk, n_st, out, n_out, room):  # pragma: no cover - compiled
     """Run the views on the stack for the sources tagged ``q`` (module docstring); returns
     the size of ``out``, or -1 when the stack has no ``room`` left for a view's pushes."""
+    VX = mesh[0]
+    TR = mesh[1]
+    sx, sy, lo, _ = eye
     while n_st > 0:
         if n_st + room > stk.shape[0]:
             return -1
@@ -181,18 +207,15 @@ def _expand(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst,
                 v = TR[t, (k - 3 + j) % 3]
                 th = _rel(VX[v, 0], VX[v, 1], sx, sy, lo, mid)
                 if L - SLACK <= th <= R + SLACK:
-                    n_out, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems,
-                                         cstamp, pst, q, v, th, sx, sy, tiny, out, n_out,
-                                         stk, n_st)
+                    n_out, n_st = _visit(mesh, marks, q, v, th, eye, out, n_out, stk, n_st)
             if not _con(TR, t, k - 3) and TR[t, k] >= 0:
                 n_st = _put(stk, n_st, TR[t, k], _nk(TR, t, k - 3), L, R)
             continue
         c = TR[t, k]
         tc = _rel(VX[c, 0], VX[c, 1], sx, sy, lo, mid)
         if L - SLACK <= tc <= R + SLACK:
-            n_out, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp,
-                                 pst, q, c, tc, sx, sy, tiny, out, n_out, stk, n_st)
-        n_st = _split(VX, TR, CONV, t, k, c, tc, L, R, sx, sy, tiny, stk, n_st)
+            n_out, n_st = _visit(mesh, marks, q, c, tc, eye, out, n_out, stk, n_st)
+        n_st = _split(mesh, t, k, c, tc, L, R, eye, stk, n_st)
     return n_out
 
 
@@ -240,11 +263,14 @@ def _passable(VX, TR, t, kk, a, b, sx, sy, tiny, vertex):
 
 
 @inlined
-def _root(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q,
-          sx, sy, lo, wd, tiny, t, kk, vertex, stk, n_st, out, n_out):
-    """The first view beyond the edge opposite corner ``kk`` of triangle ``t`` (the source
-    at that corner, or inside ``t``), cut to the window ``[0, wd]`` (every turn of it); its
-    ends are seen; returns the sizes of ``out`` and of the stack (the caller made room)."""
+def _root(mesh, marks, q, eye, wd, edge, stk, n_st, out, n_out):
+    """The first view beyond the edge opposite corner ``kk`` of triangle ``t``, ``edge = (t,
+    kk, vertex)`` (the source at that corner when ``vertex``, else inside ``t``), cut to the
+    window ``[0, wd]`` (every turn of it); its ends are seen; returns the sizes of ``out``
+    and of the stack (the caller made room)."""
+    VX, TR, CONV, _, _, _, _, _ = mesh
+    sx, sy, lo, tiny = eye
+    t, kk, vertex = edge
     a = TR[t, (kk + 1) % 3]
     b = TR[t, (kk + 2) % 3]
     ta = math.atan2(VX[a, 1] - sy, VX[a, 0] - sx) - lo
@@ -263,9 +289,7 @@ def _root(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, q,
             R = min(R, wd + SLACK)
         for v, th in ((a, ta + sh * TWO_PI), (b, tb + sh * TWO_PI)):
             if L - SLACK <= th <= R + SLACK:
-                n_out, n_st = _visit(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems,
-                                     cstamp, pst, q, v, th, sx, sy, tiny, out, n_out, stk,
-                                     n_st)
+                n_out, n_st = _visit(mesh, marks, q, v, th, eye, out, n_out, stk, n_st)
         if go and L < R:
             n_st = _put(stk, n_st, TR[t, 3 + kk], _nk(TR, t, kk), L, R)
     return n_out, n_st
@@ -291,17 +315,20 @@ def _grown_f(a, need):  # pragma: no cover - compiled
 
 
 @inlined
-def _one_source(S, SV, ST, LO, WID, VX, TR, CONV, PINCH, vstart, vtri, cstart, citems,
-                cstamp, pst, q, tag, tiny, stk, out, n_out, room):
+def _one_source(src, mesh, marks, q, tag, tiny, stk, out, n_out, room):
     """Append the candidates of source ``q`` (stamped ``tag``) to ``out`` (room made for
     every centre); returns the new size of ``out``, -1 when the stack lacks room."""
+    S, SV, ST, LO, WID, _ = src
+    TR = mesh[1]
+    vstart = mesh[4]
+    vtri = mesh[5]
+    citems = mesh[7]
     n_c = citems.shape[0]
     if SV[q] < 0 and ST[q] < 0:  # not located: every centre
         for c in range(n_c):
             out[n_out + c] = c
         return n_out + n_c
-    sx = S[q, 0]
-    sy = S[q, 1]
+    eye = (S[q, 0], S[q, 1], LO[q], tiny)
     n_st = 0
     roots = range(vstart[SV[q]], vstart[SV[q] + 1]) if SV[q] >= 0 else range(3)
     for rr in roots:
@@ -309,23 +336,21 @@ def _one_source(S, SV, ST, LO, WID, VX, TR, CONV, PINCH, vstart, vtri, cstart, c
         if SV[q] < 0 or _free(TR, t):
             if n_st + 3 * room > stk.shape[0]:
                 return -1
-            n_out, n_st = _root(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst,
-                                tag, sx, sy, LO[q], WID[q], tiny, t,
-                                vtri[rr] % 3 if SV[q] >= 0 else rr, SV[q] >= 0, stk, n_st,
-                                out, n_out)
-    return _expand(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, cstamp, pst, tag, sx, sy,
-                   LO[q], tiny, stk, n_st, out, n_out, room)
+            edge = (t, vtri[rr] % 3 if SV[q] >= 0 else rr, SV[q] >= 0)
+            n_out, n_st = _root(mesh, marks, tag, eye, WID[q], edge, stk, n_st, out, n_out)
+    return _expand(mesh, marks, tag, eye, stk, n_st, out, n_out, room)
 
 
-@leaf(F2, I1, I1, F1, F1, I1, F2, I2, B1, B1, I1, I1, I1, I1, f8, I1, I1, I1, F2, I1, I1, i8,
-      i8)
-def _sources(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri, cstart, citems, eps,
-             counts, cstamp, pst, stk, out, state, room, gspan):  # pragma: no cover - compiled
+@leaf(SOURCES, MESH, f8, I1, _MARKS, F2, I1, I1, i8, i8)
+def _sources(src, mesh, eps, counts, marks, stk, out, state, room,
+             gspan):  # pragma: no cover - compiled
     """The loop of :func:`expand_views` from source ``state[0]`` (``state``: next source,
     size of ``out``, stamp offset); returns 0 when every source is done, 1 when ``out``
     needs room (stopped between two sources), 2 when the stack does (``state`` set back to
     the start of the group, whose stamps are renewed with the offset ``gspan``)."""
-    n_c = citems.shape[0]
+    S = src[0]
+    G = src[5]
+    n_c = mesh[7].shape[0]
     tiny = KAPPA * eps
     q = state[0]
     n_out = state[1]
@@ -343,8 +368,7 @@ def _sources(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri, cstart, c
             state[0] = q
             state[1] = n_out
             return 1
-        m = _one_source(S, SV, ST, LO, WID, VX, TR, CONV, PINCH, vstart, vtri, cstart,
-                        citems, cstamp, pst, q, G[q] + state[2], tiny, stk, out, n_out, room)
+        m = _one_source(src, mesh, marks, q, G[q] + state[2], tiny, stk, out, n_out, room)
         if m < 0:
             state[0] = g0
             state[1] = out0
@@ -358,18 +382,19 @@ def _sources(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri, cstart, c
     return 0
 
 
-@compiled(F2, I1, I1, F1, F1, I1, F2, I2, B1, B1, I1, I1, I1, I1, f8)
-def expand_views(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri,
-                 cstart, citems, eps):  # pragma: no cover - compiled
+@compiled(SOURCES, MESH, f8)
+def expand_views(src, mesh, eps):  # pragma: no cover - compiled
     """Candidate visible centres per source by triangular expansion (module docstring).
 
     Parameters
     ----------
+    src : tuple ``(S, SV, ST, LO, WID, G)``, the sources:
     S : (k, 2) sources; SV : (k,) the vertex each source is (-1: none); ST : (k,) the
         triangle holding it when it is no vertex (-1: not found: every centre is then a
         candidate); LO, WID : (k,) window start and width (rad, ``>= 2 pi``: all directions);
     G : (k,) the sources' groups (ints >= 0): consecutive sources of one group (the windows
         of one point) report a centre once between them;
+    mesh : tuple ``(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems)``, the triangulation:
     VX : (nv, 2) vertices; TR : (nt, 8) one row per triangle (one cache line): its corners
         (counter-clockwise), the neighbours across the edges opposite them (-1: none), and
         flags: bit ``e`` the edge opposite corner ``e`` is constrained, bit 3 the triangle is
@@ -389,6 +414,8 @@ def expand_views(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri,
     The loop is :func:`_sources` (a ``@leaf``: no reference counting); this wrapper makes
     its arrays and grows them when it asks.
     """
+    S, _, _, _, _, G = src
+    VX, _, _, _, vstart, _, _, citems = mesh
     k = S.shape[0]
     n_c = citems.shape[0]
     deg = 1  # the most triangles at a vertex: a view pushes at most 2 deg + 2 views
@@ -405,8 +432,7 @@ def expand_views(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri,
     out = np.empty(16 * k + n_c, np.int64)
     state = np.zeros(3, np.int64)
     while True:
-        why = _sources(S, SV, ST, LO, WID, G, VX, TR, CONV, PINCH, vstart, vtri, cstart,
-                       citems, eps, counts, cstamp, pst, stk, out, state, room, gspan)
+        why = _sources(src, mesh, eps, counts, (cstamp, pst), stk, out, state, room, gspan)
         if why == 0:
             return counts, out[:state[1]].copy()
         if why == 1:
