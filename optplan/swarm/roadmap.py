@@ -10,14 +10,9 @@ Sparse roadmap
     nodes within :data:`CORNER_REACH` x diag (taut paths run between corners), kept when free
     with a margin of :data:`optplan.swarm.core.CLEAR_MARGIN` x diag; corner pairs that no walk
     within the search bound can use (outside the start-goal ellipse of the bound) are skipped
-    untested.  Corridors
-    (:func:`roadmap_corridors`): the k shortest walks of distinct homotopy signatures (label
-    setting, A* with the exact roadmap distance to the goal, at most 1.1 x the shortest walk),
-    string-pulled.
-
-The nodes are sampled in :mod:`optplan.swarm.samples`, the signatures are
-:mod:`optplan.swarm.signatures`; the graph loops (Dijkstra, the label-setting class search) are
-compiled with numba, the rest (candidate edges, CSR form) is vectorised numpy.
+    untested.  Corridors (:func:`roadmap_corridors`): the k shortest walks of distinct homotopy
+    signatures (label setting, A* with the exact roadmap distance to the goal, at most 1.1 x
+    the shortest walk), string-pulled.  The graph loops are compiled with numba.
 """
 
 from __future__ import annotations
@@ -95,12 +90,8 @@ _LABELS = types.Tuple((I1, I1, I1, F1, F1, I1))
 @compiled(_GRAPH, F1, types.Tuple((i8, i8, i8, f8)), I1, F1, _LABELS, I1, I2, I1,
           types.UniTuple(i8, 2))
 def _k_classes_run(graph, heur, query, st, bnd, labels, settled, shash, goals, limits):
-    """The loop of :func:`_k_classes` (``graph``, ``heur`` and ``query = (dst, k_goal, k_node,
-    slack)`` its arguments; ``labels = (lab_node, lab_hash, lab_par, lab_g, hk, hv)``),
-    resumable (its scalars ``st = [heap size, labels, goal labels]``, ``bnd = [bound]`` updated
-    in place).  Returns 0 when the search is over, 1 after ``budget`` units of work (labels
-    popped, edges scanned), 2 when the label arrays may not hold one more expansion
-    (``limits = (max_deg, budget)``, ``max_deg`` the largest degree; the caller grows them)."""
+    """The resumable loop of :func:`_k_classes` (state in ``st``, ``bnd``, ``labels``): 0 when
+    the search is over, 1 after ``budget`` units of work, 2 when the label arrays must grow."""
     indptr, nbr, weight, ehash = graph
     dst, k_goal, k_node, slack = query
     lab_node, lab_hash, lab_par, lab_g, hk, hv = labels
@@ -165,22 +156,14 @@ def _k_classes(graph: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
                heur: np.ndarray, src: int, dst: int, k_goal: int, k_node: int, slack: float,
                stop: Callable[[], bool] | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Label-setting search, over ``graph = (indptr, nbr, weight, ehash)`` (CSR: per directed
-    edge its target, length and signature hash), for the ``k_goal`` shortest ``src -> dst``
-    walks of distinct homotopy signatures (each node settles at most ``k_node`` signatures,
-    shortest first), A*-ordered by ``g + heur[node]`` (``heur``: a consistent lower bound of
-    the distance to ``dst``, e.g. the exact roadmap distance, so each node still settles its
-    labels shortest first; ``inf`` marks nodes that do not reach ``dst``).  The search stops at the
-    first label longer than ``slack`` x the first walk found (the walks it could still find
-    are at least that long).
-
-    The compiled loop (:func:`_k_classes_run`) runs in steps of 16 x :data:`PAIRS_PER_POLL`
-    units of work (labels popped, edges scanned), polling ``stop`` between two and after a
-    large growth (:class:`RoadmapStopped`); its label arrays hold :data:`FIRST_LABELS` first,
-    doubled when full (at most ``k_node`` x the directed edges).
-
-    Returns the goal labels (shortest first), each label's node and parent label.
-    """
+    """The ``k_goal`` shortest ``src -> dst`` walks of distinct homotopy signatures over the CSR
+    ``graph = (indptr, nbr, weight, ehash)``: label setting, A*-ordered by ``g + heur[node]``
+    (``heur`` a consistent lower bound, ``inf`` where ``dst`` is unreachable), each node settling
+    at most ``k_node`` signatures, stopping at the first label over ``slack`` x the first walk.
+    The compiled loop runs in steps of 16 x :data:`PAIRS_PER_POLL` units of work, polling
+    ``stop`` between two (:class:`RoadmapStopped`); its label arrays start at
+    :data:`FIRST_LABELS` and double when full.  Returns the goal labels (shortest first), each
+    label's node and parent label."""
     indptr, nbr = graph[0], graph[1]
     n = indptr.shape[0] - 1
     full = k_node * nbr.shape[0] + 1  # every settled label pushes one label per edge
