@@ -97,23 +97,7 @@ class Backend:
 
     def _grade(self, status: Status, metrics: dict[str, Any],
                message: str) -> tuple[Status, str]:
-        """The status of a claim given the validator's metrics (:meth:`finish`'s rules).
-
-        Parameters
-        ----------
-        status : Status
-            The backend's claim.
-        metrics : dict
-            The validator's metrics (with the backend's ``metrics_extra``).
-        message : str
-            The backend's message.
-
-        Returns
-        -------
-        tuple
-            ``(status, message)``: the graded status and the message, with the validator's
-            complaints or the grading's reason appended.
-        """
+        """The status of a claim given the validator's metrics (:meth:`finish`'s rules)."""
         if status in (Status.optimal, Status.solved):
             if not (metrics["feasible"] and metrics["reached"]):
                 why = _validator_complaints(metrics)
@@ -133,18 +117,7 @@ class Backend:
 
 
 def _validator_complaints(metrics: dict[str, Any]) -> list[str]:
-    """Why the validator rejects a success claim, in the order of the checks.
-
-    Parameters
-    ----------
-    metrics : dict
-        The validator's metrics of paths that are infeasible or do not reach their goals.
-
-    Returns
-    -------
-    list of str
-        One phrase per failed check.
-    """
+    """Why the validator rejects a success claim, in the order of the checks."""
     why = []
     if metrics["static_collisions"]:
         why.append(f"{metrics['static_collisions']} static collision(s) with "
@@ -162,19 +135,7 @@ def _validator_complaints(metrics: dict[str, Any]) -> list[str]:
 
 
 def _first_contact_text(metrics: dict[str, Any], fc: dict[str, Any]) -> str:
-    """The validator's phrase for contacts in time: their number and the first one.
-
-    Parameters
-    ----------
-    metrics : dict
-        The validator's metrics.
-    fc : dict
-        ``metrics["first_contact"]``: robot, kind, other, time and position.
-
-    Returns
-    -------
-    str
-    """
+    """The validator's phrase for contacts in time: their number and the first one."""
     n_t = metrics["dynamic_contacts"] + metrics["separation_violations"]
     return (f"{n_t} contact(s) in time ({metrics['timing']} timing); first: "
             f"{fc['robot']} with {fc['kind']} {fc['other']!r} at "

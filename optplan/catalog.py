@@ -163,23 +163,7 @@ def read_preset(path: Path) -> dict:
 
 
 def _preset_toml(path: Path) -> dict:
-    """The parsed TOML of a preset file.
-
-    Parameters
-    ----------
-    path : Path
-        The preset file.
-
-    Returns
-    -------
-    dict
-        Its top-level table.
-
-    Raises
-    ------
-    ValueError
-        Naming the file: a directory, unreadable, not UTF-8, invalid or too deeply nested TOML.
-    """
+    """The parsed TOML of a preset file."""
     if path.is_dir():
         raise ValueError(f"{path}: is a directory, not a preset file")
     try:
@@ -196,20 +180,7 @@ def _preset_toml(path: Path) -> dict:
 
 
 def _check_preset_keys(path: Path, data: dict) -> None:
-    """Reject unknown top-level keys of a preset and a missing ``backend``.
-
-    Parameters
-    ----------
-    path : Path
-        The preset file (named in errors).
-    data : dict
-        Its top-level table.
-
-    Raises
-    ------
-    ValueError
-        Naming the file and the key.
-    """
+    """Reject unknown top-level keys of a preset and a missing ``backend``."""
     allowed = {"backend", "summary", "options", "paper", "paper_notes"}
     for k in data:
         if k not in allowed:
@@ -221,20 +192,7 @@ def _check_preset_keys(path: Path, data: dict) -> None:
 
 
 def _check_preset_types(path: Path, data: dict) -> None:
-    """Check the types of a preset's values: strings, tables, ``paper_notes`` of strings.
-
-    Parameters
-    ----------
-    path : Path
-        The preset file (named in errors).
-    data : dict
-        Its top-level table (keys already checked).
-
-    Raises
-    ------
-    ValueError
-        Naming the file and the key.
-    """
+    """Check the types of a preset's values: strings, tables, ``paper_notes`` of strings."""
     for k in ("backend", "summary"):
         if k in data and not isinstance(data[k], str):
             raise ValueError(f"{path}: {k}: expected a string, got {type(data[k]).__name__}")

@@ -174,24 +174,7 @@ def _cost_is_length(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, Ma
 
 def _traces(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, Mapping], solver: str,
             norm: float) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The recorded progress of one solver's runs, costs divided by the optimum.
-
-    Parameters
-    ----------
-    rows
-        The runs of one problem (every solver).
-    progress
-        Progress records by run id (``time`` and ``best_cost`` lists).
-    solver
-        The solver whose runs are taken.
-    norm
-        The divisor of the costs (the median certified optimum, or 1).
-
-    Returns
-    -------
-    list of tuple of numpy.ndarray
-        ``(time, best_cost / norm)`` of every run of ``solver`` with at least one record.
-    """
+    """The recorded progress of one solver's runs, costs divided by the optimum."""
     recs = [progress[r["id"]] for r in rows if r["solver"] == solver and r.get("id") in progress]
     return [(np.asarray(p["time"], float), np.asarray(p["best_cost"], float) / norm)
             for p in recs if len(p["time"])]
@@ -199,19 +182,7 @@ def _traces(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, Mapping], 
 
 def _draw_end_points(ax: Any, traces: Sequence[tuple[np.ndarray, np.ndarray]], solver: str,
                      colour: str) -> None:
-    """Mark the median end point of runs that recorded one step each (exact solvers).
-
-    Parameters
-    ----------
-    ax
-        The convergence axes.
-    traces
-        ``(time, cost)`` of every run of ``solver``.
-    solver
-        The solver's name (legend label).
-    colour
-        Its colour.
-    """
+    """Mark the median end point of runs that recorded one step each (exact solvers)."""
     tt = np.array([tc[0][-1] for tc in traces])
     cc = _finite([tc[1][-1] for tc in traces])
     if len(cc):
@@ -225,17 +196,6 @@ def _draw_band(ax: Any, multi: Sequence[tuple[np.ndarray, np.ndarray]], solver: 
 
     The curves start from the time every run has recorded a first value; nothing is drawn
     when there is no such time on the grid.
-
-    Parameters
-    ----------
-    ax
-        The convergence axes.
-    multi
-        ``(time, cost)`` of the runs of ``solver`` with more than one record.
-    solver
-        The solver's name (legend label).
-    colour
-        Its colour.
     """
     t_lo = min(max(float(tc[0][0]), 1e-6) for tc in multi)
     t_hi = max(float(tc[0][-1]) for tc in multi)
@@ -253,19 +213,7 @@ def _draw_band(ax: Any, multi: Sequence[tuple[np.ndarray, np.ndarray]], solver: 
 
 def _draw_solver(ax: Any, traces: Sequence[tuple[np.ndarray, np.ndarray]], solver: str,
                  colour: str) -> None:
-    """Draw one solver's convergence: a band over its multi-record runs, else an end point.
-
-    Parameters
-    ----------
-    ax
-        The convergence axes.
-    traces
-        ``(time, cost)`` of every run of ``solver`` with at least one record (not empty).
-    solver
-        The solver's name (legend label).
-    colour
-        Its colour.
-    """
+    """Draw one solver's convergence: a band over its multi-record runs, else an end point."""
     multi = [tc for tc in traces if len(tc[0]) > 1]
     if multi:
         _draw_band(ax, multi, solver, colour)
@@ -275,19 +223,7 @@ def _draw_solver(ax: Any, traces: Sequence[tuple[np.ndarray, np.ndarray]], solve
 
 def _finish_convergence(ax: Any, drew: bool, skipped: Sequence[str], has_optimum: bool
                         ) -> None:
-    """Scales, legend, notes, labels and title of the convergence axes.
-
-    Parameters
-    ----------
-    ax
-        The convergence axes.
-    drew
-        Whether any solver was drawn (else the axes say that no progress was recorded).
-    skipped
-        The solvers not drawn because their best cost is not the path length.
-    has_optimum
-        Whether the costs were divided by a certified optimum (the y label says so).
-    """
+    """Scales, legend, notes, labels and title of the convergence axes."""
     if drew:
         ax.set_xscale("log")
         lo, hi = ax.get_ylim()
@@ -308,24 +244,7 @@ def _finish_convergence(ax: Any, drew: bool, skipped: Sequence[str], has_optimum
 
 def _plot_convergence(rows: Sequence[Mapping[str, Any]], progress: Mapping[int, Mapping],
                       solvers: Sequence[str], colours: Sequence[str]) -> Any:
-    """The convergence figure of one problem: best cost so far against wall time.
-
-    Parameters
-    ----------
-    rows
-        The runs of one problem.
-    progress
-        Progress records by run id.
-    solvers
-        The problem's solvers, in drawing order.
-    colours
-        Their colours.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        The figure (Agg canvas).
-    """
+    """The convergence figure of one problem: best cost so far against wall time."""
     fig = _fig(len(solvers), wide=True)
     fig.set_size_inches(7.0, 4.2)
     ax = fig.add_subplot(1, 1, 1)

@@ -316,20 +316,7 @@ def simulate(
 
 
 def _start_positions(robots: list[Robot], start: np.ndarray | None) -> np.ndarray:
-    """The initial positions: ``start`` when given, else the robots' starts.
-
-    Parameters
-    ----------
-    robots : list of Robot
-        The robots simulated.
-    start : array or None
-        ``(R, 2)`` initial positions, or None.
-
-    Returns
-    -------
-    ndarray
-        ``(R, 2)`` float positions (a new array).
-    """
+    """The initial positions: ``start`` when given, else the robots' starts."""
     if start is None:
         return np.array([r.start for r in robots], dtype=float)
     return np.array(start, dtype=float)
@@ -338,48 +325,14 @@ def _start_positions(robots: list[Robot], start: np.ndarray | None) -> np.ndarra
 def _report(callback: Callable[[Progress], Any] | None,
             progress_cost: Callable[[SimState], float] | None, state: SimState, k: int,
             t: float, wall0: float) -> bool:
-    """Send step ``k``'s :class:`~optplan.result.Progress` to ``callback``.
-
-    Parameters
-    ----------
-    callback : callable or None
-        The receiver.
-    progress_cost : callable or None
-        Scalar reported as ``best_cost`` (NaN without it).
-    state : SimState
-        The state after the step.
-    k : int
-        The step.
-    t : float
-        The simulated time after the step (s).
-    wall0 : float
-        ``time.perf_counter()`` at the start of the run.
-
-    Returns
-    -------
-    bool
-        True when the callback asked to stop.
-    """
+    """Send step ``k``'s :class:`~optplan.result.Progress` to ``callback``."""
     cost = progress_cost(state) if progress_cost else float("nan")
     return notify(callback, Progress(k, cost, k + 1, time.perf_counter() - wall0, {},
                                      sim_time=t))
 
 
 def _clamp_speeds(u: np.ndarray, vmax: np.ndarray) -> np.ndarray:
-    """Scale each robot's velocity down to its speed limit (directions kept).
-
-    Parameters
-    ----------
-    u : ndarray
-        ``(R, 2)`` desired velocities.
-    vmax : ndarray
-        ``(R,)`` speed limits.
-
-    Returns
-    -------
-    ndarray
-        ``(R, 2)`` velocities with ``|u_i| <= vmax_i``.
-    """
+    """Scale each robot's velocity down to its speed limit (directions kept)."""
     sp = np.hypot(u[:, 0], u[:, 1])
     scale = np.where(sp > vmax, vmax / np.where(sp > 0, sp, 1.0), 1.0)
     return u * scale[:, None]
@@ -390,26 +343,6 @@ def _contact(fld: ObstacleField, pos: np.ndarray, t: float, radii: np.ndarray,
     """The first contact of the robots at ``pos`` and time ``t``, described.
 
     Obstacle contacts are reported before robot-robot contacts.
-
-    Parameters
-    ----------
-    fld : ObstacleField
-        The obstacles checked.
-    pos : ndarray
-        ``(R, 2)`` robot positions.
-    t : float
-        The time (s).
-    radii : ndarray
-        ``(R,)`` robot radii.
-    ids : list of str
-        The robots' ids (in the order of ``pos``).
-    tol : float
-        The map tolerance (an overlap must exceed it).
-
-    Returns
-    -------
-    str
-        ``"<robot> touched <other> at t=..."``, or ``""`` without contact.
     """
     _, d = fld.nearest(pos, t, max_range=float(radii.max()) + 1.0)
     hit = d < radii[:, None] - tol
@@ -424,24 +357,7 @@ def _contact(fld: ObstacleField, pos: np.ndarray, t: float, radii: np.ndarray,
 
 
 def _pair_hits(pos: np.ndarray, radii: np.ndarray, tol: float, n_robots: int) -> np.ndarray:
-    """Which pairs of robot discs overlap by more than ``tol``.
-
-    Parameters
-    ----------
-    pos : ndarray
-        ``(R, 2)`` robot positions.
-    radii : ndarray
-        ``(R,)`` robot radii.
-    tol : float
-        The map tolerance.
-    n_robots : int
-        The number of robots simulated.
-
-    Returns
-    -------
-    ndarray
-        ``(R, R)`` booleans (``(1, 1)`` False for one robot); the diagonal is False.
-    """
+    """Which pairs of robot discs overlap by more than ``tol``."""
     if n_robots > 1:
         diff = pos[:, None, :] - pos[None, :, :]
         dd = np.hypot(diff[..., 0], diff[..., 1])

@@ -186,24 +186,7 @@ def _unknown_backend(name: str) -> str:
 
 
 def _preset_data(path: Path) -> dict[str, Any]:
-    """Read the preset ``path`` and check that its backend is registered.
-
-    Parameters
-    ----------
-    path : Path
-        A preset file (shipped, a plugin's or given by path).
-
-    Returns
-    -------
-    dict
-        :func:`optplan.catalog.read_preset`'s table.
-
-    Raises
-    ------
-    ValueError
-        Naming the file and the key; for a plugin's preset also the distribution and the entry
-        point (and reported once as a :class:`~optplan.catalog.PluginWarning`).
-    """
+    """Read the preset ``path`` and check that its backend is registered."""
     try:
         data = read_preset(path)
         backend = data["backend"]
@@ -242,15 +225,7 @@ class _BadEntry(ImportError):
 
 
 def _import_class(entry: str) -> type[Backend]:
-    """Import the ``module:Class`` ``entry`` and check that it is a :class:`Backend` subclass.
-
-    Raises
-    ------
-    _BadEntry
-        No such attribute, or not a ``Backend`` subclass.
-    BaseException
-        Whatever importing the module raised.
-    """
+    """Import the ``module:Class`` ``entry`` and check that it is a :class:`Backend` subclass."""
     mod, cls = entry.split(":")
     module = importlib.import_module(mod)
     if not hasattr(module, cls):

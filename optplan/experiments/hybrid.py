@@ -122,20 +122,7 @@ def three_way(seeds: Sequence[int], problem: str = "paper-hybrid",
 
 
 def _three_way_header(rows: dict[str, list[dict[str, Any]]], problem: str) -> list[str]:
-    """Title (seeds, both optima) and column heads of the three-way table.
-
-    Parameters
-    ----------
-    rows
-        Output of :func:`three_way` (with its ``_optimum`` entry).
-    problem
-        The scene named in the title.
-
-    Returns
-    -------
-    list of str
-        The title, a blank line, the head line and the separator line.
-    """
+    """Title (seeds, both optima) and column heads of the three-way table."""
     opt = rows["_optimum"][0]
     n = max(len(v) for k, v in rows.items() if not k.startswith("_"))
     return [f"Three-way comparison on `{problem}` ({n} seeds; medians; static optimum on the "
@@ -146,20 +133,7 @@ def _three_way_header(rows: dict[str, list[dict[str, Any]]], problem: str) -> li
 
 
 def _three_way_line(label: str, rs: list[dict[str, Any]]) -> str:
-    """One method's line: successes, temporary-obstacle hits and medians over its runs.
-
-    Parameters
-    ----------
-    label
-        The method's label.
-    rs
-        Its per-run rows.
-
-    Returns
-    -------
-    str
-        The markdown table line.
-    """
+    """One method's line: successes, temporary-obstacle hits and medians over its runs."""
     ok = sum(r["success"] for r in rs)
     hit = sum(r["temporary_collision"] for r in rs)
     return (f"| {label} | {ok}/{len(rs)} | {_median([r['length'] for r in rs]):.1f} "
@@ -240,21 +214,7 @@ def formation_runs(seeds: Sequence[int], scenes: Sequence[str] = FORMATION_SCENE
 
 
 def _formation_line(scene: str, solver: str, rs: list[dict[str, Any]]) -> str:
-    """One (scene, solver) line of the formation table: counts and medians over seeds.
-
-    Parameters
-    ----------
-    scene, solver
-        The scene and the solver.
-    rs
-        Their rows of :func:`formation_runs`; a first row whose status starts with
-        ``unavailable`` makes the line say so instead.
-
-    Returns
-    -------
-    str
-        The markdown table line.
-    """
+    """One (scene, solver) line of the formation table: counts and medians over seeds."""
     if rs[0]["status"].startswith("unavailable"):
         return f"| {scene} | {solver} | {rs[0]['status']} | | | | | | | |"
     ok = sum(r["status"] in ("solved", "optimal") for r in rs)
