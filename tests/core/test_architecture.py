@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import ast
 import functools
+import re
 from pathlib import Path
 
 import pytest
@@ -436,3 +437,19 @@ def test_no_function_takes_more_than_ten_parameters() -> None:
     assert not over, "over the parameter budget: " + ", ".join(over)
     stale = sorted(PARAMETER_BUDGET_EXCEPTIONS - seen)
     assert not stale, f"within the budget now, remove from the exceptions: {stale}"
+
+
+NUMPYDOC_SECTION = re.compile(r"^\s*(Parameters|Returns|Yields|Raises)\n\s*-{3,}$", re.M)
+
+
+def test_private_helpers_have_no_numpydoc_sections() -> None:
+    """A private helper's docstring says what it does in a line or a paragraph; the
+    Parameters / Returns sections belong to the public API (issue 43)."""
+    found = []
+    for p in sorted(ROOT.rglob("*.py")):
+        for node in ast.walk(ast.parse(p.read_text(encoding="utf-8"))):
+            if (isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+                    and is_private(node.name)
+                    and NUMPYDOC_SECTION.search(ast.get_docstring(node) or "")):
+                found.append(f"{p.relative_to(ROOT.parent)}:{node.lineno}:{node.name}")
+    assert not found, f"numpydoc sections on private helpers: {found}"
