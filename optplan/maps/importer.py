@@ -14,17 +14,8 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon, box
 
-from optplan.maps.grid import (
-    FREE,
-    MAX_CELLS,
-    OCCUPIED,
-    UNKNOWN,
-    Grid,
-    _check_cells,
-    _check_unknown,
-    _err,
-    _number,
-)
+from optplan.maps.checks import MAX_CELLS, check_cells, check_unknown, err, number
+from optplan.maps.grid import FREE, OCCUPIED, UNKNOWN, Grid
 from optplan.maps.occupancy import read_grid
 from optplan.maps.polygons import _polys, grid_polygons
 from optplan.problem import Problem, parse_problem, ring_points
@@ -85,8 +76,8 @@ def _crop_switch(where: str, crop: Any) -> bool | str:
         return "auto"
     why = "; a number is not accepted: crop is a switch, not a margin" if isinstance(
         crop, (int, float, np.number)) else ""
-    raise _err(where, "crop", f"expected 'auto', True or False, got {crop!r} "
-                              f"({type(crop).__name__}{why})")
+    raise err(where, "crop", f"expected 'auto', True or False, got {crop!r} "
+                             f"({type(crop).__name__}{why})")
 
 
 def _crop(where: str, grid: Grid, crop: Any, unknown: str) -> tuple[Grid, dict[str, Any]]:
@@ -117,8 +108,8 @@ def _check_ends_inside(where: str, grid: Grid, starts: np.ndarray, goals: np.nda
     for k in range(len(starts)):
         for key, q in (("start", starts[k]), ("goal", goals[k])):
             if grid.cell_of(q) is None:
-                raise _err(where, f"robots[{k}].{key}", f"{q.tolist()} lies outside the known "
-                           f"part of the map {list(grid.bounds)}; pass crop=False")
+                raise err(where, f"robots[{k}].{key}", f"{q.tolist()} lies outside the known "
+                          f"part of the map {list(grid.bounds)}; pass crop=False")
 
 
 def _fill_unreachable(polys: list[Polygon], points: np.ndarray) -> tuple[list[Polygon], int]:
@@ -161,30 +152,30 @@ def _points(v: Any, where: Any, key: str) -> np.ndarray:
     try:
         a = np.asarray(v, dtype=float)
     except (TypeError, ValueError):
-        raise _err(where, key, f"expected a point (x, y) or a list of points, got {v!r}") from None
+        raise err(where, key, f"expected a point (x, y) or a list of points, got {v!r}") from None
     if a.ndim == 1:
         a = a.reshape(1, -1)
     if a.ndim != 2 or a.shape[1] != 2 or not np.all(np.isfinite(a)):
-        raise _err(where, key, f"expected a point (x, y) or a list of points, got {v!r}")
+        raise err(where, key, f"expected a point (x, y) or a list of points, got {v!r}")
     return a
 
 
 def _check_vector_args(where: str, grow: Any, simplify: Any, join: str, radius: Any) -> float:
     """Validate the polygon-conversion arguments of :func:`import_map`; the radius."""
     for key, v in (("grow", grow), ("simplify", simplify)):
-        x = _number(v, where, key)
+        x = number(v, where, key)
         if x < 0:
-            raise _err(where, key, f"must be >= 0 (cells), got {v!r}")
+            raise err(where, key, f"must be >= 0 (cells), got {v!r}")
         if x > 4:
-            raise _err(where, key, f"{v!r} cells is coarser than the map; use at most 4")
+            raise err(where, key, f"{v!r} cells is coarser than the map; use at most 4")
     if simplify > 0 and grow == 0:
-        raise _err(where, "simplify", "needs grow > 0 (a simplified polygon without growth "
-                                      "cannot cover every cell); pass simplify=0")
+        raise err(where, "simplify", "needs grow > 0 (a simplified polygon without growth "
+                                     "cannot cover every cell); pass simplify=0")
     if join not in ("round", "mitre"):
-        raise _err(where, "join", f"expected 'round' or 'mitre', got {join!r}")
-    r = _number(radius, where, "radius")
+        raise err(where, "join", f"expected 'round' or 'mitre', got {join!r}")
+    r = number(radius, where, "radius")
     if r < 0:
-        raise _err(where, "radius", f"must be >= 0, got {radius!r}")
+        raise err(where, "radius", f"must be >= 0, got {radius!r}")
     return r
 
 
@@ -193,13 +184,13 @@ def _robot_ends(where: str, start: Any, goal: Any,
     """Starts, goals and robot ids of :func:`import_map` (one robot per start/goal pair)."""
     starts, goals = _points(start, where, "start"), _points(goal, where, "goal")
     if len(starts) != len(goals):
-        raise _err(where, "goal", f"{len(starts)} start(s) but {len(goals)} goal(s)")
+        raise err(where, "goal", f"{len(starts)} start(s) but {len(goals)} goal(s)")
     if robot_id is None:
         ids = ["r1"] if len(starts) == 1 else [f"r{k + 1}" for k in range(len(starts))]
     else:
         ids = [robot_id] if isinstance(robot_id, str) else list(robot_id)
     if len(ids) != len(starts):
-        raise _err(where, "robot", f"{len(ids)} robot id(s) for {len(starts)} start(s)")
+        raise err(where, "robot", f"{len(ids)} robot id(s) for {len(starts)} start(s)")
     return starts, goals, ids
 
 
@@ -211,13 +202,13 @@ def _check_ends_free(where: str, grid: Grid, mask: np.ndarray, starts: np.ndarra
         for key, q in (("start", starts[k]), ("goal", goals[k])):
             cell = grid.cell_of(q)
             if cell is None:
-                raise _err(where, f"robots[{k}].{key}", f"{q.tolist()} lies outside the map "
+                raise err(where, f"robots[{k}].{key}", f"{q.tolist()} lies outside the map "
                                                          f"{list(grid.bounds)}")
             if mask[cell]:
                 state = "unknown" if grid.cells[cell] == UNKNOWN else "occupied"
-                raise _err(where, f"robots[{k}].{key}",
-                           f"{q.tolist()} lies in an {state} cell (row {cell[0]}, column "
-                           f"{cell[1]}) of the map")
+                raise err(where, f"robots[{k}].{key}",
+                          f"{q.tolist()} lies in an {state} cell (row {cell[0]}, column "
+                          f"{cell[1]}) of the map")
 
 
 def _map_obstacles(grid: Grid, polys: list, stem: str, unknown: str) -> list[dict]:
@@ -307,7 +298,7 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
         (``unknown="occupied"``: the margin is then an obstacle the bounds replace; with
         ``unknown="free"`` it is free space, and only ``crop=True`` drops it).
     max_cells : int
-        The largest map read, in cells (:data:`~optplan.maps.grid.MAX_CELLS`, 8192 x 8192),
+        The largest map read, in cells (:data:`~optplan.maps.checks.MAX_CELLS`, 8192 x 8192),
         checked before the image is decoded or the grid allocated (for ``grid=``, before
         any geometry is made).
     grid : Grid, optional
@@ -327,16 +318,16 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
     """
     p = Path(path)
     where = str(p)
-    _check_unknown(unknown, where)
+    check_unknown(unknown, where)
     if grid is None:
         extra = {"negate": negate, "occupied_thresh": occupied_thresh,
                  "free_thresh": free_thresh, "mode": mode}
         extra = {k: v for k, v in extra.items() if v is not None}
         grid = read_grid(p, resolution=resolution, origin=origin, max_cells=max_cells, **extra)
     elif not isinstance(grid, Grid):
-        raise _err(where, "grid", f"expected an optplan.maps.Grid, got {type(grid).__name__}")
+        raise err(where, "grid", f"expected an optplan.maps.Grid, got {type(grid).__name__}")
     else:  # the limit of the readers, for an in-memory grid too
-        _check_cells(where, "grid", grid.height, grid.width, max_cells, "the grid: ")
+        check_cells(where, "grid", grid.height, grid.width, max_cells, "the grid: ")
     r = _check_vector_args(where, grow, simplify, join, radius)
     starts, goals, ids = _robot_ends(where, start, goal, robot_id)
     _check_ends_free(where, grid, grid.obstacle_mask(unknown), starts, goals)

@@ -7,16 +7,9 @@ from pathlib import Path
 
 import numpy as np
 
-from optplan.maps.grid import (
-    FREE,
-    MAX_CELLS,
-    OCCUPIED,
-    Grid,
-    _check_cells,
-    _err,
-    _number,
-    _origin,
-)
+from optplan.maps import checks
+from optplan.maps.checks import MAX_CELLS, check_cells, err, number
+from optplan.maps.grid import FREE, OCCUPIED, Grid
 from optplan.problem import ProblemError
 
 #: MovingAI terrain: passable characters (``.`` ground, ``G`` ground, ``S`` swamp); ``@`` and
@@ -47,28 +40,28 @@ def read_movingai(path: str | Path, *, resolution: float = 1.0,
         Naming the file and the line (or the header key) of what is wrong.
     """
     p = Path(path)
-    res = _number(resolution, p, "resolution", positive=True)
-    org = _origin(list(origin), p)
+    res = number(resolution, p, "resolution", positive=True)
+    org = checks.origin(list(origin), p)  # checks.: the parameter hides it
     lines = _read_lines(p)
     h, w, k = _header(p, lines, max_cells)
     rows = [ln.rstrip() for ln in lines[k + 1:k + 1 + h]]
     if len(rows) < h:
-        raise _err(p, "height", f"header says {h} rows, the file has {len(rows)}")
+        raise err(p, "height", f"header says {h} rows, the file has {len(rows)}")
     for r, row in enumerate(rows):
         if not row.isascii():
             c = next(i for i, ch in enumerate(row) if not ch.isascii())
-            raise _err(p, f"line {k + 2 + r}", f"non-ASCII byte at column {c + 1} (expected "
-                                               "one of . G S @ O T W)")
+            raise err(p, f"line {k + 2 + r}", f"non-ASCII byte at column {c + 1} (expected "
+                                              "one of . G S @ O T W)")
         if len(row) != w:
-            raise _err(p, f"line {k + 2 + r}", f"expected {w} cells, got {len(row)}")
+            raise err(p, f"line {k + 2 + r}", f"expected {w} cells, got {len(row)}")
     _check_after_grid(p, lines, k + 1 + h, w, h)
     codes = np.frombuffer("".join(rows).encode("latin-1"), dtype=np.uint8).reshape(h, w)
     free = np.isin(codes, _PASSABLE_CODES)
     bad = ~(free | np.isin(codes, _BLOCKED_CODES))
     if bad.any():
         r, c = (int(i) for i in np.argwhere(bad)[0])
-        raise _err(p, f"line {k + 2 + r}", f"unknown terrain {rows[r][c]!r} at column {c + 1} "
-                                           "(expected one of . G S @ O T W)")
+        raise err(p, f"line {k + 2 + r}", f"unknown terrain {rows[r][c]!r} at column {c + 1} "
+                                          "(expected one of . G S @ O T W)")
     cells = np.where(free, FREE, OCCUPIED).astype(np.uint8)
     return Grid(cells, res, org, str(p))
 
@@ -95,20 +88,20 @@ def _header(p: Path, lines: list[str], max_cells: int) -> tuple[int, int, int]:
         if not parts:
             continue
         if len(parts) != 2 or parts[0] not in ("type", "height", "width"):
-            raise _err(p, f"line {k}", f"expected 'type T', 'height H', 'width W' or 'map', "
-                                       f"got {lines[k - 1][:60]!r}")
+            raise err(p, f"line {k}", f"expected 'type T', 'height H', 'width W' or 'map', "
+                                      f"got {lines[k - 1][:60]!r}")
         head[parts[0]] = (parts[1], k)
     size = []
     for key in ("height", "width"):
         if key not in head:
-            raise _err(p, key, "missing header line")
+            raise err(p, key, "missing header line")
         text, line = head[key]
         if not text.isdigit() or int(text) < 1:
-            raise _err(p, f"line {line}", f"{key}: expected a positive integer, got {text!r}")
+            raise err(p, f"line {line}", f"{key}: expected a positive integer, got {text!r}")
         size.append(int(text))
-    _check_cells(p, f"line {head['width'][1]}", size[0], size[1], max_cells)
+    check_cells(p, f"line {head['width'][1]}", size[0], size[1], max_cells)
     if k >= len(lines):
-        raise _err(p, "map", "missing 'map' line before the grid")
+        raise err(p, "map", "missing 'map' line before the grid")
     return size[0], size[1], k
 
 
@@ -119,6 +112,6 @@ def _check_after_grid(p: Path, lines: list[str], start: int, w: int, h: int) -> 
         if not s:
             continue
         if len(s) == w and set(s) <= MOVINGAI_PASSABLE | MOVINGAI_BLOCKED:
-            raise _err(p, f"line {k + 1}", f"a grid row after the {h} rows the header's "
-                                           f"height gives (is the height wrong?)")
+            raise err(p, f"line {k + 1}", f"a grid row after the {h} rows the header's "
+                                          f"height gives (is the height wrong?)")
         return

@@ -12,17 +12,9 @@ from typing import Any
 
 import numpy as np
 
-from optplan.maps.grid import (
-    FREE,
-    MAX_CELLS,
-    OCCUPIED,
-    UNKNOWN,
-    Grid,
-    _check_cells,
-    _err,
-    _number,
-    _origin,
-)
+from optplan.maps import checks
+from optplan.maps.checks import MAX_CELLS, check_cells, err, number
+from optplan.maps.grid import FREE, OCCUPIED, UNKNOWN, Grid
 from optplan.maps.movingai import read_movingai
 from optplan.problem import ProblemError
 
@@ -43,7 +35,7 @@ def _open_image(path: Path, where: Any, key: str, max_cells: int) -> tuple[Any, 
         warnings.simplefilter("ignore", Image.DecompressionBombWarning)
         with Image.open(path) as src:
             w, h = src.size
-            _check_cells(where, key, h, w, max_cells, f"image {str(path)!r}: ")
+            check_cells(where, key, h, w, max_cells, f"image {str(path)!r}: ")
             src.load()
             im: Image.Image = src
             mode = im.mode
@@ -64,10 +56,10 @@ def _read_pixels(path: Path, where: Any, key: str, max_cells: int = MAX_CELLS
     except ProblemError:
         raise
     except FileNotFoundError:
-        raise _err(where, key, f"no such image file {str(path)!r}") from None
+        raise err(where, key, f"no such image file {str(path)!r}") from None
     except (UnidentifiedImageError, OSError, ValueError, SyntaxError,
             Image.DecompressionBombError) as e:  # Pillow's complaints about a malformed file
-        raise _err(where, key, f"cannot read image {str(path)!r} ({e})") from None
+        raise err(where, key, f"cannot read image {str(path)!r} ({e})") from None
     arr = np.asarray(arr, dtype=float)
     if mode.startswith("I;16") or (mode == "I" and arr.max(initial=0) > 255):
         arr = arr * (255.0 / 65535.0)
@@ -119,23 +111,23 @@ def classify(colour: np.ndarray, alpha: np.ndarray | None, *, negate: bool = Fal
 
 def _thresholds(where: Any, occupied_thresh: Any, free_thresh: Any, mode: Any,
                 negate: Any) -> tuple[float, float, str, bool]:
-    occ = _number(occupied_thresh, where, "occupied_thresh")
-    free = _number(free_thresh, where, "free_thresh")
+    occ = number(occupied_thresh, where, "occupied_thresh")
+    free = number(free_thresh, where, "free_thresh")
     for k, v in (("occupied_thresh", occ), ("free_thresh", free)):
         if not 0.0 <= v <= 1.0:
-            raise _err(where, k, f"must be in [0, 1], got {v!r}")
+            raise err(where, k, f"must be in [0, 1], got {v!r}")
     if free > occ:
-        raise _err(where, "free_thresh", f"must be <= occupied_thresh ({occ!r}), got {free!r}")
+        raise err(where, "free_thresh", f"must be <= occupied_thresh ({occ!r}), got {free!r}")
     if not isinstance(mode, str) or mode not in _MODES:
         close = difflib.get_close_matches(str(mode), _MODES, n=1)
         hint = f"; did you mean {close[0]!r}?" if close else ""
-        raise _err(where, "mode", f"unknown mode {mode!r}{hint} (allowed: {', '.join(_MODES)})")
+        raise err(where, "mode", f"unknown mode {mode!r}{hint} (allowed: {', '.join(_MODES)})")
     if isinstance(negate, (bool, np.bool_)):  # numpy scalars as Python's
         neg = bool(negate)
     elif isinstance(negate, (int, np.integer)) and negate in (0, 1):
         neg = bool(negate)
     else:
-        raise _err(where, "negate", f"expected 0 or 1, got {negate!r}")
+        raise err(where, "negate", f"expected 0 or 1, got {negate!r}")
     return occ, free, mode, neg
 
 
@@ -147,11 +139,11 @@ def read_image(path: str | Path, *, resolution: float, origin: Sequence[float] =
     the lower-left corner; an image of more than ``max_cells`` pixels is an error before it is
     decoded."""
     p = Path(path)
-    res = _number(resolution, p, "resolution", positive=True)
-    org = _origin(list(origin), p)
+    res = number(resolution, p, "resolution", positive=True)
+    org = checks.origin(list(origin), p)  # checks.: the parameter hides it
     occ, free, mode, neg = _thresholds(p, occupied_thresh, free_thresh, mode, negate)
     if not p.is_file():
-        raise _err(p, "image", "no such file")
+        raise err(p, "image", "no such file")
     colour, alpha = _read_pixels(p, p, "image", max_cells)
     cells = classify(colour, alpha, negate=neg, occupied_thresh=occ, free_thresh=free, mode=mode)
     return Grid(cells, res, org, str(p))
@@ -203,28 +195,28 @@ def read_ros_yaml(path: str | Path, *, max_cells: int = MAX_CELLS) -> Grid:
         at = f" at line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         raise ProblemError(f"{p}: invalid YAML{at}: {getattr(e, 'problem', e)}") from None
     if not isinstance(data, dict):
-        raise _err(p, "<root>", "expected a mapping of map_server keys")
+        raise err(p, "<root>", "expected a mapping of map_server keys")
     for k in data:
         if k not in _ROS_KEYS:
             close = difflib.get_close_matches(str(k), _ROS_KEYS, n=1)
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise _err(p, str(k), f"unknown key{hint} (allowed: {', '.join(_ROS_KEYS)})")
+            raise err(p, str(k), f"unknown key{hint} (allowed: {', '.join(_ROS_KEYS)})")
     for k in ("image", "resolution", "origin"):
         if k not in data:
-            raise _err(p, k, "missing required key")
-    res = _number(data["resolution"], p, "resolution", positive=True)
-    org = _origin(data["origin"], p)
+            raise err(p, k, "missing required key")
+    res = number(data["resolution"], p, "resolution", positive=True)
+    org = checks.origin(data["origin"], p)
     opts = {k: data.get(k, v) for k, v in ROS_DEFAULTS.items()}
     occ, free, mode, neg = _thresholds(p, opts["occupied_thresh"], opts["free_thresh"],
                                        opts["mode"], opts["negate"])
     img = data["image"]
     if not isinstance(img, str) or not img:
-        raise _err(p, "image", f"expected a file name, got {img!r}")
+        raise err(p, "image", f"expected a file name, got {img!r}")
     ip = Path(img)
     if not ip.is_absolute():
         ip = p.parent / ip
     if not ip.is_file():
-        raise _err(p, "image", f"no such file {str(ip)!r}")
+        raise err(p, "image", f"no such file {str(ip)!r}")
     colour, alpha = _read_pixels(ip, p, "image", max_cells)
     cells = classify(colour, alpha, negate=neg, occupied_thresh=occ, free_thresh=free, mode=mode)
     return Grid(cells, res, org, str(p))
@@ -235,7 +227,7 @@ def read_grid(path: str | Path, *, resolution: float | None = None,
               **classify_opts: Any) -> Grid:
     """Read any supported map by its suffix: ``.yaml``/``.yml`` (ROS), ``.map`` (MovingAI) or
     an image (``resolution`` required; ``origin`` default ``(0, 0)``); at most ``max_cells``
-    cells (:data:`~optplan.maps.grid.MAX_CELLS` by default), checked before decoding."""
+    cells (:data:`~optplan.maps.checks.MAX_CELLS` by default), checked before decoding."""
     p = Path(path)
     suf = p.suffix.lower()
     if not p.exists():
@@ -243,18 +235,18 @@ def read_grid(path: str | Path, *, resolution: float | None = None,
     if suf in (".yaml", ".yml"):
         for k, v in (("resolution", resolution), ("origin", origin), *classify_opts.items()):
             if v is not None:
-                raise _err(p, k, "given by the YAML file; do not pass it for a ROS map")
+                raise err(p, k, "given by the YAML file; do not pass it for a ROS map")
         return read_ros_yaml(p, max_cells=max_cells)
     if suf == ".map":
         if classify_opts:
-            raise _err(p, next(iter(classify_opts)), "not an option of MovingAI maps")
+            raise err(p, next(iter(classify_opts)), "not an option of MovingAI maps")
         return read_movingai(p, resolution=1.0 if resolution is None else resolution,
                              origin=(0.0, 0.0) if origin is None else origin,
                              max_cells=max_cells)
     if suf in _IMAGE_SUFFIXES:
         if resolution is None:
-            raise _err(p, "resolution", "required for a bare image (map units per cell, e.g. "
-                                        "--resolution 0.05)")
+            raise err(p, "resolution", "required for a bare image (map units per cell, e.g. "
+                                       "--resolution 0.05)")
         opts = {k: v for k, v in classify_opts.items() if v is not None}
         return read_image(p, resolution=resolution,
                           origin=(0.0, 0.0) if origin is None else origin,

@@ -15,18 +15,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from optplan.maps.grid import (
-    FREE,
-    MAX_CELLS,
-    OCCUPIED,
-    UNKNOWN,
-    Grid,
-    _check_cells,
-    _check_extent,
-    _err,
-    _is_real,
-    _number,
-)
+from optplan.maps.checks import MAX_CELLS, check_cells, check_extent, err, is_real, number
+from optplan.maps.grid import FREE, OCCUPIED, UNKNOWN, Grid
 from optplan.maps.occupancy import _thresholds, classify
 
 #: Largest stamp a ``builtin_interfaces/Time`` holds (``sec`` is an int32).
@@ -69,28 +59,28 @@ def _mapping(v: Any, where: str, key: str, allowed: Sequence[str],
              required: Sequence[str]) -> Mapping[str, Any]:
     """``v`` is a mapping with the ``required`` keys and no key outside ``allowed``."""
     if not isinstance(v, Mapping):
-        raise _err(where, key, f"expected a mapping with the keys {', '.join(required)}, "
-                               f"got {type(v).__name__}")
+        raise err(where, key, f"expected a mapping with the keys {', '.join(required)}, "
+                              f"got {type(v).__name__}")
     for k in v:
         if k not in allowed:
-            raise _err(where, f"{key}.{k}" if key != "<root>" else str(k),
-                       f"unknown key (allowed: {', '.join(allowed)})")
+            raise err(where, f"{key}.{k}" if key != "<root>" else str(k),
+                      f"unknown key (allowed: {', '.join(allowed)})")
     for k in required:
         if k not in v:
-            raise _err(where, f"{key}.{k}" if key != "<root>" else k, "missing required key")
+            raise err(where, f"{key}.{k}" if key != "<root>" else k, "missing required key")
     return v
 
 
 def _yaw(q: Any, where: str, key: str) -> float:
     """The yaw of a ``geometry_msgs/Quaternion`` that rotates about the z axis only."""
     q = _mapping(q, where, key, ("x", "y", "z", "w"), ("x", "y", "z", "w"))
-    x, y, z, w = (_number(q[c], where, f"{key}.{c}") for c in "xyzw")
+    x, y, z, w = (number(q[c], where, f"{key}.{c}") for c in "xyzw")
     norm = math.sqrt(x * x + y * y + z * z + w * w)
     if norm == 0.0:
-        raise _err(where, key, "a zero quaternion is no rotation (expected a unit quaternion)")
+        raise err(where, key, "a zero quaternion is no rotation (expected a unit quaternion)")
     if max(abs(x), abs(y)) > 1e-9 * norm:
-        raise _err(where, key, f"only rotations about the z axis are supported (x = y = 0: a "
-                               f"map in the plane), got x = {x!r}, y = {y!r}")
+        raise err(where, key, f"only rotations about the z axis are supported (x = y = 0: a "
+                              f"map in the plane), got x = {x!r}, y = {y!r}")
     return 2.0 * math.atan2(z, w)
 
 
@@ -98,9 +88,9 @@ def _pose(p: Any, where: str, key: str) -> tuple[float, float, float]:
     """``(x, y, yaw)`` of a ``geometry_msgs/Pose`` in the plane (``z`` is not used)."""
     p = _mapping(p, where, key, ("position", "orientation"), ("position", "orientation"))
     pos = _mapping(p["position"], where, f"{key}.position", ("x", "y", "z"), ("x", "y"))
-    x, y = (_number(pos[c], where, f"{key}.position.{c}") for c in "xy")
+    x, y = (number(pos[c], where, f"{key}.position.{c}") for c in "xy")
     if "z" in pos:
-        _number(pos["z"], where, f"{key}.position.z")
+        number(pos["z"], where, f"{key}.position.z")
     return x, y, _yaw(p["orientation"], where, f"{key}.orientation")
 
 
@@ -210,7 +200,7 @@ def _int_field(v: Any, where: str, key: str, hi: int) -> int:
     """An integer field of a ``builtin_interfaces/Time`` in ``[0, hi)``."""
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)) \
             or not 0 <= v < hi:
-        raise _err(where, key, f"expected an integer in [0, {hi - 1}], got {v!r}")
+        raise err(where, key, f"expected an integer in [0, {hi - 1}], got {v!r}")
     return int(v)
 
 
@@ -238,9 +228,9 @@ def read_path_msg(msg: Any, name: str = "<nav_msgs/Path>") -> TimedPath:
     if "stamp" in head:
         _stamp(head["stamp"], name, "header.stamp")
     if not isinstance(head["frame_id"], str):
-        raise _err(name, "header.frame_id", f"expected a string, got {head['frame_id']!r}")
+        raise err(name, "header.frame_id", f"expected a string, got {head['frame_id']!r}")
     if not isinstance(m["poses"], Sequence) or isinstance(m["poses"], str):
-        raise _err(name, "poses", "expected a list of geometry_msgs/PoseStamped")
+        raise err(name, "poses", "expected a list of geometry_msgs/PoseStamped")
     pts, ts, yaw = [], [], []
     last = -1
     for k, ps in enumerate(m["poses"]):
@@ -250,9 +240,9 @@ def read_path_msg(msg: Any, name: str = "<nav_msgs/Path>") -> TimedPath:
                       ("stamp",))["stamp"]
         ns = _stamp(st, name, f"{key}.header.stamp")
         if ns < last:
-            raise _err(name, f"{key}.header.stamp", f"{ns / 1e9:.9f} s is before the "
-                       f"previous pose's {last / 1e9:.9f} s: the stamps of a timed path must "
-                       f"be non-decreasing")
+            raise err(name, f"{key}.header.stamp", f"{ns / 1e9:.9f} s is before the "
+                      f"previous pose's {last / 1e9:.9f} s: the stamps of a timed path must "
+                      f"be non-decreasing")
         last = ns
         ts.append(ns * 1e-9)
         x, y, a = _pose(ps["pose"], name, f"{key}.pose")
@@ -267,7 +257,7 @@ def read_path_msg(msg: Any, name: str = "<nav_msgs/Path>") -> TimedPath:
 
 def _size(v: Any, where: str, key: str) -> int:
     if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not 1 <= v <= 2**32 - 1:
-        raise _err(where, key, f"expected an integer in [1, {2**32 - 1}] (cells), got {v!r}")
+        raise err(where, key, f"expected an integer in [1, {2**32 - 1}] (cells), got {v!r}")
     return int(v)
 
 
@@ -278,9 +268,9 @@ def _check_numbers(data: Sequence[Any], where: str, expected: str) -> None:
     if all(issubclass(t, (int, float, np.integer, np.floating))
            and not issubclass(t, (bool, np.bool_)) for t in kinds):
         return
-    k = next(i for i, v in enumerate(data) if not _is_real(v))
-    raise _err(where, f"data[{k}]", f"{data[k]!r} ({type(data[k]).__name__}) is not a number: "
-                                    f"{expected}")
+    k = next(i for i, v in enumerate(data) if not is_real(v))
+    raise err(where, f"data[{k}]", f"{data[k]!r} ({type(data[k]).__name__}) is not a number: "
+                                   f"{expected}")
 
 
 def _as_values(data: Any, where: str) -> np.ndarray:
@@ -289,19 +279,19 @@ def _as_values(data: Any, where: str) -> np.ndarray:
     if isinstance(data, (bytes, bytearray)):
         return np.frombuffer(bytes(data), dtype=np.int8).astype(float)
     if isinstance(data, (str, Mapping)):
-        raise _err(where, "data", f"{expected}, got {type(data).__name__}")
+        raise err(where, "data", f"{expected}, got {type(data).__name__}")
     if isinstance(data, (list, tuple)):
         _check_numbers(data, where, expected)
     try:
         a = np.asarray(data)
     except (TypeError, ValueError):
-        raise _err(where, "data", f"{expected}, got {type(data).__name__}") from None
+        raise err(where, "data", f"{expected}, got {type(data).__name__}") from None
     if a.dtype.kind == "O" and a.ndim == 1:  # e.g. Python ints beyond int64
         _check_numbers(a.tolist(), where, expected)
         return np.array([float(v) if abs(v) < 1e300 else 1e300 if v > 0 else -1e300
                          for v in a.tolist()])
     if a.dtype.kind not in "iuf":
-        raise _err(where, "data", f"{expected}, got an array of {a.dtype}")
+        raise err(where, "data", f"{expected}, got an array of {a.dtype}")
     return a.astype(float)
 
 
@@ -309,15 +299,15 @@ def _grid_values(data: Any, width: int, height: int, where: str) -> np.ndarray:
     """``data`` as ``(height, width)`` int values, checked: numbers, the length and -1..100."""
     a = _as_values(data, where)
     if a.ndim != 1 or len(a) != width * height:
-        raise _err(where, "data", f"{a.size} values, expected info.width x info.height = "
-                                  f"{width} x {height} = {width * height} (row-major from the "
-                                  f"origin cell)")
+        raise err(where, "data", f"{a.size} values, expected info.width x info.height = "
+                                 f"{width} x {height} = {width * height} (row-major from the "
+                                 f"origin cell)")
     bad = np.flatnonzero(~((a == np.round(a)) & (a >= GRID_UNKNOWN) & (a <= GRID_OCCUPIED)))
     if len(bad):
         k = int(bad[0])
-        raise _err(where, f"data[{k}]", f"{a[k]:g} is not an occupancy value: expected an "
-                                        f"integer in -1..100 (-1 unknown, 0 free .. 100 "
-                                        f"occupied)")
+        raise err(where, f"data[{k}]", f"{a[k]:g} is not an occupancy value: expected an "
+                                       f"integer in -1..100 (-1 unknown, 0 free .. 100 "
+                                       f"occupied)")
     return a.astype(np.int16).reshape(height, width)
 
 
@@ -336,7 +326,7 @@ def read_occupancy_grid(msg: Any, *, name: str = "<nav_msgs/OccupancyGrid>",
     otherwise (so ``0`` free, ``100`` occupied, ``-1`` unknown with the defaults).  The
     entries must be numbers (a string such as ``"50"`` is an error); ``resolution`` may be a
     numpy scalar; the map's diagonal must lie in ``[1e-100, 1e100]`` and its centre within
-    ``1e6`` diagonals of the coordinate origin (:data:`~optplan.maps.grid.MAP_MIN_LENGTH`); a
+    ``1e6`` diagonals of the coordinate origin (:data:`~optplan.maps.checks.MAP_MIN_LENGTH`); a
     map of more than ``max_cells`` cells (:data:`~optplan.maps.MAX_CELLS` by default) is an
     error, as it is for the file readers.
 
@@ -348,13 +338,13 @@ def read_occupancy_grid(msg: Any, *, name: str = "<nav_msgs/OccupancyGrid>",
     """
     m = _mapping(msg, name, "<root>", _GRID_KEYS, ("info", "data"))
     info = _mapping(m["info"], name, "info", _INFO_KEYS, _INFO_KEYS[1:])
-    res = _number(info["resolution"], name, "info.resolution", positive=True)
+    res = number(info["resolution"], name, "info.resolution", positive=True)
     width = _size(info["width"], name, "info.width")
     height = _size(info["height"], name, "info.height")
     origin = _pose(info["origin"], name, "info.origin")
-    _check_cells(name, "info.width", height, width, max_cells,
-                 "info.width x info.height: ")
-    _check_extent(name, width, height, res, origin, "info.resolution", "info.origin")
+    check_cells(name, "info.width", height, width, max_cells,
+                "info.width x info.height: ")
+    check_extent(name, width, height, res, origin, "info.resolution", "info.origin")
     occ, free, _, _ = _thresholds(name, occupied_thresh, free_thresh, "raw", 0)
     v = _grid_values(m["data"], width, height, name)[::-1]  # row 0 of a Grid is the top
     pixels = np.where(v < 0, 255, v).astype(float)  # map_server's raw -1 is 255: unknown

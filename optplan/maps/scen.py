@@ -12,7 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from optplan.maps.grid import Grid, _err
+from optplan.maps.checks import err
+from optplan.maps.grid import Grid
 from optplan.maps.importer import _polygon_table, _world
 from optplan.maps.movingai import read_movingai
 from optplan.maps.polygons import grid_polygons
@@ -66,7 +67,7 @@ def read_scen_entries(path: str | Path) -> list[ScenEntry]:
         first = False
         out.append(_scen_line(p, k, ln))
     if not out:
-        raise _err(p, "<file>", "no scenario lines")
+        raise err(p, "<file>", "no scenario lines")
     return out
 
 
@@ -78,9 +79,9 @@ def _check_version(p: Path, k: int, ln: str) -> None:
     """A ``version`` line names a version MovingAI defines (:data:`SCEN_VERSIONS`)."""
     parts = ln.split()
     if len(parts) != 2 or parts[1] not in SCEN_VERSIONS:
-        raise _err(p, f"line {k}", f"unsupported version line {ln.strip()[:60]!r} (allowed: "
-                                   f"'version 1' or 'version 1.0', the MovingAI .scen "
-                                   f"format's)")
+        raise err(p, f"line {k}", f"unsupported version line {ln.strip()[:60]!r} (allowed: "
+                                  f"'version 1' or 'version 1.0', the MovingAI .scen "
+                                  f"format's)")
 
 
 def _scen_fields(p: Path, k: int, ln: str) -> list[str]:
@@ -91,13 +92,13 @@ def _scen_fields(p: Path, k: int, ln: str) -> list[str]:
     if len(parts) == 9:  # text after the optimal length, separated by a blank, not a tab
         parts = parts[:8] + parts[8].split()
     if len(parts) > 9:
-        raise _err(p, f"line {k}", f"text after the 9 fields (bucket map width height "
-                                   f"start_x start_y goal_x goal_y optimal_length): "
-                                   f"{' '.join(parts[9:])[:60]!r} (only trailing white space "
-                                   f"is allowed)")
+        raise err(p, f"line {k}", f"text after the 9 fields (bucket map width height "
+                                  f"start_x start_y goal_x goal_y optimal_length): "
+                                  f"{' '.join(parts[9:])[:60]!r} (only trailing white space "
+                                  f"is allowed)")
     if len(parts) != 9:
-        raise _err(p, f"line {k}", f"expected 9 fields (bucket map width height start_x "
-                                   f"start_y goal_x goal_y optimal_length), got {len(parts)}")
+        raise err(p, f"line {k}", f"expected 9 fields (bucket map width height start_x "
+                                  f"start_y goal_x goal_y optimal_length), got {len(parts)}")
     return parts
 
 
@@ -108,15 +109,15 @@ def _scen_line(p: Path, k: int, ln: str) -> ScenEntry:
         b, w, h, sx, sy, gx, gy = (int(parts[i]) for i in (0, 2, 3, 4, 5, 6, 7))
         opt = float(parts[8])
     except ValueError:
-        raise _err(p, f"line {k}", f"non-numeric field in {ln.strip()[:80]!r}") from None
+        raise err(p, f"line {k}", f"non-numeric field in {ln.strip()[:80]!r}") from None
     if w < 1 or h < 1:
-        raise _err(p, f"line {k}", f"map size {w} x {h}: expected positive integers")
+        raise err(p, f"line {k}", f"map size {w} x {h}: expected positive integers")
     for what, (x, y) in (("start", (sx, sy)), ("goal", (gx, gy))):
         if not (0 <= x < w and 0 <= y < h):
-            raise _err(p, f"line {k}", f"{what} cell ({x}, {y}) lies outside the {w} x {h} map")
+            raise err(p, f"line {k}", f"{what} cell ({x}, {y}) lies outside the {w} x {h} map")
     if not (math.isfinite(opt) and opt >= 0):
-        raise _err(p, f"line {k}", f"optimal length {parts[8]!r}: expected a finite number "
-                                   ">= 0")
+        raise err(p, f"line {k}", f"optimal length {parts[8]!r}: expected a finite number "
+                                  ">= 0")
     return ScenEntry(b, parts[1], w, h, (sx, sy), (gx, gy), opt, k)
 
 
@@ -125,9 +126,9 @@ def _check_one_map(p: Path, entries: list[ScenEntry]) -> None:
     name = Path(entries[0].map).name
     for e in entries:
         if Path(e.map).name != name:
-            raise _err(p, f"line {e.line}", f"names the map {e.map!r}, line {entries[0].line} "
-                                            f"names {entries[0].map!r}: one .scen file is for "
-                                            "one map")
+            raise err(p, f"line {e.line}", f"names the map {e.map!r}, line {entries[0].line} "
+                                           f"names {entries[0].map!r}: one .scen file is for "
+                                           "one map")
 
 
 _OCTILE_RE = re.compile(r"octile length ([0-9.eE+-]+)")
@@ -228,8 +229,8 @@ def _find_map(p: Path, first: ScenEntry) -> Path:
     cands = [p.parent / first.map, p.parent / Path(first.map).name]
     found = next((c for c in cands if c.is_file()), None)
     if found is None:
-        raise _err(p, "map", f"cannot find the map {first.map!r} (looked for "
-                             f"{', '.join(str(c) for c in cands)}); pass map_path")
+        raise err(p, "map", f"cannot find the map {first.map!r} (looked for "
+                            f"{', '.join(str(c) for c in cands)}); pass map_path")
     return found
 
 
@@ -238,13 +239,13 @@ def _check_entry(p: Path, e: ScenEntry, grid: Grid, mask: np.ndarray,
     """The entry's map size is the map's; its start and goal cells are free cells of it."""
     key = f"line {e.line}"
     if (e.width, e.height) != (grid.width, grid.height):
-        raise _err(p, key, f"the scenario is for a {e.width} x {e.height} map, "
-                           f"{map_path} is {grid.width} x {grid.height}")
+        raise err(p, key, f"the scenario is for a {e.width} x {e.height} map, "
+                          f"{map_path} is {grid.width} x {grid.height}")
     for what, (x, y) in (("start", e.start), ("goal", e.goal)):
         if not (0 <= x < grid.width and 0 <= y < grid.height):
-            raise _err(p, key, f"{what} cell ({x}, {y}) lies outside the map")
+            raise err(p, key, f"{what} cell ({x}, {y}) lies outside the map")
         if mask[y, x]:
-            raise _err(p, key, f"{what} cell ({x}, {y}) is blocked in {map_path}")
+            raise err(p, key, f"{what} cell ({x}, {y}) is blocked in {map_path}")
 
 
 def _entry_keys(p: Path, stem: str, e: ScenEntry, res: float) -> dict[str, Any]:
@@ -266,9 +267,9 @@ def _like(template: Problem, where: str, s: np.ndarray, g: np.ndarray,
     for k, q in () if clear else (("start", s), ("goal", g)):
         hit = template.blocking_obstacle(q, template.robots[0].radius)
         if hit is not None:
-            raise _err(where, f"robots[0].{k}", f"{q.tolist()} lies inside obstacle "
-                       f"{template.obstacles[hit].name!r} (obstacles[{hit}]) inflated by "
-                       f"the robot radius {template.robots[0].radius:g}")
+            raise err(where, f"robots[0].{k}", f"{q.tolist()} lies inside obstacle "
+                      f"{template.obstacles[hit].name!r} (obstacles[{hit}]) inflated by "
+                      f"the robot radius {template.robots[0].radius:g}")
     robot = dataclasses.replace(template.robots[0], start=s, goal=g)
     return template.replaced(keep=("frame", "obstacle_set"), robots=(robot,), path=where,
                              **keys)

@@ -732,7 +732,7 @@ def _tiny_yaml(tmp_path: Path, resolution: str, origin: str = "[0.0, 0.0, 0.0]")
 
 @pytest.mark.parametrize("res", ["1e-300", "1e-40", "1e+40", "1e300"])
 def test_a_resolution_outside_the_range_names_the_file_key_value_and_range(tmp_path, res):
-    from optplan.maps.grid import MAP_MAX_LENGTH, MAP_MIN_LENGTH
+    from optplan.maps.checks import MAP_MAX_LENGTH, MAP_MIN_LENGTH
 
     y = _tiny_yaml(tmp_path, res)
     value = re.escape(repr(float(res)))
