@@ -125,7 +125,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan.exact.nlp_pieces import blocked_end
-from optplan.exact.nlp_solve import MAX_SEGMENTS, NLPOutcome, solve_waypoint_nlp
+from optplan.exact.nlp_solve import MAX_SEGMENTS, NLPOutcome, NLPSettings, solve_waypoint_nlp
 from optplan.exact.nlp_status import combine_claims, guard, ipopt_claim, outcome_message
 from optplan.geometry.collision import path_lengths
 from optplan.geometry.tangent import problem_shortest_path
@@ -256,6 +256,13 @@ class WaypointNLP(Backend):
                 "bound_push": self.bound_push, "bound_frac": self.bound_push,
                 "slack_bound_push": self.bound_push, "slack_bound_frac": self.bound_push}
 
+    def _nlp_settings(self, segment_bucket: int) -> NLPSettings:
+        """This backend's options as the settings of :func:`solve_waypoint_nlp`."""
+        return NLPSettings(n_segments=self.n_segments, prune_distance=self.prune_distance,
+                           max_rounds=self.max_rounds, eps=self.eps,
+                           spacing_weight=self.spacing_weight, resolve_from=self.resolve_from,
+                           segment_bucket=segment_bucket, ipopt_options=self.ipopt_options())
+
     def _initial(self, problem: Problem, robot: Robot, init
                  ) -> tuple[np.ndarray | None, str, Status]:
         """(initial path, its source, status if there is none)."""
@@ -304,14 +311,9 @@ class WaypointNLP(Backend):
                     f"{robot.id}: {which} lies within the robot radius of an obstacle", None)
         try:
             out = solve_waypoint_nlp(
-                problem, robot, guess, n_segments=self.n_segments,
-                known_only=known_only, margin=margin,
-                prune_distance=self.prune_distance, max_rounds=self.max_rounds,
-                resolve_from=self.resolve_from,
-                segment_bucket=SEGMENT_BUCKET if source == "init" else 1,
-                eps=self.eps, spacing_weight=self.spacing_weight,
-                ipopt_options=self.ipopt_options(),
-                on_iter=prog if report else None)
+                problem, robot, guess,
+                self._nlp_settings(SEGMENT_BUCKET if source == "init" else 1),
+                known_only=known_only, margin=margin, on_iter=prog if report else None)
             if prog.raised:
                 raise prog.raised[0]
         except RuntimeError as e:  # CasADi / IPOPT numerical failure -> failed status

@@ -12,8 +12,9 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -31,7 +32,8 @@ from optplan.geometry.collision import path_lengths, resample_path
 from optplan.metrics import evaluate
 from optplan.problem import Problem, Robot
 
-__all__ = ["MAX_SEGMENTS", "NLPOutcome", "solve_once", "next_mask", "solve_waypoint_nlp"]
+__all__ = ["MAX_SEGMENTS", "NLPSettings", "NLPOutcome", "solve_once", "next_mask",
+           "solve_waypoint_nlp"]
 
 #: hard cap on the number of segments (longer initial guesses are resampled by arc length).
 MAX_SEGMENTS = 400
@@ -40,6 +42,77 @@ MAX_SEGMENTS = 400
 def _bucket(n: int, step: int) -> int:
     return max(step, int(math.ceil(n / step)) * step)
 
+
+def _is_count(v: Any) -> bool:
+    """An integer >= 1 (a bool is not one)."""
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool) and bool(v >= 1)
+
+
+def _is_weight(v: Any, inf_ok: bool = False) -> bool:
+    """A real number >= 0, finite unless ``inf_ok`` (then ``+inf`` too; never ``nan``)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)):
+        return False
+    return bool(v >= 0) and (math.isfinite(v) or (inf_ok and v == math.inf))
+
+
+@dataclass(frozen=True, kw_only=True)
+class NLPSettings:
+    """The solver settings of :func:`solve_waypoint_nlp` (the defaults are the ``nlp``
+    backend's, :class:`~optplan.exact.nlp.WaypointNLP`).
+
+    Parameters
+    ----------
+    n_segments : int
+        Segments of the path (the initial path is resampled to them; a longer one keeps
+        every vertex, see ``segment_bucket``); at most :data:`MAX_SEGMENTS` either way.
+    prune_distance : float
+        Pair pruning radius as a fraction of the map diagonal: a (segment, piece) pair is
+        constrained when its initial slack is at most this; ``inf`` constrains every pair.
+    max_rounds : int
+        Maximum number of solves (a re-solve adds the violated pruned pairs; the last one has
+        every pair).
+    eps : float
+        Length smoothing, a fraction of the map diagonal.
+    spacing_weight : float
+        Weight of the spacing regulariser (dimensionless).
+    resolve_from : {"last", "init"}
+        Start of a re-solve: the previous round's solution or the initial path again.
+    segment_bucket : int
+        An initial path with more than ``n_segments`` segments keeps every vertex, its
+        segment count rounded up to a multiple of this.
+    ipopt_options : mapping
+        IPOPT options passed to CasADi's ``nlpsol`` (``print_level``, ``max_iter``, ...).
+
+    Raises
+    ------
+    ValueError
+        A setting out of its range; the message names the setting, its value and the range.
+    """
+
+    n_segments: int = 20
+    prune_distance: float = 0.05
+    max_rounds: int = 4
+    eps: float = 1e-4
+    spacing_weight: float = 1e-4
+    resolve_from: str = "last"
+    segment_bucket: int = 1
+    ipopt_options: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        checks = [(name, _is_count(getattr(self, name)), "an integer >= 1")
+                  for name in ("n_segments", "max_rounds", "segment_bucket")]
+        checks += [("prune_distance", _is_weight(self.prune_distance, inf_ok=True),
+                    "a number >= 0 or inf"),
+                   ("eps", _is_weight(self.eps), "a finite number >= 0"),
+                   ("spacing_weight", _is_weight(self.spacing_weight), "a finite number >= 0"),
+                   ("resolve_from", self.resolve_from in ("last", "init"),
+                    "one of 'last', 'init'"),
+                   ("ipopt_options", isinstance(self.ipopt_options, Mapping),
+                    "a mapping of IPOPT option names to values")]
+        for name, ok, allowed in checks:
+            if not ok:
+                raise ValueError(f"NLPSettings.{name} must be {allowed}, "
+                                 f"got {getattr(self, name)!r}")
 
 
 @dataclass
@@ -213,17 +286,10 @@ def solve_waypoint_nlp(
     problem: Problem,
     robot: Robot,
     init_path: np.ndarray,
+    settings: NLPSettings = NLPSettings(),
     *,
-    n_segments: int = 20,
     known_only: bool = True,
     margin: float = 0.0,
-    prune_distance: float = 0.05,
-    max_rounds: int = 4,
-    eps: float = 1e-4,
-    spacing_weight: float = 1e-4,
-    resolve_from: str = "last",
-    segment_bucket: int = 1,
-    ipopt_options: dict | None = None,
     on_iter: Callable[[float], bool] | None = None,
 ) -> NLPOutcome:
     """Solve the waypoint NLP for ``robot`` from ``init_path`` (world coordinates in and out).
@@ -232,19 +298,47 @@ def solve_waypoint_nlp(
     hyperplanes work there, and the solution is taken back to world coordinates at the end
     (start and goal are the robot's, bit for bit).  Multi-round: solve with the pruned pairs,
     check every (segment, piece) distance exactly, add the violated pairs (and those near the
-    new segments) and re-solve (at most ``max_rounds`` solves), from the previous round's
-    solution (``resolve_from = "last"``) or from the initial guess (``"init"``).
-    ``on_iter(f)`` is called every IPOPT iteration; returning True stops IPOPT.  An initial
-    path with more than ``n_segments`` segments keeps every vertex, its segment count rounded
-    up to a multiple of ``segment_bucket``.
+    new segments) and re-solve (at most ``settings.max_rounds`` solves), from the previous
+    round's solution (``resolve_from = "last"``) or from the initial guess (``"init"``).
+
+    Parameters
+    ----------
+    problem : Problem
+    robot : Robot
+        The robot planned (its start and goal end the path).
+    init_path : array ``(n, 2)``
+        The initial guess, world coordinates (the start and goal are added when missing).
+    settings : NLPSettings
+        The solver settings (default: the ``nlp`` backend's defaults).
+    known_only : bool
+        Avoid the known obstacles only (temporary ones ignored).
+    margin : float
+        Extra clearance on top of the robot radius (map units).
+    on_iter : callable, optional
+        ``on_iter(f)`` is called with the objective every IPOPT iteration; returning True
+        stops IPOPT.
+
+    Returns
+    -------
+    NLPOutcome
+        The path (world coordinates) and the record of the solves.
+
+    Raises
+    ------
+    TypeError
+        ``settings`` is no :class:`NLPSettings`.
     """
+    if not isinstance(settings, NLPSettings):
+        raise TypeError(f"settings must be an NLPSettings, got {type(settings).__name__}")
     pieces = obstacle_pieces(problem, robot, known_only=known_only, margin=margin)
     frame = problem.frame
     scale = frame.length
-    path = _local_start(frame, robot, init_path, n_segments, segment_bucket)
+    path = _local_start(frame, robot, init_path, settings.n_segments,
+                        settings.segment_bucket)
     n_eff = len(path) - 1
-    opts = tuple(sorted((ipopt_options or {}).items()))
-    prune_abs = prune_distance * scale if math.isfinite(prune_distance) else np.inf
+    opts = tuple(sorted(settings.ipopt_options.items()))
+    prune = settings.prune_distance
+    prune_abs = prune * scale if math.isfinite(prune) else np.inf
     mask = select_pairs(path, pieces, prune_abs) if pieces.n else np.zeros((n_eff, 0), bool)
     tol_chk = 0.5 * SAFETY_REL * scale
     stopped = False
@@ -258,11 +352,12 @@ def solve_waypoint_nlp(
         m = evaluate(view, {robot.id: _to_world(frame, robot, path)})
         return m["static_collisions"] != 0
 
-    while log.rounds < max_rounds:
+    while log.rounds < settings.max_rounds:
         log.rounds += 1
         t0 = time.perf_counter()
         new, info, bt = solve_once(start_path, pieces, mask, scale=scale,
-                                   bounds=frame.local_bounds, eps=eps, w=spacing_weight,
+                                   bounds=frame.local_bounds, eps=settings.eps,
+                                   w=settings.spacing_weight,
                                    ipopt_opts=opts, on_iter=on_iter)
         log.add(info, time.perf_counter() - t0, bt)
         path = new
@@ -279,9 +374,9 @@ def solve_waypoint_nlp(
         if kind == "full":
             full = True
             continue
-        if resolve_from == "last":
+        if settings.resolve_from == "last":
             start_path = path
-        if log.rounds == max_rounds - 1:
+        if log.rounds == settings.max_rounds - 1:
             mask = np.ones_like(mask)  # the last solve gets every pair
             full = True
     length = float(path_lengths(path))
