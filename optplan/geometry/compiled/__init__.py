@@ -3,27 +3,14 @@
 where their machine code is cached, numba's and the one a wheel ships
 (:mod:`.kernel_cache`), and the numba internals both need, in one place
 (:mod:`.numba_internals`).
+
+The package re-exports :mod:`.jit`'s public names (its ``__all__``), which the kernel modules
+import from here.
 """
 
-from optplan.geometry.compiled.jit import (
-    B1,
-    B2,
-    F1,
-    F2,
-    F3,
-    FA2,
-    I1,
-    I2,
-    argsort_stable,
-    b1,
-    compiled,
-    f8,
-    heap_pop,
-    heap_push,
-    i8,
-    inlined,
-    leaf,
-)
+from optplan.geometry.compiled import jit
+from optplan.geometry.compiled.jit import *  # noqa: F403
 
-__all__ = ["B1", "B2", "F1", "F2", "F3", "FA2", "I1", "I2", "argsort_stable", "b1",
-           "compiled", "f8", "heap_pop", "heap_push", "i8", "inlined", "leaf"]
+# the form of __all__ type checkers follow through a submodule (the typing spec's idioms)
+__all__: list[str] = []
+__all__ += jit.__all__
