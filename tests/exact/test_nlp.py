@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -19,6 +20,7 @@ from optplan.exact.nlp_pieces import (
     pair_distances,
     piece_distances,
 )
+from optplan.exact.nlp_solve import NLPSettings, solve_waypoint_nlp
 from optplan.experiments.validate import format_table, summarize, validate
 from optplan.geometry import convex_decompose, path_lengths
 from optplan.geometry.collision.homotopy import obstacle_points, same_homotopy, winding_numbers
@@ -353,6 +355,28 @@ def test_callback_and_stop() -> None:
 def test_option_validation(bad: dict) -> None:
     with pytest.raises(ValueError, match=next(iter(bad))):
         WaypointNLP(**bad)
+
+
+@pytest.mark.parametrize(("bad", "allowed"), [
+    ({"n_segments": 0}, "an integer >= 1"), ({"max_rounds": True}, "an integer >= 1"),
+    ({"segment_bucket": 2.0}, "an integer >= 1"),
+    ({"prune_distance": math.nan}, "a number >= 0 or inf"),
+    ({"eps": math.inf}, "a finite number >= 0"), ({"spacing_weight": -1.0}, "a finite number"),
+    ({"resolve_from": "first"}, "one of 'last', 'init'"), ({"ipopt_options": None}, "a mapping")])
+def test_nlp_settings_name_the_setting_its_value_and_range(bad: dict, allowed: str) -> None:
+    (name, value), = bad.items()
+    with pytest.raises(ValueError, match=rf"NLPSettings\.{name} must be {allowed}.*got "
+                                         rf"{re.escape(repr(value))}"):
+        NLPSettings(**bad)
+
+
+def test_nlp_settings_defaults_are_the_backend_defaults() -> None:
+    backend = WaypointNLP()
+    assert backend._nlp_settings(1) == NLPSettings(ipopt_options=backend.ipopt_options())
+    assert NLPSettings(prune_distance=math.inf).prune_distance == math.inf  # no pruning
+    prob = _scene([])
+    with pytest.raises(TypeError, match="settings must be an NLPSettings, got dict"):
+        solve_waypoint_nlp(prob, prob.robots[0], np.zeros((2, 2)), {"n_segments": 5})
 
 
 def test_clearance_mode_is_gone() -> None:
