@@ -20,6 +20,7 @@ map tolerance :attr:`optplan.geometry.Frame.eps`.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,7 +33,7 @@ from optplan.geometry import Frame, ObstacleSet, obstacle_set
 from optplan.problem import Obstacle, Problem, Robot
 from optplan.result import Progress, notify
 
-__all__ = ["ObstacleField", "SimState", "SimOutcome", "simulate", "disc_nearest"]
+__all__ = ["ObstacleField", "SimState", "SimOutcome", "SimSetup", "simulate", "disc_nearest"]
 
 
 def disc_nearest(pts: np.ndarray, c: np.ndarray, r: np.ndarray,
@@ -229,6 +230,51 @@ class SimOutcome:
         return {rid: self.positions[:, i, :].copy() for i, rid in enumerate(self.ids)}
 
 
+@dataclass(frozen=True, kw_only=True, eq=False)
+class SimSetup:
+    """The optional setup of a :func:`simulate` run: where and when it starts, the obstacles
+    its contact checks see, and whether a contact ends it.
+
+    Parameters
+    ----------
+    start : array ``(R, 2)``, optional
+        Initial positions, one row per simulated robot in ``ids`` order (default: the
+        robots' starts).
+    t0 : float
+        Initial time (s).
+    field : ObstacleField, optional
+        Obstacles used for contact checks (default: everything, temporary and dynamic).
+    stop_on_collision : bool
+        Stop at the first contact (robot disc overlapping an obstacle or another robot).
+
+    Raises
+    ------
+    ValueError
+        A setting of the wrong kind; the message names it, its value and what is allowed.
+    """
+
+    start: np.ndarray | None = None
+    t0: float = 0.0
+    field: ObstacleField | None = None
+    stop_on_collision: bool = True
+
+    def __post_init__(self) -> None:
+        t0_ok = (isinstance(self.t0, (int, float, np.integer, np.floating))
+                 and not isinstance(self.t0, bool) and math.isfinite(self.t0))
+        checks = [("start", self.start is None or (np.ndim(self.start) == 2
+                                                   and np.shape(self.start)[1] == 2),
+                   "None or an (R, 2) array of positions"),
+                  ("t0", t0_ok, "a finite number of seconds"),
+                  ("field", self.field is None or isinstance(self.field, ObstacleField),
+                   "None or an ObstacleField"),
+                  ("stop_on_collision", isinstance(self.stop_on_collision, (bool, np.bool_)),
+                   "True or False")]
+        for name, ok, allowed in checks:
+            if not ok:
+                raise ValueError(f"SimSetup.{name} must be {allowed}, "
+                                 f"got {getattr(self, name)!r}")
+
+
 def simulate(
     problem: Problem,
     policy: Callable[[SimState], np.ndarray | None],
@@ -237,10 +283,7 @@ def simulate(
     dt: float,
     max_steps: int,
     done: Callable[[SimState], bool],
-    field_: ObstacleField | None = None,
-    start: np.ndarray | None = None,
-    t0: float = 0.0,
-    stop_on_collision: bool = True,
+    setup: SimSetup = SimSetup(),
     callback: Callable[[Progress], Any] | None = None,
     progress_cost: Callable[[SimState], float] | None = None,
 ) -> SimOutcome:
@@ -259,24 +302,37 @@ def simulate(
         Step budget.
     done : callable
         ``done(state) -> bool``; checked before every step.
-    field_ : ObstacleField, optional
-        Obstacles used for contact checks (default: everything, temporary and dynamic).
-    start : array, optional
-        Initial positions ``(R, 2)`` (default: the robots' starts).
-    stop_on_collision : bool
-        Stop at the first contact (robot disc overlapping an obstacle or another robot).
+    setup : SimSetup
+        Initial positions and time, the obstacles of the contact checks, and whether a
+        contact stops the run (default: the robots' starts at t = 0, every obstacle, stop).
     callback : callable, optional
         Receives a :class:`~optplan.result.Progress` each step (``elapsed``: wall seconds,
         ``sim_time``: simulated time); ``StopIteration`` stops.
     progress_cost : callable, optional
         Scalar reported as ``best_cost`` to the callback (e.g. distance to goal).
+
+    Returns
+    -------
+    SimOutcome
+        The trajectories (one row of ``positions`` per time in ``times``) and why the run
+        stopped.
+
+    Raises
+    ------
+    TypeError
+        ``setup`` is no :class:`SimSetup`.
+    ValueError
+        ``setup.start`` has not one row per robot of ``ids``.
     """
+    if not isinstance(setup, SimSetup):
+        raise TypeError(f"setup must be a SimSetup, got {type(setup).__name__}")
     wall0 = time.perf_counter()
-    fld = field_ or ObstacleField(problem)
+    fld = setup.field or ObstacleField(problem)
+    t0 = setup.t0
     robots = [problem.robot(i) for i in ids]
     radii = np.array([r.radius for r in robots])
     vmax = np.array([r.max_speed for r in robots])
-    pos = _start_positions(robots, start)
+    pos = _start_positions(robots, setup.start)
     state = SimState(0, t0, list(ids), pos.copy(), np.zeros_like(pos), fld, dt=float(dt))
     times = [t0]
     traj = [pos.copy()]
@@ -301,7 +357,7 @@ def simulate(
         if contact:
             coll = contact
             state.contacts.append(coll)
-            if stop_on_collision:
+            if setup.stop_on_collision:
                 reason = "collision"
                 break
         if _report(callback, progress_cost, state, k, t_new, wall0):
@@ -319,7 +375,11 @@ def _start_positions(robots: list[Robot], start: np.ndarray | None) -> np.ndarra
     """The initial positions: ``start`` when given, else the robots' starts."""
     if start is None:
         return np.array([r.start for r in robots], dtype=float)
-    return np.array(start, dtype=float)
+    pos = np.array(start, dtype=float)
+    if pos.shape != (len(robots), 2):
+        raise ValueError(f"SimSetup.start must have one row per robot of ids, shape "
+                         f"({len(robots)}, 2), got {pos.shape}")
+    return pos
 
 
 def _report(callback: Callable[[Progress], Any] | None,

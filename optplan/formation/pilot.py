@@ -34,7 +34,7 @@ from optplan.interfaces import LOCAL_PLANNER, PATH_SOLVER, LocalController, reso
 from optplan.potential.field import attractive_force, repulsive_force
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status
-from optplan.sim import ObstacleField, SimState, simulate
+from optplan.sim import ObstacleField, SimSetup, SimState, simulate
 from optplan.solver import Backend, get_solver, option
 from optplan.units import Record, Unit
 
@@ -326,8 +326,8 @@ def run_formation(backend: PilotedFormation, problem: Problem, fctrl: Any, *,
                                clearance=2 * lead.radius + backend.lookahead * ell / 2)
     run = _FormationRun(backend, problem, tracker, fctrl, ref, joint, step_columns)
     out = simulate(problem, run.policy, ids=run.ids, dt=backend.dt,
-                   max_steps=backend.max_steps, done=run.done, field_=ObstacleField(problem),
-                   callback=callback)
+                   max_steps=backend.max_steps, done=run.done,
+                   setup=SimSetup(field=ObstacleField(problem)), callback=callback)
     claim = {"done": Status.solved, "budget": Status.approximate,
              "callback": Status.approximate}.get(out.reason, Status.failed)
     msg = f"{out.reason}" + (f" ({out.collision})" if out.collision else "")

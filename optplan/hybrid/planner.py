@@ -81,7 +81,7 @@ from optplan.interfaces import (
 from optplan.options import option
 from optplan.problem import Problem
 from optplan.result import Progress, Result, Status
-from optplan.sim import simulate
+from optplan.sim import SimSetup, simulate
 from optplan.solver import Backend, make_rng
 from optplan.units import Record
 
@@ -279,7 +279,8 @@ class Hybrid(Backend):
         policy = HybridPolicy(self, problem, team, drivers, tracker, fctrl)
         try:
             out = simulate(problem, policy, ids=team.ids, dt=self.dt, max_steps=self.max_steps,
-                           done=policy.done, stop_on_collision=self.stop_on_collision,
+                           done=policy.done,
+                           setup=SimSetup(stop_on_collision=self.stop_on_collision),
                            callback=cb.forward, progress_cost=policy.progress_cost)
         except (np.linalg.LinAlgError, FloatingPointError, ArithmeticError) as e:
             answer = early_answer(problem, team.ids, glob.result,

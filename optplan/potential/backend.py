@@ -25,7 +25,7 @@ from optplan.potential.field import FieldParams
 from optplan.potential.swept import StepGuard
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Status
-from optplan.sim import ObstacleField, SimState, disc_nearest, simulate
+from optplan.sim import ObstacleField, SimSetup, SimState, disc_nearest, simulate
 from optplan.solver import Backend, make_rng
 from optplan.units import Each, Record, Unit
 
@@ -155,7 +155,7 @@ def run_local_planner(backend: PotentialFieldBackend, problem: Problem, rng: np.
                          StepGuard(problem, robots))
     try:
         out = simulate(problem, policy, ids=ids, dt=dt, max_steps=backend.max_steps,
-                       done=policy.done, field_=fld, callback=callback,
+                       done=policy.done, setup=SimSetup(field=fld), callback=callback,
                        progress_cost=policy.cost)
     except (FloatingPointError, np.linalg.LinAlgError) as e:  # numerical failure -> failed
         starts = {r.id: np.vstack([r.start, r.start]) for r in robots}

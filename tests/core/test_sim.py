@@ -7,7 +7,7 @@ import pytest
 import shapely
 
 import optplan as op
-from optplan.sim import ObstacleField, simulate
+from optplan.sim import ObstacleField, SimSetup, simulate
 
 SCENE = {
     "name": "sim-sensing",
@@ -137,7 +137,7 @@ def test_contact_tolerance_is_the_frame_eps():
 
     def run(x):
         out = simulate(prob, lambda s: np.zeros((1, 2)), ids=["r"], dt=1.0, max_steps=1,
-                       done=lambda s: False, start=np.array([[x, 0.04]]))
+                       done=lambda s: False, setup=SimSetup(start=np.array([[x, 0.04]])))
         return out.reason
 
     assert run(0.02) == "budget"  # distance exactly r
@@ -164,8 +164,36 @@ def test_state_fields_dt_leader_velocity_and_contacts():
         return np.array([[2.0, 0.0], [0.0, 0.0]])
 
     out = simulate(prob, policy, ids=["a", "b"], dt=0.5, max_steps=10, done=lambda s: False,
-                   stop_on_collision=False)
+                   setup=SimSetup(stop_on_collision=False))
     assert all(dt == 0.5 and lv is None for dt, lv in seen)
     assert out.contacts and out.contacts[0].startswith("a touched b")
     assert all(isinstance(c, str) for c in out.contacts)
     assert not hasattr(out, "memory")
+
+
+@pytest.mark.parametrize(("bad", "allowed"), [
+    ({"start": np.zeros(2)}, r"None or an \(R, 2\) array"),
+    ({"t0": float("nan")}, "a finite number of seconds"), ({"t0": True}, "a finite number"),
+    ({"field": "all"}, "None or an ObstacleField"), ({"stop_on_collision": 1}, "True or False")])
+def test_sim_setup_names_the_setting_its_value_and_what_is_allowed(bad, allowed):
+    (name,) = bad
+    with pytest.raises(ValueError, match=rf"SimSetup\.{name} must be {allowed}.*, got "):
+        SimSetup(**bad)
+
+
+def test_sim_setup_start_and_t0():
+    """``start`` needs one row per robot of ``ids``; ``t0`` shifts every time stamp."""
+    prob = op.parse_problem({
+        "name": "one", "bounds": [0, 0, 10, 10],
+        "robots": [{"id": "r", "start": [1, 1], "goal": [9, 1], "radius": 0.5,
+                    "max_speed": 1.0}]})
+    kw = {"ids": ["r"], "dt": 0.5, "max_steps": 4, "done": lambda s: False}
+    with pytest.raises(ValueError, match=r"one row per robot of ids, shape \(1, 2\), got \(2, 2\)"):
+        simulate(prob, lambda s: np.ones((1, 2)), setup=SimSetup(start=np.ones((2, 2))), **kw)
+    with pytest.raises(TypeError, match="setup must be a SimSetup, got dict"):
+        simulate(prob, lambda s: np.ones((1, 2)), setup={"t0": 1.0}, **kw)
+    out = simulate(prob, lambda s: np.array([[1.0, 0.0]]),
+                   setup=SimSetup(start=np.array([[2.0, 2.0]]), t0=3.0), **kw)
+    assert out.times.tolist() == [3.0, 3.5, 4.0, 4.5, 5.0]
+    assert out.positions[0, 0].tolist() == [2.0, 2.0]
+    assert out.positions[-1, 0].tolist() == [4.0, 2.0]
