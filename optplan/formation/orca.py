@@ -45,7 +45,7 @@ from optplan.formation.orca_world import (
     require_pyrvo,
 )
 from optplan.formation.slots import slot_positions
-from optplan.geometry.collision import path_lengths
+from optplan.geometry.collision import farthest_clear, path_lengths
 from optplan.geometry.tangent import problem_shortest_path
 from optplan.problem import Problem, Robot
 from optplan.result import History, Progress, Result, Status
@@ -97,12 +97,17 @@ class _Waypoints:
         w, last = self.points, len(self.points) - 1
         while self.i < last and np.hypot(*(w[self.i] - p)) <= reach:
             self.i += 1
-        q = (float(p[0]), float(p[1]))
-        for j in range(min(last, self.i + LOOKAHEAD), self.i, -1):
-            if sim.query_visibility(q, (float(w[j, 0]), float(w[j, 1])), r_vis):
-                self.i = j
-                break
+        j = farthest_clear(p, w, lambda a, Q: [_rvo_sees(sim, a, Q[0], r_vis)],
+                           range(self.i + 1, min(last, self.i + LOOKAHEAD) + 1), chunk=1)
+        if j is not None:
+            self.i = j
         return w[self.i], self.i == last
+
+
+def _rvo_sees(sim: Any, p: np.ndarray, q: np.ndarray, radius: float) -> bool:
+    """Whether RVO2 sees ``q`` from ``p`` with clearance ``radius`` (``query_visibility``)."""
+    return bool(sim.query_visibility((float(p[0]), float(p[1])), (float(q[0]), float(q[1])),
+                                     float(radius)))
 
 
 def _toward(p: np.ndarray, target: np.ndarray, speed: float, dt: float, stop: bool) -> np.ndarray:
@@ -207,18 +212,18 @@ class _OrcaRun:
 
     def _sees(self, p: np.ndarray, q: np.ndarray, i: int) -> bool:
         """Whether RVO2 sees ``q`` from ``p`` with robot ``i``'s radius (local points)."""
-        return bool(self.sim.query_visibility((float(p[0]), float(p[1])),
-                                              (float(q[0]), float(q[1])), float(self.radius[i])))
+        return _rvo_sees(self.sim, p, q, self.radius[i])
 
     def _trail_point(self, p: np.ndarray, i: int, slot: np.ndarray) -> np.ndarray:
         """A follower's target when its slot is hidden: the latest point of the leader's
         track (every :data:`TRAIL_STRIDE`-th step, up to :data:`TRAIL_POINTS` of them) that it
         sees; the slot when it sees none."""
         n = len(self.trail)
-        for j in range(n - 1, max(-1, n - 1 - TRAIL_STRIDE * TRAIL_POINTS), -TRAIL_STRIDE):
-            if self._sees(p, self.trail[j], i):
-                return self.trail[j]
-        return slot
+        lo = max(0, n - TRAIL_STRIDE * TRAIL_POINTS)
+        back = np.asarray(self.trail[lo:])
+        j = farthest_clear(p, back, lambda a, Q: [self._sees(a, Q[0], i)],
+                           range(n - 1 - lo, -1, -TRAIL_STRIDE)[::-1], chunk=1)
+        return slot if j is None else back[j]
 
     # -- the simulator's callbacks ------------------------------------------------------------
     def policy(self, state: SimState) -> np.ndarray | None:

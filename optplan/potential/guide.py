@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from optplan.geometry.collision import farthest_clear
 from optplan.geometry.tangent.tangent_graph import tangent_graph
 from optplan.problem import Problem, Robot
 
@@ -80,26 +81,30 @@ class Guide:
         with a tolerance: a free segment may have a prefix that grazes an obstacle by more
         than it, and the robot moves along prefixes)."""
         self._calls += 1
-        seen = self._seen(x, step)
-        if not len(seen) and self._calls - self._last_plan >= REPLAN_EVERY:
+        seen = self._farthest_seen(x, step)
+        if seen is None and self._calls - self._last_plan >= REPLAN_EVERY:
             self._plan(x)
-            seen = self._seen(x, step)
-        self.visible = bool(len(seen))
+            seen = self._farthest_seen(x, step)
+        self.visible = seen is not None
         if self.path is None:
             return self.goal
-        if len(seen):
-            self.i += int(seen[-1])
+        if seen is not None:
+            self.i = seen
         return self.path[self.i].copy()
 
-    def _seen(self, x: np.ndarray, step: float) -> np.ndarray:
-        """Indices (from the current one) of the path vertices visible from ``x``."""
+    def _farthest_seen(self, x: np.ndarray, step: float) -> int | None:
+        """The farthest vertex visible from ``x`` up to :data:`LOOKAHEAD` ahead, or ``None``."""
         P = self.path
         if P is None:
-            return np.zeros(0, dtype=int)
-        ahead = P[self.i:min(len(P), self.i + LOOKAHEAD + 1)]
+            return None
+        return farthest_clear(x, P, lambda p, ahead: self._visible(p, ahead, step),
+                              range(self.i, min(len(P), self.i + LOOKAHEAD + 1)))
+
+    def _visible(self, x: np.ndarray, ahead: np.ndarray, step: float) -> np.ndarray:
+        """Per point of ``ahead``: the segment from ``x`` to it and its first ``step`` are free."""
         d = ahead - x
         L = np.hypot(d[:, 0], d[:, 1])
         first = x + d * np.minimum(1.0, step / np.maximum(L, 1e-300))[:, None]
         ends = np.vstack([ahead, first])
         ok = self.oset.segment_free(np.broadcast_to(x, ends.shape), ends)
-        return np.flatnonzero(ok[:len(ahead)] & ok[len(ahead):])
+        return ok[:len(ahead)] & ok[len(ahead):]

@@ -3,7 +3,8 @@
 solids it merges, :mod:`.solids`, its convex pieces, :mod:`.pieces`, its item grid,
 :mod:`.grid`, and its compiled loops, :mod:`.kernel`, :mod:`.nearest_kernel`,
 :mod:`.pairs_kernel`), homotopy classes by winding numbers (:mod:`.homotopy`) and the
-polyline utilities every method shares (:mod:`.polyline`).
+polyline utilities every method shares (:mod:`.polyline`, with the farthest vertex in clear
+sight that every waypoint follower steers for).
 """
 
 from optplan.geometry.collision.frame import MAX_REL_COORD, REL_TOL, Frame
@@ -19,6 +20,7 @@ from optplan.geometry.collision.obstacles import (
 from optplan.geometry.collision.pieces import convex_decompose, convex_pieces
 from optplan.geometry.collision.polyline import (
     cumulative_length,
+    farthest_clear,
     path_lengths,
     points_along,
     resample_path,
@@ -42,6 +44,7 @@ __all__ = [
     "obstacle_points",
     "same_homotopy",
     "cumulative_length",
+    "farthest_clear",
     "path_lengths",
     "points_along",
     "resample_path",

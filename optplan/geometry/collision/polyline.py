@@ -1,11 +1,14 @@
-"""Polyline utilities shared by every method (lengths, arc-length resampling)."""
+"""Polyline utilities shared by every method (lengths, arc-length resampling, the farthest
+vertex in clear sight)."""
 
 from __future__ import annotations
+
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
 __all__ = ["path_lengths", "cumulative_length", "resample_path", "points_along",
-           "resample_uniform"]
+           "resample_uniform", "farthest_clear"]
 
 
 def path_lengths(paths) -> np.ndarray | float:
@@ -77,3 +80,50 @@ def resample_path(path, n_segments: int) -> np.ndarray:
         f = np.arange(1, m[k] + 1)[:, None] / m[k]
         out.extend(p[k] + f * (p[k + 1] - p[k]))
     return np.asarray(out)
+
+
+def farthest_clear(p: np.ndarray, points: np.ndarray,
+                   clear: Callable[[np.ndarray, np.ndarray], np.ndarray | Sequence[bool]],
+                   candidates: Sequence[int] | np.ndarray | None = None, *,
+                   chunk: int | None = None) -> int | None:
+    """The farthest vertex along a polyline that a straight segment from ``p`` reaches clear.
+
+    The step of every "follow the farthest visible waypoint" tracker: the potential field's
+    guide (:class:`optplan.potential.guide.Guide`), ORCA's sub-goals and its followers' walk
+    along the leader's track (:mod:`optplan.formation.orca`) and the lost follower's walk along
+    the pilot's path (:class:`optplan.formation.safety.SafetyLayer`).  What "clear" means is
+    the caller's: the exact disc test on the known map, RVO2's visibility query, a sampled
+    clearance from the static obstacles at time ``t``.  A tracker whose index never moves
+    backwards passes the window ahead of its current index as ``candidates``.
+
+    Parameters
+    ----------
+    p : (2,)
+        Where the segments start (the robot).
+    points : (M, 2)
+        The polyline's vertices, in order along it.
+    clear : callable
+        ``clear(p, Q)`` with ``Q`` a ``(k, 2)`` array of vertices: per vertex, whether the
+        segment ``p -> Q[j]`` is clear (a ``(k,)`` bool array or sequence).
+    candidates : increasing int indices into ``points``, optional
+        The vertices considered, the last one the farthest (default: every vertex).
+    chunk : int >= 1, optional
+        Vertices handed to ``clear`` per call, farthest first, stopping at the first call that
+        finds a clear one: 1 for a costly test taken one segment at a time, ``None`` (the
+        default) for a vectorised test of every candidate in one call.
+
+    Returns
+    -------
+    int or None
+        The index into ``points`` of the farthest candidate in clear sight; ``None`` when no
+        candidate is.
+    """
+    cand = np.arange(len(points)) if candidates is None else np.asarray(candidates, dtype=int)
+    n = len(cand)
+    size = max(1, n if chunk is None else chunk)
+    for stop in range(n, 0, -size):
+        part = cand[max(0, stop - size):stop]
+        ok = np.asarray(clear(p, points[part]), dtype=bool)
+        if ok.any():
+            return int(part[np.flatnonzero(ok)[-1]])
+    return None
