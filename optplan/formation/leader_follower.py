@@ -68,7 +68,7 @@ from optplan.formation.pilot import (
     PilotedFormation,
     run_formation,
 )
-from optplan.formation.safety import SafetyLayer
+from optplan.formation.safety import FollowerStates, LeaderFrame, SafetyLayer
 from optplan.formation.slots import relative_polar
 from optplan.interfaces import FormationBackend
 from optplan.problem import Problem
@@ -204,8 +204,8 @@ class LPhiFollowers(SafetyLayer):
             mag = np.where(act, ell * o.eta_f * (1 / g - 1 / o.rho_f) / g**2, 0.0)
             u = u + np.sum(mag[..., None] * np.nan_to_num(nrm), axis=1)
         if o.recovery:
-            u = self.recovery(state, ids, xl, xf, u, vl, L, Phi, phi, radii, leader_heading,
-                              phi_d)
+            u = self.recovery(state, u, LeaderFrame(xl, leader_heading, vl),
+                              FollowerStates(ids, xf, radii, L, Phi, phi_d, phi))
         if o.safety:
             u = self.safety_filter(state, leader_index, follower_indices, u, vl, near, dist,
                                    radii, dt)

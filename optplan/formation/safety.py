@@ -33,15 +33,66 @@ robot") until it is back within ``L / 2`` of its slot on its own side
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from optplan.formation.slots import slot_positions
+from optplan.geometry.collision import farthest_clear
 from optplan.problem import Formation, Problem
 from optplan.sim import ObstacleField, SimState
 
-__all__ = ["SafetyLayer", "project_halfplanes"]
+__all__ = ["SafetyLayer", "LeaderFrame", "FollowerStates", "project_halfplanes"]
+
+
+@dataclass(frozen=True)
+class LeaderFrame:
+    """The formation frame at one control step: where the leader is, its heading and the
+    velocity it was commanded.
+
+    Attributes
+    ----------
+    x : (2,)
+        The leader's position (the frame's origin).
+    heading : float
+        The frame's heading (rad); the slots are placed about it.
+    v : (2,)
+        The leader's command this step.
+    """
+
+    x: np.ndarray
+    heading: float
+    v: np.ndarray
+
+
+@dataclass(frozen=True)
+class FollowerStates:
+    """The followers at one control step as the L-phi law sees them, one entry per follower.
+
+    Attributes
+    ----------
+    ids : list of str
+        The followers' robot ids.
+    x : (F, 2)
+        Their positions.
+    radii : (F,)
+        Their radii.
+    L, Phi : (F,)
+        Their slots' distance and angle (the formation's spec).
+    phi_d : (F,)
+        The slot angle the law aims at (``Phi`` adapted near obstacles, eq 52).
+    phi : (F,)
+        Their measured angle in the leader's frame (never 0: nudged to the side of ``Phi``).
+    """
+
+    ids: list[str]
+    x: np.ndarray
+    radii: np.ndarray
+    L: np.ndarray
+    Phi: np.ndarray
+    phi_d: np.ndarray
+    phi: np.ndarray
 
 
 def project_halfplanes(u0: np.ndarray, A: np.ndarray, b: np.ndarray,
@@ -142,10 +193,8 @@ class SafetyLayer:
         d = d[:, : fld.n_static].min(axis=1, initial=np.inf).reshape(len(C), S)
         return np.all(d >= clear, axis=1)
 
-    def recovery(self, state: SimState, ids: list[str], xl: np.ndarray, xf: np.ndarray,
-                 u: np.ndarray, vl: np.ndarray, L: np.ndarray, Phi: np.ndarray,
-                 phi: np.ndarray, radii: np.ndarray, theta: float,
-                 phi_d: np.ndarray) -> np.ndarray:
+    def recovery(self, state: SimState, u: np.ndarray, lead: LeaderFrame,
+                 fol: FollowerStates) -> np.ndarray:
         """Option ``recovery``: a follower that lost its slot goes back to it first.
 
         The L-phi potential is even in phi and its barrier at phi = 0 keeps a follower on the
@@ -160,28 +209,30 @@ class SafetyLayer:
         farthest point of the pilot's recorded path it can see within ``trail_reach * L``
         (the pilot's path is clear of static obstacles: "the follower robot will follow the
         path of the pilot robot").  It returns to the L-phi law once its slot is in sight,
-        within ``L / 2`` and on its side.
+        within ``L / 2`` and on its side.  Returns the followers' commands ``u`` with those of
+        the lost followers replaced.
         """
         dt = float(state.dt)
-        self._record_trail(xl)
-        slots = slot_positions(xl, theta, L, phi_d)
+        self._record_trail(lead.x)
+        xf, L = fol.x, fol.L
+        slots = slot_positions(lead.x, lead.heading, L, fol.phi_d)
         err = np.hypot(*(xf - slots).T)
-        wrong = (np.sign(phi) != np.sign(Phi)) & (Phi != 0)
+        wrong = (np.sign(fol.phi) != np.sign(fol.Phi)) & (fol.Phi != 0)
         u = u.copy()
-        vmax = np.array([self.problem.robot(k).max_speed for k in ids])
+        vmax = np.array([self.problem.robot(k).max_speed for k in fol.ids])
         if len(self._lost) != len(xf):
             self._lost = np.zeros(len(xf), bool)
         for i in range(len(xf)):
             if err[i] <= 0.5 * L[i] and not self._lost[i]:
                 continue
-            clear = radii[i] + self.o.clear_margin * self.ell
+            clear = fol.radii[i] + self.o.clear_margin * self.ell
             seen = bool(self._clear_segments(state.field, state.t, xf[i], slots[i:i + 1],
                                              clear)[0])
             if not self._still_lost(i, seen, err[i], L[i], wrong[i]):
                 continue
             self.stats["recovery_steps"] += 1
             if seen:
-                w = vl + self.o.k_f * (slots[i] - xf[i])
+                w = lead.v + self.o.k_f * (slots[i] - xf[i])
             else:
                 w = self._along_trail(state, xf[i], L[i], clear, float(vmax[i]), dt)
             sp = float(np.hypot(*w))
@@ -212,9 +263,11 @@ class SafetyLayer:
         cand = np.nonzero(dd <= self.o.trail_reach * L)[0]
         if len(cand) == 0:
             cand = np.array([int(np.argmin(dd))])
-        cand = cand[::-1][:80]  # farthest along the pilot's path first
-        vis = self._clear_segments(state.field, state.t, x, T[cand], clear)
-        j = int(cand[int(np.argmax(vis))]) if vis.any() else int(cand[-1])
+        cand = cand[-80:]  # the farthest along the pilot's path
+        j = farthest_clear(x, T, lambda p, Q: self._clear_segments(state.field, state.t, p, Q,
+                                                                   clear), cand)
+        if j is None:
+            j = int(cand[0])
         d = T[j] - x
         nd = float(np.hypot(*d))
         return d / nd * min(vmax, nd / dt) if nd > 1e-9 * self.ell else np.zeros(2)
