@@ -25,10 +25,10 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan.solver import option
-from optplan.swarm.backend import SwarmBackend, SwarmState
+from optplan.swarm.backend import SwarmState
 from optplan.swarm.core import SwarmSpace, evaluate_swarm
 from optplan.swarm.operators import handle_bounds
-from optplan.swarm.pso import pso_step
+from optplan.swarm.pso import PSO
 
 __all__ = ["MPSO", "mutate_one_coordinate", "refine_trials"]
 
@@ -60,8 +60,10 @@ def refine_trials(gbest: np.ndarray, span: np.ndarray, delta: float, n: int,
 
 
 @dataclass(frozen=True, kw_only=True)
-class MPSO(SwarmBackend):
-    """PSO with one-coordinate mutation and a greedy refined search around gbest.
+class MPSO(PSO):
+    """PSO with one-coordinate mutation and a greedy refined search around gbest: a
+    :class:`optplan.swarm.pso.PSO` (its move of eqs 1-2 and its options, the shared swarm
+    options of :class:`optplan.swarm.backend.SwarmBackend` among them) with the options below.
 
     Parameters
     ----------
@@ -79,14 +81,9 @@ class MPSO(SwarmBackend):
     n_refine : int
         Trial points per iteration for ``gbest_local`` (evaluated in the same batch as the
         swarm).
-    n_particles, k_max, c1, c2, n_waypoints, v_max, bounds_mode, init_mode, penalty_weight, \
-penetration_weight, roadmap_samples, roadmap_boundary, roadmap_medial, roadmap_neighbours, \
-corridors
-        Shared swarm options, see :class:`optplan.swarm.backend.SwarmBackend`.
     """
 
     name: ClassVar[str] = "mpso"
-    w: float = option(0.5, lo=0.0, hi=2.0)
     p_t: float = option(0.8, lo=0.0, hi=1.0)
     delta: float = option(0.056, lo=0.0, hi=10.0, lo_open=True)
     refine_mode: str = option("gbest_local", choices=REFINE_MODES)
@@ -94,10 +91,8 @@ corridors
 
     def _iterate(self, space: SwarmSpace, state: SwarmState, run: Any, k: int,
                  rng: np.random.Generator) -> dict[str, Any]:
-        X, V = pso_step(state, self.w, self.c1, self.c2, self._vmax(space), rng)
-        if self.refine_mode == "step_scale":
-            X = state.X + self.delta * V
-        X, V = handle_bounds(X, V, space.lo, space.hi, self.bounds_mode, rng)
+        X, V = self._move(space, state, rng,
+                          step=self.delta if self.refine_mode == "step_scale" else None)
         X, hit = mutate_one_coordinate(X, space.lo, space.hi, self.p_t, rng)
         P = len(X)
         n_ref = self.n_refine if self.refine_mode == "gbest_local" else 0

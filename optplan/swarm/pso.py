@@ -64,10 +64,18 @@ corridors
 
     w: float = option(0.5, lo=0.0, hi=2.0)
 
+    def _move(self, space: SwarmSpace, state: SwarmState, rng: np.random.Generator,
+              step: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Eqs 1-2 at the constant ``w``, then the bounds: the new ``(X, V)``.  ``step``: the
+        position moves by ``step * V`` instead of ``V`` (MPSO's ``step_scale`` reading)."""
+        X, V = pso_step(state, self.w, self.c1, self.c2, self._vmax(space), rng)
+        if step is not None:
+            X = state.X + step * V
+        return handle_bounds(X, V, space.lo, space.hi, self.bounds_mode, rng)
+
     def _iterate(self, space: SwarmSpace, state: SwarmState, run: Any, k: int,
                  rng: np.random.Generator) -> dict[str, Any]:
-        X, V = pso_step(state, self.w, self.c1, self.c2, self._vmax(space), rng)
-        X, V = handle_bounds(X, V, space.lo, space.hi, self.bounds_mode, rng)
+        X, V = self._move(space, state, rng)
         ev = evaluate_swarm(X, space)
         state.V = V
         state.absorb(X, ev)
