@@ -406,7 +406,6 @@ PARAMETER_BUDGET_EXCEPTIONS = frozenset({
     "optplan/maps/importer.py:import_map",  # 28 keywords (docs/maps.md, cli/map_import)
     "optplan/exact/nlp_solve.py:solve_waypoint_nlp",  # 14
     "optplan/sim.py:simulate",  # 12
-    "optplan/formation/safety.py:recovery",  # 12
     "optplan/bench/grid.py:run_grid",  # 12
     "optplan/backend.py:finish",  # 12
     "optplan/maps/scen.py:read_scen",  # 11
