@@ -7,9 +7,9 @@ minutes on two cores the three swarm presets run with ``k_max = 50`` instead of 
 (``--k-max``); the slow presets (``sa-apf-paper``, ``nlp-ipopt``: 1-2 s and 0.2-0.8 s per run)
 are left out.
 
-The same sweep runs three times, each into a new database: inline (``workers = 1``), on the
-process pool (``workers = 2``) and on a Dask ``LocalCluster`` of two worker processes
-(``dask_local = 2``; skipped when ``dask[distributed]`` is missing).  For each it prints the
+The same sweep runs three times, each into a new database: inline (``Engine()``), on the
+process pool (``Engine(workers=2)``) and on a Dask ``LocalCluster`` of two worker processes
+(``Engine(dask_local=2)``; skipped when ``dask[distributed]`` is missing).  For each it prints the
 wall time (including starting the pool or the cluster), runs per second, the median per-run
 wall time as recorded in the database (to show contention between workers), the database
 size, the 1-minute load average before and after (other work on the machine skews every
@@ -81,13 +81,13 @@ def main(argv: list[str] | None = None) -> int:
           f"seeds = {n} runs; swarm presets with k_max = {args.k_max}")
     print(f"machine: {platform.node()}, {os.cpu_count()} CPUs, {platform.platform()}, Python "
           f"{sys.version.split()[0]}")
-    engines = {"inline": {"workers": 1}, "workers2": {"workers": 2},
-               "dask2": {"dask_local": 2}}
+    engines = {"inline": bench.Engine(), "workers2": bench.Engine(workers=2),
+               "dask2": bench.Engine(dask_local=2)}
     chosen = [e.strip() for e in args.engines.split(",") if e.strip()]
     results = {}
     for name in chosen:
-        kw = engines[name]
-        if "dask_local" in kw:
+        engine = engines[name]
+        if engine.uses_dask:
             try:
                 import distributed  # noqa: F401
             except ImportError:
@@ -96,8 +96,9 @@ def main(argv: list[str] | None = None) -> int:
         db = out / f"{name}.sqlite"
         load0 = os.getloadavg()[0]
         t0 = time.perf_counter()
-        bench.run_grid(SCENES, PRESETS, seeds=args.seeds, overrides=overrides, db=db,
-                       command_line=f"benchmarks/bench_sweep.py ({name})", **kw)
+        bench.run_grid(SCENES, PRESETS, seeds=args.seeds, engine=engine,
+                       overrides=overrides, db=db,
+                       command_line=f"benchmarks/bench_sweep.py ({name})")
         wall = time.perf_counter() - t0
         rows = read_runs(db)
         per_run = statistics.median(r["wall_time"] for r in rows if r["status"] != "error")

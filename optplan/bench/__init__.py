@@ -13,11 +13,12 @@ Design choices
 --------------
 * **Common random numbers**: run ``k`` of every solver on a problem uses the same seed
   (``seeds[k]``), so paired comparisons between solvers see the same randomness budget.
-* **Engines**: ``workers = 1`` runs inline in the calling process; ``workers > 1`` starts that
-  many worker processes (``spawn`` start method, safe with threaded numerical libraries such as
-  CasADi), each running one run at a time, so that one run can be stopped by ending its
-  process; ``scheduler="tcp://host:8786"`` runs on an existing Dask cluster and
-  ``dask_local=N`` on a :class:`distributed.LocalCluster` of ``N`` single-threaded worker
+* **Engines** (:class:`Engine`): ``Engine()`` (``workers = 1``) runs inline in the calling
+  process; ``Engine(workers=N)``, ``N > 1``, starts that many worker processes (``spawn`` start
+  method, safe with threaded numerical libraries such as CasADi), each running one run at a
+  time, so that one run can be stopped by ending its process;
+  ``Engine(scheduler="tcp://host:8786")`` runs on an existing Dask cluster and
+  ``Engine(dask_local=N)`` on a :class:`distributed.LocalCluster` of ``N`` single-threaded worker
   processes (``dask[distributed]`` is an optional dependency; runs travel in chunks of about
   :data:`DASK_CHUNK_SECONDS` of work, see :func:`_run_dask`).  Whatever the engine, rows come
   back in grid order (problem, solver, seed) and the same seeds give the same rows.  Workers
@@ -55,7 +56,7 @@ from __future__ import annotations
 
 from optplan.bench.dask_engine import DASK_CHUNK_MAX as DASK_CHUNK_MAX
 from optplan.bench.dask_engine import DASK_CHUNK_SECONDS as DASK_CHUNK_SECONDS
-from optplan.bench.grid import run_grid
+from optplan.bench.grid import Engine, run_grid
 from optplan.bench.rows import COLUMNS, row_from_result
 from optplan.bench.rows import Overrides as Overrides
 from optplan.bench.rows import Record as Record
@@ -65,5 +66,5 @@ from optplan.bench.run import run_one
 from optplan.bench.scen import expand_scen
 from optplan.bench.summary import read_csv, summarise, to_markdown, write_csv
 
-__all__ = ["COLUMNS", "run_grid", "run_one", "row_from_result", "summarise", "to_markdown",
-           "write_csv", "read_csv", "expand_scen"]
+__all__ = ["COLUMNS", "Engine", "run_grid", "run_one", "row_from_result", "summarise",
+           "to_markdown", "write_csv", "read_csv", "expand_scen"]

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -61,21 +62,45 @@ def _check_time_args(time_limit: Any, time_grace: Any) -> None:
         raise ValueError(f"time_grace must be a number of seconds >= 0, got {time_grace!r}")
 
 
-def _check_grid_args(workers: Any, time_limit: Any, time_grace: Any, scheduler: str | None,
-                     dask_local: Any) -> bool:
-    """Validate the engine and time-limit arguments of :func:`run_grid`; True to use Dask."""
-    if _not_count(workers):
-        raise ValueError(f"workers must be an integer >= 1, got {workers!r}")
-    _check_time_args(time_limit, time_grace)
-    if dask_local is not None and _not_count(dask_local):
-        raise ValueError(f"dask_local must be an integer >= 1, got {dask_local!r}")
-    use_dask = scheduler is not None or dask_local is not None
-    if scheduler is not None and dask_local is not None:
-        raise ValueError("give a Dask scheduler address or dask_local, not both")
-    if use_dask and workers != 1:
-        raise ValueError("workers sets the local process pool; on Dask the cluster's workers "
-                         "run the sweep (leave workers = 1)")
-    return use_dask
+@dataclass(frozen=True, kw_only=True)
+class Engine:
+    """Where the runs of :func:`run_grid` execute: inline, a local process pool, or Dask.
+
+    Parameters
+    ----------
+    workers : int
+        Processes of the local pool; 1 (the default) runs inline in the calling process.
+    scheduler : str, optional
+        Address of a Dask scheduler (``"tcp://host:8786"``) to run on.
+    dask_local : int, optional
+        Start a Dask ``LocalCluster`` with this many worker processes and run on it.
+
+    Raises
+    ------
+    ValueError
+        ``workers`` or ``dask_local`` is no integer >= 1 (the message names the option and
+        its value), both Dask engines are given, or ``workers`` is not 1 on Dask.
+    """
+
+    workers: int = 1
+    scheduler: str | None = None
+    dask_local: int | None = None
+
+    def __post_init__(self) -> None:
+        if _not_count(self.workers):
+            raise ValueError(f"workers must be an integer >= 1, got {self.workers!r}")
+        if self.dask_local is not None and _not_count(self.dask_local):
+            raise ValueError(f"dask_local must be an integer >= 1, got {self.dask_local!r}")
+        if self.scheduler is not None and self.dask_local is not None:
+            raise ValueError("give a Dask scheduler address or dask_local, not both")
+        if self.uses_dask and self.workers != 1:
+            raise ValueError("workers sets the local process pool; on Dask the cluster's "
+                             "workers run the sweep (leave workers = 1)")
+
+    @property
+    def uses_dask(self) -> bool:
+        """True on a Dask cluster (``scheduler`` or ``dask_local`` given)."""
+        return self.scheduler is not None or self.dask_local is not None
 
 
 def _hard_limit(time_limit: float | None, time_grace: float | None) -> float | None:
@@ -108,10 +133,12 @@ def _resume(db: str | Path, done: Mapping[tuple, Any], tasks: Sequence[Task],
     return todo
 
 
-def _engine_name(scheduler: str | None, dask_local: int | None, workers: int) -> str:
-    if scheduler:
-        return f"dask {scheduler}"
-    return f"dask-local {dask_local}" if dask_local else f"workers {workers}"
+def _engine_name(engine: Engine) -> str:
+    """The engine as the database's ``experiment`` table records it."""
+    if engine.scheduler:
+        return f"dask {engine.scheduler}"
+    return (f"dask-local {engine.dask_local}" if engine.dask_local
+            else f"workers {engine.workers}")
 
 
 def _open_db(db: str | Path, tasks: Sequence[Task], configs: Mapping[str, str],
@@ -137,15 +164,14 @@ def _open_db(db: str | Path, tasks: Sequence[Task], configs: Mapping[str, str],
 
 
 def _run_engine(todo: Sequence[int], tasks: Sequence[Task], hard: float | None,
-                init: Mapping[str, Any], record: Record, workers: int, use_dask: bool,
-                scheduler: str | None, dask_local: int | None) -> None:
+                init: Mapping[str, Any], record: Record, engine: Engine) -> None:
     """Run ``todo`` on the engine chosen: Dask, inline, or the process pool."""
-    if use_dask:
-        _run_dask(todo, tasks, hard, init, record, scheduler, dask_local)
-    elif workers == 1 or len(todo) == 1:
+    if engine.uses_dask:
+        _run_dask(todo, tasks, hard, init, record, engine.scheduler, engine.dask_local)
+    elif engine.workers == 1 or len(todo) == 1:
         _run_inline(todo, tasks, hard, init, record)
     else:
-        _run_pool(todo, tasks, int(workers), hard, init, record)
+        _run_pool(todo, tasks, int(engine.workers), hard, init, record)
 
 
 def _tasks(problems: Sequence[str], solvers: Sequence[str], seed_list: Sequence[int],
@@ -165,10 +191,9 @@ def _db_spec(problems: list[str], solvers: list[str], seed_list: list[int],
 
 
 def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Iterable[int],
-             workers: int = 1, overrides: Overrides | None = None,
+             engine: Engine = Engine(), overrides: Overrides | None = None,
              progress: Callable[[int, int, dict[str, Any]], Any] | None = None, *,
              time_limit: float | None = None, db: str | Path | None = None,
-             scheduler: str | None = None, dask_local: int | None = None,
              command_line: str | None = None, time_grace: float | None = None
              ) -> list[dict[str, Any]]:
     """Run every (problem, solver, seed) and return one tidy row per run.
@@ -182,8 +207,10 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
         Preset names, backend names or ``.toml`` preset paths.
     seeds : int or iterable of int
         ``N`` means seeds ``0 .. N-1``.  The same seeds are used for every solver.
-    workers : int
-        Processes; 1 runs inline.
+    engine : Engine
+        Where the runs execute: ``Engine()`` (the default) inline, ``Engine(workers=4)`` on
+        4 worker processes, ``Engine(dask_local=4)`` or ``Engine(scheduler="tcp://host:8786")``
+        on Dask.
     overrides : dict, optional
         ``{"*": {...}, "solver-name": {...}}``: options applied to every solver (``"*"``) or
         to one solver (later wins).
@@ -199,10 +226,6 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
         finishes; cells already in the file are not run again (their stored rows are
         returned).  The stored runs of a cell must have been made with the same overrides and
         time limit.
-    scheduler : str, optional
-        Address of a Dask scheduler (``"tcp://host:8786"``) to run on.
-    dask_local : int, optional
-        Start a Dask ``LocalCluster`` with this many worker processes and run on it.
     command_line : str, optional
         Recorded in the database's ``experiment`` table (default: ``sys.argv``).
     time_grace : float, optional
@@ -213,13 +236,23 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
     -------
     list of dict
         Rows with the keys :data:`COLUMNS`, ordered by problem, solver, seed.
+
+    Raises
+    ------
+    TypeError
+        ``engine`` is no :class:`Engine`.
+    ValueError
+        Bad input (problems, solvers, seeds, overrides, time limits), before anything runs.
     """
+    if not isinstance(engine, Engine):
+        raise TypeError(f"engine must be an optplan.bench.Engine (e.g. Engine(workers=2)), "
+                        f"got {engine!r}")
     problems = [str(p) for p in problems]
     solvers = [str(s) for s in solvers]
     seed_list = _seed_list(seeds)
-    use_dask = _check_grid_args(workers, time_limit, time_grace, scheduler, dask_local)
+    _check_time_args(time_limit, time_grace)
     scen = _check_inputs(problems, solvers, overrides)
-    if use_dask:
+    if engine.uses_dask:
         _import_dask()
     options = {s: _overrides_for(overrides, s) for s in solvers}
     tasks = _tasks(problems, solvers, seed_list, options, time_limit)
@@ -231,15 +264,14 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
     store, exp_id = None, 0
     if db is not None:
         spec = _db_spec(problems, solvers, seed_list, overrides, time_limit,
-                        _engine_name(scheduler, dask_local, workers))
+                        _engine_name(engine))
         store, exp_id, todo = _open_db(db, tasks, configs, rows, spec, command_line)
     record = _Recorder(rows, tasks, configs, store, exp_id, progress, len(todo), scen)
     outcome = "error"
     try:
         if todo:
             init = _worker_init(problems, solvers, options)
-            _run_engine(todo, tasks, hard, init, record, workers, use_dask, scheduler,
-                        dask_local)
+            _run_engine(todo, tasks, hard, init, record, engine)
         outcome = "complete"
     except KeyboardInterrupt:
         outcome = "interrupted"

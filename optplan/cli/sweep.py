@@ -159,18 +159,20 @@ def _tables(rows: list[dict]) -> tuple[str, str]:
 def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
     import shlex
 
-    from optplan.bench import run_grid, write_csv
+    from optplan.bench import Engine, run_grid, write_csv
 
     problems = _bench_problems(args)
     solvers = _bench_solvers(args)
-    engine = _bench_engine(args)
+    engine_text = _bench_engine(args)
     overrides = {"*": parse_set(args.set)} if args.set else None
     bar = _Bar(sys.stderr) if not args.quiet else None
     t0 = time.perf_counter()
     try:
-        rows = run_grid(problems, solvers, args.seeds, workers=args.workers,
+        rows = run_grid(problems, solvers, args.seeds,
+                        engine=Engine(workers=args.workers, scheduler=args.scheduler,
+                                      dask_local=args.dask_local),
                         overrides=overrides, progress=bar, time_limit=args.time_limit,
-                        db=args.db, scheduler=args.scheduler, dask_local=args.dask_local,
+                        db=args.db,
                         command_line=shlex.join([PROG, *getattr(args, "argv", sys.argv[1:])]))
     except KeyboardInterrupt:
         kept = (f"; every finished run is in {args.db}: run the same command again to resume"
@@ -181,7 +183,7 @@ def cmd_bench(args: argparse.Namespace, out: TextIO) -> int:
     outdir = Path(args.out)
     outdir.mkdir(parents=True, exist_ok=True)
     write_csv(rows, outdir / "results.csv")
-    head = _summary_head(args, problems, solvers, engine, wall, overrides)
+    head = _summary_head(args, problems, solvers, engine_text, wall, overrides)
     printed, written = _tables(rows)
     (outdir / "summary.md").write_text(head + written + "\n", encoding="utf-8")
     print(printed, file=out)

@@ -297,8 +297,9 @@ def _check_limited(rows, sleeps, how, sleep=20.0):
 def test_a_run_past_its_time_limit_is_recorded_and_the_sweep_finishes(sleepy, tmp_path,
                                                                       workers, how):
     db = tmp_path / "t.sqlite"
-    rows = bench.run_grid(["open-field"], ["sleepy"], seeds=4, workers=workers, db=db,
-                          time_limit=LIMIT, time_grace=GRACE)
+    rows = bench.run_grid(["open-field"], ["sleepy"], seeds=4,
+                          engine=bench.Engine(workers=workers), db=db, time_limit=LIMIT,
+                          time_grace=GRACE)
     _check_limited(rows, sleepy, how)
     _check_limited(benchdb.read_runs(db), sleepy, how)
     s = bench.summarise(rows)[0]
@@ -326,7 +327,7 @@ def test_dask_gives_the_same_rows(tmp_path, inline_rows, sleepy):
     pytest.importorskip("distributed")
     db = tmp_path / "dask.sqlite"
     rows = bench.run_grid(PROBLEMS, SOLVERS, seeds=3, overrides=OVERRIDES, db=db,
-                          dask_local=2)
+                          engine=bench.Engine(dask_local=2))
     _same(rows, inline_rows)
     stored = benchdb.read_runs(db)  # in the order the runs finished
     order = {(r["problem"], r["solver"], r["seed"]): i for i, r in enumerate(inline_rows)}
@@ -345,15 +346,15 @@ def test_dask_gives_the_same_rows(tmp_path, inline_rows, sleepy):
                                   dashboard_address=None, silence_logs=logging.ERROR) as cl:
         rows = bench.run_grid(["open-field"], ["sleepy"], seeds=4, time_limit=LIMIT,
                               time_grace=GRACE, overrides={"sleepy": {"sleep": 10.0}},
-                              scheduler=cl.scheduler_address)
+                              engine=bench.Engine(scheduler=cl.scheduler_address))
     _check_limited(rows, sleepy, "abandoned", sleep=10.0)
 
 
 def test_dask_missing_gives_a_clear_error(monkeypatch, tmp_path, capsys):
     monkeypatch.setitem(sys.modules, "distributed", None)
     with pytest.raises(ImportError, match=r"pip install 'optplan\[dask\]'"):
-        bench.run_grid(["open-field"], ["visgraph"], seeds=1, dask_local=2,
-                       db=tmp_path / "x.sqlite")
+        bench.run_grid(["open-field"], ["visgraph"], seeds=1,
+                       engine=bench.Engine(dask_local=2), db=tmp_path / "x.sqlite")
     assert not (tmp_path / "x.sqlite").exists()  # failed before anything was written
     rc = cli.main(["bench", "--problems", "open-field", "--solvers", "visgraph", "--seeds", "1",
                    "--scheduler", "tcp://127.0.0.1:1", "--out", str(tmp_path)])
@@ -363,12 +364,18 @@ def test_dask_missing_gives_a_clear_error(monkeypatch, tmp_path, capsys):
 
 def test_engine_arguments_are_checked(capsys, tmp_path):
     with pytest.raises(ValueError, match="not both"):
-        bench.run_grid(["open-field"], ["visgraph"], seeds=1, dask_local=1,
-                       scheduler="tcp://x:1")
+        bench.Engine(dask_local=1, scheduler="tcp://x:1")
     with pytest.raises(ValueError, match="workers"):
-        bench.run_grid(["open-field"], ["visgraph"], seeds=1, dask_local=2, workers=2)
-    with pytest.raises(ValueError, match="dask_local"):
-        bench.run_grid(["open-field"], ["visgraph"], seeds=1, dask_local=0)
+        bench.Engine(dask_local=2, workers=2)
+    with pytest.raises(ValueError, match="dask_local must be an integer >= 1, got 0"):
+        bench.Engine(dask_local=0)
+    for bad in (0, 1.5, True):
+        with pytest.raises(ValueError, match=f"workers must be an integer >= 1, got {bad!r}"):
+            bench.Engine(workers=bad)
+    with pytest.raises(TypeError, match=r"engine must be an optplan.bench.Engine \(e.g. "
+                                        r"Engine\(workers=2\)\), got 2"):
+        bench.run_grid(["open-field"], ["visgraph"], 1, 2)
+    assert not bench.Engine().uses_dask and bench.Engine(dask_local=2).uses_dask
     rc = cli.main(["bench", "--problems", "open-field", "--solvers", "visgraph",
                    "--dask-local", "2", "--workers", "2", "--out", str(tmp_path)])
     assert rc == 2 and "--workers" in capsys.readouterr().err
