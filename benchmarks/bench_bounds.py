@@ -53,7 +53,15 @@ from scipy.sparse.csgraph import connected_components, dijkstra
 
 import optplan as op
 from optplan.catalog import map_files
-from optplan.maps import Grid, import_map, read_ros_yaml, read_scen, scen_octile_length
+from optplan.maps import (
+    Grid,
+    Robots,
+    SceneOptions,
+    import_map,
+    read_ros_yaml,
+    read_scen,
+    scen_octile_length,
+)
 from optplan.solver import reference_optimum
 
 SQRT2 = math.sqrt(2.0)
@@ -294,8 +302,8 @@ def map_queries(path: Path, grid: Grid, rng: np.random.Generator, n: int,
         _, pred = octile_lengths(safe, [s], predecessors=True)
         route = grid_route(pred[0], w, g)
         pts = np.array([grid.cell_centre(r, c) for r, c in route])
-        prob = import_map(path, grid=grid, radius=MAP_RADIUS, start=pts[0], goal=pts[-1],
-                          name=f"{name}-{k}")
+        prob = import_map(path, Robots(radius=MAP_RADIUS, start=pts[0], goal=pts[-1]),
+                          scene=SceneOptions(name=f"{name}-{k}"), grid=grid)
         out.append(MapQuery(prob, verified_length(prob, pts, MAP_RADIUS)))
     return out
 

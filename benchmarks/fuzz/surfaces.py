@@ -194,15 +194,16 @@ def crop_cases() -> list[Case]:
 def run_crop(case: Case, tmp: Path) -> Outcome:
     import numpy as np
 
-    from optplan.maps import import_map
+    from optplan.maps import ReadOptions, Robots, import_map
 
     d = case.data
     (tmp / "m.pgm").write_bytes(_crop_pgm())
     path = tmp / "m.pgm"
     try:
-        prob = import_map(path, radius=0.1, start=(3.0, 5.0), goal=(9.0, 5.0),
-                          resolution=d.get("resolution", 1.0), crop=d["crop"],
-                          unknown=d["unknown"])
+        read = ReadOptions(resolution=d.get("resolution", 1.0), crop=d["crop"],
+                           unknown=d["unknown"])
+        prob = import_map(path, Robots(radius=0.1, start=(3.0, 5.0), goal=(9.0, 5.0)),
+                          read=read)
     except Exception as e:  # noqa: BLE001
         return Outcome(case, *_classify_error(e, case, str(path)))
     bounds = tuple(float(b) for b in prob.bounds)

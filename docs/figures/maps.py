@@ -117,12 +117,12 @@ def main(argv: list[str] | None = None) -> int:
     if a.seeds < 1:
         ap.error(f"--seeds must be >= 1, got {a.seeds}")
     from optplan import plot
-    from optplan.maps import import_map
+    from optplan.maps import Robots, import_map
 
     info: dict[str, Any] = {}
     a.out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:  # the map is written, then imported
-        prob = import_map(write_office_map(tmp), radius=RADIUS, start=START, goal=GOAL,
+        prob = import_map(write_office_map(tmp), Robots(radius=RADIUS, start=START, goal=GOAL),
                           info=info)
     fig = plot.new_figure(size=(13.0, 4.6), layout="constrained")
     left, right = fig.subplots(1, 2, width_ratios=[1.0, 1.25])

@@ -23,7 +23,15 @@ def _xy(text: str, flag: str) -> tuple[float, ...]:
 
 def cmd_import_map(args: argparse.Namespace, out: TextIO) -> int:
     from optplan.catalog import find_map
-    from optplan.maps import MAX_CELLS, import_map, to_toml
+    from optplan.maps import (
+        MAX_CELLS,
+        PolygonOptions,
+        ReadOptions,
+        Robots,
+        SceneOptions,
+        import_map,
+        to_toml,
+    )
 
     path = find_map(args.map)
     starts = [_xy(s, "--start") for s in args.start]
@@ -40,17 +48,19 @@ def cmd_import_map(args: argparse.Namespace, out: TextIO) -> int:
             origin = []
         if len(origin) not in (2, 3):
             raise CLIError(f"--origin: expected X,Y or X,Y,YAW, got {args.origin!r}")
+    robots = Robots(start=starts, goal=goals, radius=args.radius, ids=args.robot or None,
+                    max_speed=args.max_speed)
+    read = ReadOptions(
+        resolution=args.resolution, origin=origin, negate=True if args.negate else None,
+        mode=args.mode, occupied_thresh=args.occupied_thresh, free_thresh=args.free_thresh,
+        unknown=args.unknown, crop={"auto": "auto", "on": True, "off": False}[args.crop],
+        max_cells=MAX_CELLS if args.max_cells is None else args.max_cells)
+    polygons = PolygonOptions(grow=args.grow, simplify=args.simplify, join=args.join)
     info: dict[str, Any] = {}
     t0 = time.perf_counter()
-    prob = import_map(
-        path, radius=args.radius, start=starts, goal=goals, robot_id=args.robot or None,
-        max_speed=args.max_speed, resolution=args.resolution, origin=origin,
-        negate=True if args.negate else None, mode=args.mode,
-        occupied_thresh=args.occupied_thresh, free_thresh=args.free_thresh,
-        unknown=args.unknown, grow=args.grow, simplify=args.simplify, join=args.join,
-        fill_unreachable=not args.keep_holes, name=args.name, info=info,
-        crop={"auto": "auto", "on": True, "off": False}[args.crop],
-        max_cells=MAX_CELLS if args.max_cells is None else args.max_cells)
+    prob = import_map(path, robots, read=read, polygons=polygons,
+                      scene=SceneOptions(name=args.name), fill_unreachable=not args.keep_holes,
+                      info=info)
     dt = time.perf_counter() - t0
     header = (f"Imported from {path} by 'optplan import-map' (grow {args.grow:g} cells, "
               f"simplify {args.simplify:g} cells, unknown = {args.unknown}).")

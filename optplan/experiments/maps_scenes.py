@@ -38,12 +38,13 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from PIL import Image
 
 import optplan as op
-from optplan.maps import import_map, write_toml
+from optplan.maps import Robots, SceneOptions, import_map, write_toml
 
 #: The repository checkout (the shipped maps and scenes live in problems/).
 ROOT = Path(__file__).resolve().parents[2]
@@ -198,6 +199,19 @@ TEAM_START, TEAM_GOAL = (-11.0, -8.6), (11.0, -8.6)
 TEAM_L, TEAM_PHI = 1.5, (0.5, -0.5)
 
 
+def _robots(start: list, goal: list, ids: list[str]) -> Robots:
+    """The scenes' robots: 0.3 m (``RADIUS``), 1 m/s."""
+    return Robots(start=start, goal=goal, radius=RADIUS, ids=ids, max_speed=1.0)
+
+
+def _scene(map_file: str, name: str, tags: list[str], description: str,
+           **keys: Any) -> SceneOptions:
+    """A catalogue scene's keys; its source names the shipped map it is imported from."""
+    return SceneOptions(name=name, tags=tags, description=description,
+                        source=f"optplan design: problems/maps/{map_file} imported by "
+                               f"optplan.maps.import_map ({MODULE})", **keys)
+
+
 def warehouse_team(wh: Path, info: dict | None = None) -> op.Problem:
     """``warehouse-team``: the warehouse map with a leader and two followers (``[formation]``).
 
@@ -210,17 +224,14 @@ def warehouse_team(wh: Path, info: dict | None = None) -> op.Problem:
     """
     from optplan.problem import parse_problem, problem_to_dict
 
-    lead = import_map(
-        wh, radius=RADIUS, start=[TEAM_START], goal=[TEAM_GOAL], robot_id=["leader"],
-        max_speed=1.0, name="warehouse-team", tags=["map", "warehouse", "metres", "formation"],
-        description="40 x 30 m warehouse occupancy grid at 5 cm (the map of warehouse-grid) "
-                    "with a three-robot leader-follower team (0.3 m robots, L = 1.5 m, "
-                    "phi = +-0.5, safety distance 0.75 m) driving 22 m east through the "
-                    "staging area between the racks and the pallets; a forklift comes down "
-                    "the cross aisle, crosses the team's lane ahead of it and parks",
-        source=f"optplan design: problems/maps/warehouse.yaml imported by "
-               f"optplan.maps.import_map ({MODULE})",
-        goal_tolerance=0.1, sensing_range=4.0, dynamic_obstacles=[TEAM_FORKLIFT], info=info)
+    scene = _scene(
+        "warehouse.yaml", "warehouse-team", ["map", "warehouse", "metres", "formation"],
+        "40 x 30 m warehouse occupancy grid at 5 cm (the map of warehouse-grid) with a "
+        "three-robot leader-follower team (0.3 m robots, L = 1.5 m, phi = +-0.5, safety "
+        "distance 0.75 m) driving 22 m east through the staging area between the racks and the "
+        "pallets; a forklift comes down the cross aisle, crosses the team's lane ahead of it and "
+        "parks", goal_tolerance=0.1, sensing_range=4.0, dynamic_obstacles=[TEAM_FORKLIFT])
+    lead = import_map(wh, _robots([TEAM_START], [TEAM_GOAL], ["leader"]), scene=scene, info=info)
     d = problem_to_dict(lead)
     d["length_scale"] = 0.1
     x, y = TEAM_START
@@ -239,30 +250,26 @@ def build_scenes(maps: Path = MAPS) -> dict[str, tuple[op.Problem, Path, dict]]:
     wh = maps / "warehouse.yaml"
     of = maps / "office.yaml"
     info_w: dict = {}
-    pw = import_map(
-        wh, radius=RADIUS, start=[(-11.0, -11.5), (11.0, -11.0)],
-        goal=[(-9.0, 9.8), (9.0, 6.2)], robot_id=["amr1", "amr2"], max_speed=1.0,
-        name="warehouse-grid", tags=["map", "warehouse", "metres"],
-        description="40 x 30 m warehouse occupancy grid at 5 cm (ROS map_server YAML + PNG, "
-                    "origin (-20, -15)): six rack rows, columns, pallets, a slanted conveyor, "
-                    "an unknown cage; two 0.3 m AMRs from the staging area into the aisles, a "
-                    "forklift on the cross aisle",
-        source=f"optplan design: problems/maps/warehouse.yaml imported by "
-               f"optplan.maps.import_map ({MODULE})",
-        dynamic_obstacles=[FORKLIFT], info=info_w)
+    pw = import_map(wh, _robots([(-11.0, -11.5), (11.0, -11.0)], [(-9.0, 9.8), (9.0, 6.2)],
+                                ["amr1", "amr2"]),
+                    scene=_scene("warehouse.yaml", "warehouse-grid", ["map", "warehouse", "metres"],
+                                 "40 x 30 m warehouse occupancy grid at 5 cm (ROS map_server YAML "
+                                 "+ PNG, origin (-20, -15)): six rack rows, columns, pallets, a "
+                                 "slanted conveyor, an unknown cage; two 0.3 m AMRs from the "
+                                 "staging area into the aisles, a forklift on the cross aisle",
+                                 dynamic_obstacles=[FORKLIFT]),
+                    info=info_w)
     info_t: dict = {}
     pt = warehouse_team(wh, info_t)
     info_o: dict = {}
-    po = import_map(
-        of, radius=RADIUS, start=[(-2.5, 7.0), (22.5, 2.5)], goal=[(14.0, 12.5), (2.0, 2.0)],
-        robot_id=["r1", "r2"], max_speed=1.0, name="office-floor",
-        tags=["map", "office", "metres"],
-        description="30 x 20 m office floor occupancy grid at 5 cm (ROS map_server YAML + "
-                    "PNG, origin (-5, -3)): corridor, rooms with 0.9 m doors (the free floor is "
-                    "a hole of the wall polygon), closed rooms filled, desks; two 0.3 m robots",
-        source="optplan design: problems/maps/office.yaml imported by optplan.maps.import_map "
-               f"({MODULE})",
-        info=info_o)
+    po = import_map(of, _robots([(-2.5, 7.0), (22.5, 2.5)], [(14.0, 12.5), (2.0, 2.0)],
+                                ["r1", "r2"]),
+                    scene=_scene("office.yaml", "office-floor", ["map", "office", "metres"],
+                                 "30 x 20 m office floor occupancy grid at 5 cm (ROS map_server "
+                                 "YAML + PNG, origin (-5, -3)): corridor, rooms with 0.9 m doors "
+                                 "(the free floor is a hole of the wall polygon), closed rooms "
+                                 "filled, desks; two 0.3 m robots"),
+                    info=info_o)
     return {"warehouse-grid": (pw, wh, info_w), "warehouse-team": (pt, wh, info_t),
             "office-floor": (po, of, info_o)}
 

@@ -31,10 +31,14 @@ square lies inside the polygons.  The construction, in cell units:
    tolerance, and finally without simplification.  The result ``S`` satisfies
    ``U <= S <= U + disc(grow + simplify)`` (Minkowski sums).
 
-:func:`import_map` adds robots and returns a validated :class:`~optplan.Problem` (its errors
-are :class:`~optplan.ProblemError` naming the file and key); :func:`write_toml` writes any
-problem as a scenario file.  World coordinates: cell ``(row, col)`` of an image with ``H``
-rows covers ``origin + R(yaw) @ resolution * ([col, col + 1] x [H - 1 - row, H - row])``.
+:func:`import_map` adds robots (:class:`Robots`) and returns a validated
+:class:`~optplan.Problem` (its errors are :class:`~optplan.ProblemError` naming the file and
+key); its options are grouped in :class:`ReadOptions` (how the map is read, unknown cells,
+cropping), :class:`PolygonOptions` (``grow``, ``simplify``, ``join``; :func:`read_scen`
+takes them too) and :class:`SceneOptions` (the scenario's name and keys); :func:`write_toml`
+writes any problem as a scenario file.  World coordinates: cell ``(row, col)`` of an image
+with ``H`` rows covers
+``origin + R(yaw) @ resolution * ([col, col + 1] x [H - 1 - row, H - row])``.
 """
 
 from __future__ import annotations
@@ -49,6 +53,7 @@ from optplan.maps.movingai import read_movingai
 from optplan.maps.occupancy import ROS_DEFAULTS as ROS_DEFAULTS
 from optplan.maps.occupancy import classify as classify
 from optplan.maps.occupancy import read_grid, read_image, read_ros_yaml
+from optplan.maps.options import PolygonOptions, ReadOptions, Robots, SceneOptions
 from optplan.maps.polygons import exact_union, grid_polygons
 from optplan.maps.ros_msgs import (
     TimedPath,
@@ -58,6 +63,7 @@ from optplan.maps.ros_msgs import (
     read_path_msg,
     timed_path_msg,
 )
+from optplan.maps.scen import SCEN_POLYGONS as SCEN_POLYGONS
 from optplan.maps.scen import ScenEntry, read_scen, read_scen_entries, scen_octile_length
 from optplan.maps.toml_writer import to_toml, write_batch, write_toml
 
@@ -78,6 +84,10 @@ __all__ = [
     "exact_union",
     "grid_polygons",
     "import_map",
+    "Robots",
+    "ReadOptions",
+    "PolygonOptions",
+    "SceneOptions",
     "scene_name",
     "to_toml",
     "write_toml",

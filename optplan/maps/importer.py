@@ -6,7 +6,6 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
-from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -14,9 +13,10 @@ import numpy as np
 import shapely
 from shapely.geometry import Polygon, box
 
-from optplan.maps.checks import MAX_CELLS, check_cells, check_unknown, err, number
+from optplan.maps.checks import check_cells, check_unknown, err, number
 from optplan.maps.grid import FREE, OCCUPIED, UNKNOWN, Grid
 from optplan.maps.occupancy import read_grid
+from optplan.maps.options import PolygonOptions, ReadOptions, Robots, SceneOptions, checked
 from optplan.maps.polygons import _polys, grid_polygons
 from optplan.problem import Problem, parse_problem, ring_points
 
@@ -160,8 +160,9 @@ def _points(v: Any, where: Any, key: str) -> np.ndarray:
     return a
 
 
-def _check_vector_args(where: str, grow: Any, simplify: Any, join: str, radius: Any) -> float:
-    """Validate the polygon-conversion arguments of :func:`import_map`; the radius."""
+def _check_vector_args(where: str, polygons: PolygonOptions, radius: Any) -> float:
+    """Validate the polygon options of :func:`import_map`; the radius."""
+    grow, simplify, join = polygons.grow, polygons.simplify, polygons.join
     for key, v in (("grow", grow), ("simplify", simplify)):
         x = number(v, where, key)
         if x < 0:
@@ -179,16 +180,15 @@ def _check_vector_args(where: str, grow: Any, simplify: Any, join: str, radius: 
     return r
 
 
-def _robot_ends(where: str, start: Any, goal: Any,
-                robot_id: str | Sequence[str] | None) -> tuple[np.ndarray, np.ndarray, list]:
+def _robot_ends(where: str, robots: Robots) -> tuple[np.ndarray, np.ndarray, list]:
     """Starts, goals and robot ids of :func:`import_map` (one robot per start/goal pair)."""
-    starts, goals = _points(start, where, "start"), _points(goal, where, "goal")
+    starts, goals = _points(robots.start, where, "start"), _points(robots.goal, where, "goal")
     if len(starts) != len(goals):
         raise err(where, "goal", f"{len(starts)} start(s) but {len(goals)} goal(s)")
-    if robot_id is None:
+    if robots.ids is None:
         ids = ["r1"] if len(starts) == 1 else [f"r{k + 1}" for k in range(len(starts))]
     else:
-        ids = [robot_id] if isinstance(robot_id, str) else list(robot_id)
+        ids = [robots.ids] if isinstance(robots.ids, str) else list(robots.ids)
     if len(ids) != len(starts):
         raise err(where, "robot", f"{len(ids)} robot id(s) for {len(starts)} start(s)")
     return starts, goals, ids
@@ -222,15 +222,14 @@ def _map_obstacles(grid: Grid, polys: list, stem: str, unknown: str) -> list[dic
     return obstacles
 
 
-def _optional_keys(data: dict[str, Any], goal_tolerance: float | None,
-                   dynamic_obstacles: Sequence[dict], sensing_range: float | None) -> None:
+def _optional_keys(data: dict[str, Any], scene: SceneOptions) -> None:
     """Add the optional scenario keys that were given."""
-    if goal_tolerance is not None:
-        data["goal_tolerance"] = goal_tolerance
-    if dynamic_obstacles:
-        data["dynamic_obstacles"] = [dict(d) for d in dynamic_obstacles]
-    if sensing_range is not None:
-        data["sensing"] = {"range": sensing_range}
+    if scene.goal_tolerance is not None:
+        data["goal_tolerance"] = scene.goal_tolerance
+    if scene.dynamic_obstacles:
+        data["dynamic_obstacles"] = [dict(d) for d in scene.dynamic_obstacles]
+    if scene.sensing_range is not None:
+        data["sensing"] = {"range": scene.sensing_range}
 
 
 def _import_info(grid: Grid, stats: dict, polys: list, holes_filled: int,
@@ -244,66 +243,40 @@ def _import_info(grid: Grid, stats: dict, polys: list, holes_filled: int,
                        "free": int(np.sum(grid.cells == FREE))})
 
 
-def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
-               robot_id: str | Sequence[str] | None = None, max_speed: float = 1.0,
-               resolution: float | None = None, origin: Sequence[float] | None = None,
-               negate: bool | None = None, occupied_thresh: float | None = None,
-               free_thresh: float | None = None, mode: str | None = None,
-               unknown: str = "occupied", grow: float = 0.5, simplify: float = 0.5,
-               join: str = "round", fill_unreachable: bool = True, name: str | None = None,
-               description: str | None = None, source: str | None = None,
-               tags: Iterable[str] = ("map",), goal_tolerance: float | None = None,
-               dynamic_obstacles: Sequence[dict] = (), sensing_range: float | None = None,
-               grid: Grid | None = None, info: dict | None = None, crop: Any = "auto",
-               max_cells: int = MAX_CELLS) -> Problem:
+def import_map(path: str | Path, robots: Robots, *, read: ReadOptions | None = None,
+               polygons: PolygonOptions | None = None, scene: SceneOptions | None = None,
+               fill_unreachable: bool = True, grid: Grid | None = None,
+               info: dict | None = None) -> Problem:
     """Import an occupancy map as a validated :class:`~optplan.Problem`.
 
     Parameters
     ----------
     path : path
         ``.yaml``/``.yml`` (ROS ``map_server``), ``.map`` (MovingAI) or an image (PNG, PGM...;
-        then ``resolution`` is required and ``origin`` defaults to ``(0, 0)``).
-    radius : float
-        Robot radius (map units).
-    start, goal : point or list of points
-        One robot per start/goal pair (world coordinates, map units).
-    robot_id : str or list of str, optional
-        Default ``"r1"`` (``"r1", "r2", ...`` for several robots).
-    max_speed : float
-        Every robot's speed limit (map units / s).
-    resolution, origin, negate, occupied_thresh, free_thresh, mode
-        For bare images (:func:`read_image`); for MovingAI maps ``resolution`` and ``origin``
-        only; ROS maps take them from their YAML file.
-    unknown : ``"occupied"`` (default) or ``"free"``
-        What unknown cells are.
-    grow, simplify : float
-        Growth and Douglas-Peucker tolerance in **cells** (:func:`grid_polygons`).
-    join : ``"round"`` or ``"mitre"``
-        Growth join style (:func:`grid_polygons`).
+        then ``read.resolution`` is required and ``read.origin`` defaults to ``(0, 0)``).
+    robots : Robots
+        The robots: ``start``, ``goal`` (one robot per pair), ``radius``, ``ids``,
+        ``max_speed``.
+    read : ReadOptions, optional
+        How the map is read and which cells count: the image options (``resolution``,
+        ``origin``, ``negate``, ``occupied_thresh``, ``free_thresh``, ``mode``), ``unknown``
+        (what unknown cells are, default ``"occupied"``), ``crop`` (default ``"auto"``:
+        crop to the known cells when the unknown margin is more than ``CROP_MARGIN`` of the
+        image) and ``max_cells``; default ``ReadOptions()``.
+    polygons : PolygonOptions, optional
+        ``grow``, ``simplify`` (cells) and ``join`` (:func:`grid_polygons`); default
+        ``PolygonOptions()`` (0.5, 0.5, ``"round"``).
+    scene : SceneOptions, optional
+        The scenario's ``name`` (default :func:`scene_name` of ``path``), ``description``,
+        ``source``, ``tags``, ``goal_tolerance``, ``sensing_range`` and
+        ``dynamic_obstacles``; default ``SceneOptions()``.
     fill_unreachable : bool
         Fill the holes of obstacles that contain no start or goal (free regions no robot can
         reach: closed rooms, voids in walls) and drop the obstacles inside them.  Still
         conservative; fewer vertices.
-    name : str, optional
-        The scenario's name; default :func:`scene_name` of ``path`` (the file's stem, or its
-        directory's name for a ``map.yaml``).
-    description, source, tags, goal_tolerance, sensing_range, dynamic_obstacles
-        Scenario keys (``dynamic_obstacles``: tables as in the TOML format).
-    crop : ``"auto"`` (default), True or False
-        Crop the map (its cells and the scenario's bounds) to the bounding box of its known
-        (free or occupied) cells (``numpy.bool_`` is accepted; a number, 0 or 1 included, is
-        an error: ``crop`` is a switch, not a margin).  ``"auto"`` crops when the unknown
-        cells outside that box are more than ``CROP_MARGIN`` (25 %) of the image and unknown
-        cells are obstacles
-        (``unknown="occupied"``: the margin is then an obstacle the bounds replace; with
-        ``unknown="free"`` it is free space, and only ``crop=True`` drops it).
-    max_cells : int
-        The largest map read, in cells (:data:`~optplan.maps.checks.MAX_CELLS`, 8192 x 8192),
-        checked before the image is decoded or the grid allocated (for ``grid=``, before
-        any geometry is made).
     grid : Grid, optional
         An already read grid (``path`` then only names the source in messages); at most
-        ``max_cells`` cells, as a map read from a file.
+        ``read.max_cells`` cells, as a map read from a file.
     info : dict, optional
         Receives ``components``, ``polygons``, ``vertices``, ``holes_filled``, ``fallbacks``,
         ``tolerance_min``, ``cells`` (occupied, unknown, free counts, of the cropped map)
@@ -313,52 +286,58 @@ def import_map(path: str | Path, *, radius: float, start: Any, goal: Any,
     Raises
     ------
     ProblemError
-        For every bad input, naming the file and the key (a start or goal in an obstacle:
-        ``robots[i].start``).
+        For every bad input, naming the file and the option (a start or goal in an
+        obstacle: ``robots[i].start``).
     """
     p = Path(path)
     where = str(p)
+    robots = checked(where, "robots", robots, Robots)
+    read = checked(where, "read", read, ReadOptions, ReadOptions())
+    polygons = checked(where, "polygons", polygons, PolygonOptions, PolygonOptions())
+    scene = checked(where, "scene", scene, SceneOptions, SceneOptions())
+    unknown, max_cells = read.unknown, read.max_cells
     check_unknown(unknown, where)
     if grid is None:
-        extra = {"negate": negate, "occupied_thresh": occupied_thresh,
-                 "free_thresh": free_thresh, "mode": mode}
+        extra = {"negate": read.negate, "occupied_thresh": read.occupied_thresh,
+                 "free_thresh": read.free_thresh, "mode": read.mode}
         extra = {k: v for k, v in extra.items() if v is not None}
-        grid = read_grid(p, resolution=resolution, origin=origin, max_cells=max_cells, **extra)
-    elif not isinstance(grid, Grid):
-        raise err(where, "grid", f"expected an optplan.maps.Grid, got {type(grid).__name__}")
+        grid = read_grid(p, resolution=read.resolution, origin=read.origin,
+                         max_cells=max_cells, **extra)
     else:  # the limit of the readers, for an in-memory grid too
+        grid = checked(where, "grid", grid, Grid)
         check_cells(where, "grid", grid.height, grid.width, max_cells, "the grid: ")
-    r = _check_vector_args(where, grow, simplify, join, radius)
-    starts, goals, ids = _robot_ends(where, start, goal, robot_id)
+    r = _check_vector_args(where, polygons, robots.radius)
+    starts, goals, ids = _robot_ends(where, robots)
     _check_ends_free(where, grid, grid.obstacle_mask(unknown), starts, goals)
     full = (grid.width, grid.height)
-    grid, crop_info = _crop(where, grid, crop, unknown)
+    grid, crop_info = _crop(where, grid, read.crop, unknown)
     _check_ends_inside(where, grid, starts, goals)
     mask = grid.obstacle_mask(unknown)
     stats: dict[str, Any] = {}
+    grow, simplify = polygons.grow, polygons.simplify
     polys = [_world(grid, q) for q in grid_polygons(mask, grow=grow, simplify=simplify,
-                                                     join=join, stats=stats)]
+                                                     join=polygons.join, stats=stats)]
     holes_filled = 0
     if fill_unreachable:
         polys, holes_filled = _fill_unreachable(polys, np.vstack([starts, goals]))
     stem = scene_name(p)
-    name = name or stem
+    name = scene.name or stem
     obstacles = _map_obstacles(grid, polys, stem, unknown)
     res = grid.resolution
     cut = f", cropped from {full[0]} x {full[1]}" if crop_info["cropped"] else ""
     data: dict[str, Any] = {
         "name": name,
-        "description": description or f"imported from {p.name} ({grid.width} x "
-                                      f"{grid.height} cells of {res:g}{cut})",
-        "source": source or f"optplan.maps.import_map({p.name!r}, grow={grow:g} cells, "
-                            f"simplify={simplify:g} cells, unknown={unknown!r})",
-        "tags": list(tags),
+        "description": scene.description or f"imported from {p.name} ({grid.width} x "
+                                            f"{grid.height} cells of {res:g}{cut})",
+        "source": scene.source or f"optplan.maps.import_map({p.name!r}, grow={grow:g} cells, "
+                                  f"simplify={simplify:g} cells, unknown={unknown!r})",
+        "tags": list(scene.tags),
         "bounds": list(grid.bounds),
         "robots": [{"id": ids[k], "start": starts[k].tolist(), "goal": goals[k].tolist(),
-                    "radius": r, "max_speed": max_speed} for k in range(len(starts))],
+                    "radius": r, "max_speed": robots.max_speed} for k in range(len(starts))],
         "obstacles": obstacles,
     }
-    _optional_keys(data, goal_tolerance, dynamic_obstacles, sensing_range)
+    _optional_keys(data, scene)
     prob = parse_problem(data, where)
     if info is not None:
         info.update(_import_info(grid, stats, polys, holes_filled, obstacles), crop=crop_info)

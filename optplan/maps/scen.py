@@ -16,6 +16,7 @@ from optplan.maps.checks import err
 from optplan.maps.grid import Grid
 from optplan.maps.importer import _polygon_table, _world
 from optplan.maps.movingai import read_movingai
+from optplan.maps.options import PolygonOptions, checked
 from optplan.maps.polygons import grid_polygons
 from optplan.problem import Problem, ProblemError, parse_problem
 
@@ -141,24 +142,32 @@ def scen_octile_length(problem: Problem) -> float | None:
     return float(m.group(1)) if m else None
 
 
+#: :func:`read_scen`'s polygon options: ``grow = 0.25``, ``simplify = 0.2`` cells keep every
+#: cell-centre path of the 8-connected grid free for a point robot (``grow + simplify < 0.5``)
+SCEN_POLYGONS = PolygonOptions(grow=0.25, simplify=0.2)
+
+
 def read_scen(path: str | Path, *, map_path: str | Path | None = None, radius: float = 0.0,
-              grow: float = 0.25, simplify: float = 0.2, join: str = "round",
               max_speed: float = 1.0, resolution: float = 1.0,
-              origin: Sequence[float] = (0.0, 0.0), buckets: Iterable[int] | None = None,
-              limit: int | None = None) -> list[Problem]:
+              origin: Sequence[float] = (0.0, 0.0), polygons: PolygonOptions = SCEN_POLYGONS,
+              buckets: Iterable[int] | None = None, limit: int | None = None) -> list[Problem]:
     """A MovingAI ``.scen`` as a list of problems, one per line (a batch for ``bench``:
     :func:`write_batch` writes them as scenario files).
 
-    Each problem has one robot (radius ``radius``, a point by default) from the centre of the
-    start cell to the centre of the goal cell, the map's obstacles imported once
-    (:func:`grid_polygons`; the defaults ``grow = 0.25``, ``simplify = 0.2`` cells keep every
-    cell-centre path of the 8-connected grid free for a point robot, since
-    ``grow + simplify < 0.5``), the name ``<scen stem>-<line>`` and the description
-    ``"... octile length L ..."`` with the ``.scen`` optimum in map units
+    Each problem has one robot (radius ``radius``, a point by default; ``max_speed``) from the
+    centre of the start cell to the centre of the goal cell, the map's obstacles imported once
+    (:func:`grid_polygons` with ``polygons``, default :data:`SCEN_POLYGONS`: ``grow = 0.25``,
+    ``simplify = 0.2`` cells keep every cell-centre path of the 8-connected grid free for a
+    point robot, since ``grow + simplify < 0.5``), the name ``<scen stem>-<line>`` and the
+    description ``"... octile length L ..."`` with the ``.scen`` optimum in map units
     (:func:`scen_octile_length`).  The map is ``map_path`` or the ``.scen`` file's ``map``
-    field, looked up next to the ``.scen`` file (as written, then by its base name).
+    field, looked up next to the ``.scen`` file (as written, then by its base name), read with
+    ``resolution`` and ``origin`` (:func:`read_movingai`); ``buckets`` and ``limit`` select
+    lines.
     """
     p = Path(path)
+    polygons = checked(p, "polygons", polygons, PolygonOptions)
+    grow, simplify = polygons.grow, polygons.simplify
     every = read_scen_entries(p)
     _check_one_map(p, every)
     entries = _select(every, buckets, limit)
@@ -169,7 +178,7 @@ def read_scen(path: str | Path, *, map_path: str | Path | None = None, radius: f
     grid = read_movingai(map_path, resolution=resolution, origin=origin)
     mask = grid.obstacle_mask()
     polys = [_world(grid, q) for q in grid_polygons(mask, grow=grow, simplify=simplify,
-                                                     join=join)]
+                                                     join=polygons.join)]
     obstacles = [_polygon_table(q, f"{Path(map_path).stem}-{k}") for k, q in enumerate(polys)]
     res = grid.resolution
     stem = re.sub(r"(\.map)?\.scen$", "", p.name) or p.stem

@@ -30,6 +30,8 @@ from optplan.maps import (
     OCCUPIED,
     UNKNOWN,
     Grid,
+    ReadOptions,
+    Robots,
     import_map,
     read_grid,
     read_scen,
@@ -78,7 +80,7 @@ def test_auto_crop_on_a_large_unknown_margin(tmp_path):
     g = read_grid(y)
     s, t = _centre(g, 25 + 10, 25 + 5), _centre(g, 25 + 10, 25 + 25)
     info: dict = {}
-    prob = import_map(y, radius=0.05, start=s, goal=t, info=info)
+    prob = import_map(y, Robots(radius=0.05, start=s, goal=t), info=info)
     crop = info["crop"]
     assert crop["cropped"] and crop["rows"] == [25, 45] and crop["cols"] == [25, 55]
     assert crop["margin"] == pytest.approx(1 - 600 / (70 * 81)) and crop["margin"] > CROP_MARGIN
@@ -92,7 +94,7 @@ def test_auto_crop_on_a_large_unknown_margin(tmp_path):
     occ = g.squares(g.cells == OCCUPIED)
     assert occ.difference(union).area <= 1e-12 * occ.area
     # the same optimum as without cropping (the margin was an obstacle either way)
-    full = import_map(y, radius=0.05, start=s, goal=t, crop=False)
+    full = import_map(y, Robots(radius=0.05, start=s, goal=t), read=ReadOptions(crop=False))
     assert full.bounds == pytest.approx(g.bounds)
     a = op.solve(prob, "visgraph").metrics["length"]
     b = op.solve(full, "visgraph").metrics["length"]
@@ -105,35 +107,38 @@ def test_auto_crop_only_above_the_threshold_and_with_unknown_as_obstacles(tmp_pa
     g = read_grid(y)
     s, t = _centre(g, 12, 7), _centre(g, 12, 27)
     info: dict = {}
-    import_map(y, radius=0.05, start=s, goal=t, info=info)
+    import_map(y, Robots(radius=0.05, start=s, goal=t), info=info)
     assert info["crop"]["cropped"]
     cells = arena(1)                          # 22 x 33 image: 17 % margin, not cropped
     y = _ros(tmp_path / "tiny", cells)
     g = read_grid(y)
     s, t = _centre(g, 11, 6), _centre(g, 11, 26)
-    prob = import_map(y, radius=0.05, start=s, goal=t, info=info)
+    prob = import_map(y, Robots(radius=0.05, start=s, goal=t), info=info)
     assert not info["crop"]["cropped"] and info["crop"]["margin"] < CROP_MARGIN
     assert prob.bounds == pytest.approx(g.bounds)
-    assert import_map(y, radius=0.05, start=s, goal=t, crop=True).bounds != \
+    assert import_map(y, Robots(radius=0.05, start=s, goal=t),
+                      read=ReadOptions(crop=True)).bounds != \
         pytest.approx(g.bounds)
     # unknown = free: the margin is free space, auto keeps it; crop=True drops it
     y = _ros(tmp_path / "wide", arena(25))
     g = read_grid(y)
     s, t = _centre(g, 35, 30), _centre(g, 2, 2)  # the goal in the unknown margin
-    prob = import_map(y, radius=0.05, start=s, goal=t, unknown="free", info=info)
+    prob = import_map(y, Robots(radius=0.05, start=s, goal=t), read=ReadOptions(unknown="free"),
+                      info=info)
     assert not info["crop"]["cropped"] and prob.bounds == pytest.approx(g.bounds)
     with pytest.raises(ProblemError, match=r"map\.yaml: robots\[0\]\.goal: .* outside the "
                                            r"known part of the map .*crop=False"):
-        import_map(y, radius=0.05, start=s, goal=t, unknown="free", crop=True)
+        import_map(y, Robots(radius=0.05, start=s, goal=t),
+                   read=ReadOptions(unknown="free", crop=True))
     with pytest.raises(ProblemError, match=r"map\.yaml: crop: expected 'auto', True or False"):
-        import_map(y, radius=0.05, start=s, goal=s, crop="yes")
+        import_map(y, Robots(radius=0.05, start=s, goal=s), read=ReadOptions(crop="yes"))
 
 
 def test_crop_of_a_rotated_map_keeps_the_cells_in_place(tmp_path):
     y = _ros(tmp_path / "rot", arena(25), origin="[1.0, 2.0, 0.5]")
     g = read_grid(y)
     s, t = _centre(g, 35, 30), _centre(g, 35, 50)
-    prob = import_map(y, radius=0.05, start=s, goal=t)
+    prob = import_map(y, Robots(radius=0.05, start=s, goal=t))
     union = shapely.union_all([o.geometry for o in prob.obstacles])
     occ = g.squares(g.cells == OCCUPIED)
     assert occ.difference(union).area <= 1e-9 * occ.area
@@ -175,7 +180,7 @@ def test_scenes_are_named_after_their_file(tmp_path):
         "random-32-32-20"
     y = _ros(tmp_path / "turtlebot3_world", arena(1))
     g = read_grid(y)
-    prob = import_map(y, radius=0.05, start=_centre(g, 11, 6), goal=_centre(g, 11, 26))
+    prob = import_map(y, Robots(radius=0.05, start=_centre(g, 11, 6), goal=_centre(g, 11, 26)))
     assert prob.name == "turtlebot3_world"
     assert all(o.name.startswith("turtlebot3_world-") for o in prob.obstacles)
 
@@ -302,7 +307,8 @@ def test_image_too_large_to_decode(tmp_path):
                                            r"10000 = 100,000,000 cells, more than the limit"):
         read_grid(y)
     with pytest.raises(ProblemError, match=r"big\.pgm: image: image .* more than the limit"):
-        import_map(big, resolution=0.05, radius=0.1, start=(1, 1), goal=(2, 2))
+        import_map(big, Robots(radius=0.1, start=(1, 1), goal=(2, 2)),
+                   read=ReadOptions(resolution=0.05))
     # the limit is an option: a small image under a smaller limit
     small = tmp_path / "s.png"
     Image.fromarray(np.full((30, 40), 254, dtype=np.uint8), mode="L").save(small)
@@ -314,7 +320,8 @@ def test_image_too_large_to_decode(tmp_path):
     m.write_text(MAP, encoding="ascii")
     with pytest.raises(ProblemError, match=r"m\.map: line 3: 6 x 4 = 24 cells, more than "
                                            r"the limit of 23"):
-        import_map(m, radius=0.1, start=(1.5, 2.5), goal=(4.5, 1.5), max_cells=23)
+        import_map(m, Robots(radius=0.1, start=(1.5, 2.5), goal=(4.5, 1.5)),
+                   read=ReadOptions(max_cells=23))
 
 
 # --------------------------------------------------------------------------------------
@@ -329,7 +336,8 @@ def test_crop_takes_bools_of_either_kind(tmp_path, crop, cropped):
     g = read_grid(y)
     s, t = _centre(g, 35, 30), _centre(g, 35, 50)
     info: dict = {}
-    prob = import_map(y, radius=0.05, start=s, goal=t, crop=crop, info=info)
+    prob = import_map(y, Robots(radius=0.05, start=s, goal=t), read=ReadOptions(crop=crop),
+                      info=info)
     assert info["crop"]["cropped"] is cropped
     assert (prob.bounds != g.bounds) is cropped
 
@@ -342,27 +350,26 @@ def test_a_number_is_not_a_crop_switch(tmp_path, crop):
     with pytest.raises(ProblemError, match=rf"lab/map\.yaml: crop: expected 'auto', True or "
                                            rf"False, got .*{type(crop).__name__}; a number is "
                                            rf"not accepted: crop is a switch, not a margin"):
-        import_map(y, radius=0.05, start=s, goal=t, crop=crop)
+        import_map(y, Robots(radius=0.05, start=s, goal=t), read=ReadOptions(crop=crop))
 
 
 def test_the_cell_limit_holds_for_an_in_memory_grid():
     """``import_map(grid=...)`` checks ``max_cells`` as the readers do (an 81 M-cell grid is
     refused by default, before any geometry; a broadcast array: nothing is allocated)."""
     big = Grid(np.broadcast_to(np.uint8(FREE), (9000, 9000)), 1.0, source="big")
+    robots = Robots(radius=0.0, start=(0.5, 0.5), goal=(1.5, 0.5))
     with pytest.raises(ProblemError, match=r"^mem: grid: the grid: 9000 x 9000 = 81,000,000 "
                                            r"cells, more than the limit of 67,108,864"):
-        import_map("mem", grid=big, radius=0.0, start=(0.5, 0.5), goal=(1.5, 0.5))
+        import_map("mem", robots, grid=big)
     small = Grid(np.zeros((4, 6), dtype=np.uint8), 1.0)
-    prob = import_map("mem", grid=small, radius=0.0, start=(0.5, 0.5), goal=(1.5, 0.5),
-                      max_cells=24)
+    prob = import_map("mem", robots, read=ReadOptions(max_cells=24), grid=small)
     assert prob.bounds == (0.0, 0.0, 6.0, 4.0)
     with pytest.raises(ProblemError, match=r"mem: grid: the grid: 6 x 4 = 24 cells, more "
                                            r"than the limit of 23"):
-        import_map("mem", grid=small, radius=0.0, start=(0.5, 0.5), goal=(1.5, 0.5),
-                   max_cells=23)
+        import_map("mem", robots, read=ReadOptions(max_cells=23), grid=small)
     with pytest.raises(ProblemError, match=r"mem: grid: expected an optplan\.maps\.Grid, got "
                                            r"ndarray"):
-        import_map("mem", grid=small.cells, radius=0.0, start=(0.5, 0.5), goal=(1.5, 0.5))
+        import_map("mem", robots, grid=small.cells)
 
 
 @pytest.mark.parametrize(("cells", "match"), [

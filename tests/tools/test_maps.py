@@ -29,6 +29,9 @@ from optplan.maps import (
     OCCUPIED,
     UNKNOWN,
     Grid,
+    PolygonOptions,
+    ReadOptions,
+    Robots,
     classify,
     exact_union,
     grid_polygons,
@@ -99,6 +102,12 @@ def free_point(grid: Grid, row: int, col: int) -> list[float]:
 START_RC, GOAL_RC = (52, 8), (30, 45)   # below the horizontal wall -> right of the vertical one
 
 
+def _robots(grid: Grid) -> Robots:
+    """The test map's robot (radius ``RADIUS``) from ``START_RC`` to ``GOAL_RC``."""
+    return Robots(start=free_point(grid, *START_RC), goal=free_point(grid, *GOAL_RC),
+                  radius=RADIUS)
+
+
 @pytest.fixture(scope="module")
 def ros_map(tmp_path_factory) -> Path:
     return write_ros(tmp_path_factory.mktemp("ros"), truth_cells())
@@ -164,8 +173,8 @@ def _union(problem: op.Problem):
 def test_polygons_cover_every_obstacle_cell_and_little_more(ros_map, grow, simplify, join):
     g = read_ros_yaml(ros_map)
     info: dict = {}
-    prob = import_map(ros_map, radius=RADIUS, start=free_point(g, *START_RC),
-                      goal=free_point(g, *GOAL_RC), grow=grow, simplify=simplify, join=join,
+    prob = import_map(ros_map, _robots(g),
+                      polygons=PolygonOptions(grow=grow, simplify=simplify, join=join),
                       fill_unreachable=False, info=info)
     U = g.squares()                      # exact union of the occupied and unknown squares
     S = _union(prob)
@@ -194,8 +203,7 @@ def test_free_cells_away_from_obstacles_stay_free(ros_map):
     """A free cell centre farther than grow + simplify + 1/2 cell from every obstacle cell is
     outside the polygons (the import does not eat free space)."""
     g = read_ros_yaml(ros_map)
-    prob = import_map(ros_map, radius=RADIUS, start=free_point(g, *START_RC),
-                      goal=free_point(g, *GOAL_RC), fill_unreachable=False)
+    prob = import_map(ros_map, _robots(g), fill_unreachable=False)
     S, U = _union(prob), g.squares()
     rows, cols = np.nonzero(g.cells == FREE)
     pts = shapely.points(g.cell_to_world(np.column_stack([cols + 0.5,
@@ -223,14 +231,14 @@ def test_grid_polygons_components_and_diagonal_touch():
 
 def test_simplification_keeps_vertex_counts_small(ros_map):
     g = read_ros_yaml(ros_map)
-    kw = dict(radius=RADIUS, start=free_point(g, *START_RC), goal=free_point(g, *GOAL_RC),
-              fill_unreachable=False)
     exact: dict = {}
     simple: dict = {}
     coarse: dict = {}
-    import_map(ros_map, grow=0.0, simplify=0.0, info=exact, **kw)
-    import_map(ros_map, info=simple, **kw)
-    import_map(ros_map, grow=1.0, simplify=1.0, info=coarse, **kw)
+    import_map(ros_map, _robots(g), polygons=PolygonOptions(grow=0.0, simplify=0.0),
+               fill_unreachable=False, info=exact)
+    import_map(ros_map, _robots(g), fill_unreachable=False, info=simple)
+    import_map(ros_map, _robots(g), polygons=PolygonOptions(grow=1.0, simplify=1.0),
+               fill_unreachable=False, info=coarse)
     assert simple["vertices"] < 0.7 * exact["vertices"]
     # one-cell steps of the slanted wall are straightened by a one-cell tolerance
     assert coarse["vertices"] < 0.4 * exact["vertices"]
@@ -241,8 +249,7 @@ def test_simplification_keeps_vertex_counts_small(ros_map):
 def test_visgraph_path_is_collision_free_on_the_grid(tmp_path, negate):
     y = write_ros(tmp_path, truth_cells(), negate=negate)
     g = read_ros_yaml(y)
-    prob = import_map(y, radius=RADIUS, start=free_point(g, *START_RC),
-                      goal=free_point(g, *GOAL_RC))
+    prob = import_map(y, _robots(g))
     res = op.solve(prob, "visgraph")
     assert res.status.value == "optimal", res.message
     path = res.paths["r1"]
@@ -274,10 +281,10 @@ def test_visgraph_path_is_collision_free_on_the_grid(tmp_path, negate):
 def test_unknown_free_option(ros_map):
     g = read_ros_yaml(ros_map)
     inside_unknown = free_point(g, 34, 67)
-    kw = dict(radius=0.05, goal=free_point(g, *GOAL_RC))
+    robots = Robots(radius=0.05, start=inside_unknown, goal=free_point(g, *GOAL_RC))
     with pytest.raises(ProblemError, match=r"robots\[0\]\.start: .* unknown cell"):
-        import_map(ros_map, start=inside_unknown, **kw)
-    prob = import_map(ros_map, start=inside_unknown, unknown="free", **kw)
+        import_map(ros_map, robots)
+    prob = import_map(ros_map, robots, read=ReadOptions(unknown="free"))
     S = _union(prob)
     assert not S.contains(shapely.Point(inside_unknown))
     assert S.covers(g.squares(g.obstacle_mask("free")))
@@ -285,17 +292,16 @@ def test_unknown_free_option(ros_map):
 
 def test_fill_unreachable_holes(ros_map):
     g = read_ros_yaml(ros_map)
-    kw = dict(radius=RADIUS, start=free_point(g, *START_RC), goal=free_point(g, *GOAL_RC))
     a: dict = {}
     b: dict = {}
-    filled = import_map(ros_map, info=a, **kw)
-    kept = import_map(ros_map, fill_unreachable=False, info=b, **kw)
+    filled = import_map(ros_map, _robots(g), info=a)
+    kept = import_map(ros_map, _robots(g), fill_unreachable=False, info=b)
     assert a["holes_filled"] >= 1 and b["holes_filled"] == 0
     assert a["vertices"] < b["vertices"] and a["polygons"] < b["polygons"]  # the speckle goes
     assert _union(filled).covers(_union(kept))
     # a robot inside the room keeps its hole
     room = free_point(g, 11, 58)
-    p = import_map(ros_map, radius=0.02, start=room, goal=free_point(g, 16, 66))
+    p = import_map(ros_map, Robots(radius=0.02, start=room, goal=free_point(g, 16, 66)))
     assert any(o.geometry.interiors for o in p.obstacles)
     assert op.solve(p, "visgraph").status.value == "optimal"
 
@@ -306,8 +312,7 @@ def test_rotated_origin_yaw(tmp_path):
     y = write_ros(tmp_path, cells, yaw=yaw)
     g = read_ros_yaml(y)
     assert g.origin[2] == pytest.approx(yaw)
-    prob = import_map(y, radius=RADIUS, start=free_point(g, *START_RC),
-                      goal=free_point(g, *GOAL_RC), fill_unreachable=False)
+    prob = import_map(y, _robots(g), fill_unreachable=False)
     S, U = _union(prob), g.squares()
     assert U.difference(S).area <= 1e-9 * U.area
     # the corners of the bounding box outside the rotated image are obstacles (unknown)
@@ -326,19 +331,21 @@ def test_bare_png_with_resolution_and_origin(tmp_path, ros_map):
     png = tmp_path / "plan.png"
     Image.fromarray(pixels(cells, False), mode="L").save(png)
     g = read_ros_yaml(ros_map)
-    kw = dict(radius=RADIUS, start=free_point(g, *START_RC), goal=free_point(g, *GOAL_RC))
-    a = import_map(png, resolution=RES, origin=ORIGIN, **kw)
-    b = import_map(ros_map, **kw)
+    robots = _robots(g)
+    a = import_map(png, robots, read=ReadOptions(resolution=RES, origin=ORIGIN))
+    b = import_map(ros_map, robots)
     assert a.bounds == b.bounds
     assert [o.geometry.wkt for o in a.obstacles] == [o.geometry.wkt for o in b.obstacles]
     # the same plan drawn negated
     Image.fromarray(pixels(cells, True), mode="L").save(tmp_path / "neg.pgm")
-    c = import_map(tmp_path / "neg.pgm", resolution=RES, origin=ORIGIN, negate=True, **kw)
+    c = import_map(tmp_path / "neg.pgm", robots,
+                   read=ReadOptions(resolution=RES, origin=ORIGIN, negate=True))
     assert [o.geometry.wkt for o in c.obstacles] == [o.geometry.wkt for o in b.obstacles]
     # origin shifts every coordinate
-    d = import_map(png, resolution=RES, origin=(ORIGIN[0] + 10, ORIGIN[1] - 5),
-                   radius=RADIUS, start=[kw["start"][0] + 10, kw["start"][1] - 5],
-                   goal=[kw["goal"][0] + 10, kw["goal"][1] - 5])
+    shifted = Robots(radius=RADIUS, start=[robots.start[0] + 10, robots.start[1] - 5],
+                     goal=[robots.goal[0] + 10, robots.goal[1] - 5])
+    d = import_map(png, shifted,
+                   read=ReadOptions(resolution=RES, origin=(ORIGIN[0] + 10, ORIGIN[1] - 5)))
     moved = shapely.affinity.translate(_union(a), 10, -5)
     assert _union(d).symmetric_difference(moved).area <= 1e-9 * moved.area
 
@@ -606,7 +613,7 @@ GOOD = "image: m.png\nresolution: 0.05\norigin: [0.0, 0.0, 0.0]\n"
 ])
 def test_yaml_errors(tmp_path, body, pattern):
     with pytest.raises(ProblemError, match=pattern):
-        import_map(_yaml(tmp_path, body), radius=0.1, start=(1, 1), goal=(2, 2))
+        import_map(_yaml(tmp_path, body), Robots(radius=0.1, start=(1, 1), goal=(2, 2)))
 
 
 def test_a_yaml_file_that_is_not_utf8_names_the_file(tmp_path):
@@ -643,37 +650,40 @@ def test_import_errors(tmp_path, ros_map):
     g = read_ros_yaml(ros_map)
     s, t = free_point(g, *START_RC), free_point(g, *GOAL_RC)
     with pytest.raises(ProblemError, match=r"nowhere\.yaml: no such map file"):
-        import_map(tmp_path / "nowhere.yaml", radius=0.1, start=s, goal=t)
+        import_map(tmp_path / "nowhere.yaml", Robots(radius=0.1, start=s, goal=t))
     (tmp_path / "x.xyz").write_text("", encoding="utf-8")
     with pytest.raises(ProblemError, match=r"x\.xyz: unknown map format '\.xyz'"):
-        import_map(tmp_path / "x.xyz", radius=0.1, start=s, goal=t)
+        import_map(tmp_path / "x.xyz", Robots(radius=0.1, start=s, goal=t))
     png = tmp_path / "p.png"
     Image.fromarray(pixels(truth_cells(), False), mode="L").save(png)
     with pytest.raises(ProblemError, match=r"p\.png: resolution: required for a bare image"):
-        import_map(png, radius=0.1, start=s, goal=t)
+        import_map(png, Robots(radius=0.1, start=s, goal=t))
     (tmp_path / "broken.png").write_bytes(b"not a png")
     with pytest.raises(ProblemError, match=r"broken\.png: image: cannot read image"):
-        import_map(tmp_path / "broken.png", resolution=0.1, radius=0.1, start=s, goal=t)
+        import_map(tmp_path / "broken.png", Robots(radius=0.1, start=s, goal=t),
+                   read=ReadOptions(resolution=0.1))
     with pytest.raises(ProblemError, match=r"map\.yaml: origin: given by the YAML file"):
-        import_map(ros_map, origin=(0, 0), radius=0.1, start=s, goal=t)
+        import_map(ros_map, Robots(radius=0.1, start=s, goal=t), read=ReadOptions(origin=(0, 0)))
     # start in an occupied cell, within the radius of an obstacle, outside the map
     wall = free_point(g, 20, 21)
     with pytest.raises(ProblemError, match=r"map\.yaml: robots\[0\]\.start: .* occupied cell "
                                            r"\(row 20, column 21\)"):
-        import_map(ros_map, radius=0.1, start=wall, goal=t)
+        import_map(ros_map, Robots(radius=0.1, start=wall, goal=t))
     near = [wall[0] + 2.5 * RES, wall[1]]
     with pytest.raises(ProblemError, match=r"map\.yaml: robots\[0\]\.start: .* inside obstacle"):
-        import_map(ros_map, radius=0.2, start=near, goal=t)
+        import_map(ros_map, Robots(radius=0.2, start=near, goal=t))
     with pytest.raises(ProblemError, match=r"map\.yaml: robots\[0\]\.goal: .* outside the map"):
-        import_map(ros_map, radius=0.1, start=s, goal=(100.0, 0.0))
+        import_map(ros_map, Robots(radius=0.1, start=s, goal=(100.0, 0.0)))
     with pytest.raises(ProblemError, match=r"map\.yaml: unknown: expected 'occupied' or 'free'"):
-        import_map(ros_map, radius=0.1, start=s, goal=t, unknown="maybe")
+        import_map(ros_map, Robots(radius=0.1, start=s, goal=t),
+                   read=ReadOptions(unknown="maybe"))
     with pytest.raises(ProblemError, match=r"map\.yaml: simplify: needs grow > 0"):
-        import_map(ros_map, radius=0.1, start=s, goal=t, grow=0.0)
+        import_map(ros_map, Robots(radius=0.1, start=s, goal=t),
+                   polygons=PolygonOptions(grow=0.0))
     with pytest.raises(ProblemError, match=r"map\.yaml: goal: 1 start\(s\) but 2 goal\(s\)"):
-        import_map(ros_map, radius=0.1, start=s, goal=[t, t])
+        import_map(ros_map, Robots(radius=0.1, start=s, goal=[t, t]))
     with pytest.raises(ProblemError, match=r"map\.yaml: start: expected a point"):
-        import_map(ros_map, radius=0.1, start=[1, 2, 3], goal=t)
+        import_map(ros_map, Robots(radius=0.1, start=[1, 2, 3], goal=t))
 
 
 # --------------------------------------------------------------------------------------
@@ -743,7 +753,7 @@ def test_a_resolution_outside_the_range_names_the_file_key_value_and_range(tmp_p
     with pytest.raises(ProblemError, match=pattern):
         read_ros_yaml(y)
     with pytest.raises(ProblemError, match=pattern):
-        import_map(y, radius=0.0, start=(0, 0), goal=(0, 0))
+        import_map(y, Robots(radius=0.0, start=(0, 0), goal=(0, 0)))
     # an in-memory grid: the same check, naming its source
     with pytest.raises(ProblemError, match=r"^<grid>: resolution: .* outside the supported"):
         Grid(np.zeros((10, 10), dtype=np.uint8), float(res))
@@ -778,8 +788,8 @@ def test_maps_at_both_ends_of_the_range_import_cleanly(tmp_path, res):
     y = _tiny_yaml(tmp_path, repr(res))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        prob = import_map(y, radius=0.0, start=(5 * res, 5 * res), goal=(5 * res, 3 * res),
-                          max_speed=res)
+        prob = import_map(y, Robots(radius=0.0, start=(5 * res, 5 * res),
+                                    goal=(5 * res, 3 * res), max_speed=res))
     assert prob.bounds == pytest.approx((0.0, 0.0, 10 * res, 10 * res))
     assert len(prob.obstacles) == 1
 
@@ -793,8 +803,9 @@ def test_numpy_resolutions_are_numbers(tmp_path, res):
     assert g.origin == (1.0, 2.0, 0.0) and g.bounds == (1.0, 2.0, 1.0 + 6 * float(res),
                                                        2.0 + 4 * float(res))
     assert Grid(g.cells, res).resolution == float(res)
-    prob = import_map(png, resolution=res, radius=0.0, start=(float(res), float(res)),
-                      goal=(2 * float(res), float(res)))
+    prob = import_map(png, Robots(radius=0.0, start=(float(res), float(res)),
+                                  goal=(2 * float(res), float(res))),
+                      read=ReadOptions(resolution=res))
     assert prob.bounds == pytest.approx((0.0, 0.0, 6 * float(res), 4 * float(res)))
 
 

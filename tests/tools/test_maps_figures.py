@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from optplan.maps import import_map
+from optplan.maps import ReadOptions, Robots, import_map
 
 #: the script docs/figures/maps.py (outside the package: loaded from its file)
 _SPEC = importlib.util.spec_from_file_location(
@@ -23,14 +23,13 @@ def test_the_office_map_is_the_same_bytes_and_is_cropped_to_the_office(tmp_path:
     for name in ("office.yaml", "office.pgm"):
         assert (a.parent / name).read_bytes() == (b.parent / name).read_bytes()
     info: dict = {}
-    prob = import_map(a, radius=maps_figures.RADIUS, start=maps_figures.START,
-                      goal=maps_figures.GOAL, info=info)
+    robots = Robots(start=maps_figures.START, goal=maps_figures.GOAL, radius=maps_figures.RADIUS)
+    prob = import_map(a, robots, info=info)
     assert prob.name == "office"
     assert info["crop"]["cropped"] and info["crop"]["margin"] > 0.25
     # the office's outer wall, 6.2 x 9.2 m, is the new extent; the image was 20 x 16 m
     assert prob.bounds == pytest.approx((-4.5, -3.2, 4.7, 3.0), abs=0.051)
-    whole = import_map(a, radius=maps_figures.RADIUS, start=maps_figures.START,
-                       goal=maps_figures.GOAL, crop=False)
+    whole = import_map(a, robots, read=ReadOptions(crop=False))
     assert whole.bounds == pytest.approx((-10.0, -8.0, 10.0, 8.0))
 
 

@@ -17,6 +17,7 @@ from optplan.maps import (
     FREE,
     OCCUPIED,
     UNKNOWN,
+    Robots,
     import_map,
     occupancy_grid_msg,
     path_msg,
@@ -174,7 +175,8 @@ def test_a_map_server_map_round_trips_through_the_message():
     back = read_occupancy_grid(json.loads(json.dumps(msg)), name="/map")
     assert (back.cells == g.cells).all()
     assert (back.resolution, back.origin, back.source) == (g.resolution, g.origin, "/map")
-    prob = import_map("ros-map", grid=back, radius=0.3, start=(-11.0, -11.5), goal=(-9.0, 9.8))
+    prob = import_map("ros-map", Robots(radius=0.3, start=(-11.0, -11.5), goal=(-9.0, 9.8)),
+                      grid=back)
     assert op.solve(prob, "visgraph").status is op.Status.optimal
 
 
