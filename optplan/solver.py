@@ -71,6 +71,7 @@ from optplan.catalog import (
     read_preset,
 )
 from optplan.catalog import plugin_preset_files as plugin_preset_files
+from optplan.goal_completion import completion_length
 from optplan.options import option
 from optplan.problem import Problem
 from optplan.result import Progress, Result, Status
@@ -430,12 +431,20 @@ def check_init(problem: Problem, init: Any) -> dict[str, np.ndarray]:
 def with_reference(metrics: dict[str, Any], problem: Problem, paths: dict[str, Any],
                    ref: dict[str, Any]) -> dict[str, Any]:
     """``metrics`` plus what a reference (:func:`reference_optimum`) adds: ``reference_time``,
-    and ``optimum`` with ``ratio_to_optimum`` or ``reference_error``."""
+    and ``optimum`` with ``ratio_to_optimum`` or ``reference_error``; a run that ends inside the
+    goal tolerance, off the goal point, also gets ``goal_completion`` and ``length_to_goal``
+    (:mod:`optplan.goal_completion`), and its ratio is ``length_to_goal / optimum``."""
     out = dict(metrics)
     out["reference_time"] = ref["reference_time"]
-    if ref["optimum"] is not None and "length" in out and problem.leader.id in paths:
+    lead = problem.leader.id
+    if ref["optimum"] is not None and "length" in out and lead in paths:
         out["optimum"] = ref["optimum"]
-        out["ratio_to_optimum"] = out["length"] / ref["optimum"]
+        # a run accepted inside the goal tolerance is graded at the goal point
+        done = completion_length(problem, lead, paths[lead])
+        if done:
+            out["goal_completion"] = done
+            out["length_to_goal"] = out["length"] + done
+        out["ratio_to_optimum"] = out.get("length_to_goal", out["length"]) / ref["optimum"]
     elif ref["reference_error"] is not None:
         out["reference_error"] = ref["reference_error"]
     return out

@@ -9,12 +9,19 @@ plan (:func:`with_time_reference`):
 * ``schedule_arrival``: the fastest timing of the same geometric path up to that point
   (:func:`~optplan.geometry.timing.schedule.fastest_schedule`, exact): how much the planner lost by
   its timing alone;
+* ``arrival_at_goal``: for a robot with a goal, the arrival at the goal *point* of the plan
+  completed from where it enters the goal tolerance by the shortest continuation at
+  ``max_speed`` (:mod:`optplan.goal_completion`): every reference is for the goal point;
 * ``time_reference``: the earliest arrival of the reference planner in time (``op.solve``
   passes the ``sipp`` preset's: safe intervals on the exact tangent roadmap), for robots with
-  a goal;
+  a goal.  The reference planner's model is narrower than the motions a plan may make: when
+  the completed plan is valid and reaches the goal point earlier, it is the better upper bound
+  on the earliest arrival and becomes the reference of this grading
+  (``time_reference_source`` says so), so no valid plan has a ratio to the reference below 1;
 * ``time_lower_bound``: the certified bound of
   :func:`~optplan.geometry.timing.time_bounds.arrival_lower_bound` (robots with a goal);
-* the ratios of ``arrival_time`` to each of them.
+* the ratios of ``arrival_at_goal`` to the reference and the bound, and of ``arrival_time``
+  to ``schedule_arrival``.
 
 The planned robot's (the leader's) grades are metrics of their own; with more than one robot,
 ``time_per_robot`` holds every robot's.  The references are cached on the problem.
@@ -36,6 +43,7 @@ from optplan.geometry.timing import (
     fastest_schedule,
     path_times,
 )
+from optplan.goal_completion import completed_arrival
 from optplan.problem import Problem
 
 __all__ = ["with_time_reference", "grade_robot", "Reference"]
@@ -76,7 +84,9 @@ def _ratio(a: float | None, b: float | None) -> float | None:
 def grade_robot(problem: Problem, rid: str, path: Any, times: Any = None,
                 reference: Reference | None = None) -> dict[str, Any]:
     """One robot's grades in time (module docstring): ``arrival_time``, ``schedule_arrival``,
-    ``schedule_status`` and, for a robot with a goal, ``time_reference``,
+    ``schedule_status`` and, for a robot with a goal, ``arrival_at_goal``,
+    ``arrival_completion`` and ``arrival_completion_status``
+    (:func:`~optplan.goal_completion.completed_arrival`), ``time_reference``,
     ``time_lower_bound``, ``time_bound_reason``; the ratios ``arrival_ratio_to_schedule``,
     ``arrival_ratio_to_reference``, ``arrival_ratio_to_bound`` where both sides exist
     (``time_reference`` only with a ``reference`` planner)."""
@@ -90,14 +100,26 @@ def grade_robot(problem: Problem, rid: str, path: Any, times: Any = None,
         if sch.status is not PlanStatus.scheduled:
             out["schedule_message"] = sch.message
     out["arrival_ratio_to_schedule"] = _ratio(arrival, out["schedule_arrival"])
-    if problem.robot(rid).goal is None:
+    robot = problem.robot(rid)
+    if robot.goal is None:
         return out
+    done = None
+    if end is not None:
+        done = completed_arrival(problem, rid, pts, path_times(pts, robot.max_speed, times), end)
+        out.update(arrival_at_goal=done.arrival, arrival_completion=done.distance,
+                   arrival_completion_status=done.status)
+    at_goal = None if done is None else done.arrival
     if reference is not None:
         out.update(_reference(problem, rid, reference))
+        ref = out["time_reference"]
+        if done is not None and done.valid and at_goal is not None and (
+                ref is None or at_goal < ref):
+            out["time_reference"] = at_goal  # a valid motion: an upper bound on the optimum
+            out["time_reference_source"] = "this plan (earlier than the reference planner)"
     bound = problem.memo(("arrival_lower_bound", rid), lambda: arrival_lower_bound(problem, rid))
     out["time_lower_bound"], out["time_bound_reason"] = bound.value, bound.reason
-    out["arrival_ratio_to_reference"] = _ratio(arrival, out.get("time_reference"))
-    out["arrival_ratio_to_bound"] = _ratio(arrival, bound.value)
+    out["arrival_ratio_to_reference"] = _ratio(at_goal, out.get("time_reference"))
+    out["arrival_ratio_to_bound"] = _ratio(at_goal, bound.value)
     return out
 
 

@@ -28,14 +28,10 @@ def _reference(prob: Any) -> dict[str, Any]:
 
 def _apply_reference(res: Any, prob: Any, ref: Mapping[str, Any]) -> Any:
     """What ``solve(..., reference=True)`` adds to the metrics, from a precomputed reference."""
-    metrics = dict(res.metrics)
-    metrics["reference_time"] = ref["reference_time"]
-    if ref["optimum"] is not None and "length" in metrics and prob.leader.id in res.paths:
-        metrics["optimum"] = ref["optimum"]
-        metrics["ratio_to_optimum"] = metrics["length"] / ref["optimum"]
-    elif ref["reference_error"] is not None:
-        metrics["reference_error"] = ref["reference_error"]
-    return dataclasses.replace(res, metrics=metrics)
+    from optplan.solver import with_reference
+
+    return dataclasses.replace(res, metrics=with_reference(res.metrics, prob, res.paths,
+                                                           dict(ref)))
 
 
 def _execute(problem: str, solver: str, seed: int, overrides: Mapping[str, Any] | None = None,

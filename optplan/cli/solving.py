@@ -14,9 +14,13 @@ def _arrival_line(m: dict[str, Any]) -> list[str]:
     ratios to the fastest timing of the same path, to the ``sipp`` reference and to the
     certified lower bound."""
     lines = [f"  arrival     {_fmt(m.get('arrival_time'))} s"]
+    if m.get("arrival_completion"):  # accepted inside the goal tolerance: graded at the goal
+        lines[0] += (f"   at goal {_fmt(m.get('arrival_at_goal'))} s "
+                     f"({m.get('arrival_completion_status')})")
+    source = "this plan: earlier than sipp" if m.get("time_reference_source") else "sipp"
     refs = (("schedule", "arrival_ratio_to_schedule", "schedule_arrival",
              "the fastest timing of this path"),
-            ("reference", "arrival_ratio_to_reference", "time_reference", "sipp"),
+            ("reference", "arrival_ratio_to_reference", "time_reference", source),
             ("lower bound", "arrival_ratio_to_bound", "time_lower_bound",
              m.get("time_bound_reason")))
     for name, ratio, value, what in refs:
@@ -45,6 +49,8 @@ def _team_lines(m: dict[str, Any]) -> list[str]:
 def _length_lines(m: dict[str, Any]) -> list[str]:
     """The length (with its ratio to the certified optimum) and the arrival lines."""
     length = f"  length      {_fmt(m.get('length'))}"
+    if m.get("goal_completion"):  # accepted inside the goal tolerance: graded at the goal
+        length += f" (+{_fmt(m['goal_completion'])} to the goal point)"
     if m.get("ratio_to_optimum") is not None:
         length += (f"   ratio to optimum {_fmt(m['ratio_to_optimum'])}"
                    f" (optimum {_fmt(m.get('optimum'))})")
