@@ -19,7 +19,6 @@ Prints four markdown tables:
 
 from __future__ import annotations
 
-import argparse
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -27,7 +26,7 @@ from typing import Any
 import numpy as np
 
 import optplan as op
-from optplan.experiments import print_sections
+from optplan.experiments import option_groups, option_sweep, sections_main
 from optplan.geometry.collision import path_lengths
 from optplan.potential.sa_apf import K_B, K_B_PAPER
 from optplan.problem import transform_problem
@@ -64,28 +63,18 @@ def _stats(res: op.Result) -> dict[str, Any]:
 
 
 def kb_rows(seeds: Sequence[int], scenes: Sequence[str] = KB_SCENES) -> list[dict[str, Any]]:
-    rows = []
-    for scene in scenes:
-        prob = op.load_problem(scene)
-        for kb in (K_B, K_B_PAPER):
-            for s in seeds:
-                res = op.solve(prob, "sa-apf-paper", rng=int(s), k_B=kb)
-                rows.append({"scene": scene, "k_B": kb, "seed": int(s), "success": res.success,
-                             "status": res.status.value, "message": res.message,
-                             **_stats(res)})
-    return rows
+    return option_sweep("sa-apf-paper", "k_B", (K_B, K_B_PAPER), seeds, scenes,
+                        lambda prob, res: {"message": res.message, **_stats(res)})
 
 
 def format_kb(rows: list[dict[str, Any]]) -> str:
     out = ["| scene | k_B | success | detections: eq 38 / stall or oscillation | escapes | "
            "median SA proposals |", "|---|---|---|---|---|---|"]
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        for kb in (K_B, K_B_PAPER):
-            rs = [r for r in rows if r["scene"] == scene and r["k_B"] == kb]
-            out.append(f"| {scene} | {kb:g} | {sum(r['success'] for r in rs)}/{len(rs)} "
-                       f"| {sum(r['eq38'] for r in rs)} / {sum(r['stall_osc'] for r in rs)} "
-                       f"| {sum(r['escapes'] for r in rs)} "
-                       f"| {float(np.median([r['sa_steps'] for r in rs])):.0f} |")
+    for scene, kb, rs in option_groups(rows, "k_B", (K_B, K_B_PAPER)):
+        out.append(f"| {scene} | {kb:g} | {sum(r['success'] for r in rs)}/{len(rs)} "
+                   f"| {sum(r['eq38'] for r in rs)} / {sum(r['stall_osc'] for r in rs)} "
+                   f"| {sum(r['escapes'] for r in rs)} "
+                   f"| {float(np.median([r['sa_steps'] for r in rs])):.0f} |")
     return "\n".join(out)
 
 
@@ -278,23 +267,18 @@ def format_metre(rows: list[dict[str, Any]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m optplan.experiments.apf_fidelity",
-                                 description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seeds", type=int, default=5, help="seeds of the k_B table (5)")
-    ap.add_argument("--sweep-seeds", type=int, default=8,
-                    help="seeds of the tau_0 / sa_step sweep on trap-u (8)")
-    ap.add_argument("--skip", default="", help="comma-separated: kb, sweep, scale, metre")
-    a = ap.parse_args(argv)
-    print_sections([
-        ("kb", f"Boltzmann constant of eq 15, sa-apf-paper ({a.seeds} seeds)",
-         lambda: format_kb(kb_rows(range(a.seeds)))),
-        ("sweep", f"tau_0 / sa_step sweep, sa-apf-paper on trap-u ({a.sweep_seeds} seeds)",
-         lambda: format_sweep(sweep_rows(range(a.sweep_seeds)))),
+    return sections_main("optplan.experiments.apf_fidelity", __doc__, [
+        ("--seeds", 5, "the k_B table"),
+        ("--sweep-seeds", 8, "the tau_0 / sa_step sweep on trap-u"),
+    ], [
+        ("kb", "Boltzmann constant of eq 15, sa-apf-paper ({seeds} seeds)",
+         lambda a: format_kb(kb_rows(range(a.seeds)))),
+        ("sweep", "tau_0 / sa_step sweep, sa-apf-paper on trap-u ({sweep_seeds} seeds)",
+         lambda a: format_sweep(sweep_rows(range(a.sweep_seeds)))),
         ("scale", "Scale invariance (seed 0; the scene drawn x 0.01, x 1, x 100)",
-         lambda: format_scale(scale_rows())),
-        ("metre", "Metre-scale scenes (seed 0)", lambda: format_metre(metre_rows())),
-    ], a.skip)
-    return 0
+         lambda a: format_scale(scale_rows())),
+        ("metre", "Metre-scale scenes (seed 0)", lambda a: format_metre(metre_rows())),
+    ], argv)
 
 
 if __name__ == "__main__":

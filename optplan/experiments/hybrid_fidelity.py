@@ -23,7 +23,6 @@ Prints four markdown tables:
 
 from __future__ import annotations
 
-import argparse
 import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any, cast
@@ -31,7 +30,7 @@ from typing import TYPE_CHECKING, Any, cast
 import numpy as np
 
 import optplan as op
-from optplan.experiments import print_sections
+from optplan.experiments import option_groups, option_sweep, sections_main
 
 if TYPE_CHECKING:
     from optplan.formation.leader_follower import LeaderFollower
@@ -66,20 +65,14 @@ def _outcome_cells(rs: list[dict[str, Any]], time_to_goal: bool = False) -> str:
 def leader_rho_0_rows(seeds: Sequence[int], scenes: Sequence[str] = RHO_SCENES
                       ) -> list[dict[str, Any]]:
     """``hybrid-paper`` with ``leader_rho_0`` = the preset's and 100, per scene and seed."""
-    rows = []
-    for scene in scenes:
-        prob = op.load_problem(scene)
-        for v in RHO_VALUES:
-            for s in seeds:
-                res = op.solve(prob, "hybrid-paper", rng=int(s), leader_rho_0=v)
-                lead = prob.leader.id
-                rows.append({"scene": scene, "leader_rho_0": v, "seed": int(s),
-                             "success": res.success, "status": res.status.value,
-                             "length": float(res.metrics["lengths"][lead]),
-                             "collisions": int(res.metrics["collisions"]),
-                             "time_to_goal": float(res.extras.get("time_to_goal", math.nan)),
-                             "escapes": int(res.extras["local_stats"][lead]["escapes"])})
-    return rows
+    def cells(prob: op.Problem, res: op.Result) -> dict[str, Any]:
+        lead = prob.leader.id
+        return {"length": float(res.metrics["lengths"][lead]),
+                "collisions": int(res.metrics["collisions"]),
+                "time_to_goal": float(res.extras.get("time_to_goal", math.nan)),
+                "escapes": int(res.extras["local_stats"][lead]["escapes"])}
+
+    return option_sweep("hybrid-paper", "leader_rho_0", RHO_VALUES, seeds, scenes, cells)
 
 
 def format_leader_rho_0(rows: list[dict[str, Any]]) -> str:
@@ -87,39 +80,29 @@ def format_leader_rho_0(rows: list[dict[str, Any]]) -> str:
     rho_preset = cast("Hybrid", op.get_solver("hybrid-paper")).stages["local_solver"].rho_0
     out = ["| scene | leader rho_0 | success | leader length | collisions | time to goal (s) "
            "| SA escapes (total) |", "|---|---|---|---|---|---|---|"]
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        for v in RHO_VALUES:
-            rs = [r for r in rows if r["scene"] == scene and r["leader_rho_0"] == v]
-            lab = f"{rho_preset:g} (preset, eq 34)" if v is None else f"{v:g} (paper eq 41)"
-            out.append(f"| {scene} | {lab} | {_outcome_cells(rs, time_to_goal=True)} |")
+    for scene, v, rs in option_groups(rows, "leader_rho_0", RHO_VALUES):
+        lab = f"{rho_preset:g} (preset, eq 34)" if v is None else f"{v:g} (paper eq 41)"
+        out.append(f"| {scene} | {lab} | {_outcome_cells(rs, time_to_goal=True)} |")
     return "\n".join(out)
 
 
 def reach_visible_rows(seeds: Sequence[int], scenes: Sequence[str] = VISIBLE_SCENES
                        ) -> list[dict[str, Any]]:
     """``hybrid-paper`` with ``reach_visible`` off (the preset) and on, per scene and seed."""
-    rows = []
-    for scene in scenes:
-        prob = op.load_problem(scene)
-        for v in (False, True):
-            for s in seeds:
-                res = op.solve(prob, "hybrid-paper", rng=int(s), reach_visible=v)
-                st = res.extras["local_stats"]
-                rows.append({"scene": scene, "reach_visible": v, "seed": int(s),
-                             "success": res.success, "status": res.status.value,
-                             "length": float(sum(res.metrics["lengths"][d] for d in st)),
-                             "collisions": int(res.metrics["collisions"]),
-                             "escapes": int(sum(x["escapes"] for x in st.values()))})
-    return rows
+    def cells(prob: op.Problem, res: op.Result) -> dict[str, Any]:
+        st = res.extras["local_stats"]
+        return {"length": float(sum(res.metrics["lengths"][d] for d in st)),
+                "collisions": int(res.metrics["collisions"]),
+                "escapes": int(sum(x["escapes"] for x in st.values()))}
+
+    return option_sweep("hybrid-paper", "reach_visible", (False, True), seeds, scenes, cells)
 
 
 def format_reach_visible(rows: list[dict[str, Any]]) -> str:
     out = ["| scene | reach_visible | success | median length (drivers) | median collisions | "
            "SA escapes (total) |", "|---|---|---|---|---|---|"]
-    for scene in dict.fromkeys(r["scene"] for r in rows):
-        for v in (False, True):
-            rs = [r for r in rows if r["scene"] == scene and r["reach_visible"] == v]
-            out.append(f"| {scene} | {'on' if v else 'off (preset)'} | {_outcome_cells(rs)} |")
+    for scene, v, rs in option_groups(rows, "reach_visible", (False, True)):
+        out.append(f"| {scene} | {'on' if v else 'off (preset)'} | {_outcome_cells(rs)} |")
     return "\n".join(out)
 
 
@@ -210,25 +193,20 @@ def format_eq52(rows: list[dict[str, Any]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m optplan.experiments.hybrid_fidelity",
-                                 description=__doc__.split("\n\n")[0])
-    ap.add_argument("--seeds", type=int, default=5, help="seeds of the leader_rho_0 table (5)")
-    ap.add_argument("--ipso-seeds", type=int, default=30,
-                    help="seeds of the ipso-paper known-map table (30)")
-    ap.add_argument("--skip", default="", help="comma-separated: rho, visible, ipso, eq52")
-    a = ap.parse_args(argv)
-    print_sections([
-        ("rho", f"Leader influence distance, hybrid-paper ({a.seeds} seeds, medians)",
-         lambda: format_leader_rho_0(leader_rho_0_rows(range(a.seeds)))),
-        ("visible", f"Sub-goal switching with the next sub-goal in sight, hybrid-paper "
-                    f"({a.seeds} seeds, medians)",
-         lambda: format_reach_visible(reach_visible_rows(range(a.seeds)))),
-        ("ipso", f"ipso-paper on the known maps ({a.ipso_seeds} seeds)",
-         lambda: format_ipso_paper_known(ipso_paper_known_rows(range(a.ipso_seeds)))),
+    return sections_main("optplan.experiments.hybrid_fidelity", __doc__, [
+        ("--seeds", 5, "the leader_rho_0 table"),
+        ("--ipso-seeds", 30, "the ipso-paper known-map table"),
+    ], [
+        ("rho", "Leader influence distance, hybrid-paper ({seeds} seeds, medians)",
+         lambda a: format_leader_rho_0(leader_rho_0_rows(range(a.seeds)))),
+        ("visible", "Sub-goal switching with the next sub-goal in sight, hybrid-paper "
+                    "({seeds} seeds, medians)",
+         lambda a: format_reach_visible(reach_visible_rows(range(a.seeds)))),
+        ("ipso", "ipso-paper on the known maps ({ipso_seeds} seeds)",
+         lambda a: format_ipso_paper_known(ipso_paper_known_rows(range(a.ipso_seeds)))),
         ("eq52", "Eq 52 near an obstacle (leader-follower-paper, recovery off; one command)",
-         lambda: format_eq52(eq52_rows())),
-    ], a.skip)
-    return 0
+         lambda a: format_eq52(eq52_rows())),
+    ], argv)
 
 
 if __name__ == "__main__":
