@@ -25,16 +25,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any, TypeVar
 
 import numpy as np
 
 import optplan as op
 from optplan.experiments import option_groups, option_sweep, sections_main
-
-if TYPE_CHECKING:
-    from optplan.formation.leader_follower import LeaderFollower
-    from optplan.hybrid.planner import Hybrid
 
 __all__ = ["reach_visible_rows", "format_reach_visible", "leader_rho_0_rows",
            "format_leader_rho_0", "ipso_paper_known_rows",
@@ -46,6 +42,19 @@ RHO_VALUES = (None, 100.0)  # None: the local planner's own rho_0 (sa-apf-paper:
 IPSO_SCENES = ("paper-hybrid", "paper-warehouse")
 VISIBLE_SCENES = ("paper-env1", "paper-env2", "paper-hybrid", "paper-warehouse",
                   "paper-formation", "warehouse-grid", "office-floor")
+
+
+_B = TypeVar("_B", bound=op.Backend)
+
+
+def _backend(preset: str, cls: type[_B], **overrides: Any) -> _B:
+    """``op.get_solver(preset, **overrides)``, checked to be a ``cls`` (the backend the tables
+    read options of)."""
+    solver = op.get_solver(preset, **overrides)
+    if not isinstance(solver, cls):
+        raise TypeError(f"preset {preset!r}: expected a {cls.__name__} backend, got "
+                        f"{type(solver).__name__}")
+    return solver
 
 
 def _med(xs: Sequence[float]) -> float:
@@ -76,8 +85,9 @@ def leader_rho_0_rows(seeds: Sequence[int], scenes: Sequence[str] = RHO_SCENES
 
 
 def format_leader_rho_0(rows: list[dict[str, Any]]) -> str:
-    # the hybrid-paper preset is a "hybrid" backend (solvers/hybrid-paper.toml)
-    rho_preset = cast("Hybrid", op.get_solver("hybrid-paper")).stages["local_solver"].rho_0
+    from optplan.hybrid.planner import Hybrid
+
+    rho_preset = _backend("hybrid-paper", Hybrid).stages["local_solver"].rho_0
     out = ["| scene | leader rho_0 | success | leader length | collisions | time to goal (s) "
            "| SA escapes (total) |", "|---|---|---|---|---|---|---|"]
     for scene, v, rs in option_groups(rows, "leader_rho_0", RHO_VALUES):
@@ -158,13 +168,11 @@ def eq52_scene(rho: float, side: str) -> tuple[op.Problem, np.ndarray]:
 def eq52_probe(rho: float, side: str, safety: bool) -> dict[str, Any]:
     """One follower command of ``leader-follower-paper`` (``recovery`` off) in
     :func:`eq52_scene`: the component toward the wall and the eq 52 ratios."""
-    from optplan.formation.leader_follower import adapted_angle
+    from optplan.formation.leader_follower import LeaderFollower, adapted_angle
     from optplan.sim import ObstacleField, SimState
 
     prob, n = eq52_scene(rho, side)
-    # a "leader-follower" backend (solvers/leader-follower-paper.toml)
-    fb = cast("LeaderFollower", op.get_solver("leader-follower-paper", safety=safety,
-                                                recovery=False))
+    fb = _backend("leader-follower-paper", LeaderFollower, safety=safety, recovery=False)
     ctrl = fb.followers_controller(prob, np.random.default_rng(0))
     P = np.array([prob.robot("leader").start, prob.robot("f1").start])
     st = SimState(0, 0.0, ["leader", "f1"], P, np.array([[5.0, 0.0], [5.0, 0.0]]),
