@@ -12,7 +12,7 @@ frame (extents and speeds are checked against it), ``wps`` a moving obstacle's w
 from __future__ import annotations
 
 import difflib
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 from shapely.geometry import Point
@@ -161,11 +161,12 @@ def _parse_dynamic(ctx: _Ctx, o: Any, i: int, frame: Any) -> DynamicObstacle:
     pre = f"dynamic_obstacles[{i}]."
     kind = _dynamic_kind(ctx, o, i, pre)
     ctx.check_keys(o, _DYN_TYPE_KEYS[kind], pre)
-    radius, local, verts = _dynamic_shape(ctx, o, kind, pre)
+    radius, local, size = _dynamic_shape(ctx, o, kind, pre)
     name = ctx.string(o, "name", pre, f"dynamic{i}")
     # the shape and every waypoint must be resolvable in the map's frame (moving obstacles are
     # compared with robots in relative coordinates; one far away has no business in the map)
-    size = _check_dynamic_size(ctx, frame, pre, name, radius, verts)
+    _check_dynamic_size(ctx, frame, f"{pre}{'radius' if radius is not None else 'vertices'}",
+                        name, size)
     wps = _dynamic_waypoints(ctx, o, frame, pre, name, size)
     vmax = MAX_REL_SPEED * frame.length
     velocity = None
@@ -192,31 +193,26 @@ def _dynamic_kind(ctx: _Ctx, o: Any, i: int, pre: str) -> str:
 
 
 def _dynamic_shape(ctx: _Ctx, o: dict, kind: str,
-                   pre: str) -> tuple[float | None, Any, np.ndarray | None]:
-    """The shape of a dynamic obstacle in its own frame. Returns ``(radius, local, verts)``: the
-    radius (None for a polygon), the shapely shape centred on the origin, and the raw vertices
-    (None for a circle)."""
+                   pre: str) -> tuple[float | None, Any, float]:
+    """The shape of a dynamic obstacle in its own frame. Returns ``(radius, local, size)``: the
+    radius (None for a polygon), the shapely shape centred on the origin, and the shape's extent
+    about its origin (the radius, or the largest vertex coordinate in absolute value)."""
     if kind == "circle":
         radius = ctx.number(ctx.require(o, "radius", pre), f"{pre}radius", positive=True,
                             coord=True)
-        return radius, Point(0.0, 0.0).buffer(radius, quad_segs=CIRCLE_QUAD_SEGS), None
+        return (radius, Point(0.0, 0.0).buffer(radius, quad_segs=CIRCLE_QUAD_SEGS),
+                float(radius))
     verts = ctx.points(ctx.require(o, "vertices", pre), f"{pre}vertices", 3, coord=True)
-    return None, ctx.polygon(verts, f"{pre}vertices"), verts
+    return None, ctx.polygon(verts, f"{pre}vertices"), float(np.max(np.abs(verts)))
 
 
-def _check_dynamic_size(ctx: _Ctx, frame: Any, pre: str, name: str, radius: float | None,
-                        verts: np.ndarray | None) -> float:
-    """Reject a moving shape the map's frame cannot resolve (``radius``: the circle's radius, None
-    for a polygon; ``verts``: the polygon's vertices, None for a circle).  Returns the shape's
-    extent about its origin."""
-    # a polygon (radius None) has its vertices
-    size = (float(radius) if radius is not None
-            else float(np.max(np.abs(cast(np.ndarray, verts)))))
+def _check_dynamic_size(ctx: _Ctx, frame: Any, key: str, name: str, size: float) -> None:
+    """Reject a moving shape the map's frame cannot resolve (``size``: its extent about its
+    origin; ``key``: the entry an error names, its radius or its vertices)."""
     try:
         frame.check_extent(size, f"the shape of dynamic obstacle {name!r}")
     except ValueError as e:
-        raise ctx.err(f"{pre}{'radius' if radius is not None else 'vertices'}", str(e)) from None
-    return size
+        raise ctx.err(key, str(e)) from None
 
 
 def _dynamic_waypoints(ctx: _Ctx, o: dict, frame: Any, pre: str, name: str,
