@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any, Literal, cast
+from typing import Any, Literal
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -74,18 +74,16 @@ def _corner_legend(ax: Axes, fontsize: float) -> Any:
     renderer = _renderer(ax.figure.figure)  # the root Figure (the same canvas)
     ax.apply_aspect()  # the box the axes will be drawn in (equal aspect)
     pts, wts = _data_samples(ax, renderer)
-    best: tuple[float, _Corner] | None = None
-    for loc in _CORNERS:
-        leg = ax.legend(loc=loc, fontsize=fontsize, framealpha=0.9)
-        b = leg.get_window_extent(renderer)
+
+    def covered(loc: _Corner) -> float:
+        """The weight of the data samples under the legend drawn at ``loc``."""
+        b = ax.legend(loc=loc, fontsize=fontsize, framealpha=0.9).get_window_extent(renderer)
         inside = ((pts[:, 0] >= b.x0) & (pts[:, 0] <= b.x1) & (pts[:, 1] >= b.y0)
                   & (pts[:, 1] <= b.y1))
-        score = float(wts[inside].sum())
-        if best is None or score < best[0]:
-            best = (score, loc)
-    # set by the first corner: the loop runs over four
-    return ax.legend(loc=cast(tuple[float, _Corner], best)[1], fontsize=fontsize,
-                     framealpha=0.9)
+        return float(wts[inside].sum())
+
+    # min keeps the first of equal scores (the corners in order, each drawn once)
+    return ax.legend(loc=min(_CORNERS, key=covered), fontsize=fontsize, framealpha=0.9)
 
 
 def _place_legend(ax: Axes, where: str | None, own_figure: bool, fontsize: float = 8) -> Any:
