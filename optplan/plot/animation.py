@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -17,7 +17,7 @@ from optplan.plot.result import _draw_global_path
 from optplan.plot.scene import _problem_of, _robot_colour, plot_problem
 from optplan.plot.shapes import _draw_poly, _draw_violations, _include_points, _poly_path, _polygons
 from optplan.plot.style import DYN_COLOUR
-from optplan.problem import Formation, Problem
+from optplan.problem import Problem
 from optplan.result import Result
 from optplan.violations import violations
 
@@ -100,9 +100,9 @@ class _Frames:
             self.discs[k].center = tuple(pos[k][i])
             if self.trail:
                 self.trails[k].set_data(pos[k][: i + 1, 0], pos[k][: i + 1, 1])
-        if self.links:
-            # links only with a formation (_add_links)
-            pl = pos[cast(Formation, self.prob.formation).leader][i]
+        form = self.prob.formation
+        if self.links and form is not None:  # links only with a formation (_add_links)
+            pl = pos[form.leader][i]
             for fid, ln in self.links:
                 ln.set_data([pl[0], pos[fid][i][0]], [pl[1], pos[fid][i][1]])
         for d, patches in self.dyn_patches:
