@@ -49,7 +49,7 @@ import time
 import types
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
@@ -341,8 +341,9 @@ def make_rng(rng: int | np.random.Generator | None) -> tuple[np.random.Generator
     if isinstance(rng, np.random.Generator):
         return rng, None
     if rng is None:
-        # a SeedSequence drawn from OS entropy has an int entropy (numpy types it loosely)
-        seed = int(cast(int, np.random.SeedSequence().entropy) % (2**63))
+        entropy = np.random.SeedSequence().entropy  # numpy types it int | Sequence[int] | None
+        assert isinstance(entropy, int), "a SeedSequence drawn from OS entropy has an int one"
+        seed = int(entropy % (2**63))
         return np.random.default_rng(seed), seed
     if isinstance(rng, (bool, float)) or not isinstance(rng, (int, np.integer)) or rng < 0:
         raise ValueError(f"rng must be a non-negative int, a numpy Generator or None, got {rng!r}")
