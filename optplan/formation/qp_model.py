@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
@@ -238,10 +238,11 @@ class QPModel:
         st = str(raw.status)
         if st not in _OK or self.u.value is None:
             return QPSolution(None, st, math.nan, self.soft), None
-        # cvxpy types Variable.value as optional; a solved status (checked above) sets every
-        # Variable's value, S's as u's
-        slack = (max(float(cast(np.ndarray, self.S.value).max()), 0.0) if self.S is not None
-                 else 0.0)
+        slack = 0.0
+        if self.S is not None:
+            s = self.S.value  # cvxpy types Variable.value as optional
+            assert s is not None, "a solved status (checked above) sets every Variable's value"
+            slack = max(float(s.max()), 0.0)
         U = np.asarray(self.u.value).reshape(-1, 2)
         return (QPSolution(U, st, slack, self.soft, objective=float(raw.obj_val)),
                 np.asarray(raw.x, float))
