@@ -11,7 +11,7 @@ import functools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, ClassVar, cast
+from typing import Any, ClassVar, TypedDict, Unpack, cast
 
 import numpy as np
 
@@ -20,7 +20,26 @@ from optplan.options import check_options
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status, confirms_optimum, optimum_gap
 
-__all__ = ["Backend", "share_known_view_sets"]
+__all__ = ["Backend", "Effort", "share_known_view_sets"]
+
+
+class Effort(TypedDict, total=False):
+    """What a solve cost: the keywords of :meth:`Backend.finish` that become the
+    :class:`~optplan.result.Result`'s fields of the same names (each 0 when left out).
+
+    Attributes
+    ----------
+    n_iter : int
+        Iterations of the backend.
+    n_eval : int
+        Evaluations (of the objective, the policy, ...).
+    wall_time : float
+        The backend's seconds; :meth:`Backend.finish` adds the time of the validation.
+    """
+
+    n_iter: int
+    n_eval: int
+    wall_time: float
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -61,12 +80,10 @@ class Backend:
         times: np.ndarray | None = None,
         cost: float = float("nan"),
         message: str = "",
-        n_iter: int = 0,
-        n_eval: int = 0,
         history: History | None = None,
         extras: dict[str, Any] | None = None,
         metrics_extra: dict[str, Any] | None = None,
-        wall_time: float = 0.0,
+        **effort: Unpack[Effort],
     ) -> Result:
         """Build a :class:`Result`: run the shared validator and set the status.
 
@@ -77,8 +94,46 @@ class Backend:
         certified optimum the backend reports (``metrics_extra["optimum"]``) confirms the
         leader's length (``length_exact`` when reported, else ``length``) within
         :data:`~optplan.result.OPTIMAL_REL_TOL`; otherwise it becomes ``solved``.
-        ``wall_time`` (the backend's seconds) gains the time of the validation.
+
+        Parameters
+        ----------
+        problem : Problem
+            The problem solved (the validator grades the paths against it).
+        paths : dict
+            ``robot id -> (n, 2)`` path (or trajectory, with ``times``).
+        claim : Status
+            The status the backend claims.
+        times : array, optional
+            Time stamps shared by the paths (simulated trajectories).
+        cost : float
+            The backend's own cost of its answer.
+        message : str
+            The backend's message (the validator's complaints are appended).
+        history : History, optional
+            Per-iteration records.
+        extras : dict, optional
+            Backend-specific results (``Result.extras``).
+        metrics_extra : dict, optional
+            Added to the validator's metrics before grading (e.g. ``optimum``,
+            ``length_exact``).
+        **effort
+            The :class:`Effort` keywords ``n_iter``, ``n_eval`` and ``wall_time`` (the
+            backend's seconds: the time of the validation is added).
+
+        Returns
+        -------
+        Result
+            The graded result.
+
+        Raises
+        ------
+        TypeError
+            A keyword that is neither a parameter nor an :class:`Effort` keyword.
         """
+        unknown = sorted(effort.keys() - Effort.__optional_keys__)
+        if unknown:
+            raise TypeError(f"finish() got an unexpected keyword argument {unknown[0]!r} "
+                            f"(the effort keywords are n_iter, n_eval, wall_time)")
         t_val = time.perf_counter()
         paths = {k: np.asarray(v, dtype=float) for k, v in paths.items()}
         share_known_view_sets(problem)
@@ -89,8 +144,10 @@ class Backend:
         return Result(
             status=status, paths=paths, metrics=metrics, solver=self.preset or self.name,
             backend=self.name, options=self.options(), seed=None, problem=problem.name,
-            times=times, cost=float(cost), n_iter=int(n_iter), n_eval=int(n_eval),
-            wall_time=float(wall_time) + time.perf_counter() - t_val, message=message,
+            times=times, cost=float(cost), n_iter=int(effort.get("n_iter", 0)),
+            n_eval=int(effort.get("n_eval", 0)),
+            wall_time=float(effort.get("wall_time", 0.0)) + time.perf_counter() - t_val,
+            message=message,
             history=history or History(),
             extras=extras or {},
         )

@@ -138,6 +138,23 @@ def test_wall_time_includes_the_validation(solver, monkeypatch) -> None:
     assert res.wall_time >= sum(spent)
 
 
+def test_finish_takes_the_effort_keywords_and_refuses_others() -> None:
+    """``n_iter``, ``n_eval`` and ``wall_time`` (:class:`optplan.backend.Effort`) become the
+    Result's fields (0 when left out; ``wall_time`` gains the validation); a misspelt keyword
+    raises ``TypeError`` as a missing parameter would."""
+    prob = op.load_problem("open-field")
+    backend = op.get_solver("visgraph")
+    paths = {r.id: np.array([r.start, r.goal]) for r in prob.robots}
+    res = backend.finish(prob, paths, claim=op.Status.solved, n_iter=3, n_eval=7,
+                         wall_time=2.0)
+    assert (res.n_iter, res.n_eval) == (3, 7) and res.wall_time >= 2.0
+    bare = backend.finish(prob, paths, claim=op.Status.solved)
+    assert (bare.n_iter, bare.n_eval) == (0, 0) and 0.0 <= bare.wall_time < 2.0
+    with pytest.raises(TypeError, match="unexpected keyword argument 'n_itr' .*n_iter, n_eval, "
+                                        "wall_time"):
+        backend.finish(prob, paths, claim=op.Status.solved, n_itr=3)
+
+
 def test_a_new_problem_builds_each_obstacle_set_once(monkeypatch) -> None:
     """The swarm plans on the known view; without temporary obstacles the validator uses the
     set the planner built instead of building it again.  The swarm's
