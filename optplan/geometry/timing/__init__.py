@@ -4,9 +4,10 @@ discs (:mod:`.motion`), closed-form contact intervals of a disc on a line
 one record of a timed plan (:mod:`.plan`), the forbidden regions of the (arc length, time) plane
 (:mod:`.st_regions`) and the earliest-arrival sweep over them (:mod:`.st_sweep`), the fastest
 schedule along a path (:mod:`.schedule`) and certified bounds on arrival times
-(:mod:`.time_bounds`).
+(:mod:`.time_bounds`, refined by the cell-slab relaxation of :mod:`.cell_bound`).
 """
 
+from optplan.geometry.timing.cell_bound import cell_lower_bound
 from optplan.geometry.timing.contact_times import shape_pieces
 from optplan.geometry.timing.intervals import Intervals, first_free, free_intervals, merge_open
 from optplan.geometry.timing.motion import (
@@ -31,6 +32,7 @@ from optplan.geometry.timing.time_bounds import (
 )
 
 __all__ = [
+    "cell_lower_bound",
     "shape_pieces",
     "Intervals",
     "first_free",

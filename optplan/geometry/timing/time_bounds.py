@@ -21,12 +21,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from optplan.geometry.collision import cumulative_length
+from optplan.geometry.timing.cell_bound import TimeBound, cell_lower_bound, check_level
 from optplan.geometry.timing.contact_times import line_intervals, shape_pieces
 from optplan.geometry.timing.intervals import Intervals, first_free, merge_open
 from optplan.geometry.timing.motion import mover_period, mover_pieces
@@ -36,16 +36,6 @@ if TYPE_CHECKING:
 
 __all__ = ["TimeBound", "parked_contact_times", "arrival_lower_bound", "arrival_time",
            "path_times"]
-
-
-@dataclass(frozen=True)
-class TimeBound:
-    """A certified lower bound on the arrival time (s) and what it rests on."""
-
-    value: float | None
-    static_bound: float | None
-    goal_bound: float | None
-    reason: str
 
 
 def parked_contact_times(movers: Sequence[DynamicObstacle], point, radius: float, t_lo: float,
@@ -76,15 +66,24 @@ def parked_contact_times(movers: Sequence[DynamicObstacle], point, radius: float
     return merge_open(np.concatenate(los), np.concatenate(his))
 
 
-def arrival_lower_bound(problem: Problem, robot_id: str | None = None) -> TimeBound:
+def arrival_lower_bound(problem: Problem, robot_id: str | None = None, *,
+                        level: int = 0) -> TimeBound:
     """A certified lower bound on the arrival time of ``robot_id`` (default the planned robot,
     ``problem.leader``) at its goal; see the module docstring.
+
+    ``level = 0`` is the bound above; ``level >= 1`` is its maximum with the cell-slab
+    relaxation of :func:`optplan.geometry.timing.cell_bound.cell_lower_bound` at that level,
+    which sees movers blocking the way and does not decrease as ``level`` grows.
 
     Raises
     ------
     ValueError
-        If the robot is unknown or has no goal (a formation follower).
+        If the robot is unknown or has no goal (a formation follower), or for a ``level``
+        outside ``0 .. 10``.
     """
+    if check_level(level) > 0:
+        return _refined(arrival_lower_bound(problem, robot_id),
+                        cell_lower_bound(problem, robot_id, level=level))
     from optplan.geometry.tangent import problem_shortest_path
 
     robot = problem.leader if robot_id is None else problem.robot(robot_id)
@@ -112,6 +111,13 @@ def arrival_lower_bound(problem: Problem, robot_id: str | None = None) -> TimeBo
     reason = ("static optimum / max_speed" if goal == static else
               "first time the goal is free at or after static optimum / max_speed")
     return TimeBound(goal, static, goal, reason)
+
+
+def _refined(base: TimeBound, cell: TimeBound) -> TimeBound:
+    """The larger of the level-0 bound and the cell relaxation's (``None``-safe)."""
+    if cell.value is None or (base.value is not None and base.value >= cell.value):
+        return base
+    return TimeBound(cell.value, base.static_bound, base.goal_bound, cell.reason)
 
 
 def path_times(path, max_speed: float, times=None) -> np.ndarray:
