@@ -9,31 +9,14 @@ import math
 import numpy as np
 import pytest
 
+from benchmarks.bench_cell_bound import door_scene
 from optplan.geometry.timing import arrival_lower_bound, cell_lower_bound
 from optplan.geometry.timing.cell_bound import cell_horizon
 from optplan.metrics import evaluate
-from optplan.problem import Problem, parse_problem
+from optplan.problem import Problem
 from tests.geometry.time_scenes import SQUARE, time_scene
 
 LEVELS = range(6)
-
-
-def door_scene(parked_until: float | None = 20.0) -> Problem:
-    """Two rooms of a 16 x 16 map joined by a door ``y in [7.5, 8.5]`` in a wall
-    ``x in [7, 9]``; a 2.4 x 2.4 square parked on the door until ``parked_until``, then up to
-    ``(8, 14)`` in 1 s (``None``: for ever); the robot (radius 0.2, speed 1) from (2, 8) to
-    (14, 8)."""
-    half = [[-1.2, -1.2], [1.2, -1.2], [1.2, 1.2], [-1.2, 1.2]]
-    track = ({"waypoints": [[8, 8]], "times": [0]} if parked_until is None else
-             {"waypoints": [[8, 8], [8, 8], [8, 14]],
-              "times": [0, parked_until, parked_until + 1]})
-    return parse_problem({
-        "name": "door", "bounds": [0, 0, 16, 16],
-        "robots": [{"id": "r", "start": [2, 8], "goal": [14, 8], "radius": 0.2,
-                    "max_speed": 1.0}],
-        "obstacles": [{"type": "rectangle", "min": [7, 0], "max": [9, 7.5]},
-                      {"type": "rectangle", "min": [7, 8.5], "max": [9, 16]}],
-        "dynamic_obstacles": [{"type": "polygon", "vertices": half, **track}]})
 
 
 def test_door_scene_hand_derived():
