@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> None:
     args = ap.parse_args(argv)
     levels = range(args.levels[0], args.levels[1] + 1)
     p = door_scene()
-    print("door scene (true optimum about 20 + 5 s)")
+    print("door scene (sipp's earliest arrival, graded collision-free: 27.603 s)")
     print(f"{'level':>5} {'bound':>10} {'cells':>7} {'seconds':>8}")
     for lv in levels:
         value, sec = timed(p, lv)
