@@ -94,6 +94,7 @@ __all__ = [
 BACKENDS: dict[str, str] = {
     "visgraph": "optplan.exact.visgraph:VisGraph",
     "sipp": "optplan.exact.sipp:SIPP",
+    "time-bracket": "optplan.exact.time_bracket:TimeBracket",
     "pso": "optplan.swarm.pso:PSO",
     "mpso": "optplan.swarm.mpso:MPSO",
     "ipso": "optplan.swarm.ipso:IPSO",

@@ -12,6 +12,8 @@ moving obstacles of speed 1-5 (map units per second):
 * ``"warehouse"``: 50-100 rectangular shelves in rows with aisles 2.5-4 robot diameters wide
   and 20 movers along the aisles (``bounce`` in an aisle, ``loop`` around a block of shelves).
 
+:func:`door_scene` is the fixed two-room scene of docs/time.md ("The time bracket").
+
 Every scene is drawn again from the same generator until the robot's start disc is clear of
 every mover at ``t = 0``, no mover rests on the goal for ever, and the goal is reachable on the
 static map (the certified shortest path,
@@ -31,7 +33,7 @@ from shapely.geometry import Point
 
 from optplan.problem import Problem, parse_problem
 
-__all__ = ["TIME_FAMILY_KINDS", "time_family"]
+__all__ = ["TIME_FAMILY_KINDS", "time_family", "door_scene"]
 
 #: The kinds of :func:`time_family`.
 TIME_FAMILY_KINDS = ("open", "doors", "warehouse")
@@ -403,3 +405,46 @@ def time_family(kind: str, rng: np.random.Generator) -> Problem:
         if _ends_clear(problem) and _reachable(problem):
             return problem
     raise RuntimeError(f"time_family({kind!r}): no acceptable scene in {_ATTEMPTS} draws")
+
+
+#: the door scene's walls: a 1-wide wall at x = 20 with a door at 9 < y < 11
+_DOOR_WALLS = [[[19.5, 0], [20.5, 0], [20.5, 9], [19.5, 9]],
+               [[19.5, 11], [20.5, 11], [20.5, 20], [19.5, 20]]]
+#: a disc parked in the door until t = 20, then leaving upwards at speed 2
+DOOR_KEEPER = {"type": "circle", "radius": 0.8, "name": "door-keeper",
+               "waypoints": [[20, 10], [20, 10], [20, 30]], "times": [0, 20, 30]}
+
+
+def door_scene(scale: float = 1.0, shift: tuple[float, float] = (0.0, 0.0),
+               movers: tuple[dict[str, Any], ...] = (DOOR_KEEPER,)) -> Problem:
+    """Two 20 x 20 rooms joined by a door held shut by a parked disc until ``t = 20``; the
+    robot (radius 0.3, speed 1) crosses from (2, 10) to (38, 10).
+
+    Parameters
+    ----------
+    scale : float
+        Space and time scaled together (speeds unchanged): the arrival scales by ``scale``.
+    shift : (float, float)
+        Added to every point.
+    movers : tuple of dict
+        The ``[[dynamic_obstacles]]`` tables in the unscaled frame (default the door keeper).
+
+    Returns
+    -------
+    Problem
+    """
+    sx, sy = shift
+
+    def pt(p: Any) -> list[float]:
+        return [p[0] * scale + sx, p[1] * scale + sy]
+
+    dyn = [dict(m, waypoints=[pt(w) for w in m["waypoints"]],
+                times=[t * scale for t in m["times"]], radius=m["radius"] * scale)
+           for m in movers]
+    return parse_problem({
+        "name": "door", "bounds": [sx, sy, sx + 40 * scale, sy + 20 * scale],
+        "robots": [{"id": "r", "start": pt([2, 10]), "goal": pt([38, 10]),
+                    "radius": 0.3 * scale, "max_speed": 1.0}],
+        "obstacles": [{"type": "polygon", "vertices": [pt(v) for v in w]}
+                      for w in _DOOR_WALLS],
+        "dynamic_obstacles": dyn})

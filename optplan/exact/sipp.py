@@ -70,7 +70,7 @@ from optplan.result import (
 )
 from optplan.solver import Backend, option
 
-__all__ = ["SIPP", "earliest_arrival"]
+__all__ = ["SIPP", "ClaimsInTime", "earliest_arrival"]
 
 #: Units of work between two polls of ``stop``: a unit is a state expanded, a chain corner
 #: drawn, a segment whose windows are computed or a segment scheduled.
@@ -317,7 +317,8 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
                      movers: list[DynamicObstacle] | None = None,
                      arc_step: float = math.pi / 36, max_doublings: int = 6,
                      max_expansions: int = 1_000_000,
-                     stop: Callable[[], bool] | None = None) -> TimedPlan:
+                     stop: Callable[[], bool] | None = None,
+                     waypoints: np.ndarray | None = None) -> TimedPlan:
     """The earliest arrival of one robot within the tangent-roadmap model (module docstring).
 
     Parameters
@@ -334,6 +335,10 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
         Largest number of times the horizon doubles.
     max_expansions : int
         Largest number of states expanded (all horizons together).
+    waypoints : array, optional
+        ``(m, 2)`` free points (world) added to the roadmap as vertices where the robot may
+        wait, reachable from every vertex (:class:`~optplan.exact.sipp_graph.Roadmap`); the
+        arrival is then the earliest within the larger model, never later than without them.
     stop : callable, optional
         Polled every 256 units of work (states expanded, chain corners drawn, segments whose
         windows are computed or scheduled: a bounded step whatever the options); True ends the
@@ -365,7 +370,7 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
     if early is not None:
         return early
     oset = problem.obstacle_set(robot.radius, known_only=False)
-    rm = Roadmap(oset, robot.start, robot.goal, arc_step)
+    rm = Roadmap(oset, robot.start, robot.goal, arc_step, waypoints)
     budget = [int(max_expansions)]
     info: dict[str, Any] = {"expansions": 0, "states": 0, "chains": 0, "horizons": 0}
     horizon = h0
@@ -460,8 +465,22 @@ _CLAIMS = {PlanStatus.no_path: Status.infeasible, PlanStatus.start_blocked: Stat
            PlanStatus.stopped: Status.approximate, PlanStatus.effort: Status.failed}
 
 
+class ClaimsInTime:
+    """A backend whose ``optimal`` is a claim in time (its arrival is certified earliest), not
+    on the length: the validator only has to accept the plan (``sipp``, ``time-bracket``)."""
+
+    def _grade(self, status: Status, metrics: dict[str, Any],
+               message: str) -> tuple[Status, str]:
+        """``optimal`` stands when the validator would call the plan ``solved``."""
+        grade = super()._grade  # type: ignore[misc]
+        if status is Status.optimal:
+            graded, message = grade(Status.solved, metrics, message)
+            return (Status.optimal if graded is Status.solved else graded), message
+        return grade(status, metrics, message)
+
+
 @dataclass(frozen=True, kw_only=True)
-class SIPP(Backend):
+class SIPP(ClaimsInTime, Backend):
     """Earliest arrival among moving obstacles: safe-interval path planning on the exact
     tangent roadmap (model: the roadmap, full speed on its edges, waits at its vertices).
 
@@ -560,12 +579,3 @@ class SIPP(Backend):
                                                        for p in plans.values()),
                            n_eval=n_eval, history=hist, extras=extras, metrics_extra=extra,
                            wall_time=time.perf_counter() - t0)
-
-    def _grade(self, status: Status, metrics: dict[str, Any],
-               message: str) -> tuple[Status, str]:
-        """``optimal`` is a claim in time (the arrival equals the certified lower bound), not
-        on the length: the validator only has to accept the plan."""
-        if status is Status.optimal:
-            graded, message = super()._grade(Status.solved, metrics, message)
-            return (Status.optimal if graded is Status.solved else graded), message
-        return super()._grade(status, metrics, message)

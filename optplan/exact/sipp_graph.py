@@ -357,7 +357,8 @@ class Chains:
 
 @dataclass(frozen=True)
 class Vertex:
-    """A roadmap vertex: its key, circle (``-1`` start, ``-2`` goal), sense, arrival angle
+    """A roadmap vertex: its key, circle (``-1`` start, ``-2`` goal, ``-3 - k`` waypoint ``k``),
+    sense, arrival angle
     and point (local complex, world)."""
 
     key: tuple
@@ -379,14 +380,22 @@ class Roadmap:
         World coordinates.
     arc_step : float
         Largest angle (rad) spanned by one chord of a circumscribed arc polyline.
+    waypoints : array-like ``(m, 2)``, optional
+        Free points (world) added as vertices: the robot may wait there, and every vertex
+        has a chain to each of them (a straight segment from a point, the arc then the
+        tangent from a circle); the free-space vertices of the time bracket
+        (:mod:`optplan.exact.time_bracket`).  Keyed ``("w", k)``.
     """
 
-    def __init__(self, oset: ObstacleSet, start, goal, arc_step: float):
+    def __init__(self, oset: ObstacleSet, start, goal, arc_step: float, waypoints=None):
         fr = oset.frame
         self.oset, self.fr, self.arc_step = oset, fr, float(arc_step)
         s_loc, g_loc = fr.local(np.asarray(start, float)), fr.local(np.asarray(goal, float))
         self.zs, self.zg = complex(s_loc[0], s_loc[1]), complex(g_loc[0], g_loc[1])
         self.start_xy, self.goal_xy = np.asarray(start, float), np.asarray(goal, float)
+        self.wp_xy = np.zeros((0, 2)) if waypoints is None else np.asarray(waypoints, float)
+        w_loc = fr.local(self.wp_xy) if len(self.wp_xy) else np.zeros((0, 2))
+        self.wp_z = w_loc[:, 0] + 1j * w_loc[:, 1]
         self.info: dict[str, Any] = {"n_expanded": 0, "n_generated": 0, "n_checked": 0}
         self.graph = TangentSearch(oset, (C := circles_of(oset)), self.zs, self.zg, self.info,
                                    TangentGraph(oset, C))
@@ -406,6 +415,7 @@ class Roadmap:
             v = len(self.vertices)
             self.index[key] = v
             xy = (self.start_xy if key == START_KEY else self.goal_xy if key == GOAL_KEY
+                  else self.wp_xy[key[1]] if key[0] == "w"
                   else self.fr.world(np.array([z.real, z.imag])))
             self.vertices.append(Vertex(key, circle, sense, theta, z, xy))
         return v
@@ -427,8 +437,8 @@ class Roadmap:
         g, vx = self.graph, self.vertices[v]
         i, si, th_a = vx.circle, vx.sense, vx.theta
         self.info["n_expanded"] += 1
-        ci, ri = (self.zs, 0.0) if i < 0 else (g.cen[i], float(g.rho[i]))
-        jj, sj, dd, delta, nl, pj, th_arr = g.candidates(i, si, ci, ri)
+        ci, ri = (vx.z, 0.0) if i < 0 else (g.cen[i], float(g.rho[i]))
+        jj, sj, dd, delta, nl, pj, th_arr = g.candidates(i, si, ci, ri, points=self.wp_z)
         pi, th_d, sweep, ok = g.departures(i, si, th_a, ci, ri, nl)
         isg = jj < 0
         if g.n:
@@ -438,7 +448,8 @@ class Roadmap:
         sel = np.flatnonzero(ok)
         sel = sel[np.argsort(key[sel], kind="stable")]
         self.info["n_generated"] += int(sel.size)
-        target = [GOAL_KEY if jj[k] < 0 else (i, si, int(jj[k]), int(sj[k])) for k in sel]
+        target = [GOAL_KEY if jj[k] == -2 else ("w", -3 - int(jj[k])) if jj[k] < 0
+                  else (i, si, int(jj[k]), int(sj[k])) for k in sel]
         return Chains(key[sel], target, pj[sel], th_arr[sel], jj[sel], sj[sel], pi[sel],
                       sweep[sel], th_d[sel], np.zeros(sel.size, np.int8), [None] * sel.size)
 

@@ -40,6 +40,7 @@ CASES: dict[str, tuple[str, str, dict]] = {
     "visgraph": ("visgraph", "paper-warehouse", {"arc_step": 1e-4, "graph": "built"}),
     "sipp": ("sipp", "paper-warehouse", {"arc_step": 1e-4, "max_expansions": 10**9,
                                           "max_doublings": 20}),
+    "time-bracket": ("time-bracket", "paper-warehouse", {"max_level": 8, "gap_tol": 0.0}),
     # the swarms at the largest values of their ranges (docs/solvers/pso.md, "Options")
     "pso": ("pso-paper", "paper-env1", {"n_particles": 10_000, "n_waypoints": 200,
                                         "k_max": 10**6}),

@@ -103,9 +103,10 @@ class TangentSearch:
         return cone_off(self.C, k, th)
 
     def candidates(self, i: int, si: int, ci: complex, ri: float, circles: bool = True,
-                   goal: bool = True):
-        """Tangents from circle ``i`` (sense ``si``; ``i < 0``: the start point) to every
-        other circle with both senses (``circles``) and to the goal (``goal``): with
+                   goal: bool = True, points: np.ndarray | None = None):
+        """Tangents from circle ``i`` (sense ``si``; ``i < 0``: the point ``ci``) to every
+        other circle with both senses (``circles``), to the goal (``goal``) and to the extra
+        points ``points`` (local complex; target ``-3 - k`` for point ``k``): with
         :meth:`departures`, the successors of an arrival (also the chains of the ``sipp``
         roadmap, :mod:`optplan.exact.sipp_graph`).
 
@@ -119,10 +120,13 @@ class TangentSearch:
             idx = self.graph.visible(i) if i >= 0 else self.graph.visible_from(ci)
         n = len(idx)
         g = 1 if goal else 0
-        jj = np.concatenate([np.repeat(idx, 2), np.full(g, -2, np.int64)])
-        sj = np.concatenate([np.tile(self.senses, n), np.ones(g, np.int64)])
-        cj = np.concatenate([np.repeat(self.cen[idx], 2), [self.zg] * g])
-        rj = np.concatenate([np.repeat(self.rho[idx], 2), [0.0] * g])
+        pts = np.zeros(0, complex) if points is None else np.asarray(points, complex)
+        m = len(pts)
+        jj = np.concatenate([np.repeat(idx, 2), np.full(g, -2, np.int64),
+                             -3 - np.arange(m, dtype=np.int64)])
+        sj = np.concatenate([np.tile(self.senses, n), np.ones(g + m, np.int64)])
+        cj = np.concatenate([np.repeat(self.cen[idx], 2), [self.zg] * g, pts])
+        rj = np.concatenate([np.repeat(self.rho[idx], 2), np.zeros(g + m)])
         if i >= 0:
             keep = jj != i
             jj, sj, cj, rj = jj[keep], sj[keep], cj[keep], rj[keep]

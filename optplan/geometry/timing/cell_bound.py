@@ -33,6 +33,17 @@ on the level: ``2 max(L*/v, last knot of a mover, diagonal/v) + the longest peri
   cell, ``push_B(c)`` the first time ``>= c`` at which ``B`` is usable.
 * **The bound**: ``min(H, min over the cells G containing the goal of tau(G))``.
 
+**The sweep** (the way on from a door, which the labels forget).  ``R_0`` = the cells holding
+``s``; ``R_{k+1}`` = the cells usable at ``t_{k+1}`` whose centre is within
+``v (t_{k+1} - t_j) + diag`` of a centre of ``R_j`` for ``j = k, k - 1, k - 3, k - 7, ...``
+(one distance transform per slab).  With ``f_k = t_k + d(R_k, g) / v``, the sweep's bound is
+the first ``f_k < t_{k+1}`` (else ``H``), and at level ``L`` the largest over levels
+``1 .. L``; the relaxation's bound is the larger of the labels' and the sweep's.  Validity:
+every cell holding ``x(t_k)`` is in ``R_k`` (centres of the cells holding ``x(t_j)`` and
+``x(t_{k+1})`` are at most ``diag + v (t_{k+1} - t_j)`` apart; the cell is usable, else a
+collision); an arrival ``T`` in slab ``k`` has ``T >= t_k + |g - x(t_k)| / v >= f_k``, so
+``f_k < t_{k+1}`` and the first such index gives at most ``T``.
+
 **Validity.**  Let ``x(t)``, ``0 <= t <= T``, be a motion at speed ``<= v`` from ``s`` that
 never collides and ends at the goal ``x(T) = g``.  Its centre stays in the grown bounds (the
 walls), so for every time it is in some cell.  For a cell ``B`` it visits, let ``t_B`` be its
@@ -217,9 +228,20 @@ def _static_pieces(problem: Problem) -> list[tuple[ConvexShape, np.ndarray]]:
     return out
 
 
+class _Stop(Exception):
+    """``stop`` asked: the relaxation ends (the bound is then the trivial 0)."""
+
+
+def _poll(stop: Callable[[], bool] | None) -> None:
+    """Raise :class:`_Stop` when ``stop`` asks."""
+    if stop is not None and stop():
+        raise _Stop
+
+
 def _blocked_level(problem: Problem, radius: float, box: Sequence[float], horizon: float,
-                   level: int) -> np.ndarray:
-    """The blocked table ``(n, n, n)`` (cell x, cell y, slab) of one level, without parents."""
+                   level: int, stop: Callable[[], bool] | None = None) -> np.ndarray:
+    """The blocked table ``(n, n, n)`` (cell x, cell y, slab) of one level, without parents;
+    ``stop`` is polled per obstacle piece and per 64 time intervals."""
     n = 2 ** level
     reach = radius - MARGIN * problem.frame.eps
     out = np.zeros((n, n, n), bool)
@@ -229,6 +251,7 @@ def _blocked_level(problem: Problem, radius: float, box: Sequence[float], horizo
     origin = np.array([box[0], box[1]], float)
     grid = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1)  # (n+1, n+1, 2)
     for shape, at in _static_pieces(problem):
+        _poll(stop)
         out |= (_cell_max(_distance(grid - (at - origin), shape)) < reach)[:, :, None]
     if not problem.dynamic_obstacles:
         return out
@@ -242,20 +265,22 @@ def _blocked_level(problem: Problem, radius: float, box: Sequence[float], horizo
         a = track_eval(tk, pk, cuts[:-1], "right") - origin
         b = track_eval(tk, pk, cuts[1:], "left") - origin
         for shape in shape_pieces(d.kind, d.radius, d.local_geometry):
-            da = _cell_max(_distance(grid[:, :, None, :] - a, shape))
-            db = _cell_max(_distance(grid[:, :, None, :] - b, shape))
-            covered |= (da < reach) & (db < reach)
+            for c in range(0, len(a), 64):
+                _poll(stop)
+                da = _cell_max(_distance(grid[:, :, None, :] - a[c:c + 64], shape))
+                db = _cell_max(_distance(grid[:, :, None, :] - b[c:c + 64], shape))
+                covered[:, :, c:c + 64] |= (da < reach) & (db < reach)
     return out | np.logical_and.reduceat(covered, first, axis=2)
 
 
 def _blocked(problem: Problem, radius: float, box: Sequence[float], horizon: float,
-             level: int) -> np.ndarray:
-    """The blocked table of ``level``, OR-ed with its parents' (levels ``1 .. level``)."""
-    table = _blocked_level(problem, radius, box, horizon, 1)
+             level: int, stop: Callable[[], bool] | None = None) -> list[np.ndarray]:
+    """The blocked tables of levels ``1 .. level``, each OR-ed with its parent's."""
+    tables = [_blocked_level(problem, radius, box, horizon, 1, stop)]
     for lv in range(2, level + 1):
-        up = table.repeat(2, axis=0).repeat(2, axis=1).repeat(2, axis=2)
-        table = up | _blocked_level(problem, radius, box, horizon, lv)
-    return table
+        up = tables[-1].repeat(2, axis=0).repeat(2, axis=1).repeat(2, axis=2)
+        tables.append(up | _blocked_level(problem, radius, box, horizon, lv, stop))
+    return tables
 
 
 def _push(row: np.ndarray, ends: np.ndarray, c: float) -> float:
@@ -309,6 +334,45 @@ def _labels(blocked: np.ndarray, xs: np.ndarray, ys: np.ndarray, ends: np.ndarra
     return label
 
 
+def _cell_gaps(lo: np.ndarray, p: float) -> np.ndarray:
+    """Per closed interval ``[lo[i], lo[i + 1]]``, the distance from ``p`` to it."""
+    return np.maximum(np.maximum(lo[:-1] - p, p - lo[1:]), 0.0)
+
+
+def _sweep(blocked: np.ndarray, xs: np.ndarray, ys: np.ndarray, ends: np.ndarray,
+           start: np.ndarray, goal: np.ndarray, speed: float,
+           stop: Callable[[], bool] | None = None) -> float:
+    """The reachable-set bound (module docstring, "The sweep"): the least
+    ``f_k = t_k + d(R_k, g) / v`` below ``t_{k+1}`` (``R_k``: the cells the robot may be in at
+    the slab end ``t_k``), else the horizon."""
+    from scipy.ndimage import distance_transform_edt
+
+    n = len(xs) - 1
+    w, h = float(xs[1] - xs[0]), float(ys[1] - ys[0])
+    diag, tau = math.hypot(w, h), float(ends[1] - ends[0])
+    to_goal = np.hypot(_cell_gaps(xs, float(goal[0]))[:, None],
+                       _cell_gaps(ys, float(goal[1]))[None, :]) / speed
+    reach = np.zeros((n, n), bool)
+    reach[np.ix_(_span(xs, float(start[0])), _span(ys, float(start[1])))] = True
+    past: list[np.ndarray] = []  # distance of every cell centre to R_j's centres, j <= k
+    for k in range(n):
+        _poll(stop)
+        if not reach.any():  # no motion lasts past t_k
+            break
+        f = float(ends[k]) + float(to_goal[reach].min())
+        if f < float(ends[k + 1]):  # an arrival in slab k is possible, not before f
+            return f
+        past.append(distance_transform_edt(~reach, sampling=(w, h)))
+        # usable at t_{k+1}: not blocked in every closed slab holding it
+        nxt = ~(blocked[:, :, k] & (blocked[:, :, k + 1] if k + 1 < n else True))
+        m = 1
+        while m <= len(past):  # within v (t_{k+1} - t_j) of R_j, for j = k + 1 - m
+            nxt &= past[-m] <= speed * m * tau + diag
+            m *= 2
+        reach = nxt
+    return float(ends[-1])
+
+
 def cell_lower_bound(problem: Problem, robot_id: str | None = None, *, level: int,
                      stop: Callable[[], bool] | None = None,
                      horizon: float | None = None) -> TimeBound:
@@ -357,17 +421,25 @@ def cell_lower_bound(problem: Problem, robot_id: str | None = None, *, level: in
     n = 2 ** lv
     xs, ys = _corners(box, n)
     origin = np.array([box[0], box[1]], float)
-    ends = big_h * (np.arange(n + 1, dtype=float) / n)
-    blocked = _blocked(problem, float(robot.radius), box, big_h, lv)
     start = np.asarray(robot.start, float) - origin
-    label = _labels(blocked, xs, ys, ends, start, speed, stop)
+    goal = np.asarray(robot.goal, float) - origin
+    try:
+        tables = _blocked(problem, float(robot.radius), box, big_h, lv, stop)
+        # the sweep of every level up to this one (its bound need not rise with the level)
+        swept = max(min(big_h, _sweep(t, *_corners(box, len(t)), big_h * np.arange(
+            len(t) + 1, dtype=float) / len(t), start, goal, speed, stop)) for t in tables)
+    except _Stop:
+        return TimeBound(0.0, static, None, f"cell relaxation, level {lv}: stopped")
+    ends = big_h * (np.arange(n + 1, dtype=float) / n)
+    label = _labels(tables[-1], xs, ys, ends, start, speed, stop)
     if label is None:
         return TimeBound(0.0, static, None, f"cell relaxation, level {lv}: stopped")
-    goal = np.asarray(robot.goal, float) - origin
     cells = [label[i, j] for i in _span(xs, float(goal[0])) for j in _span(ys, float(goal[1]))]
-    value = min([big_h, *cells])
+    first = min([big_h, *cells])
+    value = max(first, swept)
     why = ("the goal's cell is not reached within the horizon" if value >= big_h else
-           "first usable time of the goal's cell")
+           "first usable time of the goal's cell" if first >= swept else
+           "the sweep of the cells reachable at each slab end")
     return TimeBound(float(value), static, None,
                      f"cell relaxation, level {lv} ({n} x {n} cells, {n} slabs of "
                      f"{big_h / n:.6g} s, horizon {big_h:.6g} s): {why}")

@@ -20,7 +20,7 @@ ever (no motion arrives).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -67,13 +67,14 @@ def parked_contact_times(movers: Sequence[DynamicObstacle], point, radius: float
 
 
 def arrival_lower_bound(problem: Problem, robot_id: str | None = None, *,
-                        level: int = 0) -> TimeBound:
+                        level: int = 0, stop: Callable[[], bool] | None = None) -> TimeBound:
     """A certified lower bound on the arrival time of ``robot_id`` (default the planned robot,
     ``problem.leader``) at its goal; see the module docstring.
 
     ``level = 0`` is the bound above; ``level >= 1`` is its maximum with the cell-slab
     relaxation of :func:`optplan.geometry.timing.cell_bound.cell_lower_bound` at that level,
-    which sees movers blocking the way and does not decrease as ``level`` grows.
+    which sees movers blocking the way and does not decrease as ``level`` grows; ``stop``
+    (polled by the relaxation) ends it early, leaving the level-0 bound.
 
     Raises
     ------
@@ -83,7 +84,7 @@ def arrival_lower_bound(problem: Problem, robot_id: str | None = None, *,
     """
     if check_level(level) > 0:
         return _refined(arrival_lower_bound(problem, robot_id),
-                        cell_lower_bound(problem, robot_id, level=level))
+                        cell_lower_bound(problem, robot_id, level=level, stop=stop))
     from optplan.geometry.tangent import problem_shortest_path
 
     robot = problem.leader if robot_id is None else problem.robot(robot_id)
