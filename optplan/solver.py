@@ -460,10 +460,12 @@ def team_reference(problem: Problem, res: Result) -> Result:
 
 
 def time_reference(problem: Problem, robot_id: str) -> Any:
-    """The reference in time of ``reference=True``: the ``sipp`` preset's earliest arrival of
-    ``robot_id`` (:func:`optplan.time_grading.with_time_reference`)."""
-    backend: Any = get_solver("sipp")  # optplan.exact.sipp.SIPP (the core names no family)
-    return backend.earliest_arrival(problem, robot_id)
+    """The reference in time of ``reference=True``: the ``time-bracket`` preset's bracket on
+    ``robot_id``'s earliest arrival at its grading level (deterministic: no time limit), its
+    plan's arrival the upper side and its ``bound`` the lower side
+    (:func:`optplan.time_grading.with_time_reference`)."""
+    backend: Any = get_solver("time-bracket")  # optplan.exact.time_bracket.TimeBracket
+    return backend.reference(problem, robot_id)
 
 
 def _without_own_limit(backend: Backend, time_limit: float | None) -> Backend:

@@ -12,14 +12,17 @@ plan (:func:`with_time_reference`):
 * ``arrival_at_goal``: for a robot with a goal, the arrival at the goal *point* of the plan
   completed from where it enters the goal tolerance by the shortest continuation at
   ``max_speed`` (:mod:`optplan.goal_completion`): every reference is for the goal point;
-* ``time_reference``: the earliest arrival of the reference planner in time (``op.solve``
-  passes the ``sipp`` preset's: safe intervals on the exact tangent roadmap), for robots with
-  a goal.  The reference planner's model is narrower than the motions a plan may make: when
-  the completed plan is valid and reaches the goal point earlier, it is the better upper bound
+* ``time_reference``: the upper side of the reference in time (``op.solve`` passes the
+  ``time-bracket`` preset's bracket at its grading level,
+  :meth:`optplan.exact.time_bracket.TimeBracket.reference`: ``sipp`` on the exact tangent
+  roadmap and on free waypoints; at most ``sipp``'s arrival), for robots with a goal.  The
+  reference planner's model is narrower than the motions a plan may make: when the completed
+  plan is valid and reaches the goal point earlier, it is the better upper bound
   on the earliest arrival and becomes the reference of this grading
   (``time_reference_source`` says so), so no valid plan has a ratio to the reference below 1;
 * ``time_lower_bound``: the certified bound of
-  :func:`~optplan.geometry.timing.time_bounds.arrival_lower_bound` (robots with a goal);
+  :func:`~optplan.geometry.timing.time_bounds.arrival_lower_bound`, or the reference's lower
+  side when it is higher (robots with a goal);
 * the ratios of ``arrival_at_goal`` to the reference and the bound, and of ``arrival_time``
   to ``schedule_arrival``.
 
@@ -71,7 +74,7 @@ def _reference(problem: Problem, rid: str, reference: Reference) -> dict[str, An
     def build() -> dict[str, Any]:
         plan = reference(problem, rid)
         return {"time_reference": plan.arrival, "time_reference_status": plan.status.value,
-                "time_reference_message": plan.message}
+                "time_reference_message": plan.message, "bound": plan.bound}
 
     return dict(problem.memo(("time_reference", rid), build))
 
@@ -109,14 +112,19 @@ def grade_robot(problem: Problem, rid: str, path: Any, times: Any = None,
         out.update(arrival_at_goal=done.arrival, arrival_completion=done.distance,
                    arrival_completion_status=done.status)
     at_goal = None if done is None else done.arrival
+    bound = problem.memo(("arrival_lower_bound", rid), lambda: arrival_lower_bound(problem, rid))
     if reference is not None:
-        out.update(_reference(problem, rid, reference))
+        got = _reference(problem, rid, reference)
+        ref_bound = got.pop("bound")  # the reference's own lower side (a bracket's)
+        if ref_bound is not None and ref_bound.value is not None and (
+                bound.value is None or ref_bound.value > bound.value):
+            bound = ref_bound
+        out.update(got)
         ref = out["time_reference"]
         if done is not None and done.valid and at_goal is not None and (
                 ref is None or at_goal < ref):
             out["time_reference"] = at_goal  # a valid motion: an upper bound on the optimum
             out["time_reference_source"] = "this plan (earlier than the reference planner)"
-    bound = problem.memo(("arrival_lower_bound", rid), lambda: arrival_lower_bound(problem, rid))
     out["time_lower_bound"], out["time_bound_reason"] = bound.value, bound.reason
     out["arrival_ratio_to_reference"] = _ratio(at_goal, out.get("time_reference"))
     out["arrival_ratio_to_bound"] = _ratio(at_goal, bound.value)

@@ -11,13 +11,14 @@ from optplan.cli.common import _fmt, parse_set
 
 def _arrival_line(m: dict[str, Any]) -> list[str]:
     """The grading in time (``reference=True`` with moving obstacles): the arrival, then its
-    ratios to the fastest timing of the same path, to the ``sipp`` reference and to the
-    certified lower bound."""
+    ratios to the fastest timing of the same path, to the reference (the time bracket's upper
+    side) and to the certified lower bound."""
     lines = [f"  arrival     {_fmt(m.get('arrival_time'))} s"]
     if m.get("arrival_completion"):  # accepted inside the goal tolerance: graded at the goal
         lines[0] += (f"   at goal {_fmt(m.get('arrival_at_goal'))} s "
                      f"({m.get('arrival_completion_status')})")
-    source = "this plan: earlier than sipp" if m.get("time_reference_source") else "sipp"
+    source = ("this plan: earlier than the time bracket" if m.get("time_reference_source")
+              else "time bracket")
     refs = (("schedule", "arrival_ratio_to_schedule", "schedule_arrival",
              "the fastest timing of this path"),
             ("reference", "arrival_ratio_to_reference", "time_reference", source),

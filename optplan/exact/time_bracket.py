@@ -38,6 +38,7 @@ the gap in the message.  The metrics carry ``arrival_upper``, ``arrival_lower`` 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable
@@ -48,7 +49,13 @@ import numpy as np
 
 from optplan.exact.sipp import ClaimsInTime, earliest_arrival
 from optplan.geometry.collision import farthest_clear
-from optplan.geometry.timing import PlanStatus, TimedPlan, arrival_lower_bound, fastest_schedule
+from optplan.geometry.timing import (
+    PlanStatus,
+    TimeBound,
+    TimedPlan,
+    arrival_lower_bound,
+    fastest_schedule,
+)
 from optplan.metrics import evaluate
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status, confirms_optimum, notify
@@ -170,6 +177,9 @@ LOWER_AHEAD = 3
 MAX_LOWER_LEVEL = 8
 
 
+#: The finest level of the bracket that grades plans (``reference=True``): deterministic, a
+#: few seconds at most on the catalogue's and the families' scenes.
+GRADING_LEVEL = 2
 #: Outcomes of a level's search that no refinement changes (proofs, or a start inside a mover).
 _FINAL = (PlanStatus.no_path, PlanStatus.goal_blocked, PlanStatus.start_blocked)
 
@@ -283,6 +293,23 @@ class TimeBracket(ClaimsInTime, Backend):
                      stop=stop, on_level=lambda b: stop(), bracket=br, retime=self.retime)
         return self._answer(problem, rid, br, t0, "time_limit" if state["timed_out"] else "")
 
+    def reference(self, problem: Problem, robot_id: str) -> TimedPlan:
+        """The bracket of ``robot_id`` up to :data:`GRADING_LEVEL` without a time limit (the
+        reference in time of ``op.solve(..., reference=True)``: deterministic, cached by the
+        grading): the plan of its upper side, ``bound`` its lower side."""
+        br = time_bracket(problem, robot_id, gap_tol=self.gap_tol,
+                          max_level=min(self.max_level, GRADING_LEVEL), stop=lambda: False)
+        lower = TimeBound(br.lower, None, None, f"time bracket, level "
+                          f"{br.levels[-1]['level']}: gap {100 * br.gap:.3g} %")
+        if br.plan is None:
+            first = earliest_arrival(problem, robot_id)  # why there is no arrival
+            return dataclasses.replace(first, bound=lower if first.bound is None or (
+                first.bound.value is not None and br.lower > first.bound.value) else
+                first.bound)
+        return dataclasses.replace(br.plan, status=PlanStatus.arrived, arrival=br.upper,
+                                   bound=lower, message=f"{robot_id}: bracket [{br.lower:.6g}, "
+                                   f"{br.upper:.6g}] s (gap {100 * br.gap:.3g} %)")
+
     def _answer(self, problem: Problem, rid: str, br: Bracket, t0: float,
                 stop_reason: str) -> Result:
         """The Result of a bracket: the plan of its upper side and its figures."""
@@ -317,6 +344,4 @@ class TimeBracket(ClaimsInTime, Backend):
 
 def _stopped(res: Result) -> Result:
     """``res`` marked as ended by the time limit."""
-    import dataclasses
-
     return dataclasses.replace(res, stop_reason="time_limit")
