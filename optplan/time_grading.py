@@ -84,6 +84,23 @@ def _ratio(a: float | None, b: float | None) -> float | None:
     return float(a) / float(b) if ok else None  # type: ignore[arg-type]
 
 
+def _against_reference(out: dict[str, Any], problem: Problem, rid: str, reference: Reference,
+                       done: Any, bound: Any) -> Any:
+    """Put the reference's upper side in ``out`` (the completed plan's arrival when it is valid
+    and earlier); the better of ``bound`` and the reference's own lower side."""
+    got = _reference(problem, rid, reference)
+    ref_bound = got.pop("bound")  # the reference's own lower side (a bracket's)
+    if ref_bound is not None and ref_bound.value is not None and (
+            bound.value is None or ref_bound.value > bound.value):
+        bound = ref_bound
+    out.update(got)
+    ref, at_goal = out["time_reference"], None if done is None else done.arrival
+    if done is not None and done.valid and at_goal is not None and (ref is None or at_goal < ref):
+        out["time_reference"] = at_goal  # a valid motion: an upper bound on the optimum
+        out["time_reference_source"] = "this plan (earlier than the reference planner)"
+    return bound
+
+
 def grade_robot(problem: Problem, rid: str, path: Any, times: Any = None,
                 reference: Reference | None = None) -> dict[str, Any]:
     """One robot's grades in time (module docstring): ``arrival_time``, ``schedule_arrival``,
@@ -114,17 +131,7 @@ def grade_robot(problem: Problem, rid: str, path: Any, times: Any = None,
     at_goal = None if done is None else done.arrival
     bound = problem.memo(("arrival_lower_bound", rid), lambda: arrival_lower_bound(problem, rid))
     if reference is not None:
-        got = _reference(problem, rid, reference)
-        ref_bound = got.pop("bound")  # the reference's own lower side (a bracket's)
-        if ref_bound is not None and ref_bound.value is not None and (
-                bound.value is None or ref_bound.value > bound.value):
-            bound = ref_bound
-        out.update(got)
-        ref = out["time_reference"]
-        if done is not None and done.valid and at_goal is not None and (
-                ref is None or at_goal < ref):
-            out["time_reference"] = at_goal  # a valid motion: an upper bound on the optimum
-            out["time_reference_source"] = "this plan (earlier than the reference planner)"
+        bound = _against_reference(out, problem, rid, reference, done, bound)
     out["time_lower_bound"], out["time_bound_reason"] = bound.value, bound.reason
     out["arrival_ratio_to_reference"] = _ratio(at_goal, out.get("time_reference"))
     out["arrival_ratio_to_bound"] = _ratio(at_goal, bound.value)

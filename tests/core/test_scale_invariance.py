@@ -35,6 +35,7 @@ REPRESENTATIVE = {
     "orca": "paper-warehouse",
     "orca-team": "paper-formation",
     "sipp": "paper-warehouse",
+    "time-bracket": "paper-apf-env1",
     "ipso-paper": "paper-env1",
     "ipso": "paper-env2",
     "mpso-paper": "paper-env1",
@@ -46,7 +47,7 @@ REPRESENTATIVE = {
 #: preset -> options of the fast test, the same at every scale (the slow grid runs the presets
 #: as they are): formation-nlp's 60-step NLP takes 15-20 s a solve on formation-open-field,
 #: 20 steps about 1 s, and the scaling of its lengths, speeds and margins is the same code
-FAST_OPTIONS = {"formation-nlp": {"n_steps": 20}}
+FAST_OPTIONS = {"formation-nlp": {"n_steps": 20}, "time-bracket": {"max_level": 2}}
 
 
 @cache
@@ -56,7 +57,9 @@ def outcome(scene: str, solver: str, scale: float,
     prob = transform_problem(op.load_problem(scene), scale)
     # the hybrids' default budget (60 s of wall time) would cut long walks where the load
     # says: a call's limit replaces it, and this one is never reached
-    limit = {"time_limit": 1e6} if solver.startswith("hybrid") else {}
+    # (and the time bracket's 10 s, which would stop its refinement where the load says)
+    limit = {"time_limit": 1e6} if solver.startswith("hybrid") or solver == "time-bracket" \
+        else {}
     try:
         r = op.solve(prob, solver, rng=0, reference=False, **limit, **dict(options))
     except ValueError as e:  # e.g. a formation backend on a scene without [formation]
