@@ -143,6 +143,8 @@ COMMANDS: dict[str, tuple[Handler | None, dict[str, Any], list[Arg]]] = {
              help="override an option; VALUE is a TOML literal (repeatable)"),
         _arg("--json", metavar="FILE", help="save the Result as JSON"),
         _arg("--plot", metavar="PNG", help="save a picture of the result"),
+        _arg("--progress", action="store_true",
+             help="print the solver's progress on stderr (time-bracket: the bracket closing)"),
     ]),
     "bench": (cmd_bench, {
         "help": "problems x solvers x seeds, or a named experiment (--tag)",

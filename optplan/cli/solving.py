@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -94,6 +96,24 @@ def _result_lines(res: Any) -> list[str]:
     return lines
 
 
+def progress_printer(err: TextIO) -> Callable[[Any], None]:
+    """``optplan solve --progress``: a callback printing one line to ``err`` whenever what it
+    shows changes: the iteration and the best cost, and for a bracket (``time-bracket``:
+    ``arrival_lower`` and ``arrival_gap`` in ``info``) the bracket closing."""
+    last = [""]
+
+    def show(p: Any) -> None:
+        line = f"progress: iteration {p.iteration}  best {_fmt(p.best_cost)}"
+        if "arrival_lower" in p.info:
+            line += (f"  bracket [{_fmt(p.info['arrival_lower'])}, {_fmt(p.best_cost)}] s, "
+                     f"gap {100 * p.info['arrival_gap']:.3g} %")
+        if line != last[0]:
+            last[0] = line
+            print(line, file=err, flush=True)
+
+    return show
+
+
 def cmd_solve(args: argparse.Namespace, out: TextIO) -> int:
     from optplan.catalog import load_problem
     from optplan.solver import solve
@@ -101,7 +121,8 @@ def cmd_solve(args: argparse.Namespace, out: TextIO) -> int:
     overrides = parse_set(args.set)
     reference: bool | str = "team" if args.team_reference else not args.no_reference
     res = solve(args.problem, args.solver, rng=args.seed, time_limit=args.time_limit,
-                reference=reference, **overrides)
+                reference=reference, callback=progress_printer(sys.stderr) if args.progress
+                else None, **overrides)
     for line in _result_lines(res):
         print(line, file=out)
     if args.json:

@@ -85,6 +85,16 @@ def test_show_prints_summary_and_optimum(capsys, tmp_path):
 # -- solve ------------------------------------------------------------------------------------
 
 
+def test_solve_progress_shows_the_bracket_closing(capsys):
+    rc, out, err = run(capsys, "solve", "paper-apf-env1", "time-bracket", "--progress",
+                       "--no-reference")
+    assert rc == 0, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("progress:")]
+    assert lines and "bracket [" in lines[-1] and lines[-1].endswith("gap 0 %")
+    assert len(lines) == len(set(lines))  # one line per change
+    assert "status      optimal" in out
+
+
 def test_solve_summary_json_and_plot(capsys, tmp_path):
     js, png = tmp_path / "r.json", tmp_path / "r.png"
     rc, out, err = run(capsys, "solve", "open-field", "visgraph", "--seed", "4",
