@@ -20,7 +20,7 @@ from optplan.options import check_options
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status, confirms_optimum, optimum_gap
 
-__all__ = ["Backend", "Effort", "share_known_view_sets"]
+__all__ = ["Backend", "ClaimsInTime", "Effort", "share_known_view_sets"]
 
 
 class Effort(TypedDict, total=False):
@@ -229,3 +229,17 @@ def share_known_view_sets(problem: Problem) -> None:
     view = problem.known_view()
     for r in sorted({float(x.radius) for x in problem.robots}):
         problem.memo(("obstacle_set", r, False), functools.partial(view.obstacle_set, r))
+
+
+class ClaimsInTime:
+    """A backend whose ``optimal`` is a claim in time (its arrival is certified earliest), not
+    on the length: the validator only has to accept the plan (``sipp``, ``time-bracket``)."""
+
+    def _grade(self, status: Status, metrics: dict[str, Any],
+               message: str) -> tuple[Status, str]:
+        """``optimal`` stands when the validator would call the plan ``solved``."""
+        grade = super()._grade  # type: ignore[misc]
+        if status is Status.optimal:
+            graded, message = grade(Status.solved, metrics, message)
+            return (Status.optimal if graded is Status.solved else graded), message
+        return grade(status, metrics, message)

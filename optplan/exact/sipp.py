@@ -17,10 +17,10 @@ earliest within the model.  ``H`` starts at twice the larger of the certified lo
 the last waypoint time of the moving obstacles, and doubles (at most ``max_doublings`` times)
 while no arrival is found; past the cap the answer says so (it is not a proof).
 
-**Several robots** (the backend): the planned robots in turn, each avoiding the moving
-obstacles and, as moving discs on their timed trajectories (parked at their goals afterwards),
-the robots planned before it (prioritised planning: the first robot's plan is the earliest in
-the model, the team's is not jointly optimal).
+**Several robots** (the backend): prioritised planning, the robots in turn, each avoiding the
+movers and the robots before it (discs on their trajectories, parked at their goals), each
+holding its goal until the team ends (passes until the last arrival stops moving); not jointly
+optimal.
 
 **Certificate.**  :func:`~optplan.geometry.timing.time_bounds.arrival_lower_bound` holds for every
 motion; the plan is ``optimal`` when its arrival equals the bound (relative
@@ -41,6 +41,7 @@ from typing import Any, ClassVar
 import numpy as np
 import shapely
 
+from optplan.backend import ClaimsInTime
 from optplan.exact.sipp_graph import (
     GOAL_KEY,
     START_KEY,
@@ -70,7 +71,7 @@ from optplan.result import (
 )
 from optplan.solver import Backend, option
 
-__all__ = ["SIPP", "ClaimsInTime", "earliest_arrival"]
+__all__ = ["SIPP", "earliest_arrival"]
 
 #: Units of work between two polls of ``stop``: a unit is a state expanded, a chain corner
 #: drawn, a segment whose windows are computed or a segment scheduled.
@@ -100,9 +101,12 @@ class _Sipp:
     """
 
     def __init__(self, rm: Roadmap, boxes: MoverBoxes, radius: float, speed: float,
-                 horizon: float, budget: list[int], stop: Callable[[], bool] | None):
+                 horizon: float, budget: list[int], stop: Callable[[], bool] | None,
+                 hold_until: float = 0.0):
         self.rm, self.boxes, self.radius, self.speed = rm, boxes, radius, speed
         self.horizon, self.budget, self.stop = horizon, budget, stop
+        self.hold_until = hold_until
+        self.unheld = False  # an arrival was found that could not hold the goal
         self.safe_of: dict[int, Intervals] = {}
         self.windows: dict[tuple[int, int], tuple[list[float], list[Intervals],
                                                   list[Intervals]]] = {}
@@ -132,10 +136,10 @@ class _Sipp:
         """Safe intervals of vertex ``v`` on ``[0, horizon]``: of the start from
         :func:`~optplan.geometry.timing.time_bounds.parked_contact_times`, of a tangent point from
         the end of the first chain whose windows reach it (:meth:`_compute_windows`), of the goal
-        all of it (the robot need only arrive there)."""
+        all of it unless the robot must hold it (``hold_until``: the free times of the point)."""
         if v not in self.safe_of:
             vx = self.rm.vertices[v]
-            if vx.key == GOAL_KEY:
+            if vx.key == GOAL_KEY and self.hold_until <= 0.0:
                 self.safe_of[v] = [(0.0, self.horizon)]
             else:
                 busy = self.boxes.parked_busy(vx.xy, self.radius, 0.0, self.horizon)
@@ -250,7 +254,10 @@ class _Sipp:
                 continue
             self.closed.add((v, j))
             if v == goal:
-                return ref
+                if self.safe(v)[j][1] >= self.hold_until:  # it stays there long enough
+                    return ref
+                self.unheld = True
+                continue
             self._expand(ref)
         return None
 
@@ -318,7 +325,8 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
                      arc_step: float = math.pi / 36, max_doublings: int = 6,
                      max_expansions: int = 1_000_000,
                      stop: Callable[[], bool] | None = None,
-                     waypoints: np.ndarray | None = None) -> TimedPlan:
+                     waypoints: np.ndarray | None = None,
+                     hold_until: float = 0.0) -> TimedPlan:
     """The earliest arrival of one robot within the tangent-roadmap model (module docstring).
 
     Parameters
@@ -329,19 +337,17 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
     movers : list of DynamicObstacle, optional
         The moving obstacles (default ``problem.dynamic_obstacles``; the backend adds the
         robots planned before this one).
-    arc_step : float
-        Largest chord angle (rad) of the circumscribed arc polylines.
-    max_doublings : int
-        Largest number of times the horizon doubles.
-    max_expansions : int
-        Largest number of states expanded (all horizons together).
+    arc_step, max_doublings, max_expansions : float, int, int
+        The largest chord angle (rad) of the arc polylines, number of horizon doublings, and
+        number of states expanded (all horizons together).
     waypoints : array, optional
-        ``(m, 2)`` free points (world) added to the roadmap as vertices where the robot may
-        wait, reachable from every vertex (:class:`~optplan.exact.sipp_graph.Roadmap`); the
-        arrival is then the earliest within the larger model, never later than without them.
+        ``(m, 2)`` free points (world) added as vertices where the robot may wait
+        (:class:`~optplan.exact.sipp_graph.Roadmap`): never a later arrival than without them.
+    hold_until : float
+        The robot must stay at its goal, unreached by any mover, from its arrival until this
+        time (s; a team holds until it ends); 0: it need only arrive.
     stop : callable, optional
-        Polled every 256 units of work (states expanded, chain corners drawn, segments whose
-        windows are computed or scheduled: a bounded step whatever the options); True ends the
+        Polled every 256 units of work (a bounded step whatever the options); True ends the
         search (status ``stopped``).
 
     Returns
@@ -365,7 +371,8 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
     robot = problem.leader if robot_id is None else problem.robot(robot_id)
     movers = list(problem.dynamic_obstacles if movers is None else movers)
     bound = arrival_lower_bound(problem, robot.id)
-    h0 = _first_horizon(bound.value or 0.0, movers) if bound.value is not None else 0.0
+    h0 = (max(_first_horizon(bound.value or 0.0, movers), 2.0 * hold_until)
+          if bound.value is not None else 0.0)
     early = _early(robot, bound, movers, h0)
     if early is not None:
         return early
@@ -377,7 +384,8 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
     for d in range(max_doublings + 1):
         horizon = h0 * 2.0 ** d
         boxes = MoverBoxes.build(movers, robot.radius, horizon)
-        search = _Sipp(rm, boxes, robot.radius, robot.max_speed, horizon, budget, stop)
+        search = _Sipp(rm, boxes, robot.radius, robot.max_speed, horizon, budget, stop,
+                       hold_until)
         info["horizons"] += 1
         try:
             goal = search.run()
@@ -392,17 +400,19 @@ def earliest_arrival(problem: Problem, robot_id: str | None = None, *,
             pts, ts = search.trajectory(goal)
             return TimedPlan(PlanStatus.arrived, float(ts[-1]), pts, ts, _arrival_text(
                 robot.id, float(ts[-1]), bound), horizon, info, bound)
+    held = (f" that holds the goal until {hold_until:.6g} s (arrivals were found; a moving "
+            "obstacle reaches the goal before then)" if search.unheld else "")
     return TimedPlan(PlanStatus.not_found, None, None, None,
-                     f"{robot.id}: no arrival found up to the horizon {horizon:.6g} s (the cap: "
-                     f"2^{max_doublings} x the first horizon {h0:.6g} s); not a proof that "
-                     "none exists", horizon, info, bound)
+                     f"{robot.id}: no arrival{held} found up to the horizon {horizon:.6g} s "
+                     f"(the cap: 2^{max_doublings} x the first horizon {h0:.6g} s); not a proof "
+                     "that none exists", horizon, info, bound)
 
 
 def _count(info: dict[str, Any], search: _Sipp, rm: Roadmap) -> None:
     """Add a search's counters to ``info``."""
-    info["expansions"] += search.expanded
-    info["states"] += len(search.st)
-    info["chains"] += len(search.windows)
+    for k, n in (("expansions", search.expanded), ("states", len(search.st)),
+                 ("chains", len(search.windows))):
+        info[k] += n
     info.update({f"roadmap_{k}": v for k, v in rm.info.items()})
 
 
@@ -459,24 +469,12 @@ def _gap(plan: TimedPlan) -> float | None:
     return optimum_gap(plan.arrival, b)
 
 
+#: Most passes of prioritised planning (each holds the goals until the last pass's team end).
+_HOLD_PASSES = 4
 #: TimedPlan status -> the claim of the backend.
 _CLAIMS = {PlanStatus.no_path: Status.infeasible, PlanStatus.start_blocked: Status.failed,
            PlanStatus.goal_blocked: Status.failed, PlanStatus.not_found: Status.failed,
            PlanStatus.stopped: Status.approximate, PlanStatus.effort: Status.failed}
-
-
-class ClaimsInTime:
-    """A backend whose ``optimal`` is a claim in time (its arrival is certified earliest), not
-    on the length: the validator only has to accept the plan (``sipp``, ``time-bracket``)."""
-
-    def _grade(self, status: Status, metrics: dict[str, Any],
-               message: str) -> tuple[Status, str]:
-        """``optimal`` stands when the validator would call the plan ``solved``."""
-        grade = super()._grade  # type: ignore[misc]
-        if status is Status.optimal:
-            graded, message = grade(Status.solved, metrics, message)
-            return (Status.optimal if graded is Status.solved else graded), message
-        return grade(status, metrics, message)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -509,25 +507,44 @@ class SIPP(ClaimsInTime, Backend):
               init: dict[str, np.ndarray] | None = None,
               callback: Callable[[Progress], Any] | None = None) -> Result:
         t0 = time.perf_counter()
+        stopped = [False]
+
+        def poll(k: int, rid: str) -> bool:
+            stopped[0] = stopped[0] or notify(callback, Progress(
+                iteration=k, best_cost=math.inf, n_eval=k, elapsed=time.perf_counter() - t0,
+                info={"robot": rid}))
+            return stopped[0]
+
+        hold, note = 0.0, ""
+        for _ in range(_HOLD_PASSES):
+            plans = self._in_turn(problem, hold, poll if callback is not None else None)
+            ends = [p.arrival for p in plans.values() if p.arrival is not None]
+            if (len(plans) < 2 or stopped[0] or len(ends) < len(plans)
+                    or max(ends) <= hold):
+                break
+            hold = max(ends)  # every robot holds its goal until the team ends
+        else:
+            note = (f"the goal holds are planned until {hold:.6g} s; the team ends later "
+                    f"(after {_HOLD_PASSES} passes)")
+        return self._answer(problem, plans, t0, note)
+
+    def _in_turn(self, problem: Problem, hold: float,
+                 poll: Callable[[int, str], bool] | None) -> dict[str, TimedPlan]:
+        """One pass of prioritised planning: the robots in turn, each avoiding the movers and
+        the robots before it, each holding its goal until ``hold``."""
         movers = list(problem.dynamic_obstacles)
         plans: dict[str, TimedPlan] = {}
-        stopped = [False]
         for k, r in enumerate(problem.planned_robots):
-            def poll(k=k, r=r) -> bool:
-                stopped[0] = stopped[0] or notify(callback, Progress(
-                    iteration=k, best_cost=math.inf, n_eval=k,
-                    elapsed=time.perf_counter() - t0, info={"robot": r.id}))
-                return stopped[0]
-
+            stop = None if poll is None else (lambda k=k, r=r: poll(k, r.id))
             plan = earliest_arrival(problem, r.id, movers=movers, arc_step=self.arc_step,
                                     max_doublings=self.max_doublings,
-                                    max_expansions=self.max_expansions,
-                                    stop=poll if callback is not None else None)
+                                    max_expansions=self.max_expansions, stop=stop,
+                                    hold_until=hold)
             plans[r.id] = plan
-            if plan.status is not PlanStatus.arrived or (callback is not None and poll()):
+            if plan.status is not PlanStatus.arrived or (stop is not None and stop()):
                 break
             movers.append(_robot_mover(r.id, r.radius, plan))
-        return self._answer(problem, plans, t0)
+        return plans
 
     def earliest_arrival(self, problem: Problem, robot_id: str) -> TimedPlan:
         """:func:`earliest_arrival` of one robot with this preset's options (the reference in
@@ -536,10 +553,11 @@ class SIPP(ClaimsInTime, Backend):
                                 max_doublings=self.max_doublings,
                                 max_expansions=self.max_expansions)
 
-    def _answer(self, problem: Problem, plans: dict[str, TimedPlan], t0: float) -> Result:
+    def _answer(self, problem: Problem, plans: dict[str, TimedPlan], t0: float,
+                note: str = "") -> Result:
         """The Result of the plans (every planned robot gets a path)."""
         lead = problem.planned_robots[0].id
-        msgs = [p.message for p in plans.values()]
+        msgs = [p.message for p in plans.values()] + ([note] if note else [])
         failed = [p for p in plans.values() if p.status is not PlanStatus.arrived]
         if failed or len(plans) < len(problem.planned_robots):
             claim = _CLAIMS.get(failed[0].status, Status.approximate) if failed else \
@@ -554,7 +572,8 @@ class SIPP(ClaimsInTime, Backend):
             claim = (Status.optimal if one and b is not None and lp.arrival is not None and
                      confirms_optimum(lp.arrival, b) else Status.solved)
             if not one:
-                msgs.append("robots planned in turn, each avoiding the ones before it")
+                msgs.append("robots planned in turn, each avoiding the ones before it and "
+                            "holding its goal until the team ends")
         return self._finish(problem, plans, lead, paths, times, claim, "; ".join(msgs), t0)
 
     def _finish(self, problem: Problem, plans: dict[str, TimedPlan], lead: str,

@@ -47,7 +47,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from optplan.exact.sipp import ClaimsInTime, earliest_arrival
+from optplan.backend import ClaimsInTime
+from optplan.exact.sipp import earliest_arrival
 from optplan.geometry.collision import farthest_clear
 from optplan.geometry.timing import (
     PlanStatus,
