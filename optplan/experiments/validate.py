@@ -113,9 +113,9 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
         tn = time.perf_counter() - t0
         # a run accepted inside the goal tolerance is graded to the goal point
         # (optplan.goal_completion): its length plus the shortest continuation
-        done = completion_length(prob, rid, h.paths[rid]) if rid in h.paths else None
+        done = _completion(prob, rid, h)
         Lh = float(h.metrics["length"]) + (done or 0.0)
-        Ln = float(n.metrics["length"])
+        Ln = float(n.metrics["length"]) + (_completion(prob, rid, n) or 0.0)
         hf = bool(h.metrics["feasible"] and h.metrics["reached"])
         nf = bool(n.metrics["feasible"] and n.metrics["reached"])
         has_ref = rid in ref.paths and ref.success
@@ -166,6 +166,12 @@ def _team_columns(h: Result) -> dict[str, Any]:
         return {}
     return {k: (float("nan") if h.metrics.get(k) is None else float(h.metrics[k]))
             for k in TEAM_COLUMNS}
+
+
+def _completion(prob: Problem, rid: str, res: Result) -> float | None:
+    """The shortest continuation of ``res``'s path from its end to the goal point, when it
+    ends inside the goal tolerance (:func:`optplan.goal_completion.completion_length`)."""
+    return completion_length(prob, rid, res.paths[rid]) if rid in res.paths else None
 
 
 def _time_columns(h: Result) -> dict[str, Any]:
@@ -297,9 +303,9 @@ def format_time_table(rows: list[dict]) -> list[str]:
         "Arrival of the heuristic's plan as executed (inside the goal tolerance) and its ratio "
         "to the fastest timing of the same path (exact); its arrival at the goal point "
         "(completed by the shortest continuation at full speed) and the ratios of it to the "
-        "reference (the earliest arrival of `sipp`, exact within the tangent-roadmap model, or "
-        "the plan itself when it is valid and earlier) and to the certified lower bound (every "
-        "motion).")
+        "reference (the upper side of the time bracket, a valid plan never later than `sipp`, "
+        "or the plan itself when it is valid and earlier) and to the lower bound (the "
+        "bracket's lower side, certified for every motion).")
 
 
 def _parse_set(items: list[str] | None) -> dict[str, Any]:
