@@ -14,13 +14,7 @@ from optplan.maps import read_scen
 def test_a_leader_step_through_a_thin_wall_ends_the_run_as_a_collision():
     """Before the step guard the simulator's end-point test missed a point robot stepping
     over a wall thinner than its step, and the hybrid completed its sub-goals through it."""
-    prob = op.parse_problem({
-        "name": "thin-wall", "bounds": [0, 0, 10, 10],
-        "robots": [{"id": "r", "start": [2, 5], "goal": [8, 5], "radius": 0.0,
-                    "max_speed": 2}],
-        "obstacles": [{"type": "rectangle", "name": "wall", "min": [4.97, 3],
-                       "max": [5.03, 7]}],
-    })
+    prob = _thin_wall()[0]
     local = op.get_solver("sa-apf-paper", eta=0.0)
     res = op.solve(prob, "hybrid-paper", rng=0, local_solver=local,
                    init={"r": np.array([[2.0, 5.0], [8.0, 5.0]])})
