@@ -255,7 +255,7 @@ class TimeBracket(ClaimsInTime, Backend):
     retime : bool
         Also re-time each level's path exactly along its curve and along its shortcut
         (``fastest_schedule``, waits anywhere on the path; default false: it does not poll
-        the time limit, and takes tens of seconds on long paths among many movers).
+        the time limit, and can take many seconds on long paths among many movers).
     """
 
     name: ClassVar[str] = "time-bracket"
