@@ -30,6 +30,7 @@ from optplan.problem.model import (
     ProblemError,
     Robot,
 )
+from optplan.problem.roadmap import RoadmapGraph
 from optplan.problem.scenario import parse_problem, read_problem
 from optplan.problem.writer import problem_to_dict, ring_points, round_decimals, transform_problem
 
@@ -41,6 +42,7 @@ __all__ = [
     "Follower",
     "Formation",
     "Problem",
+    "RoadmapGraph",
     "parse_problem",
     "read_problem",
     "problem_to_dict",

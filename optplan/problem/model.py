@@ -26,6 +26,8 @@ import shapely
 import shapely.affinity
 from shapely.geometry import Polygon
 
+from optplan.problem.roadmap import RoadmapGraph
+
 #: Segments per quarter circle of the ``local_geometry`` polygon of a *dynamic* circle (shapely
 #: ``quad_segs``; used for drawing and shapely queries only, the distance is exact).  Static
 #: circles are never polygonised.
@@ -279,6 +281,9 @@ class Problem:
     source: str = ""
     tags: tuple[str, ...] = ()
     path: str | None = None
+    roadmap: RoadmapGraph | None = None
+    """The graph that confines the robots of a multi-agent path-finding instance
+    (:mod:`optplan.problem.roadmap`), else ``None``: the robots move in the plane."""
     world_unit: float = 1.0
     """World length of one unit of these coordinates: 1, except for the canonical image of a
     scene (:func:`optplan.canonical.canonical_problem`), whose planners report in world units."""
