@@ -44,33 +44,8 @@ class RoadmapGraph:
     _adj: list = field(default_factory=list, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        nodes = np.array(self.nodes, dtype=float).reshape(-1, 2) if np.size(self.nodes) else \
-            np.zeros((0, 2))
-        if np.ndim(self.nodes) != 2 or np.shape(self.nodes)[1:] != (2,):
-            raise ValueError(f"roadmap nodes: expected shape (n, 2), got {np.shape(self.nodes)}")
-        if not np.isfinite(nodes).all():
-            raise ValueError(f"roadmap node {int(np.argwhere(~np.isfinite(nodes))[0, 0])}: "
-                             "coordinates must be finite")
-        raw = np.asarray(self.edges)
-        if raw.size and (raw.ndim != 2 or raw.shape[1] != 2):
-            raise ValueError(f"roadmap edges: expected shape (m, 2), got {raw.shape}")
-        if raw.size and not np.issubdtype(raw.dtype, np.integer):
-            raise ValueError(f"roadmap edges: node indices must be integers, got {raw.dtype}")
-        e = raw.astype(np.int64).reshape(-1, 2)
-        bad = np.flatnonzero((e < 0).any(axis=1) | (e >= len(nodes)).any(axis=1))
-        if bad.size:
-            raise ValueError(f"roadmap edge {int(bad[0])} {e[bad[0]].tolist()}: node index "
-                             f"outside [0, {len(nodes) - 1}]")
-        loops = np.flatnonzero(e[:, 0] == e[:, 1])
-        if loops.size:
-            raise ValueError(f"roadmap edge {int(loops[0])}: a self-loop at node "
-                             f"{int(e[loops[0], 0])}")
-        e = np.unique(np.sort(e, axis=1), axis=0)
-        _, first, count = np.unique(nodes, axis=0, return_index=True, return_counts=True)
-        if (count > 1).any():
-            at = nodes[first[np.argmax(count > 1)]]
-            twins = np.flatnonzero((nodes == at).all(axis=1))
-            raise ValueError(f"roadmap nodes {twins.tolist()} coincide at {at.tolist()}")
+        nodes = _checked_nodes(self.nodes)
+        e = _checked_edges(self.edges, len(nodes))
         nodes.setflags(write=False)
         e.setflags(write=False)
         object.__setattr__(self, "nodes", nodes)
@@ -105,3 +80,38 @@ class RoadmapGraph:
         if not (math.isfinite(scale) and scale > 0):
             raise ValueError(f"roadmap transform: scale must be finite and > 0, got {scale!r}")
         return RoadmapGraph(self.nodes * scale + np.asarray(shift, float), self.edges.copy())
+
+
+def _checked_nodes(raw) -> np.ndarray:
+    """The nodes as a float ``(n, 2)`` array, checked (class docstring)."""
+    if np.ndim(raw) != 2 or np.shape(raw)[1:] != (2,):
+        raise ValueError(f"roadmap nodes: expected shape (n, 2), got {np.shape(raw)}")
+    nodes = np.array(raw, dtype=float)
+    if not np.isfinite(nodes).all():
+        raise ValueError(f"roadmap node {int(np.argwhere(~np.isfinite(nodes))[0, 0])}: "
+                         "coordinates must be finite")
+    _, first, count = np.unique(nodes, axis=0, return_index=True, return_counts=True)
+    if (count > 1).any():
+        at = nodes[first[np.argmax(count > 1)]]
+        twins = np.flatnonzero((nodes == at).all(axis=1))
+        raise ValueError(f"roadmap nodes {twins.tolist()} coincide at {at.tolist()}")
+    return nodes
+
+
+def _checked_edges(raw, n: int) -> np.ndarray:
+    """The edges as a sorted, unique int ``(m, 2)`` array of ``i < j``, checked."""
+    raw = np.asarray(raw)
+    if raw.size and (raw.ndim != 2 or raw.shape[1] != 2):
+        raise ValueError(f"roadmap edges: expected shape (m, 2), got {raw.shape}")
+    if raw.size and not np.issubdtype(raw.dtype, np.integer):
+        raise ValueError(f"roadmap edges: node indices must be integers, got {raw.dtype}")
+    e = raw.astype(np.int64).reshape(-1, 2)
+    bad = np.flatnonzero((e < 0).any(axis=1) | (e >= n).any(axis=1))
+    if bad.size:
+        raise ValueError(f"roadmap edge {int(bad[0])} {e[bad[0]].tolist()}: node index "
+                         f"outside [0, {n - 1}]")
+    loops = np.flatnonzero(e[:, 0] == e[:, 1])
+    if loops.size:
+        raise ValueError(f"roadmap edge {int(loops[0])}: a self-loop at node "
+                         f"{int(e[loops[0], 0])}")
+    return np.unique(np.sort(e, axis=1), axis=0)
