@@ -66,7 +66,7 @@ def run(solvers: list[str], seeds: list[int], queries: int, time_limit: float
                 if m.get("ratio_to_optimum") is not None:
                     a["length"].append(m["ratio_to_optimum"])
                     a["length_raw"].append(m["length"] / m["optimum"])
-                for key in ("arrival_ratio_to_reference", "arrival_ratio_to_bound"):
+                for key in ("arrival_ratio_to_reference", "arrival_ratio_to_lower"):
                     if m.get(key) is not None:
                         a[key].append(m[key])
                 if m.get("arrival_time") is not None and m.get("time_reference"):
@@ -77,10 +77,10 @@ def run(solvers: list[str], seeds: list[int], queries: int, time_limit: float
         rows.append({"solver": solver, "valid": len(a["valid"]), "short": len(a["short"]),
                      "length": _min(a["length"]), "length_raw": _min(a["length_raw"]),
                      "to_reference": _min(a["arrival_ratio_to_reference"]),
-                     "to_bound": _min(a["arrival_ratio_to_bound"]),
+                     "to_bound": _min(a["arrival_ratio_to_lower"]),
                      "arrival_raw": _min(a["arrival_raw"]),
                      "below": sum(v < FLOOR for k in ("length", "arrival_ratio_to_reference",
-                                                      "arrival_ratio_to_bound") for v in a[k])})
+                                                      "arrival_ratio_to_lower") for v in a[k])})
     return rows
 
 

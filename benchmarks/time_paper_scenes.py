@@ -91,7 +91,7 @@ def table(results: dict[str, list[dict[str, Any]]]) -> str:
                    f"{_mw(ok, 'schedule_arrival', '.2f')} | {ref_s} | {bound_s} | {gap} | "
                    f"{_mw(ok, 'arrival_ratio_to_schedule')} | "
                    f"{_mw(ok, 'arrival_ratio_to_reference')} | "
-                   f"{_mw(ok, 'arrival_ratio_to_bound')} | {_mw(ok, 'schedule_to_ref')} |")
+                   f"{_mw(ok, 'arrival_ratio_to_lower')} | {_mw(ok, 'schedule_to_ref')} |")
     return "\n".join(out)
 
 

@@ -75,6 +75,8 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
+from optplan.bench import TIME_COLUMNS
+
 __all__ = ["SCHEMA", "SCHEMA_VERSION", "MAX_PROGRESS", "LOCK_TIMEOUT", "ResultsDB",
            "ResultsDBError", "experiment_info", "read_runs", "read_progress",
            "read_experiments", "thin_progress", "typed"]
@@ -135,6 +137,11 @@ CREATE TABLE IF NOT EXISTS runs (
     scen_line      INTEGER,
     octile_optimum REAL,
     octile_ratio   REAL,
+    arrival_at_goal REAL,
+    time_reference REAL,
+    time_lower_bound REAL,
+    arrival_ratio_to_reference REAL,
+    arrival_ratio_to_lower REAL,
     UNIQUE (problem, solver, seed)
 );
 CREATE TABLE IF NOT EXISTS progress (
@@ -151,14 +158,15 @@ CREATE INDEX IF NOT EXISTS progress_run ON progress(run_id);
 _ROW_COLS = ("problem", "solver", "seed", "status", "success", "length", "optimum", "ratio",
              "min_clearance", "collisions", "wall_time", "reference_time", "n_iter", "n_eval",
              "stop_reason", "message", "backend", "options", "scen", "bucket", "scen_line",
-             "octile_optimum", "octile_ratio")
+             "octile_optimum", "octile_ratio", *TIME_COLUMNS)
 _FLOATS = ("length", "optimum", "ratio", "min_clearance", "wall_time", "reference_time",
-           "octile_optimum", "octile_ratio")
+           "octile_optimum", "octile_ratio", *TIME_COLUMNS)
 _INTS = ("seed", "collisions", "n_iter", "n_eval")
-#: columns of ``runs`` added after the first files were written (the ``.scen`` columns): a
-#: file without them is read as if they were NULL, and gets them when a sweep writes to it
+#: columns of ``runs`` added after the first files were written (the ``.scen`` columns, the
+#: grading in time): a file without them is read as if they were NULL, and gets them when a
+#: sweep writes to it
 _ADDED = {"scen": "TEXT", "bucket": "INTEGER", "scen_line": "INTEGER", "octile_optimum": "REAL",
-          "octile_ratio": "REAL"}
+          "octile_ratio": "REAL", **dict.fromkeys(TIME_COLUMNS, "REAL")}
 
 
 class ResultsDBError(ValueError):

@@ -523,7 +523,9 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         moving obstacles, also the grading in time of every robot
         (:func:`optplan.time_grading.with_time_reference`): ``arrival_time``,
         ``schedule_arrival`` (the fastest timing of the plan's own path), ``time_reference``
-        (the ``sipp`` preset's earliest arrival), ``time_lower_bound`` and the ratios of the
+        (the upper side of the ``time-bracket`` preset's bracket, or the plan's own arrival
+        at the goal point when it is valid and earlier), ``time_lower_bound`` (its lower
+        side) and the ratios of the
         arrival to each; ``time_per_robot`` for a team.  ``reference="team"`` also grades a
         team plan against the joint trajectory NLP warm-started from it
         (:func:`optplan.team_grading.with_team_reference`): ``arrival_ratio_to_team``,

@@ -108,7 +108,7 @@ def grade_robot(problem: Problem, rid: str, path: Any, times: Any = None,
     ``arrival_completion`` and ``arrival_completion_status``
     (:func:`~optplan.goal_completion.completed_arrival`), ``time_reference``,
     ``time_lower_bound``, ``time_bound_reason``; the ratios ``arrival_ratio_to_schedule``,
-    ``arrival_ratio_to_reference``, ``arrival_ratio_to_bound`` where both sides exist
+    ``arrival_ratio_to_reference``, ``arrival_ratio_to_lower`` where both sides exist
     (``time_reference`` only with a ``reference`` planner)."""
     pts = np.asarray(path, float)
     arrival, end = _arrival(problem, rid, pts, times)
@@ -134,7 +134,7 @@ def grade_robot(problem: Problem, rid: str, path: Any, times: Any = None,
         bound = _against_reference(out, problem, rid, reference, done, bound)
     out["time_lower_bound"], out["time_bound_reason"] = bound.value, bound.reason
     out["arrival_ratio_to_reference"] = _ratio(at_goal, out.get("time_reference"))
-    out["arrival_ratio_to_bound"] = _ratio(at_goal, bound.value)
+    out["arrival_ratio_to_lower"] = _ratio(at_goal, bound.value)
     return out
 
 

@@ -57,7 +57,7 @@ from __future__ import annotations
 from optplan.bench.dask_engine import DASK_CHUNK_MAX as DASK_CHUNK_MAX
 from optplan.bench.dask_engine import DASK_CHUNK_SECONDS as DASK_CHUNK_SECONDS
 from optplan.bench.grid import Engine, run_grid
-from optplan.bench.rows import COLUMNS, row_from_result
+from optplan.bench.rows import COLUMNS, TIME_COLUMNS, row_from_result
 from optplan.bench.rows import Overrides as Overrides
 from optplan.bench.rows import Record as Record
 from optplan.bench.rows import Task as Task
@@ -66,5 +66,5 @@ from optplan.bench.run import run_one
 from optplan.bench.scen import expand_scen
 from optplan.bench.summary import read_csv, summarise, to_markdown, write_csv
 
-__all__ = ["COLUMNS", "Engine", "run_grid", "run_one", "row_from_result", "summarise",
-           "to_markdown", "write_csv", "read_csv", "expand_scen"]
+__all__ = ["COLUMNS", "TIME_COLUMNS", "Engine", "run_grid", "run_one", "row_from_result",
+           "summarise", "to_markdown", "write_csv", "read_csv", "expand_scen"]

@@ -11,11 +11,16 @@ from typing import Any
 
 import numpy as np
 
+#: The grading in time of a run on a problem with moving obstacles (the planned robot's,
+#: :func:`optplan.time_grading.with_time_reference`; NaN without movers or without an arrival).
+TIME_COLUMNS = ("arrival_at_goal", "time_reference", "time_lower_bound",
+                "arrival_ratio_to_reference", "arrival_ratio_to_lower")
+
 #: Columns of a tidy row, in order.
 COLUMNS = ("problem", "solver", "seed", "status", "success", "length", "ratio", "collisions",
            "min_clearance", "wall_time", "n_iter", "n_eval", "message", "optimum",
            "reference_time", "stop_reason", "backend", "options", "scen", "bucket", "scen_line",
-           "octile_optimum", "octile_ratio")
+           "octile_optimum", "octile_ratio", *TIME_COLUMNS)
 
 #: the ``.scen`` columns of a row whose problem is not a ``.scen`` line
 #: (:func:`optplan.bench.scen.with_scen` fills them in)
@@ -100,6 +105,7 @@ def row_from_result(res: Any, problem: str, solver: str, seed: int) -> dict[str,
         "backend": res.backend,
         "options": _json(res.options),
         **_NO_SCEN_ROW,
+        **{c: _num(m.get(c)) for c in TIME_COLUMNS},
     }
 
 
@@ -110,7 +116,7 @@ def _bare_row(problem: str, solver: str, seed: int, status: str, msg: str,
             "success": False, "length": nan, "ratio": nan, "collisions": -1,
             "min_clearance": nan, "wall_time": wall_time, "n_iter": 0, "n_eval": 0,
             "message": msg, "optimum": nan, "reference_time": nan, "stop_reason": stop_reason,
-            "backend": "", "options": "", **_NO_SCEN_ROW}
+            "backend": "", "options": "", **_NO_SCEN_ROW, **dict.fromkeys(TIME_COLUMNS, nan)}
 
 
 def _error_row(problem: str, solver: str, seed: int, msg: str) -> dict[str, Any]:

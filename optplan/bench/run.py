@@ -26,12 +26,28 @@ def _reference(prob: Any) -> dict[str, Any]:
     return prob.memo(_REF_KEY, lambda: reference_optimum(_fresh(prob)))
 
 
-def _apply_reference(res: Any, prob: Any, ref: Mapping[str, Any]) -> Any:
-    """What ``solve(..., reference=True)`` adds to the metrics, from a precomputed reference."""
-    from optplan.solver import with_reference
+def _time_reference(base: Any) -> Any:
+    """The reference in time of ``solve(..., reference=True)``, computed once per process and
+    robot on a cold copy of ``base`` (the problem as loaded, shared by its runs)."""
+    from optplan.solver import time_reference
 
-    return dataclasses.replace(res, metrics=with_reference(res.metrics, prob, res.paths,
-                                                           dict(ref)))
+    return lambda _prob, rid: base.memo(("optplan.bench", "time_reference", rid),
+                                        lambda: time_reference(_fresh(base), rid))
+
+
+def _apply_reference(res: Any, prob: Any, ref: Mapping[str, Any], base: Any) -> Any:
+    """What ``solve(..., reference=True)`` adds to the metrics, from a precomputed reference
+    (and, with moving obstacles, the grading in time against ``base``'s shared reference)."""
+    from optplan.solver import with_reference
+    from optplan.time_grading import with_time_reference
+
+    metrics = with_reference(res.metrics, prob, res.paths, dict(ref))
+    t0 = time.perf_counter()
+    graded = with_time_reference(metrics, prob, res.paths, res.times, _time_reference(base))
+    if graded is not metrics:
+        graded["reference_time"] = _num(metrics.get("reference_time")) + (
+            time.perf_counter() - t0)
+    return dataclasses.replace(res, metrics=graded)
 
 
 def _execute(problem: str, solver: str, seed: int, overrides: Mapping[str, Any] | None = None,
@@ -56,7 +72,7 @@ def _execute(problem: str, solver: str, seed: int, overrides: Mapping[str, Any] 
         if time_limit is not None:
             kw["time_limit"] = time_limit
         res = solve(prob, solver, **kw, **dict(overrides or {}))
-        res = _apply_reference(res, prob, ref)
+        res = _apply_reference(res, prob, ref, base)
     except Exception as e:  # noqa: BLE001 - one broken run must not stop the grid
         return _error_row(problem, solver, seed, _describe(e)), []
     return row_from_result(res, problem, solver, seed), thin_progress(trace)

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from optplan.bench.rows import COLUMNS, _num
+from optplan.bench.rows import COLUMNS, TIME_COLUMNS, _num
 
 
 def _stats(values: Sequence[float]) -> tuple[float, float]:
@@ -42,6 +42,9 @@ def summarise(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     ``timeouts`` (runs stopped by the time limit, by the solver or by the harness),
     ``length_median``, ``length_iqr``, ``ratio_median``, ``ratio_iqr`` and
     ``min_clearance_median`` over the **successful** runs only (nan when there is none),
+    ``arrival_ratio_median`` and ``arrival_lower_ratio_median`` (the arrival at the goal point
+    over the reference in time and over its certified lower bound, over the successful runs
+    graded in time: problems with moving obstacles; nan otherwise),
     ``collisions_median`` and ``n_eval_median`` over the runs that returned (no error, not
     stopped by the harness), ``time_median``, ``time_iqr`` (seconds) over every run that did
     not raise.
@@ -80,6 +83,10 @@ def _summary_row(p: str, s: str, rs: Sequence[Mapping[str, Any]]) -> dict[str, A
         "ratio_iqr": ratio[1],
         "collisions_median": _stats([r["collisions"] for r in returned])[0],
         "min_clearance_median": _stats([r["min_clearance"] for r in good])[0],
+        "arrival_ratio_median": _stats([_num(r.get("arrival_ratio_to_reference"))
+                                        for r in good])[0],
+        "arrival_lower_ratio_median": _stats([_num(r.get("arrival_ratio_to_lower"))
+                                              for r in good])[0],
         "time_median": tm[0],
         "time_iqr": tm[1],
         "n_eval_median": _stats([r["n_eval"] for r in returned])[0],
@@ -97,10 +104,15 @@ def to_markdown(summary: Sequence[Mapping[str, Any]]) -> str:
     """A markdown table of :func:`summarise` output (times in milliseconds).
 
     Length and ratio columns are over the successful runs only ("-" when none succeeded).
+    When a problem has moving obstacles, two columns more: the medians of the arrival at the
+    goal point over the reference in time and over its lower bound.
     """
     head = ["problem", "solver", "runs", "success", "length median", "length IQR",
             "ratio median", "ratio IQR", "collisions median", "time median (ms)",
             "time IQR (ms)", "evals median"]
+    timed = any(math.isfinite(_num(s.get("arrival_ratio_median"))) for s in summary)
+    if timed:  # graded in time (moving obstacles): the arrival against the time bracket
+        head += ["arrival / reference median", "arrival / lower median"]
     lines = ["| " + " | ".join(head) + " |",
              "|" + "|".join(["---"] * 2 + ["---:"] * (len(head) - 2)) + "|"]
     for s in summary:
@@ -121,6 +133,9 @@ def to_markdown(summary: Sequence[Mapping[str, Any]]) -> str:
             _fmt(1e3 * _num(s["time_median"]), 1), _fmt(1e3 * _num(s["time_iqr"]), 1),
             _fmt(s["n_eval_median"], 0),
         ]
+        if timed:
+            cells += [_fmt(s.get("arrival_ratio_median"), 4),
+                      _fmt(s.get("arrival_lower_ratio_median"), 4)]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -146,7 +161,7 @@ def read_csv(path: str | Path) -> list[dict[str, Any]]:
     """Read rows written by :func:`write_csv` back (numbers as float/int, success as bool)."""
     ints = {"seed", "collisions", "n_iter", "n_eval"}
     floats = {"length", "ratio", "min_clearance", "wall_time", "optimum", "reference_time",
-              "octile_optimum", "octile_ratio"}
+              "octile_optimum", "octile_ratio", *TIME_COLUMNS}
     out = []
     with Path(path).open(newline="", encoding="utf-8") as fh:
         for r in csv.DictReader(fh):
@@ -196,7 +211,11 @@ ARENA_RUN_COLUMNS = (
     ("collisions", "INTEGER", "collisions"), ("reference_time", "REAL", "reference_time"),
     ("seed", "INTEGER", "seed"), ("octile_optimum", "REAL", "octile_optimum"),
     ("octile_ratio", "REAL", "octile_ratio"), ("scen_bucket", "INTEGER", "bucket"),
-    ("scen_line", "INTEGER", "scen_line"))
+    ("scen_line", "INTEGER", "scen_line"), ("arrival_at_goal", "REAL", "arrival_at_goal"),
+    ("time_reference", "REAL", "time_reference"),
+    ("time_lower_bound", "REAL", "time_lower_bound"),
+    ("arrival_ratio_to_reference", "REAL", "arrival_ratio_to_reference"),
+    ("arrival_ratio_to_lower", "REAL", "arrival_ratio_to_lower"))
 
 #: the ``status`` enum: optplan's statuses, then the harness's outcomes
 ARENA_STATUS = ("optimal", "solved", "approximate", "infeasible", "failed", "error",

@@ -24,7 +24,7 @@ def _arrival_line(m: dict[str, Any]) -> list[str]:
     refs = (("schedule", "arrival_ratio_to_schedule", "schedule_arrival",
              "the fastest timing of this path"),
             ("reference", "arrival_ratio_to_reference", "time_reference", source),
-            ("lower bound", "arrival_ratio_to_bound", "time_lower_bound",
+            ("lower bound", "arrival_ratio_to_lower", "time_lower_bound",
              m.get("time_bound_reason")))
     for name, ratio, value, what in refs:
         if m.get(ratio) is not None:

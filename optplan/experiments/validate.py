@@ -151,7 +151,7 @@ def validate(problem: Problem | str, solver: str | Backend = "ipso-paper", seeds
 TIME_COLUMNS = ("arrival_time", "arrival_at_goal", "schedule_arrival", "time_reference",
                 "time_lower_bound",
                 "arrival_ratio_to_schedule", "arrival_ratio_to_reference",
-                "arrival_ratio_to_bound")
+                "arrival_ratio_to_lower")
 
 
 #: The grading against the team optimum copied into a row (problems with a formation).
@@ -299,7 +299,7 @@ def format_time_table(rows: list[dict]) -> list[str]:
         "ratio | lower bound s | ratio",
         ("arrival_time", "schedule_arrival", "arrival_ratio_to_schedule", "arrival_at_goal",
          "time_reference", "arrival_ratio_to_reference", "time_lower_bound",
-         "arrival_ratio_to_bound"),
+         "arrival_ratio_to_lower"),
         "Arrival of the heuristic's plan as executed (inside the goal tolerance) and its ratio "
         "to the fastest timing of the same path (exact); its arrival at the goal point "
         "(completed by the shortest continuation at full speed) and the ratios of it to the "

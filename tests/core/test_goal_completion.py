@@ -35,7 +35,7 @@ def test_a_run_that_stops_short_is_graded_at_the_goal_point():
     assert g["arrival_completion_status"] == "completed"
     # the references are for the goal point: the straight line at full speed is optimal
     assert g["time_lower_bound"] == pytest.approx(8.0, rel=1e-12)
-    assert g["arrival_ratio_to_bound"] == pytest.approx(1.0, abs=1e-9)
+    assert g["arrival_ratio_to_lower"] == pytest.approx(1.0, abs=1e-9)
     assert g["arrival_ratio_to_reference"] >= 1.0 - 1e-9
     assert completion_length(p, "r", SHORT) == pytest.approx(0.2, rel=1e-12)
 
@@ -83,7 +83,7 @@ def test_a_continuation_that_meets_a_mover_is_not_graded():
     assert g["arrival_at_goal"] is None
     assert "continuation" in g["arrival_completion_status"] and "meets" in (
         g["arrival_completion_status"])
-    assert g["arrival_ratio_to_reference"] is None and g["arrival_ratio_to_bound"] is None
+    assert g["arrival_ratio_to_reference"] is None and g["arrival_ratio_to_lower"] is None
     assert "time_reference_source" not in g  # an unverified arrival replaces nothing
 
 
@@ -115,7 +115,7 @@ def test_completion_is_invariant_under_translation_and_scaling(scale, shift):
     tol = 1e-9 * 10 * scale  # relative to the map's extent (the input is rounded there)
     assert g["arrival_completion"] == pytest.approx(0.2 * scale, abs=tol)
     assert g["arrival_at_goal"] == pytest.approx(8.0 * scale, abs=tol)
-    assert g["arrival_ratio_to_bound"] == pytest.approx(1.0, abs=1e-9)
+    assert g["arrival_ratio_to_lower"] == pytest.approx(1.0, abs=1e-9)
     assert math.isclose(completion_length(p, "r", path), 0.2 * scale, abs_tol=tol)
 
 

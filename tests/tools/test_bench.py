@@ -32,8 +32,9 @@ max = [30.0, 35.0]
 
 
 def _strip_time(rows):
-    return [{k: v for k, v in r.items() if k not in ("wall_time", "reference_time")}
-            for r in rows]
+    """The rows without their times, NaN as None (NaN != NaN)."""
+    return [{k: None if isinstance(v, float) and math.isnan(v) else v for k, v in r.items()
+             if k not in ("wall_time", "reference_time")} for r in rows]
 
 
 def test_run_grid_rows_order_and_common_seeds(tmp_path):
@@ -227,3 +228,20 @@ def test_csv_round_trip(tmp_path):
     assert back[0]["optimum"] == 2.0 and back[0]["reference_time"] == 0.001
     assert np.isnan(back[1]["length"]) and back[1]["success"] is False
     assert bench.summarise(back)[0]["length_median"] == 1.5
+
+
+def test_rows_carry_the_grading_in_time(tmp_path):
+    """Among moving obstacles a row holds the grading against the time bracket: the same
+    figures as ``solve(..., reference=True)``, the reference shared by the runs."""
+    rows = bench.run_grid(["paper-apf-env1"], ["sipp", "apf-paper"], seeds=1)
+    solo = op.solve("paper-apf-env1", "sipp", reference=True).metrics
+    by = {r["solver"]: r for r in rows}
+    for c in bench.TIME_COLUMNS:
+        assert by["sipp"][c] == pytest.approx(solo[c], rel=1e-12), c
+    assert by["apf-paper"]["time_reference"] == pytest.approx(solo["time_reference"])
+    assert by["sipp"]["arrival_ratio_to_reference"] >= 1 - 1e-9
+    md = bench.to_markdown(bench.summarise(rows))
+    assert "arrival / reference median" in md and "arrival / lower median" in md
+    static = bench.to_markdown(bench.summarise(bench.run_grid(["paper-env1"], ["visgraph"],
+                                                              seeds=1)))
+    assert "arrival / reference" not in static  # no moving obstacles, no columns in time
