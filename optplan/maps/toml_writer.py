@@ -37,8 +37,9 @@ def _toml_key(k: str) -> str:
     return k if re.fullmatch(r"[A-Za-z0-9_-]+", k) else json.dumps(k)
 
 
-def _toml_points(pts: Sequence, indent: str = "  ", per_line: int = 4) -> str:
-    items = [_toml_value([float(x), float(y)]) for x, y in pts]
+def _toml_points(pts: Sequence, indent: str = "  ", per_line: int = 4, kind: type = float) -> str:
+    """A list of points ``[x, y]`` (``kind`` int: node-index pairs), ``per_line`` a line."""
+    items = [_toml_value([kind(x), kind(y)]) for x, y in pts]
     if len(items) <= per_line:
         return "[" + ", ".join(items) + "]"
     lines = [indent + ", ".join(items[i:i + per_line]) + ","
@@ -51,7 +52,8 @@ def _problem_tables(problem: Problem) -> tuple[dict, list[tuple[str, dict]]]:
     (:func:`optplan.problem.problem_to_dict`, laid out for TOML)."""
     d = problem_to_dict(problem)
     top = {k: v for k, v in d.items()
-           if k not in ("sensing", "formation", "robots", "obstacles", "dynamic_obstacles")}
+           if k not in ("sensing", "formation", "robots", "obstacles", "dynamic_obstacles",
+                        "roadmap")}
     sections: list[tuple[str, dict]] = []
     if "sensing" in d:
         sections.append(("[sensing]", d["sensing"]))
@@ -59,6 +61,8 @@ def _problem_tables(problem: Problem) -> tuple[dict, list[tuple[str, dict]]]:
         sections.append(("[formation]", d["formation"]))
     for key in ("robots", "obstacles", "dynamic_obstacles"):
         sections += [(f"[[{key}]]", t) for t in d.get(key, [])]
+    if "roadmap" in d:
+        sections.append(("[roadmap]", d["roadmap"]))
     return top, sections
 
 
@@ -72,8 +76,10 @@ def to_toml(problem: Problem, header: str | None = None) -> str:
     for head, t in sections:
         lines += ["", head]
         for k, v in t.items():
-            if k in ("vertices", "waypoints"):
+            if k in ("vertices", "waypoints", "nodes"):
                 lines.append(f"{k} = {_toml_points(v)}")
+            elif k == "edges":
+                lines.append(f"{k} = {_toml_points(v, per_line=8, kind=int)}")
             elif k == "holes":
                 rings = ",\n".join("  " + _toml_points(h, indent="    ") for h in v)
                 lines.append(f"holes = [\n{rings},\n]")

@@ -31,6 +31,7 @@ _TOP_KEYS = {
     "dynamic_obstacles": "array of tables",
     "formation": "table",
     "sensing": "table",
+    "roadmap": "table",
 }
 _ROBOT_KEYS = {"id", "start", "goal", "radius", "max_speed"}
 _OBST_KEYS = {
@@ -43,6 +44,7 @@ _DYN_TYPE_KEYS = {"circle": _DYN_KEYS - {"vertices"}, "polygon": _DYN_KEYS - {"r
 _FORM_KEYS = {"leader", "followers", "safety_distance"}
 _FOLL_KEYS = {"id", "L", "phi"}
 _SENS_KEYS = {"range"}
+_ROADMAP_KEYS = {"nodes", "edges"}
 
 
 

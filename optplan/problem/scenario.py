@@ -39,6 +39,7 @@ from optplan.problem.parse_obstacles import (
     _parse_dynamic,
     _parse_obstacle,
 )
+from optplan.problem.parse_roadmap import _check_roadmap_ends, _parse_roadmap
 
 
 def _parse_formation(ctx: _Ctx, tbl: Any, robots: list[Robot], diag: float) -> Formation:
@@ -313,11 +314,12 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
     sensing = _parse_sensing(ctx, data, diag)
     gtol, lscale = _parse_lengths(ctx, data, diag)
     tags = _parse_tags(ctx, data)
+    roadmap = _parse_roadmap(ctx, data["roadmap"], frame) if "roadmap" in data else None
     prob = Problem(
         name=name, bounds=bounds, robots=tuple(robots), obstacles=obstacles,
         dynamic_obstacles=dyn, formation=formation, sensing_range=sensing,
         goal_tolerance=gtol, scale=lscale, description=description, source=source,
-        tags=tags,
+        tags=tags, roadmap=roadmap,
         path=where if where != "<problem>" else None,
     )
     prob.memo(("frame",), lambda: frame)  # already built by the checks above
@@ -327,6 +329,7 @@ def _parse(ctx: _Ctx, data: dict) -> Problem:
     for i, o in enumerate(obstacles):
         _check_extent(ctx, frame, o, _extent_key(raw_obst[i], i), margin)
     _check_ends(ctx, prob)
+    _check_roadmap_ends(ctx, prob)
     return prob
 
 

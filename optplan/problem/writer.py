@@ -11,6 +11,7 @@ import shapely
 import shapely.affinity
 
 from optplan.problem.model import DynamicObstacle, Follower, Formation, Obstacle, Problem, Robot
+from optplan.problem.roadmap import RoadmapGraph
 
 # --------------------------------------------------------------------------------------
 # writing
@@ -104,6 +105,9 @@ def problem_to_dict(problem: Problem) -> dict[str, Any]:
     dyn = [_dynamic_to_dict(d) for d in problem.dynamic_obstacles]
     if dyn:
         out["dynamic_obstacles"] = dyn
+    if problem.roadmap is not None:
+        out["roadmap"] = {"nodes": problem.roadmap.nodes.tolist(),
+                          "edges": problem.roadmap.edges.tolist()}
     return out
 
 
@@ -118,11 +122,12 @@ def transform_problem(problem: Problem, scale: float = 1.0, shift=(0.0, 0.0), *,
                       decimals: int | None = None) -> Problem:
     """``problem`` with every length scaled by ``scale`` about the origin, then shifted.
 
-    Positions, sizes, radii, speeds, formation distances, tolerances and sensing range scale
-    (times do not), so every answer of a scale- and translation-invariant method is the same up
-    to the scale (the metamorphic tests use it).  With ``decimals``, every transformed coordinate
-    and length is then rounded to that many decimal places (the canonical frame,
-    :mod:`optplan.canonical`).  The caches of the copy are empty.
+    Positions (the roadmap's nodes too), sizes, radii, speeds, formation distances, tolerances
+    and sensing range scale (times do not), so every answer of a scale- and
+    translation-invariant method is the same up to the scale (the metamorphic tests use it).
+    With ``decimals``, every transformed coordinate and length is then rounded to that many
+    decimal places (the canonical frame, :mod:`optplan.canonical`).  The caches of the copy
+    are empty.
     """
     import dataclasses
 
@@ -163,9 +168,15 @@ def transform_problem(problem: Problem, scale: float = 1.0, shift=(0.0, 0.0), *,
                                             for f in form.followers),
                          length(form.safety_distance))
     lo, hi = pt(problem.bounds[:2]), pt(problem.bounds[2:])
+    roadmap = problem.roadmap
+    if roadmap is not None:  # rounded as the robots' ends are: they stay on its nodes
+        roadmap = roadmap.transformed(s, off)
+        if decimals is not None:
+            roadmap = RoadmapGraph(rnd(roadmap.nodes), roadmap.edges)
     return dataclasses.replace(
         problem, bounds=(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])),
         robots=robots, obstacles=obstacles, dynamic_obstacles=dyn, formation=form,
+        roadmap=roadmap,
         goal_tolerance=length(problem.goal_tolerance),
         sensing_range=length(problem.sensing_range), scale=length(problem.scale),
         _cache={})
