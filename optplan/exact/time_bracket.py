@@ -47,6 +47,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan import solver
 from optplan.backend import ClaimsInTime
 from optplan.exact.sipp import earliest_arrival
 from optplan.geometry.collision import farthest_clear
@@ -60,7 +61,7 @@ from optplan.geometry.timing import (
 from optplan.metrics import evaluate
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status, confirms_optimum, notify
-from optplan.solver import Backend, clock, option
+from optplan.solver import Backend, option
 
 __all__ = ["TimeBracket", "Bracket", "lattice", "shortcut", "time_bracket"]
 
@@ -256,6 +257,14 @@ class TimeBracket(ClaimsInTime, Backend):
         Also re-time each level's path exactly along its curve and along its shortcut
         (``fastest_schedule``, waits anywhere on the path; default false: it does not poll
         the time limit, and can take many seconds on long paths among many movers).
+
+    Notes
+    -----
+    ``solve(init={robot: path})`` starts the upper side from ``path`` (any valid motion is an
+    upper bound): the fastest schedule along it (``fastest_schedule``: its time counts against
+    the time limit, which it does not poll) counts when the validator accepts it, and
+    ``extras["time_bracket"]["init"]`` says what became of it.  A plan of the same scene with
+    more static obstacles is such a path: the bracket without them is then never later.
     """
 
     name: ClassVar[str] = "time-bracket"
@@ -271,7 +280,7 @@ class TimeBracket(ClaimsInTime, Backend):
         if len(problem.planned_robots) != 1:
             raise ValueError(f"time-bracket plans one robot; problem {problem.name!r} has "
                              f"{len(problem.planned_robots)} planned robots")
-        t0, start = time.perf_counter(), clock()
+        t0, start = time.perf_counter(), solver.clock()  # the module's: tests replace it
         rid = problem.planned_robots[0].id
         br = Bracket()
         state = {"stop": False, "timed_out": False}
@@ -285,14 +294,18 @@ class TimeBracket(ClaimsInTime, Backend):
 
         def stop() -> bool:
             if not state["stop"] and self.time_limit is not None and \
-                    clock() - start >= self.time_limit:
+                    solver.clock() - start >= self.time_limit:
                 state["stop"] = state["timed_out"] = True
             state["stop"] = state["stop"] or report()
             return state["stop"]
 
+        seeded = _seed(problem, rid, br, init)
         time_bracket(problem, rid, gap_tol=self.gap_tol, max_level=self.max_level,
                      stop=stop, on_level=lambda b: stop(), bracket=br, retime=self.retime)
-        return self._answer(problem, rid, br, t0, "time_limit" if state["timed_out"] else "")
+        res = self._answer(problem, rid, br, t0, "time_limit" if state["timed_out"] else "")
+        if seeded is not None:
+            res.extras["time_bracket"]["init"] = seeded
+        return res
 
     def reference(self, problem: Problem, robot_id: str) -> TimedPlan:
         """The bracket of ``robot_id`` up to :data:`GRADING_LEVEL` without a time limit (the
@@ -341,6 +354,20 @@ class TimeBracket(ClaimsInTime, Backend):
                           n_iter=len(br.levels), n_eval=len(br.levels),
                           wall_time=time.perf_counter() - t0)
         return res if not stop_reason else _stopped(res)
+
+
+def _seed(problem: Problem, rid: str, br: Bracket, init: dict[str, np.ndarray] | None
+          ) -> dict[str, Any] | None:
+    """Start ``br``'s upper side from ``init[rid]`` timed by the fastest schedule along it,
+    when the validator accepts that; what became of it (``None`` without ``init``)."""
+    if not init or rid not in init:
+        return None
+    plan = fastest_schedule(problem, np.asarray(init[rid], float), rid)
+    used = plan.arrival is not None and _valid(problem, rid, plan)
+    if used:
+        br.upper, br.plan = float(plan.arrival), plan  # type: ignore[arg-type]
+    return {"arrival": plan.arrival, "status": plan.status.value, "used": used,
+            "message": plan.message}
 
 
 def _stopped(res: Result) -> Result:

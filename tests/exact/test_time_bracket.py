@@ -120,3 +120,65 @@ def test_progress_reports_the_bracket():
     last = seen[-1]
     assert np.isfinite(last.best_cost) and 0 < last.info["arrival_lower"] <= last.best_cost
     assert 0 <= last.info["arrival_gap"] < 1
+
+
+_CLOSER = {"type": "circle", "radius": 0.8, "name": "closer",
+           "waypoints": [[20, 30], [20, 10], [20, 10], [20, 30]], "times": [0, 5, 25, 30]}
+
+
+def test_a_door_that_closes_and_reopens():
+    """The door is open until t = 5 (the robot needs 17.2 s to reach it), shut by a parked
+    disc until t = 25, then the disc leaves upwards at speed 4.  By hand: in the doorway
+    (|y - 10| <= 0.7 between the walls) the robot's centre is within 0.86 of the door's
+    centre, less than the 1.1 it must keep, so it crosses x = 20 no earlier than t = 25.1
+    (the disc 1.1 - 0.7 above its centre), and 18 remain: T* >= 43.1.  Waiting at
+    (18.8, 10) until t = 25.2 and then driving straight arrives at 44.4 (the distance only
+    grows: d^2 = (1.2 - s)^2 + (0.8 + 4 s)^2), so T* <= 44.4."""
+    p = door(movers=(_CLOSER,))
+    res = _bracket(p, max_level=3, gap_tol=0.0)
+    m = res.metrics
+    assert res.status is op.Status.solved and m["collisions"] == 0
+    assert 43.1 <= m["arrival_upper"] <= 44.4  # the rings beside the parked disc beat the hand
+    assert m["arrival_lower"] <= 43.1
+    from optplan.geometry.timing import arrival_lower_bound
+    fine = arrival_lower_bound(p, "r", level=8).value
+    assert 42.5 < fine <= 43.1  # the cells see the shut door (the static bound says 36)
+
+
+def test_a_valid_start_path_seeds_the_upper_side():
+    """A plan of the scene with the walls is a valid motion without them: started from it,
+    the bracket of the bare scene is never later (the issue's metamorphic case)."""
+    p = door()
+    walled = _bracket(p, max_level=1, gap_tol=0.0)
+    bare = p.replaced(obstacles=())
+    res = op.solve(bare, "time-bracket", max_level=1, gap_tol=0.0, time_limit=600,
+                   init={"r": walled.paths["r"]})
+    seeded = res.extras["time_bracket"]["init"]
+    assert seeded["used"] and seeded["arrival"] <= walled.metrics["arrival_upper"] * (1 + 1e-9)
+    assert res.metrics["arrival_upper"] <= walled.metrics["arrival_upper"] * (1 + 1e-9)
+    assert res.metrics["collisions"] == 0
+    off = op.solve(bare, "time-bracket", max_level=0, time_limit=600,
+                   init={"r": np.array([[2, 10], [20, 10], [38, 10.0]])})  # through the keeper
+    assert not off.extras["time_bracket"]["init"]["used"] or off.metrics["collisions"] == 0
+
+
+def test_the_time_limit_stops_within_one_refinement(monkeypatch):
+    """A clock that jumps past the limit once level 1 is done: the refinement stops at the
+    next poll, inside level 2, and returns level 1's bracket (load-independent: no wall time
+    is measured)."""
+    from optplan import solver
+
+    state = {"now": 0.0}
+    monkeypatch.setattr(solver, "clock", lambda: state["now"])
+
+    def jump(progress):
+        if progress.iteration >= 2:  # level 1 reported
+            state["now"] = 1e9
+
+    res = op.solve(door(), "time-bracket", max_level=6, gap_tol=0.0, time_limit=5.0,
+                   callback=jump)
+    levels = res.extras["time_bracket"]["levels"]
+    assert res.stop_reason == "time_limit" and "stopped by the time limit" in res.message
+    assert [lv["level"] for lv in levels][:2] == [0, 1] and len(levels) <= 3
+    assert levels[-1]["upper"] == levels[1]["upper"] == res.metrics["arrival_upper"]
+    assert res.status is op.Status.solved and res.metrics["collisions"] == 0
