@@ -17,6 +17,7 @@ from optplan.cli.common import PROG
 from optplan.cli.figures import cmd_animate, cmd_plot
 from optplan.cli.map_gen import cmd_gen_map
 from optplan.cli.map_import import cmd_import_map
+from optplan.cli.mapf_import import cmd_import_mapf
 from optplan.cli.ros_export import cmd_export_path
 from optplan.cli.solving import cmd_solve
 from optplan.cli.sweep import cmd_bench, cmd_export_arena, cmd_report
@@ -117,6 +118,25 @@ _IMPORT_MAP = [
          help="largest map read, in cells (default 67108864 = 8192 x 8192)"),
 ]
 
+_IMPORT_MAPF = [
+    _arg("graph", nargs="?", help="GraphML roadmap (Continuous-CBS format)"),
+    _arg("tasks", nargs="?", help="its task file (<agent start_id=.. goal_id=../>)"),
+    _arg("--map", metavar="X.map", help="a MovingAI map (instead of GRAPH TASKS; with --scen)"),
+    _arg("--scen", metavar="X.scen", help="the MovingAI .scen whose first lines are the agents"),
+    _arg("--agents", type=int, metavar="K", help="the first K agents (default: all)"),
+    _arg("--radius", type=float, metavar="R",
+         help="robot radius (the graph's units, cells on a grid; default sqrt(2)/4, "
+              "Continuous-CBS's)"),
+    _arg("--max-speed", type=float, default=1.0, metavar="V",
+         help="speed of every robot (units / s, default 1)"),
+    _arg("--connectedness", type=int, choices=[2, 3, 4, 5], default=2,
+         help="grid moves: 2 (4-connected, default), 3 (8), 4 (16), 5 (32 neighbours)"),
+    _arg("--merge-duplicates", action="store_true",
+         help="read roadmap nodes at the same place as one node (default: an error)"),
+    _arg("-o", "--out", metavar="TOML", help="scenario file to write (default: stdout)"),
+    _arg("--name", help="scenario name (default: from the file names)"),
+]
+
 #: command -> (handler, ``add_parser`` keywords, arguments), in the order of ``optplan -h``
 #: (``validate``'s handler is None: the CLI hands its arguments to optplan.experiments.validate)
 COMMANDS: dict[str, tuple[Handler | None, dict[str, Any], list[Arg]]] = {
@@ -211,6 +231,13 @@ COMMANDS: dict[str, tuple[Handler | None, dict[str, Any], list[Arg]]] = {
                        "cells become conservative polygons (every cell inside; docs/maps.md). "
                        "MAP may also name a shipped map (problems/maps/), e.g. 'warehouse'."},
                    _IMPORT_MAP),
+    "import-mapf": (cmd_import_mapf, {
+        "help": "turn a multi-agent path-finding instance into a scenario TOML with a roadmap",
+        "description": "Import a continuous-time MAPF instance: a GraphML roadmap and its task "
+                       "file as Continuous-CBS reads them (GRAPH TASKS), or a MovingAI grid "
+                       "(--map X.map --scen X.scen: the .scen's first lines are the agents, "
+                       "the free cells' centres the roadmap). The robots keep to the "
+                       "roadmap's straight edges (docs/mapf.md)."}, _IMPORT_MAPF),
     "gen-map": (cmd_gen_map, {
         "help": "write a seeded MovingAI benchmark map (.map) and its queries (.scen)",
         "description": "Generate a MovingAI-format map of a family (random, room, maze, "

@@ -15,6 +15,10 @@ Readers
   grid as ``nav_msgs/OccupancyGrid`` (:func:`occupancy_grid_msg`).
 * **MovingAI** ``.map`` grids (:func:`read_movingai`) and their ``.scen`` start/goal pairs
   (:func:`read_scen`: one :class:`~optplan.Problem` per line, a batch for ``bench``).
+* **multi-agent path finding** (``docs/mapf.md``): Continuous-CBS's GraphML roadmaps and task
+  files (:func:`read_roadmap_mapf`, :func:`write_roadmap_mapf`) and MovingAI MAPF grids
+  (:func:`read_movingai_mapf`: the first ``k`` lines of a ``.scen`` as agents), as problems
+  whose robots keep to a roadmap (``Problem.roadmap``).
 
 Every reader returns a :class:`Grid` (cells ``FREE``, ``OCCUPIED`` or ``UNKNOWN``; row 0 is
 the *top* of the map).  :func:`grid_polygons` turns its obstacle cells (occupied, and unknown
@@ -47,6 +51,15 @@ from optplan.maps.grid import FREE, MAX_CELLS, OCCUPIED, UNKNOWN, Grid
 from optplan.maps.importer import CROP_MARGIN as CROP_MARGIN
 from optplan.maps.importer import ROUND_REL as ROUND_REL
 from optplan.maps.importer import import_map, scene_name
+from optplan.maps.mapf import (
+    read_graphml,
+    read_movingai_mapf,
+    read_roadmap_mapf,
+    read_tasks,
+    write_roadmap_mapf,
+)
+from optplan.maps.mapf_build import CCBS_RADIUS as CCBS_RADIUS
+from optplan.maps.mapf_build import grid_mapf_problem, roadmap_problem
 from optplan.maps.movingai import MOVINGAI_BLOCKED as MOVINGAI_BLOCKED
 from optplan.maps.movingai import MOVINGAI_PASSABLE as MOVINGAI_PASSABLE
 from optplan.maps.movingai import read_movingai
@@ -98,4 +111,11 @@ __all__ = [
     "read_path_msg",
     "read_occupancy_grid",
     "occupancy_grid_msg",
+    "read_graphml",
+    "read_tasks",
+    "read_roadmap_mapf",
+    "read_movingai_mapf",
+    "write_roadmap_mapf",
+    "roadmap_problem",
+    "grid_mapf_problem",
 ]
