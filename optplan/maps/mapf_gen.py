@@ -237,7 +237,7 @@ def grid_terrain(kind: str, rng: np.random.Generator, size: int | None = None) -
         raise ValueError(f"unknown grid kind {kind!r} (expected one of {', '.join(GRID_KINDS)})")
     if kind == "warehouse":
         return _warehouse()
-    side = GRID_KINDS[kind] if size is None else size
+    side = size if size is not None else GRID_KINDS[kind] or 0
     if kind == "room":
         return benchmark_terrain("room", side, rng)
     if isinstance(side, bool) or not isinstance(side, (int, np.integer)) or side < 1:

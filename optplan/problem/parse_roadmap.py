@@ -93,7 +93,7 @@ def _check_roadmap_ends(ctx: _Ctx, prob: Problem) -> None:
     for key in ("start", "goal"):
         nodes = _end_nodes(ctx, prob, graph, key)
         idx = [i for i, v in enumerate(nodes) if v is not None]
-        pts = graph.nodes[[nodes[i] for i in idx]].reshape(-1, 2)
+        pts = graph.nodes[[v for v in nodes if v is not None]].reshape(-1, 2)
         pair = _first_overlap(pts, np.array([prob.robots[i].radius for i in idx]),
                               prob.frame.eps)
         if pair is None:

@@ -75,6 +75,15 @@ def test_the_shipped_example() -> None:
     assert x1 == pytest.approx(10 + CCBS_RADIUS + 0.01 * math.hypot(10, 10))
 
 
+def test_the_docs_show_the_shipped_example() -> None:
+    from tests.tools.test_docs import blocks
+
+    page = (ROOT / "docs" / "mapf.md").read_text(encoding="utf-8")
+    shown = {b["file"]: b["code"] for b in blocks(page) if b["file"]}
+    for name in ("crossing.xml", "crossing_task.xml"):
+        assert shown[f"runs/mapf/{name}"] == (EXAMPLE / name).read_text(encoding="utf-8")
+
+
 def test_authors_layout_weights_ids_and_agents(tmp_path: Path) -> None:
     g, t = _files(tmp_path, tasks=_tasks([("0", "2"), ("n2", "n0"), ("1", "3")]))
     info: dict = {}
