@@ -26,22 +26,13 @@ Schema (version :data:`SCHEMA_VERSION`; ``docs/benchmarks.md`` has the same tabl
     ``runs_skipped`` (already in the file), ``runs_done`` (finished by this invocation).
 
 ``runs``: one row per (problem, solver, seed), UNIQUE on those three
-    ``id``, ``experiment_id``, ``problem``, ``solver``, ``seed``, ``status`` (a
-    :class:`optplan.Status` value, ``error`` when the run raised, ``time_limit`` when the
-    harness had to stop a run that ignored its time limit), ``success`` (0/1: status optimal or
-    solved), ``length``, ``optimum`` (certified optimum of the known static map, NULL when
-    none), ``ratio`` (length / optimum), ``min_clearance``, ``collisions``, ``wall_time`` (s),
-    ``reference_time`` (s, the certified optimum's computation on a cold problem, once per
-    problem and worker process), ``n_iter``, ``n_eval``, ``stop_reason`` (``""`` finished,
-    ``time_limit`` stopped itself at the limit, ``hard_limit`` stopped by the harness),
-    ``message``, ``backend``, ``options`` (JSON: the effective backend options), ``config``
-    (JSON: the sweep's overrides and time limit for this solver; a resume must match it),
-    ``worker`` (host:pid or Dask worker address), ``finished`` (ISO 8601, UTC); for a
-    problem read from a MovingAI ``.scen`` line: ``scen`` (the file's name), ``bucket``,
-    ``scen_line``, ``octile_optimum`` (the file's optimal length) and ``octile_ratio``
-    (length / octile_optimum), NULL otherwise (a file written before these five columns
-    existed reads them as NULL, and gets them when a sweep writes to it).
-    NaN is stored as NULL; an infinite clearance (no obstacle) as ``Inf``.
+    The columns of a tidy row (:data:`optplan.bench.COLUMNS`: status, length, optimum and
+    ratio, clearance, collisions, times, the effective options; for a MovingAI ``.scen`` line
+    its file, bucket, line and octile figures; among moving obstacles the grading in time,
+    :data:`TIME_COLUMNS`), ``config`` (JSON: the sweep's overrides and time limit for this
+    solver; a resume must match it), ``worker`` and ``finished``.  Columns added after the
+    first files (:data:`_ADDED`) read as NULL from an older file, which gets them when a sweep
+    writes to it.  NaN is stored as NULL; an infinite clearance (no obstacle) as ``Inf``.
 
 ``progress``: the convergence trace of each run
     ``run_id``, ``iteration``, ``best_cost`` (the backend's objective, as passed to the
@@ -75,11 +66,9 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from optplan.bench import TIME_COLUMNS
-
 __all__ = ["SCHEMA", "SCHEMA_VERSION", "MAX_PROGRESS", "LOCK_TIMEOUT", "ResultsDB",
            "ResultsDBError", "experiment_info", "read_runs", "read_progress",
-           "read_experiments", "thin_progress", "typed"]
+           "read_experiments", "thin_progress", "typed", "TIME_COLUMNS"]
 
 SCHEMA_VERSION = 1
 #: at most this many progress rows are stored per run
@@ -137,11 +126,8 @@ CREATE TABLE IF NOT EXISTS runs (
     scen_line      INTEGER,
     octile_optimum REAL,
     octile_ratio   REAL,
-    arrival_at_goal REAL,
-    time_reference REAL,
-    time_lower_bound REAL,
-    arrival_ratio_to_reference REAL,
-    arrival_ratio_to_lower REAL,
+    arrival_at_goal REAL, time_reference REAL, time_lower_bound REAL,
+    arrival_ratio_to_reference REAL, arrival_ratio_to_lower REAL,
     UNIQUE (problem, solver, seed)
 );
 CREATE TABLE IF NOT EXISTS progress (
@@ -153,6 +139,11 @@ CREATE TABLE IF NOT EXISTS progress (
 );
 CREATE INDEX IF NOT EXISTS progress_run ON progress(run_id);
 """
+
+#: The grading in time of a run among moving obstacles (the planned robot's,
+#: :func:`optplan.time_grading.with_time_reference`; NULL without movers or an arrival).
+TIME_COLUMNS = ("arrival_at_goal", "time_reference", "time_lower_bound",
+                "arrival_ratio_to_reference", "arrival_ratio_to_lower")
 
 #: columns of ``runs`` that come from a tidy row (:data:`optplan.bench.COLUMNS`)
 _ROW_COLS = ("problem", "solver", "seed", "status", "success", "length", "optimum", "ratio",

@@ -11,10 +11,7 @@ from typing import Any
 
 import numpy as np
 
-#: The grading in time of a run on a problem with moving obstacles (the planned robot's,
-#: :func:`optplan.time_grading.with_time_reference`; NaN without movers or without an arrival).
-TIME_COLUMNS = ("arrival_at_goal", "time_reference", "time_lower_bound",
-                "arrival_ratio_to_reference", "arrival_ratio_to_lower")
+from optplan.benchdb import TIME_COLUMNS
 
 #: Columns of a tidy row, in order.
 COLUMNS = ("problem", "solver", "seed", "status", "success", "length", "ratio", "collisions",

@@ -61,6 +61,14 @@ def _n_timeouts(rs: Sequence[Mapping[str, Any]]) -> int:
                or r.get("status") == "time_limit" for r in rs)
 
 
+def _time_medians(good: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """The medians of the arrival ratios (to the reference in time, to its lower side)."""
+    return {"arrival_ratio_median": _stats([_num(r.get("arrival_ratio_to_reference"))
+                                            for r in good])[0],
+            "arrival_lower_ratio_median": _stats([_num(r.get("arrival_ratio_to_lower"))
+                                                  for r in good])[0]}
+
+
 def _summary_row(p: str, s: str, rs: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
     """The summary of one (problem, solver)'s rows (see :func:`summarise`)."""
     good = [r for r in rs if _truthy(r["success"])]
@@ -83,10 +91,7 @@ def _summary_row(p: str, s: str, rs: Sequence[Mapping[str, Any]]) -> dict[str, A
         "ratio_iqr": ratio[1],
         "collisions_median": _stats([r["collisions"] for r in returned])[0],
         "min_clearance_median": _stats([r["min_clearance"] for r in good])[0],
-        "arrival_ratio_median": _stats([_num(r.get("arrival_ratio_to_reference"))
-                                        for r in good])[0],
-        "arrival_lower_ratio_median": _stats([_num(r.get("arrival_ratio_to_lower"))
-                                              for r in good])[0],
+        **_time_medians(good),
         "time_median": tm[0],
         "time_iqr": tm[1],
         "n_eval_median": _stats([r["n_eval"] for r in returned])[0],

@@ -37,6 +37,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan.formation.orca_lp import full_share, orca_velocity
 from optplan.formation.orca_world import (
     AgentParams,
     LocalFrame,
@@ -250,11 +251,30 @@ class _OrcaRun:
             sim.set_agent_velocity(j, (float(mv[k, 0]), float(mv[k, 1])))
             sim.set_agent_pref_velocity(j, (float(mv[k, 0]), float(mv[k, 1])))
         sim.do_step()
-        out = np.array([sim.get_agent_velocity(i).to_tuple() for i in range(len(P))]) * u
+        out = np.array([self._velocity(i, V[i], pref[i]) for i in range(len(P))]) * u
         self.hist.append(iteration=state.k, best_cost=self.cost(state), n_eval=state.k + 1,
                          time=state.t, preferred_speed=float(np.max(np.hypot(*pref.T))) * u,
                          speed=float(np.max(np.hypot(*out.T))))
         return out
+
+    def _velocity(self, i: int, v: np.ndarray, pref: np.ndarray) -> np.ndarray:
+        """Robot ``i``'s new velocity (local units): RVO2's, or with a mover among its
+        neighbours and ``mover_share`` above one half, ORCA's program solved again with the
+        movers' lines moved to that share (:mod:`optplan.formation.orca_lp`)."""
+        sim = self.sim
+        got = np.asarray(sim.get_agent_velocity(i).to_tuple(), float)
+        n_agents = sim.get_agent_num_agent_neighbors(i)
+        movers = [k for k in range(n_agents) if sim.get_agent_agent_neighbor(i, k)
+                  >= len(self.robots)]
+        if self.o.mover_share == 0.5 or not movers:
+            return got
+        lines = [sim.get_agent_orca_line(i, k) for k in range(sim.get_agent_num_orca_lines(i))]
+        dirs = np.array([d for d, _ in lines], float)
+        pts = np.array([q for _, q in lines], float)
+        n_obst = len(lines) - n_agents
+        for k in movers:
+            pts[n_obst + k] = full_share(pts[n_obst + k], v, self.o.mover_share)
+        return orca_velocity(pts, dirs, n_obst, float(self.vmax[i]), pref)
 
     def _stalled(self, positions: np.ndarray) -> bool:
         """Whether no robot moved more than :data:`STALL_FRACTION` of ``max_speed *
@@ -355,6 +375,12 @@ class ORCA(Backend):
     stall_time : float
         The run ends as stalled when no robot moved more than 5 % of ``max_speed *
         stall_time`` over the last ``stall_time`` seconds (s; 0 never stops).
+    mover_share : float
+        The share of the avoidance of a moving obstacle a robot takes (in [0.5, 1]): 1, the
+        whole (a mover keeps its prescribed velocity and reciprocates nothing: each step a
+        robot with a mover among its neighbours solves ORCA's program again on RVO2's lines
+        with the movers' moved, :mod:`optplan.formation.orca_lp`); 0.5 is RVO2's reciprocal
+        rule, as if the mover took the other half.
     """
 
     name: ClassVar[str] = "orca"
@@ -377,6 +403,7 @@ class ORCA(Backend):
     trail: bool = option(False)
     settle_tol: float = option(0.02, lo=0.0, hi=0.25, lo_open=True)
     stall_time: float = option(10.0, lo=0.0, hi=1e6)
+    mover_share: float = option(1.0, lo=0.5, hi=1.0)
 
     def check(self) -> None:
         """The time horizons cover at least one step (ORCA's guarantee holds for the next
