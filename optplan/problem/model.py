@@ -442,6 +442,9 @@ class Problem:
         if self.formation:
             fs = ", ".join(f"{f.id} (L={f.L:g}, phi={f.phi:.3f})" for f in self.formation.followers)
             lines.append(f"  formation: leader {self.formation.leader}; followers {fs}")
+        if self.roadmap is not None:
+            lines.append(f"  roadmap: {len(self.roadmap)} nodes, {len(self.roadmap.edges)} "
+                         "edges (the robots drive its edges and wait at its nodes)")
         if self.source:
             lines.append(f"  source: {self.source}")
         return "\n".join(lines)

@@ -44,6 +44,7 @@ def test_roadmap_is_read_sorted_and_unique() -> None:
     assert p.roadmap.edges.tolist() == [[0, 2], [1, 2], [2, 3], [2, 4]]
     assert p.roadmap.neighbours(2).tolist() == [0, 1, 3, 4]
     assert parse_problem({k: v for k, v in _BASE.items() if k != "roadmap"}).roadmap is None
+    assert "  roadmap: 5 nodes, 4 edges (the robots drive its edges" in p.summary()
 
 
 def test_round_trip_through_toml() -> None:
