@@ -95,6 +95,7 @@ BACKENDS: dict[str, str] = {
     "visgraph": "optplan.exact.visgraph:VisGraph",
     "sipp": "optplan.exact.sipp:SIPP",
     "time-bracket": "optplan.exact.time_bracket:TimeBracket",
+    "ccbs": "optplan.exact.ccbs:CCBS",
     "pso": "optplan.swarm.pso:PSO",
     "mpso": "optplan.swarm.mpso:MPSO",
     "ipso": "optplan.swarm.ipso:IPSO",

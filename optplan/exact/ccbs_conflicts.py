@@ -1,0 +1,188 @@
+r"""Conflicts of ``ccbs`` and the delta branching rule (Combrink, Roselli, Fabian 2025).
+
+**Timed actions.**  A plan (:class:`~optplan.exact.ccbs_sipp.Plan`) is a sequence of *moves*
+(node ``u`` to node ``v`` at full speed, departing at ``t``) and *waits* (at a node, from an
+arrival to a departure; the last one, at the goal, for ever).
+
+**Conflicts.**  Two robots conflict when their discs overlap
+(:func:`~optplan.geometry.timing.disc_conflict.contact_interval`, contact distance
+``(r_i + r_j)(1 - 2 CONTACT_REL_TOL)``); the conflict of a pair is its first one in time.  Its
+two actions are never both waits: the first contact of two discs at rest began while one of
+them was arriving (the starts are checked apart, and two goals that overlap make the problem
+infeasible).
+
+**Branching** (both children with the contact distance ``R = (r_i + r_j)(1 - CONTACT_REL_TOL)``).
+
+* Move ``i`` against move ``j``: whether they overlap depends only on the offset of their
+  departures, and the offsets in contact form one open interval (both bodies are convex in
+  space-time), so the children "``i`` does not depart along its edge in ``[t_i, e_i)``" and
+  "``j`` does not depart in ``[t_j, e_j)``", ``e`` the end of the unsafe interval of each against
+  the other fixed (:func:`~optplan.geometry.timing.disc_conflict.unsafe_interval`), exclude
+  together only pairs of departures whose offset lies in the contact interval: every
+  conflict-free solution survives in one child (the original CCBS rule, sound for two moves).
+* Move ``i`` against a wait of ``j`` at node ``v`` (until ``t_b``, ``inf`` for the goal):
+  the wait has no duration of its own, so the original rule (the wait's node forbidden over the
+  time the move passes it, the move over its whole unsafe interval) can cut off conflict-free
+  solutions.  The delta rule: with ``(c_s, c_e)`` the times the move (departing at ``t_i``)
+  passes within ``R`` of ``v`` and ``delta = min(gamma (c_e - c_s), t_b - c_s)``, the children
+  are "``i`` does not depart in ``[t_i, t_i + delta)``" and "``j`` is not at ``v`` in
+  ``[c_s + delta, c_e)``".  A departure in ``[t_i, t_i + delta)`` passes ``v`` over an interval
+  that holds ``[c_s + delta, c_e)``, so a pair excluded by both collides: sound; both children
+  exclude the current conflict (``j`` is at ``v`` in ``[c_s + delta, c_e)`` or leaves it at
+  ``c_s + delta``, and the vertex constraint forbids leaving too), and the excluded intervals are
+  a fixed fraction of the contact, which is what makes the search terminate.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from optplan.exact.ccbs_sipp import Constraints, Plan
+from optplan.geometry.timing.disc_conflict import (
+    CONTACT_REL_TOL,
+    TimedMotion,
+    contact_interval,
+    unsafe_interval,
+)
+
+__all__ = ["Action", "Conflict", "actions_of", "first_conflict", "branch"]
+
+
+@dataclass(frozen=True)
+class Action:
+    """A timed action of a plan: a move ``u -> v`` (``u != v``) or a wait at ``u = v``, over
+    ``[t0, t1]`` (``t1 = inf`` for the goal hold)."""
+
+    u: int
+    v: int
+    t0: float
+    t1: float
+
+    @property
+    def is_move(self) -> bool:
+        """Whether the action is a move."""
+        return self.u != self.v
+
+
+def actions_of(plan: Plan) -> list[Action]:
+    """The timed actions of ``plan`` in time order (waits of zero length left out)."""
+    out = []
+    for k, v in enumerate(plan.nodes):
+        if plan.depart[k] > plan.arrive[k]:
+            out.append(Action(v, v, plan.arrive[k], plan.depart[k]))
+        if k + 1 < len(plan.nodes):
+            out.append(Action(v, plan.nodes[k + 1], plan.depart[k], plan.arrive[k + 1]))
+    return out
+
+
+def _motion(nodes, act: Action) -> TimedMotion:
+    """The disc centre's motion of ``act`` on a graph with node coordinates ``nodes``."""
+    a, b = nodes[act.u], nodes[act.v]
+    return TimedMotion((float(a[0]), float(a[1])), (float(b[0]), float(b[1])), act.t0, act.t1)
+
+
+@dataclass(frozen=True)
+class Conflict:
+    """The first conflict of robots ``i`` and ``j``: their actions and the first contact."""
+
+    i: int
+    j: int
+    act_i: Action
+    act_j: Action
+    time: float
+
+
+def first_conflict(nodes, i: int, j: int, acts_i: list[Action], acts_j: list[Action],
+                   contact: float) -> Conflict | None:
+    """The first conflict of two robots' actions (module docstring), ``None`` without one.
+
+    ``contact`` is the sum of their radii; the detection distance is
+    ``contact (1 - 2 CONTACT_REL_TOL)``.
+    """
+    radius = contact * (1.0 - 2.0 * CONTACT_REL_TOL)
+    best: Conflict | None = None
+    k = m = 0
+    while k < len(acts_i) and m < len(acts_j):
+        a, b = acts_i[k], acts_j[m]
+        if best is not None and max(a.t0, b.t0) > best.time:
+            break
+        hit = contact_interval(_motion(nodes, a), _motion(nodes, b), radius)
+        if hit is not None and (best is None or hit[0] < best.time or (
+                hit[0] == best.time and not (best.act_i.is_move or best.act_j.is_move))):
+            best = Conflict(i, j, a, b, hit[0])
+        if a.t1 <= b.t1:
+            k += 1
+        else:
+            m += 1
+    return best
+
+
+def _move_move(nodes, c: Conflict, radius: float) -> tuple[tuple, tuple]:
+    """The two children of a conflict of two moves (the unsafe intervals)."""
+    out = []
+    for me, other in ((c.act_i, c.act_j), (c.act_j, c.act_i)):
+        hit = unsafe_interval(_motion(nodes, me), _motion(nodes, other), radius)
+        end = hit[1] if hit is not None else me.t0
+        out.append(("edge", me.u, me.v, me.t0, max(end, math.nextafter(me.t0, math.inf))))
+    return out[0], out[1]
+
+
+def _move_wait(nodes, move: Action, wait: Action, radius: float, gamma: float
+               ) -> tuple[tuple, tuple]:
+    """The children of a move against a wait: the delta rule (module docstring)."""
+    point = nodes[wait.u]
+    still = TimedMotion((float(point[0]), float(point[1])), (float(point[0]), float(point[1])),
+                        -math.inf, math.inf)
+    hit = contact_interval(_motion(nodes, move), still, radius)
+    if hit is None:  # round-off at the detection margin: the smallest step forward
+        t = math.nextafter(move.t0, math.inf)
+        return (("edge", move.u, move.v, move.t0, t),
+                ("vertex", wait.u, wait.u, max(wait.t0, move.t0), t))
+    cs, ce = hit
+    delta = min(gamma * (ce - cs), wait.t1 - cs)
+    return (("edge", move.u, move.v, move.t0, move.t0 + delta),
+            ("vertex", wait.u, wait.u, cs + delta, ce))
+
+
+def branch(nodes, c: Conflict, contact: float, gamma: float) -> tuple[tuple, tuple]:
+    """The constraints of the two children of conflict ``c``: one for robot ``c.i``, one for
+    ``c.j``, each ``(kind, u, v, t1, t2)`` with ``kind`` ``"edge"`` (no departure along
+    ``u -> v`` in ``[t1, t2)``) or ``"vertex"`` (not at ``u`` in ``[t1, t2)``).
+
+    Parameters
+    ----------
+    nodes : ndarray ``(n, 2)``
+        Node coordinates.
+    c : Conflict
+    contact : float
+        The sum of the two radii (the branching distance is ``contact (1 - CONTACT_REL_TOL)``).
+    gamma : float
+        The fraction of the contact interval the delta rule excludes, in ``(0, 1)``.
+
+    Raises
+    ------
+    RuntimeError
+        For a conflict of two waits (the module docstring: it is never the first one).
+    """
+    radius = contact * (1.0 - CONTACT_REL_TOL)
+    if c.act_i.is_move and c.act_j.is_move:
+        return _move_move(nodes, c, radius)
+    if c.act_i.is_move:
+        return _move_wait(nodes, c.act_i, c.act_j, radius, gamma)
+    if c.act_j.is_move:
+        cj, ci = _move_wait(nodes, c.act_j, c.act_i, radius, gamma)
+        return ci, cj
+    raise RuntimeError(f"ccbs: robots {c.i} and {c.j} first conflict while both wait "
+                       f"(at nodes {c.act_i.u} and {c.act_j.u}, t = {c.time:.9g})")
+
+
+def constrain(cons: Constraints, child: tuple) -> Constraints:
+    """A copy of ``cons`` with the child's constraint added."""
+    out = Constraints(dict(cons.vertex), dict(cons.edge))
+    kind, u, v, lo, hi = child
+    if kind == "vertex":
+        out.add_vertex(u, lo, hi)
+    else:
+        out.add_edge(u, v, lo, hi)
+    return out

@@ -1,0 +1,298 @@
+r"""The low level of ``ccbs``: safe-interval path planning for one robot on a straight-line graph.
+
+The robot (a disc: ``radius``, full speed ``speed``) drives along the graph's edges at full
+speed and waits at its nodes for any duration; it must reach its goal node and stay there for
+ever.  Its *constraints* (from the high level, :mod:`optplan.exact.ccbs`) are
+
+* vertex constraints ``(v, [t1, t2))``: the robot is not at node ``v`` at any time of
+  ``[t1, t2)`` (it may arrive at ``t2``); it may not leave ``v`` in ``[t1, t2)`` either;
+* edge constraints ``(u -> v, [t1, t2))``: the robot does not depart along ``u -> v`` at a time
+  of ``[t1, t2)``;
+
+and the moving obstacles are hard constraints: their busy times at a node
+(:meth:`~optplan.exact.sipp_graph.MoverBoxes.parked_busy`) and their forbidden departures on an
+edge (:func:`~optplan.exact.sipp_graph.segment_windows`, the one mover kernel of ``sipp``),
+computed on ``[0, horizon]`` (nothing is known of them afterwards: the plan is not checked
+against them after the horizon).
+
+Safe-interval path planning (Phillips and Likhachev, ICRA 2011): A* over states ``(node, safe
+interval)``, the earliest arrival per state (an earlier arrival in the same safe interval can
+do whatever a later one can: the constraints restrict departures, not arrivals), the heuristic
+the graph distance to the goal over ``speed`` (consistent).  A state at the goal counts only
+when its safe interval is unbounded (the robot holds its goal for ever), so the first one taken
+from the queue is the earliest arrival under the constraints: *optimal*.
+"""
+
+from __future__ import annotations
+
+import bisect
+import heapq
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from optplan.exact.sipp_graph import MoverBoxes, segment_windows
+from optplan.geometry.timing import Intervals, first_free, free_intervals, merge_open
+
+__all__ = ["AgentModel", "Constraints", "Plan", "plan_agent", "graph_distances"]
+
+#: States expanded between two polls of ``stop``.
+_POLL = 256
+
+
+def graph_distances(nbrs: list[list[tuple[int, float]]], goal: int) -> np.ndarray:
+    """Shortest graph distance from every node to ``goal`` (Dijkstra; ``inf`` unreachable)."""
+    dist = np.full(len(nbrs), math.inf)
+    dist[goal] = 0.0
+    heap = [(0.0, goal)]
+    while heap:
+        d, v = heapq.heappop(heap)
+        if d > dist[v]:
+            continue
+        for w, length in nbrs[v]:
+            if d + length < dist[w]:
+                dist[w] = d + length
+                heapq.heappush(heap, (d + length, w))
+    return dist
+
+
+@dataclass
+class AgentModel:
+    """One robot on its graph, with the moving obstacles' windows (computed lazily, cached).
+
+    Attributes
+    ----------
+    nodes : ndarray ``(n, 2)``
+        Node coordinates (map units).
+    nbrs : list of list of (int, float)
+        Per node, its neighbours on this robot's graph and the edge lengths.
+    start, goal : int
+        Nodes.
+    radius, speed : float
+        The disc and its full speed (> 0).
+    boxes : MoverBoxes or None
+        The moving obstacles (``None``: there are none).
+    horizon : float
+        The moving obstacles' windows are exact on ``[0, horizon]`` (``inf`` without movers).
+    """
+
+    nodes: np.ndarray
+    nbrs: list[list[tuple[int, float]]]
+    start: int
+    goal: int
+    radius: float
+    speed: float
+    boxes: MoverBoxes | None = None
+    horizon: float = math.inf
+    h: np.ndarray = field(init=False, repr=False)
+    _busy: dict[int, Intervals] = field(default_factory=dict, repr=False)
+    _forb: dict[tuple[int, int], Intervals] = field(default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        self.h = graph_distances(self.nbrs, self.goal) / self.speed
+
+    def busy(self, v: int) -> Intervals:
+        """The moving obstacles' busy times at node ``v`` (open intervals)."""
+        if self.boxes is None:
+            return []
+        if v not in self._busy:
+            self._busy[v] = self.boxes.parked_busy(self.nodes[v], self.radius, 0.0,
+                                                   self.horizon)
+        return self._busy[v]
+
+    def mover_forbidden(self, u: int, v: int) -> Intervals:
+        """The departures along ``u -> v`` at which the robot overlaps a moving obstacle."""
+        if self.boxes is None:
+            return []
+        if (u, v) not in self._forb:
+            a, b = self.nodes[u][None], self.nodes[v][None]
+            near = self.boxes.near_segments(a, b)
+            forb, _ = segment_windows(near, a, b, self.radius, self.speed, self.horizon)
+            self._forb[(u, v)] = forb[0]
+        return self._forb[(u, v)]
+
+
+def _add_half_open(ivs: Intervals, lo: float, hi: float) -> Intervals:
+    """``ivs`` (sorted, disjoint half-open ``[lo, hi)``) with ``[lo, hi)`` added (merged)."""
+    out: Intervals = []
+    for a, b in sorted([*ivs, (lo, hi)]):
+        if out and a <= out[-1][1]:
+            out[-1] = (out[-1][0], max(out[-1][1], b))
+        else:
+            out.append((a, b))
+    return out
+
+
+def _first_allowed(cons: Intervals, t: float) -> float:
+    """The earliest time ``>= t`` outside the half-open intervals ``cons``."""
+    k = bisect.bisect_right(cons, (t, math.inf)) - 1
+    if k >= 0 and cons[k][1] > t:
+        return cons[k][1]
+    return t
+
+
+@dataclass
+class Constraints:
+    """One robot's constraints: ``vertex[v]`` and ``edge[(u, v)]``, each a sorted list of
+    disjoint half-open time intervals ``[t1, t2)``."""
+
+    vertex: dict[int, Intervals] = field(default_factory=dict)
+    edge: dict[tuple[int, int], Intervals] = field(default_factory=dict)
+
+    def add_vertex(self, v: int, lo: float, hi: float) -> None:
+        """Forbid node ``v`` on ``[lo, hi)``."""
+        self.vertex[v] = _add_half_open(self.vertex.get(v, []), lo, hi)
+
+    def add_edge(self, u: int, v: int, lo: float, hi: float) -> None:
+        """Forbid departures along ``u -> v`` on ``[lo, hi)``."""
+        self.edge[(u, v)] = _add_half_open(self.edge.get((u, v), []), lo, hi)
+
+
+@dataclass(frozen=True)
+class Plan:
+    """A robot's plan: the nodes it visits, and the arrival at and departure from each.
+
+    ``arrive[0] = 0`` (the start), ``depart[-1] = inf`` (it holds its goal for ever);
+    ``cost`` is the arrival at the goal, ``expanded`` the states the search expanded.
+    """
+
+    nodes: tuple[int, ...]
+    arrive: tuple[float, ...]
+    depart: tuple[float, ...]
+    expanded: int = 0
+
+    @property
+    def cost(self) -> float:
+        """The arrival at the goal (s)."""
+        return self.arrive[-1]
+
+
+class _Search:
+    """The A* over ``(node, safe interval)`` states of :func:`plan_agent`."""
+
+    def __init__(self, m: AgentModel, cons: Constraints, stop: Callable[[], bool] | None):
+        self.m, self.cons, self.stop = m, cons, stop
+        self.safe_of: dict[int, Intervals] = {}
+        self.st: list[tuple[int, int, float, int, float]] = []  # node, interval, t, parent, dep
+        self.best: dict[tuple[int, int], float] = {}
+        self.heap: list[tuple[float, float, int]] = []
+        self.expanded = 0
+
+    def safe(self, v: int) -> Intervals:
+        """Safe intervals of node ``v``: the closed complement of the movers' busy times and
+        the vertex constraints (a constraint ``[t1, t2)`` as the open ``(t1, t2)``: leaving at
+        ``t1`` is forbidden by :meth:`departure`), the last one ``inf`` past the horizon."""
+        if v not in self.safe_of:
+            busy = self.m.busy(v)
+            cons = self.cons.vertex.get(v, [])
+            merged = merge_open(np.array([x[0] for x in busy + cons]),
+                                np.array([x[1] for x in busy + cons])) if busy or cons else []
+            out = free_intervals(merged, math.inf)
+            if out and out[-1][1] >= self.m.horizon:
+                out[-1] = (out[-1][0], math.inf)
+            self.safe_of[v] = out
+        return self.safe_of[v]
+
+    def departure(self, u: int, v: int, t: float) -> float:
+        """The earliest departure ``>= t`` along ``u -> v`` allowed by the moving obstacles,
+        the edge constraints and the vertex constraints of ``u``."""
+        forb = self.m.mover_forbidden(u, v)
+        edge = self.cons.edge.get((u, v), [])
+        vert = self.cons.vertex.get(u, [])
+        while True:
+            x = _first_allowed(vert, _first_allowed(edge, first_free(forb, t)))
+            if x == t:
+                return t
+            t = x
+
+    def push(self, v: int, j: int, t: float, parent: int, dep: float) -> None:
+        """Add the state ``(v, j)`` reached at ``t`` unless it was reached earlier."""
+        if self.best.get((v, j), math.inf) <= t:
+            return
+        self.best[(v, j)] = t
+        self.st.append((v, j, t, parent, dep))
+        heapq.heappush(self.heap, (t + float(self.m.h[v]), -t, len(self.st) - 1))
+
+    def expand(self, s: int) -> None:
+        """The successors of state ``s``: every neighbour's safe intervals it can reach."""
+        u, j, t = self.st[s][:3]
+        leave_by = self.safe(u)[j][1]
+        for v, length in self.m.nbrs[u]:
+            if not math.isfinite(self.m.h[v]):
+                continue
+            dt = length / self.m.speed
+            safe = self.safe(v)
+            k0 = max(bisect.bisect_right(safe, (t + dt, math.inf)) - 1, 0)
+            for k in range(k0, len(safe)):
+                c, d = safe[k]
+                if c - dt > leave_by:
+                    break
+                lo, hi = max(t, c - dt), min(leave_by, d - dt)
+                dep = self.departure(u, v, lo) if lo <= hi else math.inf
+                if dep <= hi:
+                    self.push(v, k, dep + dt, s, dep)
+
+    def run(self) -> int | None:
+        """The goal state with an unbounded safe interval reached first, else ``None``."""
+        m = self.m
+        safe0 = self.safe(m.start)
+        j0 = next((j for j, (lo, hi) in enumerate(safe0) if lo <= 0.0 <= hi), None)
+        if j0 is None or not math.isfinite(m.h[m.start]):
+            return None
+        self.push(m.start, j0, 0.0, -1, math.nan)
+        closed: set[tuple[int, int]] = set()
+        while self.heap:
+            _, _, s = heapq.heappop(self.heap)
+            v, j = self.st[s][:2]
+            if (v, j) in closed:
+                continue
+            closed.add((v, j))
+            if v == m.goal and math.isinf(self.safe(v)[j][1]):
+                return s
+            self.expanded += 1
+            if self.stop is not None and self.expanded % _POLL == 0 and self.stop():
+                raise StopIteration
+            self.expand(s)
+        return None
+
+    def plan(self, s: int) -> Plan:
+        """The plan ending at state ``s``."""
+        chain = []
+        while s >= 0:
+            chain.append(s)
+            s = self.st[s][3]
+        chain.reverse()
+        nodes = tuple(self.st[k][0] for k in chain)
+        arrive = tuple(self.st[k][2] for k in chain)
+        depart = tuple(self.st[k][4] for k in chain[1:]) + (math.inf,)
+        return Plan(nodes, arrive, depart, self.expanded)
+
+
+def plan_agent(model: AgentModel, cons: Constraints,
+               stop: Callable[[], bool] | None = None) -> Plan | None:
+    """The earliest arrival of one robot at its goal (held for ever) under its constraints.
+
+    Parameters
+    ----------
+    model : AgentModel
+        The robot, its graph and the moving obstacles.
+    cons : Constraints
+        Its vertex and edge constraints.
+    stop : callable, optional
+        Polled every 256 states expanded; True ends the search (raises ``StopIteration``).
+
+    Returns
+    -------
+    Plan or None
+        The optimal plan under the constraints (module docstring), ``None`` when there is none.
+
+    Raises
+    ------
+    StopIteration
+        When ``stop`` asked to end.
+    """
+    search = _Search(model, cons, stop)
+    goal = search.run()
+    return None if goal is None else search.plan(goal)

@@ -1,0 +1,200 @@
+"""``ccbs``: continuous-time conflict-based search with the delta branching rule."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import optplan as op
+from optplan.exact.ccbs import CCBSOptions, ccbs_search
+from optplan.exact.ccbs_roadmap import agent_models, roadmap_model
+from optplan.problem import RoadmapGraph, parse_problem
+from tests.exact.ccbs_oracle import joint_grid_optimum, sampled_separation
+
+#: a corridor 0 - 1 - 2 - 3 - 4 along y = 0 (unit edges) with a pocket 5 above node 2
+CORRIDOR = (np.array([[0, 0], [1, 0], [2, 0], [3, 0], [4, 0], [2, 1]], float),
+            np.array([[0, 1], [1, 2], [2, 3], [3, 4], [2, 5]]))
+#: the swap's optimum: b drives into the pocket and out (6 s); a, trailing b's way up to the
+#: pocket at the contact distance 0.6 (both 0.3 from node 2 at 45 degrees: 0.6 / sqrt(2) each),
+#: arrives 2 x 0.6 / sqrt(2) = 0.6 sqrt(2) s late
+SWAP_SUM = 6.0 + 4.0 + 0.6 * math.sqrt(2.0)
+
+
+def _problem(nodes, edges, robots, bounds=(-1, -1, 5, 2), movers=(), scale=1.0, shift=(0, 0),
+             name="ccbs") -> op.Problem:
+    """A problem on the roadmap ``(nodes, edges)``: ``robots`` are ``(id, start node, goal
+    node, radius)``; coordinates and radii mapped by ``x -> scale x + shift``."""
+    nodes = np.asarray(nodes, float) * scale + np.asarray(shift, float)
+    x0, y0, x1, y1 = bounds
+    sx, sy = shift
+    p = parse_problem({
+        "name": name,
+        "bounds": [x0 * scale + sx, y0 * scale + sy, x1 * scale + sx, y1 * scale + sy],
+        "robots": [{"id": rid, "start": nodes[s].tolist(), "goal": nodes[g].tolist(),
+                    "radius": r * scale} for rid, s, g, r in robots],
+        "dynamic_obstacles": list(movers)})
+    return p.replaced(roadmap=RoadmapGraph(nodes, edges))
+
+
+def _swap(**kw) -> op.Problem:
+    return _problem(*CORRIDOR, [("a", 0, 4, 0.3), ("b", 4, 0, 0.3)], **kw)
+
+
+def _check(res: op.Result) -> None:
+    """The plan is accepted by the validator and by dense sampling of the pair distances."""
+    assert res.status is op.Status.optimal, res.message
+    assert "within the roadmap model" in res.message
+    m = res.metrics
+    assert m["collisions"] == 0 and m["reached"]
+    radii = {r.id: r.radius for r in res.scenario.robots}
+    contact = 2 * max(radii.values())
+    assert len(radii) < 2 or sampled_separation(res.paths, res.times) >= contact * (1 - 1e-8)
+    assert m["team_lower_bound"] <= m["sum_of_arrivals"] * (1 + 1e-12)
+
+
+def test_swap_on_a_corridor_with_a_pocket():
+    res = op.solve(_swap(), "ccbs")
+    _check(res)
+    assert res.metrics["sum_of_arrivals"] == pytest.approx(SWAP_SUM, rel=1e-9)
+    assert res.metrics["makespan"] == pytest.approx(6.0, rel=1e-9)
+    assert res.metrics["open_lower_bound"] == pytest.approx(SWAP_SUM, rel=1e-9)
+    assert res.metrics["team_lower_bound"] == pytest.approx(8.0)  # 4 + 4, each alone
+
+
+@pytest.mark.parametrize("opts", [dict(cardinal=False, heuristic=False),
+                                  dict(cardinal=True, heuristic=False), dict(gamma=0.2)])
+def test_every_option_finds_the_same_optimum(opts):
+    res = op.solve(_swap(), "ccbs", **opts)
+    _check(res)
+    assert res.metrics["sum_of_arrivals"] == pytest.approx(SWAP_SUM, rel=1e-9)
+
+
+def test_makespan():
+    res = op.solve(_swap(), "ccbs", objective="makespan")
+    _check(res)
+    assert res.metrics["makespan"] == pytest.approx(6.0, rel=1e-9)
+
+
+def test_never_beaten_by_the_joint_grid_search():
+    """The joint search on a 0.5 s grid is an upper bound of the continuous optimum."""
+    nodes, edges = CORRIDOR
+    grid = joint_grid_optimum(nodes, edges, [0, 4], [4, 0], [0.3, 0.3], 0.5, 20.0)
+    res = op.solve(_swap(), "ccbs")
+    assert res.metrics["sum_of_arrivals"] <= grid + 1e-9
+    assert grid == pytest.approx(11.0)  # a waits a whole step: 1 s instead of 0.85 s
+
+
+def test_three_robots_against_the_joint_grid_search():
+    """A plus-shaped crossing (centre 4) with robots crossing it and one heading for the
+    centre: ccbs never does worse than the grid search."""
+    nodes = np.array([[0, 0], [-1, 0], [1, 0], [0, -1], [0, 1], [2, 0], [-2, 0]], float)
+    nodes = np.vstack([nodes[:1] * 0 + [0, 0], nodes[1:]])
+    edges = np.array([[0, 1], [0, 2], [0, 3], [0, 4], [2, 5], [1, 6]])
+    robots = [("a", 6, 5, 0.25), ("b", 5, 6, 0.25), ("c", 3, 4, 0.25)]
+    p = _problem(nodes, edges, robots, bounds=(-3, -2, 3, 2))
+    res = op.solve(p, "ccbs")
+    _check(res)
+    grid = joint_grid_optimum(nodes, edges, [6, 5, 3], [5, 6, 4], [0.25] * 3, 0.5, 30.0)
+    assert res.metrics["sum_of_arrivals"] <= grid + 1e-9
+
+
+def test_a_robot_holding_its_goal_makes_another_detour():
+    """b sits on its goal (node 1) on a's straight way 0 -> 1 -> 2: a takes 0 -> 3 -> 2."""
+    nodes = np.array([[0, 0], [1, 0], [2, 0], [1, 1]], float)
+    edges = np.array([[0, 1], [1, 2], [0, 3], [2, 3]])
+    p = _problem(nodes, edges, [("a", 0, 2, 0.3), ("b", 1, 1, 0.3)], bounds=(-1, -1, 3, 2))
+    res = op.solve(p, "ccbs")
+    _check(res)
+    assert res.metrics["arrival_times"]["a"] == pytest.approx(2 * math.sqrt(2), rel=1e-9)
+    assert res.metrics["arrival_times"]["b"] == 0.0
+
+
+def test_relabelling_translating_and_scaling():
+    """The same sum with the robots listed the other way and the map moved; space scaled by
+    3 at the same speed (times scale by 3)."""
+    base = op.solve(_swap(), "ccbs").metrics["sum_of_arrivals"]
+    nodes, edges = CORRIDOR
+    flipped = _problem(nodes, edges, [("b", 4, 0, 0.3), ("a", 0, 4, 0.3)])
+    moved = _swap(shift=(1e3, -250.0))
+    scaled = _swap(scale=3.0)
+    for p, factor in ((flipped, 1.0), (moved, 1.0), (scaled, 3.0)):
+        res = op.solve(p, "ccbs")
+        _check(res)
+        assert res.metrics["sum_of_arrivals"] == pytest.approx(factor * base, rel=1e-9)
+
+
+def test_moving_obstacles_are_hard_constraints():
+    """A disc sweeping down x = 3 at t in [1, 3] blocks a's way along the corridor: a waits for
+    it to pass, and the validator (which sees the mover) accepts the plan."""
+    nodes = CORRIDOR[0][:5]
+    edges = CORRIDOR[1][:4]
+    mover = {"type": "circle", "radius": 0.3, "waypoints": [[3, 1.5], [3, -1.5]],
+             "times": [1.0, 4.0]}
+    p = _problem(nodes, edges, [("a", 0, 4, 0.3)], bounds=(-1, -2, 5, 2), movers=[mover])
+    res = op.solve(p, "ccbs")
+    _check(res)
+    assert res.metrics["dynamic_contacts"] == 0
+    assert res.metrics["sum_of_arrivals"] > 4.0 + 0.1
+
+
+def test_the_budget_gives_the_effort_status_and_a_lower_bound():
+    res = op.solve(_swap(), "ccbs", max_expansions=1)
+    assert res.status is op.Status.failed
+    m = res.metrics
+    assert "max_expansions" in res.message and "open-list lower bound" in res.message
+    assert m["team_lower_bound"] <= m["open_lower_bound"] <= SWAP_SUM * (1 + 1e-12)
+    assert m["expansions"] == 1
+
+
+def test_the_roadmap_model_without_a_roadmap():
+    """Two robots swap around a square obstacle in the plane (no roadmap given): the graph is
+    the visibility graph of the grown corners, the plan valid."""
+    p = parse_problem({
+        "name": "square", "bounds": [0, 0, 10, 10],
+        "obstacles": [{"type": "rectangle", "min": [4, 4], "max": [6, 6]}],
+        "robots": [{"id": "a", "start": [1, 5], "goal": [9, 5], "radius": 0.4},
+                   {"id": "b", "start": [9, 5], "goal": [1, 5], "radius": 0.4}]})
+    graph = roadmap_model(p)
+    assert len(graph) == 2 + 4  # the two ends (each a start and a goal), four grown corners
+    res = op.solve(p, "ccbs")
+    _check(res)
+    assert res.metrics["roadmap_nodes"] == 6
+
+
+def test_the_pure_driver_reports_overlapping_goals():
+    p = _problem(*CORRIDOR, [("a", 0, 2, 0.3), ("b", 4, 5, 0.8)])
+    out = ccbs_search(p.roadmap.nodes, agent_models(p, p.roadmap, math.inf), CCBSOptions())
+    assert out.status == "goals_overlap" and out.plans is None
+
+
+def test_bad_options_are_named():
+    with pytest.raises(ValueError, match="disjoint"):
+        op.get_solver("ccbs", disjoint=True)
+    with pytest.raises(ValueError, match="objective"):
+        op.get_solver("ccbs", objective="mean")
+    with pytest.raises(ValueError, match="gamma"):
+        op.get_solver("ccbs", gamma=1.0)
+
+
+def test_the_time_limit_gives_the_effort_status(monkeypatch):
+    """A clock that jumps past the limit at the first progress report: the search stops at
+    that poll, returns no plan and says so (no wall time measured); ``solve``'s limit makes
+    it ``approximate`` (the robots at their starts), the preset's own ``failed``."""
+    from optplan import solver
+
+    state = {"now": 0.0}
+    monkeypatch.setattr(solver, "clock", lambda: state["now"])
+
+    def jump(progress):
+        state["now"] = 1e9
+
+    res = op.solve(_swap(), "ccbs", time_limit=5.0, callback=jump)
+    assert res.status is op.Status.approximate and res.stop_reason == "time_limit"
+    own = op.solve(_swap(), op.get_solver("ccbs", time_limit=1e-12))  # past at the first poll
+    assert own.status is op.Status.failed and own.stop_reason == "time_limit"
+    for r in (res, own):
+        assert "without a solution" in r.message
+        m = r.metrics
+        assert m["team_lower_bound"] <= m["open_lower_bound"] <= SWAP_SUM * (1 + 1e-12)
