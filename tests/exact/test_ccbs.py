@@ -90,7 +90,6 @@ def test_three_robots_against_the_joint_grid_search():
     """A plus-shaped crossing (centre 4) with robots crossing it and one heading for the
     centre: ccbs never does worse than the grid search."""
     nodes = np.array([[0, 0], [-1, 0], [1, 0], [0, -1], [0, 1], [2, 0], [-2, 0]], float)
-    nodes = np.vstack([nodes[:1] * 0 + [0, 0], nodes[1:]])
     edges = np.array([[0, 1], [0, 2], [0, 3], [0, 4], [2, 5], [1, 6]])
     robots = [("a", 6, 5, 0.25), ("b", 5, 6, 0.25), ("c", 3, 4, 0.25)]
     p = _problem(nodes, edges, robots, bounds=(-3, -2, 3, 2))
