@@ -453,11 +453,12 @@ def with_reference(metrics: dict[str, Any], problem: Problem, paths: dict[str, A
     return out
 
 
-def team_reference(problem: Problem, res: Result) -> Result:
-    """The team reference of ``reference="team"``: the ``formation-nlp`` preset warm-started
-    from ``res`` (:func:`optplan.team_grading.with_team_reference`)."""
+def team_reference(problem: Problem) -> dict[str, Result]:
+    """The candidate plans of ``reference="team"``: the ``formation-nlp`` preset's
+    ``team_candidates`` (the team heuristics and the NLP polished from each), whose front
+    grades every plan of the problem (:func:`optplan.team_grading.with_team_reference`)."""
     backend: Any = get_solver("formation-nlp")  # optplan.formation.formation_nlp.FormationNLP
-    return backend.reference(problem, res)
+    return backend.team_candidates(problem)
 
 
 def time_reference(problem: Problem, robot_id: str) -> Any:
@@ -528,10 +529,10 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         at the goal point when it is valid and earlier), ``time_lower_bound`` (its lower
         side) and the ratios of the
         arrival to each; ``time_per_robot`` for a team.  ``reference="team"`` also grades a
-        team plan against the joint trajectory NLP warm-started from it
-        (:func:`optplan.team_grading.with_team_reference`): ``arrival_ratio_to_team``,
-        ``formation_rmse_ratio_to_team``, ``separation_ratio_to_team`` and the reference's
-        own figures.
+        team plan against the front of the best known team plans of the problem (cached on
+        it; :func:`optplan.team_grading.with_team_reference`): ``arrival_ratio_to_team``,
+        ``formation_rmse_ratio_to_team``, the certified ``team_arrival_lower_bound`` and
+        the references' own figures.
     **overrides
         Replace preset options (unknown names raise ``ValueError``).
 

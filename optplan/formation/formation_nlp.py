@@ -9,11 +9,18 @@ depends on the warm start, by default the ``hybrid-qp`` plan of the same problem
 robot's path time).  The status is ``solved`` with "locally optimal" in the message (never
 ``optimal``), when the exact continuous-time validator accepts the plan and it is no worse than
 its warm start in arrival and formation error; otherwise the warm start is kept and the message
-says why.
+says why.  ``time_limit`` (default 60 s) bounds the whole run on :data:`optplan.solver.clock`
+(the warm-start planner and IPOPT, polled at every one of their progress reports).
+
+The candidates of the team reference (:mod:`optplan.team_grading`) are built here
+(:meth:`FormationNLP.team_candidates`): the team heuristics of :data:`TEAM_HEURISTICS`, each
+run with the seed :data:`REFERENCE_SEED`, and the NLP polished from each of them.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -21,16 +28,23 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan import solver as registry
 from optplan.exact.nlp import IterProgress
 from optplan.exact.nlp_pieces import SAFETY_REL, obstacle_pieces
 from optplan.formation.team_nlp import MoverTable, TeamModel, solve_team_nlp
 from optplan.geometry.timing import arrival_time, mover_track, positions_at
 from optplan.problem import Problem
-from optplan.result import History, Progress, Result, Status
+from optplan.result import History, Progress, Result, Status, notify
 from optplan.solver import Backend, get_solver, option
 from optplan.units import Record, Unit
 
-__all__ = ["FormationNLP", "Warm"]
+__all__ = ["FormationNLP", "Warm", "TEAM_HEURISTICS", "REFERENCE_SEED", "warm_from_result"]
+
+#: The team heuristics (presets) whose plans, and the NLP polished from each, are the candidates
+#: of the team reference (:meth:`FormationNLP.team_candidates`); one not installed is left out.
+TEAM_HEURISTICS = ("formation-qp", "leader-follower-paper", "hybrid-qp", "orca-team")
+#: The seed (``rng``) of every team heuristic's run in the team reference.
+REFERENCE_SEED = 0
 
 
 @dataclass(frozen=True)
@@ -71,6 +85,14 @@ class FormationNLP(Backend):
     mu_strategy : str
         IPOPT's barrier update, ``"adaptive"`` (default: on ``paper-warehouse`` 42 iterations
         against 1,001 with ``"monotone"``, IPOPT's own default) or ``"monotone"``.
+    time_limit : float or None
+        Wall-clock budget of the whole run in seconds (> 0; ``None`` or ``inf``: none; default
+        60), on :data:`optplan.solver.clock`: the warm-start planner stops at its first
+        progress report after it (its plan is then returned as it is, not polished) and IPOPT
+        at its first iteration after it, its last iterate judged like any other (the warm
+        start is kept when the iterate is invalid or worse); ``stop_reason`` is then
+        ``"time_limit"``.  Building the CasADi model (before the first iteration) is not
+        interrupted.  ``op.solve(time_limit=...)`` replaces it.
     """
 
     name: ClassVar[str] = "formation-nlp"
@@ -87,6 +109,7 @@ class FormationNLP(Backend):
     max_iter: int = option(3000, lo=1, hi=100_000)
     tol: float = option(1e-6, lo=1e-12, hi=1e-2)
     mu_strategy: str = option("adaptive", choices=("adaptive", "monotone"))
+    time_limit: float | None = option(60.0, lo=0.0, lo_open=True, inf_ok=True, none_ok=True)
 
     def check(self) -> None:
         """``warm_start`` names a registered team planner other than this one."""
@@ -102,21 +125,21 @@ class FormationNLP(Backend):
               init: dict[str, np.ndarray] | None = None,
               callback: Callable[[Progress], Any] | None = None) -> Result:
         t0 = time.perf_counter()
+        limit = _Deadline(callback, self.time_limit)
         why = _unsupported(problem)
         if why:
             return self._give_up(problem, why, t0)
         if init is not None:
             warm = _warm_from_paths(problem, init)
         else:
-            res = get_solver(self.warm_start).solve(problem, rng=rng, callback=callback)
-            if res.stop_reason == "time_limit":  # cut short: no time left to polish it
-                return self._give_up(problem, f"the warm start ({self.warm_start}) was "
-                                     "stopped by the time limit", t0)
+            res = get_solver(self.warm_start).solve(problem, rng=rng, callback=limit.forward)
             warm = warm_from_result(problem, res)
+            if limit.stopped or res.stop_reason:  # cut short: no time left to polish it
+                return self._unpolished(problem, warm, limit, t0)
         if warm is None:
             return self._give_up(problem, f"the warm start ({self.warm_start}) gives no "
                                  "synchronised team plan that reaches the goal", t0)
-        return self.polish(problem, warm, t0, callback=callback)
+        return self._polish(problem, warm, t0, limit)
 
     def polish(self, problem: Problem, warm: Warm, t0: float | None = None, *,
                callback: Callable[[Progress], Any] | None = None) -> Result:
@@ -124,16 +147,21 @@ class FormationNLP(Backend):
 
         ``callback`` receives IPOPT's iterations as :class:`~optplan.result.Progress`
         (``info["objective"]``); raising ``StopIteration`` stops IPOPT at its last iterate,
-        which is then judged like any other (the warm start is kept when it is better).
+        which is then judged like any other (the warm start is kept when it is better).  The
+        ``time_limit`` runs from this call.
         """
         t0 = time.perf_counter() if t0 is None else t0
+        return self._polish(problem, warm, t0, _Deadline(callback, self.time_limit))
+
+    def _polish(self, problem: Problem, warm: Warm, t0: float, limit: _Deadline) -> Result:
+        """:meth:`polish` within ``limit`` (the run's deadline and callback)."""
         model, ids = self._model(problem, warm)
         ipopt = {"max_iter": int(self.max_iter), "tol": float(self.tol), "print_level": 0,
                  "sb": "yes", "mu_strategy": self.mu_strategy,
                  "constr_viol_tol": float(self.tol)}
-        prog = IterProgress(callback, t0)
+        prog = IterProgress(limit.forward, t0)
         prog.best = warm.T0  # the arrival to beat
-        X, T, info = solve_team_nlp(model, ipopt, prog if callback is not None else None)
+        X, T, info = solve_team_nlp(model, ipopt, prog if limit.forward is not None else None)
         if prog.raised:
             raise prog.raised[0]
         frame = problem.frame
@@ -145,11 +173,12 @@ class FormationNLP(Backend):
                           message="", n_iter=n_iter, n_eval=n_iter, history=History(),
                           extras={"ipopt": info, "warm_arrival": warm.T0},
                           wall_time=time.perf_counter() - t0)
-        return self._judged(problem, res, warm, dict(info, iter_count=n_iter), t0)
+        return limit.mark(self._judged(problem, res, warm, dict(info, iter_count=n_iter), t0))
 
     def reference(self, problem: Problem, res: Result) -> Result:
-        """The team reference of a plan: the NLP warm-started from ``res`` (its result, or
-        ``res`` graded again when it is no synchronised team plan that arrives)."""
+        """The NLP warm-started from the plan ``res`` (its result, or ``res`` graded again
+        when it is no synchronised team plan that arrives): one candidate of the team
+        reference (:meth:`team_candidates`)."""
         t0 = time.perf_counter()
         why = _unsupported(problem)
         warm = None if why else warm_from_result(problem, res)
@@ -157,6 +186,26 @@ class FormationNLP(Backend):
             return self._give_up(problem, why or "the plan is no synchronised team plan whose "
                                  "leader arrives: no team reference", t0)
         return self.polish(problem, warm, t0)
+
+    def team_candidates(self, problem: Problem) -> dict[str, Result]:
+        """The candidate plans of the team reference of ``problem``
+        (:mod:`optplan.team_grading`), ``source -> result``: every installed preset of
+        :data:`TEAM_HEURISTICS` run with the seed :data:`REFERENCE_SEED`, and this NLP polished
+        from each of their plans whose leader arrives (``"formation-nlp from NAME"``; each
+        polish within ``time_limit``).  None on a problem the NLP does not support."""
+        out: dict[str, Result] = {}
+        if _unsupported(problem):
+            return out
+        for name in TEAM_HEURISTICS:
+            try:
+                res = registry.solve(problem, name, rng=REFERENCE_SEED)
+            except ImportError:  # its backend's package is not installed (orca: pyrvo)
+                continue
+            out[name] = res
+            warm = warm_from_result(problem, res)
+            if warm is not None:
+                out[f"{self.preset or self.name} from {name}"] = self.polish(problem, warm)
+        return out
 
     def _model(self, problem: Problem, warm: Warm) -> tuple[TeamModel, list[str]]:
         form = problem.formation
@@ -201,12 +250,28 @@ class FormationNLP(Backend):
                                  f"warm start {warm.T0:.6g} s")
         why = ("the validator rejects the NLP's plan" if not ok else
                "the NLP's plan is not better than its warm start")
+        ipopt_info = {k: v for k, v in info.items() if k != "iter_count"}
+        return self._kept(problem, warm, f"kept the warm start ({why}; {ipopt})",
+                          {"ipopt": ipopt_info}, t0)
+
+    def _kept(self, problem: Problem, warm: Warm, text: str, extras: dict, t0: float
+              ) -> Result:
+        """The warm start graded again, with ``text`` as its message."""
         kept = self.finish(problem, warm.paths, claim=Status.solved, times=warm.times,
-                           cost=warm.T0, message="", extras={"ipopt": {
-                               k: v for k, v in info.items() if k != "iter_count"},
-                               "kept_warm_start": True, "warm_arrival": warm.T0},
+                           cost=warm.T0, message="", extras={
+                               **extras, "kept_warm_start": True, "warm_arrival": warm.T0},
                            wall_time=time.perf_counter() - t0)
-        return _with_message(kept, f"kept the warm start ({why}; {ipopt})")
+        return _with_message(kept, text)
+
+    def _unpolished(self, problem: Problem, warm: Warm | None, limit: _Deadline, t0: float
+                    ) -> Result:
+        """The warm start cut short by the time limit or the callback, returned as it is
+        (not polished: no time is left), or the give-up when its leader never arrives."""
+        what = f"the warm start ({self.warm_start}) was {limit.stop_text()}"
+        if warm is None:
+            return limit.mark(self._give_up(problem, f"{what} before its leader arrived", t0))
+        return limit.mark(self._kept(problem, warm, f"{what}: returned as it is, not "
+                                     "polished", {}, t0))
 
     def _give_up(self, problem: Problem, why: str, t0: float) -> Result:
         paths = {r.id: np.vstack([r.start, r.start]) for r in problem.robots}
@@ -214,9 +279,44 @@ class FormationNLP(Backend):
                            message=why, wall_time=time.perf_counter() - t0)
 
 
-def _with_message(res: Result, text: str) -> Result:
-    import dataclasses
+class _Deadline:
+    """The run's ``callback`` behind its ``time_limit`` (seconds from construction, on
+    :data:`optplan.solver.clock`, read at each poll: tests replace it)."""
 
+    def __init__(self, callback: Callable[[Progress], Any] | None, time_limit: float | None):
+        self.callback, self.time_limit = callback, time_limit
+        self.end = (registry.clock() + time_limit
+                    if time_limit is not None and not math.isinf(time_limit) else None)
+        self.stopped = self.timed_out = False
+
+    def __call__(self, p: Progress) -> None:
+        if self.end is not None and registry.clock() >= self.end:
+            self.stopped = self.timed_out = True
+            raise StopIteration
+        if notify(self.callback, p):
+            self.stopped = True
+            raise StopIteration
+
+    @property
+    def forward(self) -> Callable[[Progress], Any] | None:
+        """What to pass to a stage: this object, or None without a callback or limit."""
+        return self if self.callback is not None or self.end is not None else None
+
+    def stop_text(self) -> str:
+        """What stopped the run."""
+        return (f"stopped by the time limit ({self.time_limit:g} s)" if self.timed_out
+                else "stopped by the callback")
+
+    def mark(self, res: Result) -> Result:
+        """``res`` with ``stop_reason = "time_limit"`` and the message saying so, after the
+        limit stopped the run."""
+        if not self.timed_out:
+            return res
+        return dataclasses.replace(res, stop_reason="time_limit", message=(
+            f"time limit ({self.time_limit:g} s) reached; {res.message}"))
+
+
+def _with_message(res: Result, text: str) -> Result:
     msg = text if not res.message else f"{text}; {res.message}"
     return dataclasses.replace(res, message=msg)
 
