@@ -8,22 +8,8 @@ A *solver* is a named, configured backend: a preset in ``solvers/NAME.toml``.
 Backends are registered lazily as ``"module:Class"`` strings; nothing heavy is imported until
 a backend is used.  A backend whose module is not present is simply not listed.
 
-Writing a backend::
-
-    @dataclass(frozen=True, kw_only=True)
-    class MyPlanner(Backend):
-        name: ClassVar[str] = "my-planner"
-        n_points: int = option(10, lo=2, hi=10_000)   # meaning: in the class docstring
-
-        def check(self):            # optional: rules relating several options
-            ...
-
-        def solve(self, problem, /, *, rng=None, init=None, callback=None):
-            ...
-            return self.finish(problem, paths, claim=Status.solved, ...)
-
-and add ``"my-planner": "optplan.swarm.my_planner:MyPlanner"`` to :data:`BACKENDS` (or call
-:func:`register`).
+Writing a backend (a subclass of :class:`Backend` with ``option(...)`` fields, ``check`` and
+``solve``, added to :data:`BACKENDS` or by :func:`register`): docs/adding-a-solver.md.
 
 Plugins: an installed distribution declares backends in the entry-point group
 ``optplan.backends`` (``my-planner = "my_pkg.planner:MyPlanner"``) and presets in
@@ -72,6 +58,7 @@ from optplan.catalog import (
 )
 from optplan.catalog import plugin_preset_files as plugin_preset_files
 from optplan.goal_completion import completion_length
+from optplan.mapf_grading import with_sum_reference
 from optplan.options import option
 from optplan.problem import Problem
 from optplan.result import Progress, Result, Status
@@ -461,6 +448,13 @@ def team_reference(problem: Problem) -> dict[str, Result]:
     return backend.team_candidates(problem)
 
 
+def sum_reference(problem: Problem) -> Result:
+    """The team plan that grades the sum of arrivals of robots with their own goals under
+    ``reference="team"``: the ``ccbs`` preset's (the optimal sum within its roadmap model;
+    :func:`optplan.mapf_grading.with_sum_reference`)."""
+    return get_solver("ccbs").solve(problem)
+
+
 def time_reference(problem: Problem, robot_id: str) -> Any:
     """The reference in time of ``reference=True``: the ``time-bracket`` preset's bracket on
     ``robot_id``'s earliest arrival at its grading level (deterministic: no time limit), its
@@ -532,7 +526,10 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         team plan against the front of the best known team plans of the problem (cached on
         it; :func:`optplan.team_grading.with_team_reference`): ``arrival_ratio_to_team``,
         ``formation_rmse_ratio_to_team``, the certified ``team_arrival_lower_bound`` and
-        the references' own figures.
+        the references' own figures; robots with their own goals (no formation) are graded
+        by their sum of arrivals against ``ccbs``'s plan
+        (:func:`optplan.mapf_grading.with_sum_reference`): ``sum_of_arrivals``,
+        ``sum_reference``, the certified ``sum_lower_bound`` and the ratios to both.
     **overrides
         Replace preset options (unknown names raise ``ValueError``).
 
@@ -580,6 +577,7 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
         graded = with_time_reference(metrics, prob, res.paths, res.times, time_reference)
         if reference == "team":
             graded = with_team_reference(graded, prob, res, team_reference)
+            graded = with_sum_reference(graded, prob, res, sum_reference)
         t3 = time.perf_counter()
         if graded is not metrics:  # the grading in time or the team reference ran
             graded["reference_time"] = metrics["reference_time"] + (t3 - t2)
