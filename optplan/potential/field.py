@@ -109,22 +109,19 @@ def repulsive_force(x: np.ndarray, near: np.ndarray, rho: np.ndarray, goal: np.n
     inside = rho <= rho_0
     v = x - near
     nv = np.hypot(v[..., 0], v[..., 1])
-    ok = inside & (nv > 1e-12)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        n_or = np.where(ok[..., None], v / np.where(ok, nv, 1.0)[..., None], 0.0)
+    g = np.asarray(goal, dtype=float) - x
+    rg = np.hypot(g[..., 0], g[..., 1])
+    with np.errstate(divide="ignore", invalid="ignore"):  # masked out below
+        n_or = np.where((inside & (nv > 1e-12))[..., None], v / nv[..., None], 0.0)
         a = np.where(inside, 1.0 / rho - 1.0 / rho_0, 0.0)
-        g = np.asarray(goal, dtype=float) - x
-        rg = np.hypot(g[..., 0], g[..., 1])
-        f1 = np.where(inside, eta * a / np.where(inside, rho, 1.0) ** 2, 0.0)
+        f1 = np.where(inside, eta * a / rho ** 2, 0.0)
         if n != 0:
             f1 = f1 * rg ** n
+            far = rg > 1e-12
+            n_rg = np.where(far[..., None], g / rg[..., None], 0.0)
+            f2 = np.where(inside & far, 0.5 * n * eta * a * a * np.power(rg, n - 1.0), 0.0)
     F = f1[..., None] * n_or
     if n != 0:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            n_rg = np.where((rg > 1e-12)[..., None], g / np.where(rg > 1e-12, rg, 1.0)[..., None],
-                            0.0)
-            f2 = np.where(inside & (rg > 1e-12), 0.5 * n * eta * a * a
-                          * np.power(np.where(rg > 1e-12, rg, 1.0), n - 1.0), 0.0)
         F = F + f2[..., None] * n_rg
     return F
 

@@ -109,19 +109,22 @@ class SAAPFController(APFController):
     def _segments_clear(self, x: np.ndarray, cands: np.ndarray, t: float,
                         fld: ObstacleField) -> np.ndarray:
         """Straight segments ``x -> cand`` keep ``margin`` clearance from sensed obstacles."""
+        # the exact test decides the static obstacles: a segment crossing a corner between two
+        # samples, or a point robot inside an obstacle (distance 0 >= margin 0), is not clear
+        ok = free_steps(self.problem, self.robot, x, cands)
+        if self.robot.radius + self.margin <= 0.0 or not ok.any():
+            return ok  # a distance is never negative: for a point robot the samples all pass
         d = cands - x
         L = np.hypot(d[:, 0], d[:, 1])
         h = max(0.5 * self.robot.radius, 1e-3 * self.params.unit)
-        S = int(min(max(np.ceil(L.max() / h), 1), 400)) if len(L) else 1
+        S = int(min(max(np.ceil(L.max() / h), 1), 400))  # from every candidate, as always
         s = np.linspace(0.0, 1.0, S + 1)[1:]
-        pts = x + s[None, :, None] * d[:, None, :]  # (m, S, 2)
-        _, dist = fld.nearest(pts.reshape(-1, 2), t, max_range=self.params.sense_range)
-        cl = (dist.min(axis=1) if dist.shape[1] else np.full(len(pts.reshape(-1, 2)), np.inf))
-        cl = cl.reshape(len(cands), S) - self.robot.radius
-        # the samples keep the margin from sensed (also moving) obstacles; the exact test
-        # decides the static ones: a segment crossing a corner between two samples, or a
-        # point robot inside an obstacle (distance 0 >= margin 0), is not clear
-        return (cl.min(axis=1) >= self.margin) & free_steps(self.problem, self.robot, x, cands)
+        pts = (x + s[None, :, None] * d[ok][:, None, :]).reshape(-1, 2)  # the free ones' samples
+        _, dist = fld.nearest(pts, t, max_range=self.params.sense_range)
+        cl = dist.min(axis=1) if dist.shape[1] else np.full(len(pts), np.inf)
+        # the samples keep the margin from sensed (also moving) obstacles
+        ok[ok] = (cl.reshape(-1, S) - self.robot.radius).min(axis=1) >= self.margin
+        return ok
 
     def escaped(self, x: np.ndarray, t: float, fld: ObstacleField, l_step: float) -> bool:
         """Escape test: a greedy APF roll-out from ``x`` stays away from every known minimum."""
