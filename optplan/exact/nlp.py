@@ -124,6 +124,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from optplan.deadline import Deadline
 from optplan.exact.nlp_pieces import blocked_end
 from optplan.exact.nlp_solve import MAX_SEGMENTS, NLPOutcome, NLPSettings, solve_waypoint_nlp
 from optplan.exact.nlp_status import combine_claims, guard, ipopt_claim, outcome_message
@@ -226,6 +227,10 @@ class WaypointNLP(Backend):
         how far the warm start is moved into the interior (small keeps it where it is).
     print_level : int
         IPOPT ``print_level`` (0 = silent).
+    time_limit : float or None
+        Seconds (> 0, default 60; ``None``: none), polled at every IPOPT iteration: the run
+        stops there and returns what the guard keeps (``stop_reason = "time_limit"``).
+        ``solve(time_limit=S)`` replaces it.
     """
 
     name: ClassVar[str] = "nlp"
@@ -247,6 +252,7 @@ class WaypointNLP(Backend):
     mu_init: float = option(1e-7, lo=0.0, hi=1e3, lo_open=True)
     bound_push: float = option(1e-6, lo=0.0, hi=0.5, lo_open=True)
     print_level: int = option(0, lo=0, hi=12)
+    time_limit: float | None = option(60.0, lo=0.0, lo_open=True, inf_ok=True, none_ok=True)
 
     def ipopt_options(self) -> dict:
         """The IPOPT options passed to ``nlpsol`` (plugin level ``expand``/``print_time`` too)."""
@@ -342,10 +348,11 @@ class WaypointNLP(Backend):
         claims: list[Status] = []
         extras: dict[str, Any] = {"ipopt": {}}
         hist = History()
-        prog = IterProgress(callback, t0)
+        limit = Deadline(callback, self.time_limit)
+        prog = IterProgress(limit.forward, t0)
         for robot in problem.planned_robots:
             path, claim, msg, out = self._plan_robot(problem, robot, init, known_only, margin,
-                                                     prog, callback is not None,
+                                                     prog, limit.forward is not None,
                                                      extras["ipopt"])
             paths[robot.id] = path
             claims.append(claim)
@@ -360,10 +367,10 @@ class WaypointNLP(Backend):
         claim = combine_claims(claims, prog.stop)
         lead = problem.leader.id if problem.leader.id in paths else next(iter(paths))
         opt = extras["ipopt"].get(lead, {}).get("optimum")
-        return self.finish(
+        return limit.mark(self.finish(
             problem, paths, claim=claim, cost=float(path_lengths(paths[lead])),
             message="; ".join(msgs),
             metrics_extra=None if opt is None else {"optimum": opt},
             n_iter=sum(e["iterations"] for e in extras["ipopt"].values()),
             n_eval=sum(e["iterations"] for e in extras["ipopt"].values()),
-            history=hist, extras=extras, wall_time=time.perf_counter() - t0)
+            history=hist, extras=extras, wall_time=time.perf_counter() - t0))

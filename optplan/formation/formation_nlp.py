@@ -20,7 +20,6 @@ run with the seed :data:`REFERENCE_SEED`, and the NLP polished from each of them
 from __future__ import annotations
 
 import dataclasses
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -29,12 +28,13 @@ from typing import Any, ClassVar
 import numpy as np
 
 from optplan import solver as registry
+from optplan.deadline import Deadline
 from optplan.exact.nlp import IterProgress
 from optplan.exact.nlp_pieces import SAFETY_REL, obstacle_pieces
 from optplan.formation.team_nlp import MoverTable, TeamModel, solve_team_nlp
 from optplan.geometry.timing import arrival_time, mover_track, positions_at
 from optplan.problem import Problem
-from optplan.result import History, Progress, Result, Status, notify
+from optplan.result import History, Progress, Result, Status
 from optplan.solver import Backend, get_solver, option
 from optplan.units import Record, Unit
 
@@ -125,7 +125,7 @@ class FormationNLP(Backend):
               init: dict[str, np.ndarray] | None = None,
               callback: Callable[[Progress], Any] | None = None) -> Result:
         t0 = time.perf_counter()
-        limit = _Deadline(callback, self.time_limit)
+        limit = Deadline(callback, self.time_limit)
         why = _unsupported(problem)
         if why:
             return self._give_up(problem, why, t0)
@@ -151,9 +151,9 @@ class FormationNLP(Backend):
         ``time_limit`` runs from this call.
         """
         t0 = time.perf_counter() if t0 is None else t0
-        return self._polish(problem, warm, t0, _Deadline(callback, self.time_limit))
+        return self._polish(problem, warm, t0, Deadline(callback, self.time_limit))
 
-    def _polish(self, problem: Problem, warm: Warm, t0: float, limit: _Deadline) -> Result:
+    def _polish(self, problem: Problem, warm: Warm, t0: float, limit: Deadline) -> Result:
         """:meth:`polish` within ``limit`` (the run's deadline and callback)."""
         model, ids = self._model(problem, warm)
         ipopt = {"max_iter": int(self.max_iter), "tol": float(self.tol), "print_level": 0,
@@ -263,7 +263,7 @@ class FormationNLP(Backend):
                            wall_time=time.perf_counter() - t0)
         return _with_message(kept, text)
 
-    def _unpolished(self, problem: Problem, warm: Warm | None, limit: _Deadline, t0: float
+    def _unpolished(self, problem: Problem, warm: Warm | None, limit: Deadline, t0: float
                     ) -> Result:
         """The warm start cut short by the time limit or the callback, returned as it is
         (not polished: no time is left), or the give-up when its leader never arrives."""
@@ -277,43 +277,6 @@ class FormationNLP(Backend):
         paths = {r.id: np.vstack([r.start, r.start]) for r in problem.robots}
         return self.finish(problem, paths, claim=Status.failed, times=np.zeros(2),
                            message=why, wall_time=time.perf_counter() - t0)
-
-
-class _Deadline:
-    """The run's ``callback`` behind its ``time_limit`` (seconds from construction, on
-    :data:`optplan.solver.clock`, read at each poll: tests replace it)."""
-
-    def __init__(self, callback: Callable[[Progress], Any] | None, time_limit: float | None):
-        self.callback, self.time_limit = callback, time_limit
-        self.end = (registry.clock() + time_limit
-                    if time_limit is not None and not math.isinf(time_limit) else None)
-        self.stopped = self.timed_out = False
-
-    def __call__(self, p: Progress) -> None:
-        if self.end is not None and registry.clock() >= self.end:
-            self.stopped = self.timed_out = True
-            raise StopIteration
-        if notify(self.callback, p):
-            self.stopped = True
-            raise StopIteration
-
-    @property
-    def forward(self) -> Callable[[Progress], Any] | None:
-        """What to pass to a stage: this object, or None without a callback or limit."""
-        return self if self.callback is not None or self.end is not None else None
-
-    def stop_text(self) -> str:
-        """What stopped the run."""
-        return (f"stopped by the time limit ({self.time_limit:g} s)" if self.timed_out
-                else "stopped by the callback")
-
-    def mark(self, res: Result) -> Result:
-        """``res`` with ``stop_reason = "time_limit"`` and the message saying so, after the
-        limit stopped the run."""
-        if not self.timed_out:
-            return res
-        return dataclasses.replace(res, stop_reason="time_limit", message=(
-            f"time limit ({self.time_limit:g} s) reached; {res.message}"))
 
 
 def _with_message(res: Result, text: str) -> Result:

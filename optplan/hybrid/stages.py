@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from optplan.deadline import now
 from optplan.hybrid.answer import early_answer
 from optplan.hybrid.policy import Team
 from optplan.hybrid.steps import GlobalStage, RunOptions
@@ -22,14 +23,6 @@ from optplan.result import Progress, Result, Status, notify
 from optplan.units import Record, Unit, to_scale
 
 __all__ = ["StageCallback", "global_stage", "PROGRESS_INFO_UNITS"]
-
-
-def _clock() -> float:
-    """The deadline clock of every backend, :data:`optplan.solver.clock` (read at each call:
-    tests replace it)."""
-    from optplan import solver  # the solver module imports the backends
-
-    return solver.clock()
 
 _D = Unit.DIMENSIONLESS
 #: The units of the stages' ``Progress.info`` (:mod:`optplan.units`), mapped back from the
@@ -59,13 +52,13 @@ class StageCallback:
         self.timed_out = False
         self.unit = unit  # world length of a canonical unit (best_cost is a length)
         self.time_limit = time_limit
-        self.deadline = (_clock() + time_limit if time_limit is not None
+        self.deadline = (now() + time_limit if time_limit is not None
                          and time_limit < float("inf") else None)
 
     def __call__(self, p: Progress) -> None:
         if self.stopped:  # a stage on its way out: the stop stands (no more clock readings)
             raise StopIteration
-        if self.deadline is not None and _clock() >= self.deadline:
+        if self.deadline is not None and now() >= self.deadline:
             self.stopped = self.timed_out = True
             raise StopIteration
         info = to_scale(p.info, PROGRESS_INFO_UNITS, self.unit, "Progress.info")

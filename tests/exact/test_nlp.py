@@ -456,3 +456,19 @@ def test_polishing_ipso_paper_closes_the_gap(name: str) -> None:
             assert r["L_nlp"] <= r["L_heuristic"] * (1 + 1e-12)
     assert s["n_optimal_class"] >= 3
     assert s["median_nlp_gap_pct_optimal_class"] <= 0.1
+
+
+def test_the_own_time_limit_stops_ipopt_and_keeps_the_guarded_path(monkeypatch):
+    """``time_limit`` (default 60 s, in ``show-solver``) is polled at IPOPT's iterations: a
+    clock past it stops the run at the first one, and the guard returns a path no worse than
+    the initial guess (load-independent: the clock is replaced)."""
+    from optplan import solver
+
+    assert op.get_solver("nlp-ipopt").time_limit == 60.0
+    ticks = iter(range(10**6))
+    monkeypatch.setattr(solver, "clock", lambda: 100.0 * next(ticks))
+    res = op.get_solver("nlp-ipopt", time_limit=50.0).solve(op.load_problem("paper-env1"))
+    assert res.stop_reason == "time_limit" and "time limit (50 s) reached" in res.message
+    assert res.metrics["feasible"] and res.metrics["reached"]
+    full = op.solve("paper-env1", "nlp-ipopt")
+    assert res.metrics["length"] >= full.metrics["length"] - 1e-9
