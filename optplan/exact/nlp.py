@@ -229,7 +229,8 @@ class WaypointNLP(Backend):
         IPOPT ``print_level`` (0 = silent).
     time_limit : float or None
         Seconds (> 0, default 60; ``None``: none), polled at every IPOPT iteration: the run
-        stops there and returns what the guard keeps (``stop_reason = "time_limit"``).
+        stops there with IPOPT's last iterate, graded by the validator (with a caller's
+        ``init`` and ``guard``, never worse than it; ``stop_reason = "time_limit"``).
         ``solve(time_limit=S)`` replaces it.
     """
 
