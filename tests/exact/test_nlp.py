@@ -460,8 +460,8 @@ def test_polishing_ipso_paper_closes_the_gap(name: str) -> None:
 
 def test_the_own_time_limit_stops_ipopt_and_keeps_the_guarded_path(monkeypatch):
     """``time_limit`` (default 60 s, in ``show-solver``) is polled at IPOPT's iterations: a
-    clock past it stops the run at the first one, and the guard returns a path no worse than
-    the initial guess (load-independent: the clock is replaced)."""
+    clock past it stops the run at the first one, with a valid path no shorter than the full
+    run's (load-independent: the clock is replaced)."""
     from optplan import solver
 
     assert op.get_solver("nlp-ipopt").time_limit == 60.0
