@@ -37,12 +37,12 @@ import numpy as np
 
 from optplan.backend import ClaimsInTime
 from optplan.exact.ccbs_conflicts import (
-    Action,
     Conflict,
-    actions_of,
+    Timeline,
     branch,
     constrain,
     first_conflict,
+    timeline_of,
 )
 from optplan.exact.ccbs_roadmap import agent_models, roadmap_model
 from optplan.exact.ccbs_sipp import AgentModel, Constraints, Plan, plan_agent
@@ -105,7 +105,7 @@ class _Node:
 
     cons: list[Constraints]
     plans: list[Plan]
-    acts: list[list[Action]]
+    lines: list[Timeline]
     conflicts: dict[tuple[int, int], Conflict]
     cost: float
     h: float = 0.0
@@ -142,7 +142,7 @@ class _Search:
                 if only is not None and only not in (i, j):
                     continue
                 contact = self.models[i].radius + self.models[j].radius
-                c = first_conflict(self.nodes, i, j, node.acts[i], node.acts[j], contact)
+                c = first_conflict(i, j, node.lines[i], node.lines[j], contact)
                 node.conflicts.pop((i, j), None)
                 node.children.pop((i, j), None)
                 if c is not None:
@@ -204,10 +204,10 @@ class _Search:
         for k, ch in zip((c.i, c.j), self.children_of(node, c)):
             if ch is None:
                 continue
-            cons, plans, acts = list(node.cons), list(node.plans), list(node.acts)
+            cons, plans, lines = list(node.cons), list(node.plans), list(node.lines)
             cons[k], plans[k] = ch
-            acts[k] = actions_of(plans[k])
-            kid = _Node(cons, plans, acts, dict(node.conflicts), self.cost(plans),
+            lines[k] = timeline_of(self.nodes, plans[k])
+            kid = _Node(cons, plans, lines, dict(node.conflicts), self.cost(plans),
                         children={p: v for p, v in node.children.items() if k not in p})
             self.conflicts_of(kid, only=k)
             self.push(kid)
@@ -221,7 +221,8 @@ class _Search:
             if p is None:
                 return None
             plans.append(p)
-        node = _Node(cons, plans, [actions_of(p) for p in plans], {}, self.cost(plans))
+        node = _Node(cons, plans, [timeline_of(self.nodes, p) for p in plans], {},
+                     self.cost(plans))
         self.conflicts_of(node)
         return node
 

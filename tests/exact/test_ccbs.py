@@ -9,7 +9,9 @@ import pytest
 
 import optplan as op
 from optplan.exact.ccbs import CCBSOptions, ccbs_search
+from optplan.exact.ccbs_conflicts import first_conflict, timeline_of
 from optplan.exact.ccbs_roadmap import agent_models, roadmap_model
+from optplan.exact.ccbs_sipp import Plan
 from optplan.problem import RoadmapGraph, parse_problem
 from tests.exact.ccbs_oracle import joint_grid_optimum, sampled_separation
 
@@ -197,3 +199,54 @@ def test_the_time_limit_gives_the_effort_status(monkeypatch):
         assert "without a solution" in r.message
         m = r.metrics
         assert m["team_lower_bound"] <= m["open_lower_bound"] <= SWAP_SUM * (1 + 1e-12)
+
+
+def _random_plan(rng: np.random.Generator, pts: np.ndarray) -> Plan:
+    """A random walk over the points ``pts`` (a complete graph) at unit speed, with random
+    waits, the last node held for ever."""
+    path = [int(rng.integers(len(pts)))]
+    for _ in range(int(rng.integers(1, 5))):
+        path.append(int(rng.choice([v for v in range(len(pts)) if v != path[-1]])))
+    arrive, depart, t = [0.0], [], 0.0
+    for u, v in zip(path, path[1:]):
+        t += float(rng.choice([0.0, rng.uniform(0, 2)]))
+        depart.append(t)
+        t += float(np.hypot(*(pts[v] - pts[u])))
+        arrive.append(t)
+    return Plan(tuple(path), tuple(arrive), (*depart, math.inf))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_first_conflict_against_dense_sampling(seed):
+    """The vectorised first conflict of two random plans (moves, waits, the goal held) is the
+    first sampled time the discs overlap, on one of the conflict's actions, one a move."""
+    rng = np.random.default_rng(seed)
+    pts = rng.uniform(0, 4, (6, 2))
+    checked = 0
+    for _ in range(25):
+        plans = [_random_plan(rng, pts), _random_plan(rng, pts)]
+        c = first_conflict(0, 1, timeline_of(pts, plans[0]), timeline_of(pts, plans[1]), 1.0)
+        ts = np.linspace(0.0, 30.0, 60001)
+        pos = [np.c_[np.interp(ts, *_stamps(p, pts, 0)), np.interp(ts, *_stamps(p, pts, 1))]
+               for p in plans]
+        inside = np.hypot(*(pos[0] - pos[1]).T) < 1.0
+        if not inside.any():
+            assert c is None or c.act_i.t0 > 30.0 or c.act_j.t0 > 30.0
+            continue
+        first = ts[np.argmax(inside)]
+        assert c is not None and c.time == pytest.approx(first, abs=ts[1] - ts[0])
+        assert c.act_i.is_move or c.act_j.is_move or c.time == 0.0
+        for a in (c.act_i, c.act_j):
+            assert a.t0 <= c.time <= a.t1
+        checked += 1
+    assert checked >= 5
+
+
+def _stamps(plan: Plan, pts: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """The stamps and one coordinate of ``plan``'s polyline (the hold's end far away)."""
+    ts, xs = [], []
+    for k, v in enumerate(plan.nodes):
+        ts.append(plan.arrive[k])
+        ts.append(plan.depart[k] if math.isfinite(plan.depart[k]) else 1e3)
+        xs += [pts[v][axis]] * 2
+    return np.array(ts), np.array(xs)

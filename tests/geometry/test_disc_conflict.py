@@ -87,3 +87,53 @@ def test_unsafe_interval_is_the_set_of_colliding_starts(seed):
         if hit is not None and min(abs(s - hit[0]), abs(s - hit[1])) < 1e-6:
             continue
         assert inside == (hit is not None and hit[0] < s < hit[1]), (s, hit)
+
+
+def _sampled_contact(p: TimedMotion, q: TimedMotion, radius: float, n: int = 20001):
+    """The first and last sampled time at which the centres are closer than ``radius``
+    (dense sampling of the common window, the far end of a hold cut at 50 s)."""
+    lo, hi = max(p.t0, q.t0), min(p.t1, q.t1, 50.0)
+    if not hi > lo:
+        return None
+    t = np.linspace(lo, hi, n)
+
+    def at(m: TimedMotion) -> np.ndarray:
+        if m.a == m.b:
+            return np.tile(m.a, (n, 1))
+        f = ((t - m.t0) / (m.t1 - m.t0))[:, None]
+        return np.asarray(m.a) + f * (np.asarray(m.b) - np.asarray(m.a))
+
+    inside = np.hypot(*(at(p) - at(q)).T) < radius
+    return (t[inside][0], t[inside][-1], t[1] - t[0]) if inside.any() else None
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_contact_intervals_against_dense_sampling(seed):
+    """The vectorised contact, row by row, against dense sampling of random moves, waits
+    and holds (the scalar :func:`contact_interval` is its one-row call)."""
+    from optplan.geometry.timing.disc_conflict import TimedMotions, contact_intervals
+
+    rng = np.random.default_rng(100 + seed)
+    ps, qs = [], []
+    for _ in range(60):
+        pair = []
+        for kind in rng.integers(0, 3, 2):
+            a, b = rng.uniform(-3, 3, (2, 2))
+            t0 = rng.uniform(0, 4)
+            t1 = math.inf if kind == 2 else t0 + rng.uniform(0.5, 6)
+            pair.append(_m(a, a if kind else b, t0, t1))
+        ps.append(pair[0])
+        qs.append(pair[1])
+    start, end = contact_intervals(TimedMotions.of(ps), TimedMotions.of(qs), 1.2)
+    hits = 0
+    for p, q, s, e in zip(ps, qs, start, end):
+        ref = _sampled_contact(p, q, 1.2)
+        one = contact_interval(p, q, 1.2)
+        assert (one is None) == np.isnan(s) and (one is None or one == (s, e))
+        if ref is None:  # no sample inside: at most a sliver between two samples
+            assert np.isnan(s) or min(e, 50.0) - s < 1e-2
+            continue
+        hits += 1
+        assert s == pytest.approx(ref[0], abs=ref[2]) and min(e, 50.0) == pytest.approx(
+            ref[1], abs=ref[2])
+    assert hits >= 5

@@ -41,7 +41,8 @@ import numpy as np
 
 from optplan.geometry.timing.contact_times import ConvexShape, line_intervals
 
-__all__ = ["TimedMotion", "contact_interval", "unsafe_interval", "CONTACT_REL_TOL"]
+__all__ = ["TimedMotion", "TimedMotions", "contact_interval", "contact_intervals",
+           "unsafe_interval", "CONTACT_REL_TOL"]
 
 #: Relative margin of the contact distance: ``ccbs`` plans with the contact distance
 #: ``(r_i + r_j) (1 - CONTACT_REL_TOL)`` (what its constraints exclude) and reports a conflict
@@ -51,6 +52,14 @@ __all__ = ["TimedMotion", "contact_interval", "unsafe_interval", "CONTACT_REL_TO
 CONTACT_REL_TOL = 1e-10
 
 _POINT = ConvexShape(radius=0.0)
+
+
+def _velocities(a: np.ndarray, b: np.ndarray, t0: np.ndarray, t1: np.ndarray) -> np.ndarray:
+    """Per row ``(b - a) / (t1 - t0)``, zero for a wait (``a = b``, ``t1 = inf``, ``t1 <= t0``)."""
+    moving = np.isfinite(t1) & (t1 > t0) & (a != b).any(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v = (b - a) / (t1 - t0)[:, None]
+    return np.where(moving[:, None], v, 0.0)
 
 
 @dataclass(frozen=True)
@@ -73,18 +82,48 @@ class TimedMotion:
     @property
     def velocity(self) -> np.ndarray:
         """``(b - a) / (t1 - t0)`` (zero for a wait)."""
-        a, b = np.asarray(self.a, float), np.asarray(self.b, float)
-        if not math.isfinite(self.t1) or self.t1 <= self.t0 or (a == b).all():
-            return np.zeros(2)
-        return (b - a) / (self.t1 - self.t0)
+        return TimedMotions.of([self]).velocity[0]
 
-    def at(self, t: float) -> np.ndarray:
-        """The centre at time ``t`` (clamped to the motion's window)."""
-        v = self.velocity
-        if not v.any():
-            return np.asarray(self.a, float)
-        tt = min(max(t, self.t0), self.t1)
-        return np.asarray(self.a, float) + (tt - self.t0) * v
+
+@dataclass(frozen=True)
+class TimedMotions:
+    """Timed motions, one a row: the arrays of :class:`TimedMotion` (``a``, ``b``,
+    ``velocity`` ``(n, 2)``; ``t0``, ``t1`` ``(n,)``); :meth:`build` computes the velocities."""
+
+    a: np.ndarray
+    b: np.ndarray
+    t0: np.ndarray
+    t1: np.ndarray
+    velocity: np.ndarray
+
+    @classmethod
+    def build(cls, a: np.ndarray, b: np.ndarray, t0: np.ndarray, t1: np.ndarray
+              ) -> TimedMotions:
+        """The motions ``a[k] -> b[k]`` over ``[t0[k], t1[k]]``."""
+        a, b = np.asarray(a, float).reshape(-1, 2), np.asarray(b, float).reshape(-1, 2)
+        t0, t1 = np.asarray(t0, float), np.asarray(t1, float)
+        return cls(a, b, t0, t1, _velocities(a, b, t0, t1))
+
+    @classmethod
+    def of(cls, motions: list[TimedMotion]) -> TimedMotions:
+        """The rows of ``motions``."""
+        return cls.build(np.array([m.a for m in motions], float),
+                         np.array([m.b for m in motions], float),
+                         np.array([m.t0 for m in motions], float),
+                         np.array([m.t1 for m in motions], float))
+
+    def take(self, rows: np.ndarray) -> TimedMotions:
+        """The motions of ``rows`` (indices)."""
+        return TimedMotions(self.a[rows], self.b[rows], self.t0[rows], self.t1[rows],
+                            self.velocity[rows])
+
+    def at(self, t: np.ndarray) -> np.ndarray:
+        """Row ``k``'s centre at time ``t[k]`` (clamped to its window)."""
+        tt = np.minimum(np.maximum(t, self.t0), self.t1)
+        moves = (self.velocity != 0).any(axis=1)
+        with np.errstate(invalid="ignore"):
+            step = np.where(moves, tt - self.t0, 0.0)
+        return np.where(moves[:, None], self.a + step[:, None] * self.velocity, self.a)
 
 
 def _below(c: np.ndarray, d: np.ndarray, radius: float) -> tuple[np.ndarray, np.ndarray]:
@@ -92,33 +131,51 @@ def _below(c: np.ndarray, d: np.ndarray, radius: float) -> tuple[np.ndarray, np.
     return line_intervals(c, d, _POINT, radius)
 
 
-def contact_interval(p: TimedMotion, q: TimedMotion, radius: float
-                     ) -> tuple[float, float] | None:
-    """When two discs on timed motions overlap.
+def contact_intervals(p: TimedMotions, q: TimedMotions, radius: float
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """When two discs on timed motions overlap, row by row (``p[k]`` against ``q[k]``).
 
     Parameters
     ----------
-    p, q : TimedMotion
+    p, q : TimedMotions
+        The same number of rows.
     radius : float
         The contact distance (the sum of the radii, possibly shrunk by a relative margin).
 
     Returns
     -------
-    tuple of float or None
-        The open interval ``(first contact, last contact)`` of times in the common window at
-        which the centres are closer than ``radius``; ``None`` when they never are (touching is
-        not contact).  The first contact is the first time of the conflict.
+    start, end : ndarray ``(n,)``
+        The open interval ``(first contact, last contact)`` of times in the common window of
+        row ``k`` at which the centres are closer than ``radius``; NaN when they never are
+        (touching is not contact).  The first contact is the first time of the conflict.
     """
-    lo, hi = max(p.t0, q.t0), min(p.t1, q.t1)
-    if not hi > lo or radius <= 0:
-        return None
-    c = p.at(lo) - q.at(lo)
-    d = p.velocity - q.velocity
-    a, b = _below(c[None], d[None], radius)
-    if math.isnan(a[0]):
-        return None
-    start, end = lo + max(float(a[0]), 0.0), lo + min(float(b[0]), hi - lo)
-    return (start, end) if end > start else None
+    lo, hi = np.maximum(p.t0, q.t0), np.minimum(p.t1, q.t1)
+    if radius <= 0 or not len(lo):
+        return np.full(len(lo), np.nan), np.full(len(lo), np.nan)
+    a, b = _below(p.at(lo) - q.at(lo), p.velocity - q.velocity, radius)
+    with np.errstate(invalid="ignore"):
+        start, end = lo + np.maximum(a, 0.0), lo + np.minimum(b, hi - lo)
+    hit = (hi > lo) & ~np.isnan(a) & (end > start)
+    return np.where(hit, start, np.nan), np.where(hit, end, np.nan)
+
+
+def contact_interval(p: TimedMotion, q: TimedMotion, radius: float
+                     ) -> tuple[float, float] | None:
+    """When two discs on timed motions overlap: :func:`contact_intervals` of one row.
+
+    Parameters
+    ----------
+    p, q : TimedMotion
+    radius : float
+        The contact distance.
+
+    Returns
+    -------
+    tuple of float or None
+        The open interval ``(first contact, last contact)``; ``None`` when they never overlap.
+    """
+    start, end = contact_intervals(TimedMotions.of([p]), TimedMotions.of([q]), radius)
+    return None if np.isnan(start[0]) else (float(start[0]), float(end[0]))
 
 
 def _edge_pieces(c: np.ndarray, vi: np.ndarray, vj: np.ndarray, dur: float, span: float
