@@ -21,7 +21,7 @@ graded against the same front.
   RTOL) + ABS_RMSE * Lbar``, ``Lbar`` the mean slot distance);
 * ``formation_rmse_ratio_to_team`` = the plan's RMSE / ``team_formation_rmse_reference``, the
   smallest RMSE of a front member that arrives no later than the plan (``arrival_m <= arrival
-  (1 + RTOL)``);
+  (1 + RTOL)``), both sides floored at ``ABS_RMSE * Lbar`` (the resolution of the RMSE);
 * a plan the validator accepts joins the front for its own grading: when it is better than
   every front member that qualifies (or none qualifies), its own value is the reference and
   ``team_reference_source`` says ``"this plan"``.  So **no valid plan has a ratio below 1**
@@ -75,9 +75,10 @@ TeamReference = Callable[[Problem], dict[str, Result]]
 
 #: Relative tolerance of "no worse" on both criteria (0.1 %).
 RTOL = 1e-3
-#: Absolute floor of "no worse" on the formation RMSE, in mean slot distances (an RMSE of
-#: zero against one of 1e-9 is a tie).
-ABS_RMSE = 1e-4
+#: The resolution of the formation RMSE, in mean slot distances (0.1 %, the NLP's own tolerance
+#: on it): the absolute slack of "no worse" on the RMSE, and the floor of both sides of
+#: ``formation_rmse_ratio_to_team`` (an RMSE of 1e-6 against one of 1e-7 is a tie, not 10).
+ABS_RMSE = 1e-3
 
 #: The source of a reference that is the graded plan itself.
 THIS_PLAN = "this plan"
@@ -87,7 +88,8 @@ THIS_PLAN = "this plan"
 class TeamPoint:
     """A team plan on the two criteria: the leader's ``arrival`` at its goal point (s), the
     formation ``rmse``, the smallest distance between robot centres ``separation``, whether
-    the validator accepts it (``valid``, with ``why`` not when it does not)."""
+    the validator accepts it (``valid``, with ``why`` not when it does not) and the run's
+    ``stop_reason`` (``"time_limit"``: cut short)."""
 
     source: str
     arrival: float | None
@@ -95,6 +97,7 @@ class TeamPoint:
     separation: float | None
     valid: bool
     why: str = ""
+    stop_reason: str = ""
 
 
 @dataclass(frozen=True)
@@ -134,7 +137,8 @@ def team_point(problem: Problem, res: Result, source: str = THIS_PLAN) -> TeamPo
               (rmse is not None, "no formation RMSE"), (not why, why))
     bad = [text for ok, text in checks if not ok]
     return TeamPoint(source, arrival, None if rmse is None else float(rmse),
-                     None if sep is None else float(sep), not bad, "; ".join(bad))
+                     None if sep is None else float(sep), not bad, "; ".join(bad),
+                     res.stop_reason)
 
 
 def _front(points: list[TeamPoint]) -> tuple[TeamPoint, ...]:
@@ -193,6 +197,9 @@ def _message(front: TeamFront) -> str:
     bad = [f"{c.source} ({c.why})" for c in front.candidates if not c.valid]
     if bad:
         out.append("not valid: " + ", ".join(bad))
+    cut = [c.source for c in front.candidates if c.stop_reason == "time_limit"]
+    if cut:
+        out.append("stopped by the time limit: " + ", ".join(cut))
     return "; ".join(out)
 
 
@@ -239,8 +246,11 @@ def grade_team(problem: Problem, res: Result, front: TeamFront) -> dict[str, Any
         "team_reference_source": _sources(by_arrival, by_rmse),
         "team_min_separation_reference": min(used, default=None)}
     out["arrival_ratio_to_team"] = _ratio(plan.arrival, out["team_arrival_reference"])
-    out["formation_rmse_ratio_to_team"] = _ratio(plan.rmse,
-                                                 out["team_formation_rmse_reference"])
+    floor = ABS_RMSE * lbar
+    ref_rmse = out["team_formation_rmse_reference"]
+    out["formation_rmse_ratio_to_team"] = (
+        None if plan.rmse is None or ref_rmse is None
+        else max(plan.rmse, floor) / max(ref_rmse, floor))
     out["separation_ratio_to_team"] = _ratio(plan.separation,
                                              out["team_min_separation_reference"])
     lead = form.leader

@@ -8,6 +8,7 @@ preset found by name.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import re
 
@@ -157,6 +158,12 @@ def test_the_front_keeps_the_non_dominated_points_and_grades_by_the_rule(disc):
     assert m["team_arrival_reference_source"] == "near"
     assert m["team_formation_rmse_reference_source"] == "this plan"
     assert m["team_reference_source"] == "arrival: near; formation rmse: this plan"
+    # RMSEs below 0.1 % of the mean slot distance are ties: both sides of the ratio floored
+    tiny = dataclasses.replace(res, metrics={**res.metrics, "formation_rmse": 1e-6})
+    exact = TeamPoint("exact", 0.9 * a, 0.0, 2.0, True)
+    m = grade_team(disc, tiny, TeamFront((exact,), ()))
+    assert m["team_formation_rmse_reference_source"] == "exact"
+    assert m["formation_rmse_ratio_to_team"] == 1.0
 
 
 def test_the_front_drops_dominated_and_invalid_candidates(disc):
