@@ -15,12 +15,13 @@ order swapped every query, never both at once), so the machine's load hits both 
 table then gives both checkouts' times, the ratio of the medians (current / REV; below 1 is
 faster) and how many queries returned the same answer.  A run stopped by the preset's
 ``time_limit`` (``stop_reason``) depends on the wall clock, so its answer is left out of the
-comparison and counted in the column "time limit".  The load average is printed before and
-after.
+comparison and counted in the column "time limit" (``--time-limit 1e6``: no run is
+stopped).  The load average is printed before and after.
 
     python benchmarks/bench_sa_apf_grid.py                      # current checkout only
     python benchmarks/bench_sa_apf_grid.py --against HEAD~1     # beside an older commit
     python benchmarks/bench_sa_apf_grid.py --solvers sa-apf-paper --seeds 1001 --queries 5
+    python benchmarks/bench_sa_apf_grid.py --solvers hybrid-paper --time-limit 1e6 --against REV
 """
 
 from __future__ import annotations
@@ -42,8 +43,9 @@ SOLVERS = ("sa-apf-paper", "hybrid-paper")
 
 
 def worker(scens: list[str]) -> None:
-    """Answer the requests ``solver map line`` of standard input with one JSON line each
-    (wall and CPU seconds, status, stop reason, the digest of the paths)."""
+    """Answer the requests ``solver map line limit`` of standard input with one JSON line
+    each (wall and CPU seconds, status, stop reason, the digest of the paths); ``limit`` is
+    ``op.solve``'s ``time_limit`` in seconds, ``-`` for the preset's own."""
     import hashlib
     import time
 
@@ -53,7 +55,8 @@ def worker(scens: list[str]) -> None:
     probs: dict[tuple[str, int], list] = {}
     warm: set[str] = set()
     for line in sys.stdin:
-        solver, m, k = line.split()
+        solver, m, k, limit = line.split()
+        kw = {} if limit == "-" else {"time_limit": float(limit)}
         key = (solver, int(m))
         if key not in probs:  # every solver gets the problems fresh (nothing cached)
             probs[key] = read_scen(scens[int(m)])
@@ -62,7 +65,7 @@ def worker(scens: list[str]) -> None:
             warm.add(solver)
         q = probs[key][int(k)]
         c0, t0 = time.process_time(), time.perf_counter()
-        res = op.solve(q, solver, rng=int(k))
+        res = op.solve(q, solver, rng=int(k), **kw)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         h = hashlib.sha256(res.status.value.encode())
         for rid in sorted(res.paths):
@@ -80,10 +83,11 @@ class Worker:
                                   stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                                   cwd=root)
 
-    def ask(self, solver: str, m: int, k: int) -> dict:
-        """Solve line ``k`` of map ``m`` with ``solver``; the worker's JSON answer."""
+    def ask(self, solver: str, m: int, k: int, limit: float | None) -> dict:
+        """Solve line ``k`` of map ``m`` with ``solver`` (``time_limit`` ``limit``, None: the
+        preset's); the worker's JSON answer."""
         assert self.p.stdin is not None and self.p.stdout is not None
-        self.p.stdin.write(f"{solver} {m} {k}\n")
+        self.p.stdin.write(f"{solver} {m} {k} {'-' if limit is None else limit}\n")
         self.p.stdin.flush()
         out = self.p.stdout.readline()
         if not out:
@@ -111,8 +115,8 @@ def _maps(seeds: list[int], queries: int, tmp: str) -> list[tuple[str, int]]:
     return out
 
 
-def run(solvers: list[str], seeds: list[int], queries: int, against: str | None
-        ) -> dict[str, dict[str, list[dict]]]:
+def run(solvers: list[str], seeds: list[int], queries: int, against: str | None,
+        limit: float | None = None) -> dict[str, dict[str, list[dict]]]:
     """Every query with every solver on the current checkout (and ``against``), alternating;
     ``{solver: {"current": [...], REV: [...]}}`` of the workers' answers, in query order."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -133,7 +137,7 @@ def run(solvers: list[str], seeds: list[int], queries: int, against: str | None
                 for j, (m, k) in enumerate(jobs):
                     order = list(workers) if j % 2 == 0 else list(workers)[::-1]
                     for name in order:
-                        out[solver][name].append(workers[name].ask(solver, m, k))
+                        out[solver][name].append(workers[name].ask(solver, m, k, limit))
                     print(f"  {solver} map {seeds[m]} line {k}: " + ", ".join(
                         f"{name} {r['wall']:.2f} s" for name, r in
                         ((n, out[solver][n][-1]) for n in workers)), file=sys.stderr, flush=True)
@@ -198,16 +202,19 @@ def main(argv: list[str] | None = None) -> None:
                     help="map seeds (one map each)")
     ap.add_argument("--queries", type=int, default=10, help="lines per map")
     ap.add_argument("--against", metavar="REV", help="also run the queries on commit REV")
+    ap.add_argument("--time-limit", type=float, metavar="S",
+                    help="op.solve's time_limit (default: the preset's; hybrid-paper 60 s)")
     ap.add_argument("--worker", nargs="+", metavar="SCEN", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
     if a.worker:
         worker(a.worker)
         return
     load0 = os.getloadavg()
-    out = run(a.solvers, a.seeds, a.queries, a.against)
+    out = run(a.solvers, a.seeds, a.queries, a.against, a.time_limit)
     load1 = os.getloadavg()
     print(f"\n{a.queries} queries on each of {len(a.seeds)} 32 x 32 random maps, 20 % blocked "
-          f"(map seeds {' '.join(map(str, a.seeds))}; rng = line index)")
+          f"(map seeds {' '.join(map(str, a.seeds))}; rng = line index; time_limit "
+          f"{'of the preset' if a.time_limit is None else f'{a.time_limit:g} s'})")
     print(f"Machine: {platform.machine()}, {os.cpu_count()} cores; load average (1, 5, 15 min) "
           f"before {load0[0]:.1f} {load0[1]:.1f} {load0[2]:.1f}, "
           f"after {load1[0]:.1f} {load1[1]:.1f} {load1[2]:.1f}\n")
