@@ -22,6 +22,7 @@ On a problem whose planned robots each have a goal (no formation: multi-agent pa
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import Any
 
@@ -88,7 +89,7 @@ def _lower(problem: Problem) -> float | None:
     total = 0.0
     for r in problem.planned_robots:
         b = problem.memo(("arrival_lower_bound", r.id),
-                         lambda r=r: arrival_lower_bound(problem, r.id))
+                         functools.partial(arrival_lower_bound, problem, r.id))
         if b.value is None:
             return None
         total += float(b.value)
