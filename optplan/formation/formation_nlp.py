@@ -135,7 +135,7 @@ class FormationNLP(Backend):
             res = get_solver(self.warm_start).solve(problem, rng=rng, callback=limit.forward)
             warm = warm_from_result(problem, res)
             if limit.stopped or res.stop_reason:  # cut short: no time left to polish it
-                return self._unpolished(problem, warm, limit, t0)
+                return self._unpolished(problem, warm, limit, res.stop_reason, t0)
         if warm is None:
             return self._give_up(problem, f"the warm start ({self.warm_start}) gives no "
                                  "synchronised team plan that reaches the goal", t0)
@@ -263,11 +263,14 @@ class FormationNLP(Backend):
                            wall_time=time.perf_counter() - t0)
         return _with_message(kept, text)
 
-    def _unpolished(self, problem: Problem, warm: Warm | None, limit: Deadline, t0: float
-                    ) -> Result:
-        """The warm start cut short by the time limit or the callback, returned as it is
-        (not polished: no time is left), or the give-up when its leader never arrives."""
-        what = f"the warm start ({self.warm_start}) was {limit.stop_text()}"
+    def _unpolished(self, problem: Problem, warm: Warm | None, limit: Deadline, reason: str,
+                    t0: float) -> Result:
+        """The warm start cut short by the time limit, the callback or its own limit
+        (``reason``), returned as it is (not polished), or the give-up when its leader never
+        arrives."""
+        cause = (limit.stop_text() if limit.stopped else
+                 f"stopped by its own {reason.replace('_', ' ')}")
+        what = f"the warm start ({self.warm_start}) was {cause}"
         if warm is None:
             return limit.mark(self._give_up(problem, f"{what} before its leader arrived", t0))
         return limit.mark(self._kept(problem, warm, f"{what}: returned as it is, not "
