@@ -157,8 +157,9 @@ COMMANDS: dict[str, tuple[Handler | None, dict[str, Any], list[Arg]]] = {
         _arg("--no-reference", action="store_true",
              help="do not compute the certified optimum (no ratio to optimum)"),
         _arg("--team-reference", action="store_true",
-             help="also grade a team plan against the joint trajectory NLP warm-started from "
-                  "it (formation-nlp; a local optimum)"),
+             help="also grade a team plan against the problem's team reference (the best "
+                  "known team plans, formation-nlp polished from each heuristic; robots with "
+                  "their own goals: ccbs's sum of arrivals) and its certified lower bound"),
         _arg("--set", action="append", metavar="KEY=VALUE",
              help="override an option; VALUE is a TOML literal (repeatable)"),
         _arg("--json", metavar="FILE", help="save the Result as JSON"),

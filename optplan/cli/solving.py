@@ -35,17 +35,24 @@ def _arrival_line(m: dict[str, Any]) -> list[str]:
 
 
 def _team_lines(m: dict[str, Any]) -> list[str]:
-    """The grading against the team optimum (``reference="team"``)."""
-    if "team_reference_status" not in m:
-        return []
-    lines = [f"  team ref    {m['team_reference_status']}: {m.get('team_reference_message', '')}"]
-    rows = (("arrival", "arrival_ratio_to_team", "team_arrival_reference"),
-            ("formation rmse", "formation_rmse_ratio_to_team", "team_formation_rmse_reference"),
-            ("min separation", "separation_ratio_to_team", "team_min_separation_reference"))
-    for name, ratio, value in rows:
+    """The grading against the team reference (``reference="team"``): the front of the best
+    known team plans, its certified lower bound; robots with their own goals: their sum."""
+    lines = []
+    if m.get("team_reference_status", "no formation") != "no formation":
+        lines.append(f"  team ref    {m['team_reference_status']}: "
+                     f"{m.get('team_reference_message', '')}")
+    rows = (("arrival", "arrival_ratio_to_team", "team_arrival_reference", "reference"),
+            ("formation rmse", "formation_rmse_ratio_to_team", "team_formation_rmse_reference",
+             "reference"),
+            ("arrival", "arrival_ratio_to_team_lower", "team_arrival_lower_bound",
+             "lower bound"),
+            ("sum", "sum_ratio_to_reference", "sum_reference", "reference"),
+            ("sum", "sum_ratio_to_lower", "sum_lower_bound", "lower bound"))
+    for name, ratio, value, what in rows:
         if m.get(ratio) is not None:
-            lines.append(f"    {name:<15} ratio to team optimum {_fmt(m[ratio])} "
-                         f"(reference {_fmt(m[value])})")
+            source = m.get(f"{value}_source")
+            lines.append(f"    {name:<15} ratio to the {what} {_fmt(m[ratio])} "
+                         f"({what} {_fmt(m[value])}" + (f": {source})" if source else ")"))
     return lines
 
 
