@@ -21,7 +21,12 @@ branched on (:func:`~optplan.exact.ccbs_conflicts.branch`).  Options (Andreychuk
 on those with one (semi-cardinal), else on the earliest; ``heuristic`` adds to a node's cost a
 lower bound of what its cardinal conflicts must add (the largest of ``min(increase_i,
 increase_j)`` over disjoint pairs of robots, greedily; sum objective only), computed when the
-node is first taken from the queue (it goes back when that raises its bound).
+node is first taken from the queue (it goes back when that raises its bound); ``disjoint``
+(Li et al., ICAPS 2019; in continuous time Andreychuk et al., AAAI 2021) splits disjointly:
+the child of the other robot also *requires* the move that the mover's own child forbids (a
+positive constraint, :func:`~optplan.exact.ccbs_sipp.plan_agent`), given to a mover of the
+conflict (of two, the one with fewer positive constraints).  The soundness argument with the
+delta rule is in :mod:`optplan.exact.ccbs_conflicts`.
 """
 
 from __future__ import annotations
@@ -67,6 +72,7 @@ class CCBSOptions:
     heuristic: bool = True
     gamma: float = 0.5
     max_expansions: int = 100_000
+    disjoint: bool = True
 
 
 @dataclass
@@ -122,6 +128,8 @@ class _Search:
         self.out = CCBSOutcome("no_solution")
         self.heap: list[tuple[float, int, int, _Node]] = []
         self.seq = 0
+        self.lines: dict[tuple, Timeline] = {}
+        self.pairs: dict[tuple[int, int, int, int], Conflict | None] = {}
 
     def cost(self, plans: list[Plan]) -> float:
         """The objective of a set of plans."""
@@ -133,6 +141,23 @@ class _Search:
         self.out.low_level += 1
         return plan_agent(self.models[k], cons, self.stop)
 
+    def line(self, plan: Plan) -> Timeline:
+        """The timeline of ``plan``, one object per distinct plan (so pairs of them can be
+        remembered by identity)."""
+        key = (plan.nodes, plan.arrive, plan.depart)
+        if key not in self.lines:
+            self.lines[key] = timeline_of(self.nodes, plan)
+        return self.lines[key]
+
+    def first(self, i: int, j: int, node: _Node) -> Conflict | None:
+        """The first conflict of robots ``i < j`` in ``node`` (remembered per pair of
+        timelines: children share the plans they did not change)."""
+        key = (i, j, id(node.lines[i]), id(node.lines[j]))
+        if key not in self.pairs:
+            contact = self.models[i].radius + self.models[j].radius
+            self.pairs[key] = first_conflict(i, j, node.lines[i], node.lines[j], contact)
+        return self.pairs[key]
+
     def conflicts_of(self, node: _Node, only: int | None = None) -> None:
         """Fill ``node.conflicts``: every pair's first conflict (only the pairs of robot
         ``only`` when given; the others are the parent's)."""
@@ -141,8 +166,7 @@ class _Search:
             for j in range(i + 1, n):
                 if only is not None and only not in (i, j):
                     continue
-                contact = self.models[i].radius + self.models[j].radius
-                c = first_conflict(i, j, node.lines[i], node.lines[j], contact)
+                c = self.first(i, j, node)
                 node.conflicts.pop((i, j), None)
                 node.children.pop((i, j), None)
                 if c is not None:
@@ -161,18 +185,30 @@ class _Search:
         return None if p is None else (cons, p)
 
     def children_of(self, node: _Node, c: Conflict) -> tuple:
-        """The two children of conflict ``c`` (cached per pair)."""
+        """The two children of conflict ``c`` and their constraints (cached per pair)."""
         key = (c.i, c.j)
         if key not in node.children:
             contact = self.models[c.i].radius + self.models[c.j].radius
             ci, cj = branch(self.nodes, c, contact, self.opts.gamma)
-            node.children[key] = (self.child(node, c.i, ci), self.child(node, c.j, cj))
+            node.children[key] = (self.child(node, c.i, ci), self.child(node, c.j, cj), ci, cj)
         return node.children[key]
+
+    def positive(self, node: _Node, c: Conflict) -> tuple[int, tuple] | None:
+        """Disjoint splitting: the robot whose move the other child requires, and that
+        requirement (its own child's edge constraint as a positive one); of two moves, the
+        robot with fewer positive constraints (``None`` without the option)."""
+        if not self.opts.disjoint:
+            return None
+        movers = [(len(node.cons[k].positive), n, k) for n, (k, a) in
+                  enumerate(((c.i, c.act_i), (c.j, c.act_j))) if a.is_move]
+        _, n, k = min(movers)
+        _, u, v, lo, hi = self.children_of(node, c)[2 + n]
+        return k, ("positive", u, v, lo, hi)
 
     def increases(self, node: _Node, c: Conflict) -> tuple[float, float]:
         """The cost increases of robots ``c.i`` and ``c.j`` in the two children."""
         out = []
-        for k, ch in zip((c.i, c.j), self.children_of(node, c)):
+        for k, ch in zip((c.i, c.j), self.children_of(node, c)[:2]):
             old = node.plans[k].cost
             out.append(math.inf if ch is None else ch[1].cost - old)
         return out[0], out[1]
@@ -201,14 +237,20 @@ class _Search:
     def expand(self, node: _Node, c: Conflict) -> None:
         """Branch ``node`` on ``c``: push its feasible children."""
         self.out.expansions += 1
-        for k, ch in zip((c.i, c.j), self.children_of(node, c)):
+        pos = self.positive(node, c)
+        for k, ch in zip((c.i, c.j), self.children_of(node, c)[:2]):
             if ch is None:
                 continue
             cons, plans, lines = list(node.cons), list(node.plans), list(node.lines)
             cons[k], plans[k] = ch
-            lines[k] = timeline_of(self.nodes, plans[k])
+            lines[k] = self.line(plans[k])
+            changed = {k}
+            if pos is not None and pos[0] != k:  # its plan already meets the requirement
+                cons[pos[0]] = constrain(node.cons[pos[0]], pos[1])
+                changed.add(pos[0])
             kid = _Node(cons, plans, lines, dict(node.conflicts), self.cost(plans),
-                        children={p: v for p, v in node.children.items() if k not in p})
+                        children={p: v for p, v in node.children.items()
+                                  if not changed.intersection(p)})
             self.conflicts_of(kid, only=k)
             self.push(kid)
 
@@ -221,8 +263,7 @@ class _Search:
             if p is None:
                 return None
             plans.append(p)
-        node = _Node(cons, plans, [timeline_of(self.nodes, p) for p in plans], {},
-                     self.cost(plans))
+        node = _Node(cons, plans, [self.line(p) for p in plans], {}, self.cost(plans))
         self.conflicts_of(node)
         return node
 
@@ -280,7 +321,8 @@ def ccbs_search(nodes: np.ndarray, models: list[AgentModel], options: CCBSOption
         full speed and the moving obstacles (:class:`~optplan.exact.ccbs_sipp.AgentModel`).
     options : CCBSOptions, optional
         ``objective`` (``"sum"`` or ``"makespan"``), ``cardinal``, ``heuristic``, ``gamma``
-        (the delta rule's fraction, in ``(0, 1)``) and ``max_expansions``.
+        (the delta rule's fraction, in ``(0, 1)``), ``max_expansions`` and ``disjoint``
+        (disjoint splitting).
     stop : callable, optional
         Polled once per node and every 256 low-level states; True ends the search (status
         ``"stopped"``).
@@ -372,8 +414,9 @@ class CCBS(ClaimsInTime, Backend):
     objective : str
         ``"sum"`` (default: the sum of the arrival times) or ``"makespan"`` (the last one).
     disjoint : bool
-        Disjoint splitting: not offered (only ``False``): it is not known to be sound with the
-        delta branching rule.
+        Disjoint splitting (default true): one child forbids a robot's move in a time window,
+        the other requires it there (a positive constraint) and carries the other robot's
+        constraint; sound with the delta rule (:mod:`optplan.exact.ccbs_conflicts`).
     cardinal : bool
         Branch on cardinal conflicts first, then semi-cardinal ones (default true).
     heuristic : bool
@@ -387,15 +430,10 @@ class CCBS(ClaimsInTime, Backend):
     time_limit: float | None = option(30.0, lo=0.0, lo_open=True, inf_ok=True, none_ok=True)
     max_expansions: int = option(100_000, lo=1, hi=10**9)
     objective: str = option("sum", choices=("sum", "makespan"))
-    disjoint: bool = option(False)
+    disjoint: bool = option(True)
     cardinal: bool = option(True)
     heuristic: bool = option(True)
     gamma: float = option(0.5, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
-
-    def check(self) -> None:
-        if self.disjoint:
-            raise ValueError("ccbs: disjoint = true is not offered (allowed: false): disjoint "
-                             "splitting is not known to be sound with the delta branching rule")
 
     def solve(self, problem: Problem, /, *, rng: np.random.Generator | None = None,
               init: dict[str, np.ndarray] | None = None,
@@ -422,7 +460,7 @@ class CCBS(ClaimsInTime, Backend):
                                              elapsed=time.perf_counter() - t0))
 
         opts = CCBSOptions(self.objective, self.cardinal, self.heuristic, self.gamma,
-                           self.max_expansions)
+                           self.max_expansions, self.disjoint)
         out = ccbs_search(graph.nodes, models, opts, stop)
         res = self._answer(problem, out, graph, t0, "", Status.failed, team)
         return res if not state["timed_out"] else _stopped(res)

@@ -31,6 +31,25 @@ infeasible).
   exclude the current conflict (``j`` is at ``v`` in ``[c_s + delta, c_e)`` or leaves it at
   ``c_s + delta``, and the vertex constraint forbids leaving too), and the excluded intervals are
   a fixed fraction of the contact, which is what makes the search terminate.
+
+**Disjoint splitting** (``ccbs``'s option ``disjoint``).  In both rules the child of a mover
+``i`` is one edge constraint "``i`` does not depart along ``u -> v`` in ``[t_i, T)``".  Its
+complement is the *positive* constraint "``i`` departs along ``u -> v`` at least once in
+``[t_i, T)``", which the other child receives beside its own constraint (``i``'s plan, departing
+at ``t_i``, already meets it).  Sound with both rules: a conflict-free solution of the parent
+either has no such departure (it is in ``i``'s child) or has one at some ``s`` in
+``[t_i, T)``; then it also meets the other child's constraint, by the argument that made the
+rule sound: two moves, ``s`` in ``[t_i, e_i)``, and ``j`` departing in ``[t_j, e_j)`` would put
+the offset of the departures in the contact interval; a move and a wait, ``s`` in
+``[t_i, t_i + delta)`` passes ``v`` over all of ``[c_s + delta, c_e)``, so ``j`` is not at ``v``
+then.  So every conflict-free solution lies in exactly one child (the children no longer
+overlap), the constraints of every node stay necessary for the solutions below it, and its
+cost stays a lower bound.  The positive constraint only ever removes plans, so each child still
+excludes the current conflict and carries the delta rule's constraint of a fixed fraction of
+the contact; what disjoint splitting adds is that a robot, once required to make a move, is
+not replanned around it in that subtree.  Unlike Li et al. (ICAPS 2019), the requirement is
+not turned into constraints of the other robots (a departure *somewhere* in a window implies
+no single time at which the others must keep away), as in the authors' implementation.
 """
 
 from __future__ import annotations
@@ -219,11 +238,14 @@ def branch(nodes, c: Conflict, contact: float, gamma: float) -> tuple[tuple, tup
 
 
 def constrain(cons: Constraints, child: tuple) -> Constraints:
-    """A copy of ``cons`` with the child's constraint added."""
-    out = Constraints(dict(cons.vertex), dict(cons.edge))
+    """A copy of ``cons`` with the child's constraint added (``kind`` ``"vertex"``, ``"edge"``
+    or ``"positive"``: a departure along ``u -> v`` required in ``[t1, t2)``)."""
+    out = Constraints(dict(cons.vertex), dict(cons.edge), cons.positive)
     kind, u, v, lo, hi = child
     if kind == "vertex":
         out.add_vertex(u, lo, hi)
+    elif kind == "positive":
+        out.add_positive(u, v, lo, hi)
     else:
         out.add_edge(u, v, lo, hi)
     return out

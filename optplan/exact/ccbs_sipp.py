@@ -8,6 +8,8 @@ ever.  Its *constraints* (from the high level, :mod:`optplan.exact.ccbs`) are
   ``[t1, t2)`` (it may arrive at ``t2``); it may not leave ``v`` in ``[t1, t2)`` either;
 * edge constraints ``(u -> v, [t1, t2))``: the robot does not depart along ``u -> v`` at a time
   of ``[t1, t2)``;
+* positive constraints ``(u -> v, [t1, t2))`` (disjoint splitting): the robot departs along
+  ``u -> v`` at least once at a time of ``[t1, t2)``;
 
 and the moving obstacles are hard constraints: their busy times at a node
 (:meth:`~optplan.exact.sipp_graph.MoverBoxes.parked_busy`) and their forbidden departures on an
@@ -21,6 +23,15 @@ do whatever a later one can: the constraints restrict departures, not arrivals),
 the graph distance to the goal over ``speed`` (consistent).  A state at the goal counts only
 when its safe interval is unbounded (the robot holds its goal for ever), so the first one taken
 from the queue is the earliest arrival under the constraints: *optimal*.
+
+With positive constraints a state also records which of them its way has met (a bit mask; the
+goal counts only with all of them), and an edge is tried at its earliest allowed departure and
+at the earliest one in each positive window of that edge (the earliest departure meeting a set
+of windows of one edge is the earliest one after the latest of their starts, so these reach
+every set a departure can meet, at the earliest time); a state whose unmet window has closed
+is dropped.  An earlier arrival in the same (node, safe interval, mask) can still do whatever a
+later one can, so the search stays optimal.  Without positive constraints the mask is always
+empty and the search is the plain one.
 """
 
 from __future__ import annotations
@@ -140,6 +151,7 @@ class Constraints:
 
     vertex: dict[int, Intervals] = field(default_factory=dict)
     edge: dict[tuple[int, int], Intervals] = field(default_factory=dict)
+    positive: tuple[tuple[int, int, float, float], ...] = ()
 
     def add_vertex(self, v: int, lo: float, hi: float) -> None:
         """Forbid node ``v`` on ``[lo, hi)``."""
@@ -148,6 +160,10 @@ class Constraints:
     def add_edge(self, u: int, v: int, lo: float, hi: float) -> None:
         """Forbid departures along ``u -> v`` on ``[lo, hi)``."""
         self.edge[(u, v)] = _add_half_open(self.edge.get((u, v), []), lo, hi)
+
+    def add_positive(self, u: int, v: int, lo: float, hi: float) -> None:
+        """Require a departure along ``u -> v`` in ``[lo, hi)``."""
+        self.positive = (*self.positive, (u, v, lo, hi))
 
 
 @dataclass(frozen=True)
@@ -175,8 +191,13 @@ class _Search:
     def __init__(self, m: AgentModel, cons: Constraints, stop: Callable[[], bool] | None):
         self.m, self.cons, self.stop = m, cons, stop
         self.safe_of: dict[int, Intervals] = {}
-        self.st: list[tuple[int, int, float, int, float]] = []  # node, interval, t, parent, dep
-        self.best: dict[tuple[int, int], float] = {}
+        self.st: list[tuple[int, int, float, int, float, int]] = []  # node, interval, t,
+        # parent, departure, mask of the positive constraints met
+        self.best: dict[tuple[int, int, int], float] = {}
+        self.full = (1 << len(cons.positive)) - 1
+        self.windows: dict[tuple[int, int], list[tuple[int, float, float]]] = {}
+        for b, (u, v, lo, hi) in enumerate(cons.positive):
+            self.windows.setdefault((u, v), []).append((1 << b, lo, hi))
         self.heap: list[tuple[float, float, int]] = []
         self.expanded = 0
 
@@ -207,17 +228,40 @@ class _Search:
                 return t
             t = x
 
-    def push(self, v: int, j: int, t: float, parent: int, dep: float) -> None:
-        """Add the state ``(v, j)`` reached at ``t`` unless it was reached earlier."""
-        if self.best.get((v, j), math.inf) <= t:
+    def push(self, v: int, j: int, t: float, parent: int, dep: float, mask: int = 0) -> None:
+        """Add the state ``(v, j, mask)`` reached at ``t`` unless it was reached earlier or an
+        unmet positive window has closed."""
+        if self.best.get((v, j, mask), math.inf) <= t:
             return
-        self.best[(v, j)] = t
-        self.st.append((v, j, t, parent, dep))
+        if mask != self.full and any(t >= hi and not mask >> b & 1
+                                     for b, (*_, hi) in enumerate(self.cons.positive)):
+            return
+        self.best[(v, j, mask)] = t
+        self.st.append((v, j, t, parent, dep, mask))
         heapq.heappush(self.heap, (t + float(self.m.h[v]), -t, len(self.st) - 1))
+
+    def departures(self, u: int, v: int, lo: float, hi: float, mask: int
+                   ) -> list[tuple[float, int]]:
+        """The departures along ``u -> v`` in ``[lo, hi]`` worth trying (module docstring)
+        and the mask each reaches."""
+        windows = self.windows.get((u, v))
+        if windows is None:  # the plain search
+            dep = self.departure(u, v, lo)
+            return [(dep, mask)] if dep <= hi else []
+        out = []
+        for start in (lo, *(max(lo, w_lo) for _, w_lo, _ in windows)):
+            dep = self.departure(u, v, start)
+            if dep <= hi:
+                met = mask
+                for bit, w_lo, w_hi in windows:
+                    met |= bit if w_lo <= dep < w_hi else 0
+                out.append((dep, met))
+        return out
 
     def expand(self, s: int) -> None:
         """The successors of state ``s``: every neighbour's safe intervals it can reach."""
         u, j, t = self.st[s][:3]
+        mask = self.st[s][5]
         leave_by = self.safe(u)[j][1]
         for v, length in self.m.nbrs[u]:
             if not math.isfinite(self.m.h[v]):
@@ -230,9 +274,9 @@ class _Search:
                 if c - dt > leave_by:
                     break
                 lo, hi = max(t, c - dt), min(leave_by, d - dt)
-                dep = self.departure(u, v, lo) if lo <= hi else math.inf
-                if dep <= hi:
-                    self.push(v, k, dep + dt, s, dep)
+                if lo <= hi:
+                    for dep, met in self.departures(u, v, lo, hi, mask):
+                        self.push(v, k, dep + dt, s, dep, met)
 
     def run(self) -> int | None:
         """The goal state with an unbounded safe interval reached first, else ``None``."""
@@ -242,14 +286,15 @@ class _Search:
         if j0 is None or not math.isfinite(m.h[m.start]):
             return None
         self.push(m.start, j0, 0.0, -1, math.nan)
-        closed: set[tuple[int, int]] = set()
+        closed: set[tuple[int, int, int]] = set()
         while self.heap:
             _, _, s = heapq.heappop(self.heap)
             v, j = self.st[s][:2]
-            if (v, j) in closed:
+            key = (v, j, self.st[s][5])
+            if key in closed:
                 continue
-            closed.add((v, j))
-            if v == m.goal and math.isinf(self.safe(v)[j][1]):
+            closed.add(key)
+            if v == m.goal and math.isinf(self.safe(v)[j][1]) and key[2] == self.full:
                 return s
             self.expanded += 1
             if self.stop is not None and self.expanded % _POLL == 0 and self.stop():

@@ -11,7 +11,7 @@ import optplan as op
 from optplan.exact.ccbs import CCBSOptions, ccbs_search
 from optplan.exact.ccbs_conflicts import first_conflict, timeline_of
 from optplan.exact.ccbs_roadmap import agent_models, roadmap_model
-from optplan.exact.ccbs_sipp import Plan
+from optplan.exact.ccbs_sipp import AgentModel, Constraints, Plan, plan_agent
 from optplan.problem import RoadmapGraph, parse_problem
 from tests.exact.ccbs_oracle import joint_grid_optimum, sampled_separation
 
@@ -22,6 +22,10 @@ CORRIDOR = (np.array([[0, 0], [1, 0], [2, 0], [3, 0], [4, 0], [2, 1]], float),
 #: pocket at the contact distance 0.6 (both 0.3 from node 2 at 45 degrees: 0.6 / sqrt(2) each),
 #: arrives 2 x 0.6 / sqrt(2) = 0.6 sqrt(2) s late
 SWAP_SUM = 6.0 + 4.0 + 0.6 * math.sqrt(2.0)
+#: the plus-shaped crossing of :func:`test_three_robots_against_the_joint_grid_search`: c
+#: crosses the centre first (2 s), b steps into a side arm and out (4 + 2 s), a trails it at
+#: the contact distance 0.5 as in the swap (4 + 0.5 sqrt(2) s)
+PLUS_SUM = 2.0 + 6.0 + 4.0 + 0.5 * math.sqrt(2.0)
 
 
 def _problem(nodes, edges, robots, bounds=(-1, -1, 5, 2), movers=(), scale=1.0, shift=(0, 0),
@@ -66,7 +70,9 @@ def test_swap_on_a_corridor_with_a_pocket():
 
 
 @pytest.mark.parametrize("opts", [dict(cardinal=False, heuristic=False),
-                                  dict(cardinal=True, heuristic=False), dict(gamma=0.2)])
+                                  dict(cardinal=True, heuristic=False), dict(gamma=0.2),
+                                  dict(disjoint=False),
+                                  dict(disjoint=False, cardinal=False, heuristic=False)])
 def test_every_option_finds_the_same_optimum(opts):
     res = op.solve(_swap(), "ccbs", **opts)
     _check(res)
@@ -88,17 +94,20 @@ def test_never_beaten_by_the_joint_grid_search():
     assert grid == pytest.approx(11.0)  # a waits a whole step: 1 s instead of 0.85 s
 
 
-def test_three_robots_against_the_joint_grid_search():
+@pytest.mark.parametrize("disjoint", [False, True])
+def test_three_robots_against_the_joint_grid_search(disjoint):
     """A plus-shaped crossing (centre 4) with robots crossing it and one heading for the
-    centre: ccbs never does worse than the grid search."""
+    centre: ccbs never does worse than the grid search, with or without disjoint
+    splitting (the same optimum)."""
     nodes = np.array([[0, 0], [-1, 0], [1, 0], [0, -1], [0, 1], [2, 0], [-2, 0]], float)
     edges = np.array([[0, 1], [0, 2], [0, 3], [0, 4], [2, 5], [1, 6]])
     robots = [("a", 6, 5, 0.25), ("b", 5, 6, 0.25), ("c", 3, 4, 0.25)]
     p = _problem(nodes, edges, robots, bounds=(-3, -2, 3, 2))
-    res = op.solve(p, "ccbs")
+    res = op.solve(p, "ccbs", disjoint=disjoint)
     _check(res)
     grid = joint_grid_optimum(nodes, edges, [6, 5, 3], [5, 6, 4], [0.25] * 3, 0.5, 30.0)
     assert res.metrics["sum_of_arrivals"] <= grid + 1e-9
+    assert res.metrics["sum_of_arrivals"] == pytest.approx(PLUS_SUM, rel=1e-9)
 
 
 def test_a_robot_holding_its_goal_makes_another_detour():
@@ -171,8 +180,6 @@ def test_the_pure_driver_reports_overlapping_goals():
 
 
 def test_bad_options_are_named():
-    with pytest.raises(ValueError, match="disjoint"):
-        op.get_solver("ccbs", disjoint=True)
     with pytest.raises(ValueError, match="objective"):
         op.get_solver("ccbs", objective="mean")
     with pytest.raises(ValueError, match="gamma"):
@@ -250,3 +257,40 @@ def _stamps(plan: Plan, pts: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndar
         ts.append(plan.depart[k] if math.isfinite(plan.depart[k]) else 1e3)
         xs += [pts[v][axis]] * 2
     return np.array(ts), np.array(xs)
+
+
+def _corridor_robot() -> AgentModel:
+    """One robot (radius 0.3, speed 1) on :data:`CORRIDOR` from node 0 to node 4."""
+    nodes, edges = CORRIDOR
+    nbrs: list[list[tuple[int, float]]] = [[] for _ in nodes]
+    for a, b in edges:
+        length = float(np.hypot(*(nodes[b] - nodes[a])))
+        nbrs[a].append((int(b), length))
+        nbrs[b].append((int(a), length))
+    return AgentModel(nodes, nbrs, 0, 4, 0.3, 1.0)
+
+
+@pytest.mark.parametrize(("windows", "arrival"), [
+    ([], 4.0),
+    ([(2, 5, 0.0, 10.0)], 6.0),  # into the pocket on the way: 2 s more
+    ([(2, 5, 5.0, 10.0)], 9.0),  # at node 2 at t = 2, waits to 5, pocket and back: 7, then 2 s
+    ([(5, 2, 0.0, 3.5)], 6.0),  # in the pocket at 3, out at once
+    ([(5, 2, 0.0, 2.5)], None),  # the pocket is 3 s away
+    # 1 -> 2 at 1 (its window opens at 1), back 2 -> 1 at 2, 1 -> 2 again at 3: 6 s; the
+    # departures meet the windows in the other order than their openings
+    ([(2, 1, 0.0, 5.0), (1, 2, 1.0, 5.0)], 6.0),
+])
+def test_the_low_level_meets_positive_constraints(windows, arrival):
+    """Disjoint splitting's positive constraints in the low level: every required departure
+    is in the plan, at the least arrival (hand-derived)."""
+    cons = Constraints()
+    for w in windows:
+        cons.add_positive(*w)
+    plan = plan_agent(_corridor_robot(), cons)
+    if arrival is None:
+        assert plan is None
+        return
+    assert plan is not None and plan.cost == pytest.approx(arrival, rel=1e-12)
+    for u, v, lo, hi in windows:
+        assert any(a == u and b == v and lo <= t < hi for a, b, t in
+                   zip(plan.nodes, plan.nodes[1:], plan.depart))
