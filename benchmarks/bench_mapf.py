@@ -34,6 +34,7 @@ import statistics
 import subprocess
 import tempfile
 import time
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -135,9 +136,10 @@ def cpp_flowtime(p: op.Problem, binary: str, limit: float) -> tuple[bool, float 
             "<precision>0.0000001</precision></algorithm></root>\n")
         out = subprocess.run([binary, str(g), str(t), str(cfg)], capture_output=True,
                              text=True, timeout=limit + 60).stdout
-    solved = "Soulution found: true" in out or "Solution found: true" in out
-    flow = next((float(line.split(":")[1]) for line in out.splitlines()
-                 if line.startswith("Flowtime:")), None)
+        solved = "Soulution found: true" in out or "Solution found: true" in out
+        log = Path(d) / "task_log.xml"  # full precision (stdout prints 6 digits)
+        summary = ET.parse(log).getroot().find(".//summary") if log.exists() else None
+        flow = None if summary is None else float(summary.get("flowtime", "nan"))
     return solved, flow if solved else None
 
 

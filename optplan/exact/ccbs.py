@@ -54,7 +54,7 @@ from optplan.exact.ccbs_sipp import AgentModel, Constraints, Plan, plan_agent
 from optplan.geometry.timing import arrival_lower_bound, positions_at
 from optplan.geometry.timing.disc_conflict import CONTACT_REL_TOL
 from optplan.problem import Problem
-from optplan.result import History, Progress, Result, Status, notify
+from optplan.result import History, Progress, Result, Status, confirms_optimum, notify
 from optplan.solver import Backend, clock, option
 
 __all__ = ["CCBS", "CCBSOptions", "CCBSOutcome", "ccbs_search"]
@@ -486,9 +486,9 @@ class CCBS(ClaimsInTime, Backend):
                 metrics.update(sum_of_arrivals=sum(arrivals), makespan=max(arrivals),
                                arrival_times={r.id: a for r, a in
                                               zip(problem.planned_robots, arrivals)})
-                claim = Status.optimal
+                claim, msg = _claim(problem, cost, metrics, self.objective)
                 msg = (f"{self.objective} of arrivals {cost:.6g} s: optimal within the roadmap "
-                       f"model ({len(graph)} nodes, full speed on edges, waits at nodes); "
+                       f"model ({len(graph)} nodes, full speed on edges, waits at nodes){msg}; "
                        f"lower bound over all motions {_team_bound(metrics, self.objective)}")
             elif out.status in ("effort", "stopped"):
                 msg += f"; open-list lower bound {out.lower_bound:.6g} s"
@@ -500,6 +500,20 @@ class CCBS(ClaimsInTime, Backend):
                            n_iter=0 if out is None else out.expansions,
                            n_eval=0 if out is None else out.low_level,
                            wall_time=time.perf_counter() - t0)
+
+
+def _claim(problem: Problem, cost: float, metrics: dict[str, Any], objective: str
+           ) -> tuple[Status, str]:
+    """``optimal`` when the roadmap is the problem's own (its robots keep to it) or the cost
+    meets the lower bound over all motions; else ``solved``: the roadmap model of the map's
+    grown corners is narrower than the plane (and a note saying so)."""
+    bound = metrics["team_lower_bound" if objective == "sum" else "makespan_lower_bound"]
+    if problem.roadmap is not None:
+        return Status.optimal, ""
+    if bound is not None and confirms_optimum(cost, bound):
+        return Status.optimal, " and over all motions (it meets the lower bound)"
+    return Status.solved, (" built from the map's grown corners, not the problem's: in the "
+                           "plane this is a valid plan, not a certified optimum")
 
 
 def _team_bound(metrics: dict[str, Any], objective: str) -> str:
