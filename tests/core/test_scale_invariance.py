@@ -12,6 +12,7 @@ preset.
 from __future__ import annotations
 
 from functools import cache
+from pathlib import Path
 
 import pytest
 
@@ -42,6 +43,8 @@ REPRESENTATIVE = {
     "pso-paper": "paper-env2",
     "nlp-ipopt": "paper-env1",
     "visgraph": "warehouse-grid",
+    # robots with their own goals on a roadmap (problems/mapf/crossing*.xml, imported)
+    "ccbs": str(Path(__file__).resolve().parents[1] / "data" / "mapf-crossing.toml"),
 }
 
 #: preset -> options of the fast test, the same at every scale (the slow grid runs the presets

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from pathlib import Path
 
 import numba.core.event
 import pytest
@@ -69,6 +70,9 @@ CASES: dict[str, tuple[str, str, dict]] = {
                                          "max_neighbors": 10_000}),
     "hybrid": ("hybrid-paper", "paper-warehouse", {"max_steps": 10**7, "settle_steps": 10**7,
                                                    "stall_steps": 10**7, "dt": 1e-5}),
+    # a generated 10-robot sparse roadmap that ccbs does not solve within seconds
+    "ccbs": ("ccbs", str(Path(__file__).resolve().parents[1] / "data" / "mapf-sparse-10.toml"),
+             {"max_expansions": 10**9}),
 }
 
 
