@@ -41,9 +41,19 @@ class Deadline:
         self.stopped = self.timed_out = False
 
     def __call__(self, p: Progress) -> None:
+        if self.expired():
+            raise StopIteration
+        self.report(p)
+
+    def expired(self) -> bool:
+        """Whether the limit is reached (one clock reading; ``stopped`` and ``timed_out``
+        set when it is)."""
         if self.end is not None and now() >= self.end:
             self.stopped = self.timed_out = True
-            raise StopIteration
+        return self.timed_out
+
+    def report(self, p: Progress) -> None:
+        """Forward ``p`` to the callback; its stop request raises ``StopIteration``."""
         if notify(self.callback, p):
             self.stopped = True
             raise StopIteration

@@ -14,12 +14,12 @@ from typing import Any
 
 import numpy as np
 
-from optplan.deadline import now
+from optplan.deadline import Deadline
 from optplan.hybrid.answer import early_answer
 from optplan.hybrid.policy import Team
 from optplan.hybrid.steps import GlobalStage, RunOptions
 from optplan.problem import Problem, Robot
-from optplan.result import Progress, Result, Status, notify
+from optplan.result import Progress, Result, Status
 from optplan.units import Record, Unit, to_scale
 
 __all__ = ["StageCallback", "global_stage", "PROGRESS_INFO_UNITS"]
@@ -36,7 +36,7 @@ PROGRESS_INFO_UNITS = Record({
     "reason": Unit.TEXT, "stopped": _D, "objective": _D})
 
 
-class StageCallback:
+class StageCallback(Deadline):
     """Forwards the stages' progress with a running iteration offset; remembers a stop.
 
     With a ``time_limit`` (seconds from construction, on :data:`optplan.solver.clock`) it
@@ -46,32 +46,18 @@ class StageCallback:
 
     def __init__(self, callback: Callable[[Progress], Any] | None, unit: float = 1.0,
                  time_limit: float | None = None):
-        self.callback = callback
+        super().__init__(callback, time_limit)
         self.offset = 0
-        self.stopped = False
-        self.timed_out = False
         self.unit = unit  # world length of a canonical unit (best_cost is a length)
-        self.time_limit = time_limit
-        self.deadline = (now() + time_limit if time_limit is not None
-                         and time_limit < float("inf") else None)
 
     def __call__(self, p: Progress) -> None:
         if self.stopped:  # a stage on its way out: the stop stands (no more clock readings)
             raise StopIteration
-        if self.deadline is not None and now() >= self.deadline:
-            self.stopped = self.timed_out = True
+        if self.expired():
             raise StopIteration
         info = to_scale(p.info, PROGRESS_INFO_UNITS, self.unit, "Progress.info")
-        q = Progress(p.iteration + self.offset, p.best_cost * self.unit, p.n_eval, p.elapsed,
-                     info, p.sim_time)
-        if notify(self.callback, q):
-            self.stopped = True
-            raise StopIteration
-
-    @property
-    def forward(self) -> Callable[[Progress], Any] | None:
-        """What to pass to a stage: this object, or None without a callback or limit."""
-        return self if self.callback is not None or self.deadline is not None else None
+        self.report(Progress(p.iteration + self.offset, p.best_cost * self.unit, p.n_eval,
+                             p.elapsed, info, p.sim_time))
 
     @property
     def stop_reason(self) -> str:
