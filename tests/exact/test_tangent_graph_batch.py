@@ -108,3 +108,24 @@ def test_eager_build_stores_every_circle():
     assert graph.stats["nodes"] == 2 * graph.circles.n
     assert graph.shortest_path(r.start, r.goal).length == \
         shortest_path(oset, r.start, r.goal).length
+
+
+@pytest.mark.parametrize("name", op.list_problems())
+def test_lazy_and_built_give_the_same_bits_on_the_catalogue(name):
+    """The lazy search and the built graph's compiled search find the same path on every
+    catalogue problem and report it identically (length, polyline and waypoints made from
+    the path's circles one way: ``arc_lines.exact_path``), also through ``op.solve``."""
+    p = op.load_problem(name)
+    for r in p.planned_robots:
+        oset = p.obstacle_set(r.radius, known_only=True)
+        a = TangentGraph(oset).shortest_path(r.start, r.goal)
+        b = TangentGraph(oset).build().shortest_path(r.start, r.goal)
+        assert a.length == b.length and a.waypoints == b.waypoints
+        np.testing.assert_array_equal(a.polyline, b.polyline)
+    lazy = op.solve(op.load_problem(name), "visgraph", graph="lazy")
+    built = op.solve(op.load_problem(name), "visgraph", graph="built")
+    assert lazy.status == built.status
+    assert lazy.metrics["lengths_exact"] == built.metrics["lengths_exact"]
+    assert lazy.paths.keys() == built.paths.keys()
+    for k in lazy.paths:
+        np.testing.assert_array_equal(lazy.paths[k], built.paths[k])

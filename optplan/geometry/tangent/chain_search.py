@@ -29,7 +29,6 @@ import numpy as np
 from numba import types
 
 from optplan.geometry.compiled import F1, F2, I1, compiled, f8, heap_pop, heap_push, i8
-from optplan.geometry.tangent.arc_lines import arc_polyline
 from optplan.geometry.tangent.circles import ANGLE_TOL, TWO_PI, Circles
 from optplan.geometry.tangent.tangent_chains import (
     ChainGraph,
@@ -257,7 +256,6 @@ class ChainSearch:
         vs, vd, vc = (np.concatenate(v) for v in (src, dst, cost))
         order = np.argsort(vs, kind="stable")
         self.vsrc, self.vdst, self.vcost = vs[order], vd[order], vc[order]
-        self.vsweep = {(int(a), int(b)): float(w) for a, b, w in zip(s2[ok], d2[ok], sw[ok])}
         self.S, self.G, self.K = S, G, K
         self.vpoint = np.concatenate([[zs, zg], A["p"], D["p"]])
 
@@ -316,50 +314,23 @@ class ChainSearch:
         self.q = q
         return float(nt[self.G, 0]) if code == 0 else math.inf
 
-    def _legs(self) -> tuple[list, list]:
-        """The path found by :meth:`length` as its tangents (departure point, arrival point)
-        and, between them, the circles it follows ``[circle, sense, arrival angle, sweep]``."""
+    def visits(self) -> list[tuple[int, int]]:
+        """The circles (and senses) the path found by :meth:`length` follows, in order, as
+        :meth:`~optplan.geometry.tangent.tangent_search.TangentSearch.visits` gives them (the
+        path's length and polyline are made from them, the same way for both searches)."""
         pred = self.work["nt"][:, 4]
         path = [self.G]
         while path[-1] != self.S:
             path.append(int(pred[path[-1]]))
         path.reverse()
-        ch, N0, A, D = self.ch, self.ch.n_edges, self.A, self.D
-        legs: list = []
-        visits: list = []
+        ch, N0, A = self.ch, self.ch.n_edges, self.A
+        out: list[tuple[int, int]] = []
         for x, y in zip(path[:-1], path[1:]):
             if x == self.S:
-                k = y - N0 - 2
-                legs.append((self.zs, self.zg if y == self.G else A["p"][k]))
-                if y != self.G:
-                    visits.append([int(A["c"][k]), int(A["s"][k]), float(A["th"][k]), 0.0])
-            elif y == self.G:
-                legs.append((D["p"][x - N0 - 2 - self.K], self.zg))
-            elif x >= N0:  # a start arrival: along its circle
-                visits[-1][3] += self.vsweep[(x, y)]
-            elif (int(ch.circle[y]) if y < N0 else int(D["c"][y - N0 - 2 - self.K])) == \
-                    ch.circle[x]:  # along the chain
-                visits[-1][3] += self.vsweep.get((x, y), float(ch.sweep[x]))
-            else:  # the tangent, then along the arrival's circle
-                legs.append((ch.point[x], ch.a_point[x]))
-                visits.append([int(ch.a_circle[x]), int(ch.a_sense[x]), float(ch.a_theta[x]),
-                               self.vsweep.get((x, y), float(ch.a_sweep[x]))])
-        return legs, visits
-
-    def polyline(self, arc_step: float) -> tuple[np.ndarray, list]:
-        """Local-frame points of the path found by :meth:`length` (arcs as circumscribed
-        polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``, as
-        :meth:`~optplan.geometry.tangent.tangent_search.TangentSearch.polyline` gives them."""
-        C = self.C
-        legs, visits = self._legs()
-        pts, wps = [self.zs], []
-        for k, (p_dep, p_arr) in enumerate(legs):
-            if k > 0:
-                i, si, th_a, sw = visits[k - 1]
-                if C.rho[i] > 0 and sw > 0:
-                    pts.extend(arc_polyline(C.center[i], C.rho[i], th_a, sw * si,
-                                            arc_step)[1:-1])
-                wps.append((C.center[i], float(C.rho[i]), th_a, sw, si))
-                pts.append(p_dep)
-            pts.append(p_arr)
-        return np.array(pts), wps
+                if y != self.G:  # a tangent from the start to a circle
+                    k = y - N0 - 2
+                    out.append((int(A["c"][k]), int(A["s"][k])))
+            elif x < N0 and y != self.G and (int(ch.circle[y]) if y < N0 else int(
+                    self.D["c"][y - N0 - 2 - self.K])) != ch.circle[x]:  # a tangent
+                out.append((int(ch.a_circle[x]), int(ch.a_sense[x])))
+        return out

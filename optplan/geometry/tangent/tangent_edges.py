@@ -18,7 +18,7 @@ import numpy as np
 
 from optplan.geometry.tangent.circles import ANGLE_TOL, TWO_PI, Circles
 
-__all__ = ["Edges", "cone_off", "tangent_exists", "tangent_normal", "tangent_edges"]
+__all__ = ["Edges", "arc_sweep", "cone_off", "tangent_exists", "tangent_normal", "tangent_edges"]
 
 
 def cone_off(C: Circles, k, th):
@@ -30,6 +30,29 @@ def cone_off(C: Circles, k, th):
     width = C.width[k]
     ok = full | (off <= width + ANGLE_TOL)
     return np.where(ok, np.minimum(off, np.where(full, off, width)), np.nan)
+
+
+def arc_sweep(C: Circles, k, s, th_a, th_d, od=None):
+    """Angle swept along circle(s) ``k`` in sense(s) ``s`` from the arrival angle(s) ``th_a``
+    to the departure angle(s) ``th_d`` (``od``: their cone offsets when known): on a circle
+    obstacle ``(th_d - th_a) s mod 2 pi`` (``0`` within ``ANGLE_TOL`` below a full turn), on
+    a vertex circle the difference of the cone offsets times ``s`` (``0`` within
+    ``ANGLE_TOL`` behind the arrival; negative or nan: not along the cone).  The one
+    definition of a path's arc, used by the searches and by the path's length
+    (:func:`~optplan.geometry.tangent.arc_lines.exact_path`)."""
+    full = C.full[k]
+    one = np.ndim(full) == 0  # one circle (a search's expansion): only its case
+    if not one or full:
+        turn = np.mod((th_d - th_a) * s, TWO_PI)
+        turn = np.where(turn > TWO_PI - ANGLE_TOL, 0.0, turn)
+        if one:
+            return turn
+    if od is None:
+        od = cone_off(C, k, th_d)
+    with np.errstate(invalid="ignore"):
+        sweep = (od - cone_off(C, k, th_a)) * s
+        sweep = np.where((sweep < 0) & (sweep > -ANGLE_TOL), 0.0, sweep)
+    return sweep if one else np.where(full, turn, sweep)
 
 
 def tangent_exists(dd, delta, eps: float):

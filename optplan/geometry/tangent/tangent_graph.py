@@ -60,7 +60,7 @@ from typing import Any
 import numpy as np
 
 from optplan.geometry.collision import ObstacleSet, solid_edges
-from optplan.geometry.tangent.arc_lines import arc_polyline, rebuild_polyline
+from optplan.geometry.tangent.arc_lines import arc_polyline, exact_path, rebuild_polyline
 from optplan.geometry.tangent.chain_search import ChainSearch
 from optplan.geometry.tangent.circles import ArcChecker, Circles, circles_of
 from optplan.geometry.tangent.sightlines import Sightlines
@@ -473,7 +473,8 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
     if not math.isfinite(length):
         info["reason"] = "the goal is not reachable from the start"
         return TangentPath(math.inf, None, [], info)
-    z, wps = search.polyline(arc_step)
+    # the path's length and polyline from its circles, the same way for both searches
+    length, z, wps = exact_path(C, zs, zg, search.visits(), arc_step)
     poly = fr.world(np.stack([z.real, z.imag], axis=1))
     keep = np.r_[True, np.any(np.diff(poly, axis=0) != 0, axis=1)]
     poly = poly[keep]

@@ -1,6 +1,6 @@
 r"""The A* of the tangent graph: one search from a start to a goal over the graph's edges.
 
-Nodes are arrival states ``(circle, sense, arrival angle, g, pred, seg)``; the successors of
+Nodes are arrival states ``(circle, sense, arrival angle, g, pred)``; the successors of
 an expanded node (the query-independent :class:`~optplan.geometry.tangent.tangent_edges.Edges` of
 its circle and sense, kept by the :class:`~optplan.geometry.tangent.tangent_graph.TangentGraph`,
 plus the tangent to the goal) form one :class:`Stream` sorted by ``f = g + h`` (Euclidean ``h``,
@@ -21,9 +21,14 @@ from typing import Any
 import numpy as np
 
 from optplan.geometry.collision import ObstacleSet
-from optplan.geometry.tangent.arc_lines import arc_polyline
-from optplan.geometry.tangent.circles import ANGLE_TOL, TWO_PI, Circles
-from optplan.geometry.tangent.tangent_edges import Edges, cone_off, tangent_exists, tangent_normal
+from optplan.geometry.tangent.circles import TWO_PI, Circles
+from optplan.geometry.tangent.tangent_edges import (
+    Edges,
+    arc_sweep,
+    cone_off,
+    tangent_exists,
+    tangent_normal,
+)
 
 __all__ = ["Stream", "TangentSearch", "Stopped"]
 
@@ -63,7 +68,7 @@ class TangentSearch:
     """State of one A* search over the tangent graph
     (:func:`optplan.geometry.tangent.tangent_graph.shortest_path`).
 
-    Nodes are arrival states ``(circle, sense, arrival angle, g, pred, seg)``; the successors
+    Nodes are arrival states ``(circle, sense, arrival angle, g, pred)``; the successors
     of an expanded node form one :class:`Stream` sorted by ``f``, consumed lazily.
 
     Parameters
@@ -157,13 +162,9 @@ class TangentSearch:
 
     def _sweep(self, i: int, si: int, th_a: float, th_d, od):
         """Arc swept on circle ``i`` (sense ``si``) from the arrival angle ``th_a`` to the
-        departure angles ``th_d`` (cone offsets ``od``); negative or nan: not in the cone."""
-        if self.full[i]:
-            sweep = np.mod((th_d - th_a) * si, TWO_PI)
-            return np.where(sweep > TWO_PI - ANGLE_TOL, 0.0, sweep)
-        oa = float(self.cone_off(np.array([i]), np.array([th_a]))[0])
-        sweep = (od - oa) * si
-        return np.where((sweep < 0) & (sweep > -ANGLE_TOL), 0.0, sweep)
+        departure angles ``th_d`` (cone offsets ``od``; :func:`~optplan.geometry.tangent.
+        tangent_edges.arc_sweep`); negative or nan: not in the cone."""
+        return arc_sweep(self.C, i, si, th_a, th_d, od)
 
     def expand(self, node_id: int) -> None:
         """Generate the successors of node ``node_id`` as a new stream."""
@@ -283,7 +284,7 @@ class TangentSearch:
     def run(self, stop: Callable[[], bool] | None) -> int | None:
         """A* from the start; the goal's node index, None when unreachable.  Raises
         :class:`Stopped` when ``stop`` asks."""
-        self.nodes.append((-1, 1, 0.0, 0.0, -1, None))
+        self.nodes.append((-1, 1, 0.0, 0.0, -1))
         self.expand(0)
         while self.heap:
             if self._stopped(stop):
@@ -299,8 +300,7 @@ class TangentSearch:
             # arrival angle: direction from the centre to the tangent point (for a point
             # circle the direction it would have for an infinitesimal radius)
             th = float(st.th_a[k])
-            self.nodes.append((j, sj, th, g, st.node, (st.pi[k], st.pj[k], float(st.th_d[k]),
-                                                       float(st.sweep[k]))))
+            self.nodes.append((j, sj, th, g, st.node))
             if j < 0:
                 return len(self.nodes) - 1
             if self.dominated(j, sj, th, g):
@@ -314,26 +314,15 @@ class TangentSearch:
         self.goal_node = self.run(stop)
         return math.inf if self.goal_node is None else float(self.nodes[self.goal_node][3])
 
-    def polyline(self, arc_step: float):
-        """Local-frame points of the path found by :meth:`length` (arcs as circumscribed
-        polylines) and its waypoints ``(centre, rho, arrival angle, sweep, sense)``."""
-        chain = []
+    def visits(self) -> list[tuple[int, int]]:
+        """The circles (and senses) the path found by :meth:`length` follows, in order: with
+        the start and the goal, all that defines the path
+        (:func:`~optplan.geometry.tangent.arc_lines.exact_path` makes its length and polyline)."""
+        out = []
         k = self.goal_node if self.goal_node is not None else 0
         while k > 0:
-            chain.append(self.nodes[k])
+            i, si = self.nodes[k][:2]
+            if i >= 0:
+                out.append((int(i), int(si)))
             k = self.nodes[k][4]
-        chain.reverse()
-        cen, rho = self.cen, self.rho
-        pts = [self.zs]
-        wps = []
-        for idx, nd in enumerate(chain):
-            pi_, pj_, th_d, sweep = nd[5]
-            if idx > 0:
-                prev = chain[idx - 1]
-                i, si, th_a = prev[0], prev[1], prev[2]
-                if rho[i] > 0 and sweep > 0:
-                    pts.extend(arc_polyline(cen[i], rho[i], th_a, sweep * si, arc_step)[1:-1])
-                wps.append((cen[i], float(rho[i]), th_a, sweep, si))
-                pts.append(pi_)
-            pts.append(pj_)
-        return np.array(pts), wps
+        return out[::-1]
