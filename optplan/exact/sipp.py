@@ -48,7 +48,6 @@ from optplan.exact.sipp_graph import (
     MoverBoxes,
     Roadmap,
     chain_schedule,
-    segment_windows,
 )
 from optplan.geometry.timing import (
     Intervals,
@@ -175,8 +174,7 @@ class _Sipp:
         busy: list[Intervals] = []
         for c in range(0, len(a), _WINDOW_SEGMENTS):
             ac, bc = a[c:c + _WINDOW_SEGMENTS], b[c:c + _WINDOW_SEGMENTS]
-            f, bz = segment_windows(self.boxes.near_segments(ac, bc), ac, bc, self.radius,
-                                    self.speed, self.horizon)
+            f, bz = self.boxes.segment_windows(ac, bc, self.radius, self.speed)
             forb += f
             busy += bz
             self.tick(len(ac))

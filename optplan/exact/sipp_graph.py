@@ -21,7 +21,8 @@ checked lazily (:class:`Roadmap`).
 corners.  Its segment ``a -> b`` is forbidden to a departure at ``t`` when the disc crossing it
 from ``t`` at speed ``v`` overlaps a moving obstacle:
 :func:`~optplan.geometry.timing.st_regions.forbidden_departures`, computed here for many segments in
-one vectorised pass (:func:`segment_windows`: the same regions and the same extremes).  A point is
+one vectorised pass (:func:`segment_windows`: the same regions and the same extremes, over all
+the obstacles' shapes at once, :mod:`optplan.geometry.timing.st_batch`).  A point is
 busy when the disc parked there overlaps a moving obstacle
 (:func:`~optplan.geometry.timing.time_bounds.parked_contact_times`); its *safe intervals* are the
 closed complement (:func:`~optplan.geometry.timing.intervals.free_intervals`).  Only the moving
@@ -45,14 +46,13 @@ from optplan.geometry.tangent import TangentGraph, TangentSearch, arc_polyline, 
 from optplan.geometry.timing import (
     Intervals,
     first_free,
-    merge_open,
     mover_pieces,
     parked_contact_times,
     path_regions,
-    region_extremes,
-    sections,
     shape_pieces,
 )
+from optplan.geometry.timing.st_batch import ShapeRows, batch_sections, region_ranges
+from optplan.geometry.timing.st_regions import MoverTable, mover_table
 
 if TYPE_CHECKING:
     from optplan.problem import DynamicObstacle
@@ -87,12 +87,16 @@ class MoverBoxes:
     Each box holds every point of the obstacle's shape at every time of the window (the
     reference point's linear pieces, :func:`~optplan.geometry.timing.motion.mover_pieces`, clipped
     to the window, plus the shape's extent) grown by the robot's ``radius``; a point or segment
-    outside a box cannot touch that obstacle in the window.
+    outside a box cannot touch that obstacle in the window.  ``horizon`` is the window's end
+    (:meth:`build`'s); :meth:`segment_windows` keeps each obstacle's pieces on the window
+    (:func:`~optplan.geometry.timing.st_regions.mover_table`) once computed.
     """
 
     movers: list[DynamicObstacle]
     lo: np.ndarray
     hi: np.ndarray
+    horizon: float
+    _tables: dict[int, MoverTable] = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def build(cls, movers: list[DynamicObstacle], radius: float, horizon: float
@@ -108,7 +112,7 @@ class MoverBoxes:
                                                                    d.local_geometry)])
             lo[k] = ends.min(axis=0) + ext[:, :2].min(axis=0) - radius
             hi[k] = ends.max(axis=0) + ext[:, 2:].max(axis=0) + radius
-        return cls(list(movers), lo, hi)
+        return cls(list(movers), lo, hi, float(horizon))
 
     def near(self, point) -> list[DynamicObstacle]:
         """The obstacles whose box holds ``point``."""
@@ -119,9 +123,25 @@ class MoverBoxes:
     def near_segments(self, a: np.ndarray, b: np.ndarray) -> list[DynamicObstacle]:
         """The obstacles whose box meets the box of at least one segment ``a[k] -> b[k]``
         (``(n, 2)`` each)."""
+        return [self.movers[k] for k in self._near_ids(a, b)]
+
+    def _near_ids(self, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """The indices of the obstacles of :meth:`near_segments`."""
         lo, hi = np.minimum(a, b)[:, None, :], np.maximum(a, b)[:, None, :]
         ok = np.all((self.lo[None] <= hi) & (self.hi[None] >= lo), axis=2).any(axis=0)
-        return [self.movers[k] for k in np.flatnonzero(ok)]
+        return np.flatnonzero(ok)
+
+    def segment_windows(self, a: np.ndarray, b: np.ndarray, radius: float, speed: float
+                        ) -> tuple[list[Intervals], list[Intervals]]:
+        """:func:`segment_windows` of the segments ``a[k] -> b[k]`` against the obstacles
+        near them on the boxes' window ``[0, horizon]``; each obstacle's pieces on the window
+        (:func:`~optplan.geometry.timing.st_regions.mover_table`) are computed once and kept."""
+        ids = self._near_ids(a, b).tolist()
+        for k in ids:
+            if k not in self._tables:
+                self._tables[k] = mover_table(self.movers[k], self.horizon)
+        return segment_windows([self.movers[k] for k in ids], a, b, radius, speed,
+                               self.horizon, [self._tables[k] for k in ids])
 
     def parked_busy(self, point, radius: float, t_lo: float, t_hi: float) -> Intervals:
         """:func:`~optplan.geometry.timing.time_bounds.parked_contact_times` of the disc parked at
@@ -185,20 +205,25 @@ def _may_meet(reg) -> np.ndarray:
 
 def _grouped(k: np.ndarray, lo: np.ndarray, hi: np.ndarray, n: int) -> list[Intervals]:
     """Per group ``0..n-1``: the union of the open intervals ``(lo_i, hi_i)`` with ``k_i``
-    equal to it (:func:`~optplan.geometry.timing.st_regions.merge_open`)."""
+    equal to it (:func:`~optplan.geometry.timing.intervals.merge_open` of each group: the
+    intervals in the same order, by ``lo`` and then by position, merged the same way, in one
+    pass over all groups)."""
     out: list[Intervals] = [[] for _ in range(n)]
     if len(k) == 0:
         return out
-    order = np.argsort(k, kind="stable")
-    k, lo, hi = k[order], lo[order], hi[order]
-    cuts = np.flatnonzero(np.diff(k)) + 1
-    for a, b in zip(np.r_[0, cuts], np.r_[cuts, len(k)]):
-        out[int(k[a])] = merge_open(lo[a:b], hi[a:b])
+    order = np.lexsort((lo, k))  # stable: by group, then lo, then position
+    for g, x, y in zip(k[order].tolist(), lo[order].tolist(), hi[order].tolist()):
+        o = out[g]
+        if o and x <= o[-1][1]:
+            o[-1] = (o[-1][0], max(o[-1][1], y))
+        else:
+            o.append((x, y))
     return out
 
 
 def segment_windows(movers: list[DynamicObstacle], a: np.ndarray, b: np.ndarray,
-                    radius: float, speed: float, horizon: float
+                    radius: float, speed: float, horizon: float,
+                    tables: list[MoverTable] | None = None
                     ) -> tuple[list[Intervals], list[Intervals]]:
     """:func:`~optplan.geometry.timing.st_regions.forbidden_departures` of many segments at once,
     and the busy times of their end points.
@@ -210,6 +235,9 @@ def segment_windows(movers: list[DynamicObstacle], a: np.ndarray, b: np.ndarray,
         The segments ``a[k] -> b[k]`` (world coordinates, each of positive length).
     radius, speed, horizon : float
         The robot's disc, its speed on the segments and the time window ``[0, horizon]``.
+    tables : list of MoverTable, optional
+        The movers' :func:`~optplan.geometry.timing.st_regions.mover_table` on the window
+        (computed here when not given).
 
     Returns
     -------
@@ -231,6 +259,9 @@ def segment_windows(movers: list[DynamicObstacle], a: np.ndarray, b: np.ndarray,
     (:func:`~optplan.geometry.timing.st_regions.region_extremes`), as in
     :func:`~optplan.geometry.timing.st_regions.forbidden_departures`; the busy times at ``b[k]`` are
     the regions' sections at ``sigma = ell`` (:func:`~optplan.geometry.timing.st_regions.sections`).
+    Both are evaluated over all regions at once, the two extremes in one pass
+    (:func:`~optplan.geometry.timing.st_batch.region_ranges`,
+    :func:`~optplan.geometry.timing.st_batch.batch_sections`: the same bits as shape by shape).
     """
     a = np.asarray(a, float).reshape(-1, 2)
     b = np.asarray(b, float).reshape(-1, 2)
@@ -241,19 +272,17 @@ def segment_windows(movers: list[DynamicObstacle], a: np.ndarray, b: np.ndarray,
         return empty
     poly = np.empty((2 * n, 2))
     poly[0::2], poly[1::2] = a, b
-    reg = path_regions(movers, poly, radius, horizon)
+    reg = path_regions(movers, poly, radius, horizon, tables)
     if len(reg):
         reg = reg.take(np.flatnonzero((reg.seg % 2 == 0) & _may_meet(reg)))
     if len(reg) == 0:
         return empty
-    g = np.array([-1.0 / speed, 1.0])
-    zero = np.zeros(len(reg))
-    hi, _, _ = region_extremes(reg, g, zero, reg.ell)
-    lo, _, _ = region_extremes(reg, -g, zero, reg.ell)
+    sh = ShapeRows.of(reg)
+    hi, lo = region_ranges(reg, np.array([-1.0 / speed, 1.0]), np.zeros(len(reg)), reg.ell, sh)
     ok = np.isfinite(hi) & (hi > -lo)
     k = reg.seg // 2
     forbidden = _grouped(k[ok], reg.ta[ok] - lo[ok], reg.ta[ok] + hi[ok], n)
-    s_lo, s_hi = sections(reg, reg.ell)
+    s_lo, s_hi = batch_sections(reg, reg.ell, sh)
     on = ~np.isnan(s_lo)
     busy = _grouped(k[on], reg.ta[on] + s_lo[on], reg.ta[on] + s_hi[on], n)
     return forbidden, busy

@@ -82,27 +82,38 @@ def _clip(alpha: np.ndarray, beta: np.ndarray, lo: np.ndarray, hi: np.ndarray
     return np.where(empty, np.inf, lo), np.where(empty, -np.inf, hi)
 
 
-def _polygon(c: np.ndarray, d: np.ndarray, v: np.ndarray, r: float
+def _edge_frame(v: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Edge lengths, unit tangents and outward normals of the convex polygon ``v`` (CCW,
+    ``(m, 2)``; or ``(n, m, 2)``, one polygon per row)."""
+    e = np.roll(v, -1, axis=-2) - v
+    ln = np.hypot(e[..., 0], e[..., 1])
+    tu = e / ln[..., None]
+    nu = np.stack([tu[..., 1], -tu[..., 0]], axis=-1)  # outward normal of a CCW ring
+    return ln, tu, nu
+
+
+def _polygon(c: np.ndarray, d: np.ndarray, v: np.ndarray, r: float,
+             frame: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
              ) -> tuple[np.ndarray, np.ndarray]:
-    """Parameter interval of the line ``c + t d`` within ``r`` of the convex polygon ``v``."""
-    e = np.roll(v, -1, axis=0) - v
-    ln = np.hypot(e[:, 0], e[:, 1])
-    tu = e / ln[:, None]
-    nu = np.stack([tu[:, 1], -tu[:, 0]], axis=1)  # outward normal of a CCW ring
-    rel = c[:, None, :] - v[None, :, :]  # (n, m, 2)
+    """Parameter interval of the line ``c + t d`` within ``r`` of the convex polygon ``v``:
+    ``(m, 2)`` for every line, or ``(n, m, 2)`` one per line (``frame``: its
+    :func:`_edge_frame`, when the caller has it)."""
+    ln, tu, nu = _edge_frame(v) if frame is None else frame
+    s = "mk" if v.ndim == 2 else "nmk"
+    rel = c[:, None, :] - v  # (n, m, 2)
     dd = np.einsum("nk,nk->n", d, d)[:, None]
     # vertex discs
     lo_v, hi_v = _quadratic_below(np.broadcast_to(dd, rel.shape[:2]),
                                   np.einsum("nmk,nk->nm", rel, d),
                                   np.einsum("nmk,nmk->nm", rel, rel) - r * r)
     # edge rectangles: 0 <= (x - v).tu <= ln and |(x - v).nu| <= r
-    pa = np.einsum("nmk,mk->nm", rel, tu)
-    pb = np.einsum("nk,mk->nm", d, tu)
-    qa = np.einsum("nmk,mk->nm", rel, nu)
-    qb = np.einsum("nk,mk->nm", d, nu)
+    pa = np.einsum(f"nmk,{s}->nm", rel, tu)
+    pb = np.einsum(f"nk,{s}->nm", d, tu)
+    qa = np.einsum(f"nmk,{s}->nm", rel, nu)
+    qb = np.einsum(f"nk,{s}->nm", d, nu)
     lo_e = np.full(pa.shape, -np.inf)
     hi_e = np.full(pa.shape, np.inf)
-    for alpha, beta in ((-pa, -pb), (pa - ln[None, :], pb), (qa - r, qb), (-qa - r, -qb)):
+    for alpha, beta in ((-pa, -pb), (pa - ln, pb), (qa - r, qb), (-qa - r, -qb)):
         lo_e, hi_e = _clip(alpha, beta, lo_e, hi_e)
     lo_e = np.where(lo_e <= hi_e, lo_e, np.nan)
     hi_e = np.where(np.isnan(lo_e), np.nan, hi_e)

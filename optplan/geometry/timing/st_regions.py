@@ -48,7 +48,8 @@ from optplan.geometry.timing.motion import mover_pieces
 if TYPE_CHECKING:
     from optplan.problem import DynamicObstacle
 
-__all__ = ["Regions", "path_regions", "region_extremes", "sections", "forbidden_departures"]
+__all__ = ["Regions", "MoverTable", "mover_table", "path_regions", "region_extremes", "sections",
+           "forbidden_departures"]
 
 
 @dataclass(frozen=True)
@@ -98,11 +99,28 @@ class Regions:
                        self.mover[idx], self.shapes, self.radius)
 
 
+#: The motion of one moving obstacle on a time window as :func:`path_regions` uses it: the
+#: start times, end times (cut at the window's end), start points and velocities of its linear
+#: pieces, and its convex shape pieces.
+MoverTable = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, list[ConvexShape]]
+
+
+def mover_table(dyn: DynamicObstacle, horizon: float) -> MoverTable:
+    """The linear pieces of ``dyn`` on ``[0, horizon]`` that start before ``horizon`` (their
+    ends cut at ``horizon``) and its convex shape pieces: what :func:`path_regions` computes
+    per obstacle (a caller with many paths and one window computes it once)."""
+    ta, tb, b, w = mover_pieces(dyn, 0.0, float(horizon))
+    live = ta < horizon
+    return (ta[live], np.minimum(tb[live], horizon), b[live], w[live],
+            shape_pieces(dyn.kind, dyn.radius, dyn.local_geometry))
+
+
 def path_regions(movers: list[DynamicObstacle], path: np.ndarray, radius: float,
-                 horizon: float) -> Regions:
+                 horizon: float, tables: list[MoverTable] | None = None) -> Regions:
     """The convex forbidden regions of the polyline ``path`` against ``movers`` on the time
     window ``[0, horizon]`` (pieces ending after ``horizon`` are cut there; the ones starting
-    after it are left out).  Zero-length segments are skipped."""
+    after it are left out).  Zero-length segments are skipped.  ``tables``: the movers'
+    :func:`mover_table` on this window, when the caller has them."""
     p = np.asarray(path, float)
     d = np.diff(p, axis=0)
     ell = np.hypot(d[:, 0], d[:, 1])
@@ -113,10 +131,8 @@ def path_regions(movers: list[DynamicObstacle], path: np.ndarray, radius: float,
         "seg", "s0", "ell", "c0", "u", "ta", "T", "w", "shape", "mover")}
     shapes: list[ConvexShape] = []
     for j, dyn in enumerate(movers):
-        ta, tb, b, w = mover_pieces(dyn, 0.0, float(horizon))
-        live = ta < horizon
-        ta, tb, b, w = ta[live], np.minimum(tb[live], horizon), b[live], w[live]
-        for shp in shape_pieces(dyn.kind, dyn.radius, dyn.local_geometry):
+        ta, tb, b, w, pieces = (mover_table(dyn, horizon) if tables is None else tables[j])
+        for shp in pieces:
             q = len(shapes)
             shapes.append(shp)
             kk, pp = _near_pairs(p[keep], p[keep + 1], b, b + (tb - ta)[:, None] * w,
