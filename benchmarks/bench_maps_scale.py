@@ -17,7 +17,15 @@ For each map kind and size (``--kinds``, ``--sizes``) a MovingAI map and its ``.
   are CPU milliseconds (``time.process_time``: the machine is shared, wall times would
   measure the other jobs);
 * **memory**: the peak resident set size of the process (``resource.getrusage``), and the
-  bytes the graph stores.
+  bytes the graph stores;
+* **op.solve** (unless ``--no-solve``): every line through ``op.solve(p, "visgraph")`` (the
+  preset's defaults, ``time_limit`` the budget), as a user who reads the ``.scen`` and solves
+  line by line, on a cold process cache: the first solve makes the map's shared graph
+  (``optplan.problem.shared``; built and compiled from ``SIGHTLINES_MIN`` circles on), its
+  wall s (CPU s) is the ``op.solve first s`` column; the later ones' CPU ms (median / worst)
+  the ``op.solve ms`` column (the query, the polyline's validation and the result); how many
+  lengths equal the explicit graph API's to the bit; the peak RSS after them (both graphs
+  are alive then).
 
 Beside it, ``extremitypathfinder`` (a point-robot visibility-graph library, optional: the
 ``bench`` extra) on the same polygons: the free space of the imported obstacles inside the
@@ -128,6 +136,29 @@ def run_optplan(scen: Path, budget: float, sightlines: bool | None = None,
             "graph_mib": graph.nbytes / 2**20, "rss": _rss_mib()}
 
 
+def run_solve(probs: list, budget: float, lengths: list[float]) -> dict:
+    """``op.solve(p, "visgraph")`` on each problem of the import, in line order, on a cold
+    process cache (:func:`optplan.problem.shared.clear`): the first solve makes the map's
+    graph (built and compiled from ``SIGHTLINES_MIN`` circles), the later ones only query it.
+    Per solve: CPU and wall seconds, its ``lengths_exact`` compared with the explicit
+    graph API's ``lengths`` bit for bit; the peak resident set size after them."""
+    import optplan as op
+    from optplan.problem import shared
+
+    shared.clear()
+    clocks, same, certified = [], 0, 0
+    for p, want in zip(probs, lengths):
+        with _Clock() as c:
+            res = op.solve(p, "visgraph", time_limit=budget)
+        clocks.append(c)
+        got = res.metrics["lengths_exact"].get(p.robots[0].id, math.inf)
+        same += got == want or (math.isnan(want) and res.status != "optimal")
+        certified += res.status == "optimal"
+    return {"first": clocks[0], "times": [c.cpu for c in clocks[1:]] or [clocks[0].cpu],
+            "same": same, "optimal": certified, "rss": _rss_mib(),
+            "graph_mib": shared.stats()["graph_bytes"] / 2**20}
+
+
 def reference_ms() -> float:
     """The machine's speed at the moment: wall milliseconds of a fixed workload, two threads
     each sorting ``2**21`` seeded random floats (numpy releases the GIL while it sorts), the
@@ -201,6 +232,15 @@ def _fmt_runs(clocks: list[_Clock]) -> str:
     return f"{statistics.median(walls):.2f} ({min(walls):.2f})"
 
 
+def _solve_cells(solved: dict | None, n: int) -> str:
+    """The op.solve columns: first solve wall s (CPU s), the later ones' CPU ms median /
+    worst, the lines whose length is the graph API's to the bit, the peak RSS."""
+    if solved is None:
+        return "skipped | skipped | skipped | skipped"
+    return (f"{_fmt((solved['first'].wall, solved['first'].cpu))} | {_ms(solved['times'])} | "
+            f"{solved['same']} of {n} | {solved['rss']:.0f}")
+
+
 def _ms(xs: list[float]) -> str:
     return f"{1e3 * statistics.median(xs):.1f} / {1e3 * max(xs):.0f}"
 
@@ -241,6 +281,9 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--build", action="store_true",
                     help="make the whole graph (TangentGraph.build) before the queries, "
                          "which then run the compiled search; its time is the build time")
+    ap.add_argument("--no-solve", action="store_true",
+                    help="skip the op.solve columns (every line through op.solve on a cold "
+                         "process cache)")
     args = ap.parse_args(argv)
     if args.repeat < 1:
         ap.error(f"--repeat must be >= 1, got {args.repeat}")
@@ -254,9 +297,10 @@ def main(argv: list[str] | None = None) -> None:
              if args.repeat > 1 else ""))
     print()
     print("| map | vertices | circles | import s | build s | query ms | unfinished | graph MiB "
-          "| peak RSS MiB | extremitypathfinder build s | its query ms | lengths agree "
-          "| reference ms |")
-    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---|---:|")
+          "| peak RSS MiB | op.solve first s | op.solve ms | op.solve = graph "
+          "| op.solve peak RSS MiB | extremitypathfinder build s | its query ms "
+          "| lengths agree | reference ms |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---|---:|")
     notes: list[str] = []
     work: list[str] = []  # the search's and the graph's counts per map
     for kind in args.kinds.split(","):
@@ -266,6 +310,8 @@ def main(argv: list[str] | None = None) -> None:
                                          queries=args.queries)
                 ref = reference_ms()
                 ours = run_optplan(gen.scen_path, args.budget, sight, args.build, args.repeat)
+                solved = (None if args.no_solve else
+                          run_solve(ours["problems"], args.budget, ours["lengths"]))
                 epf = (run_epf(ours["problems"])
                        if ours["vertices"] <= args.epf_max_vertices else None)
             if epf is None:
@@ -279,7 +325,12 @@ def main(argv: list[str] | None = None) -> None:
                   f"{_fmt_runs(ours['import'])} | {_fmt_runs(ours['build'])} | "
                   f"{_ms(ours['times'])} | "
                   f"{ours['unfinished']} | {ours['graph_mib']:.0f} | {ours['rss']:.0f} | "
+                  f"{_solve_cells(solved, len(ours['problems']))} | "
                   f"{e_build} | {e_q} | {agree} | {ref:.0f} |", flush=True)
+            if solved is not None:
+                work.append(f"{kind}-{size}: op.solve: {solved['optimal']} optimal of "
+                            f"{len(ours['problems'])}, the map's shared graph "
+                            f"{solved['graph_mib']:.0f} MiB")
             st, ex = ours["stats"], ours["expanded"]
             work.append(f"{kind}-{size}: expanded {'nodes' if args.build else 'arrivals'} "
                         "per query median "

@@ -32,6 +32,9 @@ from optplan.solver import Backend, option
 
 __all__ = ["VisGraph", "shortest_length"]
 
+#: ``graph`` option -> ``problem_shortest_path``'s ``build`` (None: decided by the map).
+_BUILD = {"auto": None, "lazy": False, "built": True}
+
 
 def shortest_length(problem: Problem, robot: Robot, known_only: bool = True) -> float | None:
     """Exact length of the certified shortest path of ``robot`` (None if there is none)."""
@@ -54,20 +57,25 @@ class VisGraph(Backend):
         exact length.  Default ``pi / 36`` (5 degrees; the polyline is at most ~0.03 % longer
         than the arcs it replaces).
     graph : str
-        ``"lazy"`` (default): the map's tangent graph grows as searches reach it, searched by
-        the lazy A* (nothing to build: a single query on a large map is fastest).
-        ``"built"``: the whole graph of the map is made before the first query
-        (:meth:`~optplan.geometry.tangent.tangent_graph.TangentGraph.build`) and every query runs
-        the compiled search over it: for many queries on one map (the problems of one ``.scen``
-        share their obstacle set, so the graph is built once).  Same lengths; the build is
-        not interrupted by a time limit.
+        ``"auto"`` (default): the map's graph is built whole on its first query and searched
+        compiled on maps of ``SIGHTLINES_MIN`` (1000) circles or more (a 1024 x 1024 MovingAI
+        map: about a second to build, a few ms per query), searched lazily on smaller maps
+        (no build, no compiled kernel: a few ms per query).  ``"lazy"``: the graph grows as
+        the lazy A* reaches it.  ``"built"``: always built first
+        (:meth:`~optplan.geometry.tangent.tangent_graph.TangentGraph.build`; not interrupted
+        by a time limit between its phases' polls).  Every problem with the same static map
+        and radius shares one graph per process (:mod:`optplan.problem.shared`: at most 8
+        maps and 1 GiB of graphs, least recently used dropped), so only the first query on a
+        map pays for it.  The two searches give the same path and the same bits (one
+        function makes a path's length and polyline) except where shortest paths tie; the
+        choice depends on the map only, never on earlier queries.
     """
 
     name: ClassVar[str] = "visgraph"
     certifies: ClassVar[bool] = True
     see_temporary: bool = option(False)
     arc_step: float = option(math.pi / 36, lo=1e-4, hi=math.pi / 2)
-    graph: str = option("lazy", choices=("lazy", "built"))
+    graph: str = option("auto", choices=("auto", "lazy", "built"))
 
     def solve(self, problem, /, *, rng=None, init=None, callback=None):
         t0 = time.perf_counter()
@@ -87,7 +95,7 @@ class VisGraph(Backend):
 
             res = problem_shortest_path(problem, r, known_only, float(self.arc_step),
                                         stop=poll if callback is not None else None,
-                                        build=self.graph == "built")
+                                        build=_BUILD[self.graph])
             if res.info.get("stopped"):
                 stopped = True
                 status = Status.approximate

@@ -399,15 +399,24 @@ class Problem:
 
         See :class:`optplan.geometry.ObstacleSet`: every solver and the validator use it with
         the bounds as a wall (``walls=True``); the simulator's sensing sees the obstacles
-        only (``walls=False``).
+        only (``walls=False``).  Problems with the same static map (obstacles and bounds, by
+        digest) share one set per process, and with it the map's tangent graph
+        (:mod:`optplan.problem.shared`: bounded, least recently used dropped).
         """
         from optplan.geometry import obstacle_set
+        from optplan.problem.shared import problem_digest, shared_set
 
         # without temporary obstacles the known map is the whole map: one set serves both
         known_only = known_only and any(not o.known for o in self.obstacles)
         key = ("obstacle_set", float(radius), known_only) + (() if walls else ("no walls",))
-        return self.memo(key, lambda: obstacle_set(self.static_obstacles(known_only),
+
+        def make():
+            digest = problem_digest(self.obstacles, known_only, self.bounds)
+            return shared_set((digest, float(radius), known_only, bool(walls)),
+                              lambda: obstacle_set(self.static_obstacles(known_only),
                                                    float(radius), self.frame, walls=walls))
+
+        return self.memo(key, make)
 
     @property
     def frame(self):

@@ -192,7 +192,11 @@ class ArcChecker:
             ck = it[it >= S.n_pieces]
             P = S.table[0][:, pk].ravel()
             E = S.table[1][:, pk].ravel()
-            self.cache[i] = (P, E, S.item_center[ck], S.circle_radius[ck - S.n_pieces])
+            # only the edges within the same reach: an item's reach is that of its farthest
+            # edge (the bounds' wall reaches every circle; few of its edges come near)
+            near = _point_seg_dist(C.center[i], P, E) <= C.rho[i] + reach
+            self.cache[i] = (P[near], E[near], S.item_center[ck],
+                             S.circle_radius[ck - S.n_pieces])
         return self.cache[i]
 
     def free(self, i: int, theta0: np.ndarray, sweep: np.ndarray, sense: int) -> np.ndarray:

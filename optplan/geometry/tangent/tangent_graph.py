@@ -51,6 +51,7 @@ bounds (certified), and none found proves that no path exists.  On a set built w
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
@@ -157,6 +158,7 @@ class TangentGraph:
         self.chains: ChainGraph | None = None
         self._work: dict = {}
         self.stats: dict[str, Any] = {"queries": 0, "nodes": 0, "edges": 0, "segment_tests": 0}
+        self.lock = threading.RLock()  # one query or build at a time (shared work arrays)
 
     @property
     def sightlines(self) -> Sightlines:
@@ -284,8 +286,13 @@ class TangentGraph:
         :mod:`~optplan.geometry.tangent.chain_search` (same lengths).  What earlier lazy searches
         stored is dropped; ``max_bytes`` bounds what lazy searches store, not this.
         """
-        if self.chains is not None:
-            return self
+        with self.lock:
+            if self.chains is None:
+                self._build(stop)
+        return self
+
+    def _build(self, stop: Callable[[], bool] | None) -> None:
+        """:meth:`build` (under the lock)."""
         C = self.circles
         t0 = time.perf_counter()
         if self.use_sightlines:
@@ -320,7 +327,6 @@ class TangentGraph:
                                       "chains": time.perf_counter() - t2}
         self.nbytes = self.chains.nbytes
         self.stats["arc_tests"] = self.chains.arc_tests
-        return self
 
     def _all_keys(self) -> tuple[np.ndarray, np.ndarray]:
         """Every circle's :meth:`visible` circles as keys ``i n + j``, once per window that
@@ -401,9 +407,12 @@ class TangentGraph:
 
     def shortest_path(self, start, goal, *, arc_step: float = math.pi / 36,
                       stop: Callable[[], bool] | None = None) -> TangentPath:
-        """:func:`shortest_path` from ``start`` to ``goal`` (world) on this graph."""
-        self.stats["queries"] += 1
-        return shortest_path(self.oset, start, goal, graph=self, arc_step=arc_step, stop=stop)
+        """:func:`shortest_path` from ``start`` to ``goal`` (world) on this graph (one query
+        at a time: threads that share the graph wait for each other)."""
+        with self.lock:
+            self.stats["queries"] += 1
+            return shortest_path(self.oset, start, goal, graph=self, arc_step=arc_step,
+                                 stop=stop)
 
 
 def tangent_graph(oset: ObstacleSet) -> TangentGraph:
@@ -499,20 +508,27 @@ class _Uncached(Exception):
 def problem_shortest_path(problem, robot, known_only: bool = True,
                           arc_step: float = math.pi / 36,
                           stop: Callable[[], bool] | None = None,
-                          build: bool = False) -> TangentPath:
+                          build: bool | None = None) -> TangentPath:
     """:func:`shortest_path` of ``robot`` on ``problem``'s static map, cached per problem.
 
     ``known_only``: plan on the known obstacles only (the map a global planner sees).  The
     obstacle set is walled (the bounds are a wall), so a path found is the certified shortest
-    path inside the bounds and none found proves that no path exists.  ``build``: make the
-    whole graph of the obstacle set first (:meth:`TangentGraph.build`, once per obstacle
-    set; ``stop`` is polled by the build too) and search it compiled.
+    path inside the bounds and none found proves that no path exists.  The search runs on
+    the map's graph (:func:`tangent_graph`), which every problem with the same static map
+    shares in the process (:mod:`optplan.problem.shared`).  ``build``: make the whole graph
+    first (:meth:`TangentGraph.build`, once per map; ``stop`` is polled by the build too) and
+    search it compiled (True), or search it lazily (False); ``None`` (default) builds it on
+    maps of :data:`SIGHTLINES_MIN` circles or more (where the sight lines make the build
+    cheap, about a second on a 1024 x 1024 map, and a lazy query costs seconds), and
+    searches smaller maps lazily (no build, no compiled kernel).  The choice depends on the
+    map only; both searches give the same path and bits but where shortest paths tie
+    (``tests/geometry/test_chain_search.py``).
     """
 
     def plan() -> TangentPath:
         oset = problem.obstacle_set(robot.radius, known_only=known_only)
         graph = tangent_graph(oset)
-        if build:
+        if graph.use_sightlines if build is None else build:
             try:
                 graph.build(stop)
             except Stopped:  # not cached: a later call builds the graph
@@ -537,6 +553,6 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
 
     try:
         return problem.memo(("tangent_path", robot.id, bool(known_only), float(arc_step),
-                             bool(build)), plan)
+                             build), plan)
     except _Uncached as e:
         return e.result
