@@ -58,10 +58,10 @@ class VisGraph(Backend):
         than the arcs it replaces).
     graph : str
         ``"auto"`` (default): the map's graph is built whole on its first query and searched
-        compiled on maps of ``SIGHTLINES_MIN`` (1000) circles or more (a 1024 x 1024 MovingAI
-        map: about a second to build, a few ms per query), searched lazily on smaller maps
-        (no build, no compiled kernel: a few ms per query).  ``"lazy"``: the graph grows as
-        the lazy A* reaches it.  ``"built"``: always built first
+        compiled on maps of ``SIGHTLINES_MIN`` (1000) circles or more (where the sight lines
+        make the build cheap and a lazy query is slow: ``benchmarks/bench_maps_scale.py``),
+        searched lazily on smaller maps (no build, no compiled kernel).  ``"lazy"``: the
+        graph grows as the lazy A* reaches it.  ``"built"``: always built first
         (:meth:`~optplan.geometry.tangent.tangent_graph.TangentGraph.build`; not interrupted
         by a time limit between its phases' polls).  Every problem with the same static map
         and radius shares one graph per process (:mod:`optplan.problem.shared`: at most 8

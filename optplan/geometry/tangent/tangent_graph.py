@@ -519,8 +519,8 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
     first (:meth:`TangentGraph.build`, once per map; ``stop`` is polled by the build too) and
     search it compiled (True), or search it lazily (False); ``None`` (default) builds it on
     maps of :data:`SIGHTLINES_MIN` circles or more (where the sight lines make the build
-    cheap, about a second on a 1024 x 1024 map, and a lazy query costs seconds), and
-    searches smaller maps lazily (no build, no compiled kernel).  The choice depends on the
+    cheap and a lazy query slow: ``benchmarks/bench_maps_scale.py``), and searches smaller
+    maps lazily (no build, no compiled kernel).  The choice depends on the
     map only; both searches give the same path and bits but where shortest paths tie
     (``tests/geometry/test_chain_search.py``).
     """
