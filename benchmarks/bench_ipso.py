@@ -20,6 +20,19 @@ in ``__pycache__``); every timing here is taken after a warm-up run.
 Run: ``.venv/bin/python benchmarks/bench_ipso.py [--runs 15]``.  Prints markdown tables with
 medians; the machine is shared, so take the numbers as indicative (the CPU time is less
 affected by other jobs than the wall time).
+
+``--against REV [REV ...]`` prints instead one table of this checkout beside the commits
+``REV`` in the same session (:mod:`against`: a temporary worktree each, a worker process per
+checkout, the runs alternating between them): per solver (``--solvers``, default ``ipso`` and
+``ipso-paper``) and map (``--maps``: ``paper-env1``, ``paper-env2``, ``paper-warehouse`` and
+the random maps of table 4 with ``random-N``) the median and worst wall and CPU time over
+``--seeds`` seeds (30; ``op.solve(problem, solver, rng=seed)`` after one untimed warm-up solve
+of the map), the ratio of the medians current / REV and how many runs returned the same status
+and paths (float64 bytes). The worker calls only ``op.load_problem``, ``op.parse_problem`` and
+``op.solve``, which every commit since 0.4 (98ffc45) has.
+
+    python benchmarks/bench_ipso.py --against 98ffc45
+    python benchmarks/bench_ipso.py --against HEAD~3 --solvers ipso --maps paper-env2 --seeds 10
 """
 
 from __future__ import annotations
@@ -27,19 +40,22 @@ from __future__ import annotations
 import argparse
 import os
 import platform
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
 import optplan as op
-from optplan.geometry.collision import kernel
-from optplan.swarm import backend as be
-from optplan.swarm import endgame as eg
-from optplan.swarm import ipso as ip
-from optplan.swarm.core import make_space
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import against  # noqa: E402
 
 #: Targets of the median runs on paper-env1 (seconds).
 TARGETS = {"ipso-paper": 0.040, "ipso": 0.045}
+#: The maps of ``--against`` (catalogue names, ``random-N``: :func:`random_map` of N).
+AGAINST_MAPS = ("paper-env1", "paper-env2", "paper-warehouse", "random-10", "random-100",
+                "random-1000")
 
 
 def _time_runs(prob, solver, runs: int, **over) -> tuple[float, float, float]:
@@ -115,10 +131,72 @@ def random_map(n: int, seed: int = 0) -> op.Problem:
     })
 
 
+def _problem(name: str) -> op.Problem:
+    """A map of ``--against`` by name."""
+    if name.startswith("random-"):
+        return random_map(int(name.split("-", 1)[1]))
+    return op.load_problem(name)
+
+
+def worker() -> None:
+    """Answer the requests ``solver map seed`` with the run's wall and CPU seconds, status
+    and digest (status, robot ids and paths)."""
+    probs: dict[str, op.Problem] = {}
+    warm: set[tuple[str, str]] = set()
+
+    def answer(words: list[str]) -> dict:
+        solver, name, seed = words
+        if name not in probs:
+            probs[name] = _problem(name)
+        if (solver, name) not in warm:  # compiled code, the map's obstacle set
+            op.solve(probs[name], solver, rng=0)
+            warm.add((solver, name))
+        r, wall, cpu = against.timed(lambda: op.solve(probs[name], solver, rng=int(seed)))
+        parts: list = [r.status.value]
+        for rid in sorted(r.paths):
+            parts += [rid, r.paths[rid]]
+        return {"wall": wall, "cpu": cpu, "ok": bool(r.success), "digest": against.digest(*parts)}
+
+    against.serve(answer)
+
+
+def run_against(revs: list[str], solvers: list[str], maps: list[str], seeds: int) -> None:
+    """The ``--against`` table: every (solver, map, seed) on every checkout, alternating."""
+    load0 = os.getloadavg()
+    with against.workers(__file__, revs) as pool:
+        out = {(solver, m): against.alternate(pool, [(solver, m, s) for s in range(seeds)])
+               for solver in solvers for m in maps}
+    load1 = os.getloadavg()
+    print(f"\nWarm runs, seeds 0-{seeds - 1} per map, this checkout beside {' '.join(revs)} "
+          "(alternating)")
+    print(against.load_line(load0, load1) + "\n")
+    print(against.table(out, ["solver", "map"], True, "ms", (["success"], lambda rows: [
+        f"{sum(r['ok'] for r in rows)}/{len(rows)}"])))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=15)
+    ap.add_argument("--against", nargs="+", metavar="REV",
+                    help="this checkout beside these commits")
+    ap.add_argument("--solvers", nargs="+", default=["ipso", "ipso-paper"],
+                    help="with --against")
+    ap.add_argument("--maps", nargs="+", default=list(AGAINST_MAPS), help="with --against")
+    ap.add_argument("--seeds", type=int, default=30, help="with --against: seeds per map")
+    ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.worker:
+        worker()
+        return 0
+    if args.against:
+        run_against(args.against, args.solvers, args.maps, args.seeds)
+        return 0
+    from optplan.geometry.collision import kernel
+    from optplan.swarm import backend as be
+    from optplan.swarm import endgame as eg
+    from optplan.swarm import ipso as ip
+    from optplan.swarm.core import make_space
+
     print(f"machine: {os.cpu_count()} cores (shared), {platform.processor() or platform.machine()}"
           f", Python {platform.python_version()}, numpy {np.__version__}, load average "
           f"{os.getloadavg()[0]:.1f}")

@@ -21,6 +21,20 @@ rectangles 11.6 s and 1.45 GB, 400 rectangles MemoryError at 6-8 GB; extremitypa
 (point robot) 75 s and 0.47 GB at 1000 obstacles.
 
 Run: ``python benchmarks/bench_visgraph.py [--seeds 3]``.
+
+``--against REV [REV ...]`` prints instead one table of this checkout beside the commits
+``REV`` in the same session (:mod:`against`: a temporary worktree each, a worker process per
+checkout, the queries alternating between them): per size and radius, the median and worst wall
+and CPU time of build + query (a cold query: a new obstacle set and its one-off search, as
+above) over ``--seeds`` maps x ``--repeats`` rounds, the ratio of the medians current / REV and
+how many queries returned the same length and polyline (float64 bytes). The worker calls
+``random_obstacles``, ``Frame.from_bounds``, ``obstacle_set`` and ``shortest_path``, which
+every commit since 0.4 (98ffc45) has; ``shortest_path`` is imported from
+``optplan.geometry.tangent.tangent_graph`` or, before the geometry split (c36a170), from
+``optplan.geometry.tangent_graph``. Since the bounds became a wall (8a8b326), the current set
+also holds the complement of the bounds: part of what the ratio measures.
+
+    python benchmarks/bench_visgraph.py --against 98ffc45 --sizes 20 100 --seeds 5
 """
 
 from __future__ import annotations
@@ -30,15 +44,24 @@ import math
 import os
 import platform
 import statistics
+import sys
 import time
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 import shapely
 
 from optplan.generators import random_obstacles
 from optplan.geometry import Frame, obstacle_set
-from optplan.geometry.tangent.tangent_graph import shortest_path
+
+try:
+    from optplan.geometry.tangent.tangent_graph import shortest_path
+except ImportError:  # a checkout before the geometry split (c36a170), for --against
+    from optplan.geometry.tangent_graph import shortest_path  # type: ignore[no-redef]
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import against  # noqa: E402
 
 SIZES = (10, 20, 30, 100, 300, 1000)
 BOUNDS = (0.0, 0.0, 500.0, 500.0)
@@ -83,11 +106,66 @@ def machine() -> str:
             f"numpy {np.__version__}, shapely {shapely.__version__}; load average {load:.2f}")
 
 
+def worker() -> None:
+    """Answer the requests ``n seed radius`` with one cold build + query: wall and CPU
+    seconds, the build's and the query's wall seconds, length and digest (length, polyline)."""
+    frame = Frame.from_bounds(BOUNDS)
+    maps: dict[tuple[int, int], list] = {}
+
+    def answer(words: list[str]) -> dict:
+        n, seed, radius = int(words[0]), int(words[1]), float(words[2])
+        if not maps:  # imports and compiled kernels out of the timed queries
+            shortest_path(obstacle_set(random_obstacles(10, seed=0, keep_free=(START, GOAL)),
+                                       radius, frame), START, GOAL)
+        if (n, seed) not in maps:
+            maps[(n, seed)] = random_obstacles(n, seed=seed, keep_free=(START, GOAL))
+        obs, built = maps[(n, seed)], [0.0]
+
+        def query():
+            oset = obstacle_set(obs, radius, frame)
+            built[0] = time.perf_counter()
+            return shortest_path(oset, START, GOAL)
+
+        t0 = time.perf_counter()
+        res, wall, cpu = against.timed(query)
+        poly = np.zeros((0, 2)) if res.polyline is None else res.polyline
+        return {"wall": wall, "cpu": cpu, "build": built[0] - t0, "length": res.length,
+                "digest": against.digest(np.array([res.length]), poly)}
+
+    against.serve(answer)
+
+
+def run_against(revs: list[str], sizes: list[int], seeds: int, repeats: int) -> None:
+    """The ``--against`` table: every (radius, size, seed) ``repeats`` times on every
+    checkout, alternating."""
+    load0 = os.getloadavg()
+    with against.workers(__file__, revs) as pool:
+        out = {(f"{radius:g}", str(n)): against.alternate(
+            pool, [(n, s, radius) for _ in range(repeats) for s in range(seeds)])
+            for radius in (1.0, 0.0) for n in sizes}
+    load1 = os.getloadavg()
+    print(f"\nCold build + query, {seeds} maps x {repeats} rounds per size, this checkout "
+          f"beside {' '.join(revs)} (alternating)")
+    print(against.load_line(load0, load1) + "\n")
+    print(against.table(out, ["radius", "obstacles"], True, "ms", (["build wall median (ms)"], (
+        lambda rows: [f"{statistics.median(r['build'] for r in rows) * 1e3:.1f}"]))))
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=3, help="random maps per size")
     ap.add_argument("--sizes", type=int, nargs="*", default=list(SIZES))
+    ap.add_argument("--against", nargs="+", metavar="REV",
+                    help="this checkout beside these commits")
+    ap.add_argument("--repeats", type=int, default=3, help="with --against: rounds per map")
+    ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.worker:
+        worker()
+        return
+    if args.against:
+        run_against(args.against, args.sizes, args.seeds, args.repeats)
+        return
     one(10, 0, 1.0)  # warm-up (imports)
     print("tangent visibility graph: exact obstacle set + A* query, 500 x 500 random maps, "
           f"median over {args.seeds} seeds (worst in brackets)")
