@@ -12,12 +12,27 @@ Scenes:
   ``bounce``, 3-12 units/s), so that many of them delay the robot.
 
 Each run is ``optplan.solve(problem, "sipp")``: the certified lower bound, the search and the
-validator's exact continuous-time check; the wall time is the one ``Result.wall_time``
-reports.  The script prints the median and the worst over runs, the status counts, the
-expansions and the gap to the lower bound, against the targets of issue 25: <= 100 ms on
-``paper-warehouse``, <= 1 s with 100 obstacles and 20 movers.
+validator's exact continuous-time check.  The runs happen in a worker process (the script with
+``--worker``, :mod:`against`), one at a time, after one warm-up solve (imports, compiled
+kernels); the problem is built before the clock starts, and each run is the first on its map
+(the obstacle sets and graphs that ``op.solve`` shares per static map and process,
+``optplan.problem.shared``, are cleared before it where the checkout has them).  Per scene
+family the table gives the statuses, the median expansions and gap to the lower bound, whether
+every plan is feasible, the median and worst wall time (``perf_counter``) and CPU time
+(``process_time``: the share of a loaded machine this process got) of ``op.solve``, a digest of
+the answers (status, paths, time stamps, arrival; float64 bytes, in run order), and whether the
+worst wall time and the worst CPU time meet the targets of issues 25 and 46 (<= 100 ms on
+``paper-warehouse``, <= 1 s with 100 obstacles and 20 movers; set for the idle machine, where
+the two agree).  The load average is printed before and after.
 
-Run: ``python benchmarks/bench_sipp.py [--seeds 10] [--repeats 5]``.
+``--against REV [REV ...]`` runs a worker per commit ``REV`` (a temporary ``git worktree``)
+beside this checkout's; the runs go to the workers in turn (the order reversed every run, never
+two at once), so the machine's load hits all alike, and the table adds the ratio of the medians
+(current / REV; below 1 is faster) and how many runs gave the same answer.  The worker needs
+``optplan.solve``, ``load_problem``, ``generators.random_obstacles`` and
+``problem.parse_problem`` at ``REV``.
+
+Run: ``python benchmarks/bench_sipp.py [--seeds 10] [--repeats 5] [--against REV ...]``.
 """
 
 from __future__ import annotations
@@ -27,14 +42,19 @@ import math
 import os
 import platform
 import statistics
+import sys
 import time
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 
 import optplan as op
 from optplan.generators import random_obstacles
 from optplan.problem import Problem, parse_problem
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import against  # noqa: E402
 
 SIDE = 500.0
 START, GOAL = (10.0, 10.0), (490.0, 490.0)
@@ -105,55 +125,92 @@ def random_scene(n_obstacles: int, n_movers: int, seed: int, crossing: bool = Fa
     }, "<bench_sipp>")
 
 
-def run(problem: Problem) -> dict:
-    """One ``sipp`` solve: wall time, status, expansions, gap."""
-    r = op.solve(problem, "sipp")
-    lead = next(iter(r.extras["sipp"].values()))
-    return {"wall": r.wall_time, "status": str(r.status), "expansions": lead["expansions"],
-            "gap": lead["gap"], "arrival": lead["arrival"], "feasible": r.metrics["feasible"]}
+def problem_of(family: str, k: int) -> Problem:
+    """The problem of run ``k`` of a scene family: ``warehouse`` (the catalogue's
+    ``paper-warehouse``, loaded afresh), ``random`` or ``crossing`` (seed ``k``)."""
+    if family == "warehouse":
+        return op.load_problem("paper-warehouse")
+    return random_scene(100, 20, k, crossing=family == "crossing")
 
 
-def _line(label: str, rows: list[dict], target: float) -> str:
-    walls = [x["wall"] for x in rows]
+def worker() -> None:
+    """Answer the requests ``family k`` with one timed ``sipp`` solve of
+    :func:`problem_of`: wall and CPU seconds, status, expansions, gap, feasibility, digest."""
+    warm: list[bool] = []
+    try:  # the obstacle sets op.solve shares per static map (since 9ca108f)
+        from optplan.problem.shared import clear as clear_shared
+    except ImportError:
+        clear_shared = None  # type: ignore[assignment]
+
+    def answer(words: list[str]) -> dict:
+        if not warm:  # imports and compiled kernels out of the timed runs; on the first
+            warm.append(True)  # request, so that the other worker is idle meanwhile
+            op.solve(problem_of("warehouse", 0), "sipp")
+        problem = problem_of(words[0], int(words[1]))
+        if clear_shared is not None:
+            clear_shared()  # the first query on its map
+        r, wall, cpu = against.timed(lambda: op.solve(problem, "sipp"))
+        lead = next(iter(r.extras["sipp"].values()))
+        paths = [x for rid in sorted(r.paths) for x in (rid, r.paths[rid])]
+        times = np.zeros(0) if r.times is None else r.times
+        arrival = math.nan if lead["arrival"] is None else lead["arrival"]
+        return {"wall": wall, "cpu": cpu, "family": words[0], "status": str(r.status),
+                "expansions": lead["expansions"], "gap": lead["gap"],
+                "feasible": bool(r.metrics["feasible"]),
+                "digest": against.digest(r.status.value, *paths, times, np.array([arrival]))}
+
+    against.serve(answer)
+
+
+def _cells(rows: list[dict]) -> list[str]:
+    """The extra columns of :func:`against.table` (:data:`EXTRA`) of one family's runs."""
     gaps = [x["gap"] for x in rows if x["gap"] is not None]
-    med, worst = statistics.median(walls), max(walls)
-    ok = "met" if worst <= target else "NOT met"
     st = ", ".join(f"{k} {v}" for k, v in sorted(Counter(x["status"] for x in rows).items()))
-    exp = statistics.median([x["expansions"] for x in rows])
-    gap = f"{100 * statistics.median(gaps):.3g} %" if gaps else "-"
-    return (f"| {label} | {len(rows)} | {1000 * med:.1f} | {1000 * worst:.1f} | {st} | "
-            f"{exp:.0f} | {gap} | {all(x['feasible'] for x in rows)} | "
-            f"<= {1000 * target:.0f} ms: {ok} |")
+    target = TARGET_WAREHOUSE if rows[0]["family"] == "warehouse" else TARGET_RANDOM
+    met = ["met" if max(x[k] for x in rows) <= target else "NOT met" for k in ("wall", "cpu")]
+    return [st, f"{statistics.median([x['expansions'] for x in rows]):.0f}",
+            f"{100 * statistics.median(gaps):.3g} %" if gaps else "-",
+            str(all(x["feasible"] for x in rows)),
+            f"<= {1000 * target:.0f} ms: {met[0]}, {met[1]}"]
 
 
-def main() -> None:
+#: The extra columns of the table: headers and :func:`_cells`.
+EXTRA = (["statuses", "expansions (median)", "gap to bound (median)", "all feasible",
+          "worst vs target (wall, CPU)"], _cells)
+
+
+def main(argv: list[str] | None = None) -> None:
+    """Parse the options, run the scenes (beside ``--against``) and print the table."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", type=int, default=10)
-    ap.add_argument("--repeats", type=int, default=5)
-    args = ap.parse_args()
-    print("sipp: wall time of optplan.solve(problem, 'sipp') (bound + search + validator)")
-    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
-          f"Python {platform.python_version()}, numpy {np.__version__}; "
-          f"load average {os.getloadavg()[0]:.2f}")
-    print()
-    wh = op.load_problem("paper-warehouse")
-    run(wh)  # warm-up: numba kernels, imports
-    rows_wh = []
-    for _ in range(args.repeats):
-        rows_wh.append(run(op.load_problem("paper-warehouse")))  # fresh caches each time
+    ap.add_argument("--seeds", type=int, default=10, help="random scenes per family")
+    ap.add_argument("--repeats", type=int, default=5, help="runs of paper-warehouse")
+    ap.add_argument("--against", nargs="+", default=[], metavar="REV",
+                    help="also run every scene on these commits")
+    ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    a = ap.parse_args(argv)
+    if a.worker:
+        worker()
+        return
+    families = {"warehouse": ("paper-warehouse", range(a.repeats)),
+                "random": ("random, 100 obstacles, 20 movers", range(a.seeds)),
+                "crossing": ("random, 100 obstacles, 20 movers across the diagonal",
+                             range(a.seeds))}
+    load0 = os.getloadavg()
     t0 = time.perf_counter()
-    rows_rd = [run(random_scene(100, 20, s)) for s in range(args.seeds)]
-    rows_cx = [run(random_scene(100, 20, s, crossing=True)) for s in range(args.seeds)]
+    with against.workers(__file__, a.against) as pool:
+        out: dict[tuple[str, ...], dict[str, list[dict]]] = {
+            (label,): against.alternate(pool, [(fam, k) for k in ks])
+            for fam, (label, ks) in families.items()}
     total = time.perf_counter() - t0
-    print("| scene | runs | median ms | worst ms | statuses | expansions (median) | "
-          "gap to bound (median) | all feasible | target |")
-    print("|---|---:|---:|---:|---|---:|---:|:---|---|")
-    print(_line("paper-warehouse", rows_wh, TARGET_WAREHOUSE))
-    print(_line("random, 100 obstacles, 20 movers", rows_rd, TARGET_RANDOM))
-    print(_line("random, 100 obstacles, 20 movers across the diagonal", rows_cx,
-                TARGET_RANDOM))
-    print()
-    print(f"random scenes: 2 x {args.seeds} seeds in {total:.1f} s")
+    load1 = os.getloadavg()
+    print("sipp: wall and CPU time of optplan.solve(problem, 'sipp') (bound + search + "
+          "validator)" + (f", this checkout beside {' '.join(a.against)} (alternating)"
+                          if a.against else ""))
+    print(f"Python {platform.python_version()}, numpy {np.__version__}. "
+          f"{against.load_line(load0, load1)}\n")
+    print(against.table(out, ["scene"], bool(a.against), "ms", EXTRA))
+    print(f"\n{a.seeds} seeds per random family, {a.repeats} runs of paper-warehouse; "
+          f"{total:.1f} s in all")
 
 
 if __name__ == "__main__":
