@@ -17,8 +17,10 @@ set of constraints per robot and each robot's optimal plan under them
 (:func:`~optplan.exact.ccbs_sipp.plan_agent`); its cost is a lower bound of every solution in its
 subtree.  A node without conflicts is optimal within the model.  Otherwise one conflict is
 branched on (:func:`~optplan.exact.ccbs_conflicts.branch`).  Options (Andreychuk et al., AAAI
-2021): ``cardinal`` branches first on conflicts both of whose children cost more (cardinal), then
-on those with one (semi-cardinal), else on the earliest; ``heuristic`` adds to a node's cost a
+2021): ``cardinal`` branches first on conflicts both of whose children cost more (cardinal; of
+them the one whose cheaper child adds most), then on those with one (semi-cardinal), else on
+any, ties going to the latest conflict, as in the authors' implementation (without the option:
+the earliest conflict); ``heuristic`` adds to a node's cost a
 lower bound of what its cardinal conflicts must add (the largest of ``min(increase_i,
 increase_j)`` over disjoint pairs of robots, greedily; sum objective only), computed when the
 node is first taken from the queue (it goes back when that raises its bound); ``disjoint``
@@ -130,6 +132,7 @@ class _Search:
         self.seq = 0
         self.lines: dict[tuple, Timeline] = {}
         self.pairs: dict[tuple[int, int, int, int], Conflict | None] = {}
+        self.plans: dict[tuple[int, frozenset], Plan | None] = {}
 
     def cost(self, plans: list[Plan]) -> float:
         """The objective of a set of plans."""
@@ -137,9 +140,14 @@ class _Search:
         return max(costs) if self.opts.objective == "makespan" else sum(costs)
 
     def plan(self, k: int, cons: Constraints) -> Plan | None:
-        """Robot ``k``'s optimal plan under ``cons``."""
-        self.out.low_level += 1
-        return plan_agent(self.models[k], cons, self.stop)
+        """Robot ``k``'s optimal plan under ``cons`` (remembered by the constraints' key: the
+        same constraints recur in many nodes, e.g. a robot's child of a conflict that the
+        other robot's replanning left as it was)."""
+        key = (k, cons.key)
+        if key not in self.plans:
+            self.out.low_level += 1
+            self.plans[key] = plan_agent(self.models[k], cons, self.stop)
+        return self.plans[key]
 
     def line(self, plan: Plan) -> Timeline:
         """The timeline of ``plan``, one object per distinct plan (so pairs of them can be
@@ -231,7 +239,11 @@ class _Search:
                 if c.i not in used and c.j not in used and math.isfinite(gain):
                     h += gain
                     used.update((c.i, c.j))
-        best = min(rank, key=lambda r: r[:2]) if self.opts.cardinal else rank[0]
+        if not self.opts.cardinal:
+            return rank[0][2], h
+        # cardinal first, the one whose cheaper child adds most; then semi-cardinal, then the
+        # rest; ties to the latest (as the authors' implementation)
+        best = min(rank, key=lambda r: (r[0], -r[3] if r[0] == -2 else 0.0, -r[1]))
         return best[2], h
 
     def expand(self, node: _Node, c: Conflict) -> None:
@@ -418,7 +430,8 @@ class CCBS(ClaimsInTime, Backend):
         the other requires it there (a positive constraint) and carries the other robot's
         constraint; sound with the delta rule (:mod:`optplan.exact.ccbs_conflicts`).
     cardinal : bool
-        Branch on cardinal conflicts first, then semi-cardinal ones (default true).
+        Branch on cardinal conflicts first (the one whose cheaper child adds most), then
+        semi-cardinal ones, ties to the latest (default true; false: the earliest conflict).
     heuristic : bool
         The high-level heuristic of the cardinal conflicts (default true; sum objective only).
     gamma : float

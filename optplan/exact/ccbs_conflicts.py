@@ -32,6 +32,26 @@ infeasible).
   ``c_s + delta``, and the vertex constraint forbids leaving too), and the excluded intervals are
   a fixed fraction of the contact, which is what makes the search terminate.
 
+  *The pass.*  ``(c_s, c_e)`` is not only the move's own contact with ``v``: every plan that
+  makes the move is at its end node ``b`` when it ends (``t_i + d``) and, at speed at most
+  ``s`` (the move's), no farther than ``|b - v| + s (t - t_i - d)`` from ``v`` afterwards,
+  whatever it does next; likewise before it departs from ``a``.  So when ``|b - v| < R``
+  the pass lasts at least until ``t_i + d + (R - |b - v|) / s`` (and, when ``|a - v| < R``,
+  begins by ``max(0, t_i - (R - |a - v|) / s)``), and a departure at ``t_i + x`` shifts it
+  by ``x``: the argument above holds for this longer pass, whose fraction ``gamma`` is the
+  larger step.  A move into the node where ``j`` waits has twice the pass of the move alone.
+* Move ``i`` against the goal hold of ``j`` (the wait that never ends, from ``j``'s final
+  arrival ``a_j``): the delta rule would only delay the move by a fraction of the contact at
+  a time, a long chain of children when ``i`` must take another way.  One shot instead:
+  "``i`` does not depart along its edge in ``[t_i, inf)``" and "``j``'s final arrival at its
+  goal is at ``c_e`` or later" (``c_e`` the end of the move's pass of the goal, departing at
+  ``t_i``, as above).  Sound: a conflict-free solution in which ``i`` departs along that edge at some
+  ``s >= t_i`` passes the goal over ``(c_s, c_e)`` shifted by ``s - t_i >= 0``; ``j``, which
+  holds its goal for ever from ``a_j``, must not be there then, so ``a_j >= c_e + s - t_i >=
+  c_e``.  Both children exclude the conflict (``a_j < c_e``: the hold met the pass).  The
+  authors' implementation forbids the move for ever too, but gives ``j`` a vertex constraint
+  over the pass, which also forbids ``j`` to cross its goal then (not sound).
+
 **Disjoint splitting** (``ccbs``'s option ``disjoint``).  In both rules the child of a mover
 ``i`` is one edge constraint "``i`` does not depart along ``u -> v`` in ``[t_i, T)``".  Its
 complement is the *positive* constraint "``i`` departs along ``u -> v`` at least once in
@@ -179,27 +199,61 @@ def first_conflict(i: int, j: int, line_i: Timeline, line_j: Timeline, contact: 
 
 
 def _move_move(nodes, c: Conflict, radius: float) -> tuple[tuple, tuple]:
-    """The two children of a conflict of two moves (the unsafe intervals)."""
+    """The two children of a conflict of two moves (the unsafe intervals, each extended while
+    the other robot, arrived near this move's start node, cannot yet be far enough from it:
+    module docstring)."""
     out = []
     for me, other in ((c.act_i, c.act_j), (c.act_j, c.act_i)):
         hit = unsafe_interval(_motion(nodes, me), _motion(nodes, other), radius)
         end = hit[1] if hit is not None else me.t0
+        gap = float(np.hypot(*(nodes[other.v] - nodes[me.u])))
+        if gap < radius:
+            end = max(end, other.t1 + (radius - gap) / min(_speed(nodes, me),
+                                                            _speed(nodes, other)))
         out.append(("edge", me.u, me.v, me.t0, max(end, math.nextafter(me.t0, math.inf))))
     return out[0], out[1]
+
+
+def _speed(nodes, move: Action) -> float:
+    """The speed of a move."""
+    return float(np.hypot(*(nodes[move.v] - nodes[move.u]))) / (move.t1 - move.t0)
+
+
+def _pass(nodes, move: Action, point: np.ndarray, radius: float
+          ) -> tuple[float, float] | None:
+    """When every plan that makes ``move`` (departing at ``move.t0``) is within ``radius`` of
+    ``point``: the move's own contact interval, extended past its end (and before its start)
+    while the robot, at speed at most the move's, cannot yet be ``radius`` away from ``point``
+    after arriving at (before departing from) an end point within ``radius`` of it.  ``None``
+    when the move never comes within ``radius``."""
+    a, b = nodes[move.u], nodes[move.v]
+    still = TimedMotion((float(point[0]), float(point[1])), (float(point[0]), float(point[1])),
+                        -math.inf, math.inf)
+    hit = contact_interval(_motion(nodes, move), still, radius)
+    if hit is None:
+        return None
+    cs, ce = hit
+    speed = _speed(nodes, move)
+    d_a, d_b = float(np.hypot(*(a - point))), float(np.hypot(*(b - point)))
+    if d_b < radius:
+        ce = max(ce, move.t1 + (radius - d_b) / speed)
+    if d_a < radius:
+        cs = min(cs, max(0.0, move.t0 - (radius - d_a) / speed))
+    return cs, ce
 
 
 def _move_wait(nodes, move: Action, wait: Action, radius: float, gamma: float
                ) -> tuple[tuple, tuple]:
     """The children of a move against a wait: the delta rule (module docstring)."""
-    point = nodes[wait.u]
-    still = TimedMotion((float(point[0]), float(point[1])), (float(point[0]), float(point[1])),
-                        -math.inf, math.inf)
-    hit = contact_interval(_motion(nodes, move), still, radius)
+    hit = _pass(nodes, move, nodes[wait.u], radius)
     if hit is None:  # round-off at the detection margin: the smallest step forward
         t = math.nextafter(move.t0, math.inf)
         return (("edge", move.u, move.v, move.t0, t),
                 ("vertex", wait.u, wait.u, max(wait.t0, move.t0), t))
     cs, ce = hit
+    if math.isinf(wait.t1):  # the goal hold: the one-shot rule (module docstring)
+        return (("edge", move.u, move.v, move.t0, math.inf),
+                ("hold", wait.u, wait.u, ce, math.inf))
     delta = min(gamma * (ce - cs), wait.t1 - cs)
     return (("edge", move.u, move.v, move.t0, move.t0 + delta),
             ("vertex", wait.u, wait.u, cs + delta, ce))
@@ -208,7 +262,8 @@ def _move_wait(nodes, move: Action, wait: Action, radius: float, gamma: float
 def branch(nodes, c: Conflict, contact: float, gamma: float) -> tuple[tuple, tuple]:
     """The constraints of the two children of conflict ``c``: one for robot ``c.i``, one for
     ``c.j``, each ``(kind, u, v, t1, t2)`` with ``kind`` ``"edge"`` (no departure along
-    ``u -> v`` in ``[t1, t2)``) or ``"vertex"`` (not at ``u`` in ``[t1, t2)``).
+    ``u -> v`` in ``[t1, t2)``), ``"vertex"`` (not at ``u`` in ``[t1, t2)``) or ``"hold"``
+    (the final arrival at the goal ``u`` at ``t1`` or later).
 
     Parameters
     ----------
@@ -238,12 +293,16 @@ def branch(nodes, c: Conflict, contact: float, gamma: float) -> tuple[tuple, tup
 
 
 def constrain(cons: Constraints, child: tuple) -> Constraints:
-    """A copy of ``cons`` with the child's constraint added (``kind`` ``"vertex"``, ``"edge"``
-    or ``"positive"``: a departure along ``u -> v`` required in ``[t1, t2)``)."""
-    out = Constraints(dict(cons.vertex), dict(cons.edge), cons.positive)
+    """A copy of ``cons`` with the child's constraint added (``kind`` ``"vertex"``, ``"edge"``,
+    ``"positive"``: a departure along ``u -> v`` required in ``[t1, t2)``, or ``"hold"``: the
+    final arrival at the goal at ``t1`` or later)."""
+    out = Constraints(dict(cons.vertex), dict(cons.edge), cons.positive, cons.hold_from,
+                      cons.key | {child})
     kind, u, v, lo, hi = child
     if kind == "vertex":
         out.add_vertex(u, lo, hi)
+    elif kind == "hold":
+        out.add_hold(lo)
     elif kind == "positive":
         out.add_positive(u, v, lo, hi)
     else:

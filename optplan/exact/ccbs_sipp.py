@@ -10,6 +10,8 @@ ever.  Its *constraints* (from the high level, :mod:`optplan.exact.ccbs`) are
   of ``[t1, t2)``;
 * positive constraints ``(u -> v, [t1, t2))`` (disjoint splitting): the robot departs along
   ``u -> v`` at least once at a time of ``[t1, t2)``;
+* a hold constraint ``hold_from``: the robot's final arrival at its goal (where it then stays
+  for ever) is at or after ``hold_from`` (it may pass through its goal before);
 
 and the moving obstacles are hard constraints: their busy times at a node
 (:meth:`~optplan.exact.sipp_graph.MoverBoxes.parked_busy`) and their forbidden departures on an
@@ -32,6 +34,11 @@ every set a departure can meet, at the earliest time); a state whose unmet windo
 is dropped.  An earlier arrival in the same (node, safe interval, mask) can still do whatever a
 later one can, so the search stays optimal.  Without positive constraints the mask is always
 empty and the search is the plain one.
+
+With a hold constraint, an arrival at the goal before ``hold_from`` is a state of its own (it
+may wait there and leave again, but it is not the final arrival), and an edge into the goal is
+also tried at the earliest departure arriving at ``hold_from`` or later; the heuristic is
+``max(t + h, hold_from)`` (still consistent).
 """
 
 from __future__ import annotations
@@ -98,11 +105,13 @@ class AgentModel:
     boxes: MoverBoxes | None = None
     horizon: float = math.inf
     h: np.ndarray = field(init=False, repr=False)
+    h_list: list[float] = field(init=False, repr=False)
     _busy: dict[int, Intervals] = field(default_factory=dict, repr=False)
     _forb: dict[tuple[int, int], Intervals] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         self.h = graph_distances(self.nbrs, self.goal) / self.speed
+        self.h_list = self.h.tolist()
 
     def busy(self, v: int) -> Intervals:
         """The moving obstacles' busy times at node ``v`` (open intervals)."""
@@ -147,11 +156,16 @@ def _first_allowed(cons: Intervals, t: float) -> float:
 @dataclass
 class Constraints:
     """One robot's constraints: ``vertex[v]`` and ``edge[(u, v)]``, each a sorted list of
-    disjoint half-open time intervals ``[t1, t2)``."""
+    disjoint half-open time intervals ``[t1, t2)``; the required departures ``positive``
+    ``(u, v, t1, t2)``; the earliest final arrival at the goal ``hold_from``."""
 
     vertex: dict[int, Intervals] = field(default_factory=dict)
     edge: dict[tuple[int, int], Intervals] = field(default_factory=dict)
     positive: tuple[tuple[int, int, float, float], ...] = ()
+    hold_from: float = 0.0
+    #: the constraints added so far, as ``(kind, u, v, t1, t2)`` (:func:`~optplan.exact.
+    #: ccbs_conflicts.constrain`): equal keys, equal constraints (the low level's memo)
+    key: frozenset = frozenset()
 
     def add_vertex(self, v: int, lo: float, hi: float) -> None:
         """Forbid node ``v`` on ``[lo, hi)``."""
@@ -164,6 +178,10 @@ class Constraints:
     def add_positive(self, u: int, v: int, lo: float, hi: float) -> None:
         """Require a departure along ``u -> v`` in ``[lo, hi)``."""
         self.positive = (*self.positive, (u, v, lo, hi))
+
+    def add_hold(self, t: float) -> None:
+        """Require the final arrival at the goal at ``t`` or later."""
+        self.hold_from = max(self.hold_from, t)
 
 
 @dataclass(frozen=True)
@@ -200,6 +218,7 @@ class _Search:
             self.windows.setdefault((u, v), []).append((1 << b, lo, hi))
         self.heap: list[tuple[float, float, int]] = []
         self.expanded = 0
+        self.close_of: dict[int, float] = {}
 
     def safe(self, v: int) -> Intervals:
         """Safe intervals of node ``v``: the closed complement of the movers' busy times and
@@ -220,36 +239,62 @@ class _Search:
         """The earliest departure ``>= t`` along ``u -> v`` allowed by the moving obstacles,
         the edge constraints and the vertex constraints of ``u``."""
         forb = self.m.mover_forbidden(u, v)
-        edge = self.cons.edge.get((u, v), [])
-        vert = self.cons.vertex.get(u, [])
+        edge = self.cons.edge.get((u, v))
+        vert = self.cons.vertex.get(u)
+        if not (forb or edge or vert):
+            return t
         while True:
-            x = _first_allowed(vert, _first_allowed(edge, first_free(forb, t)))
+            x = first_free(forb, t)
+            if edge:
+                x = _first_allowed(edge, x)
+            if vert:
+                x = _first_allowed(vert, x)
             if x == t:
                 return t
             t = x
 
+    def key(self, v: int, j: int, t: float, mask: int) -> tuple[int, int, int]:
+        """The state's key: ``(v, j, mask)``, with ``~j`` for an arrival at the goal before
+        ``hold_from`` (not a final arrival: a state of its own)."""
+        return (v, ~j if v == self.m.goal and t < self.cons.hold_from else j, mask)
+
+    def closes(self, mask: int) -> float:
+        """The earliest end of a positive window not met in ``mask``."""
+        if mask not in self.close_of:
+            self.close_of[mask] = min((hi for b, (*_, hi) in enumerate(self.cons.positive)
+                                       if not mask >> b & 1), default=math.inf)
+        return self.close_of[mask]
+
     def push(self, v: int, j: int, t: float, parent: int, dep: float, mask: int = 0) -> None:
         """Add the state ``(v, j, mask)`` reached at ``t`` unless it was reached earlier or an
         unmet positive window has closed."""
-        if self.best.get((v, j, mask), math.inf) <= t:
+        hold = self.cons.hold_from
+        key = (v, ~j if t < hold and v == self.m.goal else j, mask)
+        if self.best.get(key, math.inf) <= t:
             return
-        if mask != self.full and any(t >= hi and not mask >> b & 1
-                                     for b, (*_, hi) in enumerate(self.cons.positive)):
+        if mask != self.full and t >= self.closes(mask):
             return
-        self.best[(v, j, mask)] = t
+        self.best[key] = t
         self.st.append((v, j, t, parent, dep, mask))
-        heapq.heappush(self.heap, (t + float(self.m.h[v]), -t, len(self.st) - 1))
+        f = t + self.m.h_list[v]
+        heapq.heappush(self.heap, (f if f >= hold else hold, -t, len(self.st) - 1))
 
-    def departures(self, u: int, v: int, lo: float, hi: float, mask: int
+    def departures(self, u: int, v: int, lo: float, hi: float, mask: int, dt: float
                    ) -> list[tuple[float, int]]:
         """The departures along ``u -> v`` in ``[lo, hi]`` worth trying (module docstring)
-        and the mask each reaches."""
+        and the mask each reaches (``dt``: the edge's duration)."""
         windows = self.windows.get((u, v))
-        if windows is None:  # the plain search
-            dep = self.departure(u, v, lo)
-            return [(dep, mask)] if dep <= hi else []
+        starts = [lo]
+        if v == self.m.goal and lo + dt < self.cons.hold_from:
+            starts.append(self.cons.hold_from - dt)
+        if windows is None:  # no positive constraint on this edge
+            if len(starts) == 1:
+                dep = self.departure(u, v, lo)
+                return [(dep, mask)] if dep <= hi else []
+            deps = [self.departure(u, v, x) for x in starts]
+            return [(dep, mask) for dep in dict.fromkeys(deps) if dep <= hi]
         out = []
-        for start in (lo, *(max(lo, w_lo) for _, w_lo, _ in windows)):
+        for start in (*starts, *(max(lo, w_lo) for _, w_lo, _ in windows)):
             dep = self.departure(u, v, start)
             if dep <= hi:
                 met = mask
@@ -260,14 +305,14 @@ class _Search:
 
     def expand(self, s: int) -> None:
         """The successors of state ``s``: every neighbour's safe intervals it can reach."""
-        u, j, t = self.st[s][:3]
-        mask = self.st[s][5]
+        u, j, t, _, _, mask = self.st[s]
         leave_by = self.safe(u)[j][1]
+        h, speed = self.m.h_list, self.m.speed
         for v, length in self.m.nbrs[u]:
-            if not math.isfinite(self.m.h[v]):
+            if h[v] == math.inf:
                 continue
-            dt = length / self.m.speed
-            safe = self.safe(v)
+            dt = length / speed
+            safe = self.safe_of[v] if v in self.safe_of else self.safe(v)
             k0 = max(bisect.bisect_right(safe, (t + dt, math.inf)) - 1, 0)
             for k in range(k0, len(safe)):
                 c, d = safe[k]
@@ -275,7 +320,7 @@ class _Search:
                     break
                 lo, hi = max(t, c - dt), min(leave_by, d - dt)
                 if lo <= hi:
-                    for dep, met in self.departures(u, v, lo, hi, mask):
+                    for dep, met in self.departures(u, v, lo, hi, mask, dt):
                         self.push(v, k, dep + dt, s, dep, met)
 
     def run(self) -> int | None:
@@ -289,12 +334,13 @@ class _Search:
         closed: set[tuple[int, int, int]] = set()
         while self.heap:
             _, _, s = heapq.heappop(self.heap)
-            v, j = self.st[s][:2]
-            key = (v, j, self.st[s][5])
+            v, j, t = self.st[s][:3]
+            key = self.key(v, j, t, self.st[s][5])
             if key in closed:
                 continue
             closed.add(key)
-            if v == m.goal and math.isinf(self.safe(v)[j][1]) and key[2] == self.full:
+            if (v == m.goal and math.isinf(self.safe(v)[j][1]) and key[2] == self.full
+                    and t >= self.cons.hold_from):
                 return s
             self.expanded += 1
             if self.stop is not None and self.expanded % _POLL == 0 and self.stop():

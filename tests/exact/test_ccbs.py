@@ -12,6 +12,7 @@ from optplan.exact.ccbs import CCBSOptions, ccbs_search
 from optplan.exact.ccbs_conflicts import first_conflict, timeline_of
 from optplan.exact.ccbs_roadmap import agent_models, roadmap_model
 from optplan.exact.ccbs_sipp import AgentModel, Constraints, Plan, plan_agent
+from optplan.geometry.timing.disc_conflict import CONTACT_REL_TOL
 from optplan.problem import RoadmapGraph, parse_problem
 from tests.exact.ccbs_oracle import joint_grid_optimum, sampled_separation
 
@@ -297,3 +298,65 @@ def test_the_low_level_meets_positive_constraints(windows, arrival):
     for u, v, lo, hi in windows:
         assert any(a == u and b == v and lo <= t < hi for a, b, t in
                    zip(plan.nodes, plan.nodes[1:], plan.depart))
+
+
+#: a straight line of unit edges 0 - 1 - 2 - 3 along y = 0 (speed 1: one second an edge)
+LINE = np.array([[0, 0], [1, 0], [2, 0], [3, 0]], float)
+
+
+def test_a_move_into_a_waiting_robots_node_passes_it_until_it_can_be_away():
+    """i drives 0 -> 1 over [0, 1] while j waits at node 1 over [0, 5] (contact 0.6).  The
+    move alone passes node 1 over (0.4, 1); every plan making the move is still within 0.6
+    of node 1 until 1.6, whatever it does next: the pass is (0.4, 1.6), delta = 0.6."""
+    from optplan.exact.ccbs_conflicts import Action, Conflict, branch
+    c = Conflict(0, 1, Action(0, 1, 0.0, 1.0), Action(1, 1, 0.0, 5.0), 0.4)
+    (ki, ui, vi, lo_i, hi_i), (kj, uj, _, lo_j, hi_j) = branch(LINE, c, 0.6, 0.5)
+    r = 0.6 * (1 - CONTACT_REL_TOL)  # the branching distance
+    assert (ki, ui, vi, lo_i) == ("edge", 0, 1, 0.0)
+    assert hi_i == pytest.approx(0.5 * 2 * r, rel=1e-12)  # gamma of the pass (1 - r, 1 + r)
+    assert (kj, uj) == ("vertex", 1)
+    assert (lo_j, hi_j) == (pytest.approx(1 - r + 0.5 * 2 * r, rel=1e-12),
+                            pytest.approx(1 + r, rel=1e-12))
+
+
+def test_a_move_against_a_goal_hold_is_branched_once():
+    """j holds its goal (node 1) from 0.0 for ever: i never departs 0 -> 1 from 0 on, or j
+    finally arrives once every plan of i's move can be away from node 1 (1 + r)."""
+    from optplan.exact.ccbs_conflicts import Action, Conflict, branch
+    c = Conflict(0, 1, Action(0, 1, 0.0, 1.0), Action(1, 1, 0.0, math.inf), 0.4)
+    ci, cj = branch(LINE, c, 0.6, 0.5)
+    r = 0.6 * (1 - CONTACT_REL_TOL)
+    assert ci == ("edge", 0, 1, 0.0, math.inf)
+    assert cj[:3] == ("hold", 1, 1) and cj[3] == pytest.approx(1 + r, rel=1e-12)
+
+
+def test_a_move_from_the_node_another_robot_reaches_waits_until_it_can_be_away():
+    """i drives 0 -> 1 over [0, 1]; j departs 1 -> 2 at 0.5.  The moves alone: i is unsafe
+    until 0.1 (the gap 0.5 + s below 0.6), j from 0.4 until i's arrival at 1; j, still at
+    node 1 before it departs, and i, no farther than t - 1 from node 1 after arriving,
+    touch for every departure of j before 1 + 0.6."""
+    from optplan.exact.ccbs_conflicts import Action, Conflict, branch
+    c = Conflict(0, 1, Action(0, 1, 0.0, 1.0), Action(1, 2, 0.5, 1.5), 0.5)
+    ci, cj = branch(LINE, c, 0.6, 0.5)
+    r = 0.6 * (1 - CONTACT_REL_TOL)
+    assert ci[:4] == ("edge", 0, 1, 0.0) and ci[4] == pytest.approx(r - 0.5, abs=1e-9)
+    assert cj[:4] == ("edge", 1, 2, 0.5) and cj[4] == pytest.approx(1 + r, rel=1e-12)
+
+
+@pytest.mark.parametrize(("start", "goal", "hold", "arrival", "nodes"), [
+    (0, 3, 0.0, 3.0, (0, 1, 2, 3)),
+    (0, 3, 5.0, 5.0, (0, 1, 2, 3)),  # waits before the last edge: arrives at 5
+    (2, 2, 3.0, 3.0, (2, 1, 2)),  # at its goal from the start: leaves and comes back
+])
+def test_the_low_level_meets_the_hold_constraint(start, goal, hold, arrival, nodes):
+    """The final arrival at the goal is at ``hold_from`` or later (hand-derived)."""
+    nbrs: list[list[tuple[int, float]]] = [[] for _ in LINE]
+    for a in range(3):
+        nbrs[a].append((a + 1, 1.0))
+        nbrs[a + 1].append((a, 1.0))
+    cons = Constraints()
+    cons.add_hold(hold)
+    plan = plan_agent(AgentModel(LINE, nbrs, start, goal, 0.3, 1.0), cons)
+    assert plan is not None and plan.cost == pytest.approx(arrival, rel=1e-12)
+    assert plan.nodes[0] == start and plan.nodes[-1] == goal
+    assert plan.nodes in (nodes, (2, 3, 2))  # the goal left on either side
