@@ -20,6 +20,19 @@ infeasible).
   the other fixed (:func:`~optplan.geometry.timing.disc_conflict.unsafe_interval`), exclude
   together only pairs of departures whose offset lies in the contact interval: every
   conflict-free solution survives in one child (the original CCBS rule, sound for two moves).
+
+  *Extended when one arrives where the other starts.*  Every plan that makes a move (speed
+  ``w``, from ``a`` to ``b``, over ``[t0, t1]``) is, at any time ``t``, within
+  ``rho(t) = w max(0, t0 - t, t - t1)`` of the move's own point ``c(t)`` (``a`` before, ``b``
+  after), whatever it does before and after.  Two such plans certainly touch when
+  ``|c_i - c_j| + rho_i + rho_j < R``; the left side is the least over ``x`` of
+  ``(|x - c_i| + rho_i) + (|x - c_j| + rho_j)``, each term a maximum of convex functions of
+  ``(t, x)`` and the departures, so the departures' offsets at which they certainly touch
+  still form one interval, which holds the moves' own one.  With ``j``'s move ending at
+  ``b_j`` (at ``T_j``) within ``R`` of ``i``'s start ``a_i``: for a departure ``s_i >= T_j``,
+  at some time of ``[T_j, s_i]`` the two are at most ``|b_j - a_i| + min(w_i, w_j)
+  (s_i - T_j)`` apart, so ``e_i`` is at least ``T_j + (R - |b_j - a_i|) / min(w_i, w_j)``
+  (and likewise ``e_j``): the larger end, inside the same interval, keeps the rule sound.
 * Move ``i`` against a wait of ``j`` at node ``v`` (until ``t_b``, ``inf`` for the goal):
   the wait has no duration of its own, so the original rule (the wait's node forbidden over the
   time the move passes it, the move over its whole unsafe interval) can cut off conflict-free
