@@ -58,8 +58,8 @@ infeasible).
   a time, a long chain of children when ``i`` must take another way.  One shot instead:
   "``i`` does not depart along its edge in ``[t_i, inf)``" and "``j``'s final arrival at its
   goal is at ``c_e`` or later" (``c_e`` the end of the move's pass of the goal, departing at
-  ``t_i``, as above).  Sound: a conflict-free solution in which ``i`` departs along that edge at some
-  ``s >= t_i`` passes the goal over ``(c_s, c_e)`` shifted by ``s - t_i >= 0``; ``j``, which
+  ``t_i``, as above).  Sound: a conflict-free solution in which ``i`` departs along that edge
+  at some ``s >= t_i`` passes the goal over ``(c_s, c_e)`` shifted by ``s - t_i >= 0``; ``j``, which
   holds its goal for ever from ``a_j``, must not be there then, so ``a_j >= c_e + s - t_i >=
   c_e``.  Both children exclude the conflict (``a_j < c_e``: the hold met the pass).  The
   authors' implementation forbids the move for ever too, but gives ``j`` a vertex constraint

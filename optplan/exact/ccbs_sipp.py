@@ -238,7 +238,7 @@ class _Search:
     def departure(self, u: int, v: int, t: float) -> float:
         """The earliest departure ``>= t`` along ``u -> v`` allowed by the moving obstacles,
         the edge constraints and the vertex constraints of ``u``."""
-        forb = self.m.mover_forbidden(u, v)
+        forb = self.m.mover_forbidden(u, v) if self.m.boxes is not None else ()
         edge = self.cons.edge.get((u, v))
         vert = self.cons.vertex.get(u)
         if not (forb or edge or vert):
@@ -307,21 +307,29 @@ class _Search:
         """The successors of state ``s``: every neighbour's safe intervals it can reach."""
         u, j, t, _, _, mask = self.st[s]
         leave_by = self.safe(u)[j][1]
-        h, speed = self.m.h_list, self.m.speed
+        h, speed, goal = self.m.h_list, self.m.speed, self.m.goal
+        held = self.cons.hold_from > 0.0
         for v, length in self.m.nbrs[u]:
             if h[v] == math.inf:
                 continue
             dt = length / speed
             safe = self.safe_of[v] if v in self.safe_of else self.safe(v)
+            plain = (u, v) not in self.windows and not (held and v == goal)
             k0 = max(bisect.bisect_right(safe, (t + dt, math.inf)) - 1, 0)
             for k in range(k0, len(safe)):
                 c, d = safe[k]
                 if c - dt > leave_by:
                     break
                 lo, hi = max(t, c - dt), min(leave_by, d - dt)
-                if lo <= hi:
-                    for dep, met in self.departures(u, v, lo, hi, mask, dt):
-                        self.push(v, k, dep + dt, s, dep, met)
+                if lo > hi:
+                    continue
+                if plain:  # one departure to try (:meth:`departures`, inlined)
+                    dep = self.departure(u, v, lo)
+                    if dep <= hi:
+                        self.push(v, k, dep + dt, s, dep, mask)
+                    continue
+                for dep, met in self.departures(u, v, lo, hi, mask, dt):
+                    self.push(v, k, dep + dt, s, dep, met)
 
     def run(self) -> int | None:
         """The goal state with an unbounded safe interval reached first, else ``None``."""
