@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from optplan.geometry.compiled import B1, F2, I1, compiled
+from optplan.geometry.compiled import B1, F1, F2, F3, I1, I2, argsort_stable, compiled, i8
 from optplan.swarm.core import SwarmSpace, pairs_free, segment_free
 
 __all__ = ["CUT_FRACTIONS", "CUT_STAGES", "shortcut", "tighten"]
@@ -47,18 +47,13 @@ def _flat(paths: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
 
 def _pairs(off: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
     """Global index pairs ``(i, j)``, ``i < j`` in the same path and at most ``window`` apart
-    (0: every pair), sorted by ``i`` then ``j``."""
-    if window <= 0:
-        tri = [np.triu_indices(int(off[p + 1] - off[p]), 1) for p in range(len(off) - 1)]
-        I = np.concatenate([i + off[p] for p, (i, _) in enumerate(tri)] + [np.zeros(0, int)])
-        J = np.concatenate([j + off[p] for p, (_, j) in enumerate(tri)] + [np.zeros(0, int)])
-        return I.astype(np.int64), J.astype(np.int64)
+    (0: every pair), sorted by ``i`` then ``j``: the nonzero entries of the ``(vertices,
+    window)`` mask ``j = i + 1 .. i + window < end of i's path``, row by row."""
     n = np.diff(off)
-    end = np.repeat(off[1:], n)  # one past the last vertex of each vertex's path
-    I = np.repeat(np.arange(off[-1], dtype=np.int64), window)
-    J = I + np.tile(np.arange(1, window + 1, dtype=np.int64), int(off[-1]))
-    keep = J < np.repeat(end, window)
-    return I[keep], J[keep]
+    w = window if window > 0 else (int(n.max()) - 1 if len(n) else 0)
+    J = np.arange(off[-1], dtype=np.int64)[:, None] + np.arange(1, w + 1, dtype=np.int64)
+    keep = J < np.repeat(off[1:], n)[:, None]
+    return np.ascontiguousarray(np.nonzero(keep)[0], np.int64), J[keep]
 
 
 @compiled(I1, I1, I1, B1)
@@ -148,42 +143,83 @@ CUT_FRACTIONS = 0.5 ** np.arange(1, 11)
 CUT_STAGES = (8, 24)
 
 
-def _cut_table(pts: np.ndarray, rows: np.ndarray, f: np.ndarray, thr: np.ndarray
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+@compiled(F2, I1, F1, F1)
+def _cut_table(pts, rows, f, thr):
     """The corner cuts of :func:`tighten` for the vertices ``rows``: the cut points
     ``P[r, s] = v + f[s] (a - v)``, ``Q[r, t] = v + f[t] (b - v)``, the length gain of each
     cut ``(s, t)`` (flat index ``s F + t``), the cuts in order of decreasing gain (ties: the
-    lower index first) and per vertex how many gain more than ``thr[r]``.  Vectorised numpy
-    (once per round)."""
-    R, F = len(rows), len(f)
-    v = pts[rows]
-    a = pts[rows - 1] - v
-    b = pts[rows + 1] - v
-    P = v[:, None, :] + f[None, :, None] * a[:, None, :]
-    Q = v[:, None, :] + f[None, :, None] * b[:, None, :]
-    dp = np.hypot(P[:, :, 0] - v[:, None, 0], P[:, :, 1] - v[:, None, 1])
-    dq = np.hypot(Q[:, :, 0] - v[:, None, 0], Q[:, :, 1] - v[:, None, 1])
-    gain = ((dp[:, :, None] + dq[:, None, :])
-            - np.hypot(Q[:, None, :, 0] - P[:, :, None, 0],
-                       Q[:, None, :, 1] - P[:, :, None, 1])).reshape(R, F * F)
-    n_above = (gain > thr[:, None]).sum(axis=1).astype(np.int64)
-    order = np.argsort(-gain, axis=1, kind="stable")
+    lower index first) and per vertex how many gain more than ``thr[r]``.  Compiled (once
+    per round; numpy's broadcasts and row sorts cost several times the loop), with element
+    copies and ``if``s rather than row assignment and ``min``/``max``, whose error texts and
+    overloads would compile numba's string routines on a first run."""
+    R = rows.shape[0]
+    F = f.shape[0]
+    P = np.empty((R, F, 2))
+    Q = np.empty((R, F, 2))
+    gain = np.empty((R, F * F))
+    order = np.empty((R, F * F), np.int64)
+    n_above = np.empty(R, np.int64)
+    dp = np.empty(F)
+    dq = np.empty(F)
+    neg = np.empty(F * F)
+    for r in range(R):
+        v = rows[r]
+        vx, vy = pts[v, 0], pts[v, 1]
+        ax, ay = pts[v - 1, 0] - vx, pts[v - 1, 1] - vy
+        bx, by = pts[v + 1, 0] - vx, pts[v + 1, 1] - vy
+        for s in range(F):
+            P[r, s, 0] = vx + f[s] * ax
+            P[r, s, 1] = vy + f[s] * ay
+            Q[r, s, 0] = vx + f[s] * bx
+            Q[r, s, 1] = vy + f[s] * by
+            dp[s] = math.hypot(P[r, s, 0] - vx, P[r, s, 1] - vy)
+            dq[s] = math.hypot(Q[r, s, 0] - vx, Q[r, s, 1] - vy)
+        n_above[r] = 0
+        for s in range(F):
+            for t in range(F):
+                g = (dp[s] + dq[t]) - math.hypot(Q[r, t, 0] - P[r, s, 0],
+                                                 Q[r, t, 1] - P[r, s, 1])
+                gain[r, s * F + t] = g
+                neg[s * F + t] = -g
+                if g > thr[r]:
+                    n_above[r] += 1
+        o = argsort_stable(neg)
+        for q in range(F * F):
+            order[r, q] = o[q]
     return P, Q, gain, order, n_above
 
 
-def _stage_segments(P: np.ndarray, Q: np.ndarray, order: np.ndarray, n_above: np.ndarray,
-                    found: np.ndarray, lo: int, hi: int
-                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+@compiled(F3, F3, I2, I1, B1, i8, i8)
+def _stage_segments(P, Q, order, n_above, found, lo, hi):
     """The cuts of ranks ``lo .. hi - 1`` (among those above the threshold) of the vertices
     without a free cut yet: their segments ``p -> q``, vertex and rank (by vertex, then
-    rank)."""
+    rank; compiled as :func:`_cut_table`, three times per round)."""
+    R = order.shape[0]
     F = P.shape[1]
-    cnt = np.where(found, 0, np.maximum(0, np.minimum(hi, n_above) - lo))
-    who = np.repeat(np.arange(len(cnt), dtype=np.int64), cnt)
-    first = np.cumsum(cnt) - cnt  # each vertex's first entry
-    rank = lo + np.arange(len(who), dtype=np.int64) - np.repeat(first, cnt)
-    c = order[who, rank]
-    return P[who, c // F], Q[who, c % F], who, rank
+    n = 0
+    for r in range(R):
+        top = n_above[r] if n_above[r] < hi else hi
+        if not found[r] and top > lo:
+            n += top - lo
+    A = np.empty((n, 2))
+    B = np.empty((n, 2))
+    who = np.empty(n, np.int64)
+    rank = np.empty(n, np.int64)
+    q = 0
+    for r in range(R):
+        top = n_above[r] if n_above[r] < hi else hi
+        if found[r]:
+            continue
+        for k in range(lo, top):
+            c = order[r, k]
+            A[q, 0] = P[r, c // F, 0]
+            A[q, 1] = P[r, c // F, 1]
+            B[q, 0] = Q[r, c % F, 0]
+            B[q, 1] = Q[r, c % F, 1]
+            who[q] = r
+            rank[q] = k
+            q += 1
+    return A, B, who, rank
 
 
 def _stage_pick(order: np.ndarray, who: np.ndarray, rank: np.ndarray, free: np.ndarray,

@@ -169,12 +169,8 @@ def _k_classes(graph: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
     full = k_node * nbr.shape[0] + 1  # every settled label pushes one label per edge
     max_deg = int(np.diff(indptr).max()) if n else 0
     cap = min(full, FIRST_LABELS + max_deg)
-    lab_node = np.empty(cap, np.int64)
-    lab_hash = np.empty(cap, np.int64)
-    lab_par = np.empty(cap, np.int64)
-    lab_g = np.empty(cap)
-    hk = np.empty(cap)
-    hv = np.empty(cap, np.int64)
+    lab_node, lab_hash, lab_par, lab_g, hk, hv = (
+        np.empty(cap, t) for t in (np.int64, np.int64, np.int64, float, float, np.int64))
     lab_node[0], lab_hash[0], lab_par[0], lab_g[0] = src, 0, -1, 0.0
     hk[0], hv[0] = heur[src], 0  # a heap of one label
     settled = np.zeros(n, np.int64)
@@ -302,9 +298,10 @@ def _tested_edges(space: SwarmSpace, nodes: np.ndarray, corner: np.ndarray, k: i
             bound = slack * U * (1.0 + 1e-9)
     reach = CORNER_REACH * space.diag
     ends = _endpoint_distances(nodes)
-    cptr, cadj = _corner_partners(nodes, corner, reach, bound, ends, space.poll)
+    crange, cadj = _corner_partners(nodes, corner, reach, bound, ends, space.poll)
     _poll(space.poll if n > ALL_PAIRS_NODES else None)
-    i, j, ok, todo = _corner_edges(nodes, bi, bj, cptr, cadj, okb, reach * reach, bound, *ends)
+    i, j, ok, todo = _corner_edges(nodes, bi, bj, crange, cadj, okb, reach * reach, bound,
+                                   *ends)
     ok[todo] = _free(nodes, i[todo], j[todo], space)
     return i, j, ok
 
@@ -387,7 +384,8 @@ def _unique_pairs(n: int, i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.
     """The distinct pairs ``min(i, j) < max(i, j)`` of nodes ``0 .. n - 1`` (``i == j`` and
     ``j < 0`` dropped), in lexicographic order."""
     keep = (i != j) & (j >= 0)
-    key = np.sort(np.minimum(i, j)[keep] * np.int64(n) + np.maximum(i, j)[keep])
+    key = np.minimum(i, j)[keep] * np.int64(n) + np.maximum(i, j)[keep]
+    key = np.sort(key.astype(np.int32) if n * n < 1 << 31 else key).astype(np.int64)
     key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # (np.unique: slower)
     return key // n, key % n
 
@@ -408,41 +406,42 @@ def _base_edges(nodes: np.ndarray, nb: np.ndarray, nb2: np.ndarray,
 def _corner_partners(nodes: np.ndarray, corner: np.ndarray, reach: float, bound: float,
                      ends: tuple[np.ndarray, np.ndarray], stop: Callable[[], bool] | None
                      ) -> tuple[np.ndarray, np.ndarray]:
-    """Per node ``a`` (CSR: ``cadj[cptr[a]:cptr[a + 1]]``, ascending) the corner nodes
-    ``b > a`` that a corner node ``a`` is paired with: every later corner node while there are
-    at most :data:`CORNER_PARTNERS` + 1 corner nodes, else the pairs of a corner node and one
-    of its :data:`CORNER_PARTNERS` nearest corner nodes within ``reach`` (either way;
-    searched in passes with the deadline's poll ``stop`` between two), those beyond the
-    detour ``bound`` (:func:`_corner_edges`, ``ends``: :func:`_endpoint_distances`) dropped
-    early, with a margin (the merge decides)."""
+    """Per node ``a`` the corner nodes ``b > a`` a corner node ``a`` is paired with,
+    ``cadj[crange[a, 0]:crange[a, 1]]`` (ascending): every later corner node while there are
+    at most :data:`CORNER_PARTNERS` + 1 (``cadj``: the corner nodes, shared by the ranges),
+    else the pairs of a corner node and one of its :data:`CORNER_PARTNERS` nearest within
+    ``reach`` (either way; in passes, polling ``stop``), those beyond the detour ``bound``
+    (:func:`_corner_edges`; ``ends``: :func:`_endpoint_distances`) dropped with a margin."""
     n = len(nodes)
     cidx = np.flatnonzero(corner).astype(np.int64)
     nc = len(cidx)
+    crange = np.zeros((n, 2), np.int64)
     if nc <= CORNER_PARTNERS + 1:
-        x, y = np.triu_indices(nc, 1)
-        lo, hi = cidx[x], cidx[y]
-    else:
-        from scipy.spatial import cKDTree
+        crange[cidx, 0] = np.arange(1, nc + 1)
+        crange[cidx, 1] = nc
+        return crange, cidx
+    from scipy.spatial import cKDTree
 
-        pts = nodes[cidx]
-        tree = cKDTree(pts)
-        step = max(1, PAIRS_PER_POLL // CORNER_PARTNERS)
-        ds, dg = ends
-        pa, pb = [], []
-        for a in range(0, nc, step):  # in passes, polling the deadline between two
-            _poll(stop if a else None)
-            d, nbr = tree.query(pts[a:a + step], k=CORNER_PARTNERS + 1,
-                                distance_upper_bound=reach * (1.0 + 1e-9))
-            keep = nbr < nc  # missing neighbours are nc
-            u = cidx[np.repeat(np.arange(a, a + len(nbr)), nbr.shape[1])[keep.ravel()]]
-            v, d = cidx[nbr[keep]], d[keep]
-            keep = d + np.minimum(ds[u] + dg[v], ds[v] + dg[u]) <= bound * (1.0 + 1e-6)
-            pa.append(u[keep])
-            pb.append(v[keep])
-        lo, hi = _unique_pairs(n, np.concatenate(pa), np.concatenate(pb))
+    pts = nodes[cidx]
+    tree = cKDTree(pts)
+    step = max(1, PAIRS_PER_POLL // CORNER_PARTNERS)
+    ds, dg = ends
+    pa, pb = [], []
+    for a in range(0, nc, step):  # in passes, polling the deadline between two
+        _poll(stop if a else None)
+        d, nbr = tree.query(pts[a:a + step], k=CORNER_PARTNERS + 1,
+                            distance_upper_bound=reach * (1.0 + 1e-9))
+        keep = nbr < nc  # missing neighbours are nc
+        u = cidx[np.repeat(np.arange(a, a + len(nbr)), nbr.shape[1])[keep.ravel()]]
+        v, d = cidx[nbr[keep]], d[keep]
+        keep = d + np.minimum(ds[u] + dg[v], ds[v] + dg[u]) <= bound * (1.0 + 1e-6)
+        pa.append(u[keep])
+        pb.append(v[keep])
+    lo, hi = _unique_pairs(n, np.concatenate(pa), np.concatenate(pb))
     cptr = np.zeros(n + 1, np.int64)
     cptr[1:] = np.cumsum(np.bincount(lo, minlength=n))
-    return cptr, hi.astype(np.int64)
+    crange[:, 0], crange[:, 1] = cptr[:-1], cptr[1:]
+    return crange, hi.astype(np.int64)
 
 
 def _endpoint_distances(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -451,18 +450,20 @@ def _endpoint_distances(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             np.hypot(nodes[:, 0] - nodes[1, 0], nodes[:, 1] - nodes[1, 1]))
 
 
-@compiled(F2, I1, I1, I1, I1, B1, f8, f8, F1, F1)
-def _corner_edges(nodes, bi, bj, cptr, cadj, okb, r2, bound, ds, dg):
+@compiled(F2, I1, I1, I2, I1, B1, f8, f8, F1, F1)
+def _corner_edges(nodes, bi, bj, crange, cadj, okb, r2, bound, ds, dg):
     """All candidate pairs ``a < b`` in lexicographic order: the base edges ``(bi, bj)``
     (lexicographic, collision-free flags ``okb``) and the corner pairs ``(a, cadj[c])``,
-    ``cptr[a] <= c < cptr[a + 1]`` (:func:`_corner_partners`) at most ``sqrt(r2)`` apart whose
-    start-goal detour ``|s - a| + |a - b| + |b - g|`` (the shorter orientation; ``ds``,
+    ``crange[a, 0] <= c < crange[a, 1]`` (:func:`_corner_partners`), at most ``sqrt(r2)``
+    apart, whose start-goal detour ``|s - a| + |a - b| + |b - g|`` (the shorter orientation; ``ds``,
     ``dg``: :func:`_endpoint_distances`) is at most ``bound``, merged row by row (a pair that
     is both is a base edge).  Returns the pairs, their flags (the base flags, False for a
     corner pair) and the mask of the corner pairs (to be tested)."""
     n = nodes.shape[0]
     nbase = bi.shape[0]
-    cap = nbase + cadj.shape[0]
+    cap = nbase
+    for a in range(n):
+        cap += crange[a, 1] - crange[a, 0]
     I = np.empty(cap, np.int64)
     J = np.empty(cap, np.int64)
     ok = np.zeros(cap, np.bool_)
@@ -470,8 +471,8 @@ def _corner_edges(nodes, bi, bj, cptr, cadj, okb, r2, bound, ds, dg):
     q = 0
     e = 0  # next base edge
     for a in range(n):
-        c = cptr[a]
-        c1 = cptr[a + 1]
+        c = crange[a, 0]
+        c1 = crange[a, 1]
         while True:
             b_base = bj[e] if e < nbase and bi[e] == a else n
             b_corn = cadj[c] if c < c1 else n
@@ -509,13 +510,13 @@ def _csr(n: int, i: np.ndarray, j: np.ndarray,
     """Both directions of the undirected edges ``(i, j)`` (lengths ``w``) in CSR form, the
     edges of a node in the order of ``concat(i, j)`` (a stable sort by source); and the slot
     of each directed edge of ``concat(i, j)``."""
-    src = np.concatenate((i, j)).astype(np.int64)
-    order = np.argsort(src, kind="stable")
+    src = np.concatenate((i, j)).astype(np.int64, copy=False)  # (16-bit keys: radix sort)
+    order = np.argsort(src.astype(np.int16) if n <= 1 << 15 else src, kind="stable")
     indptr = np.zeros(n + 1, np.int64)
-    indptr[1:] = np.cumsum(np.bincount(src, minlength=n))
+    np.cumsum(np.bincount(src, minlength=n), out=indptr[1:])
     pos = np.empty(len(src), np.int64)
     pos[order] = np.arange(len(src))
-    return (indptr, np.concatenate((j, i)).astype(np.int64)[order],
+    return (indptr, np.concatenate((j, i)).astype(np.int64, copy=False)[order],
             np.concatenate((w, w))[order], pos)
 
 

@@ -32,6 +32,12 @@ passed whole, unpacked where they are read, and typed once below):
   obstacle the touched list, stamp, closeness flag, summed ``inside`` and penetration (made
   uninitialised by the ``@compiled`` wrapper of each ``@leaf`` loop);
 * ``seg``: a segment ``(ax, ay, dx, dy)``, start and vector (the ``@inlined`` helpers).
+
+A function called once per segment or per (segment, item) pair takes only the arrays it
+reads, as a smaller tuple made by its caller (:func:`pair`: :data:`SHAPES`, :func:`shapes`;
+:func:`_candidates`: ``(IC, IR)`` and ``work[:4]``): every array passed to a compiled call is
+a dozen machine-level arguments, and passing the whole ``items`` and ``work`` there made every
+``ipso`` run slower (docs/solvers/pso.md, "Beside 0.4").
 """
 
 from __future__ import annotations
@@ -67,6 +73,10 @@ ITEMS = types.Tuple((i8, F3, F3, F3, F2, F2, B2, F2, F1, F1, I1))
 GRID = types.Tuple((b1, f8, f8, f8, i8, i8, I1, I1, I1))
 #: ``work``: ``BB, mask, stamp, cand, touched, o_stamp, o_close, o_in, o_pen`` (module docstring)
 WORK = types.Tuple((F2, B1, I1, I1, I1, I1, B1, F1, F1))
+#: ``shp`` of :func:`pair`: ``K, P, E, N, C, CE, IC, CR`` (:func:`shapes` of ``items``)
+SHAPES = types.Tuple((i8, F3, F3, F3, F2, F2, F2, F1))
+#: ``scan``: ``work[:4]``, the scratch arrays of :func:`_candidates` (``BB, mask, stamp, cand``)
+SCAN = types.Tuple((F2, B1, I1, I1))
 
 
 @leaf(f8)
@@ -178,11 +188,18 @@ def _piece_distance(ax, ay, dx, dy, k, P, E):
     return math.sqrt(d2)
 
 
-@leaf(*_SEG, i8, ITEMS, f8)
-def pair(ax, ay, dx, dy, k, items, eps):
-    """Exact ``(dist, inside)`` of segment ``A -> A + D`` and item ``k`` of ``items`` (module
-    docstring)."""
-    K, P, E, N, C, CE, _, IC, _, CR, _ = items
+@inlined
+def shapes(items):
+    """The arrays of ``items`` that :func:`pair` reads: ``(K, P, E, N, C, CE, IC, CR)``."""
+    return (items[0], items[1], items[2], items[3], items[4], items[5], items[7], items[9])
+
+
+@leaf(*_SEG, i8, SHAPES, f8)
+def pair(ax, ay, dx, dy, k, shp, eps):
+    """Exact ``(dist, inside)`` of segment ``A -> A + D`` and item ``k`` of the items'
+    shapes ``shp`` (:func:`shapes` of ``items``; module docstring: it takes only the arrays
+    it reads)."""
+    K, P, E, N, C, CE, IC, CR = shp
     dl = math.sqrt(dx * dx + dy * dy)
     if k >= K:  # circle
         return _pair_circle(ax, ay, dx, dy, dl, k, K, IC, CR, eps)
@@ -261,22 +278,19 @@ def _box_mask(ax, ay, dx, dy, BB, mask):
         mask[k] = (BB[0, k] <= hx) & (BB[1, k] >= lx) & (BB[2, k] <= hy) & (BB[3, k] >= ly)
 
 
-@leaf(*_SEG, ITEMS, GRID, f8, WORK, i8)
-def _candidates(ax, ay, dx, dy, items, grid, lim, work, sid):
-    """Items whose bounding circle is within ``lim`` of the segment, written to ``cand`` of
-    ``work`` (de-duplicated with its ``stamp``; with a grid every listed item is stamped
-    ``sid``); returns their number.  Without a grid, the items' boxes grown by ``lim`` (``BB``,
-    :func:`_item_boxes`) are first compared with the segment's box in one branch-free pass
-    (into ``mask``): an item outside it is farther than ``lim`` from the segment, so neither
-    a collision nor a penetration is lost."""
-    IC = items[7]
-    IR = items[8]
+@leaf(*_SEG, types.Tuple((F2, F1)), GRID, f8, SCAN, i8)
+def _candidates(ax, ay, dx, dy, reach, grid, lim, scan, sid):
+    """Items whose bounding circle (``reach = (IC, IR)`` of ``items``) is within ``lim`` of
+    the segment, written to ``cand`` of ``scan = work[:4]`` (de-duplicated with its
+    ``stamp``; with a grid every listed item is stamped ``sid``); returns their number.
+    Without a grid, the items' boxes grown by ``lim`` (``BB``, :func:`_item_boxes`) are first
+    compared with the segment's box in one branch-free pass (into ``mask``): an item outside
+    it is farther than ``lim`` from the segment, so neither a collision nor a penetration is
+    lost.  It takes only the arrays it reads (module docstring)."""
+    IC, IR = reach
     n_items = IC.shape[0]
     use_grid, gh, gx0, gy0, gnx, gny, gstart, gcount, gitems = grid
-    BB = work[0]
-    mask = work[1]
-    stamp = work[2]
-    out = work[3]
+    BB, mask, stamp, out = scan
     m = 0
     if not use_grid:
         _box_mask(ax, ay, dx, dy, BB, mask)
@@ -341,7 +355,7 @@ def _segment_items(seg, s, m, items, r, eps, lim, want_pen, work):
         k = cand[q]
         if k < K and _apart(ax, ay, dx, dy, k, N, C, lim):
             continue
-        dist, inside = pair(ax, ay, dx, dy, k, items, eps)
+        dist, inside = pair(ax, ay, dx, dy, k, shapes(items), eps)
         o = OWN[k]
         if o_stamp[o] != s:
             o_stamp[o] = s
@@ -415,7 +429,7 @@ def _crossings_loop(A, D, S, items, grid, r, eps, want_pen, out, work):
         ay = A[s, 1]
         dx = D[s, 0]
         dy = D[s, 1]
-        m = _candidates(ax, ay, dx, dy, items, grid, lim, work, s)
+        m = _candidates(ax, ay, dx, dy, (items[7], items[8]), grid, lim, work[:4], s)
         nt = _segment_items((ax, ay, dx, dy), s, m, items, r, eps, lim, want_pen, work)
         path = s // S
         for q in range(nt):
@@ -469,7 +483,7 @@ def _clearance_loop(A, D, items, eps, max_dist, out, cd):
             lb = cd[k] - IR[k]
             if lb > ub or lb > max_dist or lb > best:
                 continue
-            dist, inside = pair(ax, ay, dx, dy, k, items, eps)
+            dist, inside = pair(ax, ay, dx, dy, k, shapes(items), eps)
             v = dist - 0.5 * inside
             if v < best:
                 best = v

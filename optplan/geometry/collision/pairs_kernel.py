@@ -22,6 +22,7 @@ from optplan.geometry.collision.kernel import (
     _item_boxes,
     _near_item,
     pair,
+    shapes,
 )
 from optplan.geometry.compiled import B1, F1, F2, I1, compiled, f8, i8, inlined, leaf
 
@@ -64,7 +65,7 @@ def _first_blocker(seg, box, q, last, m, use_grid, items, r, eps, work):
                 continue
         if not _passes_screens(seg, box, k, bb, items, lim):
             continue
-        dist, inside = pair(ax, ay, dx, dy, k, items, eps)
+        dist, inside = pair(ax, ay, dx, dy, k, shapes(items), eps)
         if dist < r - eps:
             return k
         o = OWN[k]
@@ -136,7 +137,7 @@ def _free_pairs_loop(L, I, J, items, grid, r, eps, free, work):
         box = (min(ax, bx), max(ax, bx), min(ay, by), max(ay, by))
         m = n_items
         if use_grid:
-            m = _candidates(ax, ay, dx, dy, items, grid, lim, work, q)
+            m = _candidates(ax, ay, dx, dy, (items[7], items[8]), grid, lim, work[:4], q)
         blocker = _first_blocker((ax, ay, dx, dy), box, q, last, m, use_grid, items, r, eps,
                                  work)
         if blocker >= 0:
@@ -158,4 +159,5 @@ def _pairs_loop(SI, IT, A, D, items, eps, dist, inside):
     """The loop of :func:`pairs` (into ``dist``, ``inside``)."""
     for q in range(SI.shape[0]):
         s = SI[q]
-        dist[q], inside[q] = pair(A[s, 0], A[s, 1], D[s, 0], D[s, 1], IT[q], items, eps)
+        dist[q], inside[q] = pair(A[s, 0], A[s, 1], D[s, 0], D[s, 1], IT[q], shapes(items),
+                                  eps)
