@@ -28,6 +28,10 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	@# only needed for a wheel (an isolated environment would fetch and unpack them every time)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check 'hatchling>=1.21' editables
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check --no-build-isolation -e '.[dev,docs]'
+	@# the wheel ships its kernels compiled; a checkout compiles them here, once, for this CPU
+	@# into numba's cache (__pycache__), so that the first solves load them instead
+	@echo "compiling the numba kernels for this machine (first run only; about half a minute)"
+	$(BIN)/python -c "from optplan.geometry.compiled.kernel_cache import compile_all; compile_all()"
 	@touch $@
 
 demo: $(STAMP)

@@ -30,6 +30,12 @@ checkout with ``pip wheel`` (its build hook compiles every kernel for the generi
 into a temporary directory, and the children import optplan from there (still with an empty
 ``NUMBA_CACHE_DIR``: what a fresh installation on a new machine pays).
 
+``--installed`` measures the checkout as the two-command start leaves it: before the cold
+process, a fresh process on the same empty cache runs ``make``'s install step,
+:func:`optplan.geometry.compiled.kernel_cache.compile_all` (every kernel compiled for this CPU
+into numba's cache; its CPU seconds are printed), so the cold columns are the first solves
+after ``make demo`` or ``make test`` installed optplan.
+
 ``--together N`` also starts N processes at once per case on one empty cache and prints the
 import + first solve CPU of each: a kernel holds a lock on its cache entry while it compiles,
 so the others wait and load it
@@ -124,6 +130,18 @@ def run_child(cases: list[str], cache: str, opt: int | None = None,
     return out
 
 
+def install_step(cache: str, site: str | None = None) -> dict:
+    """``make``'s install step in a fresh interpreter on ``cache``: every kernel compiled
+    (:func:`~optplan.geometry.compiled.kernel_cache.compile_all`); its CPU seconds."""
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+    code = ("import json, time; t = time.process_time(); "
+            "from optplan.geometry.compiled.kernel_cache import compile_all; n = compile_all(); "
+            "print(json.dumps({'kernels': n, 'cpu': time.process_time() - t}))")
+    p = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
+                       check=True, cwd=site or os.getcwd())
+    return json.loads(p.stdout.strip().splitlines()[-1])
+
+
 def install_wheel(tmp: str) -> str:
     """Build optplan's wheel from this checkout (``pip wheel``, in pip's isolated build
     environment: the build hook compiles the shipped kernels) and install it without its
@@ -153,6 +171,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--together", type=int, default=0, metavar="N",
                     help="also start N processes at once per case on one empty cache (they "
                          "compile each kernel once: the others wait and load it)")
+    ap.add_argument("--installed", action="store_true",
+                    help="run make's install step (every kernel compiled for this CPU) on "
+                         "each empty cache before the cold process")
     ap.add_argument("--wheel", action="store_true",
                     help="build and install the wheel (its shipped kernels) into a temporary "
                          "directory and measure that installation instead of the checkout")
@@ -165,9 +186,11 @@ def main(argv: list[str] | None = None) -> int:
 
 def _measure(args: argparse.Namespace, site: str | None) -> int:
     """The tables of :func:`main` for the checkout (``site`` None) or an installed wheel."""
-    rows, record = [], {}
+    rows, record, steps = [], {}, []
     for case in args.cases:
         with tempfile.TemporaryDirectory(prefix="optplan-numba-") as cache:
+            if args.installed:
+                steps.append(install_step(cache, site))
             cold = run_child([case], cache, args.numba_opt, site)
             warm = run_child([case], cache, args.numba_opt, site)
         first = cold["import"] + cold["cases"][case][0]
@@ -179,7 +202,13 @@ def _measure(args: argparse.Namespace, site: str | None) -> int:
                     f"{warm['cases'][case][0]:.2f} |")
     where = (f"optplan installed from its wheel ({site}; its shipped kernels)" if site
              else "optplan from this checkout")
-    print(f"\nCPU seconds per case, {where}, fresh process, empty NUMBA_CACHE_DIR (cold), then "
+    if steps:
+        cpu = [x["cpu"] for x in steps]
+        where += (f", after make's install step on each empty cache ({steps[0]['kernels']} "
+                  f"kernels compiled: {min(cpu):.1f} to {max(cpu):.1f} CPU s)")
+    cache = ("the NUMBA_CACHE_DIR the install step filled" if steps
+             else "empty NUMBA_CACHE_DIR")
+    print(f"\nCPU seconds per case, {where}, fresh process, {cache} (cold), then "
           "a second process on that cache (warm):\n")
     print("| case | import | first solve | import + first | target | second solve | "
           "warm import | warm first solve |")

@@ -203,3 +203,20 @@ def test_processes_started_together_compile_a_kernel_once(tmp_path: Path) -> Non
     got = [json.loads(p.communicate()[0].strip().splitlines()[-1]) for p in procs]
     assert all(p.returncode == 0 for p in procs)
     assert sorted(got) == [[0, 1], [1, 0]], got  # one compiled, the other loaded
+
+
+def test_the_install_step_compiles_so_that_the_first_solve_loads(tmp_path: Path) -> None:
+    """``make``'s install step (``compile_all``) in one process on an empty cache: a later
+    process's first solve loads every kernel of the module from it and compiles none."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env.update(NUMBA_CACHE_DIR=str(tmp_path / "cache"), PYTHONPATH=str(PKG.parent))
+    step = ("from optplan.geometry.compiled.kernel_cache import compile_all; "
+            "print(compile_all(['optplan.geometry.collision.kernel']))")
+    p = subprocess.run([sys.executable, "-c", step], env=env, capture_output=True, text=True,
+                       cwd=PKG.parent, check=True)
+    assert int(p.stdout.split()[-1]) >= 1
+    p = subprocess.run([sys.executable, "-c", CHILD], env=env, capture_output=True, text=True,
+                       cwd=PKG.parent, check=True)
+    stats = json.loads(p.stdout.strip().splitlines()[-1])["stats"]
+    used = {n: s for n, s in stats.items() if s[0] or s[1]}
+    assert used and all(misses == 0 for _, misses in used.values()), stats

@@ -27,7 +27,9 @@ the CPU name and features replaced by the generic ones they were built with.  An
 kernel is compiled as before, for this CPU, and saved in numba's cache.
 
 A source checkout (``pip install -e``, ``make test``) has no shipped cache: ``optplan/_kernels``
-only exists in a built wheel.  Build one into a directory with
+only exists in a built wheel.  ``make``'s install step instead compiles every kernel for this
+machine into numba's own cache (:func:`compile_all`), so that its first solves load them too.
+Build a shipped cache into a directory with
 ``python -c "from optplan.geometry.compiled.kernel_cache import build_in_child as b; b('DIR')"`` (a
 child process with the generic CPU: :func:`build` refuses to run with the host's CPU, whose
 code could not be shipped).  The results are
@@ -59,7 +61,7 @@ from optplan.geometry.compiled.numba_internals import (
 )
 
 __all__ = ["KERNEL_MODULES", "REGISTRY", "SHIPPED_DIR", "GENERIC_CPU", "KernelCache",
-           "NoKernelCacheWarning", "ShippedCache", "build", "build_in_child"]
+           "NoKernelCacheWarning", "ShippedCache", "build", "build_in_child", "compile_all"]
 
 #: The package's root directory (``optplan/``).
 PACKAGE_DIR = Path(__file__).resolve().parents[2]
@@ -251,6 +253,20 @@ def _dispatchers(modules: Sequence[str]) -> list[Any]:
     for name in modules:
         import_module(name)
     return [d for d in REGISTRY if d.py_func.__module__ in modules]
+
+
+def compile_all(modules: Sequence[str] = KERNEL_MODULES) -> int:
+    """Compile the kernels of ``modules`` (default: all) for this machine's CPU into numba's
+    own cache, as their first calls would (those already cached load instead).
+
+    The two-command start's install step runs it (``make``: "compiling the numba kernels"), so
+    that a checkout's first solves, like an installed wheel's, compile nothing.  Returns the
+    number of kernels.
+    """
+    disps = _dispatchers(modules)
+    for d in disps:
+        d.compile(d._declared)
+    return len(disps)
 
 
 def build(dest: str | os.PathLike[str], modules: Sequence[str] = KERNEL_MODULES) -> int:
