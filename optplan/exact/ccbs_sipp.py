@@ -238,7 +238,7 @@ class _Search:
     def departure(self, u: int, v: int, t: float) -> float:
         """The earliest departure ``>= t`` along ``u -> v`` allowed by the moving obstacles,
         the edge constraints and the vertex constraints of ``u``."""
-        forb = self.m.mover_forbidden(u, v) if self.m.boxes is not None else ()
+        forb = self.m.mover_forbidden(u, v) if self.m.boxes is not None else []
         edge = self.cons.edge.get((u, v))
         vert = self.cons.vertex.get(u)
         if not (forb or edge or vert):
