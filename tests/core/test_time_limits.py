@@ -70,8 +70,8 @@ CASES: dict[str, tuple[str, str, dict]] = {
                                          "max_neighbors": 10_000}),
     "hybrid": ("hybrid-paper", "paper-warehouse", {"max_steps": 10**7, "settle_steps": 10**7,
                                                    "stall_steps": 10**7, "dt": 1e-5}),
-    # a generated 10-robot sparse roadmap that ccbs does not solve within seconds
-    "ccbs": ("ccbs", str(Path(__file__).resolve().parents[1] / "data" / "mapf-sparse-10.toml"),
+    # a generated 40-robot sparse roadmap that ccbs does not solve within seconds
+    "ccbs": ("ccbs", str(Path(__file__).resolve().parents[1] / "data" / "mapf-sparse-40.toml"),
              {"max_expansions": 10**9}),
 }
 
