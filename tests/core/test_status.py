@@ -162,6 +162,7 @@ def test_a_new_problem_builds_each_obstacle_set_once(monkeypatch) -> None:
     fitness set has no bounds wall (its search box keeps the waypoints in the bounds), the
     validator's has: one build of each."""
     import optplan.geometry as geometry
+    from optplan.problem import shared
 
     built: list[tuple[float, bool]] = []
     real = geometry.obstacle_set
@@ -171,6 +172,7 @@ def test_a_new_problem_builds_each_obstacle_set_once(monkeypatch) -> None:
         return real(*a, **k)
 
     monkeypatch.setattr(geometry, "obstacle_set", counted)
+    shared.clear()  # the process's shared obstacle sets: as in a fresh process
     prob = dataclasses.replace(op.load_problem("paper-env1"), _cache={})
     assert all(o.known for o in prob.obstacles)
     op.solve(prob, "pso-paper", rng=0, k_max=3)

@@ -108,8 +108,8 @@ class ChainGraph:
     nxt, sweep, ncost : ndarrays ``(E,)``
         The next departure of its chain (``-1``: none, or the arc to it is blocked), the
         angle that arc sweeps and its length.
-    a_circle, a_sense, a_theta, a_key, a_point : ndarrays ``(E,)``
-        The arrival point of tangent ``x`` (same attributes).
+    a_circle, a_sense, a_theta, a_key : ndarrays ``(E,)``
+        The arrival point of tangent ``x`` (the same attributes but its point).
     seg : ndarray ``(E,)``
         Tangent lengths.
     a_pos : ndarray ``(E,)``
@@ -140,7 +140,6 @@ class ChainGraph:
     a_sense: np.ndarray
     a_theta: np.ndarray
     a_key: np.ndarray
-    a_point: np.ndarray
     seg: np.ndarray
     a_pos: np.ndarray
     a_sweep: np.ndarray
@@ -221,8 +220,8 @@ def chains_of(C: Circles, t: dict[str, np.ndarray], arcs: Any) -> ChainGraph:
     a_group = au * (E + 1) + a_pos
     a_order = stable_argsort(a_group)
     return ChainGraph(E, t["i"], t["si"], t["th_d"], key, t["pi"], nxt, sweep,
-                      C.rho[t["i"]] * sweep, uptr, t["j"], t["sj"], t["th_a"], a_key, t["pj"],
-                      t["seg"], a_pos, a_sweep, entry, t["seg"] + C.rho[t["j"]] * a_sweep,
+                      C.rho[t["i"]] * sweep, uptr, t["j"], t["sj"], t["th_a"], a_key, t["seg"],
+                      a_pos, a_sweep, entry, t["seg"] + C.rho[t["j"]] * a_sweep,
                       a_order, a_group[a_order], n_arc + n_entry)
 
 
