@@ -71,7 +71,7 @@ def test_lazy_auto_and_built_agree_and_auto_builds_large_maps(files, large):
 
     graph = tangent_graph(oset)
     assert graph.circles.n >= SIGHTLINES_MIN and graph.chains is None and graph.use_sightlines
-    auto = [_answer(op.solve(_fresh(f), "visgraph")) for f in files]
+    auto = [_answer(op.solve(_fresh(f), "visgraph", graph="auto")) for f in files]
     assert graph.chains is not None  # built by the first query, shared by the others
     assert _fresh(files[-1]).obstacle_set(0.0, known_only=True) is oset
     lazy = [_answer(op.solve(_fresh(f), "visgraph", graph="lazy")) for f in files]
