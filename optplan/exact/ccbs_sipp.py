@@ -135,14 +135,9 @@ class AgentModel:
 
 
 def _add_half_open(ivs: Intervals, lo: float, hi: float) -> Intervals:
-    """``ivs`` (sorted, disjoint half-open ``[lo, hi)``) with ``[lo, hi)`` added (merged)."""
-    out: Intervals = []
-    for a, b in sorted([*ivs, (lo, hi)]):
-        if out and a <= out[-1][1]:
-            out[-1] = (out[-1][0], max(out[-1][1], b))
-        else:
-            out.append((a, b))
-    return out
+    """``ivs`` (sorted, disjoint half-open ``[lo, hi)``) with ``[lo, hi)`` added (merged,
+    touching ones too: :func:`~optplan.geometry.timing.merge_open`)."""
+    return merge_open(np.array([x[0] for x in ivs] + [lo]), np.array([x[1] for x in ivs] + [hi]))
 
 
 def _first_allowed(cons: Intervals, t: float) -> float:
