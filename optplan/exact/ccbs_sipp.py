@@ -104,14 +104,12 @@ class AgentModel:
     speed: float
     boxes: MoverBoxes | None = None
     horizon: float = math.inf
-    h: np.ndarray = field(init=False, repr=False)
-    h_list: list[float] = field(init=False, repr=False)
+    h: list[float] = field(init=False, repr=False)
     _busy: dict[int, Intervals] = field(default_factory=dict, repr=False)
     _forb: dict[tuple[int, int], Intervals] = field(default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
-        self.h = graph_distances(self.nbrs, self.goal) / self.speed
-        self.h_list = self.h.tolist()
+        self.h = (graph_distances(self.nbrs, self.goal) / self.speed).tolist()
 
     def busy(self, v: int) -> Intervals:
         """The moving obstacles' busy times at node ``v`` (open intervals)."""
@@ -204,8 +202,8 @@ class _Search:
     def __init__(self, m: AgentModel, cons: Constraints, stop: Callable[[], bool] | None):
         self.m, self.cons, self.stop = m, cons, stop
         self.safe_of: dict[int, Intervals] = {}
-        self.st: list[tuple[int, int, float, int, float, int]] = []  # node, interval, t,
-        # parent, departure, mask of the positive constraints met
+        self.st: list[tuple[int, int, float, int, float, int, tuple]] = []  # node, interval,
+        # t, parent, departure, mask of the positive constraints met, key (:meth:`push`)
         self.best: dict[tuple[int, int, int], float] = {}
         self.full = (1 << len(cons.positive)) - 1
         self.windows: dict[tuple[int, int], list[tuple[int, float, float]]] = {}
@@ -248,11 +246,6 @@ class _Search:
                 return t
             t = x
 
-    def key(self, v: int, j: int, t: float, mask: int) -> tuple[int, int, int]:
-        """The state's key: ``(v, j, mask)``, with ``~j`` for an arrival at the goal before
-        ``hold_from`` (not a final arrival: a state of its own)."""
-        return (v, ~j if v == self.m.goal and t < self.cons.hold_from else j, mask)
-
     def closes(self, mask: int) -> float:
         """The earliest end of a positive window not met in ``mask``."""
         if mask not in self.close_of:
@@ -264,14 +257,15 @@ class _Search:
         """Add the state ``(v, j, mask)`` reached at ``t`` unless it was reached earlier or an
         unmet positive window has closed."""
         hold = self.cons.hold_from
+        # an arrival at the goal before hold_from is not a final one: a state of its own (~j)
         key = (v, ~j if t < hold and v == self.m.goal else j, mask)
         if self.best.get(key, math.inf) <= t:
             return
         if mask != self.full and t >= self.closes(mask):
             return
         self.best[key] = t
-        self.st.append((v, j, t, parent, dep, mask))
-        f = t + self.m.h_list[v]
+        self.st.append((v, j, t, parent, dep, mask, key))
+        f = t + self.m.h[v]
         heapq.heappush(self.heap, (f if f >= hold else hold, -t, len(self.st) - 1))
 
     def departures(self, u: int, v: int, lo: float, hi: float, mask: int, dt: float
@@ -283,9 +277,6 @@ class _Search:
         if v == self.m.goal and lo + dt < self.cons.hold_from:
             starts.append(self.cons.hold_from - dt)
         if windows is None:  # no positive constraint on this edge
-            if len(starts) == 1:
-                dep = self.departure(u, v, lo)
-                return [(dep, mask)] if dep <= hi else []
             deps = [self.departure(u, v, x) for x in starts]
             return [(dep, mask) for dep in dict.fromkeys(deps) if dep <= hi]
         out = []
@@ -300,9 +291,9 @@ class _Search:
 
     def expand(self, s: int) -> None:
         """The successors of state ``s``: every neighbour's safe intervals it can reach."""
-        u, j, t, _, _, mask = self.st[s]
+        u, j, t, _, _, mask, _ = self.st[s]
         leave_by = self.safe(u)[j][1]
-        h, speed, goal = self.m.h_list, self.m.speed, self.m.goal
+        h, speed, goal = self.m.h, self.m.speed, self.m.goal
         held = self.cons.hold_from > 0.0
         for v, length in self.m.nbrs[u]:
             if h[v] == math.inf:
@@ -337,8 +328,7 @@ class _Search:
         closed: set[tuple[int, int, int]] = set()
         while self.heap:
             _, _, s = heapq.heappop(self.heap)
-            v, j, t = self.st[s][:3]
-            key = self.key(v, j, t, self.st[s][5])
+            v, j, t, *_, key = self.st[s]
             if key in closed:
                 continue
             closed.add(key)
