@@ -57,14 +57,15 @@ class VisGraph(Backend):
         exact length.  Default ``pi / 36`` (5 degrees; the polyline is at most ~0.03 % longer
         than the arcs it replaces).
     graph : str
-        ``"lazy"`` (default): the graph grows as the lazy A* reaches it.  ``"auto"``: the
-        map's graph is built whole on its first query and searched compiled on maps of
-        ``SIGHTLINES_MIN`` (1000) circles or more (where the sight lines make the build cheap
-        and a lazy query is slow: ``benchmarks/bench_maps_scale.py``), searched lazily on
-        smaller maps; not the default, because the build is slow on maps whose circles crowd
-        together (the fuzz's "huge vertex count" case, a polygon of 20,000 vertices round a
-        small circle, was still building at its 10 CPU s hang limit; its lazy query is not).
-        ``"built"``: always built first
+        ``"auto"`` (default): the map's graph is built whole on its first query and searched
+        compiled on maps of ``SIGHTLINES_MIN`` (1000) circles or more (where the sight lines
+        make the build cheap and a lazy query is slow: ``benchmarks/bench_maps_scale.py``),
+        unless its circles crowd together (the build's sight lines run past
+        ``VIEWS_PER_CIRCLE`` (1000) views per circle plus ``VIEWS_BASE`` (10 million): a
+        polygon of 20,000 vertices round a small circle runs about 9,000 per circle:
+        ``benchmarks/bench_crowded.py``); smaller or crowded maps are searched lazily.
+        ``"lazy"``: the graph grows as the lazy A* reaches it.  ``"built"``: always built
+        first
         (:meth:`~optplan.geometry.tangent.tangent_graph.TangentGraph.build`; not interrupted
         by a time limit between its phases' polls).  Every problem with the same static map
         and radius shares one graph per process (:mod:`optplan.problem.shared`: at most 8
@@ -78,7 +79,7 @@ class VisGraph(Backend):
     certifies: ClassVar[bool] = True
     see_temporary: bool = option(False)
     arc_step: float = option(math.pi / 36, lo=1e-4, hi=math.pi / 2)
-    graph: str = option("lazy", choices=("auto", "lazy", "built"))
+    graph: str = option("auto", choices=("auto", "lazy", "built"))
 
     def solve(self, problem, /, *, rng=None, init=None, callback=None):
         t0 = time.perf_counter()

@@ -11,12 +11,14 @@ them is :mod:`optplan.geometry.tangent.tangent_graph`.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
-from optplan.geometry.collision import ObstacleSet, corner_partners
+from optplan.geometry.collision import ObstacleSet, corner_partners, solid_edges
 
 __all__ = ["TWO_PI", "ANGLE_TOL", "Circles", "circles_of", "ArcChecker"]
 
@@ -174,48 +176,120 @@ def _arc_seg_dist(c, rho, start, sweep, P, E):
     return d
 
 
+#: Arcs :meth:`ArcChecker.free_many` tests in one batch (bounds its temporary memory).
+ARC_BATCH = 1 << 15
+
+
 @dataclass
 class ArcChecker:
-    """Exact arc-free tests against the items near each circle (cached per circle)."""
+    """Exact arc-free tests: does an arc along a circle keep ``r`` from every obstacle?
+
+    Every arc the searches test starts at a free point (the end of a free tangent, or a
+    query's start), so it comes within ``r`` of a solid only where it comes within ``r`` of
+    the solid's *boundary* (to get inside, it crosses it): an arc is tested against the
+    boundary edges of the polygon solids (:func:`~optplan.geometry.collision.solid_edges`,
+    the internal diagonals of the convex tiling left out) and the circle obstacles, in
+    closed form (:func:`_arc_seg_dist`, :func:`_point_arc_dist`).  Only those that may come
+    near the arc are tested: the arc lies within ``b = 2 rho sin(sweep / 4)`` of its
+    midpoint ``m``, so an edge (circle) farther than ``b + r`` from ``m`` cannot block it.
+    The candidates come from k-d trees (``scipy.spatial.cKDTree``, made once per obstacle
+    set) over the edges' midpoints, one tree per class of edge lengths within a factor 4
+    (an edge within ``b + r`` of ``m`` has its midpoint within ``b + r`` plus half the
+    class's longest edge), and over the circles' centres; a candidate is kept when its
+    exact distance from ``m`` is within ``b + r`` (a few ``eps`` of slack).  The cost per
+    arc is that of the items near the arc, not of those near its circle: on a polygon of
+    20,000 vertices round a circle, a few tens, not thousands (the chains phase of
+    ``benchmarks/bench_crowded.py``, where the arcs are tested).  Tested against
+    every piece edge and circle in ``tests/geometry/test_arc_checker.py``.
+    """
 
     oset: ObstacleSet
     circles: Circles
     cache: dict = field(default_factory=dict)
 
-    def _near(self, i: int):
-        if i not in self.cache:
-            S, C = self.oset, self.circles
-            reach = C.rho[i] + S.radius + 4 * S.eps
-            it = np.flatnonzero(np.abs(S.item_center - C.center[i]) - S.item_reach
-                                <= C.rho[i] + reach)
-            pk = it[it < S.n_pieces]
-            ck = it[it >= S.n_pieces]
-            P = S.table[0][:, pk].ravel()
-            E = S.table[1][:, pk].ravel()
-            # only the edges within the same reach: an item's reach is that of its farthest
-            # edge (the bounds' wall reaches every circle; few of its edges come near)
-            near = _point_seg_dist(C.center[i], P, E) <= C.rho[i] + reach
-            self.cache[i] = (P[near], E[near], S.item_center[ck],
-                             S.circle_radius[ck - S.n_pieces])
-        return self.cache[i]
+    def _index(self) -> dict:
+        """The k-d trees over the boundary edges' midpoints, one per class of edge lengths
+        (within a factor 4), and over the circle obstacles' centres."""
+        ix = self.cache.get("index")
+        if ix is None:
+            S = self.oset
+            seg = solid_edges(S)
+            P = seg[:, 0] + 1j * seg[:, 1]
+            E = (seg[:, 2] - seg[:, 0]) + 1j * (seg[:, 3] - seg[:, 1])
+            L = np.abs(E)
+            mid = P + 0.5 * E
+            q = np.floor(0.5 * np.log2(L / L.min())).astype(np.int64) if len(L) else L
+            trees = []  # (tree, its edges, their largest half length)
+            for c in np.unique(q):
+                e = np.flatnonzero(q == c)
+                trees.append((cKDTree(np.stack([mid[e].real, mid[e].imag], 1)), e,
+                              0.5 * float(L[e].max())))
+            ix = {"P": P, "E": E, "trees": trees, "ctree": None}
+            cc = S.item_center[S.n_pieces:]
+            if len(cc):
+                ix.update(ctree=cKDTree(np.stack([cc.real, cc.imag], 1)), cc=cc,
+                          circles=np.arange(len(cc)),
+                          cr=S.circle_radius, cr_max=float(np.max(S.circle_radius)))
+            self.cache["index"] = ix
+        return ix
 
     def free(self, i: int, theta0: np.ndarray, sweep: np.ndarray, sense: int) -> np.ndarray:
         """Arcs on circle ``i`` from angles ``theta0`` over ``sweep >= 0`` in ``sense``: free."""
         theta0 = np.atleast_1d(np.asarray(theta0, float))
+        n = len(theta0)
+        return self.free_many(np.full(n, int(i)), theta0, np.broadcast_to(sweep, n),
+                              np.full(n, int(sense)))
+
+    def free_many(self, idx: np.ndarray, theta0: np.ndarray, sweep: np.ndarray,
+                  sense: np.ndarray) -> np.ndarray:
+        """Arcs on circles ``idx`` from angles ``theta0`` over ``sweep >= 0`` in ``sense``
+        (``+1`` CCW, ``-1`` CW), per arc: free.  Arcs on circles of radius 0 are free."""
+        idx = np.atleast_1d(np.asarray(idx, np.int64))
+        out = np.ones(len(idx), bool)
         sweep = np.atleast_1d(np.asarray(sweep, float))
-        out = np.ones(len(theta0), bool)
-        rho = float(self.circles.rho[i])
-        if rho == 0.0 or len(theta0) == 0:
-            return out
-        S = self.oset
-        start = theta0 if sense > 0 else theta0 - sweep
-        c = self.circles.center[i]
-        P, E, cc, cr = self._near(i)
-        lim = S.radius - S.eps
-        if len(P):
-            d = _arc_seg_dist(c, rho, start[:, None], sweep[:, None], P[None, :], E[None, :])
-            out &= ~(d < lim).any(axis=1)
-        if len(cc):
-            d = _point_arc_dist(cc[None, :], c, rho, start[:, None], sweep[:, None]) - cr[None, :]
-            out &= ~(d < lim).any(axis=1)
+        theta0 = np.atleast_1d(np.asarray(theta0, float))
+        sense = np.atleast_1d(np.asarray(sense))
+        todo = np.flatnonzero(self.circles.rho[idx] > 0)
+        for q in range(0, len(todo), ARC_BATCH):
+            k = todo[q:q + ARC_BATCH]
+            start = np.where(sense[k] > 0, theta0[k], theta0[k] - sweep[k])
+            out[k] = ~self._blocked(self.circles.center[idx[k]], self.circles.rho[idx[k]],
+                                    start, sweep[k])
         return out
+
+    def _blocked(self, c: np.ndarray, rho: np.ndarray, start: np.ndarray,
+                 sweep: np.ndarray) -> np.ndarray:
+        """CCW arcs (centres ``c``, radii ``rho``, from ``start`` over ``sweep``) that come
+        closer than ``r - eps`` to a boundary edge or a circle obstacle."""
+        S, ix = self.oset, self._index()
+        lim = S.radius - S.eps
+        m = c + rho * np.exp(1j * (start + 0.5 * sweep))
+        reach = 2.0 * rho * np.sin(0.25 * np.minimum(sweep, TWO_PI)) + lim + 4.0 * S.eps
+        xy = np.stack([m.real, m.imag], 1)
+        out = np.zeros(len(c), bool)
+        found = [_pairs(tree.query_ball_point(xy, reach + half, return_sorted=False), edges)
+                 for tree, edges, half in ix["trees"]]
+        if found:
+            a = np.concatenate([x for x, _ in found])
+            e = np.concatenate([y for _, y in found])
+            P, E = ix["P"][e], ix["E"][e]
+            near = _point_seg_dist(m[a], P, E) <= reach[a]
+            a, P, E = a[near], P[near], E[near]
+            d = _arc_seg_dist(c[a], rho[a], start[a], sweep[a], P, E)
+            out[a[d < lim]] = True
+        if ix["ctree"] is not None:
+            a, b = _pairs(ix["ctree"].query_ball_point(xy, reach + ix["cr_max"],
+                                                       return_sorted=False), ix["circles"])
+            cc, cr = ix["cc"][b], ix["cr"][b]
+            near = np.abs(m[a] - cc) - cr <= reach[a]
+            a, cc, cr = a[near], cc[near], cr[near]
+            d = _point_arc_dist(cc, c[a], rho[a], start[a], sweep[a]) - cr
+            out[a[d < lim]] = True
+        return out
+
+
+def _pairs(found: np.ndarray, items: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``cKDTree.query_ball_point``'s lists as pairs (query, ``items[point]``)."""
+    lens = np.fromiter(map(len, found), np.int64, count=len(found))
+    pts = np.fromiter(itertools.chain.from_iterable(found), np.int64, count=int(lens.sum()))
+    return np.repeat(np.arange(len(found)), lens), items[pts]

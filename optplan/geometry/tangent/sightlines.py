@@ -54,7 +54,11 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components
 
 from optplan.geometry.tangent.triangular_expansion import expand_views, locate, pack_triangles
 
-__all__ = ["Sightlines"]
+__all__ = ["OverBudget", "Sightlines"]
+
+
+class OverBudget(RuntimeError):
+    """The triangular expansion ran past its budget of views."""
 
 
 def _complex(xy: np.ndarray) -> np.ndarray:
@@ -119,6 +123,7 @@ class Sightlines:
         e4 = np.asarray(edges, float).reshape(-1, 4)
         self.centres = np.ascontiguousarray(np.asarray(centres, float).reshape(-1, 2))
         self.eps = float(eps)
+        self.views = 0  # views run by the expansions so far (the work)
         n_c, m = len(self.centres), len(e4)
         pts = np.concatenate([self.centres, e4[:, :2], e4[:, 2:],
                               np.asarray(extent, float).reshape(2, 2)])
@@ -169,10 +174,13 @@ class Sightlines:
         counts, flat = self.candidates_flat(sources, lo, width)
         return np.split(flat, np.cumsum(counts)[:-1]) if len(counts) else []
 
-    def candidates_flat(self, sources, lo, width, group=None) -> tuple[np.ndarray, np.ndarray]:
+    def candidates_flat(self, sources, lo, width, group=None,
+                        budget: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`candidates` as ``(counts, flat)``: how many per source, and those of
         source 0, then of source 1, ...; consecutive sources of one ``group`` (ints, default
-        each its own) list a centre once between them."""
+        each its own) list a centre once between them.  ``budget``: the views (triangles
+        entered) the expansion may run; past it :class:`OverBudget` is raised (the
+        expansion stops after the source that crossed it)."""
         S = np.ascontiguousarray(np.asarray(sources, float).reshape(-1, 2))
         k = len(S)
         G = np.arange(k) if group is None else np.ascontiguousarray(group, np.int64)
@@ -188,4 +196,9 @@ class Sightlines:
             ST[q] = locate(self.VX, self.TR, S[q, 0], S[q, 1], 0, 4 * len(self.T) + 8)
         mesh = (self.VX, self.TR, self.CONV, self.PINCH, self.vstart, self.vtri, self.cstart,
                 self.citems)
-        return expand_views((S, SV, ST, LO, W, G), mesh, self.eps)
+        lim = -1 if budget is None else int(budget)
+        counts, flat, views = expand_views((S, SV, ST, LO, W, G), mesh, self.eps, lim)
+        self.views += int(views)
+        if 0 <= lim < views:
+            raise OverBudget(f"the sight lines ran more than {lim} views")
+        return counts, flat

@@ -162,15 +162,8 @@ def arcs_free(arcs: Any, C: Circles, src: np.ndarray, th: np.ndarray, sweep: np.
     (only those with ``rho > 0`` and ``sweep > 0`` are tested); (free, tests run)."""
     free = np.ones(len(src), bool)
     todo = np.flatnonzero((C.rho[src] > 0) & (sweep > 0))
-    if len(todo) == 0:
-        return free, 0
-    u = 2 * src[todo] + (sense[todo] < 0)
-    order = todo[np.argsort(u, kind="stable")]
-    us = 2 * src[order] + (sense[order] < 0)
-    cuts = np.flatnonzero(np.diff(us)) + 1
-    for grp in np.split(order, cuts):
-        k = grp[0]
-        free[grp] = arcs.free(int(src[k]), th[grp], sweep[grp], int(sense[k]))
+    if len(todo):
+        free[todo] = arcs.free_many(src[todo], th[todo], sweep[todo], sense[todo])
     return free, len(todo)
 
 

@@ -64,7 +64,7 @@ from optplan.geometry.collision import ObstacleSet, solid_edges
 from optplan.geometry.tangent.arc_lines import arc_polyline, exact_path, rebuild_polyline
 from optplan.geometry.tangent.chain_search import ChainSearch
 from optplan.geometry.tangent.circles import ArcChecker, Circles, circles_of
-from optplan.geometry.tangent.sightlines import Sightlines
+from optplan.geometry.tangent.sightlines import OverBudget, Sightlines
 from optplan.geometry.tangent.tangent_chains import ChainGraph, chains_of
 from optplan.geometry.tangent.tangent_edges import Edges, cone_off, edges_of_one, tangent_edges
 from optplan.geometry.tangent.tangent_search import Stopped, TangentSearch
@@ -81,6 +81,14 @@ SIGHTLINES_MIN = 1000
 #: Candidate tangents :meth:`TangentGraph.build` computes in one batch (two batches at a
 #: time: bounds its temporary memory to a few hundred MB).
 BUILD_PAIRS = 500_000
+#: The sight-line work (views of the triangular expansion) ``graph = "auto"`` lets a build
+#: run, per circle and in all: past ``VIEWS_PER_CIRCLE n + VIEWS_BASE`` the map is searched
+#: lazily (:func:`problem_shortest_path`), so that a first query never pays for a build
+#: whose sight lines grow with the square of the circles.  The maps of
+#: ``benchmarks/bench_maps_scale.py`` run 34-150 views per circle; a polygon of 20,000
+#: vertices round a small circle about 9,000 (``benchmarks/bench_crowded.py``).
+VIEWS_PER_CIRCLE = 1000
+VIEWS_BASE = 10_000_000
 
 
 @dataclass(frozen=True)
@@ -159,6 +167,8 @@ class TangentGraph:
         self._work: dict = {}
         self.stats: dict[str, Any] = {"queries": 0, "nodes": 0, "edges": 0, "segment_tests": 0}
         self.lock = threading.RLock()  # one query or build at a time (shared work arrays)
+        #: A build under a budget ran past it (``graph = "auto"`` searches lazily then).
+        self.crowded = False
 
     @property
     def sightlines(self) -> Sightlines:
@@ -196,13 +206,15 @@ class TangentGraph:
     def _with_full(self, found: np.ndarray) -> np.ndarray:
         return np.sort(np.concatenate([self._pts[found], self._full]))
 
-    def _seen_keys(self, idx: np.ndarray, senses: bool = False
+    def _seen_keys(self, idx: np.ndarray, senses: bool = False, budget: int | None = None
                    ) -> tuple[np.ndarray, np.ndarray | None]:
         """The circles that circles ``idx`` may see (:meth:`visible`) as keys ``i n + j``, in
         no particular order, each once (the windows of a circle share their stamps), or with
         ``senses`` once per window that sees it, with the window's sense (``-1``, ``+1``;
         ``0``: either); the sources split between two threads (the expansion runs without
-        the GIL)."""
+        the GIL).  ``budget``: the views the expansion may run (each thread its share, in
+        proportion to its sources), past which
+        :class:`~optplan.geometry.tangent.sightlines.OverBudget` is raised."""
         own, lo, wd, sense = self._windows(idx)
         order = np.argsort(own, kind="stable")  # a circle's windows one after the other
         own, lo, wd, sense = own[order], lo[order], wd[order], sense[order]
@@ -213,7 +225,8 @@ class TangentGraph:
         group = np.arange(len(own)) if senses else own
 
         def run(k: slice) -> tuple[np.ndarray, np.ndarray]:
-            return sight.candidates_flat(xy[k], lo[k], wd[k], group[k])
+            share = None if budget is None else budget * len(xy[k]) // max(len(xy), 1)
+            return sight.candidates_flat(xy[k], lo[k], wd[k], group[k], share)
 
         if len(own) < 128:  # a few sources (a lazy search's circle): no threads
             halves = [run(slice(None))]
@@ -264,7 +277,8 @@ class TangentGraph:
             self.stats["nodes"] += 1
             self.stats["edges"] += len(e.j)
 
-    def build(self, stop: Callable[[], bool] | None = None) -> TangentGraph:
+    def build(self, stop: Callable[[], bool] | None = None,
+              budget: int | None = None) -> TangentGraph:
         """Make the whole graph now, not only what the searches reach, and search it with
         compiled code from now on; returns ``self``.  ``stop`` (the deadline) is polled
         between the phases and between two steps of two batches; when it asks, the build
@@ -285,13 +299,17 @@ class TangentGraph:
         (``chains``), and every later query is the compiled A* of
         :mod:`~optplan.geometry.tangent.chain_search` (same lengths).  What earlier lazy searches
         stored is dropped; ``max_bytes`` bounds what lazy searches store, not this.
+        ``budget``: the views the sight lines may run
+        (:meth:`~optplan.geometry.tangent.sightlines.Sightlines.candidates_flat`); past it
+        :class:`~optplan.geometry.tangent.sightlines.OverBudget` is raised and the graph
+        stays unbuilt (``None``: no bound).
         """
         with self.lock:
             if self.chains is None:
-                self._build(stop)
+                self._build(stop, budget)
         return self
 
-    def _build(self, stop: Callable[[], bool] | None) -> None:
+    def _build(self, stop: Callable[[], bool] | None, budget: int | None) -> None:
         """:meth:`build` (under the lock)."""
         C = self.circles
         t0 = time.perf_counter()
@@ -299,7 +317,7 @@ class TangentGraph:
             self.sightlines  # noqa: B018 - the triangulation, timed on its own
         _poll(stop)
         tt = time.perf_counter()
-        keys, sense = self._all_keys()
+        keys, sense = self._all_keys(budget)
         _poll(stop)
         t1 = time.perf_counter()
         batches, self.stats["build_pairs"] = self._batches(keys, sense)
@@ -328,7 +346,7 @@ class TangentGraph:
         self.nbytes = self.chains.nbytes
         self.stats["arc_tests"] = self.chains.arc_tests
 
-    def _all_keys(self) -> tuple[np.ndarray, np.ndarray]:
+    def _all_keys(self, budget: int | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Every circle's :meth:`visible` circles as keys ``i n + j``, once per window that
         sees them, and the window's sense (``0``: either; circle obstacles see every circle
         in either sense)."""
@@ -338,7 +356,7 @@ class TangentGraph:
             return np.arange(n * n), np.zeros(n * n, np.int8)
         full = np.flatnonzero(C.full)
         every = np.repeat(full, n) * n + np.tile(np.arange(n), len(full))
-        keys, sense = self._seen_keys(np.flatnonzero(~C.full), senses=True)
+        keys, sense = self._seen_keys(np.flatnonzero(~C.full), senses=True, budget=budget)
         assert sense is not None
         return np.r_[keys, every], np.r_[sense, np.zeros(len(every), np.int8)]
 
@@ -519,18 +537,25 @@ def problem_shortest_path(problem, robot, known_only: bool = True,
     first (:meth:`TangentGraph.build`, once per map; ``stop`` is polled by the build too) and
     search it compiled (True), or search it lazily (False); ``None`` (default) builds it on
     maps of :data:`SIGHTLINES_MIN` circles or more (where the sight lines make the build
-    cheap and a lazy query slow: ``benchmarks/bench_maps_scale.py``), and searches smaller
-    maps lazily (no build, no compiled kernel).  The choice depends on the
-    map only; both searches give the same path and bits but where shortest paths tie
-    (``tests/geometry/test_chain_search.py``).
+    cheap and a lazy query slow: ``benchmarks/bench_maps_scale.py``) unless the circles
+    crowd together: a build whose sight lines run past ``VIEWS_PER_CIRCLE n + VIEWS_BASE``
+    views stops there (:class:`~optplan.geometry.tangent.sightlines.OverBudget`) and the
+    map is searched lazily from then on (``graph.crowded``); smaller maps are searched
+    lazily (no build, no compiled kernel).  The choice depends on the map only (the budget
+    counts views, not seconds); both searches give the same path and bits but where
+    shortest paths tie (``tests/geometry/test_chain_search.py``).
     """
 
     def plan() -> TangentPath:
         oset = problem.obstacle_set(robot.radius, known_only=known_only)
         graph = tangent_graph(oset)
-        if graph.use_sightlines if build is None else build:
+        if build or (build is None and graph.use_sightlines and not graph.crowded):
+            budget = (None if build else
+                      VIEWS_PER_CIRCLE * graph.circles.n + VIEWS_BASE)
             try:
-                graph.build(stop)
+                graph.build(stop, budget)
+            except OverBudget:  # crowded circles: searched lazily, now and later
+                graph.crowded = True
             except Stopped:  # not cached: a later call builds the graph
                 raise _Uncached(TangentPath(math.inf, None, [], {
                     "n_circles": graph.circles.n, "certified": False, "stopped": True,

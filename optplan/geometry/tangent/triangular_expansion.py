@@ -26,8 +26,9 @@ Grouped arguments (no compiled function takes more than 10 parameters; typed onc
 * ``mesh``, :data:`MESH`: ``(VX, TR, CONV, PINCH, vstart, vtri, cstart, citems)``, the
   triangulation and its centres (:func:`expand_views`' parameters);
 * ``src``, :data:`SOURCES`: ``(S, SV, ST, LO, WID, G)``, the sources (idem);
-* ``marks``: ``(cstamp, pst)``, the stamps of the centres reported and of the pinch vertices
-  passed, per source group;
+* ``marks``: ``(cstamp, pst, work)``, the stamps of the centres reported and of the pinch
+  vertices passed, per source group, and ``work = [views run, budget]`` (the budget ``< 0``:
+  none);
 * ``eye``: ``(sx, sy, lo, tiny)``, one source, the start of its window and the widening
   tolerance ``KAPPA eps``.
 """
@@ -47,7 +48,7 @@ __all__ = ["expand_views", "locate", "pack_triangles", "KAPPA", "SLACK"]
 MESH = types.Tuple((F2, I2, B1, B1, I1, I1, I1, I1))
 #: ``src``: ``S, SV, ST, LO, WID, G`` (module docstring)
 SOURCES = types.Tuple((F2, I1, I1, F1, F1, I1))
-_MARKS = types.UniTuple(I1, 2)  # cstamp, pst
+_MARKS = types.UniTuple(I1, 3)  # cstamp, pst, work
 _EYE = types.UniTuple(f8, 4)  # sx, sy, lo, tiny
 
 TWO_PI = 2.0 * math.pi
@@ -143,7 +144,7 @@ def _visit(mesh, marks, q, v, th, eye, out, n_out, stk, n_st):  # pragma: no cov
     PINCH = mesh[3]
     cstart = mesh[6]
     citems = mesh[7]
-    cstamp, pst = marks
+    cstamp, pst = marks[0], marks[1]
     for t in range(cstart[v], cstart[v + 1]):
         c = citems[t]
         if cstamp[c] != q:
@@ -193,10 +194,12 @@ def _expand(mesh, marks, q, eye, stk, n_st, out, n_out, room):  # pragma: no cov
     VX = mesh[0]
     TR = mesh[1]
     sx, sy, lo, _ = eye
+    work = marks[2]
     while n_st > 0:
         if n_st + room > stk.shape[0]:
             return -1
         n_st -= 1
+        work[0] += 1
         t = int(stk[n_st, 0])
         k = int(stk[n_st, 1])
         L = stk[n_st, 2]
@@ -347,7 +350,8 @@ def _sources(src, mesh, eps, counts, marks, stk, out, state, room,
     """The loop of :func:`expand_views` from source ``state[0]`` (``state``: next source,
     size of ``out``, stamp offset); returns 0 when every source is done, 1 when ``out``
     needs room (stopped between two sources), 2 when the stack does (``state`` set back to
-    the start of the group, whose stamps are renewed with the offset ``gspan``)."""
+    the start of the group, whose stamps are renewed with the offset ``gspan``), 3 when
+    the views run exceed the budget (``marks[2]``)."""
     S = src[0]
     G = src[5]
     n_c = mesh[7].shape[0]
@@ -377,13 +381,17 @@ def _sources(src, mesh, eps, counts, marks, stk, out, state, room,
         counts[q] = m - n_out
         n_out = m
         q += 1
+        if 0 <= marks[2][1] < marks[2][0]:
+            state[0] = q
+            state[1] = n_out
+            return 3
     state[0] = q
     state[1] = n_out
     return 0
 
 
-@compiled(SOURCES, MESH, f8)
-def expand_views(src, mesh, eps):  # pragma: no cover - compiled
+@compiled(SOURCES, MESH, f8, i8)
+def expand_views(src, mesh, eps, budget):  # pragma: no cover - compiled
     """Candidate visible centres per source by triangular expansion (module docstring).
 
     Parameters
@@ -402,7 +410,9 @@ def expand_views(src, mesh, eps):  # pragma: no cover - compiled
         (:func:`pack_triangles`);
     CONV, PINCH : (nv,) the vertex is a convex corner of a solid / where solids touch;
     vstart, vtri : CSR of the triangles at each vertex (``vtri = 3 t + corner``);
-    cstart, citems : CSR of the centres at each vertex; eps : tolerance.
+    cstart, citems : CSR of the centres at each vertex; eps : tolerance;
+    budget : the views (triangles entered) the expansion may run, over all sources (< 0:
+    no bound).
 
     Returns
     -------
@@ -410,6 +420,10 @@ def expand_views(src, mesh, eps):  # pragma: no cover - compiled
         Candidates per source.
     flat : int64 array
         The candidates of source 0, then of source 1, ...
+    views : int
+        The views run (the work: it grows with the visible regions, not with the
+        candidates).  Past ``budget`` the expansion stops after the source that crossed it:
+        ``views > budget`` and the counts and candidates are those of the sources done.
 
     The loop is :func:`_sources` (a ``@leaf``: no reference counting); this wrapper makes
     its arrays and grows them when it asks.
@@ -428,13 +442,15 @@ def expand_views(src, mesh, eps):  # pragma: no cover - compiled
     counts = np.zeros(k, np.int64)
     cstamp = np.full(n_c, -1, np.int64)
     pst = np.full(VX.shape[0], -1, np.int64)
+    work = np.array([0, budget], np.int64)
     stk = np.empty((max(1024, 8 * room), 4))
     out = np.empty(16 * k + n_c, np.int64)
     state = np.zeros(3, np.int64)
     while True:
-        why = _sources(src, mesh, eps, counts, (cstamp, pst), stk, out, state, room, gspan)
-        if why == 0:
-            return counts, out[:state[1]].copy()
+        why = _sources(src, mesh, eps, counts, (cstamp, pst, work), stk, out, state, room,
+                       gspan)
+        if why == 0 or why == 3:
+            return counts, out[:state[1]].copy(), work[0]
         if why == 1:
             out = _grown_i(out, out.shape[0] + n_c)
         else:
