@@ -42,7 +42,11 @@ _SOLVER_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c56
 
 
 def _slug(s: str) -> str:
-    s = re.sub(r"[^A-Za-z0-9._-]+", "-", Path(s).stem if s.endswith(".toml") else s)
+    if s.endswith(".toml"):
+        s = Path(s).stem
+    elif ".scen#" in s.lower():  # a .scen line's name: the file's name and the line
+        s = Path(s.split("#")[0]).name + "-" + s.split("#", 1)[1]
+    s = re.sub(r"[^A-Za-z0-9._-]+", "-", s)
     return s.strip("-") or "problem"
 
 

@@ -30,14 +30,14 @@ def _check_inputs(problems: Sequence[str], solvers: Sequence[str],
                   overrides: Overrides | None) -> dict[str, dict[str, Any]]:
     """Load every problem and make every solver (errors raise here, before anything runs);
     the ``.scen`` columns of each problem (:func:`optplan.bench.scen.scen_columns`)."""
-    from optplan.catalog import load_problem
+    from optplan.bench.scen import load_bench_problem
     from optplan.solver import get_solver
 
     if not problems:
         raise ValueError("no problems given")
     if not solvers:
         raise ValueError("no solvers given")
-    scen = {p: scen_columns(load_problem(p)) for p in problems}
+    scen = {p: scen_columns(load_bench_problem(p)) for p in problems}
     for s in solvers:
         get_solver(s, **_overrides_for(overrides, s))
     return scen

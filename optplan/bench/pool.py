@@ -37,7 +37,7 @@ def _worker_setup(init: Mapping[str, Any]) -> None:
     for p in init.get("sys_path", ()):
         if p not in sys.path:
             sys.path.append(p)
-    from optplan.catalog import load_problem
+    from optplan.bench.scen import load_bench_problem
     from optplan.solver import BACKENDS, get_solver, register
 
     for name, entry in init.get("backends", {}).items():
@@ -47,7 +47,7 @@ def _worker_setup(init: Mapping[str, Any]) -> None:
         get_solver(s, **ov)
     for p in init.get("problems", ()):
         try:
-            _reference(load_problem(p))
+            _reference(load_bench_problem(p))
         except Exception:  # noqa: BLE001 - the run itself will record the error
             pass
     _SETUP_DONE.add(init["token"])

@@ -53,13 +53,13 @@ def _apply_reference(res: Any, prob: Any, ref: Mapping[str, Any], base: Any) -> 
 def _execute(problem: str, solver: str, seed: int, overrides: Mapping[str, Any] | None = None,
              time_limit: float | None = None) -> tuple[dict[str, Any], Trace]:
     """One run on a cold copy of the problem: its tidy row and its thinned progress trace."""
+    from optplan.bench.scen import load_bench_problem
     from optplan.benchdb import thin_progress
-    from optplan.catalog import load_problem
     from optplan.solver import solve
 
     trace: Trace = []
     try:
-        base = load_problem(problem)
+        base = load_bench_problem(problem)
         ref = _reference(base)
         prob = _fresh(base)
         t0 = time.perf_counter()
@@ -87,12 +87,11 @@ def run_one(problem: str, solver: str, seed: int,
     passed to :func:`optplan.solve` (no hard limit here: see :func:`run_grid`).  A problem
     read from a ``.scen`` line gets its ``.scen`` columns (:func:`optplan.bench.scen.with_scen`).
     """
-    from optplan.bench.scen import NO_SCEN, scen_columns, with_scen
-    from optplan.catalog import load_problem
+    from optplan.bench.scen import NO_SCEN, load_bench_problem, scen_columns, with_scen
 
     row = _execute(problem, solver, seed, overrides, time_limit)[0]
     try:
-        cols = scen_columns(load_problem(problem))
+        cols = scen_columns(load_bench_problem(problem))
     except Exception:  # noqa: BLE001 - the row already says why the problem did not load
         cols = dict(NO_SCEN)
     return with_scen(row, cols)

@@ -1,12 +1,11 @@
-"""MovingAI ``.scen`` files expanded into scenario TOMLs for a sweep, the bucket selection,
-and the ``.scen`` columns of a run's row (file, bucket, line, octile optimum)."""
+"""MovingAI ``.scen`` files expanded into their lines' names for a sweep, the bucket
+selection, and the ``.scen`` columns of a run's row (file, bucket, line, octile optimum)."""
 
 from __future__ import annotations
 
 import math
 import re
 from collections.abc import Collection, Sequence
-from pathlib import Path
 from typing import Any
 
 from optplan.bench.rows import _NO_SCEN_ROW, _num
@@ -58,17 +57,19 @@ def parse_buckets(spec: str, option: str = "buckets") -> list[int]:
     return sorted(out)
 
 
-def _select_lines(path: str, buckets: Collection[int] | None, radius: float) -> list[Any]:
-    """The problems of the lines of ``path`` in ``buckets`` (all of them for None)."""
-    from optplan.maps import read_scen, read_scen_entries
+def _select_lines(path: str, buckets: Collection[int] | None, radius: float) -> list[int]:
+    """The line numbers of ``path`` in ``buckets`` (all of them for None), in file order."""
+    from optplan.maps import scen_batch
     from optplan.problem import ProblemError
 
-    batch = read_scen(path, radius=radius, buckets=buckets)
-    if not batch and buckets is not None:
-        have = sorted({e.bucket for e in read_scen_entries(path)})
+    batch = scen_batch(path, radius)
+    lines = [k for k, q in batch.items()
+             if buckets is None or scen_columns(q)["bucket"] in buckets]
+    if not lines and buckets is not None:
+        have = sorted({scen_columns(q)["bucket"] for q in batch.values()})
         raise ProblemError(f"{path}: no line is in the buckets asked for ({_ranges(buckets)}); "
                            f"the file's buckets: {_ranges(have)}")
-    return batch
+    return lines
 
 
 def _ranges(bs: Collection[int]) -> str:
@@ -82,17 +83,33 @@ def _ranges(bs: Collection[int]) -> str:
     return ",".join(out)
 
 
-def expand_scen(problems: Sequence[str], directory: str | Path, *, radius: float = 0.0,
+def load_bench_problem(problem: Any) -> Any:
+    """A problem of a sweep: the line of a ``.scen`` named ``<file>.scen#line=N[,radius=R]``
+    (:func:`optplan.maps.read_scen_line`: the file read once per process), else whatever
+    :func:`optplan.catalog.load_problem` takes (a catalogue name, a ``.toml`` path, a
+    ``Problem``)."""
+    from optplan.catalog import load_problem
+
+    if isinstance(problem, str) and ".scen#" in problem.lower():
+        from optplan.maps import read_scen_line
+
+        return read_scen_line(problem)
+    return load_problem(problem)
+
+
+def expand_scen(problems: Sequence[str], *, radius: float = 0.0,
                 buckets: Collection[int] | None = None) -> list[str]:
-    """Replace every MovingAI ``.scen`` file among ``problems`` by one scenario per line.
+    """Replace every MovingAI ``.scen`` file among ``problems`` by the names of its lines.
 
     Each ``.scen`` is read with :func:`optplan.maps.read_scen` (its ``.map`` next to it; one
-    robot of ``radius``, a point by default, from the start cell's centre to the goal cell's)
-    and written with :func:`optplan.maps.write_batch` as ``<directory>/<scen stem>/<scen
-    stem>-<line>.toml``; the paths of those files take the ``.scen``'s place, in line order
-    (names and paths travel to worker processes; rewriting the same files on a rerun keeps a
-    results database's cells, so ``db=`` resumes).  Other entries are kept as they are.
-    ``buckets`` keeps the lines of those buckets only (every line by default).
+    robot of ``radius``, a point by default, from the start cell's centre to the goal cell's;
+    every line checked here, before any run); its lines' names
+    ``<file>.scen#line=N[,radius=R]`` (:func:`optplan.maps.scen_line_name`) take its place, in
+    line order.  Names travel to worker processes, each of which reads the file once
+    (:func:`optplan.maps.read_scen_line`; nothing is written), and the same command names
+    the same lines again, so a results database's cells resume (``db=``).  Other entries are
+    kept as they are.  ``buckets`` keeps the lines of those buckets only (every line by
+    default).
 
     Raises
     ------
@@ -100,7 +117,7 @@ def expand_scen(problems: Sequence[str], directory: str | Path, *, radius: float
         A ``.scen`` (or its map) that cannot be read, a line whose start or goal is
         blocked, or a ``.scen`` with no line in ``buckets`` (the message lists its buckets).
     """
-    from optplan.maps import write_batch
+    from optplan.maps import scen_line_name
 
     out: list[str] = []
     for entry in problems:
@@ -108,10 +125,7 @@ def expand_scen(problems: Sequence[str], directory: str | Path, *, radius: float
         if not s.lower().endswith(".scen"):
             out.append(s)
             continue
-        batch = _select_lines(s, buckets, radius)
-        stem = Path(s).name[: -len(".scen")]
-        stem = stem[: -len(".map")] if stem.lower().endswith(".map") else stem
-        out.extend(str(q) for q in write_batch(batch, Path(directory) / (stem or "scen")))
+        out.extend(scen_line_name(s, k, radius) for k in _select_lines(s, buckets, radius))
     return out
 
 

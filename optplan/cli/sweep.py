@@ -43,8 +43,8 @@ class _Bar:
 
 
 def _expand_scen(problems: list[str], args: argparse.Namespace) -> list[str]:
-    """MovingAI ``.scen`` entries of ``--problems`` as one scenario TOML per line, written
-    under ``<--out>/problems/`` (:func:`optplan.bench.expand_scen`)."""
+    """MovingAI ``.scen`` entries of ``--problems`` as the names of their lines,
+    ``<file>.scen#line=N`` (:func:`optplan.bench.expand_scen`)."""
     from optplan.bench import expand_scen
     from optplan.bench.scen import parse_buckets
 
@@ -62,7 +62,7 @@ def _expand_scen(problems: list[str], args: argparse.Namespace) -> list[str]:
         buckets = None if args.buckets is None else parse_buckets(args.buckets, "--buckets")
     except ValueError as e:
         raise CLIError(str(e)) from None
-    return expand_scen(problems, Path(args.out) / "problems", radius=radius, buckets=buckets)
+    return expand_scen(problems, radius=radius, buckets=buckets)
 
 
 def _bench_problems(args: argparse.Namespace) -> list[str]:

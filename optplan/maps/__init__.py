@@ -14,7 +14,8 @@ Readers
   result's timed path as ``nav_msgs/Path`` (:func:`path_msg`, ``optplan export-path``) and a
   grid as ``nav_msgs/OccupancyGrid`` (:func:`occupancy_grid_msg`).
 * **MovingAI** ``.map`` grids (:func:`read_movingai`) and their ``.scen`` start/goal pairs
-  (:func:`read_scen`: one :class:`~optplan.Problem` per line, a batch for ``bench``).
+  (:func:`read_scen`: one :class:`~optplan.Problem` per line, a batch for ``bench``; one
+  line by name, ``<file>.scen#line=N``: :func:`read_scen_line`).
 * **multi-agent path finding** (``docs/mapf.md``): Continuous-CBS's GraphML roadmaps and task
   files (:func:`read_roadmap_mapf`, :func:`write_roadmap_mapf`) and MovingAI MAPF grids
   (:func:`read_movingai_mapf`: the first ``k`` lines of a ``.scen`` as agents), as problems
@@ -78,6 +79,7 @@ from optplan.maps.ros_msgs import (
 )
 from optplan.maps.scen import SCEN_POLYGONS as SCEN_POLYGONS
 from optplan.maps.scen import ScenEntry, read_scen, read_scen_entries, scen_octile_length
+from optplan.maps.scen_lines import is_scen_line, read_scen_line, scen_batch, scen_line_name
 from optplan.maps.toml_writer import to_toml, write_batch, write_toml
 
 __all__ = [
@@ -93,6 +95,10 @@ __all__ = [
     "read_movingai",
     "read_scen_entries",
     "read_scen",
+    "read_scen_line",
+    "scen_batch",
+    "scen_line_name",
+    "is_scen_line",
     "scen_octile_length",
     "exact_union",
     "grid_polygons",

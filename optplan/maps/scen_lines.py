@@ -1,13 +1,12 @@
 """One line of a MovingAI ``.scen`` as a problem name: ``<file>.scen#line=N[,radius=R]``.
 
 A sweep over a ``.scen`` (``optplan bench --problems X.scen``) names each of its lines this way
-instead of writing one scenario file per line.  Whoever loads such a name
-(:func:`optplan.catalog.load_problem`, in the process that solves it: an ``optplan bench``
-worker, a Dask worker) reads the ``.scen`` and its map once per process with
-:func:`~optplan.maps.read_scen` and keeps the whole batch (:data:`MAX_FILES` files, least
-recently used dropped): every line of a file shares one obstacle set and, through it, one
-tangent graph (:mod:`optplan.problem.shared`).  A 1024 x 1024 map's scenario file is 1.4 MB
-of TOML; written and read back per line, it cost more than the solving.
+instead of writing one scenario file per line (each would hold the whole map).  Whoever loads
+such a name (:func:`read_scen_line`, :func:`optplan.bench.scen.load_bench_problem`), in the
+process that solves it (an ``optplan bench`` worker, a Dask worker), reads the ``.scen`` and
+its map once per process with :func:`~optplan.maps.read_scen` and keeps the whole batch
+(:data:`MAX_FILES` files, least recently used dropped): every line of a file shares one
+obstacle set and, through it, one tangent graph (:mod:`optplan.problem.shared`).
 
 The name holds the ``.scen`` path as given, the line number in the file (the one
 :func:`~optplan.maps.read_scen_entries` reports, and the problem's name ``<stem>-<line>``), and

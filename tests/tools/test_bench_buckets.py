@@ -119,8 +119,9 @@ def test_the_bench_table_is_per_bucket(swept, scen: Path) -> None:
         assert [(int(c[1]), c[2]) for c in rows] == [(b, s) for b in (1, 2, 4)
                                                       for s in SOLVERS]
     # printed: open-field's row, no row per line; summary.md: also every line's
-    assert "| open-field | visgraph |" in printed and ".toml |" not in printed
-    assert ".toml | visgraph |" in summary
+    assert "| open-field | visgraph |" in printed and "#line=" not in printed
+    assert any(ln.startswith(f"| {scen}#line=") and "| visgraph |" in ln
+               for ln in summary.splitlines())
 
 
 def test_summarise_buckets_medians_and_worst(swept) -> None:
@@ -184,14 +185,14 @@ def test_bad_bucket_selections_are_errors_naming_the_option(scen: Path, tmp_path
     assert "--buckets is the bucket selection of .scen problems" in capsys.readouterr().err
 
 
-def test_scen_columns_of_a_problem_read_back_from_its_file(scen: Path, tmp_path: Path) -> None:
-    from optplan.catalog import load_problem
+def test_scen_columns_of_a_problem_loaded_by_its_line_name(scen: Path, tmp_path: Path) -> None:
+    from optplan.bench.scen import load_bench_problem as load_problem
 
-    paths = bench.expand_scen([str(scen)], tmp_path, buckets=[2])
+    paths = bench.expand_scen([str(scen)], buckets=[2])
     e = _entries(scen)
     for p in paths:
         cols = scen_columns(load_problem(p))
-        line = int(Path(p).stem.rsplit("-", 1)[1])
+        line = int(p.rsplit("#line=", 1)[1])
         assert cols == {"scen": scen.name, "bucket": 2, "scen_line": line,
                         "octile_optimum": pytest.approx(e[line].optimal_length)}
     assert scen_columns(load_problem("open-field"))["bucket"] is None
@@ -245,12 +246,12 @@ def test_the_report_has_one_section_per_scen_with_the_bucket_figure(swept, tmp_p
     slug = scen.name
     assert f"{slug}-buckets.png" in pngs and f"{slug}-outcome.png" in pngs
     assert "open-field-convergence.png" in pngs
-    assert not any(".toml" in p or "-seed3-" in p for p in pngs)  # no section per line
+    assert not any("line-" in p or "-seed3-" in p for p in pngs)  # no section per line
     assert "length / octile optimum: median, worst" in page
 
 
 def test_run_one_gives_a_scen_line_its_columns(scen: Path, tmp_path: Path) -> None:
-    path = bench.expand_scen([str(scen)], tmp_path, buckets=[3])[0]
+    path = bench.expand_scen([str(scen)], buckets=[3])[0]
     row = bench.run_one(path, "visgraph", 0)
     e = _entries(scen)[row["scen_line"]]
     assert row["bucket"] == e.bucket == 3 and row["scen"] == scen.name

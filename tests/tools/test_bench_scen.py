@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import csv
+import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from optplan.bench import expand_scen
@@ -30,6 +32,11 @@ SCEN = """version 1
 """
 
 
+def _stem(name: str) -> str:
+    """``arena-<line>`` of a ``.scen`` line's name ``...arena.map.scen#line=<line>``."""
+    return "arena-" + re.search(r"#line=(\d+)", name).group(1)
+
+
 @pytest.fixture
 def scen(tmp_path: Path) -> Path:
     (tmp_path / "arena.map").write_text(MAP, encoding="utf-8")
@@ -46,19 +53,19 @@ def test_bench_scen_one_row_per_line_solver_and_seed(scen: Path, tmp_path: Path,
     assert main(argv) == 0
     with (out / "results.csv").open(newline="", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
-    cells = {(Path(r["problem"]).stem, r["solver"], int(r["seed"])) for r in rows}
+    cells = {(_stem(r["problem"]), r["solver"], int(r["seed"])) for r in rows}
     want = {(f"arena-{line}", s, k) for line in (2, 3, 4) for s in ("visgraph", "apf")
             for k in (0, 1)}
     assert len(rows) == 12 and cells == want
     stored = read_runs(db)
     assert len(stored) == 12
-    assert {(Path(r["problem"]).stem, r["solver"], int(r["seed"])) for r in stored} == want
+    assert {(_stem(r["problem"]), r["solver"], int(r["seed"])) for r in stored} == want
     # the any-angle optimum of each line is never longer than the .scen octile length
     octile = {"arena-2": 8.0, "arena-3": 4.0, "arena-4": 7.0}
     for r in rows:
         if r["solver"] == "visgraph":
             assert r["status"] == "optimal"
-            assert float(r["length"]) <= octile[Path(r["problem"]).stem] + 1e-9
+            assert float(r["length"]) <= octile[_stem(r["problem"])] + 1e-9
     # the same command again resumes: nothing new is run or stored
     assert main(argv) == 0
     assert len(read_runs(db)) == 12
@@ -66,13 +73,13 @@ def test_bench_scen_one_row_per_line_solver_and_seed(scen: Path, tmp_path: Path,
 
 
 def test_bench_scen_radius(scen: Path, tmp_path: Path, capsys) -> None:
-    paths = expand_scen([str(scen), "open-field"], tmp_path / "p", radius=0.2)
-    assert [Path(p).name for p in paths[:3]] == ["arena-2.toml", "arena-3.toml",
-                                                 "arena-4.toml"]
-    assert paths[3] == "open-field"
-    from optplan.catalog import load_problem
+    paths = expand_scen([str(scen), "open-field"], radius=0.2)
+    assert paths == [f"{scen}#line={k},radius=0.2" for k in (2, 3, 4)] + ["open-field"]
+    from optplan.bench.scen import load_bench_problem
 
-    assert load_problem(paths[0]).robots[0].radius == 0.2
+    p = load_bench_problem(paths[0])
+    assert p.robots[0].radius == 0.2 and p.name == "arena-2"
+    assert not (tmp_path / "p").exists()  # nothing written
     # --radius without a .scen, or a negative one, is bad input (exit 2)
     assert main(["bench", "--problems", "open-field", "--solvers", "visgraph", "--radius",
                  "0.1", "--out", str(tmp_path / "o")]) == 2
@@ -145,3 +152,50 @@ def test_text_after_the_nine_fields_is_an_error_that_shows_it(tmp_path: Path,
     with pytest.raises(ProblemError, match=rf"x\.scen: line 3: text after the 9 fields "
                                            rf"\(bucket map .* optimal_length\): '{shown}"):
         _entries(tmp_path, "\n".join(lines) + "\n")
+
+
+# -- a .scen line by name (optplan.maps.read_scen_line) ----------------------------------------
+
+
+def test_a_scen_line_by_name_is_read_once_per_process(scen: Path) -> None:
+    from optplan.bench.scen import load_bench_problem as load_problem
+    from optplan.maps import read_scen, scen_batch, scen_line_name
+
+    name = scen_line_name(scen, 3)
+    assert name == f"{scen}#line=3"
+    a, b = load_problem(name), load_problem(str(scen) + "#line=4")
+    want = read_scen(scen)
+    assert (a.name, b.name) == ("arena-3", "arena-4")
+    np.testing.assert_array_equal(a.robots[0].start, want[1].robots[0].start)
+    np.testing.assert_array_equal(b.robots[0].goal, want[2].robots[0].goal)
+    assert load_problem(name) is a  # the batch is kept ...
+    assert a.obstacle_set(0.0) is b.obstacle_set(0.0)  # ... and its lines share one map
+    batch = scen_batch(scen)
+    scen.write_text(SCEN.replace("6\t4\t8.00000000", "6\t3\t7.00000000"), encoding="utf-8")
+    assert scen_batch(scen) is not batch  # a changed file is read again
+    assert load_problem(name) is not a
+    assert scen_line_name(scen, 2, 0.25) == f"{scen}#line=2,radius=0.25"
+    assert load_problem(scen_line_name(scen, 2, 0.25)).robots[0].radius == 0.25
+
+
+@pytest.mark.parametrize("tail, words", [
+    ("#line=9", "has no problem at line 9 (lines 2 to 4)"),
+    ("#line=2,radius=-1", "radius '-1' is not a finite number >= 0"),
+    ("#line=2,radius=nan", "radius 'nan' is not a finite number >= 0"),
+    ("#line=2,radius=abc", "radius 'abc' is not a finite number >= 0"),
+    ("#line=two", "expected <file>.scen#line=N"),
+])
+def test_bad_scen_line_names(scen: Path, tail: str, words: str) -> None:
+    from optplan.bench.scen import load_bench_problem as load_problem
+    from optplan.problem import ProblemError
+
+    with pytest.raises(ProblemError, match=re.escape(words)):
+        load_problem(str(scen) + tail)
+
+
+def test_a_missing_scen_file_by_line_name(tmp_path: Path) -> None:
+    from optplan.maps import read_scen_line
+    from optplan.problem import ProblemError
+
+    with pytest.raises(ProblemError, match="cannot read the .scen file"):
+        read_scen_line(str(tmp_path / "gone.map.scen") + "#line=2")
