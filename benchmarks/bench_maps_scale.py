@@ -18,11 +18,11 @@ For each map kind and size (``--kinds``, ``--sizes``) a MovingAI map and its ``.
   measure the other jobs);
 * **memory**: the peak resident set size of the process (``resource.getrusage``), and the
   bytes the graph stores;
-* **op.solve** (unless ``--no-solve``): every line through ``op.solve(p, "visgraph",
-  graph="auto")`` (``time_limit`` the budget), as a user who reads the ``.scen`` and solves
-  line by line, on a cold process cache: the first solve makes the map's shared graph
-  (``optplan.problem.shared``; built and compiled from ``SIGHTLINES_MIN`` circles on), its
-  wall s (CPU s) is the ``op.solve first s`` column; the later ones' CPU ms (median / worst)
+* **op.solve** (unless ``--no-solve``): every line through ``op.solve(p, "visgraph")``
+  (its default ``graph = "auto"``; ``time_limit`` the budget), as a user who reads the
+  ``.scen`` and solves line by line, on a cold process cache: the first solve makes the
+  map's shared graph (``optplan.problem.shared``; built and compiled from ``SIGHTLINES_MIN``
+  circles on), its wall s (CPU s) is the ``op.solve first s`` column; the later ones' CPU ms (median / worst)
   the ``op.solve ms`` column (the query, the polyline's validation and the result); how many
   lengths equal the explicit graph API's to the bit; the peak RSS after them (both graphs
   are alive then).
@@ -149,7 +149,7 @@ def run_solve(probs: list, budget: float, lengths: list[float]) -> dict:
     clocks, same, certified = [], 0, 0
     for p, want in zip(probs, lengths):
         with _Clock() as c:
-            res = op.solve(p, "visgraph", graph="auto", time_limit=budget)
+            res = op.solve(p, "visgraph", time_limit=budget)
         clocks.append(c)
         got = res.metrics["lengths_exact"].get(p.robots[0].id, math.inf)
         same += got == want or (math.isnan(want) and res.status != "optimal")
