@@ -24,8 +24,8 @@ For each map kind and size (``--kinds``, ``--sizes``) a MovingAI map and its ``.
   map's shared graph (``optplan.problem.shared``; built and compiled from ``SIGHTLINES_MIN``
   circles on), its wall s (CPU s) is the ``op.solve first s`` column; the later ones' CPU
   ms (median / worst) the ``op.solve ms`` column (the query, the polyline's validation and
-  the result); how many lengths equal the explicit graph API's to the bit; the peak RSS after them (both graphs
-  are alive then).
+  the result); how many lengths equal the explicit graph API's to the bit; the peak RSS
+  after them (both graphs are alive then).
 
 Beside it, ``extremitypathfinder`` (a point-robot visibility-graph library, optional: the
 ``bench`` extra) on the same polygons: the free space of the imported obstacles inside the
