@@ -15,7 +15,6 @@ from optplan.geometry.collision.obstacles import (
     ObstacleSet,
     clip_obstacles,
     obstacle_set,
-    solid_edges,
 )
 from optplan.geometry.collision.pieces import convex_decompose, convex_pieces
 from optplan.geometry.collision.polyline import (
@@ -26,7 +25,7 @@ from optplan.geometry.collision.polyline import (
     resample_path,
     resample_uniform,
 )
-from optplan.geometry.collision.solids import corner_partners
+from optplan.geometry.collision.solids import corner_partners, solid_edges, solid_rings
 
 __all__ = [
     "MAX_REL_COORD",
@@ -38,6 +37,7 @@ __all__ = [
     "clip_obstacles",
     "obstacle_set",
     "solid_edges",
+    "solid_rings",
     "convex_decompose",
     "convex_pieces",
     "corner_partners",

@@ -432,8 +432,8 @@ class ObstacleSet:
         """Why ``start`` or ``goal`` (world) cannot be the centre of the robot's disc (closer
         than the radius to an obstacle), or None."""
         r = self.radius
-        for key, p in (("start", start), ("goal", goal)):
-            c = float(self.point_distances(np.asarray(p, float)[None])[0])
+        ends = np.array([np.asarray(start, float), np.asarray(goal, float)])
+        for key, p, c in zip(("start", "goal"), (start, goal), self.point_distances(ends)):
             if c < r - self.eps:
                 return (f"{key} {np.asarray(p).tolist()} lies within {r:g} of an "
                         f"obstacle (distance {c:.6g})")
@@ -548,18 +548,17 @@ def _edge_table(pieces: list, bflags: list, eps: float) -> tuple:
     and radii of the convex pieces (:class:`ObstacleSet` attributes)."""
     K = len(pieces)
     # padded vertex / flag arrays (K, 4): a triangle repeats its last vertex (a zero-length
-    # edge would have no normal, so the last *edge* is repeated instead)
-    V = np.zeros((K, PIECE_EDGES, 2))
-    Q = np.zeros((K, PIECE_EDGES, 2))
-    FB = np.zeros((K, PIECE_EDGES), bool)
-    for k, (v, fl) in enumerate(zip(pieces, bflags)):
-        m = len(v)
-        V[k, :m] = v
-        V[k, m:] = v[-1]
-        Q[k, :m - 1] = v[1:]
-        Q[k, m - 1:] = v[0]
-        FB[k, :m] = fl
-        FB[k, m:] = fl[-1]
+    # edge would have no normal, so the last *edge* is repeated instead); Q: each edge's end
+    m = np.array([len(v) for v in pieces], dtype=np.int64)
+    at = (np.cumsum(m) - m)[:, None]  # each piece's first row in the concatenation
+    j, last = np.arange(PIECE_EDGES), m[:, None] - 1
+    if K:
+        xy, fb = np.concatenate(pieces).astype(float), np.concatenate(bflags).astype(bool)
+        V, FB = xy[at + np.minimum(j, last)], fb[at + np.minimum(j, last)]
+        Q = xy[at + np.where(j < last, j + 1, 0)]
+    else:
+        V, Q, FB = np.zeros((0, PIECE_EDGES, 2)), np.zeros((0, PIECE_EDGES, 2)), np.zeros(
+            (0, PIECE_EDGES), bool)
     p = (V[..., 0] + 1j * V[..., 1]).T  # (4, K)
     ev = (Q[..., 0] + 1j * Q[..., 1]).T - p
     nrm = -1j * ev / np.abs(ev)  # outward normal of a CCW piece
@@ -574,14 +573,3 @@ def _edge_table(pieces: list, bflags: list, eps: float) -> tuple:
     reach = np.max(np.hypot(V[..., 0] - pc[:, :1], V[..., 1] - pc[:, 1:]), axis=1)
     return V, table, boundary, pc, reach
 
-
-def solid_edges(oset: ObstacleSet) -> np.ndarray:
-    """The boundary edges of the polygon solids of ``oset`` (local frame), ``(m, 4)``: ``x1,
-    y1, x2, y2``, every edge of every ring (exterior and holes) of the solids' polygons once,
-    so the rings close (the constrained edges of :mod:`~optplan.geometry.tangent.sightlines`)."""
-    polys = [g for _, g in oset.shapes if not isinstance(g, tuple)]
-    rings = shapely.get_rings(shapely.get_parts(np.array(polys, dtype=object)))
-    xy, ring = shapely.get_coordinates(rings, return_index=True)
-    same = np.flatnonzero(ring[1:] == ring[:-1])  # consecutive points of one ring
-    seg = np.concatenate([xy[same], xy[same + 1]], axis=1).reshape(-1, 4)
-    return np.ascontiguousarray(seg[(seg[:, 0] != seg[:, 2]) | (seg[:, 1] != seg[:, 3])])

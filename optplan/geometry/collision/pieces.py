@@ -46,16 +46,22 @@ def _convex_rows(q: np.ndarray) -> np.ndarray:
 
 def clean_ring(v: np.ndarray) -> np.ndarray:
     """Drop repeated and collinear vertices of a ring (no closing repeat)."""
+    return _clean(v)[0]
+
+
+def _clean(v: np.ndarray) -> tuple[np.ndarray, bool | None]:
+    """:func:`clean_ring` of ``v`` and, from the turns it computed last, :func:`is_convex` of
+    the result (None when it has fewer than 3 vertices or no pass found it clean)."""
     v = np.asarray(v, dtype=float)
     for _ in range(len(v)):
         if len(v) < 3:
-            return v
+            return v, None
         cr, sc = _turns(v)
         keep = np.abs(cr) > SIN_TOL * sc
         if keep.all():
-            return v
+            return v, bool(np.all(cr >= -SIN_TOL * sc))
         v = v[keep]
-    return v
+    return v, None
 
 
 def is_convex(v: np.ndarray) -> bool:
@@ -354,8 +360,10 @@ def _convex_one(poly, max_edges: int) -> list[tuple[np.ndarray, np.ndarray]] | N
     if poly.interiors:
         return None
     ring = np.asarray(poly.exterior.coords)[:-1]
-    ring = clean_ring(ring if poly.exterior.is_ccw else ring[::-1])
-    if len(ring) >= 3 and is_convex(ring):
+    ring, convex = _clean(ring if poly.exterior.is_ccw else ring[::-1])
+    if convex is None:
+        convex = len(ring) >= 3 and is_convex(ring)
+    if convex:
         return _fan(ring, np.ones(len(ring), bool), max_edges)
     return None
 

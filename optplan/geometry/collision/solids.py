@@ -41,11 +41,9 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from shapely.geometry import MultiPolygon, Polygon
 
-__all__ = ["merge_solids", "corner_partners"]
+__all__ = ["merge_solids", "corner_partners", "solid_rings", "solid_edges"]
 
 
 def _valid_polygonal(g) -> object | None:
@@ -139,8 +137,7 @@ def _groups(geoms: list, idx: list[int], eps: float
     n = len(geoms)
     a, b = shapely.STRtree(geoms).query(geoms, predicate="dwithin", distance=eps)
     off = a != b
-    graph = coo_matrix((np.ones(int(off.sum())), (a[off], b[off])), shape=(n, n))
-    n_comp, label = connected_components(graph, directed=False)
+    n_comp, label = _components(n, a[off], b[off])
     order = np.argsort(label, kind="stable")
     groups = np.split(order, np.cumsum(np.bincount(label, minlength=n_comp))[:-1])
     rank = np.argsort(np.argsort(np.asarray(idx), kind="stable"), kind="stable")
@@ -149,6 +146,29 @@ def _groups(geoms: list, idx: list[int], eps: float
     for u, v in zip(a[earlier].tolist(), b[earlier].tolist()):
         nbrs.setdefault(u, []).append(v)
     return groups, nbrs
+
+
+def _components(n: int, a: np.ndarray, b: np.ndarray) -> tuple[int, np.ndarray]:
+    """The connected components of the graph on ``n`` nodes with the edges ``a[k] - b[k]``
+    (listed both ways): their number and each node's label, the components numbered in the
+    order of their smallest node.  Every node points to a node of its component; each round
+    points every root at its smallest neighbouring label and jumps the pointers to the
+    roots, until no edge joins two labels: then each component's label is its smallest node
+    (it points to a node of the component, no smaller than itself)."""
+    lab = np.arange(n)
+    while True:
+        new = lab.copy()
+        np.minimum.at(new, lab[a], lab[b])
+        while True:
+            jump = new[new]
+            if np.array_equal(jump, new):
+                break
+            new = jump
+        if np.array_equal(new, lab):
+            break
+        lab = new
+    roots, label = np.unique(lab, return_inverse=True)
+    return len(roots), label.ravel()
 
 
 def corner_partners(v: np.ndarray, prv: np.ndarray, nxt: np.ndarray) -> np.ndarray:
@@ -192,3 +212,31 @@ def corner_partners(v: np.ndarray, prv: np.ndarray, nxt: np.ndarray) -> np.ndarr
         ccw[ccw <= 0.0] = np.inf  # an edge back along an outgoing one: no wedge
         out[rep[s:e]] = prv[rep[s:e][np.argmin(ccw, axis=1)]]
     return out
+
+
+def solid_rings(oset) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The rings of the polygon solids of the obstacle set ``oset`` (local frame), read once
+    and kept with the set: every ring's points ``(m, 2)`` (its closing repeat included) and
+    each point's ring, then per ring whether it is an exterior (else a hole) and whether it
+    runs counter-clockwise.  The rings come in the order of the solids, of their polygons
+    and, per polygon, the exterior first (``shapely.get_rings``)."""
+    got = oset._cache.get("rings")
+    if got is None:
+        polys = [g for _, g in oset.shapes if not isinstance(g, tuple)]
+        rings, part = shapely.get_rings(shapely.get_parts(np.array(polys, dtype=object)),
+                                        return_index=True)
+        xy, ring = shapely.get_coordinates(rings, return_index=True)
+        exterior = np.ones(len(rings), bool)
+        exterior[1:] = part[1:] != part[:-1]
+        got = oset._cache["rings"] = (xy, ring, exterior, shapely.is_ccw(rings))
+    return got
+
+
+def solid_edges(oset) -> np.ndarray:
+    """The boundary edges of the polygon solids of ``oset`` (local frame), ``(m, 4)``: ``x1,
+    y1, x2, y2``, every edge of every ring (exterior and holes) of the solids' polygons once,
+    so the rings close (the constrained edges of :mod:`~optplan.geometry.tangent.sightlines`)."""
+    xy, ring = solid_rings(oset)[:2]
+    same = np.flatnonzero(ring[1:] == ring[:-1])  # consecutive points of one ring
+    seg = np.concatenate([xy[same], xy[same + 1]], axis=1).reshape(-1, 4)
+    return np.ascontiguousarray(seg[(seg[:, 0] != seg[:, 2]) | (seg[:, 1] != seg[:, 3])])

@@ -11,14 +11,13 @@ them is :mod:`optplan.geometry.tangent.tangent_graph`.
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
+import shapely
 
-from optplan.geometry.collision import ObstacleSet, corner_partners, solid_edges
+from optplan.geometry.collision import ObstacleSet, corner_partners, solid_edges, solid_rings
 
 __all__ = ["TWO_PI", "ANGLE_TOL", "Circles", "circles_of", "ArcChecker"]
 
@@ -81,25 +80,23 @@ def _reaches_bounds(oset: ObstacleSet, centers: np.ndarray, rho) -> np.ndarray:
 def circles_of(oset: ObstacleSet) -> Circles:
     """Circles of the tangent graph for the obstacles of ``oset`` (radius ``oset.radius``)."""
     r = oset.radius
-    rings, circ = [], []
-    for _, g in oset.shapes:
-        if isinstance(g, tuple):
-            circ.append(g)
-            continue
-        for p in getattr(g, "geoms", [g]):
-            ext = np.asarray(p.exterior.coords)[:-1]
-            rings.append(ext if p.exterior.is_ccw else ext[::-1])  # solid on the left
-            for h in p.interiors:
-                c = np.asarray(h.coords)[:-1]
-                rings.append(c[::-1] if h.is_ccw else c)
-    rings = [q for q in rings if len(q) >= 3]
-    if rings:
-        sizes = np.array([len(q) for q in rings])
+    circ = [g for _, g in oset.shapes if isinstance(g, tuple)]
+    xy, ring, exterior, ccw = solid_rings(oset)
+    pt = np.flatnonzero(np.r_[ring[1:] == ring[:-1], False])  # not a ring's closing repeat
+    ring = ring[pt]
+    sizes = np.bincount(ring, minlength=len(exterior))
+    first = np.cumsum(sizes) - sizes
+    pos = np.arange(len(pt)) - first[ring]
+    # the solid on the left: an exterior counter-clockwise, a hole clockwise
+    turn = (exterior != ccw)[ring]
+    keep = sizes[ring] >= 3
+    allv = xy[pt[first[ring] + np.where(turn, sizes[ring] - 1 - pos, pos)][keep]]
+    if len(allv):
+        sizes = sizes[sizes >= 3]
         start = np.repeat(np.cumsum(sizes) - sizes, sizes)
-        idx = np.arange(int(sizes.sum()))
-        pos = idx - start
+        pos = np.arange(int(sizes.sum())) - start
         size = np.repeat(sizes, sizes)
-        allv, nxt = np.concatenate(rings), start + (pos + 1) % size
+        nxt = start + (pos + 1) % size
         # at a pinch the rings meet: pair the edges by the solid wedge they bound
         v, lo, wd = _convex_vertices(allv, corner_partners(allv, start + (pos - 1) % size, nxt),
                                      nxt)
@@ -192,11 +189,11 @@ class ArcChecker:
     closed form (:func:`_arc_seg_dist`, :func:`_point_arc_dist`).  Only those that may come
     near the arc are tested: the arc lies within ``b = 2 rho sin(sweep / 4)`` of its
     midpoint ``m``, so an edge (circle) farther than ``b + r`` from ``m`` cannot block it.
-    The candidates come from k-d trees (``scipy.spatial.cKDTree``, made once per obstacle
-    set) over the edges' midpoints, one tree per class of edge lengths within a factor 4
-    (an edge within ``b + r`` of ``m`` has its midpoint within ``b + r`` plus half the
-    class's longest edge), and over the circles' centres; a candidate is kept when its
-    exact distance from ``m`` is within ``b + r`` (a few ``eps`` of slack).  The cost per
+    The candidates come from R-trees (``shapely.STRtree``, made once per obstacle set on the
+    first test) over the edges and over the circles' centres: the edges within ``b + r`` of
+    ``m`` (GEOS's segment distance; ``b + r`` carries a few ``eps`` of slack) and the circles
+    whose centre is within ``b + r`` plus the largest circle radius, kept when their exact
+    distance from ``m`` is within ``b + r``.  The cost per
     arc is that of the items near the arc, not of those near its circle: on a polygon of
     20,000 vertices round a circle, a few tens, not thousands (the chains phase of
     ``benchmarks/bench_crowded.py``, where the arcs are tested).  Tested against
@@ -208,27 +205,19 @@ class ArcChecker:
     cache: dict = field(default_factory=dict)
 
     def _index(self) -> dict:
-        """The k-d trees over the boundary edges' midpoints, one per class of edge lengths
-        (within a factor 4), and over the circle obstacles' centres."""
+        """The R-trees (``shapely.STRtree``) over the boundary edges and over the circle
+        obstacles' centres, with their arrays."""
         ix = self.cache.get("index")
         if ix is None:
             S = self.oset
             seg = solid_edges(S)
-            P = seg[:, 0] + 1j * seg[:, 1]
-            E = (seg[:, 2] - seg[:, 0]) + 1j * (seg[:, 3] - seg[:, 1])
-            L = np.abs(E)
-            mid = P + 0.5 * E
-            q = np.floor(0.5 * np.log2(L / L.min())).astype(np.int64) if len(L) else L
-            trees = []  # (tree, its edges, their largest half length)
-            for c in np.unique(q):
-                e = np.flatnonzero(q == c)
-                trees.append((cKDTree(np.stack([mid[e].real, mid[e].imag], 1)), e,
-                              0.5 * float(L[e].max())))
-            ix = {"P": P, "E": E, "trees": trees, "ctree": None}
+            ix = {"P": seg[:, 0] + 1j * seg[:, 1],
+                  "E": (seg[:, 2] - seg[:, 0]) + 1j * (seg[:, 3] - seg[:, 1]),
+                  "tree": shapely.STRtree(shapely.linestrings(seg.reshape(-1, 2, 2)))
+                  if len(seg) else None, "ctree": None}
             cc = S.item_center[S.n_pieces:]
             if len(cc):
-                ix.update(ctree=cKDTree(np.stack([cc.real, cc.imag], 1)), cc=cc,
-                          circles=np.arange(len(cc)),
+                ix.update(ctree=shapely.STRtree(shapely.points(cc.real, cc.imag)), cc=cc,
                           cr=S.circle_radius, cr_max=float(np.max(S.circle_radius)))
             self.cache["index"] = ix
         return ix
@@ -265,21 +254,14 @@ class ArcChecker:
         lim = S.radius - S.eps
         m = c + rho * np.exp(1j * (start + 0.5 * sweep))
         reach = 2.0 * rho * np.sin(0.25 * np.minimum(sweep, TWO_PI)) + lim + 4.0 * S.eps
-        xy = np.stack([m.real, m.imag], 1)
+        mid = shapely.points(m.real, m.imag)
         out = np.zeros(len(c), bool)
-        found = [_pairs(tree.query_ball_point(xy, reach + half, return_sorted=False), edges)
-                 for tree, edges, half in ix["trees"]]
-        if found:
-            a = np.concatenate([x for x, _ in found])
-            e = np.concatenate([y for _, y in found])
-            P, E = ix["P"][e], ix["E"][e]
-            near = _point_seg_dist(m[a], P, E) <= reach[a]
-            a, P, E = a[near], P[near], E[near]
-            d = _arc_seg_dist(c[a], rho[a], start[a], sweep[a], P, E)
+        if ix["tree"] is not None:
+            a, e = ix["tree"].query(mid, predicate="dwithin", distance=reach)
+            d = _arc_seg_dist(c[a], rho[a], start[a], sweep[a], ix["P"][e], ix["E"][e])
             out[a[d < lim]] = True
         if ix["ctree"] is not None:
-            a, b = _pairs(ix["ctree"].query_ball_point(xy, reach + ix["cr_max"],
-                                                       return_sorted=False), ix["circles"])
+            a, b = ix["ctree"].query(mid, predicate="dwithin", distance=reach + ix["cr_max"])
             cc, cr = ix["cc"][b], ix["cr"][b]
             near = np.abs(m[a] - cc) - cr <= reach[a]
             a, cc, cr = a[near], cc[near], cr[near]
@@ -287,9 +269,3 @@ class ArcChecker:
             out[a[d < lim]] = True
         return out
 
-
-def _pairs(found: np.ndarray, items: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``cKDTree.query_ball_point``'s lists as pairs (query, ``items[point]``)."""
-    lens = np.fromiter(map(len, found), np.int64, count=len(found))
-    pts = np.fromiter(itertools.chain.from_iterable(found), np.int64, count=int(lens.sum()))
-    return np.repeat(np.arange(len(found)), lens), items[pts]

@@ -99,7 +99,6 @@ class TangentSearch:
         self.expanded: dict = {}  # (circle, sense) -> list of (theta, g)
         self.heap: list = []
         self.streams: list[Stream] = []
-        self.all_j = np.arange(self.n)
         self.senses = np.array([1, -1])
 
     def cone_off(self, k, th):
@@ -119,27 +118,31 @@ class TangentSearch:
         distance, radius difference, tangent normal, arrival point and angle) for the
         geometrically possible tangents (``|c_j - c_i| > |delta|``).
         """
-        if not circles:
-            idx = self.all_j[:0]
-        else:  # the circles it may see (a superset: :mod:`optplan.geometry.tangent.sightlines`)
+        parts = []  # (target, sense, centre, radius) of each kind of target
+        if circles:  # the circles it may see (a superset: :mod:`~.sightlines`), not itself
             idx = self.graph.visible(i) if i >= 0 else self.graph.visible_from(ci)
-        n = len(idx)
-        g = 1 if goal else 0
-        pts = np.zeros(0, complex) if points is None else np.asarray(points, complex)
-        m = len(pts)
-        jj = np.concatenate([np.repeat(idx, 2), np.full(g, -2, np.int64),
-                             -3 - np.arange(m, dtype=np.int64)])
-        sj = np.concatenate([np.tile(self.senses, n), np.ones(g + m, np.int64)])
-        cj = np.concatenate([np.repeat(self.cen[idx], 2), [self.zg] * g, pts])
-        rj = np.concatenate([np.repeat(self.rho[idx], 2), np.zeros(g + m)])
-        if i >= 0:
-            keep = jj != i
-            jj, sj, cj, rj = jj[keep], sj[keep], cj[keep], rj[keep]
+            idx = idx[idx != i] if i >= 0 else idx
+            parts.append((np.repeat(idx, 2), np.tile(self.senses, len(idx)),
+                          np.repeat(self.cen[idx], 2), np.repeat(self.rho[idx], 2)))
+        if goal:
+            parts.append((np.array([-2]), np.array([1]), np.array([self.zg]), np.zeros(1)))
+        if points is not None and len(points):
+            pts = np.asarray(points, complex)
+            m = len(pts)
+            parts.append((-3 - np.arange(m, dtype=np.int64), np.ones(m, np.int64), pts,
+                          np.zeros(m)))
+        if len(parts) == 1:
+            jj, sj, cj, rj = parts[0]
+        else:
+            jj, sj, cj, rj = (np.concatenate([q[k] for q in parts]) if parts else
+                              np.zeros(0, (np.int64, np.int64, complex, float)[k])
+                              for k in range(4))
         D = cj - ci
         dd = np.abs(D)
         delta = sj * rj - (si * ri if i >= 0 else 0.0)
         ok = tangent_exists(dd, delta, self.eps)
-        jj, sj, cj, rj, D, dd, delta = (x[ok] for x in (jj, sj, cj, rj, D, dd, delta))
+        if not ok.all():
+            jj, sj, cj, rj, D, dd, delta = (x[ok] for x in (jj, sj, cj, rj, D, dd, delta))
         nl = tangent_normal(D, dd, delta)
         pj = cj - sj * rj * nl
         th_arr = np.angle(-sj * nl)
@@ -152,13 +155,16 @@ class TangentSearch:
         m = len(nl)
         if i < 0:
             return np.full(m, ci), np.zeros(m), np.zeros(m), np.ones(m, bool)
-        pi = ci - si * ri * nl
-        th_d = np.angle(-si * nl)
-        # departure point in the cone of circle i and the arc from th_a to th_d inside it
-        od = self.cone_off(np.full(len(th_d), i), th_d)
+        pi, th_d, od = self._leave(i, si, ci, ri, nl)
         sweep = self._sweep(i, si, th_a, th_d, od)
-        ok = np.isfinite(od) & (sweep >= 0)
-        return pi, th_d, sweep, ok
+        return pi, th_d, sweep, np.isfinite(od) & (sweep >= 0)
+
+    def _leave(self, i: int, si: int, ci: complex, ri: float, nl):
+        """Departure points on circle ``i`` (sense ``si``, centre ``ci``, radius ``ri``) of
+        the tangents of normals ``nl``, their angles and cone offsets (nan: outside the
+        cone): ``pi, th_d, od``."""
+        th_d = np.angle(-si * nl)
+        return ci - si * ri * nl, th_d, self.cone_off(np.full(len(th_d), i), th_d)
 
     def _sweep(self, i: int, si: int, th_a: float, th_d, od):
         """Arc swept on circle ``i`` (sense ``si``) from the arrival angle ``th_a`` to the
@@ -176,21 +182,24 @@ class TangentSearch:
             ci, ri = self.cen[i], self.rho[i]
         start = i < 0
         jj, sj, dd, delta, nl, pj, th_arr = self.candidates(i, si, ci, ri, circles=start)
-        pi, th_d, sweep, ok = self.departures(i, si, th_a, ci, ri, nl)
-        if start and self.n:  # arrival point in the cone of circle j (the goal has none)
-            isg = jj < 0
-            ok &= isg | np.isfinite(self.cone_off(np.where(isg, 0, jj), th_arr))
         seg = np.sqrt(np.maximum(dd * dd - delta * delta, 0.0))
         edges = eidx = None
-        if not start:  # the circles' tangents from the graph, the goal's from above
+        if start:
+            pi, th_d, sweep, ok = self.departures(i, si, th_a, ci, ri, nl)
+            if self.n:  # arrival point in the cone of circle j (the goal has none)
+                isg = jj < 0
+                ok &= isg | np.isfinite(self.cone_off(np.where(isg, 0, jj), th_arr))
+        else:  # the circles' tangents from the graph, the goal's from above: one sweep
             edges = self.graph.edges_of(i, si)
-            sw = self._sweep(i, si, th_a, edges.th_d, edges.od)
+            pi, th_d, od = self._leave(i, si, ci, ri, nl)
+            od = np.concatenate([edges.od, od])
+            th_d = np.concatenate([edges.th_d, th_d])
+            sweep = self._sweep(i, si, th_a, th_d, od)
+            ok = np.isfinite(od) & (sweep >= 0)
             pie = edges.pi if edges.pi is not None else np.full(len(edges.j), ci)
             jj, sj = np.concatenate([edges.j, jj]), np.concatenate([edges.sj, sj])
             seg, pi = np.concatenate([edges.seg, seg]), np.concatenate([pie, pi])
-            pj, th_d = np.concatenate([edges.pj, pj]), np.concatenate([edges.th_d, th_d])
-            th_arr, sweep = np.concatenate([edges.th_a, th_arr]), np.concatenate([sw, sweep])
-            ok = np.concatenate([sw >= 0, ok])
+            pj, th_arr = np.concatenate([edges.pj, pj]), np.concatenate([edges.th_a, th_arr])
             eidx = np.concatenate([np.arange(len(edges.j)), np.full(len(dd), -1)])
         g = g0 + ri * sweep + seg
         f = g + np.abs(pj - self.zg)
