@@ -10,7 +10,6 @@ of the optimal plan; right, their distance against time with the contact distanc
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -19,6 +18,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from figure_io import parser, save  # noqa: E402
 
 import optplan as op  # noqa: E402
 from optplan.geometry.timing import positions_at  # noqa: E402
@@ -41,9 +41,7 @@ def swap_problem() -> op.Problem:
 
 
 def main(argv: Sequence[str] | None = None) -> Path:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
-    a = ap.parse_args(argv)
+    a = parser("python docs/figures/ccbs_swap.py", __doc__, DEFAULT_OUT).parse_args(argv)
     p = swap_problem()
     res = op.solve(p, "ccbs")
     g = p.roadmap
@@ -74,12 +72,7 @@ def main(argv: Sequence[str] | None = None) -> Path:
                   f", b {m['arrival_times']['b']:.3f})", fontsize=9)
     ax1.legend(fontsize=8)
     fig.tight_layout()
-    a.out.mkdir(parents=True, exist_ok=True)
-    out = a.out / "ccbs-swap.png"
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    print(f"wrote {out}")
-    return out
+    return save(fig, a.out / "ccbs-swap.png", 110)
 
 
 if __name__ == "__main__":

@@ -16,11 +16,11 @@ Writes ``geometry-solids.png`` into ``--out`` (default ``runs/geometry-figures``
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
+from figure_io import parser, save
 
 import optplan as op
 
@@ -53,16 +53,9 @@ def scenes() -> list[tuple[str, op.Problem]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python docs/figures/geometry.py",
-                                 description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT,
-                    help=f"output folder (default {DEFAULT_OUT})")
-    ap.add_argument("--dpi", type=float, default=100, help="PNG resolution (default 100)")
-    a = ap.parse_args(argv)
+    a = parser("python docs/figures/geometry.py", __doc__, DEFAULT_OUT, dpi=100).parse_args(argv)
     from optplan import plot
 
-    a.out.mkdir(parents=True, exist_ok=True)
     fig = plot.new_figure(size=(16.0, 4.6), layout="constrained")
     for k, (title, prob) in enumerate(scenes()):
         ax = fig.add_subplot(1, 4, k + 1)
@@ -78,9 +71,7 @@ def main(argv: list[str] | None = None) -> int:
         ax.set_ylim(0, 100)
         ax.set_xticks(np.linspace(0, 100, 3))
         ax.set_yticks(np.linspace(0, 100, 3))
-    out = a.out / "geometry-solids.png"
-    fig.savefig(out, dpi=a.dpi)
-    print(f"wrote {out}")
+    save(fig, a.out / "geometry-solids.png", a.dpi)
     return 0
 
 

@@ -12,7 +12,6 @@ arrival.
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -20,6 +19,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from figure_io import parser, save  # noqa: E402
 
 import optplan as op  # noqa: E402
 from optplan.plot import plot_problem  # noqa: E402
@@ -32,8 +32,7 @@ DEFAULT_OUT = Path("runs") / "time-figures"
 
 
 def main(argv: Sequence[str] | None = None) -> Path:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    ap = parser("python docs/figures/time_bracket.py", __doc__, DEFAULT_OUT)
     ap.add_argument("--time-limit", type=float, default=10.0)
     a = ap.parse_args(argv)
     p = door_scene()
@@ -62,12 +61,7 @@ def main(argv: Sequence[str] | None = None) -> Path:
     ax1.set_title(f"the bracket per level: gap {100 * res.metrics['arrival_gap']:.2f} %")
     ax1.legend(fontsize=8)
     fig.tight_layout()
-    a.out.mkdir(parents=True, exist_ok=True)
-    out = a.out / "time-bracket.png"
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    print(f"wrote {out}")
-    return out
+    return save(fig, a.out / "time-bracket.png", 110)
 
 
 if __name__ == "__main__":

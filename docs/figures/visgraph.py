@@ -14,8 +14,9 @@ change only when ``--out`` names that folder):
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
+
+from figure_io import parser, save
 
 import optplan as op
 
@@ -26,16 +27,9 @@ DEFAULT_OUT = Path("runs") / "visgraph-figures"
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python docs/figures/visgraph.py",
-                                 description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT,
-                    help=f"output folder (default {DEFAULT_OUT})")
-    ap.add_argument("--dpi", type=float, default=100, help="PNG resolution (default 100)")
-    a = ap.parse_args(argv)
+    a = parser("python docs/figures/visgraph.py", __doc__, DEFAULT_OUT, dpi=100).parse_args(argv)
     from optplan import plot
 
-    a.out.mkdir(parents=True, exist_ok=True)
     # constrained layout: each panel's legend goes outside it, on its right (no map corner is
     # free of obstacles on these scenes)
     fig = plot.new_figure(size=(12.5, 5.5), layout="constrained")
@@ -46,12 +40,8 @@ def main(argv: list[str] | None = None) -> int:
         m = res.metrics
         ax.set_title(f"{name}: {res.status}\nexact optimum {m['optimum']:.3f}, "
                      f"returned polyline {m['length']:.3f}", fontsize=10)
-    out = a.out / "visgraph-paper-env.png"
-    fig.savefig(out, dpi=a.dpi)
-    print(f"wrote {out}")
-    out = a.out / "visgraph-chains.png"
-    _chains_figure().savefig(out, dpi=a.dpi)
-    print(f"wrote {out}")
+    save(fig, a.out / "visgraph-paper-env.png", a.dpi)
+    save(_chains_figure(), a.out / "visgraph-chains.png", a.dpi)
     return 0
 
 
@@ -72,7 +62,9 @@ def _chains_figure():
     fig = plot.new_figure(size=(10.0, 7.0), layout="constrained")
     ax = fig.add_subplot(1, 1, 1)
     plot.plot_problem(prob, ax=ax)
-    seg = np.stack([fr.world(np.stack([z.real, z.imag], 1)) for z in (ch.point, ch.a_point)],
+    C = graph.circles  # each tangent's arrival point on its circle
+    arrival = C.center[ch.a_circle] + C.rho[ch.a_circle] * np.exp(1j * ch.a_theta)
+    seg = np.stack([fr.world(np.stack([z.real, z.imag], 1)) for z in (ch.point, arrival)],
                    axis=1)
     ax.add_collection(LineCollection(list(seg), colors="0.55", linewidths=0.35, zorder=1,
                                      label=f"free tangents ({ch.n_edges})"))
