@@ -187,7 +187,12 @@ def _check_far_edges(g, frame: Frame, lo: np.ndarray, hi: np.ndarray, label: str
 def bounds_wall(frame: Frame, margin: float) -> Polygon:
     """The bounds as a wall (local frame): the closed complement of the open bounds within the
     bounds grown by ``margin``, a rectangular frame whose hole is the bounds."""
-    x0, y0, x1, y1 = frame.local_bounds
+    return _wall(*frame.local_bounds, margin)
+
+
+@functools.lru_cache(maxsize=64)
+def _wall(x0: float, y0: float, x1: float, y1: float, margin: float) -> Polygon:
+    """:func:`bounds_wall` by its size (a shapely geometry is immutable: one per size)."""
     outer = [(x0 - margin, y0 - margin), (x1 + margin, y0 - margin),
              (x1 + margin, y1 + margin), (x0 - margin, y1 + margin)]
     return Polygon(outer, [[(x0, y0), (x0, y1), (x1, y1), (x1, y0)]])

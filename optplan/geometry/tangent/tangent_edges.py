@@ -93,7 +93,8 @@ class Edges:
 def tangent_edges(C: Circles, I, SI, J, SJ, eps: float) -> dict[str, np.ndarray]:
     """The tangents from circles ``I`` (senses ``SI``) to circles ``J`` (senses ``SJ``) that
     exist (``|c_j - c_i| > |delta|``, ``i != j``) and pass both cones (the departure cone
-    tested first, on more candidates).
+    tested first, on more candidates).  ``I`` and ``SI`` may be one circle and sense (scalars,
+    as if repeated).
 
     Returns
     -------
@@ -103,23 +104,29 @@ def tangent_edges(C: Circles, I, SI, J, SJ, eps: float) -> dict[str, np.ndarray]
         on their circles) and ``od`` (the departure's cone offset).
     """
     I, SI, J, SJ = (np.asarray(x) for x in (I, SI, J, SJ))
+    one = I.ndim == 0  # one source: its values broadcast, nothing to gather
+
+    def at(x: np.ndarray, k: np.ndarray) -> np.ndarray:
+        return x if one else x[k]
+
     ci, ri, cj, rj = C.center[I], C.rho[I], C.center[J], C.rho[J]
     D = cj - ci
     dd = np.abs(D)
     delta = SJ * rj - SI * ri
     k = np.flatnonzero((J != I) & tangent_exists(dd, delta, eps))
     nl = tangent_normal(D[k], dd[k], delta[k])
-    th_d = np.angle(-SI[k] * nl)
-    od = cone_off(C, I[k], th_d)
+    th_d = np.angle(-at(SI, k) * nl)
+    od = cone_off(C, at(I, k), th_d)
     m = np.flatnonzero(np.isfinite(od))
     k, nl, th_d, od = k[m], nl[m], th_d[m], od[m]
     th_a = np.angle(-SJ[k] * nl)
     m = np.flatnonzero(np.isfinite(cone_off(C, J[k], th_a)))
     k, nl = k[m], nl[m]
-    return {"i": I[k], "si": SI[k], "j": J[k], "sj": SJ[k],
+    return {"i": np.broadcast_to(I, k.shape) if one else I[k],
+            "si": np.broadcast_to(SI, k.shape) if one else SI[k], "j": J[k], "sj": SJ[k],
             "seg": np.sqrt(np.maximum(dd[k] ** 2 - delta[k] ** 2, 0.0)),
-            "pi": ci[k] - SI[k] * ri[k] * nl, "pj": cj[k] - SJ[k] * rj[k] * nl,
-            "th_d": th_d[m], "th_a": th_a[m], "od": od[m]}
+            "pi": ci - SI * ri * nl if one else ci[k] - SI[k] * ri[k] * nl,
+            "pj": cj[k] - SJ[k] * rj[k] * nl, "th_d": th_d[m], "th_a": th_a[m], "od": od[m]}
 
 
 def _edges(t: dict[str, np.ndarray], sl: slice, i: int, point: bool) -> Edges:
@@ -131,6 +138,5 @@ def _edges(t: dict[str, np.ndarray], sl: slice, i: int, point: bool) -> Edges:
 def edges_of_one(C: Circles, i: int, si: int, vis: np.ndarray, eps: float) -> Edges:
     """The :class:`Edges` of circle ``i`` in sense ``si`` towards the circles ``vis``."""
     n = len(vis)
-    t = tangent_edges(C, np.full(2 * n, i), np.full(2 * n, si), np.repeat(vis, 2),
-                      np.tile(np.array([1, -1]), n), eps)
+    t = tangent_edges(C, i, si, np.repeat(vis, 2), np.tile(np.array([1, -1]), n), eps)
     return _edges(t, slice(None), i, bool(C.rho[i] == 0))

@@ -41,7 +41,8 @@ class Stream:
     """Sorted successor candidates of one expanded node.
 
     ``f``, ``g`` and the arrays of ``steps = (j, sj, pi, pj, th_d, th_a, sweep)`` are parallel,
-    one entry per candidate (sorted here by ``f``); ``eidx`` (same length) indexes ``edges``.
+    one entry per candidate; ``eidx`` (same length) indexes ``edges``.  The stream holds the
+    entries ``sel`` (all by default), sorted here by ``f``.
     """
 
     __slots__ = ("node", "f", "g", "j", "sj", "pi", "pj", "th_d", "th_a", "sweep", "ok", "pos",
@@ -49,9 +50,10 @@ class Stream:
 
     def __init__(self, node: int, f: np.ndarray, g: np.ndarray,
                  steps: tuple[np.ndarray, ...], edges: Edges | None = None,
-                 eidx: np.ndarray | None = None) -> None:
+                 eidx: np.ndarray | None = None, sel: np.ndarray | None = None) -> None:
         j, sj, pi, pj, th_d, th_a, sweep = steps
-        order = np.argsort(f, kind="stable")
+        order = np.argsort(f, kind="stable") if sel is None else sel[
+            np.argsort(f[sel], kind="stable")]
         self.node = node
         self.f, self.g, self.j, self.sj = f[order], g[order], j[order], sj[order]
         self.pi, self.pj, self.th_d, self.th_a = pi[order], pj[order], th_d[order], th_a[order]
@@ -164,7 +166,7 @@ class TangentSearch:
         the tangents of normals ``nl``, their angles and cone offsets (nan: outside the
         cone): ``pi, th_d, od``."""
         th_d = np.angle(-si * nl)
-        return ci - si * ri * nl, th_d, self.cone_off(np.full(len(th_d), i), th_d)
+        return ci - si * ri * nl, th_d, self.cone_off(i, th_d)
 
     def _sweep(self, i: int, si: int, th_a: float, th_d, od):
         """Arc swept on circle ``i`` (sense ``si``) from the arrival angle ``th_a`` to the
@@ -209,9 +211,7 @@ class TangentSearch:
         sel = np.flatnonzero(ok)
         if sel.size == 0:
             return
-        st = Stream(node_id, f[sel], g[sel],
-                    (jj[sel], sj[sel], pi[sel], pj[sel], th_d[sel], th_arr[sel], sweep[sel]),
-                    edges, None if eidx is None else eidx[sel])
+        st = Stream(node_id, f, g, (jj, sj, pi, pj, th_d, th_arr, sweep), edges, eidx, sel)
         self.streams.append(st)
         heapq.heappush(self.heap, (float(st.f[0]), len(self.streams) - 1))
 
