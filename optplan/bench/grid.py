@@ -201,8 +201,10 @@ def run_grid(problems: Sequence[str], solvers: Sequence[str], seeds: int | Itera
     Parameters
     ----------
     problems : list of str
-        Catalogue names or ``.toml`` paths (names, not objects, so that they travel cheaply
-        to worker processes; on a remote Dask cluster a path must be readable by the workers).
+        Catalogue names, ``.toml`` paths or ``.scen`` lines' names (``<file>.scen#line=N``:
+        :func:`optplan.bench.scen.expand_scen`) (names, not objects, so that they travel
+        cheaply to worker processes; on a remote Dask cluster a path must be readable by the
+        workers).
     solvers : list of str
         Preset names, backend names or ``.toml`` preset paths.
     seeds : int or iterable of int

@@ -199,3 +199,16 @@ def test_a_missing_scen_file_by_line_name(tmp_path: Path) -> None:
 
     with pytest.raises(ProblemError, match="cannot read the .scen file"):
         read_scen_line(str(tmp_path / "gone.map.scen") + "#line=2")
+
+
+def test_scen_line_names_in_worker_processes(scen: Path) -> None:
+    """Worker processes load the lines by name (each reads the file once) and give the rows
+    of the inline run."""
+    from optplan import bench
+
+    names = expand_scen([str(scen)], radius=0.1)
+    keep = ("problem", "status", "length", "optimum", "scen_line", "bucket")
+    inline = bench.run_grid(names, ["visgraph"], seeds=1)
+    pooled = bench.run_grid(names, ["visgraph"], seeds=1, engine=bench.Engine(workers=2))
+    assert [{k: r[k] for k in keep} for r in pooled] == [{k: r[k] for k in keep} for r in inline]
+    assert [r["status"] for r in inline] == ["optimal"] * 3
