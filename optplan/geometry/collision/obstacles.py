@@ -120,14 +120,32 @@ def clip_obstacles(obstacles: Sequence, frame: Frame, margin: float) -> list[tup
     x0, y0, x1, y1 = frame.local_bounds
     lo = np.array([x0 - margin, y0 - margin])
     hi = np.array([x1 + margin, y1 + margin])
+    # the polygons at once: their boxes (local), the ones that reach the region, moved to
+    # the local frame in one call, and clipped where they cross its border
+    pk = [i for i, o in enumerate(obstacles) if not o.is_circle]
+    polys: dict[int, object] = {}
+    if pk:
+        geoms = np.array([obstacles[i].geometry for i in pk], dtype=object)
+        box = frame.local(shapely.bounds(geoms).reshape(-1, 2, 2))  # (min, max) corners
+        reach = ~(np.any(box[:, 1] < lo, axis=1) | np.any(box[:, 0] > hi, axis=1))
+        whole = ~(np.any(box[:, 0] < lo, axis=1) | np.any(box[:, 1] > hi, axis=1))
+        ks = np.flatnonzero(reach)
+        moved = shapely.transform(geoms[ks], lambda xy: xy - frame.origin)
+        for k, g in zip(ks.tolist(), moved):
+            polys[pk[k]] = g if whole[k] else _clip_polygon(g, frame, lo, hi,
+                                                            _label(pk[k], obstacles[pk[k]]))
     out: list[tuple[int, object]] = []
     for i, o in enumerate(obstacles):
-        label = f"obstacle {i} ({o.name!r})" if getattr(o, "name", "") else f"obstacle {i}"
-        shape = (_clip_circle(o, frame, lo, hi, label) if o.is_circle else
-                 _clip_polygon(o, frame, lo, hi, label))
+        shape = (_clip_circle(o, frame, lo, hi, _label(i, o)) if o.is_circle else
+                 polys.get(i))
         if shape is not None:
             out.append((i, shape))
     return out
+
+
+def _label(i: int, o) -> str:
+    """Obstacle ``i`` as error messages name it."""
+    return f"obstacle {i} ({o.name!r})" if getattr(o, "name", "") else f"obstacle {i}"
 
 
 def _clip_circle(o, frame: Frame, lo: np.ndarray, hi: np.ndarray, label: str):
@@ -140,16 +158,9 @@ def _clip_circle(o, frame: Frame, lo: np.ndarray, hi: np.ndarray, label: str):
     return (float(c[0]), float(c[1]), R)
 
 
-def _clip_polygon(o, frame: Frame, lo: np.ndarray, hi: np.ndarray, label: str):
-    """A polygon obstacle in the local frame clipped to the region, None outside it."""
-    wx0, wy0, wx1, wy1 = o.geometry.bounds
-    blo = frame.local([wx0, wy0])
-    bhi = frame.local([wx1, wy1])
-    if np.any(bhi < lo) or np.any(blo > hi):
-        return None
-    g = shapely.transform(o.geometry, lambda xy: xy - frame.origin)
-    if not (np.any(blo < lo) or np.any(bhi > hi)):
-        return g
+def _clip_polygon(g, frame: Frame, lo: np.ndarray, hi: np.ndarray, label: str):
+    """A polygon obstacle ``g`` (local frame) that crosses the border of the region, clipped
+    to it; None when nothing of it with area is left."""
     _check_far_edges(g, frame, lo, hi, label)
     g = shapely.clip_by_rect(g, lo[0], lo[1], hi[0], hi[1])
     g = shapely.make_valid(g) if not g.is_valid else g

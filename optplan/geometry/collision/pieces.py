@@ -338,34 +338,54 @@ def convex_pieces_many(geoms: list, max_edges: int = 4
         raise ValueError(f"max_edges must be >= 3, got {max_edges}")
     chunks: list[list] = [[] for _ in geoms]  # per geom: piece lists or batch indices
     batch: list[tuple] = []  # (poly, parts, tol) of the polygons that need the queries
-    for gi, geom in enumerate(geoms):
-        for poly in getattr(geom, "geoms", [geom]):
-            if poly.is_empty or poly.area <= 0:
-                continue
-            one = _convex_one(poly, max_edges)
-            if one is not None:
-                chunks[gi].append(one)
-                continue
-            parts = convex_decompose(poly)
-            if parts:
-                x0, y0, x1, y1 = poly.bounds
-                batch.append((poly, parts, 1e-9 * max(x1 - x0, y1 - y0)))
-                chunks[gi].append(len(batch) - 1)
+    polys, owner = shapely.get_parts(np.array(geoms, dtype=object), return_index=True)
+    keep = ~shapely.is_empty(polys) & (shapely.area(polys) > 0)
+    polys, owner = polys[keep], owner[keep]
+    plain = shapely.get_num_interior_rings(polys) == 0
+    fans = iter(_convex_fans(polys[plain], max_edges))
+    for poly, gi, pl in zip(polys, owner.tolist(), plain.tolist()):
+        one = next(fans) if pl else None
+        if one is not None:
+            chunks[gi].append(one)
+            continue
+        parts = convex_decompose(poly)
+        if parts:
+            x0, y0, x1, y1 = poly.bounds
+            batch.append((poly, parts, 1e-9 * max(x1 - x0, y1 - y0)))
+            chunks[gi].append(len(batch) - 1)
     done = _split_and_flag(batch, max_edges) if batch else []
     return [[p for c in ch for p in (done[c] if isinstance(c, int) else c)] for ch in chunks]
 
 
-def _convex_one(poly, max_edges: int) -> list[tuple[np.ndarray, np.ndarray]] | None:
-    """The fan of a convex polygon without holes (its own single piece), else None."""
-    if poly.interiors:
-        return None
-    ring = np.asarray(poly.exterior.coords)[:-1]
-    ring, convex = _clean(ring if poly.exterior.is_ccw else ring[::-1])
-    if convex is None:
-        convex = len(ring) >= 3 and is_convex(ring)
-    if convex:
-        return _fan(ring, np.ones(len(ring), bool), max_edges)
-    return None
+def _convex_fans(polys: np.ndarray, max_edges: int
+                 ) -> list[list[tuple[np.ndarray, np.ndarray]] | None]:
+    """Per polygon without holes: the fan of its ring (counter-clockwise, cleaned) when it is
+    convex (its own single piece), else None.  The rings of one length are turned at once
+    (:func:`_turns` on ``(m, k, 2)``, the same arithmetic); a ring with a vertex to drop goes
+    through :func:`_clean`."""
+    ext = shapely.get_exterior_ring(polys)
+    xy, ring = shapely.get_coordinates(ext, return_index=True)
+    size = np.bincount(ring, minlength=len(polys)) - 1  # without the closing repeat
+    first = np.cumsum(size + 1) - size - 1
+    ccw = shapely.is_ccw(ext)
+    out: list[list[tuple[np.ndarray, np.ndarray]] | None] = [None] * len(polys)
+    for k in np.unique(size).tolist():
+        rows = np.flatnonzero(size == k)
+        R = xy[first[rows][:, None] + np.arange(k)]
+        R[~ccw[rows]] = R[~ccw[rows]][:, ::-1]
+        if k >= 3:
+            cr, sc = _turns(R)
+            clean = np.all(np.abs(cr) > SIN_TOL * sc, axis=1).tolist()
+            convex = np.all(cr >= -SIN_TOL * sc, axis=1).tolist()
+        else:
+            clean = convex = [False] * len(rows)
+        for j, row in enumerate(rows.tolist()):
+            v, cv = (R[j], convex[j]) if clean[j] else _clean(R[j])
+            if cv is None:
+                cv = len(v) >= 3 and is_convex(v)
+            if cv:
+                out[row] = _fan(v, np.ones(len(v), bool), max_edges)
+    return out
 
 
 def _split_and_flag(batch: list[tuple], max_edges: int
