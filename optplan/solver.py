@@ -75,6 +75,7 @@ __all__ = [
     "solve",
     "make_rng",
     "option",
+    "without_own_limit",
 ]
 
 #: backend name -> "module:Class" (resolved lazily).
@@ -464,8 +465,11 @@ def time_reference(problem: Problem, robot_id: str) -> Any:
     return backend.reference(problem, robot_id)
 
 
-def _without_own_limit(backend: Backend, time_limit: float | None) -> Backend:
-    """``backend`` without its own ``time_limit`` (hybrid presets: 60 s) when solve has one."""
+def without_own_limit(backend: Backend, time_limit: float | None) -> Backend:
+    """``backend`` without its own ``time_limit`` (hybrid presets: 60 s) when the caller has
+    one (``solve(time_limit=...)``, a run that solves it as one of its stages): the caller's
+    limit then bounds it, not the preset's.  ``backend`` itself when ``time_limit`` is None
+    or the backend has no such option."""
     if time_limit is None or "time_limit" not in {f.name for f in dataclasses.fields(backend)}:
         return backend
     out = object.__new__(type(backend))  # a copy: no new checks or stages (within the limit)
@@ -550,7 +554,7 @@ def solve(problem: Problem | str, solver: str | Path | Backend, /, *,
     if time_limit is not None and (isinstance(time_limit, bool) or not isinstance(
             time_limit, (int, float)) or not (0 < time_limit < math.inf)):
         raise ValueError(f"time_limit must be a number of seconds > 0, got {time_limit!r}")
-    backend = _without_own_limit(backend, time_limit)
+    backend = without_own_limit(backend, time_limit)
     stop = {"reason": ""}
     t0 = time.perf_counter()
     start = clock()  # the deadline's clock (module global: tests replace it)

@@ -20,6 +20,7 @@ run with the seed :data:`REFERENCE_SEED`, and the NLP polished from each of them
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -35,7 +36,7 @@ from optplan.formation.team_nlp import MoverTable, TeamModel, solve_team_nlp
 from optplan.geometry.timing import arrival_time, mover_track, positions_at
 from optplan.problem import Problem
 from optplan.result import History, Progress, Result, Status
-from optplan.solver import Backend, get_solver, option
+from optplan.solver import Backend, get_solver, option, without_own_limit
 from optplan.units import Record, Unit
 
 __all__ = ["FormationNLP", "Warm", "TEAM_HEURISTICS", "REFERENCE_SEED", "warm_from_result"]
@@ -88,7 +89,9 @@ class FormationNLP(Backend):
     time_limit : float or None
         Wall-clock budget of the whole run in seconds (> 0; ``None`` or ``inf``: none; default
         60), on :data:`optplan.solver.clock`: the warm-start planner stops at its first
-        progress report after it (its plan is then returned as it is, not polished) and IPOPT
+        progress report after it (its plan is then returned as it is, not polished; the
+        warm start's own preset limit, e.g. ``hybrid-qp``'s 60 s, is replaced by this one:
+        :func:`optplan.solver.without_own_limit`) and IPOPT
         at its first iteration after it, its last iterate judged like any other (the warm
         start is kept when the iterate is invalid or worse); ``stop_reason`` is then
         ``"time_limit"``.  Building the CasADi model (before the first iteration) is not
@@ -132,7 +135,11 @@ class FormationNLP(Backend):
         if init is not None:
             warm = _warm_from_paths(problem, init)
         else:
-            res = get_solver(self.warm_start).solve(problem, rng=rng, callback=limit.forward)
+            # the run's limit bounds the warm start (the deadline, and op.solve's, stop it),
+            # not the warm start's own preset limit (hybrid-qp: 60 s); None: no bound
+            own = math.inf if self.time_limit is None else self.time_limit
+            ws = without_own_limit(get_solver(self.warm_start), own)
+            res = ws.solve(problem, rng=rng, callback=limit.forward)
             warm = warm_from_result(problem, res)
             if limit.stopped or res.stop_reason:  # cut short: no time left to polish it
                 return self._unpolished(problem, warm, limit, res.stop_reason, t0)

@@ -59,10 +59,11 @@ def outcome(scene: str, solver: str, scale: float,
     """``(status, total path length / scale)``, or ``("error: ...", nan)`` for a refused input."""
     prob = transform_problem(op.load_problem(scene), scale)
     # the hybrids' default budget (60 s of wall time) would cut long walks where the load
-    # says: a call's limit replaces it, and this one is never reached
-    # (and the time bracket's 10 s, which would stop its refinement where the load says)
-    limit = {"time_limit": 1e6} if solver.startswith("hybrid") or solver == "time-bracket" \
-        else {}
+    # says: a call's limit replaces it, and this one is never reached (and the time
+    # bracket's 10 s, which would stop its refinement where the load says, and
+    # formation-nlp's 60 s, which bounds its warm start and its polish)
+    limit = ({"time_limit": 1e6} if solver.startswith("hybrid")
+             or solver in ("time-bracket", "formation-nlp") else {})
     try:
         r = op.solve(prob, solver, rng=0, reference=False, **limit, **dict(options))
     except ValueError as e:  # e.g. a formation backend on a scene without [formation]

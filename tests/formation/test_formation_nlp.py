@@ -130,3 +130,29 @@ def test_an_exception_of_the_callback_inside_ipopt_propagates():
 
     with pytest.raises(KeyError, match="boom"):
         op.solve("formation-open-field", "formation-nlp", rng=0, callback=boom)
+
+
+@pytest.mark.parametrize("limit", [None, 600.0])
+def test_the_runs_limit_bounds_the_warm_start_not_its_preset(monkeypatch, limit):
+    """The warm start (hybrid-qp, whose preset stops at 60 s) runs without its own limit: the
+    run's ``time_limit`` bounds it (a run of 600 s is never cut at 60 s by the warm start),
+    also when ``op.solve(time_limit=...)`` replaces the preset's; none means none."""
+    from optplan.formation import formation_nlp
+
+    seen = []
+    real = formation_nlp.without_own_limit
+
+    def spy(backend, own):
+        out = real(backend, own)
+        seen.append((backend.time_limit, out.time_limit))
+        return out
+
+    def stop(p):  # at the warm start's first report: only the set-up is looked at
+        raise StopIteration
+
+    monkeypatch.setattr(formation_nlp, "without_own_limit", spy)
+    kw = {} if limit is None else {"time_limit": limit}
+    op.solve("formation-open-field", "formation-nlp", rng=0, callback=stop, **kw)
+    op.solve("formation-open-field", op.get_solver("formation-nlp", time_limit=limit), rng=0,
+             callback=stop)
+    assert seen == [(60.0, None), (60.0, None)]
