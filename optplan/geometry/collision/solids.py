@@ -191,6 +191,9 @@ def corner_partners(v: np.ndarray, prv: np.ndarray, nxt: np.ndarray) -> np.ndarr
     out = prv.copy()
     if len(v) < 2:
         return out
+    s = v[np.lexsort((v[:, 1], v[:, 0]))]
+    if not np.any((s[1:, 0] == s[:-1, 0]) & (s[1:, 1] == s[:-1, 1])):
+        return out  # no point that the rings pass twice
     z = v[:, 0] + 1j * v[:, 1]
     _, inv, cnt = np.unique(z, return_inverse=True, return_counts=True)
     inv = inv.ravel()

@@ -189,15 +189,14 @@ class ArcChecker:
     closed form (:func:`_arc_seg_dist`, :func:`_point_arc_dist`).  Only those that may come
     near the arc are tested: the arc lies within ``b = 2 rho sin(sweep / 4)`` of its
     midpoint ``m``, so an edge (circle) farther than ``b + r`` from ``m`` cannot block it.
-    The candidates come from R-trees (``shapely.STRtree``, made once per obstacle set on the
-    first test) over the edges and over the circles' centres: the edges within ``b + r`` of
-    ``m`` (GEOS's segment distance; ``b + r`` carries a few ``eps`` of slack) and the circles
-    whose centre is within ``b + r`` plus the largest circle radius, kept when their exact
-    distance from ``m`` is within ``b + r``.  The cost per
-    arc is that of the items near the arc, not of those near its circle: on a polygon of
-    20,000 vertices round a circle, a few tens, not thousands (the chains phase of
-    ``benchmarks/bench_crowded.py``, where the arcs are tested).  Tested against
-    every piece edge and circle in ``tests/geometry/test_arc_checker.py``.
+    The candidates come from one R-tree (``shapely.STRtree``, made once per obstacle set on
+    the first test) over the edges and the circles' bounding boxes: the edges within ``b + r``
+    of ``m`` (GEOS's segment distance; ``b + r`` carries a few ``eps`` of slack) and the
+    circles whose box is, kept when their exact distance from ``m`` is within ``b + r``.  The
+    cost per arc is that of the items near the arc, not of those near its circle: on a
+    polygon of 20,000 vertices round a circle, a few tens, not thousands (the chains phase of
+    ``benchmarks/bench_crowded.py``, where the arcs are tested).  Tested against every piece
+    edge and circle in ``tests/geometry/test_arc_checker.py``.
     """
 
     oset: ObstacleSet
@@ -205,20 +204,23 @@ class ArcChecker:
     cache: dict = field(default_factory=dict)
 
     def _index(self) -> dict:
-        """The R-trees (``shapely.STRtree``) over the boundary edges and over the circle
-        obstacles' centres, with their arrays."""
+        """One R-tree (``shapely.STRtree``) over the boundary edges, then the circle
+        obstacles' bounding boxes (grown by ``eps``: each holds its disc), with their
+        arrays."""
         ix = self.cache.get("index")
         if ix is None:
             S = self.oset
             seg = solid_edges(S)
+            cc, cr = S.item_center[S.n_pieces:], S.circle_radius
+            h = cr + S.eps
+            items = np.concatenate([shapely.linestrings(seg.reshape(-1, 2, 2)) if len(seg) else
+                                    np.zeros(0, object),
+                                    shapely.box(cc.real - h, cc.imag - h, cc.real + h,
+                                                cc.imag + h)])
             ix = {"P": seg[:, 0] + 1j * seg[:, 1],
                   "E": (seg[:, 2] - seg[:, 0]) + 1j * (seg[:, 3] - seg[:, 1]),
-                  "tree": shapely.STRtree(shapely.linestrings(seg.reshape(-1, 2, 2)))
-                  if len(seg) else None, "ctree": None}
-            cc = S.item_center[S.n_pieces:]
-            if len(cc):
-                ix.update(ctree=shapely.STRtree(shapely.points(cc.real, cc.imag)), cc=cc,
-                          cr=S.circle_radius, cr_max=float(np.max(S.circle_radius)))
+                  "n_edges": len(seg), "cc": cc, "cr": cr,
+                  "tree": shapely.STRtree(items) if len(items) else None}
             self.cache["index"] = ix
         return ix
 
@@ -254,18 +256,21 @@ class ArcChecker:
         lim = S.radius - S.eps
         m = c + rho * np.exp(1j * (start + 0.5 * sweep))
         reach = 2.0 * rho * np.sin(0.25 * np.minimum(sweep, TWO_PI)) + lim + 4.0 * S.eps
-        mid = shapely.points(m.real, m.imag)
         out = np.zeros(len(c), bool)
-        if ix["tree"] is not None:
-            a, e = ix["tree"].query(mid, predicate="dwithin", distance=reach)
-            d = _arc_seg_dist(c[a], rho[a], start[a], sweep[a], ix["P"][e], ix["E"][e])
-            out[a[d < lim]] = True
-        if ix["ctree"] is not None:
-            a, b = ix["ctree"].query(mid, predicate="dwithin", distance=reach + ix["cr_max"])
+        if ix["tree"] is None:
+            return out
+        a, e = ix["tree"].query(shapely.points(m.real, m.imag), predicate="dwithin",
+                                distance=reach)
+        edge = e < ix["n_edges"]
+        ae, ee = a[edge], e[edge]
+        d = _arc_seg_dist(c[ae], rho[ae], start[ae], sweep[ae], ix["P"][ee], ix["E"][ee])
+        out[ae[d < lim]] = True
+        if not edge.all():  # circles whose box comes within reach: their exact distance
+            ac, b = a[~edge], e[~edge] - ix["n_edges"]
             cc, cr = ix["cc"][b], ix["cr"][b]
-            near = np.abs(m[a] - cc) - cr <= reach[a]
-            a, cc, cr = a[near], cc[near], cr[near]
-            d = _point_arc_dist(cc, c[a], rho[a], start[a], sweep[a]) - cr
-            out[a[d < lim]] = True
+            near = np.abs(m[ac] - cc) - cr <= reach[ac]
+            ac, cc, cr = ac[near], cc[near], cr[near]
+            d = _point_arc_dist(cc, c[ac], rho[ac], start[ac], sweep[ac]) - cr
+            out[ac[d < lim]] = True
         return out
 
