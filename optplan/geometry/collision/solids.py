@@ -154,7 +154,12 @@ def _components(n: int, a: np.ndarray, b: np.ndarray) -> tuple[int, np.ndarray]:
     order of their smallest node.  Every node points to a node of its component; each round
     points every root at its smallest neighbouring label and jumps the pointers to the
     roots, until no edge joins two labels: then each component's label is its smallest node
-    (it points to a node of the component, no smaller than itself)."""
+    (it points to a node of the component, no smaller than itself).
+
+    Why by hand: scipy's ``connected_components`` (the oracle of
+    ``tests/geometry/test_components.py``; the sight lines' triangulation is labelled with it)
+    sets up a sparse matrix per call, which was most of the grouping's time on maps of a few
+    obstacles (a cold ``visgraph`` query: ``benchmarks/bench_visgraph.py --against``)."""
     lab = np.arange(n)
     while True:
         new = lab.copy()
