@@ -13,7 +13,6 @@ from optplan.bench.rows import _NO_SCEN_ROW, _num
 #: the ``.scen`` columns of a problem that is not a ``.scen`` line
 NO_SCEN: dict[str, Any] = {k: v for k, v in _NO_SCEN_ROW.items() if k != "octile_ratio"}
 
-_DESC_RE = re.compile(r"^MovingAI (.+) line (\d+): bucket (-?\d+),")
 
 #: largest bucket number ``parse_buckets`` accepts (MovingAI's are lengths / 4)
 MAX_BUCKET = 1_000_000
@@ -134,14 +133,14 @@ def scen_columns(problem: Any) -> dict[str, Any]:
     read back from its scenario file): ``scen`` (the ``.scen`` file name), ``bucket``,
     ``scen_line`` and ``octile_optimum`` (the file's optimal length, map units); the values of
     :data:`NO_SCEN` for any other problem."""
-    from optplan.maps import scen_octile_length
+    from optplan.maps import scen_line_of, scen_octile_length
 
-    m = _DESC_RE.match(problem.description or "")
-    octile = scen_octile_length(problem) if m else None
-    if m is None or octile is None:
+    where = scen_line_of(problem)
+    octile = scen_octile_length(problem) if where else None
+    if where is None or octile is None:
         return dict(NO_SCEN)
-    return {"scen": m.group(1), "bucket": int(m.group(3)), "scen_line": int(m.group(2)),
-            "octile_optimum": float(octile)}
+    scen, line, bucket = where
+    return {"scen": scen, "bucket": bucket, "scen_line": line, "octile_optimum": float(octile)}
 
 
 def with_scen(row: dict[str, Any], cols: dict[str, Any]) -> dict[str, Any]:

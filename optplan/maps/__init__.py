@@ -78,8 +78,14 @@ from optplan.maps.ros_msgs import (
     timed_path_msg,
 )
 from optplan.maps.scen import SCEN_POLYGONS as SCEN_POLYGONS
-from optplan.maps.scen import ScenEntry, read_scen, read_scen_entries, scen_octile_length
-from optplan.maps.scen_lines import is_scen_line, read_scen_line, scen_batch, scen_line_name
+from optplan.maps.scen import (
+    ScenEntry,
+    read_scen,
+    read_scen_entries,
+    scen_line_of,
+    scen_octile_length,
+)
+from optplan.maps.scen_lines import read_scen_line, scen_batch, scen_line_name
 from optplan.maps.toml_writer import to_toml, write_batch, write_toml
 
 __all__ = [
@@ -98,8 +104,8 @@ __all__ = [
     "read_scen_line",
     "scen_batch",
     "scen_line_name",
-    "is_scen_line",
     "scen_octile_length",
+    "scen_line_of",
     "exact_union",
     "grid_polygons",
     "import_map",

@@ -133,6 +133,14 @@ def _check_one_map(p: Path, entries: list[ScenEntry]) -> None:
 
 
 _OCTILE_RE = re.compile(r"octile length ([0-9.eE+-]+)")
+_LINE_RE = re.compile(r"^MovingAI (.+) line (\d+): bucket (-?\d+),")
+
+
+def scen_line_of(problem: Problem) -> tuple[str, int, int] | None:
+    """``(.scen file name, line, bucket)`` of a problem made by :func:`read_scen` (kept in
+    its description, :func:`_entry_keys`), or ``None``."""
+    m = _LINE_RE.match(problem.description or "")
+    return (m.group(1), int(m.group(2)), int(m.group(3))) if m else None
 
 
 def scen_octile_length(problem: Problem) -> float | None:

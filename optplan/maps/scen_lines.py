@@ -22,10 +22,10 @@ import threading
 from collections import OrderedDict
 from pathlib import Path
 
-from optplan.maps.scen import read_scen
+from optplan.maps.scen import read_scen, scen_line_of
 from optplan.problem import Problem, ProblemError
 
-__all__ = ["MAX_FILES", "is_scen_line", "read_scen_line", "scen_batch", "scen_line_name"]
+__all__ = ["MAX_FILES", "read_scen_line", "scen_batch", "scen_line_name"]
 
 #: ``.scen`` files whose batches a process keeps.
 MAX_FILES = 4
@@ -41,18 +41,6 @@ def scen_line_name(path: str | Path, line: int, radius: float = 0.0) -> str:
     ``radius`` (``repr`` of the float: read back bit for bit)."""
     tail = "" if radius == 0 else f",radius={float(radius)!r}"
     return f"{path}#line={int(line)}{tail}"
-
-
-def is_scen_line(name: str) -> bool:
-    """Whether ``name`` has the form ``<file>.scen#line=N[,radius=R]``."""
-    return _NAME.match(name) is not None
-
-
-def _line_of(path: str | Path, problem: Problem) -> int:
-    m = re.search(r" line (\d+):", problem.description or "")
-    if m is None:
-        raise ProblemError(f"{path}: problem {problem.name!r} was not read from a .scen line")
-    return int(m.group(1))
 
 
 def scen_batch(path: str | Path, radius: float = 0.0) -> dict[int, Problem]:
@@ -74,12 +62,18 @@ def scen_batch(path: str | Path, radius: float = 0.0) -> dict[int, Problem]:
     with _lock:  # one read per file: the threads of a process wait for it
         batch = _batches.get(key)
         if batch is None:
-            batch = {_line_of(path, q): q for q in read_scen(path, radius=radius)}
+            batch = {_line(q): q for q in read_scen(path, radius=radius)}
             _batches[key] = batch
             while len(_batches) > MAX_FILES:
                 _batches.popitem(last=False)
         _batches.move_to_end(key)
     return batch
+
+
+def _line(problem: Problem) -> int:
+    where = scen_line_of(problem)
+    assert where is not None  # read_scen names every line in the description
+    return where[1]
 
 
 def read_scen_line(name: str) -> Problem:
