@@ -75,6 +75,7 @@ KERNEL_MODULES = (
     "optplan.geometry.collision.kernel",
     "optplan.geometry.collision.nearest_kernel",
     "optplan.geometry.collision.pairs_kernel",
+    "optplan.geometry.collision.arc_kernel",
     "optplan.geometry.tangent.triangular_expansion",
     "optplan.geometry.tangent.chain_search",
     "optplan.swarm.operators",

@@ -4,27 +4,23 @@ A shortest path of a disc robot of radius ``r`` touches the grown obstacles only
 radius ``r`` around every *convex* vertex of a polygon ring (holes included), with its *normal
 cone* (the directions between the outward normals of the two edges), and radius ``R + r``
 around every circle obstacle (all directions).  :func:`circles_of` lists them;
-:class:`ArcChecker` decides exactly whether an arc along one keeps ``r`` from the items near
-its circle (arc-to-segment and arc-to-circle distances in closed form).  The search that uses
+:class:`ArcChecker` decides exactly whether an arc along one keeps ``r`` from the obstacles (the
+compiled test of :mod:`optplan.geometry.collision.arc_kernel`: arc-to-segment and
+arc-to-circle distances in closed form).  The search that uses
 them is :mod:`optplan.geometry.tangent.tangent_graph`.
 """
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
-import shapely
 
-from optplan.geometry.collision import ObstacleSet, corner_partners, solid_edges, solid_rings
+from optplan.geometry.collision import ObstacleSet, corner_partners, solid_rings
+from optplan.geometry.collision.arc_kernel import ANGLE_TOL, TWO_PI, arcs_free
 
 __all__ = ["TWO_PI", "ANGLE_TOL", "Circles", "circles_of", "ArcChecker"]
 
-TWO_PI = 2.0 * math.pi
-#: Angular slack (rad) of the normal-cone tests (tangents along an offset edge sit on the
-#: cone's boundary up to round-off).
-ANGLE_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -116,113 +112,20 @@ def circles_of(oset: ObstacleSet) -> Circles:
                    np.concatenate([np.zeros(len(v), bool), np.ones(len(cc), bool)]))
 
 
-# --------------------------------------------------------------------------------------
-# exact arc tests
-# --------------------------------------------------------------------------------------
-
-
-def _in_arc(phi, start, sweep):
-    """Angle ``phi`` within the CCW arc ``start .. start + sweep``."""
-    return np.mod(phi - start, TWO_PI) <= sweep + ANGLE_TOL
-
-
-def _point_arc_dist(q, c, rho, start, sweep):
-    """Distance from points ``q`` to CCW arcs (broadcasting complex arrays)."""
-    v = q - c
-    inarc = _in_arc(np.angle(v), start, sweep)
-    p0 = c + rho * np.exp(1j * start)
-    p1 = c + rho * np.exp(1j * (start + sweep))
-    return np.where(inarc, np.abs(np.abs(v) - rho), np.minimum(np.abs(q - p0), np.abs(q - p1)))
-
-
-def _point_seg_dist(q, P, E):
-    """Distance from ``q`` to segments ``P -> P + E``."""
-    ee = (E * E.conj()).real
-    t = np.clip(((q - P) * E.conj()).real / np.maximum(ee, 1e-300), 0.0, 1.0)
-    return np.abs(q - (P + t * E))
-
-
-def _arc_seg_dist(c, rho, start, sweep, P, E):
-    """Exact distance between CCW arcs and segments ``P -> P + E`` (broadcast).
-
-    The minimum is attained at an arc end, a segment end, an intersection, or the arc point
-    whose radius is normal to the segment (foot inside the segment).
-    """
-    p0 = c + rho * np.exp(1j * start)
-    p1 = c + rho * np.exp(1j * (start + sweep))
-    d = np.minimum(_point_seg_dist(p0, P, E), _point_seg_dist(p1, P, E))
-    d = np.minimum(d, _point_arc_dist(P, c, rho, start, sweep))
-    d = np.minimum(d, _point_arc_dist(P + E, c, rho, start, sweep))
-    L = np.abs(E)
-    u = E / np.maximum(L, 1e-300)
-    # arc points with radius normal to the segment: c +- rho * i u
-    for sgn in (1.0, -1.0):
-        x = c + sgn * rho * 1j * u
-        t = ((x - P) * u.conj()).real
-        ok = (t >= 0) & (t <= L) & _in_arc(np.angle(sgn * 1j * u), start, sweep)
-        d = np.where(ok, np.minimum(d, np.abs(((x - P) * u.conj()).imag)), d)
-    # intersections of the circle with the segment's line
-    w = P - c
-    b = (w * u.conj()).real
-    h2 = b * b - (np.abs(w) ** 2 - rho * rho)
-    sq = np.sqrt(np.maximum(h2, 0.0))
-    for t in (-b - sq, -b + sq):
-        x = P + t * u
-        ok = (h2 >= 0) & (t >= 0) & (t <= L) & _in_arc(np.angle(x - c), start, sweep)
-        d = np.where(ok, 0.0, d)
-    return d
-
-
-#: Arcs :meth:`ArcChecker.free_many` tests in one batch (bounds its temporary memory).
-ARC_BATCH = 1 << 15
-
-
 @dataclass
 class ArcChecker:
     """Exact arc-free tests: does an arc along a circle keep ``r`` from every obstacle?
 
-    Every arc the searches test starts at a free point (the end of a free tangent, or a
-    query's start), so it comes within ``r`` of a solid only where it comes within ``r`` of
-    the solid's *boundary* (to get inside, it crosses it): an arc is tested against the
-    boundary edges of the polygon solids (:func:`~optplan.geometry.collision.solid_edges`,
-    the internal diagonals of the convex tiling left out) and the circle obstacles, in
-    closed form (:func:`_arc_seg_dist`, :func:`_point_arc_dist`).  Only those that may come
-    near the arc are tested: the arc lies within ``b = 2 rho sin(sweep / 4)`` of its
-    midpoint ``m``, so an edge (circle) farther than ``b + r`` from ``m`` cannot block it.
-    The candidates come from one R-tree (``shapely.STRtree``, made once per obstacle set on
-    the first test) over the edges and the circles' bounding boxes: the edges within ``b + r``
-    of ``m`` (GEOS's segment distance; ``b + r`` carries a few ``eps`` of slack) and the
-    circles whose box is, kept when their exact distance from ``m`` is within ``b + r``.  The
-    cost per arc is that of the items near the arc, not of those near its circle: on a
-    polygon of 20,000 vertices round a circle, a few tens, not thousands (the chains phase of
-    ``benchmarks/bench_crowded.py``, where the arcs are tested).  Tested against every piece
-    edge and circle in ``tests/geometry/test_arc_checker.py``.
+    The compiled test of the obstacle set
+    (:func:`~optplan.geometry.collision.arc_kernel.arcs_free`: exact distances to the solids'
+    boundary edges and the circle obstacles near the arc, through the set's own screen), on
+    arcs given by their circle, start angle, sweep and sense.  Every arc the searches test
+    starts at a free point (the end of a free tangent, or a query's start), as that test
+    requires.
     """
 
     oset: ObstacleSet
     circles: Circles
-    cache: dict = field(default_factory=dict)
-
-    def _index(self) -> dict:
-        """One R-tree (``shapely.STRtree``) over the boundary edges, then the circle
-        obstacles' bounding boxes (grown by ``eps``: each holds its disc), with their
-        arrays."""
-        ix = self.cache.get("index")
-        if ix is None:
-            S = self.oset
-            seg = solid_edges(S)
-            cc, cr = S.item_center[S.n_pieces:], S.circle_radius
-            h = cr + S.eps
-            items = np.concatenate([shapely.linestrings(seg.reshape(-1, 2, 2)) if len(seg) else
-                                    np.zeros(0, object),
-                                    shapely.box(cc.real - h, cc.imag - h, cc.real + h,
-                                                cc.imag + h)])
-            ix = {"P": seg[:, 0] + 1j * seg[:, 1],
-                  "E": (seg[:, 2] - seg[:, 0]) + 1j * (seg[:, 3] - seg[:, 1]),
-                  "n_edges": len(seg), "cc": cc, "cr": cr,
-                  "tree": shapely.STRtree(items) if len(items) else None}
-            self.cache["index"] = ix
-        return ix
 
     def free(self, i: int, theta0: np.ndarray, sweep: np.ndarray, sense: int) -> np.ndarray:
         """Arcs on circle ``i`` from angles ``theta0`` over ``sweep >= 0`` in ``sense``: free."""
@@ -236,41 +139,8 @@ class ArcChecker:
         """Arcs on circles ``idx`` from angles ``theta0`` over ``sweep >= 0`` in ``sense``
         (``+1`` CCW, ``-1`` CW), per arc: free.  Arcs on circles of radius 0 are free."""
         idx = np.atleast_1d(np.asarray(idx, np.int64))
-        out = np.ones(len(idx), bool)
         sweep = np.atleast_1d(np.asarray(sweep, float))
         theta0 = np.atleast_1d(np.asarray(theta0, float))
-        sense = np.atleast_1d(np.asarray(sense))
-        todo = np.flatnonzero(self.circles.rho[idx] > 0)
-        for q in range(0, len(todo), ARC_BATCH):
-            k = todo[q:q + ARC_BATCH]
-            start = np.where(sense[k] > 0, theta0[k], theta0[k] - sweep[k])
-            out[k] = ~self._blocked(self.circles.center[idx[k]], self.circles.rho[idx[k]],
-                                    start, sweep[k])
-        return out
-
-    def _blocked(self, c: np.ndarray, rho: np.ndarray, start: np.ndarray,
-                 sweep: np.ndarray) -> np.ndarray:
-        """CCW arcs (centres ``c``, radii ``rho``, from ``start`` over ``sweep``) that come
-        closer than ``r - eps`` to a boundary edge or a circle obstacle."""
-        S, ix = self.oset, self._index()
-        lim = S.radius - S.eps
-        m = c + rho * np.exp(1j * (start + 0.5 * sweep))
-        reach = 2.0 * rho * np.sin(0.25 * np.minimum(sweep, TWO_PI)) + lim + 4.0 * S.eps
-        out = np.zeros(len(c), bool)
-        if ix["tree"] is None:
-            return out
-        a, e = ix["tree"].query(shapely.points(m.real, m.imag), predicate="dwithin",
-                                distance=reach)
-        edge = e < ix["n_edges"]
-        ae, ee = a[edge], e[edge]
-        d = _arc_seg_dist(c[ae], rho[ae], start[ae], sweep[ae], ix["P"][ee], ix["E"][ee])
-        out[ae[d < lim]] = True
-        if not edge.all():  # circles whose box comes within reach: their exact distance
-            ac, b = a[~edge], e[~edge] - ix["n_edges"]
-            cc, cr = ix["cc"][b], ix["cr"][b]
-            near = np.abs(m[ac] - cc) - cr <= reach[ac]
-            ac, cc, cr = ac[near], cc[near], cr[near]
-            d = _point_arc_dist(cc, c[ac], rho[ac], start[ac], sweep[ac]) - cr
-            out[ac[d < lim]] = True
-        return out
-
+        start = np.where(np.atleast_1d(np.asarray(sense)) > 0, theta0, theta0 - sweep)
+        C = self.circles
+        return arcs_free(self.oset, C.center[idx], C.rho[idx], start, sweep)
