@@ -50,6 +50,8 @@ def _valid_polygonal(g) -> object | None:
     """``g`` as a valid Polygon or MultiPolygon of its areal parts, or None when empty."""
     if not g.is_valid:
         g = shapely.make_valid(g)
+    elif isinstance(g, Polygon):  # already what is asked for, when it has an area
+        return g if g.area > 0 else None
     polys = [q for q in shapely.get_parts(g) if isinstance(q, Polygon) and q.area > 0]
     if not polys:
         return None
@@ -67,7 +69,8 @@ def _union(geoms: list, before: list[list[int]], eps: float) -> object | None:
     snapped: list = []
     for k, g in enumerate(geoms):
         if before[k]:
-            ref = shapely.union_all([snapped[j] for j in before[k]])
+            near = [snapped[j] for j in before[k]]
+            ref = near[0] if len(near) == 1 else shapely.union_all(near)
             s = _valid_polygonal(shapely.snap(g, ref, eps))
             g = g if s is None else s
         snapped.append(g)
