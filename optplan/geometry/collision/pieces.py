@@ -1,20 +1,67 @@
-"""The one convex decomposition of optplan: polygons (holes allowed) into convex pieces.
+r"""The one convex decomposition of optplan: polygons (holes allowed) into convex pieces.
 
 :func:`convex_decompose` gives few, large convex pieces (the NLP's separating-hyperplane
 constraints use them); :func:`convex_pieces` fan-splits those into pieces of at most
 ``max_edges`` vertices with boundary flags (the collision engine's fixed-width edge tables).
 
-Decomposition: a convex polygon without holes is one piece.  Otherwise the polygon is
-triangulated by ``shapely.constrained_delaunay_triangles`` (its triangles use the polygon's own
-vertices) and triangles are merged greedily across shared edges while the merged ring stays
-convex (Hertel & Mehlhorn 1983: at most 4x the minimum number of convex pieces).  Every
-convexity and collinearity test is relative (``|sin angle| <= 1e-12``), never in absolute
-coordinates.
+Decomposition
+    A convex polygon without holes is one piece.  Otherwise the polygon is triangulated by
+    ``shapely.constrained_delaunay_triangles`` and triangles are merged greedily across shared
+    edges while the merged ring stays convex (Hertel & Mehlhorn 1983: at most 4x the minimum
+    number of convex pieces).  Every convexity and collinearity test is relative
+    (``|sin angle| <= 1e-12``), never in absolute coordinates.  :func:`convex_decompose` then
+    drops the collinear vertices of each piece.
+
+Why the triangulation decides the boundary flags exactly
+    GEOS triangulates the polygon by ear clipping (an ear is accepted only when its corner
+    turns strictly and no other vertex lies inside or on it) and then flips diagonals of
+    strictly convex quadrilaterals.  So its triangles use the polygon's own vertices (the same
+    doubles), have disjoint interiors, tile the polygon and have *no vertex in the relative
+    interior of an edge*: where a hole vertex touches a shell edge, that edge is split at the
+    vertex.  Orient every triangle counter-clockwise and look at a directed edge ``(u, w)``
+    of one:
+
+    * if another triangle has the reversed edge ``(w, u)`` (a *twin*), the two triangles
+      cover both sides of the segment, which is interior to the polygon;
+    * if none does, the other side is outside near every point of the segment: a triangle
+      covering it would have an edge along the segment, and with no vertex inside an edge
+      that edge would be ``(w, u)``.  The segment lies on the boundary.
+
+    Merging two pieces removes a twin pair and keeps every other edge, so an edge of a merged
+    piece is an edge of a triangle and its flag is "no twin", exactly, without a tolerance
+    and without coordinates.  The collinear vertices of a merged piece are kept (every vertex
+    is a polygon vertex, so each edge between two of them is wholly boundary or wholly
+    interior); a piece with such a straight vertex is split around its vertex centroid
+    (:func:`_centre_fan`), a fan from a vertex would give pieces without area.
+
+Orientation and zero-area triangles
+    A triangle's orientation is the sign of its orientation determinant, computed in floating
+    point and, where Shewchuk's error bound cannot vouch for the sign, exactly in rationals
+    (:func:`_orientation`), so a triangle has area exactly when the sign is not 0.  GEOS does
+    not produce zero-area ("flat") triangles (the ear clipper rejects flat corners, the flips
+    need strictly convex quadrilaterals); should one come, it covers nothing but glues the
+    triangles on either side of its segment: its long edge is the union of its short edges.
+    Flat triangles sharing an edge lie on one line; per such cluster, every edge of a
+    triangle with area that is an edge of the cluster is split at the cluster's vertices
+    strictly inside it (ordered along the line lexicographically, exact for collinear
+    points), then the flat triangles are dropped (:func:`_refine`).  Both sides of a
+    cluster's segment are then cut at the same points, so the twin rule holds again: an
+    edge with a twin is interior, one without lies on the boundary (the flat triangle's long
+    edge without a neighbour leaves its short edges' neighbours without twins: boundary).
+
+Pieces of at most ``max_edges`` vertices
+    A merged piece without straight vertices is fan-split from its first vertex
+    (:func:`_fan`), one with straight vertices around its centroid, starting from the first
+    vertex :func:`clean_ring` keeps.  A merged piece all of whose vertices are straight (a
+    sliver within the tolerance of a segment, e.g. between a shell edge and a hole vertex
+    ``1e-13`` of the size away from it) is kept whole when it has at most ``max_edges``
+    vertices (its triangles have area, so it tiles exactly) and centre-split otherwise.
 """
 
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import shapely
@@ -24,6 +71,8 @@ __all__ = ["convex_decompose", "convex_pieces", "convex_pieces_many", "clean_rin
 
 #: Relative tolerance of the collinearity / convexity tests (sine of the turning angle).
 SIN_TOL = 1e-12
+
+Ring = list[tuple[float, float]]
 
 
 def _turns(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -46,22 +95,25 @@ def _convex_rows(q: np.ndarray) -> np.ndarray:
 
 def clean_ring(v: np.ndarray) -> np.ndarray:
     """Drop repeated and collinear vertices of a ring (no closing repeat)."""
-    return _clean(v)[0]
-
-
-def _clean(v: np.ndarray) -> tuple[np.ndarray, bool | None]:
-    """:func:`clean_ring` of ``v`` and, from the turns it computed last, :func:`is_convex` of
-    the result (None when it has fewer than 3 vertices or no pass found it clean)."""
     v = np.asarray(v, dtype=float)
+    return v[_kept(v)[0]]
+
+
+def _kept(v: np.ndarray) -> tuple[np.ndarray, bool | None]:
+    """The indices of the vertices of the ring ``v`` that :func:`clean_ring` keeps (it drops
+    the collinear ones and repeats until none is left) and, from the turns it computed last,
+    :func:`is_convex` of the result (None when it has fewer than 3 vertices or no pass found
+    it clean)."""
+    idx = np.arange(len(v))
     for _ in range(len(v)):
-        if len(v) < 3:
-            return v, None
-        cr, sc = _turns(v)
+        if len(idx) < 3:
+            return idx, None
+        cr, sc = _turns(v[idx])
         keep = np.abs(cr) > SIN_TOL * sc
         if keep.all():
-            return v, bool(np.all(cr >= -SIN_TOL * sc))
-        v = v[keep]
-    return v, None
+            return idx, bool(np.all(cr >= -SIN_TOL * sc))
+        idx = idx[keep]
+    return idx, None
 
 
 def is_convex(v: np.ndarray) -> bool:
@@ -77,11 +129,25 @@ def _turn_ok(a: tuple[float, float], b: tuple[float, float], c: tuple[float, flo
     return ux * vy - uy * vx >= -SIN_TOL * math.hypot(ux, uy) * math.hypot(vx, vy)
 
 
-def _convex_list(r: list[tuple[float, float]]) -> bool:
+def _convex_list(r: Ring) -> bool:
     """:func:`is_convex` for a short ring given as a list (plain Python: the merge loop tests
     many rings of 3-8 vertices, where array overhead would dominate)."""
     n = len(r)
     return all(_turn_ok(r[i - 1], r[i], r[(i + 1) % n]) for i in range(n))
+
+
+def _clean_list(r: Ring) -> bool:
+    """:func:`clean_ring` would keep every vertex of the short ring ``r``: each turn's cross
+    product (the same arithmetic) beats the collinearity threshold with a margin of ``1e-9``
+    relative (``math.hypot`` and numpy's may differ in the last bits)."""
+    n = len(r)
+    for i in range(n):
+        a, b, c = r[i - 1], r[i], r[(i + 1) % n]
+        ux, uy, vx, vy = b[0] - a[0], b[1] - a[1], c[0] - b[0], c[1] - b[1]
+        lim = SIN_TOL * (1.0 + 1e-9) * math.hypot(ux, uy) * math.hypot(vx, vy)
+        if not abs(ux * vy - uy * vx) > lim:
+            return False
+    return n >= 3
 
 
 def _rings_convex(rings: dict[int, list[tuple[float, float]]]) -> dict[int, bool]:
@@ -99,9 +165,79 @@ def _rings_convex(rings: dict[int, list[tuple[float, float]]]) -> dict[int, bool
     return ok
 
 
-def _merge_convex(rings: dict[int, list[tuple[float, float]]]) -> list[np.ndarray]:
+def _orientation(xy: np.ndarray) -> np.ndarray:
+    """The exact sign (1 counter-clockwise, -1 clockwise, 0 collinear) of each triangle
+    ``xy[k]`` (``(m, 3, 2)``): the floating-point determinant where its magnitude beats the
+    error bound (Shewchuk 1997: ``3.3e-16`` times the sum of the products' magnitudes; here
+    ``1e-15``), else the determinant of the doubles in rationals."""
+    d = xy[:, :2] - xy[:, 2:]  # a - c, b - c
+    left, right = d[:, 0, 0] * d[:, 1, 1], d[:, 0, 1] * d[:, 1, 0]
+    det = left - right
+    sign = np.sign(det)
+    for k in np.flatnonzero(np.abs(det) <= 1e-15 * (np.abs(left) + np.abs(right))).tolist():
+        (ax, ay), (bx, by), (cx, cy) = (tuple(map(Fraction, p)) for p in xy[k].tolist())
+        e = (ax - cx) * (by - cy) - (ay - cy) * (bx - cx)
+        sign[k] = (e > 0) - (e < 0)
+    return sign
+
+
+def _triangles(poly) -> dict[int, Ring]:
+    """The constrained Delaunay triangles of ``poly`` with area, counter-clockwise, as vertex
+    lists keyed by their index; zero-area triangles refined away (:func:`_refine`)."""
+    tris = shapely.get_parts(shapely.constrained_delaunay_triangles(poly))
+    if len(tris) == 0:
+        return {}
+    xy = shapely.get_coordinates(tris).reshape(len(tris), 4, 2)[:, :3]
+    sign = _orientation(xy)
+    cw = sign < 0
+    xy[cw] = xy[cw][:, [0, 2, 1]]  # the ring reversed
+    rings = {k: [tuple(p) for p in t] for k, (t, s) in enumerate(zip(xy.tolist(), sign.tolist()))
+             if s != 0}
+    if len(rings) < len(tris):
+        _refine(rings, [[tuple(p) for p in xy[k].tolist()] for k in np.flatnonzero(sign == 0)])
+    return rings
+
+
+def _refine(rings: dict[int, Ring], flats: list[Ring]) -> None:
+    """Split the edges of ``rings`` (triangles with area) that are edges of the zero-area
+    triangles ``flats`` at the vertices of the flats' line inside them (module docstring)."""
+    parent = list(range(len(flats)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            i = parent[i]
+        return i
+
+    seen: dict[tuple, int] = {}
+    for i, f in enumerate(flats):  # clusters: flats joined by an edge
+        for u, w in zip(f, f[1:] + f[:1]):
+            key = (min(u, w), max(u, w))
+            if key in seen:
+                parent[root(i)] = root(seen[key])
+            seen.setdefault(key, i)
+    owner = {(u, w): k for k, r in rings.items() for u, w in zip(r, r[1:] + r[:1])}
+    line: dict[int, set] = {}
+    for i, f in enumerate(flats):
+        line.setdefault(root(i), set()).update(f)
+    pts = {c: sorted(p) for c, p in line.items()}  # lexicographic: the order along the line
+    for (u, w), i in seen.items():  # u < w
+        inner = [p for p in pts[root(i)] if u < p < w]
+        for a, b, seq in ((u, w, inner), (w, u, inner[::-1])):
+            k = owner.pop((a, b), None) if inner else None
+            if k is None:
+                continue
+            r = rings[k]
+            j = r.index(a) + 1
+            r[j:j] = seq
+            for x, y in zip([a, *seq], [*seq, b]):
+                owner[(x, y)] = k
+
+
+def _merge(rings: dict[int, Ring]) -> dict[tuple, int]:
     """Hertel-Mehlhorn: one pass over the internal edges of a triangulation, removing an edge
     when the union of its two pieces stays convex (near-linear in the number of triangles).
+    Merges ``rings`` in place; returns the owner of each directed edge left, whose twin
+    ``(w, u)`` is there exactly when ``(u, w)`` is interior (module docstring).
 
     Merging two rings across their shared edge ``(u, w)`` changes the neighbours of ``u`` and
     ``w`` only, so the merged ring passes :func:`_convex_list` exactly when both rings did
@@ -114,28 +250,13 @@ def _merge_convex(rings: dict[int, list[tuple[float, float]]]) -> list[np.ndarra
     diagonals = [(u, w) for (u, w) in owner if (w, u) in owner and u < w]
     for u, w in diagonals:
         _merge_across(rings, owner, ok, u, w)
-    return [np.asarray(r) if _clean_list(r) else clean_ring(np.asarray(r))
-            for r in rings.values()]
+    return owner
 
 
-def _clean_list(r: list[tuple[float, float]]) -> bool:
-    """:func:`clean_ring` would keep every vertex of the short ring ``r``: each turn's cross
-    product (the same arithmetic) beats the collinearity threshold with a margin of ``1e-9``
-    relative (``math.hypot`` and numpy's may differ in the last bits)."""
-    n = len(r)
-    for i in range(n):
-        a, b, c = r[i - 1], r[i], r[(i + 1) % n]
-        ux, uy, vx, vy = b[0] - a[0], b[1] - a[1], c[0] - b[0], c[1] - b[1]
-        lim = SIN_TOL * (1.0 + 1e-9) * math.hypot(ux, uy) * math.hypot(vx, vy)
-        if not abs(ux * vy - uy * vx) > lim:
-            return False
-    return n >= 3
-
-
-def _merge_across(rings: dict[int, list[tuple[float, float]]], owner: dict[tuple, int],
-                  ok: dict[int, bool], u: tuple[float, float], w: tuple[float, float]) -> None:
+def _merge_across(rings: dict[int, Ring], owner: dict[tuple, int], ok: dict[int, bool],
+                  u: tuple[float, float], w: tuple[float, float]) -> None:
     """Merge the two rings on either side of the edge ``(u, w)`` when the union is convex
-    (:func:`_merge_convex`), updating ``rings`` and the edges' ``owner``."""
+    (:func:`_merge`), updating ``rings`` and the edges' ``owner``."""
     a, b = owner.get((u, w)), owner.get((w, u))
     if a is None or b is None or a == b or not (ok[a] and ok[b]):
         return
@@ -152,20 +273,6 @@ def _merge_across(rings: dict[int, list[tuple[float, float]]], owner: dict[tuple
     rings[a] = ra + rb[1:-1]
 
 
-def _triangles(poly) -> dict[int, list[tuple[float, float]]]:
-    """The constrained Delaunay triangles of ``poly`` with area, counter-clockwise, as
-    vertex lists keyed by their index (one vectorised pass: the per-triangle shapely calls
-    were most of a large map's import)."""
-    tris = shapely.get_parts(shapely.constrained_delaunay_triangles(poly))
-    if len(tris) == 0:
-        return {}
-    xy = shapely.get_coordinates(tris).reshape(len(tris), 4, 2)[:, :3]
-    cw = ~shapely.is_ccw(shapely.get_exterior_ring(tris))
-    xy[cw] = xy[cw][:, [0, 2, 1]]  # orient(t, 1.0): the ring reversed
-    keep = np.flatnonzero(shapely.area(tris) > 0)
-    return {int(k): [tuple(p) for p in xy[k].tolist()] for k in keep}
-
-
 def convex_decompose(geom) -> list[np.ndarray]:
     """Convex pieces (CCW vertex arrays ``(m, 2)``, collinear vertices removed) tiling ``geom``
     (a shapely Polygon or MultiPolygon, holes allowed); see the module docstring."""
@@ -178,99 +285,11 @@ def convex_decompose(geom) -> list[np.ndarray]:
         if not poly.interiors and is_convex(ring):
             out.append(clean_ring(ring))
             continue
-        out.extend(_merge_convex(_triangles(poly)))
+        rings = _triangles(poly)
+        _merge(rings)
+        out.extend(np.asarray(r) if _clean_list(r) else clean_ring(np.asarray(r))
+                   for r in rings.values())
     return [v for v in out if len(v) >= 3]
-
-
-def _ring_segments(poly) -> np.ndarray:
-    """The edges ``(m, 2, 2)`` of the rings of ``poly`` (exterior, then holes)."""
-    segs = [np.stack([xy[:-1], xy[1:]], axis=1) for xy in
-            (shapely.get_coordinates(r) for r in (poly.exterior, *poly.interiors))]
-    return np.concatenate(segs) if segs else np.zeros((0, 2, 2))
-
-
-def _pairs_within(tree_geoms, tree_owner: np.ndarray, query_geoms, query_owner: np.ndarray,
-                  tol: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(query, tree) index pairs within ``tol[query]`` of each other and of one polygon (one
-    STRtree for every polygon of a batch; each polygon's own tolerance)."""
-    q, k = shapely.STRtree(tree_geoms).query(query_geoms, predicate="dwithin", distance=tol)
-    same = query_owner[q] == tree_owner[k]
-    return q[same], k[same]
-
-
-def _boundary_flags(batch: list[tuple], mids: list[np.ndarray]) -> list[np.ndarray]:
-    """Per polygon of ``batch`` (``(poly, parts, tol)``), per point of its ``mids``: within
-    ``tol`` of the polygon's boundary."""
-    segs = [_ring_segments(poly) for poly, _, _ in batch]
-    sown = np.repeat(np.arange(len(batch)), [len(x) for x in segs])
-    mown = np.repeat(np.arange(len(batch)), [len(m) for m in mids])
-    tol = np.array([t for _, _, t in batch])[mown]
-    allm = np.concatenate(mids)
-    q, _ = _pairs_within(shapely.linestrings(np.concatenate(segs)), sown,
-                         shapely.points(allm), mown, tol)
-    on = np.zeros(len(allm), bool)
-    on[q] = True
-    return np.split(on, np.cumsum([len(m) for m in mids])[:-1])
-
-
-def _insert_boundary_vertices(batch: list[tuple]) -> list[tuple[list[np.ndarray], list[bool]]]:
-    """Re-insert each polygon's vertices that lie inside an edge of one of its parts
-    (``batch``: ``(poly, parts, tol)`` per polygon).
-
-    :func:`convex_decompose` drops collinear vertices, so an edge of a part may run along the
-    boundary and then on into the interior (a T-junction where a wall ends in line with a
-    diagonal).  Splitting every part edge at the polygon vertices on it makes each sub-edge
-    either part of the boundary or interior, so its boundary flag is exact.  Returns, per
-    polygon, the parts and, per part, whether a vertex was inserted.
-    """
-    verts = [np.concatenate([np.asarray(r.coords)[:-1] for r in (poly.exterior, *poly.interiors)])
-             for poly, _, _ in batch]
-    vown = np.repeat(np.arange(len(batch)), [len(v) for v in verts])
-    allv = np.concatenate(verts)
-    starts = np.concatenate([v for _, parts, _ in batch for v in parts])
-    ends = np.concatenate([np.concatenate((v[1:], v[:1])) for _, parts, _ in batch
-                           for v in parts])
-    eown = np.repeat(np.arange(len(batch)), [sum(len(v) for v in parts) for _, parts, _ in batch])
-    tol = np.array([t for _, _, t in batch])[eown]
-    e_idx, v_idx = _pairs_within(shapely.points(allv), vown,
-                                 shapely.linestrings(np.stack([starts, ends], axis=1)), eown,
-                                 tol)
-    d = ends[e_idx] - starts[e_idx]
-    t = np.einsum("ij,ij->i", allv[v_idx] - starts[e_idx], d) / np.einsum("ij,ij->i", d, d)
-    inner = (t > 1e-9) & (t < 1 - 1e-9)  # not the edge's own end points
-    extra: dict[int, list[tuple[float, int]]] = {}
-    for e, vi, tt in zip(e_idx[inner], v_idx[inner], t[inner]):
-        extra.setdefault(int(e), []).append((float(tt), int(vi)))
-    res, base = [], 0
-    for _, parts, _ in batch:
-        res.append(_with_inserted(parts, extra, base, allv))
-        base += sum(len(v) for v in parts)
-    return res
-
-
-def _with_inserted(parts: list[np.ndarray], extra: dict[int, list[tuple[float, int]]],
-                   base: int, verts: np.ndarray) -> tuple[list[np.ndarray], list[bool]]:
-    """The ``parts`` (their edges numbered from ``base``) with the vertices ``extra`` lists
-    for their edges inserted, and per part whether it changed."""
-    out, changed = [], []
-    for v in parts:
-        if not any(base + j in extra for j in range(len(v))):  # no vertex to insert
-            base += len(v)
-            changed.append(False)
-            out.append(v)
-            continue
-        ring = []
-        for j in range(len(v)):
-            ring.append(v[j])
-            for _, vi in sorted(extra.get(base + j, [])):
-                # a pinch vertex is listed once per ring through it: insert it once (a
-                # repeated vertex is an edge of length 0, without a normal)
-                if verts[vi][0] != ring[-1][0] or verts[vi][1] != ring[-1][1]:
-                    ring.append(verts[vi])
-        base += len(v)
-        changed.append(True)
-        out.append(np.asarray(ring))
-    return out, changed
 
 
 def _fan(v: np.ndarray, flags: np.ndarray, max_edges: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -315,8 +334,30 @@ def _centre_fan(v: np.ndarray, flags: np.ndarray, max_edges: int
     return out
 
 
+def _flagged_pieces(poly, max_edges: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The pieces of one polygon by its triangulation: merged (:func:`_merge`), each edge
+    flagged by the twin rule, split by :func:`_fan` or :func:`_centre_fan` (module
+    docstring)."""
+    rings = _triangles(poly)
+    owner = _merge(rings)
+    out: list[tuple[np.ndarray, np.ndarray]] = []
+    for r in rings.values():
+        v = np.asarray(r)
+        fl = np.array([(w, u) not in owner for u, w in zip(r, r[1:] + r[:1])])
+        if _clean_list(r):
+            out.extend(_fan(v, fl, max_edges))
+            continue
+        idx = _kept(v)[0]
+        if len(idx) == len(v) or (len(idx) < 3 and len(v) <= max_edges):
+            out.extend(_fan(v, fl, max_edges))
+            continue
+        s = int(idx[0]) if len(idx) >= 3 else 0  # where the cleaned ring starts
+        out.extend(_centre_fan(np.roll(v, -s, axis=0), np.roll(fl, -s), max_edges))
+    return out
+
+
 def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Pieces of :func:`convex_decompose` fan-split to at most ``max_edges`` vertices.
+    """Pieces of the convex decomposition fan-split to at most ``max_edges`` vertices.
 
     Returns
     -------
@@ -324,20 +365,19 @@ def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray
         ``vertices``: CCW ``(k, 2)``, ``3 <= k <= max_edges``; ``boundary``: ``(k,)`` bool, True
         where edge ``v[i] -> v[i+1]`` lies on the polygon's boundary (False for the internal
         diagonals of the decomposition and of the fan).  Every edge is either on the boundary
-        or interior: a part edge that runs on from the boundary into the interior is split at
-        the polygon vertex where it leaves it.
+        or interior (module docstring): the pieces keep the polygon vertices that lie on their
+        sides.
     """
     return convex_pieces_many([geom], max_edges)[0]
 
 
 def convex_pieces_many(geoms: list, max_edges: int = 4
                        ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
-    """:func:`convex_pieces` of each of ``geoms``, the boundary queries of all of them in one
-    STRtree each (a map has thousands of solids)."""
+    """:func:`convex_pieces` of each of ``geoms`` (a map has thousands of solids: the convex
+    ones without holes are tested at once)."""
     if max_edges < 3:
         raise ValueError(f"max_edges must be >= 3, got {max_edges}")
-    chunks: list[list] = [[] for _ in geoms]  # per geom: piece lists or batch indices
-    batch: list[tuple] = []  # (poly, parts, tol) of the polygons that need the queries
+    out: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in geoms]
     polys, owner = shapely.get_parts(np.array(geoms, dtype=object), return_index=True)
     keep = ~shapely.is_empty(polys) & (shapely.area(polys) > 0)
     polys, owner = polys[keep], owner[keep]
@@ -345,16 +385,8 @@ def convex_pieces_many(geoms: list, max_edges: int = 4
     fans = iter(_convex_fans(polys[plain], max_edges))
     for poly, gi, pl in zip(polys, owner.tolist(), plain.tolist()):
         one = next(fans) if pl else None
-        if one is not None:
-            chunks[gi].append(one)
-            continue
-        parts = convex_decompose(poly)
-        if parts:
-            x0, y0, x1, y1 = poly.bounds
-            batch.append((poly, parts, 1e-9 * max(x1 - x0, y1 - y0)))
-            chunks[gi].append(len(batch) - 1)
-    done = _split_and_flag(batch, max_edges) if batch else []
-    return [[p for c in ch for p in (done[c] if isinstance(c, int) else c)] for ch in chunks]
+        out[gi].extend(one if one is not None else _flagged_pieces(poly, max_edges))
+    return out
 
 
 def _convex_fans(polys: np.ndarray, max_edges: int
@@ -362,7 +394,7 @@ def _convex_fans(polys: np.ndarray, max_edges: int
     """Per polygon without holes: the fan of its ring (counter-clockwise, cleaned) when it is
     convex (its own single piece), else None.  The rings of one length are turned at once
     (:func:`_turns` on ``(m, k, 2)``, the same arithmetic); a ring with a vertex to drop goes
-    through :func:`_clean`."""
+    through :func:`_kept`."""
     ext = shapely.get_exterior_ring(polys)
     xy, ring = shapely.get_coordinates(ext, return_index=True)
     size = np.bincount(ring, minlength=len(polys)) - 1  # without the closing repeat
@@ -380,26 +412,13 @@ def _convex_fans(polys: np.ndarray, max_edges: int
         else:
             clean = convex = [False] * len(rows)
         for j, row in enumerate(rows.tolist()):
-            v, cv = (R[j], convex[j]) if clean[j] else _clean(R[j])
+            if clean[j]:
+                v, cv = R[j], convex[j]
+            else:
+                idx, cv = _kept(R[j])
+                v = R[j][idx]
             if cv is None:
                 cv = len(v) >= 3 and is_convex(v)
             if cv:
                 out[row] = _fan(v, np.ones(len(v), bool), max_edges)
     return out
-
-
-def _split_and_flag(batch: list[tuple], max_edges: int
-                    ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
-    """The pieces of each ``(poly, parts, tol)``: boundary vertices inserted, edges flagged
-    (one vectorised distance query for the edge midpoints of every part), fan-split."""
-    split = _insert_boundary_vertices(batch)
-    mids = [np.concatenate([0.5 * (v + np.concatenate((v[1:], v[:1]))) for v in parts])
-            for parts, _ in split]
-    flags = _boundary_flags([(poly, parts, tol) for (poly, _, tol), (parts, _) in
-                             zip(batch, split)], mids)
-    done = []
-    for (parts, changed), on in zip(split, flags):
-        fl = np.split(on, np.cumsum([len(v) for v in parts])[:-1])
-        done.append([p for v, f, ch in zip(parts, fl, changed)
-                     for p in (_centre_fan(v, f, max_edges) if ch else _fan(v, f, max_edges))])
-    return done
