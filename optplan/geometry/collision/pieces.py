@@ -60,6 +60,7 @@ Pieces of at most ``max_edges`` vertices
 
 from __future__ import annotations
 
+import functools
 import math
 from fractions import Fraction
 
@@ -75,11 +76,16 @@ SIN_TOL = 1e-12
 Ring = list[tuple[float, float]]
 
 
+@functools.lru_cache(maxsize=64)
+def _ring_index(k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The next and previous vertex indices of a ring of ``k`` vertices."""
+    return (np.arange(k) + 1) % k, (np.arange(k) - 1) % k
+
+
 def _turns(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Cross products of consecutive edges at each vertex of a ring ``(k, 2)`` (or of each
     ring of ``(m, k, 2)``), and the products of their lengths."""
-    k = v.shape[-2]
-    nxt, prv = (np.arange(k) + 1) % k, (np.arange(k) - 1) % k
+    nxt, prv = _ring_index(v.shape[-2])
     e = v[..., nxt, :] - v  # edge i: v[i] -> v[i+1]
     a = e[..., prv, :]  # incoming edge at vertex i
     cr = a[..., 0] * e[..., 1] - a[..., 1] * e[..., 0]
