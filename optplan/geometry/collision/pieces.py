@@ -156,21 +156,6 @@ def _clean_list(r: Ring) -> bool:
     return n >= 3
 
 
-def _rings_convex(rings: dict[int, list[tuple[float, float]]]) -> dict[int, bool]:
-    """:func:`_convex_list` of each of many small rings: the cross products at once (the
-    same arithmetic), :func:`_turn_ok` only where one is negative (``>= 0`` passes whatever
-    the lengths)."""
-    ok = {}
-    by_len: dict[int, list[int]] = {}
-    for k, r in rings.items():
-        by_len.setdefault(len(r), []).append(k)
-    for ks in by_len.values():
-        neg = np.any(_turns(np.array([rings[k] for k in ks]))[0] < 0, axis=1)
-        for k, bad in zip(ks, np.asarray(neg).tolist()):
-            ok[k] = not bad or _convex_list(rings[k])
-    return ok
-
-
 def _orientation(xy: np.ndarray) -> np.ndarray:
     """The exact sign (1 counter-clockwise, -1 clockwise, 0 collinear) of each triangle
     ``xy[k]`` (``(m, 3, 2)``): the floating-point determinant where its magnitude beats the
@@ -252,7 +237,10 @@ def _merge(rings: dict[int, Ring]) -> dict[tuple, int]:
     for k, r in rings.items():
         for u, w in zip(r, r[1:] + r[:1]):
             owner[(u, w)] = k
-    ok = _rings_convex(rings)
+    # a triangle with area passes :func:`_convex_list` (its cross products are at least its
+    # doubled area minus a few ulps of ``|u| |v|``, far above ``-SIN_TOL |u| |v|``); only a
+    # ring refined by :func:`_refine` is tested
+    ok = {k: len(r) == 3 or _convex_list(r) for k, r in rings.items()}
     diagonals = [(u, w) for (u, w) in owner if (w, u) in owner and u < w]
     for u, w in diagonals:
         _merge_across(rings, owner, ok, u, w)
