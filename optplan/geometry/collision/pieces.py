@@ -288,6 +288,8 @@ def convex_decompose(geom) -> list[np.ndarray]:
 
 def _fan(v: np.ndarray, flags: np.ndarray, max_edges: int) -> list[tuple[np.ndarray, np.ndarray]]:
     """Fan-split a convex ring from its first vertex into pieces of at most ``max_edges``."""
+    if 3 <= len(v) <= max_edges:  # the ring itself (what the loop below gives, without its work)
+        return [(np.array(v, dtype=float), np.array(flags, dtype=bool))]
     out = []
     i = 1
     while i < len(v) - 1:  # fan: (v0, v_i, ..., v_j)
