@@ -388,33 +388,44 @@ def convex_pieces_many(geoms: list, max_edges: int = 4
 def _convex_fans(polys: np.ndarray, max_edges: int
                  ) -> list[list[tuple[np.ndarray, np.ndarray]] | None]:
     """Per polygon without holes: the fan of its ring (counter-clockwise, cleaned) when it is
-    convex (its own single piece), else None.  The rings of one length are turned at once
-    (:func:`_turns` on ``(m, k, 2)``, the same arithmetic); a ring with a vertex to drop goes
-    through :func:`_kept`."""
+    convex (its own single piece), else None.
+
+    The turns of every ring are computed at once, :func:`_turns`'s arithmetic on the
+    concatenated coordinates (each ring's closing repeat ends its last edge); a clockwise
+    ring's turns are those of the reversed ring negated, exactly.  A ring with a vertex to
+    drop goes through :func:`_kept`.
+    """
     ext = shapely.get_exterior_ring(polys)
     xy, ring = shapely.get_coordinates(ext, return_index=True)
-    size = np.bincount(ring, minlength=len(polys)) - 1  # without the closing repeat
-    first = np.cumsum(size + 1) - size - 1
-    ccw = shapely.is_ccw(ext)
     out: list[list[tuple[np.ndarray, np.ndarray]] | None] = [None] * len(polys)
-    for k in np.unique(size).tolist():
-        rows = np.flatnonzero(size == k)
-        R = xy[first[rows][:, None] + np.arange(k)]
-        R[~ccw[rows]] = R[~ccw[rows]][:, ::-1]
-        if k >= 3:
-            cr, sc = _turns(R)
-            clean = np.all(np.abs(cr) > SIN_TOL * sc, axis=1).tolist()
-            convex = np.all(cr >= -SIN_TOL * sc, axis=1).tolist()
+    if not len(polys):
+        return out
+    count = np.bincount(ring, minlength=len(polys))
+    size = count - 1  # without the closing repeat
+    first = np.cumsum(count) - count
+    ccw = shapely.is_ccw(ext)
+    e = np.diff(xy, axis=0, append=xy[:1])  # coordinate i -> i + 1
+    at = np.flatnonzero(np.diff(ring, append=-1) == 0)  # the vertices (no closing repeat)
+    start = np.cumsum(size) - size  # each ring's first vertex in ``at``
+    prv = np.arange(len(at)) - 1
+    prv[start] = start + size - 1
+    a, b = e[at[prv]], e[at]  # incoming and outgoing edge at each vertex
+    cr = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    ln = np.hypot(b[:, 0], b[:, 1])
+    sc = SIN_TOL * (ln[prv] * ln)
+    turns = np.where(np.repeat(ccw, size), cr, -cr) >= -sc
+    ok = size >= 3
+    clean = (ok & np.logical_and.reduceat(np.abs(cr) > sc, start)).tolist()
+    convex = (ok & np.logical_and.reduceat(turns, start)).tolist()
+    for row, (f, k, c) in enumerate(zip(first.tolist(), size.tolist(), ccw.tolist())):
+        R = xy[f:f + k] if c else xy[f + k - 1:f - 1 if f else None:-1]
+        if clean[row]:
+            v, cv = R, convex[row]
         else:
-            clean = convex = [False] * len(rows)
-        for j, row in enumerate(rows.tolist()):
-            if clean[j]:
-                v, cv = R[j], convex[j]
-            else:
-                idx, cv = _kept(R[j])
-                v = R[j][idx]
-            if cv is None:
-                cv = len(v) >= 3 and is_convex(v)
-            if cv:
-                out[row] = _fan(v, np.ones(len(v), bool), max_edges)
+            idx, cv = _kept(R)
+            v = R[idx]
+        if cv is None:
+            cv = len(v) >= 3 and is_convex(v)
+        if cv:
+            out[row] = _fan(v, np.ones(len(v), bool), max_edges)
     return out
