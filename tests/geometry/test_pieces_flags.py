@@ -210,7 +210,11 @@ def fake_triangulation(monkeypatch, triangles: list) -> None:
     """Make ``shapely.constrained_delaunay_triangles`` (as the pieces module calls it) return
     ``triangles`` (vertex lists, any orientation, zero-area ones allowed)."""
     tris = shapely.GeometryCollection([Polygon(t) for t in triangles])
-    monkeypatch.setattr(pieces_mod.shapely, "constrained_delaunay_triangles", lambda g: tris)
+
+    def fake(g):
+        return tris if np.ndim(g) == 0 else np.array([tris] * len(g), dtype=object)
+
+    monkeypatch.setattr(pieces_mod.shapely, "constrained_delaunay_triangles", fake)
 
 
 def halves(*polys: Polygon) -> list:

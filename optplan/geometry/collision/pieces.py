@@ -172,21 +172,28 @@ def _orientation(xy: np.ndarray) -> np.ndarray:
     return sign
 
 
-def _triangles(poly) -> dict[int, Ring]:
-    """The constrained Delaunay triangles of ``poly`` with area, counter-clockwise, as vertex
-    lists keyed by their index; zero-area triangles refined away (:func:`_refine`)."""
-    tris = shapely.get_parts(shapely.constrained_delaunay_triangles(poly))
+def _triangles(polys) -> list[dict[int, Ring]]:
+    """Per polygon of ``polys``: its constrained Delaunay triangles with area,
+    counter-clockwise, as vertex lists keyed by their index; zero-area triangles refined away
+    (:func:`_refine`).  One GEOS call and one pass of the array work for all of them."""
+    out: list[dict[int, Ring]] = [{} for _ in polys]
+    tris, which = shapely.get_parts(shapely.constrained_delaunay_triangles(polys),
+                                    return_index=True)
     if len(tris) == 0:
-        return {}
+        return out
     xy = shapely.get_coordinates(tris).reshape(len(tris), 4, 2)[:, :3]
     sign = _orientation(xy)
     cw = sign < 0
     xy[cw] = xy[cw][:, [0, 2, 1]]  # the ring reversed
-    rings = {k: [tuple(p) for p in t] for k, (t, s) in enumerate(zip(xy.tolist(), sign.tolist()))
-             if s != 0}
-    if len(rings) < len(tris):
-        _refine(rings, [[tuple(p) for p in xy[k].tolist()] for k in np.flatnonzero(sign == 0)])
-    return rings
+    flats: dict[int, list[Ring]] = {}
+    for k, (t, sk, p) in enumerate(zip(xy.tolist(), sign.tolist(), which.tolist())):
+        if sk:
+            out[p][k] = [tuple(q) for q in t]
+        else:
+            flats.setdefault(p, []).append([tuple(q) for q in t])
+    for p, f in flats.items():
+        _refine(out[p], f)
+    return out
 
 
 def _refine(rings: dict[int, Ring], flats: list[Ring]) -> None:
@@ -279,7 +286,7 @@ def convex_decompose(geom) -> list[np.ndarray]:
         if not poly.interiors and is_convex(ring):
             out.append(clean_ring(ring))
             continue
-        rings = _triangles(poly)
+        rings = _triangles(np.array([poly]))[0]
         _merge(rings)
         out.extend(np.asarray(r) if _clean_list(r) else clean_ring(np.asarray(r))
                    for r in rings.values())
@@ -330,26 +337,29 @@ def _centre_fan(v: np.ndarray, flags: np.ndarray, max_edges: int
     return out
 
 
-def _flagged_pieces(poly, max_edges: int) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The pieces of one polygon by its triangulation: merged (:func:`_merge`), each edge
+def _flagged_pieces(polys: np.ndarray, max_edges: int
+                    ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
+    """The pieces of each polygon by its triangulation: merged (:func:`_merge`), each edge
     flagged by the twin rule, split by :func:`_fan` or :func:`_centre_fan` (module
     docstring)."""
-    rings = _triangles(poly)
-    owner = _merge(rings)
-    out: list[tuple[np.ndarray, np.ndarray]] = []
-    for r in rings.values():
-        v = np.asarray(r)
-        fl = np.array([(w, u) not in owner for u, w in zip(r, r[1:] + r[:1])])
-        if _clean_list(r):
-            out.extend(_fan(v, fl, max_edges))
-            continue
-        idx = _kept(v)[0]
-        if len(idx) == len(v) or (len(idx) < 3 and len(v) <= max_edges):
-            out.extend(_fan(v, fl, max_edges))
-            continue
-        s = int(idx[0]) if len(idx) >= 3 else 0  # where the cleaned ring starts
-        out.extend(_centre_fan(np.roll(v, -s, axis=0), np.roll(fl, -s), max_edges))
-    return out
+    done = []
+    for rings in _triangles(polys):
+        owner = _merge(rings)
+        out: list[tuple[np.ndarray, np.ndarray]] = []
+        for r in rings.values():
+            v = np.asarray(r)
+            fl = np.array([(w, u) not in owner for u, w in zip(r, r[1:] + r[:1])])
+            if _clean_list(r):
+                out.extend(_fan(v, fl, max_edges))
+                continue
+            idx = _kept(v)[0]
+            if len(idx) == len(v) or (len(idx) < 3 and len(v) <= max_edges):
+                out.extend(_fan(v, fl, max_edges))
+                continue
+            s = int(idx[0]) if len(idx) >= 3 else 0  # where the cleaned ring starts
+            out.extend(_centre_fan(np.roll(v, -s, axis=0), np.roll(fl, -s), max_edges))
+        done.append(out)
+    return done
 
 
 def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -370,7 +380,7 @@ def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray
 def convex_pieces_many(geoms: list, max_edges: int = 4
                        ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
     """:func:`convex_pieces` of each of ``geoms`` (a map has thousands of solids: the convex
-    ones without holes are tested at once)."""
+    ones without holes are tested at once, the others triangulated at once)."""
     if max_edges < 3:
         raise ValueError(f"max_edges must be >= 3, got {max_edges}")
     out: list[list[tuple[np.ndarray, np.ndarray]]] = [[] for _ in geoms]
@@ -378,10 +388,14 @@ def convex_pieces_many(geoms: list, max_edges: int = 4
     keep = ~shapely.is_empty(polys) & (shapely.area(polys) > 0)
     polys, owner = polys[keep], owner[keep]
     plain = shapely.get_num_interior_rings(polys) == 0
-    fans = iter(_convex_fans(polys[plain], max_edges))
-    for poly, gi, pl in zip(polys, owner.tolist(), plain.tolist()):
-        one = next(fans) if pl else None
-        out[gi].extend(one if one is not None else _flagged_pieces(poly, max_edges))
+    made: list = [None] * len(polys)
+    for i, one in zip(np.flatnonzero(plain).tolist(), _convex_fans(polys[plain], max_edges)):
+        made[i] = one
+    rest = [i for i, one in enumerate(made) if one is None]
+    for i, one in zip(rest, _flagged_pieces(polys[rest], max_edges)):
+        made[i] = one
+    for gi, one in zip(owner.tolist(), made):
+        out[gi].extend(one)
     return out
 
 
