@@ -341,25 +341,43 @@ def _flagged_pieces(polys: np.ndarray, max_edges: int
                     ) -> list[list[tuple[np.ndarray, np.ndarray]]]:
     """The pieces of each polygon by its triangulation: merged (:func:`_merge`), each edge
     flagged by the twin rule, split by :func:`_fan` or :func:`_centre_fan` (module
-    docstring)."""
-    done = []
-    for rings in _triangles(polys):
-        owner = _merge(rings)
-        out: list[tuple[np.ndarray, np.ndarray]] = []
-        for r in rings.values():
-            v = np.asarray(r)
-            fl = np.array([(w, u) not in owner for u, w in zip(r, r[1:] + r[:1])])
-            if _clean_list(r):
-                out.extend(_fan(v, fl, max_edges))
-                continue
-            idx = _kept(v)[0]
-            if len(idx) == len(v) or (len(idx) < 3 and len(v) <= max_edges):
-                out.extend(_fan(v, fl, max_edges))
-                continue
-            s = int(idx[0]) if len(idx) >= 3 else 0  # where the cleaned ring starts
-            out.extend(_centre_fan(np.roll(v, -s, axis=0), np.roll(fl, -s), max_edges))
-        done.append(out)
-    return done
+    docstring).  Whether :func:`clean_ring` would keep every vertex is decided for every
+    merged ring at once (:func:`_kept`'s first pass, the same arithmetic)."""
+    rings: list[Ring] = []
+    flags: list[list[bool]] = []
+    count = []
+    for tri in _triangles(polys):
+        owner = _merge(tri)
+        count.append(len(tri))
+        for r in tri.values():
+            rings.append(r)
+            flags.append([(w, u) not in owner for u, w in zip(r, r[1:] + r[:1])])
+    if not rings:
+        return [[] for _ in polys]
+    size = np.array([len(r) for r in rings])
+    xy = np.array([p for r in rings for p in r], dtype=float)
+    start = np.cumsum(size) - size
+    nxt, prv = np.arange(len(xy)) + 1, np.arange(len(xy)) - 1
+    nxt[start + size - 1], prv[start] = start, start + size - 1
+    e = xy[nxt] - xy
+    a = e[prv]
+    cr = a[:, 0] * e[:, 1] - a[:, 1] * e[:, 0]
+    ln = np.hypot(e[:, 0], e[:, 1])
+    clean = np.logical_and.reduceat(np.abs(cr) > SIN_TOL * (ln[prv] * ln), start).tolist()
+    pieces = []
+    for f, k, fl, ok in zip(start.tolist(), size.tolist(), flags, clean):
+        v, fl = xy[f:f + k].copy(), np.array(fl)
+        if ok and k <= max_edges:  # its own piece (what _fan gives)
+            pieces.append([(v, fl)])
+            continue
+        idx = np.arange(k) if ok else _kept(v)[0]
+        if len(idx) == k or (len(idx) < 3 and k <= max_edges):
+            pieces.append(_fan(v, fl, max_edges))
+            continue
+        s = int(idx[0]) if len(idx) >= 3 else 0  # where the cleaned ring starts
+        pieces.append(_centre_fan(np.roll(v, -s, axis=0), np.roll(fl, -s), max_edges))
+    ends = np.cumsum(count).tolist()
+    return [[p for one in pieces[b - n:b] for p in one] for b, n in zip(ends, count)]
 
 
 def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray]]:
