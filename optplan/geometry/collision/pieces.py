@@ -105,12 +105,12 @@ def clean_ring(v: np.ndarray) -> np.ndarray:
     return v[_kept(v)[0]]
 
 
-def _kept(v: np.ndarray) -> tuple[np.ndarray, bool | None]:
+def _kept(v: np.ndarray, idx: np.ndarray | None = None) -> tuple[np.ndarray, bool | None]:
     """The indices of the vertices of the ring ``v`` that :func:`clean_ring` keeps (it drops
     the collinear ones and repeats until none is left) and, from the turns it computed last,
     :func:`is_convex` of the result (None when it has fewer than 3 vertices or no pass found
-    it clean)."""
-    idx = np.arange(len(v))
+    it clean).  ``idx``: the vertices a first pass kept, when it was made already."""
+    idx = np.arange(len(v)) if idx is None else idx
     for _ in range(len(v)):
         if len(idx) < 3:
             return idx, None
@@ -311,28 +311,35 @@ def _fan(v: np.ndarray, flags: np.ndarray, max_edges: int) -> list[tuple[np.ndar
     return out
 
 
-def _centre_fan(v: np.ndarray, flags: np.ndarray, max_edges: int
+def _centre_fan(v: np.ndarray, flags: np.ndarray, max_edges: int, start: int = 0
                 ) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Split a convex ring with collinear vertices into pieces around its vertex centroid.
+    """Split a convex ring with collinear vertices into pieces around its vertex centroid
+    (the ring taken from its vertex ``start`` on).
 
     A fan from a ring vertex would give zero-area pieces along a side with several collinear
     vertices; the centroid lies strictly inside, so every piece ``(c, v_i, v_{i+1}[, v_{i+2}])``
     has area.  Two neighbouring triangles form one quad when ``max_edges >= 4`` and the quad is
     convex.
     """
-    c = v.mean(axis=0)
     n = len(v)
-    k = np.arange(n)
-    quads = np.stack([np.broadcast_to(c, (n, 2)), v, v[(k + 1) % n], v[(k + 2) % n]], axis=1)
-    convex = _convex_rows(quads) if max_edges >= 4 else np.zeros(n, bool)
+    nxt = _ring_index(n)[0]
+    if start:
+        order = (np.arange(n) + start) % n
+        v, flags = v[order], flags[order]
+    quads = np.empty((n, 4, 2))
+    quads[:, 0] = v.mean(axis=0)
+    quads[:, 1], quads[:, 2], quads[:, 3] = v, v[nxt], v[nxt[nxt]]
+    convex = _convex_rows(quads).tolist() if max_edges >= 4 else [False] * n
+    fq, ft = np.zeros((n, 4), bool), np.zeros((n, 3), bool)  # the flags of quads, triangles
+    fq[:, 1], fq[:, 2], ft[:, 1] = flags, flags[nxt], flags
     out = []
     i = 0
     while i < n:
         if i + 2 <= n and convex[i]:
-            out.append((quads[i], np.array([False, flags[i], flags[i + 1], False])))
+            out.append((quads[i], fq[i]))
             i += 2
             continue
-        out.append((quads[i, :3], np.array([False, flags[i], False])))
+        out.append((quads[i, :3], ft[i]))
         i += 1
     return out
 
@@ -363,19 +370,20 @@ def _flagged_pieces(polys: np.ndarray, max_edges: int
     a = e[prv]
     cr = a[:, 0] * e[:, 1] - a[:, 1] * e[:, 0]
     ln = np.hypot(e[:, 0], e[:, 1])
-    clean = np.logical_and.reduceat(np.abs(cr) > SIN_TOL * (ln[prv] * ln), start).tolist()
+    kept = np.abs(cr) > SIN_TOL * (ln[prv] * ln)
+    clean = np.logical_and.reduceat(kept, start).tolist()
     pieces = []
     for f, k, fl, ok in zip(start.tolist(), size.tolist(), flags, clean):
         v, fl = xy[f:f + k].copy(), np.array(fl)
         if ok and k <= max_edges:  # its own piece (what _fan gives)
             pieces.append([(v, fl)])
             continue
-        idx = np.arange(k) if ok else _kept(v)[0]
+        idx = np.arange(k) if ok else _kept(v, np.flatnonzero(kept[f:f + k]))[0]
         if len(idx) == k or (len(idx) < 3 and k <= max_edges):
             pieces.append(_fan(v, fl, max_edges))
             continue
         s = int(idx[0]) if len(idx) >= 3 else 0  # where the cleaned ring starts
-        pieces.append(_centre_fan(np.roll(v, -s, axis=0), np.roll(fl, -s), max_edges))
+        pieces.append(_centre_fan(v, fl, max_edges, s))
     ends = np.cumsum(count).tolist()
     return [[p for one in pieces[b - n:b] for p in one] for b, n in zip(ends, count)]
 
