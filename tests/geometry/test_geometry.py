@@ -337,9 +337,9 @@ def test_lengths_and_degenerate_input() -> None:
 
 
 def test_pieces_of_many_polygons_at_once_are_each_ones_pieces() -> None:
-    """convex_pieces_many (one STRtree per query for every polygon, each with its own
-    tolerance) gives what convex_pieces gives polygon by polygon: neighbours within the
-    tolerance of each other (touching grid polygons, a far tiny one) change nothing."""
+    """convex_pieces_many (the polygons of a batch triangulated in one call) gives what
+    convex_pieces gives polygon by polygon: neighbours touching each other (touching grid
+    polygons) or a far tiny one change nothing."""
     from optplan.geometry.collision.pieces import convex_pieces_many
 
     rng = np.random.default_rng(7)
