@@ -19,7 +19,18 @@ import math
 
 import numpy as np
 
-from optplan.geometry.compiled import B1, F1, F2, F3, I1, I2, argsort_stable, compiled, i8
+from optplan.geometry.compiled import (
+    B1,
+    F1,
+    F2,
+    F3,
+    I1,
+    I2,
+    argsort_stable,
+    compiled,
+    i8,
+    leaf,
+)
 from optplan.swarm.core import SwarmSpace, pairs_free, segment_free
 
 __all__ = ["CUT_FRACTIONS", "CUT_STAGES", "shortcut", "tighten"]
@@ -45,84 +56,141 @@ def _flat(paths: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(np.concatenate([np.asarray(p, float) for p in paths])), off
 
 
-def _pairs(off: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
+@compiled(I1, i8)
+def _pairs(off, window):
     """Global index pairs ``(i, j)``, ``i < j`` in the same path and at most ``window`` apart
-    (0: every pair), sorted by ``i`` then ``j``: the nonzero entries of the ``(vertices,
-    window)`` mask ``j = i + 1 .. i + window < end of i's path``, row by row."""
-    n = np.diff(off)
-    w = window if window > 0 else (int(n.max()) - 1 if len(n) else 0)
-    J = np.arange(off[-1], dtype=np.int64)[:, None] + np.arange(1, w + 1, dtype=np.int64)
-    keep = J < np.repeat(off[1:], n)[:, None]
-    return np.ascontiguousarray(np.nonzero(keep)[0], np.int64), J[keep]
+    (0: every pair), sorted by ``i`` then ``j``."""
+    n = 0
+    for p in range(off.shape[0] - 1):
+        m = off[p + 1] - off[p]
+        for i in range(m):
+            k = m - 1 - i
+            n += k if window <= 0 or k < window else window
+    I = np.empty(n, np.int64)
+    J = np.empty(n, np.int64)
+    q = 0
+    for p in range(off.shape[0] - 1):
+        o, m = off[p], off[p + 1] - off[p]
+        for i in range(m):
+            top = m if window <= 0 or m < i + window + 1 else i + window + 1
+            for j in range(i + 1, top):
+                I[q] = o + i
+                J[q] = o + j
+                q += 1
+    return I, J
 
 
-@compiled(I1, I1, I1, B1)
-def _greedy_keep(off, I, J, free):
+@compiled(F2, I1, I1, I1, I1, B1)
+def _pulled(pts, off, ids, I, J, free):
     """Greedy string pulling from the visibility of the pairs ``(I, J)`` (sorted by ``I``
     then ``J``, as :func:`_pairs` makes them): from each kept vertex the farthest visible
-    later vertex (the next vertex when none is).  Returns the keep mask."""
+    later vertex (the next vertex when none is).  Returns the kept points, the new offsets
+    and the kept ids."""
     N = off[-1]
     far = np.arange(N) + 1  # farthest visible later vertex per vertex
     for q in range(I.shape[0]):
         if free[q] and J[q] > far[I[q]]:
             far[I[q]] = J[q]
     keep = np.zeros(N, np.bool_)
+    n = 0
     for p in range(off.shape[0] - 1):
         v = off[p]
         last = off[p + 1] - 1
+        if v > last:
+            continue
         keep[v] = True
+        n += 1
         while v < last:
-            v = min(far[v], last)
+            v = far[v] if far[v] < last else last
             keep[v] = True
-    return keep
+            n += 1
+    new_pts = np.empty((n, 2))
+    new_ids = np.empty(n, np.int64)
+    new_off = np.empty_like(off)
+    q = 0
+    for p in range(off.shape[0] - 1):
+        new_off[p] = q
+        for v in range(off[p], off[p + 1]):
+            if keep[v]:
+                new_pts[q, 0] = pts[v, 0]
+                new_pts[q, 1] = pts[v, 1]
+                new_ids[q] = ids[v]
+                q += 1
+    new_off[off.shape[0] - 1] = q
+    return new_pts, new_off, new_ids
 
 
 def _pull(pts: np.ndarray, off: np.ndarray, space: SwarmSpace, window: int,
           ids: np.ndarray | None = None):
     """String pulling of flat paths (pairs at most ``window`` apart, 0: all): the kept
-    points, offsets, ids and the number of segments tested."""
+    points, offsets, ids (None without ``ids``) and the number of segments tested."""
     I, J = _pairs(off, window)
-    keep = _greedy_keep(off, I, J, pairs_free(pts, I, J, space))
-    cnt = np.add.reduceat(keep, off[:-1]) if len(pts) else np.zeros(0, np.int64)
-    new_off = np.zeros_like(off)
-    new_off[1:] = np.cumsum(cnt)
-    return pts[keep], new_off, (ids[keep] if ids is not None else None), len(I)
+    kept_ids = ids if ids is not None else np.arange(len(pts), dtype=np.int64)
+    new_pts, new_off, new_ids = _pulled(pts, off, kept_ids, I, J, pairs_free(pts, I, J, space))
+    return new_pts, new_off, (new_ids if ids is not None else None), len(I)
 
 
-def _dirty_rows(off: np.ndarray, ids: np.ndarray, settled_prev: np.ndarray,
-                settled_next: np.ndarray, active: np.ndarray) -> np.ndarray:
+@compiled(I1, I1, I1, I1, B1)
+def _dirty_rows(off, ids, settled_prev, settled_next, active):
     """Interior vertices of the active paths not known to admit no cut with their current
     neighbours (global indices, ascending)."""
-    path = np.repeat(np.arange(len(off) - 1), np.diff(off))
-    v = np.arange(off[-1], dtype=np.int64)
-    v = v[(v > off[path]) & (v < off[path + 1] - 1) & active[path]]
-    x = ids[v]
-    return v[(settled_prev[x] != ids[v - 1]) | (settled_next[x] != ids[v + 1])]
+    out = np.empty(off[-1], np.int64)
+    n = 0
+    for p in range(off.shape[0] - 1):
+        if not active[p]:
+            continue
+        for v in range(off[p] + 1, off[p + 1] - 1):
+            x = ids[v]
+            if settled_prev[x] != ids[v - 1] or settled_next[x] != ids[v + 1]:
+                out[n] = v
+                n += 1
+    return out[:n].copy()
 
 
-def _apply_cuts(pts: np.ndarray, off: np.ndarray, ids: np.ndarray, rows: np.ndarray,
-                cut: np.ndarray, P: np.ndarray, Q: np.ndarray, next_id: int,
-                settled_prev: np.ndarray, settled_next: np.ndarray
-                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Replace every cut vertex ``rows[r]`` (ascending) by its two cut points ``P[r], Q[r]``
-    (new ids from ``next_id``, in vertex order); a tested vertex without a cut is recorded
-    as settled with its neighbours.  Returns the new points, offsets, ids and the next free id."""
-    v = rows[~cut]
-    settled_prev[ids[v]] = ids[v - 1]
-    settled_next[ids[v]] = ids[v + 1]
-    cv = rows[cut]  # the cut vertices, ascending (rows are: :func:`_dirty_rows`)
-    rep = np.ones(len(pts), np.int64)
-    rep[cv] = 2
-    start = np.zeros(len(pts) + 1, np.int64)
-    start[1:] = np.cumsum(rep)
-    new_pts = np.repeat(pts, rep, axis=0)
-    new_ids = np.repeat(ids, rep)
-    s = start[cv]
-    new_pts[s] = P[cut]
-    new_pts[s + 1] = Q[cut]
-    new_ids[s] = next_id + 2 * np.arange(len(cv), dtype=np.int64)
-    new_ids[s + 1] = new_ids[s] + 1
-    return new_pts, start[off], new_ids, next_id + 2 * len(cv)
+@compiled(F2, I1, I1, I1, B1, F3, F3, I1, i8, I1, I1)
+def _apply_cuts(pts, off, ids, rows, cut, P, Q, choice, next_id, settled_prev, settled_next):
+    """Replace every cut vertex ``rows[r]`` (ascending) by its two cut points
+    ``P[r, choice[r] // F], Q[r, choice[r] % F]`` (new ids from ``next_id``, in vertex
+    order); a tested vertex without a cut is recorded as settled with its neighbours.
+    Returns the new points, offsets, ids and the next free id."""
+    F = P.shape[1]
+    N = pts.shape[0]
+    which = np.full(N, -1, np.int64)
+    n_cut = 0
+    for r in range(rows.shape[0]):
+        v = rows[r]
+        if cut[r]:
+            which[v] = r
+            n_cut += 1
+        else:
+            settled_prev[ids[v]] = ids[v - 1]
+            settled_next[ids[v]] = ids[v + 1]
+    new_pts = np.empty((N + n_cut, 2))
+    new_ids = np.empty(N + n_cut, np.int64)
+    new_off = np.empty_like(off)
+    q = 0
+    for p in range(off.shape[0] - 1):
+        new_off[p] = q
+        for v in range(off[p], off[p + 1]):
+            r = which[v]
+            if r < 0:
+                new_pts[q, 0] = pts[v, 0]
+                new_pts[q, 1] = pts[v, 1]
+                new_ids[q] = ids[v]
+                q += 1
+            else:
+                s = choice[r] // F
+                t = choice[r] % F
+                new_pts[q, 0] = P[r, s, 0]
+                new_pts[q, 1] = P[r, s, 1]
+                new_pts[q + 1, 0] = Q[r, t, 0]
+                new_pts[q + 1, 1] = Q[r, t, 1]
+                new_ids[q] = next_id
+                new_ids[q + 1] = next_id + 1
+                next_id += 2
+                q += 2
+    new_off[off.shape[0] - 1] = q
+    return new_pts, new_off, new_ids, next_id
 
 
 @compiled(F2, I1)
@@ -222,15 +290,15 @@ def _stage_segments(P, Q, order, n_above, found, lo, hi):
     return A, B, who, rank
 
 
-def _stage_pick(order: np.ndarray, who: np.ndarray, rank: np.ndarray, free: np.ndarray,
-                found: np.ndarray, choice: np.ndarray) -> None:
+@leaf(I2, I1, I1, B1, B1, I1)
+def _stage_pick(order, who, rank, free, found, choice):
     """Per vertex the first free cut of the stage (in rank order: the largest gain), in
     place in ``found`` and ``choice`` (the stage's cuts are sorted by vertex, then rank)."""
-    q = np.flatnonzero(free & ~found[who])
-    w = who[q]
-    q = q[np.concatenate(([True], w[1:] != w[:-1]))[:len(q)]]  # the first of each vertex
-    found[who[q]] = True
-    choice[who[q]] = order[who[q], rank[q]]
+    for q in range(who.shape[0]):
+        r = who[q]
+        if free[q] and not found[r]:
+            found[r] = True
+            choice[r] = order[r, rank[q]]
 
 
 def _best_cuts(pts: np.ndarray, rows: np.ndarray, f: np.ndarray, thr: np.ndarray,
@@ -295,7 +363,6 @@ def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
     length = _lengths(pts, off)
     active = np.diff(off) > 2
     f = np.asarray(fractions, dtype=float)
-    F = len(f)
     for _ in range(rounds):
         rows = _dirty_rows(off, ids, s_prev, s_next, active)
         if not len(rows):
@@ -307,9 +374,8 @@ def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
             cap = 2 * (next_id + 2 * int(cut.sum()))
             s_prev = np.concatenate([s_prev, np.full(cap - len(s_prev), -1, np.int64)])
             s_next = np.concatenate([s_next, np.full(cap - len(s_next), -1, np.int64)])
-        r = np.arange(len(rows))
-        pts, off, ids, next_id = _apply_cuts(pts, off, ids, rows, cut, P[r, j // F],
-                                             Q[r, j % F], next_id, s_prev, s_next)
+        pts, off, ids, next_id = _apply_cuts(pts, off, ids, rows, cut, P, Q, j, next_id,
+                                             s_prev, s_next)
         pts, off, ids, n = _pull(pts, off, space, 6, ids)
         n_eval += n
         new = _lengths(pts, off)
