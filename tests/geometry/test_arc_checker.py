@@ -29,26 +29,12 @@ import pytest
 import shapely
 
 import optplan as op
+from benchmarks.bench_crowded import crowded
 from optplan.geometry.collision.arc_kernel import arcs_free
 from optplan.geometry.tangent import circles as circ
 from optplan.geometry.tangent import tangent_graph as tg
 from optplan.geometry.tangent.sightlines import OverBudget
 from optplan.problem import parse_problem, shared
-
-
-def _crowded(n: int) -> op.Problem:
-    """A 100 x 100 field, a robot of radius 2 and a polygon of ``n`` vertices round a circle
-    of radius 6 beside its straight path (and a box across it)."""
-    ring = [[50 + 6 * math.cos(2 * math.pi * k / n), 30 + 6 * math.sin(2 * math.pi * k / n)]
-            for k in range(n)]
-    return parse_problem({
-        "name": f"crowded-{n}", "bounds": [0, 0, 100, 100],
-        "robots": [{"id": "r", "start": [10, 20], "goal": [90, 40], "radius": 2.0}],
-        "obstacles": [{"type": "polygon", "name": "ring", "vertices": ring},
-                      {"type": "polygon", "name": "box",
-                       "vertices": [[70, 20], [75, 20], [75, 45], [70, 45]]},
-                      {"type": "circle", "name": "c", "center": [25, 50], "radius": 4.0}],
-    })
 
 
 def _in_arc(phi, start, sweep):
@@ -154,7 +140,7 @@ def _free_start_arcs(graph: tg.TangentGraph, rng: np.random.Generator, m: int):
 @pytest.mark.parametrize("name", ["paper-env2", "paper-warehouse", "warehouse-grid",
                                   "paper-apf-env2", "crowded-2000"])
 def test_arc_verdicts_equal_the_all_items_oracle(name):
-    p = _crowded(2000) if name == "crowded-2000" else op.load_problem(name)
+    p = crowded(2000) if name == "crowded-2000" else op.load_problem(name)
     r = p.planned_robots[0]
     graph = tg.TangentGraph(p.obstacle_set(r.radius, known_only=True))
     idx, th, sweep, sense = _free_start_arcs(graph, np.random.default_rng(3), 400)
@@ -171,7 +157,7 @@ def test_arc_verdicts_equal_the_all_items_oracle(name):
 
 @pytest.mark.parametrize("name", ["paper-env2", "warehouse-grid", "crowded-2000"])
 def test_arc_verdicts_agree_with_shapely(name):
-    p = _crowded(2000) if name == "crowded-2000" else op.load_problem(name)
+    p = crowded(2000) if name == "crowded-2000" else op.load_problem(name)
     S = p.obstacle_set(p.planned_robots[0].radius, known_only=True)
     got, d = _random_arcs_against_shapely(S, np.random.default_rng(5), 300)
     lim = S.radius - S.eps
@@ -204,7 +190,7 @@ def test_an_arc_through_a_gap_and_its_mutation():
 
 
 def test_the_sightline_budget():
-    p = _crowded(1200)
+    p = crowded(1200)
     graph = tg.TangentGraph(p.obstacle_set(2.0, known_only=True), sightlines=True)
     sight = graph.sightlines
     src = np.stack([graph.circles.center.real, graph.circles.center.imag], 1)[:300]
@@ -227,7 +213,7 @@ def test_auto_searches_crowded_maps_lazily(monkeypatch):
         shared.clear()
         monkeypatch.setattr(tg, "VIEWS_BASE", 10**12 if base is None else base)
         monkeypatch.setattr(tg, "VIEWS_PER_CIRCLE", 100)
-        p = _crowded(1500)
+        p = crowded(1500)
         res = op.solve(p, "visgraph", graph=graph.split("-")[0])
         g = tg.tangent_graph(p.obstacle_set(2.0, known_only=True))
         assert g.circles.n >= tg.SIGHTLINES_MIN
