@@ -23,6 +23,7 @@ Asking for the broken backend or preset by name raises an error with the same te
 
 from __future__ import annotations
 
+import copy
 import difflib
 import os
 import re
@@ -43,6 +44,12 @@ __all__ = ["catalog_dir", "problem_files", "preset_files", "load_problem", "list
 
 #: Suffixes of the shipped occupancy maps in ``problems/maps/`` (:func:`map_files`).
 MAP_SUFFIXES = (".yaml", ".yml", ".map")
+#: Preset files whose parse :func:`_preset_toml` keeps (all are dropped past it).
+PARSED_MAX = 256
+#: ``preset_files``' listing per directory: (its modification time, stem -> path).
+_listing: dict[Path, tuple[int, dict[str, Path]]] = {}
+#: ``_preset_toml``'s parses: path -> ((modification time, size), parsed TOML).
+_parsed: dict[Path, tuple[tuple[int, int], dict]] = {}
 
 
 def _candidates() -> list[Path]:
@@ -72,7 +79,18 @@ def problem_files() -> dict[str, Path]:
 
 
 def preset_files() -> dict[str, Path]:
-    return {p.stem: p for p in sorted(catalog_dir("solvers").glob("*.toml"))}
+    """The shipped presets, ``solvers/*.toml``, by file stem.  The listing is kept while the
+    directory's modification time stays the same (a file added, removed or renamed changes
+    it): every ``op.solve`` by preset name asks for it."""
+    d = catalog_dir("solvers")
+    try:
+        key = d.stat().st_mtime_ns
+    except OSError:
+        return {}
+    got = _listing.get(d)
+    if got is None or got[0] != key:
+        got = _listing[d] = (key, {p.stem: p for p in sorted(d.glob("*.toml"))})
+    return dict(got[1])
 
 
 def map_files() -> dict[str, Path]:
@@ -163,11 +181,20 @@ def read_preset(path: Path) -> dict:
 
 
 def _preset_toml(path: Path) -> dict:
-    """The parsed TOML of a preset file."""
+    """The parsed TOML of a preset file (a copy).  The parse is kept per file while its
+    modification time and size stay the same (at most :data:`PARSED_MAX` files): every
+    ``op.solve`` by preset reads its preset."""
     if path.is_dir():
         raise ValueError(f"{path}: is a directory, not a preset file")
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
+        st = path.stat()
+        key = (st.st_mtime_ns, st.st_size)
+        got = _parsed.get(path)
+        if got is None or got[0] != key:
+            if len(_parsed) >= PARSED_MAX:
+                _parsed.clear()
+            got = _parsed[path] = (key, tomllib.loads(path.read_text(encoding="utf-8")))
+        return copy.deepcopy(got[1])
     except OSError as e:
         raise ValueError(f"{path}: cannot read file ({e.strerror or e})") from None
     except UnicodeDecodeError as e:
