@@ -31,7 +31,7 @@ from optplan.geometry.compiled import (
     i8,
     leaf,
 )
-from optplan.swarm.core import SwarmSpace, pairs_free, segment_free
+from optplan.swarm.core import SwarmSpace, pairs_free
 
 __all__ = ["CUT_FRACTIONS", "CUT_STAGES", "shortcut", "tighten"]
 
@@ -260,8 +260,10 @@ def _cut_table(pts, rows, f, thr):
 @compiled(F3, F3, I2, I1, B1, i8, i8)
 def _stage_segments(P, Q, order, n_above, found, lo, hi):
     """The cuts of ranks ``lo .. hi - 1`` (among those above the threshold) of the vertices
-    without a free cut yet: their segments ``p -> q``, vertex and rank (by vertex, then
-    rank; compiled as :func:`_cut_table`, three times per round)."""
+    without a free cut yet, by vertex, then rank (compiled as :func:`_cut_table`, three
+    times per round): their segments ``p -> q`` as end points ``ends`` (the ``n`` points
+    ``p``, then the ``n`` points ``q``) and index pairs ``(I, J) = (k, n + k)`` (what
+    :func:`optplan.swarm.core.segment_free` would stack), their vertex and flat cut index."""
     R = order.shape[0]
     F = P.shape[1]
     n = 0
@@ -269,10 +271,11 @@ def _stage_segments(P, Q, order, n_above, found, lo, hi):
         top = n_above[r] if n_above[r] < hi else hi
         if not found[r] and top > lo:
             n += top - lo
-    A = np.empty((n, 2))
-    B = np.empty((n, 2))
+    ends = np.empty((2 * n, 2))
+    I = np.arange(n)
+    J = I + n
     who = np.empty(n, np.int64)
-    rank = np.empty(n, np.int64)
+    cid = np.empty(n, np.int64)
     q = 0
     for r in range(R):
         top = n_above[r] if n_above[r] < hi else hi
@@ -280,25 +283,25 @@ def _stage_segments(P, Q, order, n_above, found, lo, hi):
             continue
         for k in range(lo, top):
             c = order[r, k]
-            A[q, 0] = P[r, c // F, 0]
-            A[q, 1] = P[r, c // F, 1]
-            B[q, 0] = Q[r, c % F, 0]
-            B[q, 1] = Q[r, c % F, 1]
+            ends[q, 0] = P[r, c // F, 0]
+            ends[q, 1] = P[r, c // F, 1]
+            ends[n + q, 0] = Q[r, c % F, 0]
+            ends[n + q, 1] = Q[r, c % F, 1]
             who[q] = r
-            rank[q] = k
+            cid[q] = c
             q += 1
-    return A, B, who, rank
+    return ends, I, J, who, cid
 
 
-@leaf(I2, I1, I1, B1, B1, I1)
-def _stage_pick(order, who, rank, free, found, choice):
-    """Per vertex the first free cut of the stage (in rank order: the largest gain), in
-    place in ``found`` and ``choice`` (the stage's cuts are sorted by vertex, then rank)."""
+@leaf(I1, I1, B1, B1, I1)
+def _stage_pick(who, cid, free, found, choice):
+    """Per vertex the first free cut ``cid`` of the stage (in rank order: the largest gain),
+    in place in ``found`` and ``choice`` (the stage's cuts are sorted by vertex, then rank)."""
     for q in range(who.shape[0]):
         r = who[q]
         if free[q] and not found[r]:
             found[r] = True
-            choice[r] = order[r, rank[q]]
+            choice[r] = cid[q]
 
 
 def _best_cuts(pts: np.ndarray, rows: np.ndarray, f: np.ndarray, thr: np.ndarray,
@@ -319,10 +322,10 @@ def _best_cuts(pts: np.ndarray, rows: np.ndarray, f: np.ndarray, thr: np.ndarray
     n_eval = 0
     lo = 0
     for hi in (*CUT_STAGES, order.shape[1]):
-        A, B, who, rank = _stage_segments(P, Q, order, n_above, found, lo, hi)
-        if len(A):
-            _stage_pick(order, who, rank, segment_free(A, B, space), found, choice)
-            n_eval += len(A)
+        ends, I, J, who, cid = _stage_segments(P, Q, order, n_above, found, lo, hi)
+        if len(I):
+            _stage_pick(who, cid, pairs_free(ends, I, J, space), found, choice)
+            n_eval += len(I)
         lo = hi
         if lo >= order.shape[1]:
             break
