@@ -28,6 +28,7 @@ from optplan.geometry.compiled import (
     I2,
     argsort_stable,
     compiled,
+    f8,
     i8,
     leaf,
 )
@@ -130,11 +131,13 @@ def _pull(pts: np.ndarray, off: np.ndarray, space: SwarmSpace, window: int,
     return new_pts, new_off, (new_ids if ids is not None else None), len(I)
 
 
-@compiled(I1, I1, I1, I1, B1)
-def _dirty_rows(off, ids, settled_prev, settled_next, active):
+@compiled(I1, I1, I1, I1, B1, F1, f8)
+def _dirty_rows(off, ids, settled_prev, settled_next, active, length, min_gain):
     """Interior vertices of the active paths not known to admit no cut with their current
-    neighbours (global indices, ascending)."""
+    neighbours (global indices, ascending), and their cut thresholds ``min_gain`` x the
+    length of their path."""
     out = np.empty(off[-1], np.int64)
+    thr = np.empty(off[-1])
     n = 0
     for p in range(off.shape[0] - 1):
         if not active[p]:
@@ -143,8 +146,9 @@ def _dirty_rows(off, ids, settled_prev, settled_next, active):
             x = ids[v]
             if settled_prev[x] != ids[v - 1] or settled_next[x] != ids[v + 1]:
                 out[n] = v
+                thr[n] = min_gain * length[p]
                 n += 1
-    return out[:n].copy()
+    return out[:n].copy(), thr[:n].copy()
 
 
 @compiled(F2, I1, I1, I1, B1, F3, F3, I1, i8, I1, I1)
@@ -214,9 +218,9 @@ CUT_STAGES = (8, 24)
 @compiled(F2, I1, F1, F1)
 def _cut_table(pts, rows, f, thr):
     """The corner cuts of :func:`tighten` for the vertices ``rows``: the cut points
-    ``P[r, s] = v + f[s] (a - v)``, ``Q[r, t] = v + f[t] (b - v)``, the length gain of each
-    cut ``(s, t)`` (flat index ``s F + t``), the cuts in order of decreasing gain (ties: the
-    lower index first) and per vertex how many gain more than ``thr[r]``.  Compiled (once
+    ``P[r, s] = v + f[s] (a - v)``, ``Q[r, t] = v + f[t] (b - v)``, the cuts ``(s, t)``
+    (flat index ``s F + t``) in order of decreasing length gain (ties: the lower index
+    first) and per vertex how many gain more than ``thr[r]``.  Compiled (once
     per round; numpy's broadcasts and row sorts cost several times the loop), with element
     copies and ``if``s rather than row assignment and ``min``/``max``, whose error texts and
     overloads would compile numba's string routines on a first run."""
@@ -224,7 +228,6 @@ def _cut_table(pts, rows, f, thr):
     F = f.shape[0]
     P = np.empty((R, F, 2))
     Q = np.empty((R, F, 2))
-    gain = np.empty((R, F * F))
     order = np.empty((R, F * F), np.int64)
     n_above = np.empty(R, np.int64)
     dp = np.empty(F)
@@ -247,14 +250,13 @@ def _cut_table(pts, rows, f, thr):
             for t in range(F):
                 g = (dp[s] + dq[t]) - math.hypot(Q[r, t, 0] - P[r, s, 0],
                                                  Q[r, t, 1] - P[r, s, 1])
-                gain[r, s * F + t] = g
                 neg[s * F + t] = -g
                 if g > thr[r]:
                     n_above[r] += 1
         o = argsort_stable(neg)
         for q in range(F * F):
             order[r, q] = o[q]
-    return P, Q, gain, order, n_above
+    return P, Q, order, n_above
 
 
 @compiled(F3, F3, I2, I1, B1, i8, i8)
@@ -315,7 +317,7 @@ def _best_cuts(pts: np.ndarray, rows: np.ndarray, f: np.ndarray, thr: np.ndarray
     cannot be taken and are not tested, and the others are tested in stages of decreasing
     gain (ranks below :data:`CUT_STAGES`, then the rest), each vertex only until it has a
     free cut."""
-    P, Q, gain, order, n_above = _cut_table(pts, rows, f, thr)
+    P, Q, order, n_above = _cut_table(pts, rows, f, thr)
     R = len(rows)
     found = np.zeros(R, bool)
     choice = np.zeros(R, np.int64)
@@ -364,17 +366,17 @@ def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
     s_prev = np.full(cap, -1, np.int64)
     s_next = np.full(cap, -1, np.int64)
     length = _lengths(pts, off)
-    active = np.diff(off) > 2
+    active = np.ones(len(paths), bool)  # (a path of 2 points has no vertex to cut)
     f = np.asarray(fractions, dtype=float)
     for _ in range(rounds):
-        rows = _dirty_rows(off, ids, s_prev, s_next, active)
+        rows, thr = _dirty_rows(off, ids, s_prev, s_next, active, length, min_gain)
         if not len(rows):
             break
-        owner = np.searchsorted(off, rows, side="right") - 1
-        P, Q, j, cut, n = _best_cuts(pts, rows, f, min_gain * length[owner], space)
+        P, Q, j, cut, n = _best_cuts(pts, rows, f, thr, space)
         n_eval += n
-        if next_id + 2 * int(cut.sum()) > cap:  # room for the new ids
-            cap = 2 * (next_id + 2 * int(cut.sum()))
+        need = next_id + 2 * int(cut.sum())
+        if need > cap:  # room for the new ids
+            cap = 2 * need
             s_prev = np.concatenate([s_prev, np.full(cap - len(s_prev), -1, np.int64)])
             s_next = np.concatenate([s_next, np.full(cap - len(s_next), -1, np.int64)])
         pts, off, ids, next_id = _apply_cuts(pts, off, ids, rows, cut, P, Q, j, next_id,
@@ -382,7 +384,7 @@ def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
         pts, off, ids, n = _pull(pts, off, space, 6, ids)
         n_eval += n
         new = _lengths(pts, off)
-        active &= (new < length * (1.0 - rel_tol)) & (np.diff(off) > 2)
+        active &= new < length * (1.0 - rel_tol)
         length = new
     return [pts[off[i]:off[i + 1]] for i in range(len(paths))], int(n_eval)
 
