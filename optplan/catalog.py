@@ -46,10 +46,10 @@ __all__ = ["catalog_dir", "problem_files", "preset_files", "load_problem", "list
 MAP_SUFFIXES = (".yaml", ".yml", ".map")
 #: Preset files whose parse :func:`_preset_toml` keeps (all are dropped past it).
 PARSED_MAX = 256
-#: ``preset_files``' listing per directory: (its modification time, stem -> path).
-_listing: dict[Path, tuple[int, dict[str, Path]]] = {}
-#: ``_preset_toml``'s parses: path -> ((modification time, size), parsed TOML).
-_parsed: dict[Path, tuple[tuple[int, int], dict]] = {}
+#: ``preset_files``' listing per directory: (its ``*.toml`` file names, stem -> path).
+_listing: dict[Path, tuple[tuple[str, ...], dict[str, Path]]] = {}
+#: ``_preset_toml``'s parses: path -> (the file's text, its parsed TOML).
+_parsed: dict[Path, tuple[str, dict]] = {}
 
 
 def _candidates() -> list[Path]:
@@ -79,17 +79,16 @@ def problem_files() -> dict[str, Path]:
 
 
 def preset_files() -> dict[str, Path]:
-    """The shipped presets, ``solvers/*.toml``, by file stem.  The listing is kept while the
-    directory's modification time stays the same (a file added, removed or renamed changes
-    it): every ``op.solve`` by preset name asks for it."""
+    """The shipped presets, ``solvers/*.toml``, by file stem.  The paths are made again only
+    when the directory's file names change (every ``op.solve`` by preset name asks)."""
     d = catalog_dir("solvers")
     try:
-        key = d.stat().st_mtime_ns
+        names = tuple(sorted(n for n in os.listdir(d) if n.endswith(".toml")))
     except OSError:
         return {}
     got = _listing.get(d)
-    if got is None or got[0] != key:
-        got = _listing[d] = (key, {p.stem: p for p in sorted(d.glob("*.toml"))})
+    if got is None or got[0] != names:
+        got = _listing[d] = (names, {p.stem: p for p in (d / n for n in names)})
     return dict(got[1])
 
 
@@ -181,19 +180,18 @@ def read_preset(path: Path) -> dict:
 
 
 def _preset_toml(path: Path) -> dict:
-    """The parsed TOML of a preset file (a copy).  The parse is kept per file while its
-    modification time and size stay the same (at most :data:`PARSED_MAX` files): every
-    ``op.solve`` by preset reads its preset."""
+    """The parsed TOML of a preset file (a copy).  The file is read every time and parsed
+    again only when its text changed (the parses of at most :data:`PARSED_MAX` files are
+    kept): every ``op.solve`` by preset reads its preset."""
     if path.is_dir():
         raise ValueError(f"{path}: is a directory, not a preset file")
     try:
-        st = path.stat()
-        key = (st.st_mtime_ns, st.st_size)
+        text = path.read_text(encoding="utf-8")
         got = _parsed.get(path)
-        if got is None or got[0] != key:
+        if got is None or got[0] != text:
             if len(_parsed) >= PARSED_MAX:
                 _parsed.clear()
-            got = _parsed[path] = (key, tomllib.loads(path.read_text(encoding="utf-8")))
+            got = _parsed[path] = (text, tomllib.loads(text))
         return copy.deepcopy(got[1])
     except OSError as e:
         raise ValueError(f"{path}: cannot read file ({e.strerror or e})") from None
