@@ -349,7 +349,21 @@ def _flagged_pieces(polys: np.ndarray, max_edges: int
     """The pieces of each polygon by its triangulation: merged (:func:`_merge`), each edge
     flagged by the twin rule, split by :func:`_fan` or :func:`_centre_fan` (module
     docstring).  Whether :func:`clean_ring` would keep every vertex is decided for every
-    merged ring at once (:func:`_kept`'s first pass, the same arithmetic)."""
+    merged ring at once (:func:`_straight`, the same arithmetic)."""
+    rings, flags, count = _merged_rings(polys)
+    if not rings:
+        return [[] for _ in polys]
+    xy, start, size, kept = _straight(rings)
+    clean = np.logical_and.reduceat(kept, start).tolist()
+    pieces = [_split(xy[f:f + k].copy(), np.array(fl), ok, kept[f:f + k], max_edges)
+              for f, k, fl, ok in zip(start.tolist(), size.tolist(), flags, clean)]
+    ends = np.cumsum(count).tolist()
+    return [[p for one in pieces[b - n:b] for p in one] for b, n in zip(ends, count)]
+
+
+def _merged_rings(polys: np.ndarray) -> tuple[list[Ring], list[list[bool]], list[int]]:
+    """The merged rings of every polygon's triangulation (:func:`_merge`), per ring its
+    edges' flags (no twin: on the boundary) and per polygon its number of rings."""
     rings: list[Ring] = []
     flags: list[list[bool]] = []
     count = []
@@ -359,8 +373,12 @@ def _flagged_pieces(polys: np.ndarray, max_edges: int
         for r in tri.values():
             rings.append(r)
             flags.append([(w, u) not in owner for u, w in zip(r, r[1:] + r[:1])])
-    if not rings:
-        return [[] for _ in polys]
+    return rings, flags, count
+
+
+def _straight(rings: list[Ring]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The rings' vertices concatenated ``(m, 2)``, each ring's first row and size, and per
+    vertex whether :func:`clean_ring` keeps it (its turn beats the collinearity threshold)."""
     size = np.array([len(r) for r in rings])
     xy = np.array([p for r in rings for p in r], dtype=float)
     start = np.cumsum(size) - size
@@ -370,22 +388,21 @@ def _flagged_pieces(polys: np.ndarray, max_edges: int
     a = e[prv]
     cr = a[:, 0] * e[:, 1] - a[:, 1] * e[:, 0]
     ln = np.hypot(e[:, 0], e[:, 1])
-    kept = np.abs(cr) > SIN_TOL * (ln[prv] * ln)
-    clean = np.logical_and.reduceat(kept, start).tolist()
-    pieces = []
-    for f, k, fl, ok in zip(start.tolist(), size.tolist(), flags, clean):
-        v, fl = xy[f:f + k].copy(), np.array(fl)
-        if ok and k <= max_edges:  # its own piece (what _fan gives)
-            pieces.append([(v, fl)])
-            continue
-        idx = np.arange(k) if ok else _kept(v, np.flatnonzero(kept[f:f + k]))[0]
-        if len(idx) == k or (len(idx) < 3 and k <= max_edges):
-            pieces.append(_fan(v, fl, max_edges))
-            continue
-        s = int(idx[0]) if len(idx) >= 3 else 0  # where the cleaned ring starts
-        pieces.append(_centre_fan(v, fl, max_edges, s))
-    ends = np.cumsum(count).tolist()
-    return [[p for one in pieces[b - n:b] for p in one] for b, n in zip(ends, count)]
+    return xy, start, size, np.abs(cr) > SIN_TOL * (ln[prv] * ln)
+
+
+def _split(v: np.ndarray, fl: np.ndarray, clean: bool, kept: np.ndarray, max_edges: int
+           ) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The pieces of one merged ring ``v`` (flags ``fl``; ``clean``: every vertex kept,
+    ``kept``: per vertex)."""
+    k = len(v)
+    if clean and k <= max_edges:  # its own piece (what _fan gives)
+        return [(v, fl)]
+    idx = np.arange(k) if clean else _kept(v, np.flatnonzero(kept))[0]
+    if len(idx) == k or (len(idx) < 3 and k <= max_edges):
+        return _fan(v, fl, max_edges)
+    s = int(idx[0]) if len(idx) >= 3 else 0  # where the cleaned ring starts
+    return _centre_fan(v, fl, max_edges, s)
 
 
 def convex_pieces(geom, max_edges: int = 4) -> list[tuple[np.ndarray, np.ndarray]]:
