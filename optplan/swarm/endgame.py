@@ -49,7 +49,11 @@ def pad_paths(paths: list[np.ndarray]) -> np.ndarray:
     its end point (repeated end points add zero-length segments: no crossing, no ray
     crossing)."""
     M = max(len(p) for p in paths)
-    return np.array([np.vstack([p, np.repeat(p[-1:], M - len(p), axis=0)]) for p in paths])
+    out = np.empty((len(paths), M, 2))
+    for i, p in enumerate(paths):
+        out[i, :len(p)] = p
+        out[i, len(p):] = p[-1]
+    return out
 
 
 def free_paths(paths: np.ndarray, test) -> np.ndarray:
