@@ -40,6 +40,7 @@ from optplan.geometry.compiled import (
 )
 from optplan.swarm.core import SwarmSpace, pairs_free
 from optplan.swarm.refine import _flat, _pull
+from optplan.swarm.roadmap_graph import dijkstra, edge_csr, unique_pairs
 from optplan.swarm.samples import roadmap_nodes
 from optplan.swarm.signatures import _segment_hashes
 
@@ -211,7 +212,7 @@ class Roadmap:
     def to_goal(self) -> np.ndarray:
         """Roadmap distance of every node to the goal (``inf``: not connected), the exact
         A* heuristic of the class search (the edges go both ways: Dijkstra from the goal)."""
-        return _dijkstra(self.indptr, self.target, self.weight, 1)
+        return dijkstra(self.indptr, self.target, self.weight, 1)
 
     def walk(self, lab: int, lab_node: np.ndarray, lab_par: np.ndarray) -> np.ndarray:
         """The points of the walk ending in label ``lab``."""
@@ -310,8 +311,8 @@ def _walk_length(nodes: np.ndarray, i: np.ndarray, j: np.ndarray) -> float:
     """Shortest walk from node 0 to node 1 over the undirected edges ``(i, j)`` (inf: none)."""
     if len(i) == 0:
         return math.inf
-    indptr, target, weight, _ = _csr(len(nodes), i, j, _edge_lengths(nodes, i, j))
-    return float(_dijkstra(indptr, target, weight, 0)[1])
+    indptr, target, weight, _ = edge_csr(nodes, i, j)
+    return float(dijkstra(indptr, target, weight, 0)[1])
 
 
 #: Corner nodes farther apart than this fraction of the map diagonal are not paired directly.
@@ -380,16 +381,6 @@ def _yao(nodes: np.ndarray, sectors: int, stop: Callable[[], bool] | None) -> np
     return np.concatenate(parts) if len(parts) != 1 else parts[0]
 
 
-def _unique_pairs(n: int, i: np.ndarray, j: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct pairs ``min(i, j) < max(i, j)`` of nodes ``0 .. n - 1`` (``i == j`` and
-    ``j < 0`` dropped), in lexicographic order."""
-    keep = (i != j) & (j >= 0)
-    key = np.minimum(i, j)[keep] * np.int64(n) + np.maximum(i, j)[keep]
-    key = np.sort(key.astype(np.int32) if n * n < 1 << 31 else key).astype(np.int64)
-    key = key[np.r_[True, key[1:] != key[:-1]]] if len(key) else key  # (np.unique: slower)
-    return key // n, key % n
-
-
 def _base_edges(nodes: np.ndarray, nb: np.ndarray, nb2: np.ndarray,
                 yao: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The neighbour and Yao edges of :func:`build_roadmap`: each node to its nearest nodes
@@ -399,8 +390,8 @@ def _base_edges(nodes: np.ndarray, nb: np.ndarray, nb2: np.ndarray,
     neighbours of the cluster's nodes do not).  Returns those pairs ``i < j`` in
     lexicographic order."""
     rows = [np.repeat(np.arange(len(r), dtype=np.int64), r.shape[1]) for r in (nb, nb2, yao)]
-    return _unique_pairs(len(nodes), np.concatenate(rows),
-                         np.concatenate([r.ravel() for r in (nb, nb2, yao)]).astype(np.int64))
+    return unique_pairs(len(nodes), np.concatenate(rows),
+                        np.concatenate([r.ravel() for r in (nb, nb2, yao)]).astype(np.int64))
 
 
 def _corner_partners(nodes: np.ndarray, corner: np.ndarray, reach: float, bound: float,
@@ -437,17 +428,33 @@ def _corner_partners(nodes: np.ndarray, corner: np.ndarray, reach: float, bound:
         keep = d + np.minimum(ds[u] + dg[v], ds[v] + dg[u]) <= bound * (1.0 + 1e-6)
         pa.append(u[keep])
         pb.append(v[keep])
-    lo, hi = _unique_pairs(n, np.concatenate(pa), np.concatenate(pb))
+    lo, hi = unique_pairs(n, np.concatenate(pa), np.concatenate(pb))
     cptr = np.zeros(n + 1, np.int64)
     cptr[1:] = np.cumsum(np.bincount(lo, minlength=n))
     crange[:, 0], crange[:, 1] = cptr[:-1], cptr[1:]
-    return crange, hi.astype(np.int64)
+    return crange, hi
 
 
 def _endpoint_distances(nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distance of every node to the start (node 0) and to the goal (node 1)."""
     return (np.hypot(nodes[:, 0] - nodes[0, 0], nodes[:, 1] - nodes[0, 1]),
             np.hypot(nodes[:, 0] - nodes[1, 0], nodes[:, 1] - nodes[1, 1]))
+
+
+@inlined  # one call site (_corner_edges)
+def _detour_within(dx, dy, d2, m, bound):
+    """``math.hypot(dx, dy) + m <= bound`` (``d2 = dx * dx + dy * dy``, ``m >= 0``), decided
+    by the cheaper ``sqrt(d2)`` unless that sum is within ``1e-12`` x ``bound`` of ``bound``:
+    ``sqrt(d2)`` differs from ``hypot(dx, dy)`` by at most about ``5e-16`` of it (``2e-154``
+    absolute where ``d2`` underflows), so outside that margin both sums fall on the same side
+    (the same answer, bit for bit; hypot, the C library's, costs about 20 ns a call)."""
+    s = math.sqrt(d2) + m
+    tol = 1e-12 * bound + 1e-150  # (bound inf: tol inf, and hypot decides)
+    if s > bound + tol:
+        return False
+    if s < bound - tol:
+        return True
+    return math.hypot(dx, dy) + m <= bound
 
 
 @compiled(F2, I1, I1, I2, I1, B1, f8, f8, F1, F1)
@@ -490,34 +497,15 @@ def _corner_edges(nodes, bi, bj, crange, cadj, okb, r2, bound, ds, dg):
             c += 1
             dx = nodes[a, 0] - nodes[b_corn, 0]
             dy = nodes[a, 1] - nodes[b_corn, 1]
-            if dx * dx + dy * dy > r2:
+            d2 = dx * dx + dy * dy
+            if d2 > r2:
                 continue
-            if math.hypot(dx, dy) + min(ds[a] + dg[b_corn], ds[b_corn] + dg[a]) <= bound:
+            if _detour_within(dx, dy, d2, min(ds[a] + dg[b_corn], ds[b_corn] + dg[a]), bound):
                 I[q] = a
                 J[q] = b_corn
                 todo[q] = True
                 q += 1
     return I[:q], J[:q], ok[:q], todo[:q]
-
-
-def _edge_lengths(nodes: np.ndarray, i: np.ndarray, j: np.ndarray) -> np.ndarray:
-    """Length of each edge ``nodes[i[e]] -> nodes[j[e]]``."""
-    return np.hypot(nodes[i, 0] - nodes[j, 0], nodes[i, 1] - nodes[j, 1])
-
-
-def _csr(n: int, i: np.ndarray, j: np.ndarray,
-         w: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Both directions of the undirected edges ``(i, j)`` (lengths ``w``) in CSR form, the
-    edges of a node in the order of ``concat(i, j)`` (a stable sort by source); and the slot
-    of each directed edge of ``concat(i, j)``."""
-    src = np.concatenate((i, j)).astype(np.int64, copy=False)  # (16-bit keys: radix sort)
-    order = np.argsort(src.astype(np.int16) if n <= 1 << 15 else src, kind="stable")
-    indptr = np.zeros(n + 1, np.int64)
-    np.cumsum(np.bincount(src, minlength=n), out=indptr[1:])
-    pos = np.empty(len(src), np.int64)
-    pos[order] = np.arange(len(src))
-    return (indptr, np.concatenate((j, i)).astype(np.int64, copy=False)[order],
-            np.concatenate((w, w))[order], pos)
 
 
 def _roadmap_csr(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, Z: np.ndarray,
@@ -526,8 +514,7 @@ def _roadmap_csr(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, Z: np.ndarray,
     """CSR arrays of :class:`Roadmap` (indptr, target, length, signature hash) of the free
     edges ``(i, j)`` (the hashes in passes of :data:`PAIRS_PER_POLL` edges, with the
     deadline's poll ``stop`` between two)."""
-    w = _edge_lengths(nodes, i, j)
-    indptr, target, weight, pos = _csr(len(nodes), i, j, w)
+    indptr, target, weight, pos = edge_csr(nodes, i, j)
     eh = np.empty(len(i), np.int64)
     for a in range(0, max(len(i), 1), PAIRS_PER_POLL):
         _poll(stop if a else None)
@@ -537,31 +524,6 @@ def _roadmap_csr(nodes: np.ndarray, i: np.ndarray, j: np.ndarray, Z: np.ndarray,
     ehash[pos[:len(i)]] = eh
     ehash[pos[len(i):]] = -eh
     return indptr, target, weight, ehash
-
-
-@compiled(I1, I1, F1, i8)
-def _dijkstra(indptr, target, weight, src):
-    """Shortest distances from ``src`` over a CSR graph (``inf``: not reached)."""
-    n = indptr.shape[0] - 1
-    dist = np.full(n, np.inf)
-    done = np.zeros(n, np.bool_)
-    cap = target.shape[0] + 1
-    hk = np.empty(cap)
-    hv = np.empty(cap, np.int64)
-    dist[src] = 0.0
-    size = heap_push(hk, hv, 0, 0.0, src)
-    while size > 0:
-        d, v, size = heap_pop(hk, hv, size)
-        if done[v]:
-            continue
-        done[v] = True
-        for e in range(indptr[v], indptr[v + 1]):
-            u = target[e]
-            nd = d + weight[e]
-            if nd < dist[u]:
-                dist[u] = nd
-                size = heap_push(hk, hv, size, nd, u)
-    return dist
 
 
 def roadmap_corridors(space: SwarmSpace, n_paths: int, rng: np.random.Generator,

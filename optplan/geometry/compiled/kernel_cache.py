@@ -84,6 +84,7 @@ KERNEL_MODULES = (
     "optplan.swarm.refine",
     "optplan.swarm.signatures",
     "optplan.swarm.roadmap",
+    "optplan.swarm.roadmap_graph",
     "optplan.maps.movingai_gen",
 )
 
