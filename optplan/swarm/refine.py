@@ -131,11 +131,12 @@ def _pull(pts: np.ndarray, off: np.ndarray, space: SwarmSpace, window: int,
     return new_pts, new_off, (new_ids if ids is not None else None), len(I)
 
 
-@compiled(I1, I1, I1, I1, B1, F1, f8)
-def _dirty_rows(off, ids, settled_prev, settled_next, active, length, min_gain):
+@compiled(I1, I1, I2, B1, F1, f8)
+def _dirty_rows(off, ids, settled, active, length, min_gain):
     """Interior vertices of the active paths not known to admit no cut with their current
     neighbours (global indices, ascending), and their cut thresholds ``min_gain`` x the
-    length of their path."""
+    length of their path.  ``settled[:, x]``: the ids of the previous and next vertex with
+    which the vertex of id ``x`` admitted no cut (-1: none yet)."""
     out = np.empty(off[-1], np.int64)
     thr = np.empty(off[-1])
     n = 0
@@ -144,18 +145,19 @@ def _dirty_rows(off, ids, settled_prev, settled_next, active, length, min_gain):
             continue
         for v in range(off[p] + 1, off[p + 1] - 1):
             x = ids[v]
-            if settled_prev[x] != ids[v - 1] or settled_next[x] != ids[v + 1]:
+            if settled[0, x] != ids[v - 1] or settled[1, x] != ids[v + 1]:
                 out[n] = v
                 thr[n] = min_gain * length[p]
                 n += 1
     return out[:n].copy(), thr[:n].copy()
 
 
-@compiled(F2, I1, I1, I1, B1, F3, F3, I1, i8, I1, I1)
-def _apply_cuts(pts, off, ids, rows, cut, P, Q, choice, next_id, settled_prev, settled_next):
+@compiled(F2, I1, I1, I1, B1, F3, F3, I1, i8, I2)
+def _apply_cuts(pts, off, ids, rows, cut, P, Q, choice, next_id, settled):
     """Replace every cut vertex ``rows[r]`` (ascending) by its two cut points
     ``P[r, choice[r] // F], Q[r, choice[r] % F]`` (new ids from ``next_id``, in vertex
-    order); a tested vertex without a cut is recorded as settled with its neighbours.
+    order); a tested vertex without a cut is recorded as settled with its neighbours
+    (``settled``, as :func:`_dirty_rows` reads it).
     Returns the new points, offsets, ids and the next free id."""
     F = P.shape[1]
     N = pts.shape[0]
@@ -167,8 +169,8 @@ def _apply_cuts(pts, off, ids, rows, cut, P, Q, choice, next_id, settled_prev, s
             which[v] = r
             n_cut += 1
         else:
-            settled_prev[ids[v]] = ids[v - 1]
-            settled_next[ids[v]] = ids[v + 1]
+            settled[0, ids[v]] = ids[v - 1]
+            settled[1, ids[v]] = ids[v + 1]
     new_pts = np.empty((N + n_cut, 2))
     new_ids = np.empty(N + n_cut, np.int64)
     new_off = np.empty_like(off)
@@ -363,13 +365,12 @@ def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
     ids = np.arange(len(pts), dtype=np.int64)
     next_id = len(pts)
     cap = max(4 * len(pts), 64)
-    s_prev = np.full(cap, -1, np.int64)
-    s_next = np.full(cap, -1, np.int64)
+    settled = np.full((2, cap), -1, np.int64)
     length = _lengths(pts, off)
     active = np.ones(len(paths), bool)  # (a path of 2 points has no vertex to cut)
     f = np.asarray(fractions, dtype=float)
     for _ in range(rounds):
-        rows, thr = _dirty_rows(off, ids, s_prev, s_next, active, length, min_gain)
+        rows, thr = _dirty_rows(off, ids, settled, active, length, min_gain)
         if not len(rows):
             break
         P, Q, j, cut, n = _best_cuts(pts, rows, f, thr, space)
@@ -377,10 +378,10 @@ def tighten(paths: list[np.ndarray], space: SwarmSpace, rounds: int = 30,
         need = next_id + 2 * int(cut.sum())
         if need > cap:  # room for the new ids
             cap = 2 * need
-            s_prev = np.concatenate([s_prev, np.full(cap - len(s_prev), -1, np.int64)])
-            s_next = np.concatenate([s_next, np.full(cap - len(s_next), -1, np.int64)])
+            settled = np.concatenate(
+                [settled, np.full((2, cap - settled.shape[1]), -1, np.int64)], axis=1)
         pts, off, ids, next_id = _apply_cuts(pts, off, ids, rows, cut, P, Q, j, next_id,
-                                             s_prev, s_next)
+                                             settled)
         pts, off, ids, n = _pull(pts, off, space, 6, ids)
         n_eval += n
         new = _lengths(pts, off)

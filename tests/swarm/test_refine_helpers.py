@@ -56,14 +56,14 @@ def test_dirty_rows_skip_settled_vertices_and_inactive_paths():
     rng = np.random.default_rng(3)
     off = _offsets(LENGTHS)
     ids = rng.permutation(200)[:off[-1]].astype(np.int64)
-    prev = rng.integers(-1, 3, 200)
-    nxt = rng.integers(-1, 3, 200)
+    settled = rng.integers(-1, 3, (2, 200))
+    prev, nxt = settled  # views
     for v in range(1, off[-1] - 1):  # about half of the vertices settled
         if rng.random() < 0.5:
             prev[ids[v]], nxt[ids[v]] = ids[v - 1], ids[v + 1]
     active = np.array([True, True, False, True, True, True])
     length = rng.random(len(LENGTHS)) * 100
-    rows, thr = rf._dirty_rows(off, ids, prev, nxt, active, length, 1e-5)
+    rows, thr = rf._dirty_rows(off, ids, settled, active, length, 1e-5)
     want = [v for p in range(len(LENGTHS)) if active[p] for v in range(off[p] + 1, off[p + 1] - 1)
             if prev[ids[v]] != ids[v - 1] or nxt[ids[v]] != ids[v + 1]]
     assert rows.tolist() == want
@@ -105,11 +105,10 @@ def test_apply_cuts_replaces_each_cut_vertex_by_its_two_cut_points():
     Q = rng.normal(size=(len(rows), F, 2))
     j = rng.integers(0, F * F, len(rows))
     cut = rng.random(len(rows)) < 0.6
-    prev, nxt = np.full(100, -1, np.int64), np.full(100, -1, np.int64)
-    prev0, nxt0 = prev.copy(), nxt.copy()
-    got = rf._apply_cuts(pts, off, ids, rows, cut, P, Q, j, off[-1], prev, nxt)
+    settled = np.full((2, 100), -1, np.int64)
+    prev0, nxt0 = np.full(100, -1, np.int64), np.full(100, -1, np.int64)
+    got = rf._apply_cuts(pts, off, ids, rows, cut, P, Q, j, off[-1], settled)
     want = _numpy_apply_cuts(pts, off, ids, rows, cut, P, Q, j, off[-1], prev0, nxt0)
     for a, b in zip(got, want, strict=True):
         np.testing.assert_array_equal(a, b)
-    np.testing.assert_array_equal(prev, prev0)
-    np.testing.assert_array_equal(nxt, nxt0)
+    np.testing.assert_array_equal(settled, [prev0, nxt0])
