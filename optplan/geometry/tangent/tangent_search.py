@@ -241,9 +241,11 @@ class TangentSearch:
             e = st.eidx[idx]
             known[e >= 0] = st.edges.ok[e[e >= 0]]
         todo = idx[known == 0]
-        pi_w = self.fr.world(np.stack([st.pi[todo].real, st.pi[todo].imag], axis=1))
-        pj_w = self.fr.world(np.stack([st.pj[todo].real, st.pj[todo].imag], axis=1))
-        tested = self.oset.segment_free(pi_w, pj_w)
+        seg = np.empty((len(todo), 2, 2))  # the segments' ends in world coordinates
+        a, b = st.pi[todo], st.pj[todo]
+        seg[:, 0, 0], seg[:, 0, 1], seg[:, 1, 0], seg[:, 1, 1] = a.real, a.imag, b.real, b.imag
+        tested = (self.oset.crossings(self.fr.world(seg), penetration=False).count == 0
+                  if len(todo) else np.zeros(0, bool))  # segment_free of the pairs
         self.graph.stats["segment_tests"] += len(todo)
         if st.edges is not None and st.eidx is not None:
             e = st.eidx[todo]
