@@ -5,7 +5,8 @@ The ``--against REV [REV ...]`` option of ``bench_sa_apf_grid.py``, ``bench_ipso
 kernels compile there on its worker's first query, before the timed part of that query); every
 checkout gets one worker process, the benchmark script itself run with ``--worker`` and
 ``PYTHONPATH`` = the checkout, so ``import optplan`` loads that checkout's package (the
-script's own code is the current one: a worker may only call what exists at both commits). A
+script's own code is the current one: a worker may only call what exists at both commits), all
+workers on one CPU (:func:`shared_cpu`). A
 worker answers one request per line of its standard input with one JSON line (:func:`serve`).
 :func:`alternate` sends every query to every worker in turn, never to two at once, the order
 reversed every query, so the machine's load hits all alike; :func:`compare` gives the ratio of
@@ -61,14 +62,29 @@ def digest(*parts: Any) -> str:
     return h.hexdigest()
 
 
+def shared_cpu() -> int | None:
+    """The one CPU every worker runs on (the last this process may use), or None where the
+    affinity cannot be set.  The workers answer one at a time, so one CPU costs them nothing;
+    on two CPUs each worker used to settle on its own, and a CPU slowed by the host's other
+    load (a virtual machine's neighbours) slowed one checkout for a whole run: five runs of
+    ``bench_ipso.py --against`` on the same two commits gave ratios from 0.78 to 1.24 on one
+    map (docs/solvers/pso.md)."""
+    if not hasattr(os, "sched_getaffinity"):
+        return None
+    return max(os.sched_getaffinity(0))
+
+
 class Worker:
-    """The worker process of ``script --worker *args`` on the checkout at ``root``."""
+    """The worker process of ``script --worker *args`` on the checkout at ``root``, pinned to
+    :func:`shared_cpu` (its threads too)."""
 
     def __init__(self, script: str, root: Path, args: Sequence[str]) -> None:
         env = dict(os.environ, PYTHONPATH=str(root))
+        cpu = shared_cpu()
+        pin = None if cpu is None else (lambda: os.sched_setaffinity(0, {cpu}))
         self.p = subprocess.Popen([sys.executable, script, "--worker", *args], env=env,
                                   stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
-                                  cwd=root)
+                                  cwd=root, preexec_fn=pin)
 
     def ask(self, *words: object) -> dict:
         """Send one request (``words`` joined by spaces); the worker's JSON answer."""
