@@ -67,7 +67,7 @@ def shared_cpu() -> int | None:
     affinity cannot be set.  The workers answer one at a time, so one CPU costs them nothing;
     on two CPUs each worker used to settle on its own, and a CPU slowed by the host's other
     load (a virtual machine's neighbours) slowed one checkout for a whole run: five runs of
-    ``bench_ipso.py --against`` on the same two commits gave ratios from 0.78 to 1.24 on one
+    ``bench_ipso.py --against`` on the same two commits gave ratios from 0.92 to 1.24 on one
     map (docs/solvers/pso.md)."""
     if not hasattr(os, "sched_getaffinity"):
         return None
