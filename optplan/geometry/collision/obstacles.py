@@ -394,13 +394,15 @@ class ObstacleSet:
         seg_count = np.bincount(seg, minlength=P * S).reshape(P, S).astype(np.int64)
         return DiscCrossings(count, pen, seg_count, (seg // S, seg % S, hits[:, 1].copy()))
 
-    def segment_free(self, a, b) -> np.ndarray:
-        """Per segment ``a[k] -> b[k]`` (world, ``(K, 2)`` each): collision-free."""
-        a = np.asarray(a, dtype=float).reshape(-1, 2)
-        b = np.asarray(b, dtype=float).reshape(-1, 2)
-        if len(a) == 0:
+    def segment_free(self, a, b=None) -> np.ndarray:
+        """Per segment ``a[k] -> b[k]`` (world, ``(K, 2)`` each), or per segment ``a[k]``
+        (``(K, 2, 2)``, its two ends) when ``b`` is None: collision-free."""
+        seg = (np.asarray(a, dtype=float) if b is None else np.stack(
+            [np.asarray(a, dtype=float).reshape(-1, 2), np.asarray(b, dtype=float).reshape(-1, 2)],
+            axis=1)).reshape(-1, 2, 2)
+        if len(seg) == 0:
             return np.zeros(0, bool)
-        return self.crossings(np.stack([a, b], axis=1), penetration=False).count == 0
+        return self.crossings(seg, penetration=False).count == 0
 
     def pairs_free(self, points, i, j) -> np.ndarray:
         """Per index pair ``(i[k], j[k])`` into ``points`` (world, ``(n, 2)``): whether the

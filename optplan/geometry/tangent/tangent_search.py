@@ -244,8 +244,7 @@ class TangentSearch:
         seg = np.empty((len(todo), 2, 2))  # the segments' ends in world coordinates
         a, b = st.pi[todo], st.pj[todo]
         seg[:, 0, 0], seg[:, 0, 1], seg[:, 1, 0], seg[:, 1, 1] = a.real, a.imag, b.real, b.imag
-        tested = (self.oset.crossings(self.fr.world(seg), penetration=False).count == 0
-                  if len(todo) else np.zeros(0, bool))  # segment_free of the pairs
+        tested = self.oset.segment_free(self.fr.world(seg))
         self.graph.stats["segment_tests"] += len(todo)
         if st.edges is not None and st.eidx is not None:
             e = st.eidx[todo]
