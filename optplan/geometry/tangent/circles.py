@@ -13,6 +13,7 @@ them is :mod:`optplan.geometry.tangent.tangent_graph`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -48,6 +49,17 @@ class Circles:
     @property
     def n(self) -> int:
         return len(self.center)
+
+    @cached_property
+    def cap(self) -> np.ndarray:
+        """Largest cone offset: ``width``, ``inf`` on a circle obstacle (no clamp)."""
+        return np.where(self.full, np.inf, self.width)
+
+    @cached_property
+    def reach(self) -> np.ndarray:
+        """Largest offset still in the cone: ``width + ANGLE_TOL``, ``inf`` on a circle
+        obstacle (every direction)."""
+        return np.where(self.full, np.inf, self.width + ANGLE_TOL)
 
 
 def _convex_vertices(v: np.ndarray, prv: np.ndarray, nxt: np.ndarray):

@@ -23,13 +23,10 @@ __all__ = ["Edges", "arc_sweep", "cone_off", "tangent_exists", "tangent_normal",
 
 def cone_off(C: Circles, k, th):
     """Offset of angle(s) ``th`` from the cone start of circle(s) ``k``, nan outside the
-    cone (``ANGLE_TOL`` of slack at both ends)."""
+    cone (``ANGLE_TOL`` of slack at both ends; the offset is clamped to the cone's width)."""
     off = np.mod(th - C.lo[k], TWO_PI)
     off = np.where(off > TWO_PI - ANGLE_TOL, 0.0, off)  # just below lo: on the boundary
-    full = C.full[k]
-    width = C.width[k]
-    ok = full | (off <= width + ANGLE_TOL)
-    return np.where(ok, np.minimum(off, np.where(full, off, width)), np.nan)
+    return np.where(off <= C.reach[k], np.minimum(off, C.cap[k]), np.nan)
 
 
 def arc_sweep(C: Circles, k, s, th_a, th_d, od=None):
@@ -64,7 +61,8 @@ def tangent_exists(dd, delta, eps: float):
 def tangent_normal(D, dd, delta):
     """Left normal ``n = exp(i beta)`` of the common tangent, ``beta = arg(D) +
     arccos(delta / d)`` (``D = c_j - c_i``, ``dd = |D|``; module docstring)."""
-    return np.exp(1j * (np.angle(D) + np.arccos(np.clip(delta / dd, -1.0, 1.0))))
+    cos = np.minimum(np.maximum(delta / dd, -1.0), 1.0)  # np.clip, without its overhead
+    return np.exp(1j * (np.arctan2(D.imag, D.real) + np.arccos(cos)))
 
 
 class Edges:
@@ -99,34 +97,37 @@ def tangent_edges(C: Circles, I, SI, J, SJ, eps: float) -> dict[str, np.ndarray]
     Returns
     -------
     dict
-        Arrays over the kept tangents: ``i, si, j, sj`` (as given), ``seg`` (length), ``pi``,
+        Arrays over the kept tangents: ``i, si, j, sj`` (as given; one source's ``i, si``
+        as given, not repeated), ``seg`` (length), ``pi``,
         ``pj`` (departure and arrival points, local complex), ``th_d``, ``th_a`` (their angles
         on their circles) and ``od`` (the departure's cone offset).
     """
     I, SI, J, SJ = (np.asarray(x) for x in (I, SI, J, SJ))
     one = I.ndim == 0  # one source: its values broadcast, nothing to gather
-
-    def at(x: np.ndarray, k: np.ndarray) -> np.ndarray:
-        return x if one else x[k]
-
     ci, ri, cj, rj = C.center[I], C.rho[I], C.center[J], C.rho[J]
     D = cj - ci
     dd = np.abs(D)
     delta = SJ * rj - SI * ri
-    k = np.flatnonzero((J != I) & tangent_exists(dd, delta, eps))
+    k = ((J != I) & tangent_exists(dd, delta, eps)).nonzero()[0]
     nl = tangent_normal(D[k], dd[k], delta[k])
-    th_d = np.angle(-at(SI, k) * nl)
-    od = cone_off(C, at(I, k), th_d)
-    m = np.flatnonzero(np.isfinite(od))
-    k, nl, th_d, od = k[m], nl[m], th_d[m], od[m]
-    th_a = np.angle(-SJ[k] * nl)
-    m = np.flatnonzero(np.isfinite(cone_off(C, J[k], th_a)))
-    k, nl = k[m], nl[m]
-    return {"i": np.broadcast_to(I, k.shape) if one else I[k],
-            "si": np.broadcast_to(SI, k.shape) if one else SI[k], "j": J[k], "sj": SJ[k],
-            "seg": np.sqrt(np.maximum(dd[k] ** 2 - delta[k] ** 2, 0.0)),
-            "pi": ci - SI * ri * nl if one else ci[k] - SI[k] * ri[k] * nl,
-            "pj": cj[k] - SJ[k] * rj[k] * nl, "th_d": th_d[m], "th_a": th_a[m], "od": od[m]}
+    if one:
+        z = -SI * nl
+        od = cone_off(C, I, np.arctan2(z.imag, z.real))
+    else:
+        z = -SI[k] * nl
+        od = cone_off(C, I[k], np.arctan2(z.imag, z.real))
+    m = np.isfinite(od).nonzero()[0]  # the departure in its cone
+    k, nl, od, z = k[m], nl[m], od[m], z[m]
+    jk, sjk = J[k], SJ[k]
+    w = -sjk * nl
+    th_a = np.arctan2(w.imag, w.real)
+    m = np.isfinite(cone_off(C, jk, th_a)).nonzero()[0]  # the arrival in its cone
+    k, nl, jk, sjk, z = k[m], nl[m], jk[m], sjk[m], z[m]
+    seg = np.sqrt(np.maximum(dd[k] ** 2 - delta[k] ** 2, 0.0))
+    return {"i": I if one else I[k], "si": SI if one else SI[k], "j": jk, "sj": sjk,
+            "seg": seg, "pi": ci - SI * ri * nl if one else ci[k] - SI[k] * ri[k] * nl,
+            "pj": cj[k] - sjk * rj[k] * nl, "th_d": np.arctan2(z.imag, z.real),
+            "th_a": th_a[m], "od": od[m]}
 
 
 def _edges(t: dict[str, np.ndarray], sl: slice, i: int, point: bool) -> Edges:
@@ -137,6 +138,7 @@ def _edges(t: dict[str, np.ndarray], sl: slice, i: int, point: bool) -> Edges:
 
 def edges_of_one(C: Circles, i: int, si: int, vis: np.ndarray, eps: float) -> Edges:
     """The :class:`Edges` of circle ``i`` in sense ``si`` towards the circles ``vis``."""
-    n = len(vis)
-    t = tangent_edges(C, i, si, np.repeat(vis, 2), np.tile(np.array([1, -1]), n), eps)
+    sj = np.empty(2 * len(vis), np.int64)  # both senses of each, +1 first
+    sj[0::2], sj[1::2] = 1, -1
+    t = tangent_edges(C, i, si, np.repeat(vis, 2), sj, eps)
     return _edges(t, slice(None), i, bool(C.rho[i] == 0))

@@ -102,6 +102,8 @@ class TangentSearch:
         self.heap: list = []
         self.streams: list[Stream] = []
         self.senses = np.array([1, -1])
+        # the goal as a target of :meth:`candidates`: (target, sense, centre, radius)
+        self._goal = (np.array([-2]), np.array([1]), np.array([zg]), np.zeros(1))
 
     def cone_off(self, k, th):
         """Offset of angle ``th`` from the cone start of circle(s) ``k``, or nan outside
@@ -127,7 +129,7 @@ class TangentSearch:
             parts.append((np.repeat(idx, 2), np.tile(self.senses, len(idx)),
                           np.repeat(self.cen[idx], 2), np.repeat(self.rho[idx], 2)))
         if goal:
-            parts.append((np.array([-2]), np.array([1]), np.array([self.zg]), np.zeros(1)))
+            parts.append(self._goal)
         if points is not None and len(points):
             pts = np.asarray(points, complex)
             m = len(pts)
@@ -147,8 +149,8 @@ class TangentSearch:
             jj, sj, cj, rj, D, dd, delta = (x[ok] for x in (jj, sj, cj, rj, D, dd, delta))
         nl = tangent_normal(D, dd, delta)
         pj = cj - sj * rj * nl
-        th_arr = np.angle(-sj * nl)
-        return jj, sj, dd, delta, nl, pj, th_arr
+        z = -sj * nl
+        return jj, sj, dd, delta, nl, pj, np.arctan2(z.imag, z.real)
 
     def departures(self, i: int, si: int, th_a: float, ci: complex, ri: float, nl):
         """Departure points on circle ``i`` of the tangents of normals ``nl``
@@ -165,7 +167,8 @@ class TangentSearch:
         """Departure points on circle ``i`` (sense ``si``, centre ``ci``, radius ``ri``) of
         the tangents of normals ``nl``, their angles and cone offsets (nan: outside the
         cone): ``pi, th_d, od``."""
-        th_d = np.angle(-si * nl)
+        z = -si * nl
+        th_d = np.arctan2(z.imag, z.real)
         return ci - si * ri * nl, th_d, self.cone_off(i, th_d)
 
     def _sweep(self, i: int, si: int, th_a: float, th_d, od):
@@ -219,8 +222,7 @@ class TangentSearch:
         """Exact checks of candidate ``k`` of ``st`` (and a batch after it)."""
         if st.ok[k] == 0:
             b = min(len(st.f), k + max(8, st.checked))
-            idx = np.arange(k, b)
-            idx = idx[st.ok[idx] == 0]
+            idx = k + (st.ok[k:b] == 0).nonzero()[0]
             self.info["n_checked"] += len(idx)
             free = self._segments_free(st, idx)
             i, si, th_a = self.nodes[st.node][:3]
@@ -237,20 +239,22 @@ class TangentSearch:
         """Exact segment tests of candidates ``idx`` of ``st``; the status of a graph edge
         tested by an earlier search is reused, a new one is stored."""
         known = np.zeros(len(idx), np.int8)
-        if st.edges is not None and st.eidx is not None:
-            e = st.eidx[idx]
-            known[e >= 0] = st.edges.ok[e[e >= 0]]
-        todo = idx[known == 0]
-        seg = np.empty((len(todo), 2, 2))  # the segments' ends in world coordinates
-        a, b = st.pi[todo], st.pj[todo]
-        seg[:, 0, 0], seg[:, 0, 1], seg[:, 1, 0], seg[:, 1, 1] = a.real, a.imag, b.real, b.imag
-        tested = self.oset.segment_free(self.fr.world(seg))
+        e = None if st.edges is None or st.eidx is None else st.eidx[idx]
+        if e is not None:
+            has = e >= 0
+            known[has] = st.edges.ok[e[has]]
+        new = known == 0
+        todo = idx[new]
+        z = np.empty((len(todo), 2), complex)  # the segments' ends: (n, 2, 2) real below
+        z[:, 0], z[:, 1] = st.pi[todo], st.pj[todo]
+        tested = self.oset.segment_free(self.fr.world(z.view(float).reshape(-1, 2, 2)))
         self.graph.stats["segment_tests"] += len(todo)
-        if st.edges is not None and st.eidx is not None:
-            e = st.eidx[todo]
-            st.edges.ok[e[e >= 0]] = np.where(tested[e >= 0], 1, -1)
+        if e is not None:
+            e = e[new]
+            has = e >= 0
+            st.edges.ok[e[has]] = np.where(tested[has], 1, -1)
         free = known == 1
-        free[known == 0] = tested
+        free[new] = tested
         return free
 
     def dominated(self, j: int, sj: int, th: float, g: float) -> bool:
