@@ -7,10 +7,10 @@ regenerates the docs' figures).
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
+from figure_io import parser, save
 
 import optplan as op
 from optplan.plot import new_figure, plot_problem
@@ -43,29 +43,20 @@ def draw(ax, name: str, seed: int = 0) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python docs/figures/apf.py",
-                                 description=__doc__.split("\n\n")[0])
+    ap = parser("python docs/figures/apf.py", __doc__, Path("runs"))
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", type=Path, default=Path("runs"),
-                    help="output folder (default runs/; docs/img regenerates the docs)")
     a = ap.parse_args(argv)
-    out = a.out
-    out.mkdir(parents=True, exist_ok=True)
     fig = new_figure(size=(11, 6.4))
     axes = fig.subplots(2, 2)
     for ax, name in zip(axes.ravel(), ["trap-saddle", "trap-gnron", "trap-channel", "trap-u"]):
         draw(ax, name, a.seed)
     fig.tight_layout()
-    fig.savefig(out / "apf-traps.png", dpi=90)
-    written = [out / "apf-traps.png"]
+    save(fig, a.out / "apf-traps.png", 90)
     for name in ("paper-apf-env1", "paper-apf-env2"):
         fig = new_figure(size=(6, 6))
         draw(fig.subplots(), name, a.seed)
         fig.tight_layout()
-        f = out / f"apf-{name.removeprefix('paper-apf-')}.png"
-        fig.savefig(f, dpi=90)
-        written.append(f)
-    print("wrote", ", ".join(str(p) for p in written))
+        save(fig, a.out / f"apf-{name.removeprefix('paper-apf-')}.png", 90)
     return 0
 
 

@@ -10,7 +10,6 @@ Writes ``formation-<scene>.png`` per scene (seed 0, leader reference by ``visgra
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 from typing import TYPE_CHECKING, cast
 
@@ -19,6 +18,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from figure_io import parser, save  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 
 import optplan as op  # noqa: E402
@@ -72,12 +72,9 @@ def draw(ax, prob: op.Problem, res: op.Result, title: str, n_snap: int = 10) -> 
 
 
 def main(argv: list[str] | None = None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", default="runs", help="output folder (default runs/)")
+    ap = parser("python docs/figures/formation.py", __doc__, Path("runs"))
     ap.add_argument("--scenes", default=",".join(SCENES))
     args = ap.parse_args(argv)
-    out_dir = Path(args.out)
-    out_dir.mkdir(parents=True, exist_ok=True)
     for scene in args.scenes.split(","):
         prob = op.load_problem(scene)
         fig, axes = plt.subplots(1, 3, figsize=(15, 5.2),
@@ -94,10 +91,7 @@ def main(argv: list[str] | None = None) -> None:
         axes[2].set_title("formation error (controller frame)", fontsize=9)
         axes[2].legend(fontsize=7)
         fig.tight_layout()
-        out = out_dir / f"formation-{scene}.png"
-        fig.savefig(out, dpi=90)
-        plt.close(fig)
-        print("wrote", out)
+        save(fig, args.out / f"formation-{scene}.png", 90)
 
 
 if __name__ == "__main__":

@@ -21,10 +21,10 @@ Figures:
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import numpy as np
+from figure_io import parser, save
 
 import optplan as op
 from optplan.metrics import formation_errors
@@ -51,9 +51,11 @@ def three_way(seed: int, out: Path) -> None:
         ax.set_title(f"{label} ({solver}): {res.status.value}\nlength {m['length']:.1f}, "
                      f"collisions {m['collisions']}", fontsize=10)
         if solver == "hybrid-paper":
-            animate(res, out / "hybrid-paper-hybrid.gif", problem=prob, fps=10, max_frames=100)
+            gif = out / "hybrid-paper-hybrid.gif"
+            animate(res, gif, problem=prob, fps=10, max_frames=100)
+            print(f"wrote {gif}")
     fig.tight_layout()
-    fig.savefig(out / "hybrid-three-way.png", dpi=90)
+    save(fig, out / "hybrid-three-way.png", 90)
 
 
 def formation(seed: int, out: Path) -> dict[str, op.Result]:
@@ -69,8 +71,10 @@ def formation(seed: int, out: Path) -> dict[str, op.Result]:
         ax = fig.subplots()
         plot_result(res, problem=prob, ax=ax, snapshot_every=max(1, len(res.times) // 10),
                     legend="outside")
-        fig.savefig(out / f"{stem}.png", dpi=90)
-        animate(res, out / f"{stem}.gif", problem=prob, fps=10, max_frames=120)
+        save(fig, out / f"{stem}.png", 90)
+        gif = out / f"{stem}.gif"
+        animate(res, gif, problem=prob, fps=10, max_frames=120)
+        print(f"wrote {gif}")
     return runs
 
 
@@ -111,25 +115,19 @@ def formation_error(runs: dict[str, op.Result], out: Path) -> None:
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
     fig.tight_layout()
-    fig.savefig(out / "hybrid-formation-error.png", dpi=90)
+    save(fig, out / "hybrid-formation-error.png", 90)
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = parser("python docs/figures/hybrid.py", __doc__, Path("runs"))
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--out", type=Path, default=Path("runs"),
-                    help="output folder (default runs/; docs/img regenerates the docs)")
     ap.add_argument("--global-solver", default=None,
                     help="override the hybrids' global stage and the IPSO-alone panel")
     a = ap.parse_args(argv)
     if a.global_solver:
         OVER["global_solver"] = a.global_solver
-    a.out.mkdir(parents=True, exist_ok=True)
     three_way(a.seed, a.out)
     formation_error(formation(a.seed, a.out), a.out)
-    for p in sorted(a.out.glob("hybrid-*")):
-        print(p)
     return 0
 
 

@@ -20,13 +20,13 @@ the solved runs).
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 from collections import Counter
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from figure_io import parser, save
 
 import optplan as op
 
@@ -104,15 +104,10 @@ def _draw_image(ax: Any, info: dict[str, Any]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python docs/figures/maps.py",
-                                 description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT,
-                    help=f"output folder (default {DEFAULT_OUT})")
+    ap = parser("python docs/figures/maps.py", __doc__, DEFAULT_OUT, dpi=100)
     ap.add_argument("--seed", type=int, default=0, help="seed of ipso and hybrid-qp (default 0)")
     ap.add_argument("--seeds", type=int, default=10,
                     help="seeds of the printed outcome table (default 10)")
-    ap.add_argument("--dpi", type=float, default=100, help="PNG resolution (default 100)")
     a = ap.parse_args(argv)
     if a.seeds < 1:
         ap.error(f"--seeds must be >= 1, got {a.seeds}")
@@ -120,7 +115,6 @@ def main(argv: list[str] | None = None) -> int:
     from optplan.maps import Robots, import_map
 
     info: dict[str, Any] = {}
-    a.out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:  # the map is written, then imported
         prob = import_map(write_office_map(tmp), Robots(radius=RADIUS, start=START, goal=GOAL),
                           info=info)
@@ -143,9 +137,8 @@ def main(argv: list[str] | None = None) -> int:
     right.set_title(f"imported and cropped: {prob.name}, bounds "
                     f"{', '.join(f'{v:g}' for v in prob.bounds)}", fontsize=10)
     right.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
-    out = a.out / "maps-ros-cropped.png"
-    fig.savefig(out, dpi=a.dpi)
-    print(f"wrote {out}\n")
+    save(fig, a.out / "maps-ros-cropped.png", a.dpi)
+    print()
     _outcomes(prob, a.seeds)
     return 0
 

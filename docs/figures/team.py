@@ -13,7 +13,6 @@ Writes into ``--out`` (default ``runs/team-figures``):
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -22,6 +21,7 @@ import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from figure_io import parser, save  # noqa: E402
 
 import optplan as op  # noqa: E402
 from optplan.plot import plot_result  # noqa: E402
@@ -40,10 +40,7 @@ def _end(res: op.Result) -> float:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Draw both figures into ``--out``."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
-    args = ap.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
+    args = parser("python docs/figures/team.py", __doc__, DEFAULT_OUT).parse_args(argv)
     prob = op.load_problem("paper-warehouse")
     warm = op.solve(prob, "hybrid-qp", rng=0)
     nlp = op.get_solver("formation-nlp").reference(prob, warm)  # type: ignore[attr-defined]
@@ -53,8 +50,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         ax.set_title(f"{title}: end {_end(res):.1f} s, formation RMSE "
                      f"{res.metrics['formation_rmse']:.2f}")
     fig.tight_layout()
-    fig.savefig(args.out / "team-nlp-warehouse.png", dpi=100)
-    plt.close(fig)
+    save(fig, args.out / "team-nlp-warehouse.png", 100)
     pts = []
     for w in WEIGHTS:
         r = op.get_solver("formation-nlp", w_formation=w).reference(  # type: ignore[attr-defined]
@@ -75,8 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     ax.set_title("paper-warehouse: arrival against formation keeping")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(args.out / "team-nlp-tradeoff.png", dpi=100)
-    print(f"wrote {args.out / 'team-nlp-warehouse.png'} and {args.out / 'team-nlp-tradeoff.png'}")
+    save(fig, args.out / "team-nlp-tradeoff.png", 100)
     return 0
 
 

@@ -13,7 +13,6 @@ demand).
 
 from __future__ import annotations
 
-import argparse
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -22,6 +21,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from figure_io import parser, save  # noqa: E402
 
 import optplan as op  # noqa: E402
 from optplan.geometry.timing.schedule import fastest_schedule  # noqa: E402
@@ -67,9 +67,7 @@ def _plane(ax, prob: op.Problem, t_max: float) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Draw the figure into ``--out``."""
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
-    args = ap.parse_args(argv)
+    args = parser("python docs/figures/time_plane.py", __doc__, DEFAULT_OUT).parse_args(argv)
     prob = scene()
     sch = fastest_schedule(prob, PATH)
     if sch.status != "scheduled" or sch.path is None or sch.times is None:
@@ -96,9 +94,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     right.set_title("(arc length, time) plane: forbidden regions and the schedule")
     right.legend(loc="upper left", fontsize=8)
     fig.tight_layout()
-    args.out.mkdir(parents=True, exist_ok=True)
-    out = args.out / "time-st-plane.png"
-    fig.savefig(out, dpi=110)
+    out = save(fig, args.out / "time-st-plane.png", 110)
     print(f"{out}: arrival {sch.arrival:.4f} s, {len(sch.times)} points")
     return 0
 

@@ -3,18 +3,24 @@
 from __future__ import annotations
 
 import importlib.util
+import sys
 from pathlib import Path
 
 import pytest
 
 from optplan.maps import ReadOptions, Robots, import_map
 
-#: the script docs/figures/maps.py (outside the package: loaded from its file)
-_SPEC = importlib.util.spec_from_file_location(
-    "docs_figures_maps", Path(__file__).resolve().parents[2] / "docs" / "figures" / "maps.py")
+#: the figure scripts' folder: docs/figures/maps.py (outside the package) is loaded from its file
+_FIGURES = Path(__file__).resolve().parents[2] / "docs" / "figures"
+_SPEC = importlib.util.spec_from_file_location("docs_figures_maps", _FIGURES / "maps.py")
 assert _SPEC is not None and _SPEC.loader is not None
 maps_figures = importlib.util.module_from_spec(_SPEC)
-_SPEC.loader.exec_module(maps_figures)
+# the script imports figure_io from beside it (its folder is sys.path[0] when it is run)
+sys.path.insert(0, str(_FIGURES))
+try:
+    _SPEC.loader.exec_module(maps_figures)
+finally:
+    sys.path.remove(str(_FIGURES))
 
 
 def test_the_office_map_is_the_same_bytes_and_is_cropped_to_the_office(tmp_path: Path) -> None:
