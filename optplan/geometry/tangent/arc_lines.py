@@ -18,7 +18,7 @@ import numpy as np
 from optplan.geometry.tangent.circles import ANGLE_TOL, Circles
 from optplan.geometry.tangent.tangent_edges import arc_sweep, tangent_normal
 
-__all__ = ["arc_polyline", "exact_path", "rebuild_polyline"]
+__all__ = ["arc_polyline", "exact_path", "rebuild_polyline", "world_polyline"]
 
 
 def exact_path(C: Circles, zs: complex, zg: complex, visits: list[tuple[int, int]],
@@ -54,8 +54,9 @@ def exact_path(C: Circles, zs: complex, zg: complex, visits: list[tuple[int, int
         dd = np.abs(D)
         delta = sen[1:] * rho[1:] - sen[:-1] * rho[:-1]
         nl = tangent_normal(D, dd, delta)
-        th_a = np.angle(-sen[1:-1] * nl[:-1])  # arrivals on the circles
-        th_d = np.angle(-sen[1:-1] * nl[1:])  # departures from them
+        za, zd = -sen[1:-1] * nl[:-1], -sen[1:-1] * nl[1:]
+        th_a = np.arctan2(za.imag, za.real)  # arrivals on the circles
+        th_d = np.arctan2(zd.imag, zd.real)  # departures from them
         sweep = arc_sweep(C, c, s, th_a, th_d) if len(c) else np.zeros(0)
         # a circle left where it is reached (no arc) is only touched: the tangents before
         # and after it are one line, the tangent from the circle before it to the one after
@@ -100,9 +101,17 @@ def rebuild_polyline(waypoints: list, frame, robot, step: float) -> np.ndarray:
         arc = arc_polyline(c, rho, th, sweep * s, step)
         pts.extend(arc if rho > 0 else arc[:1])
     pts.append(complex(*frame.local(robot.goal)))
-    z = np.array(pts)
-    poly = frame.world(np.stack([z.real, z.imag], axis=1))
-    keep = np.r_[True, np.any(np.diff(poly, axis=0) != 0, axis=1)]
+    return world_polyline(frame, np.array(pts), robot.start, robot.goal)
+
+
+def world_polyline(frame, z: np.ndarray, start, goal) -> np.ndarray:
+    """The world polyline ``(m, 2)`` of the local points ``z`` (complex) of a path from
+    ``start`` to ``goal`` (world): a point equal to the one before it dropped, the ends set
+    to ``start`` and ``goal`` exactly."""
+    poly = frame.world(np.ascontiguousarray(z, complex).view(float).reshape(-1, 2))
+    keep = np.ones(len(poly), bool)
+    step = poly[1:] != poly[:-1]
+    keep[1:] = step[:, 0] | step[:, 1]
     poly = poly[keep]
-    poly[0], poly[-1] = robot.start, robot.goal
+    poly[0], poly[-1] = np.asarray(start, float), np.asarray(goal, float)
     return poly

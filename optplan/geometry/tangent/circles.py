@@ -90,7 +90,7 @@ def circles_of(oset: ObstacleSet) -> Circles:
     r = oset.radius
     circ = [g for _, g in oset.shapes if isinstance(g, tuple)]
     xy, ring, exterior, ccw = solid_rings(oset)
-    pt = np.flatnonzero(np.r_[ring[1:] == ring[:-1], False])  # not a ring's closing repeat
+    pt = np.flatnonzero(np.append(ring[1:] == ring[:-1], False))  # not a ring's closing repeat
     ring = ring[pt]
     sizes = np.bincount(ring, minlength=len(exterior))
     first = np.cumsum(sizes) - sizes

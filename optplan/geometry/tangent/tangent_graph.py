@@ -61,7 +61,12 @@ from typing import Any
 import numpy as np
 
 from optplan.geometry.collision import ObstacleSet, solid_edges
-from optplan.geometry.tangent.arc_lines import arc_polyline, exact_path, rebuild_polyline
+from optplan.geometry.tangent.arc_lines import (
+    arc_polyline,
+    exact_path,
+    rebuild_polyline,
+    world_polyline,
+)
 from optplan.geometry.tangent.chain_search import ChainSearch
 from optplan.geometry.tangent.circles import ArcChecker, Circles, circles_of
 from optplan.geometry.tangent.sightlines import OverBudget, Sightlines
@@ -502,12 +507,8 @@ def shortest_path(oset: ObstacleSet, start, goal, *, circles: Circles | None = N
         return TangentPath(math.inf, None, [], info)
     # the path's length and polyline from its circles, the same way for both searches
     length, z, wps = exact_path(C, zs, zg, search.visits(), arc_step)
-    poly = fr.world(np.stack([z.real, z.imag], axis=1))
-    keep = np.r_[True, np.any(np.diff(poly, axis=0) != 0, axis=1)]
-    poly = poly[keep]
-    poly[0], poly[-1] = np.asarray(start, float), np.asarray(goal, float)
     info["certified"] = bool(oset.walled)
-    return TangentPath(length, poly, wps, info)
+    return TangentPath(length, world_polyline(fr, z, start, goal), wps, info)
 
 
 def _poll(stop: Callable[[], bool] | None) -> None:
