@@ -309,8 +309,8 @@ class ObstacleSet:
             t = self.table
             K = self.n_pieces
 
-            def xy(z):  # (4, K) complex -> (K, 4, 2) real
-                return np.ascontiguousarray(np.stack([z.real.T, z.imag.T], axis=-1))
+            def xy(z):  # (4, K) complex -> (K, 4, 2) real: (re, im) pairs, as stored
+                return np.ascontiguousarray(z.T).view(float).reshape(K, 4, 2)
 
             self._cache["arrays"] = (
                 K, xy(t[0]), xy(t[1]), xy(t[2]), np.ascontiguousarray(t[4].real.T),

@@ -111,17 +111,17 @@ def circles_of(oset: ObstacleSet) -> Circles:
     else:
         v, lo, wd = np.zeros((0, 2)), np.zeros(0), np.zeros(0)
     cc = np.array(circ, dtype=float).reshape(-1, 3)
+    cen = np.concatenate([v, cc[:, :2]])
+    rho = np.concatenate([np.full(len(v), r), cc[:, 2] + r])
+    lo = np.concatenate([lo, np.zeros(len(cc))])
+    wd = np.concatenate([wd, np.full(len(cc), TWO_PI)])
+    full = np.concatenate([np.zeros(len(v), bool), np.ones(len(cc), bool)])
     # walled: a circle farther outside the bounds than its radius is never touched by a path
     # inside them (the wall's outer corners, vertices of obstacles clipped beyond the edge)
     if oset.walled:
-        keep = _reaches_bounds(oset, v, r)
-        v, lo, wd = v[keep], lo[keep], wd[keep]
-        cc = cc[_reaches_bounds(oset, cc[:, :2], cc[:, 2] + r)]
-    return Circles(np.concatenate([v[:, 0] + 1j * v[:, 1], cc[:, 0] + 1j * cc[:, 1]]),
-                   np.concatenate([np.full(len(v), r), cc[:, 2] + r]),
-                   np.concatenate([lo, np.zeros(len(cc))]),
-                   np.concatenate([wd, np.full(len(cc), TWO_PI)]),
-                   np.concatenate([np.zeros(len(v), bool), np.ones(len(cc), bool)]))
+        keep = _reaches_bounds(oset, cen, rho)
+        cen, rho, lo, wd, full = cen[keep], rho[keep], lo[keep], wd[keep], full[keep]
+    return Circles(cen[:, 0] + 1j * cen[:, 1], rho, lo, wd, full)
 
 
 @dataclass

@@ -18,7 +18,8 @@ import numpy as np
 
 from optplan.geometry.tangent.circles import ANGLE_TOL, TWO_PI, Circles
 
-__all__ = ["Edges", "arc_sweep", "cone_off", "tangent_exists", "tangent_normal", "tangent_edges"]
+__all__ = ["Edges", "arc_sweep", "both_senses", "cone_off", "tangent_exists", "tangent_normal",
+           "tangent_edges"]
 
 
 def cone_off(C: Circles, k, th):
@@ -50,6 +51,13 @@ def arc_sweep(C: Circles, k, s, th_a, th_d, od=None):
         sweep = (od - cone_off(C, k, th_a)) * s
         sweep = np.where((sweep < 0) & (sweep > -ANGLE_TOL), 0.0, sweep)
     return sweep if one else np.where(full, turn, sweep)
+
+
+def both_senses(idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every circle of ``idx`` twice, with sense ``+1`` then ``-1``: ``(circles, senses)``."""
+    sj = np.empty(2 * len(idx), np.int64)
+    sj[0::2], sj[1::2] = 1, -1
+    return np.repeat(idx, 2), sj
 
 
 def tangent_exists(dd, delta, eps: float):
@@ -138,7 +146,5 @@ def _edges(t: dict[str, np.ndarray], sl: slice, i: int, point: bool) -> Edges:
 
 def edges_of_one(C: Circles, i: int, si: int, vis: np.ndarray, eps: float) -> Edges:
     """The :class:`Edges` of circle ``i`` in sense ``si`` towards the circles ``vis``."""
-    sj = np.empty(2 * len(vis), np.int64)  # both senses of each, +1 first
-    sj[0::2], sj[1::2] = 1, -1
-    t = tangent_edges(C, i, si, np.repeat(vis, 2), sj, eps)
+    t = tangent_edges(C, i, si, *both_senses(vis), eps)
     return _edges(t, slice(None), i, bool(C.rho[i] == 0))

@@ -25,6 +25,7 @@ from optplan.geometry.tangent.circles import TWO_PI, Circles
 from optplan.geometry.tangent.tangent_edges import (
     Edges,
     arc_sweep,
+    both_senses,
     cone_off,
     tangent_exists,
     tangent_normal,
@@ -101,7 +102,6 @@ class TangentSearch:
         self.expanded: dict = {}  # (circle, sense) -> list of (theta, g)
         self.heap: list = []
         self.streams: list[Stream] = []
-        self.senses = np.array([1, -1])
         # the goal as a target of :meth:`candidates`: (target, sense, centre, radius)
         self._goal = (np.array([-2]), np.array([1]), np.array([zg]), np.zeros(1))
 
@@ -126,7 +126,7 @@ class TangentSearch:
         if circles:  # the circles it may see (a superset: :mod:`~.sightlines`), not itself
             idx = self.graph.visible(i) if i >= 0 else self.graph.visible_from(ci)
             idx = idx[idx != i] if i >= 0 else idx
-            parts.append((np.repeat(idx, 2), np.tile(self.senses, len(idx)),
+            parts.append((*both_senses(idx),
                           np.repeat(self.cen[idx], 2), np.repeat(self.rho[idx], 2)))
         if goal:
             parts.append(self._goal)
