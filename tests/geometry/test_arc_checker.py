@@ -2,8 +2,9 @@
 the compiled ``optplan.geometry.collision.arc_kernel``) and the crowded-circles guard of
 ``graph = "auto"``.
 
-The kernel tests an arc only against the boundary edges and circles near the arc, through the
-obstacle set's own screen.  Two independent oracles:
+The kernel tests an arc only against the boundary edges and circles near the arc (screened by
+their distance to the arc's midpoint, listed by the arc test's own grid on large maps).  Two
+independent oracles:
 
 * a numpy transcription of the closed forms (below), testing every arc against every edge of
   every convex piece (the internal diagonals too) and every circle obstacle: on arcs that
@@ -30,6 +31,7 @@ import shapely
 
 import optplan as op
 from benchmarks.bench_crowded import crowded
+from optplan.geometry.collision import arc_kernel
 from optplan.geometry.collision.arc_kernel import arcs_free
 from optplan.geometry.tangent import circles as circ
 from optplan.geometry.tangent import tangent_graph as tg
@@ -137,12 +139,18 @@ def _free_start_arcs(graph: tg.TangentGraph, rng: np.random.Generator, m: int):
     return idx, th, sweep, sense
 
 
+@pytest.mark.parametrize("grid", [False, True])
 @pytest.mark.parametrize("name", ["paper-env2", "paper-warehouse", "warehouse-grid",
                                   "paper-apf-env2", "crowded-2000"])
-def test_arc_verdicts_equal_the_all_items_oracle(name):
+def test_arc_verdicts_equal_the_all_items_oracle(name, grid, monkeypatch):
     p = crowded(2000) if name == "crowded-2000" else op.load_problem(name)
     r = p.planned_robots[0]
-    graph = tg.TangentGraph(p.obstacle_set(r.radius, known_only=True))
+    S = p.obstacle_set(r.radius, known_only=True)
+    # both screens: every entry against every arc, and the arc test's own grid
+    monkeypatch.setattr(arc_kernel, "ARC_GRID_FROM", 0 if grid else 10**9)
+    S._cache.pop("arc_grid", None)
+    assert arc_kernel.arc_grid(S)[0] == grid
+    graph = tg.TangentGraph(S)
     idx, th, sweep, sense = _free_start_arcs(graph, np.random.default_rng(3), 400)
     assert len(idx) >= 100
     got = graph.arcs.free_many(idx, th, sweep, sense)

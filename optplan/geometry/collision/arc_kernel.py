@@ -16,13 +16,17 @@ solid's tiling never matter) and the circle obstacles, with exact distances in c
   inside the segment) and ``0`` where the circle crosses the segment inside the arc;
 * a circle obstacle (centre ``q``, radius ``R``): the point distance minus ``R``.
 
-Only the items near the arc are tested: the arc lies within ``b = 2 rho sin(sweep / 4)`` of
-its midpoint ``m``, so an item whose bounding circle is farther than ``b + r`` from ``m``
-cannot block it (``b + r`` carries ``3 eps`` of slack).  Without the obstacle set's grid
-every item's bounding circle is compared with ``m``; with it, the cells of the box of
-half-width ``b + r`` round ``m`` are visited (an item is listed in every cell its box, grown by
-``r + 4 eps``, covers, so every item that comes within ``b + r`` of ``m`` is listed in one of
-them).  The work per arc is that of the items near the arc, not of those near its circle.
+Only the entries near the arc are tested: the *entries* are the boundary edges of the pieces
+and the circle obstacles.  The arc lies within ``b = 2 rho sin(sweep / 4)`` of its midpoint
+``m``, so an entry farther than ``b + r`` from ``m`` cannot block it (``b + r`` carries
+``3 eps`` of slack): each entry is screened by its exact distance to ``m`` (a point-to-segment
+or point-to-circle distance) before the exact distance to the arc.  From
+:data:`ARC_GRID_FROM` entries on, a uniform grid of the entries (:func:`arc_grid`, made once
+per obstacle set) lists each in every cell its box (``4 eps`` of slack) covers; an arc visits
+the cells of the box of half-width ``b + r`` round ``m``, which hold every entry that comes
+within ``b + r`` of ``m``.  The work per arc is then that of the boundary edges near the arc:
+not of the pieces near it (a convex polygon of many vertices is a fan of thin pieces, each
+reaching across the polygon), nor of those near its circle.
 
 Tested against an independent numpy transcription of the closed forms and against shapely
 (the arc sampled densely) in ``tests/geometry/test_arc_checker.py``.  The data layout is that
@@ -36,14 +40,17 @@ import math
 import numpy as np
 from numba import types
 
+from optplan.geometry.collision.grid import box_cells, cell_lists
 from optplan.geometry.collision.kernel import GRID, ITEMS
 from optplan.geometry.compiled import B1, F1, F2, I1, compiled, f8, inlined, leaf
 
-__all__ = ["TWO_PI", "ANGLE_TOL", "arcs_blocked", "arcs_free"]
+__all__ = ["TWO_PI", "ANGLE_TOL", "ARC_GRID_FROM", "arc_grid", "arcs_blocked", "arcs_free"]
 
 TWO_PI = 2.0 * math.pi
 #: Angular slack (rad) of "a direction lies in the arc" (the normal-cone tests' slack).
 ANGLE_TOL = 1e-9
+#: Entries (boundary edges and circle obstacles) from which the arc test has its own grid.
+ARC_GRID_FROM = 1024
 
 
 @leaf(f8, f8, f8)
@@ -52,17 +59,15 @@ def _in_arc(phi, start, sweep):
     return (phi - start) % TWO_PI <= sweep + ANGLE_TOL
 
 
-@leaf(f8, f8, f8, f8, f8, f8, f8)
-def _point_arc(qx, qy, cx, cy, rho, start, sweep):
-    """Distance from the point ``q`` to the arc (module docstring)."""
+@leaf(f8, f8, f8, f8, f8, f8, f8, types.UniTuple(f8, 4))
+def _point_arc(qx, qy, cx, cy, rho, start, sweep, ends):
+    """Distance from the point ``q`` to the arc (module docstring; ``ends``: the arc's end
+    points ``x0, y0, x1, y1``)."""
     vx = qx - cx
     vy = qy - cy
     if _in_arc(math.atan2(vy, vx), start, sweep):
         return abs(math.sqrt(vx * vx + vy * vy) - rho)
-    end = start + sweep
-    d0 = math.hypot(qx - (cx + rho * math.cos(start)), qy - (cy + rho * math.sin(start)))
-    d1 = math.hypot(qx - (cx + rho * math.cos(end)), qy - (cy + rho * math.sin(end)))
-    return min(d0, d1)
+    return min(math.hypot(qx - ends[0], qy - ends[1]), math.hypot(qx - ends[2], qy - ends[3]))
 
 
 @leaf(f8, f8, f8, f8, f8, f8)
@@ -73,15 +78,14 @@ def _point_segment(qx, qy, px, py, ex, ey):
     return math.hypot(qx - (px + t * ex), qy - (py + t * ey))
 
 
-@inlined  # one call site (_blocks)
-def _segment_arc(cx, cy, rho, start, sweep, px, py, ex, ey):
-    """Exact distance between the arc and the segment ``P -> P + E`` (module docstring)."""
-    end = start + sweep
-    d = min(_point_segment(cx + rho * math.cos(start), cy + rho * math.sin(start),
-                           px, py, ex, ey),
-            _point_segment(cx + rho * math.cos(end), cy + rho * math.sin(end), px, py, ex, ey),
-            _point_arc(px, py, cx, cy, rho, start, sweep),
-            _point_arc(px + ex, py + ey, cx, cy, rho, start, sweep))
+@inlined  # one call site (_blocked)
+def _segment_arc(cx, cy, rho, start, sweep, ends, px, py, ex, ey):
+    """Exact distance between the arc (end points ``ends``) and the segment ``P -> P + E``
+    (module docstring)."""
+    d = min(_point_segment(ends[0], ends[1], px, py, ex, ey),
+            _point_segment(ends[2], ends[3], px, py, ex, ey),
+            _point_arc(px, py, cx, cy, rho, start, sweep, ends),
+            _point_arc(px + ex, py + ey, cx, cy, rho, start, sweep, ends))
     L = math.sqrt(ex * ex + ey * ey)
     ux = ex / max(L, 1e-300)
     uy = ey / max(L, 1e-300)
@@ -106,41 +110,52 @@ def _segment_arc(cx, cy, rho, start, sweep, px, py, ex, ey):
 
 
 @inlined  # one call site (_arcs_loop)
-def _blocks(k, cx, cy, rho, start, sweep, items, lim):
-    """Item ``k`` comes closer than ``lim`` to the arc: a piece's boundary edges, a circle."""
+def _blocked(e, arc, ends, mid, items, lim):
+    """Entry ``e`` comes closer than ``lim`` to the arc ``arc = (cx, cy, rho, start, sweep)``
+    (end points ``ends``, ``mid = (mx, my, reach)``: its midpoint and the screen's radius):
+    edge ``e % 4`` of piece ``e // 4`` when ``e < 4 K`` (a boundary edge; an internal one never
+    blocks), else the circle item ``K + e - 4 K``; screened by its distance to ``m``."""
+    cx, cy, rho, start, sweep = arc
+    mx, my, reach = mid
     K, P, E = items[0], items[1], items[2]
     B, IC, CR = items[6], items[7], items[9]
-    if k >= K:
-        return _point_arc(IC[k, 0], IC[k, 1], cx, cy, rho, start, sweep) - CR[k - K] < lim
-    for j in range(4):
-        if B[k, j] and _segment_arc(cx, cy, rho, start, sweep, P[k, j, 0], P[k, j, 1],
-                                    E[k, j, 0], E[k, j, 1]) < lim:
-            return True
-    return False
+    if e < 4 * K:
+        k = e // 4
+        j = e - 4 * k
+        if not B[k, j]:
+            return False
+        px, py, ex, ey = P[k, j, 0], P[k, j, 1], E[k, j, 0], E[k, j, 1]
+        return (_point_segment(mx, my, px, py, ex, ey) <= reach
+                and _segment_arc(cx, cy, rho, start, sweep, ends, px, py, ex, ey) < lim)
+    c = e - 4 * K
+    qx, qy, R = IC[K + c, 0], IC[K + c, 1], CR[c]
+    return (math.hypot(qx - mx, qy - my) - R <= reach
+            and _point_arc(qx, qy, cx, cy, rho, start, sweep, ends) - R < lim)
 
 
 @compiled(F2, F1, F1, F1, ITEMS, GRID, f8, f8)
 def arcs_blocked(CXY, RHO, START, SWEEP, items, grid, r, eps):
     """Per arc (centre ``CXY[a]``, radius ``RHO[a]``, counter-clockwise from ``START[a]`` over
-    ``SWEEP[a] >= 0``; local frame): it comes closer than ``r - eps`` to an obstacle (module
-    docstring).  An arc of radius 0 is a point: never blocked here (its point is free)."""
-    n_items = items[7].shape[0]
+    ``SWEEP[a] >= 0``; local frame): it comes closer than ``r - eps`` to a boundary edge of a
+    piece or a circle obstacle of ``items`` (the obstacle set's kernel arrays), screened by
+    ``grid`` (:func:`arc_grid`; module docstring).  An arc of radius 0 is a point: never
+    blocked here (its point is free)."""
+    n = 4 * items[0] + items[9].shape[0]
     out = np.empty(CXY.shape[0], np.bool_)
     _arcs_loop(CXY, RHO, START, SWEEP, items, grid, r, eps, out,
-               (np.empty(n_items, np.int64), np.empty(n_items, np.int64)))
+               (np.empty(n, np.int64), np.empty(n, np.int64)))
     return out
 
 
 @leaf(F2, F1, F1, F1, ITEMS, GRID, f8, f8, B1, types.Tuple((I1, I1)))
 def _arcs_loop(CXY, RHO, START, SWEEP, items, grid, r, eps, out, work):
-    """The loop of :func:`arcs_blocked` (``work``: scratch, per item the last arc that listed
+    """The loop of :func:`arcs_blocked` (``work``: scratch, per entry the last arc that listed
     it and the candidate list)."""
     stamp, cand = work
-    IC, IR = items[7], items[8]
-    n_items = IC.shape[0]
+    n = 4 * items[0] + items[9].shape[0]
     use_grid, gh, gx0, gy0, gnx, gny, gstart, gcount, gitems = grid
     lim = r - eps
-    for k in range(n_items):
+    for k in range(n):
         stamp[k] = -1
     for a in range(CXY.shape[0]):
         out[a] = False
@@ -151,6 +166,9 @@ def _arcs_loop(CXY, RHO, START, SWEEP, items, grid, r, eps, out, work):
         cy = CXY[a, 1]
         start = START[a]
         sweep = SWEEP[a]
+        end = start + sweep
+        ends = (cx + rho * math.cos(start), cy + rho * math.sin(start),
+                cx + rho * math.cos(end), cy + rho * math.sin(end))
         mid = start + 0.5 * sweep
         mx = cx + rho * math.cos(mid)
         my = cy + rho * math.sin(mid)
@@ -172,16 +190,48 @@ def _arcs_loop(CXY, RHO, START, SWEEP, items, grid, r, eps, out, work):
                             cand[m] = k
                             m += 1
         else:
-            for k in range(n_items):
+            for k in range(n):
                 cand[k] = k
-            m = n_items
+            m = n
         for q in range(m):
-            k = cand[q]
-            rr = IR[k] + reach
-            if ((IC[k, 0] - mx) ** 2 + (IC[k, 1] - my) ** 2 <= rr * rr
-                    and _blocks(k, cx, cy, rho, start, sweep, items, lim)):
+            if _blocked(cand[q], (cx, cy, rho, start, sweep), ends, (mx, my, reach), items,
+                        lim):
                 out[a] = True
                 break
+
+
+def arc_grid(oset) -> tuple:
+    """The screen of the arc test of the obstacle set ``oset`` (the ``grid`` argument of
+    :func:`arcs_blocked`; module docstring), made once and kept with the set.  Its entries are
+    the boundary edges of the pieces (``4 k + j``: edge ``j`` of piece ``k``) and the circle
+    obstacles (``4 K + c``).  Below :data:`ARC_GRID_FROM` of them every entry is screened
+    against every arc (no grid); from there on a uniform grid over the local bounds (cells at
+    its border unbounded outwards), of cell size the median side of the entries' boxes (at
+    least 1/256 of the bounds' larger side), lists each entry in every cell its box covers."""
+    got = oset._cache.get("arc_grid")
+    if got is not None:
+        return got
+    K, P, E, B, IC, CR = (oset.arrays[i] for i in (0, 1, 2, 6, 7, 9))
+    z = np.zeros(1, np.int64)
+    got = (False, 1.0, 0.0, 0.0, 1, 1, z, z, z)
+    k, j = np.nonzero(B)
+    if len(k) + len(CR) >= ARC_GRID_FROM:
+        a, b = P[k, j], P[k, j] + E[k, j]
+        pad = 4.0 * oset.eps  # the boxes' slack
+        lo = np.concatenate([np.minimum(a, b), IC[K:] - CR[:, None]]) - pad
+        hi = np.concatenate([np.maximum(a, b), IC[K:] + CR[:, None]]) + pad
+        ids = np.concatenate([4 * k + j, 4 * K + np.arange(len(CR))])
+        x0, y0, x1, y1 = oset.frame.local_bounds
+        h = max(float(np.median(np.max(hi - lo, axis=1))), max(x1 - x0, y1 - y0) / 256.0,
+                oset.eps)
+        nx, ny = int((x1 - x0) // h) + 1, int((y1 - y0) // h) + 1
+        ij = [np.clip(np.floor((v[:, d] - o) / h), 0, m - 1).astype(np.int64)
+              for v in (lo, hi) for d, o, m in ((0, x0, nx), (1, y0, ny))]
+        ii, jj, ee = box_cells(ij[0], ij[2], ij[1], ij[3])
+        start, count, entries = cell_lists(ii * ny + jj, ids[ee], nx * ny)
+        got = (True, h, x0, y0, nx, ny, start[:-1], count, entries)
+    oset._cache["arc_grid"] = got
+    return got
 
 
 def arcs_free(oset, center: np.ndarray, rho: np.ndarray, start: np.ndarray,
@@ -195,5 +245,5 @@ def arcs_free(oset, center: np.ndarray, rho: np.ndarray, start: np.ndarray,
         return np.ones(len(center), bool)
     xy = np.ascontiguousarray(np.stack([center.real, center.imag], axis=1))
     rho, start, sweep = (np.array(x, dtype=float).ravel() for x in (rho, start, sweep))
-    return ~arcs_blocked(xy, rho, start, sweep, oset.arrays, oset._grid_args(),
+    return ~arcs_blocked(xy, rho, start, sweep, oset.arrays, arc_grid(oset),
                          float(oset.radius), float(oset.eps))

@@ -239,20 +239,21 @@ class TangentSearch:
         """Exact segment tests of candidates ``idx`` of ``st``; the status of a graph edge
         tested by an earlier search is reused, a new one is stored."""
         known = np.zeros(len(idx), np.int8)
-        e = None if st.edges is None or st.eidx is None else st.eidx[idx]
-        if e is not None:
+        edges = st.edges
+        e = None if edges is None or st.eidx is None else st.eidx[idx]
+        if edges is not None and e is not None:
             has = e >= 0
-            known[has] = st.edges.ok[e[has]]
+            known[has] = edges.ok[e[has]]
         new = known == 0
         todo = idx[new]
         z = np.empty((len(todo), 2), complex)  # the segments' ends: (n, 2, 2) real below
         z[:, 0], z[:, 1] = st.pi[todo], st.pj[todo]
         tested = self.oset.segment_free(self.fr.world(z.view(float).reshape(-1, 2, 2)))
         self.graph.stats["segment_tests"] += len(todo)
-        if e is not None:
+        if edges is not None and e is not None:
             e = e[new]
             has = e >= 0
-            st.edges.ok[e[has]] = np.where(tested[has], 1, -1)
+            edges.ok[e[has]] = np.where(tested[has], 1, -1)
         free = known == 1
         free[new] = tested
         return free
