@@ -105,10 +105,10 @@ def tangent_edges(C: Circles, I, SI, J, SJ, eps: float) -> dict[str, np.ndarray]
     Returns
     -------
     dict
-        Arrays over the kept tangents: ``i, si, j, sj`` (as given; one source's ``i, si``
-        as given, not repeated), ``seg`` (length), ``pi``,
-        ``pj`` (departure and arrival points, local complex), ``th_d``, ``th_a`` (their angles
-        on their circles) and ``od`` (the departure's cone offset).
+        Arrays over the kept tangents: ``i, si`` (one source: the scalars given), ``j, sj``,
+        ``seg`` (length), ``pi``, ``pj`` (departure and arrival points, local complex),
+        ``th_d``, ``th_a`` (their angles on their circles) and ``od`` (the departure's cone
+        offset).
     """
     I, SI, J, SJ = (np.asarray(x) for x in (I, SI, J, SJ))
     one = I.ndim == 0  # one source: its values broadcast, nothing to gather
@@ -118,12 +118,9 @@ def tangent_edges(C: Circles, I, SI, J, SJ, eps: float) -> dict[str, np.ndarray]
     delta = SJ * rj - SI * ri
     k = ((J != I) & tangent_exists(dd, delta, eps)).nonzero()[0]
     nl = tangent_normal(D[k], dd[k], delta[k])
-    if one:
-        z = -SI * nl
-        od = cone_off(C, I, np.arctan2(z.imag, z.real))
-    else:
-        z = -SI[k] * nl
-        od = cone_off(C, I[k], np.arctan2(z.imag, z.real))
+    Ik, SIk = (I, SI) if one else (I[k], SI[k])
+    z = -SIk * nl
+    od = cone_off(C, Ik, np.arctan2(z.imag, z.real))
     m = np.isfinite(od).nonzero()[0]  # the departure in its cone
     k, nl, od, z = k[m], nl[m], od[m], z[m]
     jk, sjk = J[k], SJ[k]
