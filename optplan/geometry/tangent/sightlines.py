@@ -184,8 +184,8 @@ class Sightlines:
         S = np.ascontiguousarray(np.asarray(sources, float).reshape(-1, 2))
         k = len(S)
         G = np.arange(k) if group is None else np.ascontiguousarray(group, np.int64)
-        LO = np.broadcast_to(np.asarray(lo, float), (k,)).copy()
-        W = np.broadcast_to(np.asarray(width, float), (k,)).copy()
+        LO, W = np.empty(k), np.empty(k)  # one per source (a scalar broadcast)
+        LO[:], W[:] = np.asarray(lo, float), np.asarray(width, float)
         if k == 0 or len(self.centres) == 0:
             return np.zeros(k, np.int64), np.zeros(0, np.int64)
         SV = np.full(k, -1, np.int64)

@@ -202,7 +202,7 @@ class TangentGraph:
         pt = (C.rho[idx] == 0.0) & ~C.full[idx]
         own = np.concatenate([np.arange(len(idx)), np.flatnonzero(pt)])
         k = idx[own]
-        two = np.r_[pt, np.ones(int(pt.sum()), bool)]
+        two = np.concatenate([pt, np.ones(int(pt.sum()), bool)])
         sense = np.where(np.arange(len(own)) < len(idx), -1, 1) * two
         lo = np.where(two, C.lo[k] + 0.5 * math.pi * sense - 1e-7, 0.0)
         wd = np.where(two, C.width[k] + 2e-7, 4 * math.pi)
@@ -242,11 +242,11 @@ class TangentGraph:
         n, m = self.circles.n, len(self._full)
         seen = np.concatenate([self._pts[f] for _, f in halves]
                               + [np.tile(self._full, len(idx))])
-        src = np.r_[np.repeat(own, counts), np.repeat(np.arange(len(idx)), m)]
+        src = np.concatenate([np.repeat(own, counts), np.repeat(np.arange(len(idx)), m)])
         keys = idx[src] * n + seen
         if not senses:
             return keys, None
-        return keys, np.r_[np.repeat(sense, counts), np.zeros(len(idx) * m, np.int8)]
+        return keys, np.concatenate([np.repeat(sense, counts), np.zeros(len(idx) * m, np.int8)])
 
     def visible(self, i: int) -> np.ndarray:
         """Indices of the circles whose tangents from circle ``i`` may be free (a superset
