@@ -187,6 +187,33 @@ def test_map_solids_pass_the_oracle() -> None:
     assert not violations(multi, convex_pieces(multi))
 
 
+@pytest.mark.parametrize("max_edges", [3, 4, 5])
+def test_convex_polygons_of_many_vertices_are_peeled_round_the_rim(max_edges: int) -> None:
+    """A convex ring of more than ``RIM_FROM`` vertices (a disc drawn as a polygon; random
+    convex hulls; a non-convex polygon whose triangulation merges into a large convex part)
+    passes the oracle, and its pieces are local: most lie within a few edge lengths of the
+    boundary, not across the polygon as a fan from one vertex would."""
+    rng = np.random.default_rng(21)
+    n_rim = pieces_mod.RIM_FROM
+    discs = [Polygon([(50 + 6 * np.cos(t), 30 + 6 * np.sin(t))
+                      for t in 2 * np.pi * np.arange(n) / n]) for n in (n_rim + 1, 200, 2000)]
+    hulls = []  # random points of random ellipses: every point a hull vertex
+    for _ in range(5):
+        t = rng.uniform(0, 2 * np.pi, 300)
+        a, b = rng.uniform(1, 20, 2)
+        hulls.append(shapely.convex_hull(shapely.multipoints(np.c_[a * np.cos(t),
+                                                                  b * np.sin(t)])))
+    bite = [shapely.difference(discs[1], shapely.box(50, 30, 60, 40))]
+    polys = discs + hulls + bite
+    assert all(len(g.exterior.coords) - 1 > n_rim for g in discs + hulls)
+    for g in discs[1:]:  # (first: the oracle's union of a fan's thin pieces is costly)
+        got = convex_pieces(g, max_edges)
+        size = np.array([np.ptp(v, axis=0).max() for v, _ in got])
+        assert np.median(size) < 0.1 * 12  # a fan's pieces span about the diameter (12)
+        assert np.sum(size > 3) <= n_rim  # only the inner ring's fan is large
+    check_all(polys, max_edges)
+
+
 def test_the_oracle_notices_a_wrong_flag_or_a_missing_piece() -> None:
     """Mutation check: every single flipped flag, and every dropped piece, is caught."""
     rng = np.random.default_rng(14)

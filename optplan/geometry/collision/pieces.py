@@ -72,6 +72,9 @@ __all__ = ["convex_decompose", "convex_pieces", "convex_pieces_many", "clean_rin
 
 #: Relative tolerance of the collinearity / convexity tests (sine of the turning angle).
 SIN_TOL = 1e-12
+#: Vertices of a convex ring beyond which its pieces are peeled round the rim (:func:`_rim`),
+#: not fanned from one vertex.
+RIM_FROM = 64
 
 Ring = list[tuple[float, float]]
 
@@ -293,11 +296,44 @@ def convex_decompose(geom) -> list[np.ndarray]:
     return [v for v in out if len(v) >= 3]
 
 
+def _rim(v: np.ndarray, flags: np.ndarray, max_edges: int
+         ) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray, np.ndarray]:
+    """Peel a convex ring of more than :data:`RIM_FROM` vertices: runs of ``max_edges``
+    consecutive vertices cut off round the rim (each run's closing chord an internal edge), the
+    ring of the runs' ends peeled again, until at most ``RIM_FROM`` vertices are left.
+    Returns the pieces and the inner ring (vertices, flags).
+
+    A fan from one vertex would give thin pieces that all reach across the polygon (every
+    piece near every point of it, for the collision screens); a run of consecutive vertices
+    stays where its vertices are, and each level keeps a ``1 / (max_edges - 1)`` share of the
+    ring.  The ring is strictly convex (a clean ring), so every run and every inner ring is.
+    """
+    out = []
+    run = max_edges - 1  # edges of the ring per piece
+    while len(v) > RIM_FROM:
+        n = len(v)
+        starts = np.arange(0, n - run, run)  # runs s .. s + run, all within 0 .. n - 1
+        for s in starts.tolist():
+            fl = np.zeros(max_edges, bool)
+            fl[:-1] = flags[s:s + run]
+            out.append((np.array(v[s:s + run + 1], dtype=float), fl))
+        keep = np.ones(n, bool)
+        for d in range(1, run):
+            keep[starts + d] = False
+        inner = np.array(flags, dtype=bool)
+        inner[starts] = False  # the chords
+        v, flags = v[keep], inner[keep]
+    return out, v, flags
+
+
 def _fan(v: np.ndarray, flags: np.ndarray, max_edges: int) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Fan-split a convex ring from its first vertex into pieces of at most ``max_edges``."""
+    """Fan-split a convex ring from its first vertex into pieces of at most ``max_edges``
+    (a ring of more than :data:`RIM_FROM` vertices peeled first: :func:`_rim`)."""
     if 3 <= len(v) <= max_edges:  # the ring itself (what the loop below gives, without its work)
         return [(np.array(v, dtype=float), np.array(flags, dtype=bool))]
     out = []
+    if len(v) > RIM_FROM:
+        out, v, flags = _rim(np.asarray(v), np.asarray(flags, bool), max_edges)
     i = 1
     while i < len(v) - 1:  # fan: (v0, v_i, ..., v_j)
         j = min(i + max_edges - 2, len(v) - 1)
