@@ -308,7 +308,7 @@ def _rim(v: np.ndarray, flags: np.ndarray, max_edges: int
     stays where its vertices are, and each level keeps a ``1 / (max_edges - 1)`` share of the
     ring.  The ring is strictly convex (a clean ring), so every run and every inner ring is.
     """
-    out = []
+    out: list[tuple[np.ndarray, np.ndarray]] = []
     run = max_edges - 1  # edges of the ring per piece
     while len(v) > RIM_FROM:
         n = len(v)
