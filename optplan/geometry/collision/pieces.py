@@ -331,7 +331,7 @@ def _fan(v: np.ndarray, flags: np.ndarray, max_edges: int) -> list[tuple[np.ndar
     (a ring of more than :data:`RIM_FROM` vertices peeled first: :func:`_rim`)."""
     if 3 <= len(v) <= max_edges:  # the ring itself (what the loop below gives, without its work)
         return [(np.array(v, dtype=float), np.array(flags, dtype=bool))]
-    out = []
+    out: list[tuple[np.ndarray, np.ndarray]] = []
     if len(v) > RIM_FROM:
         out, v, flags = _rim(np.asarray(v), np.asarray(flags, bool), max_edges)
     i = 1
