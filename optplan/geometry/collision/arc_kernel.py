@@ -25,8 +25,9 @@ or point-to-circle distance) before the exact distance to the arc.  From
 per obstacle set) lists each in every cell its box (``4 eps`` of slack) covers; an arc visits
 the cells of the box of half-width ``b + r`` round ``m``, which hold every entry that comes
 within ``b + r`` of ``m``.  The work per arc is then that of the boundary edges near the arc:
-not of the pieces near it (a convex polygon of many vertices is a fan of thin pieces, each
-reaching across the polygon), nor of those near its circle.
+not of the pieces near it (a piece's bounding circle may reach far beyond its boundary edges
+near the arc: a large convex piece, the inner fan of a peeled polygon), nor of those near its
+circle.
 
 Tested against an independent numpy transcription of the closed forms and against shapely
 (the arc sampled densely) in ``tests/geometry/test_arc_checker.py``.  The data layout is that

@@ -51,7 +51,8 @@ Orientation and zero-area triangles
 
 Pieces of at most ``max_edges`` vertices
     A merged piece without straight vertices is fan-split from its first vertex
-    (:func:`_fan`), one with straight vertices around its centroid, starting from the first
+    (:func:`_fan`; one of more than :data:`RIM_FROM` vertices is first peeled round its rim,
+    :func:`_rim`), one with straight vertices around its centroid, starting from the first
     vertex :func:`clean_ring` keeps.  A merged piece all of whose vertices are straight (a
     sliver within the tolerance of a segment, e.g. between a shell edge and a hole vertex
     ``1e-13`` of the size away from it) is kept whole when it has at most ``max_edges``
